@@ -1,0 +1,202 @@
+"""Loading and driving one JSBSim model: the only place the testbed calls JSBSim.
+
+:class:`JSBSimModel` owns an ``FGFDMExec``. It loads any aircraft that ships in
+the ``jsbsim`` wheel or lives in this package's ``models/`` folder, optionally
+with extra ``<system>`` files appended (our flight controllers, written as
+JSBSim FCS components so the inner loop runs in C++ at the full frame rate).
+It does so without editing the original model: the model folder is mirrored
+into a temporary root with symlinks, and only the top-level XML is rewritten
+with the extra ``<system file=...>`` lines.
+
+Properties are read and written through cached property nodes (the fastest
+access path measured for the wheel; see ``shared/README.md``). Units: JSBSim
+speaks feet; this class converts at the edge, and everything it returns is SI.
+"""
+
+from __future__ import annotations
+
+import atexit
+import math
+import os
+import shutil
+import tempfile
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import jsbsim
+
+from geofence.geodesy import LocalFrame
+from geofence.interface import VehicleState
+
+FT_TO_M = 0.3048
+M_TO_FT = 1.0 / FT_TO_M
+KT_TO_MPS = 1852.0 / 3600.0
+
+JSBSIM_ROOT = Path(jsbsim.__file__).parent
+OWN_MODELS = Path(__file__).parent / "models"
+OWN_SYSTEMS = Path(__file__).parent / "systems"
+
+
+class UnknownAircraftError(ValueError):
+    """No JSBSim model of that name ships in the wheel or in ``aircraft/models``."""
+
+
+def available_models() -> list[str]:
+    """Names of every loadable aircraft model, our own first."""
+    own = sorted(p.name for p in OWN_MODELS.glob("*") if (p / f"{p.name}.xml").is_file())
+    wheel = sorted(p.name for p in (JSBSIM_ROOT / "aircraft").glob("*") if (p / f"{p.name}.xml").is_file())
+    return own + [m for m in wheel if m not in own]
+
+
+def model_folder(name: str) -> Path:
+    """The folder holding model ``name`` (ours shadow the wheel's)."""
+    for root in (OWN_MODELS, JSBSIM_ROOT / "aircraft"):
+        folder = root / name
+        if (folder / f"{name}.xml").is_file():
+            return folder
+    raise UnknownAircraftError(f"unknown aircraft model {name!r}; known: {', '.join(available_models())}")
+
+
+def _mirror_with_systems(name: str, extra_systems: list[Path], root: Path) -> None:
+    """Mirror model ``name`` into ``root/aircraft/name`` with extra system files appended."""
+    source = model_folder(name)
+    target = root / "aircraft" / name
+    target.mkdir(parents=True)
+    for entry in source.iterdir():
+        if entry.name != f"{name}.xml":
+            os.symlink(entry, target / entry.name)
+    tree = ET.parse(source / f"{name}.xml")
+    top = tree.getroot()
+    for system in extra_systems:
+        ET.SubElement(top, "system", {"file": str(Path(system).resolve())})
+    tree.write(target / f"{name}.xml", xml_declaration=True, encoding="utf-8")
+
+
+class JSBSimModel:
+    """One JSBSim aircraft, stepped at a fixed rate, with SI accessors.
+
+    ``dt_s`` is the JSBSim frame time (default 1/120 s). ``extra_systems`` are
+    paths of JSBSim ``<system>`` XML files appended to the model.
+    """
+
+    def __init__(self, name: str, dt_s: float = 1.0 / 120.0, extra_systems: list[Path] | None = None):
+        self.name = name
+        self.dt_s = dt_s
+        self._root = Path(tempfile.mkdtemp(prefix="gft-jsbsim-"))
+        atexit.register(shutil.rmtree, self._root, ignore_errors=True)
+        _mirror_with_systems(name, list(extra_systems or []), self._root)
+        fdm = jsbsim.FGFDMExec(str(self._root))
+        fdm.set_debug_level(0)
+        fdm.set_engine_path(str(JSBSIM_ROOT / "engine"))
+        fdm.set_systems_path(str(JSBSIM_ROOT / "systems"))
+        fdm.set_dt(dt_s)
+        if not fdm.load_model(name):
+            raise UnknownAircraftError(f"JSBSim could not load aircraft model {name!r}")
+        self.fdm = fdm
+        self._pm = fdm.get_property_manager()
+        self._nodes: dict[str, object] = {}
+        self.frame: LocalFrame | None = None
+        self._ground_m = 0.0
+        n = self.node
+        self._truth_nodes = tuple(
+            n(p)
+            for p in (
+                "simulation/sim-time-sec",
+                "position/lat-geod-deg",
+                "position/long-gc-deg",
+                "position/geod-alt-ft",
+                "position/h-agl-ft",
+                "velocities/v-east-fps",
+                "velocities/v-north-fps",
+                "velocities/v-down-fps",
+                "attitude/phi-rad",
+                "attitude/theta-rad",
+                "attitude/psi-rad",
+                "velocities/vtrue-fps",
+            )
+        )
+        self._wind_nodes = tuple(n(p) for p in ("atmosphere/wind-east-fps", "atmosphere/wind-north-fps", "atmosphere/wind-down-fps"))
+
+    # -- property access ---------------------------------------------------
+    def node(self, prop: str):
+        """The cached property node for ``prop`` (created by JSBSim if missing)."""
+        node = self._nodes.get(prop)
+        if node is None:
+            node = self._pm.get_node(prop, True)
+            self._nodes[prop] = node
+        return node
+
+    def get(self, prop: str) -> float:
+        return self.node(prop).get_double_value()
+
+    def set(self, prop: str, value: float) -> None:
+        self.node(prop).set_double_value(float(value))
+
+    # -- lifecycle -----------------------------------------------------------
+    def reset(
+        self,
+        frame: LocalFrame,
+        lat_deg: float,
+        lon_deg: float,
+        agl_m: float,
+        heading_deg: float = 0.0,
+        airspeed_mps: float = 0.0,
+        ground_alt_m: float | None = None,
+    ) -> None:
+        """Place the aircraft at ``agl_m`` above flat ground at ``ground_alt_m`` (default: frame origin height).
+
+        Set any pre-``run_ic`` controls (e.g. hover throttle) before calling this.
+        """
+        self.frame = frame
+        self._ground_m = frame.h0_m if ground_alt_m is None else ground_alt_m
+        s = self.set
+        s("ic/lat-geod-deg", lat_deg)
+        s("ic/long-gc-deg", lon_deg)
+        s("ic/terrain-elevation-ft", self._ground_m * M_TO_FT)
+        s("ic/h-agl-ft", agl_m * M_TO_FT)
+        s("ic/psi-true-deg", heading_deg)
+        s("ic/phi-deg", 0.0)
+        s("ic/theta-deg", 0.0)
+        s("ic/vt-kts", airspeed_mps / KT_TO_MPS)
+        if not self.fdm.run_ic():
+            raise RuntimeError(f"JSBSim run_ic failed for {self.name}")
+
+    def step(self, n_frames: int = 1) -> None:
+        """Advance ``n_frames`` JSBSim frames (``n_frames * dt_s`` seconds)."""
+        run = self.fdm.run
+        for _ in range(n_frames):
+            run()
+
+    def set_wind_enu(self, east_mps: float, north_mps: float, up_mps: float) -> None:
+        """Air-mass velocity in m/s, ENU, as the direction the air moves *toward*."""
+        e, n, d = self._wind_nodes
+        e.set_double_value(east_mps * M_TO_FT)
+        n.set_double_value(north_mps * M_TO_FT)
+        d.set_double_value(-up_mps * M_TO_FT)
+
+    def truth(self) -> VehicleState:
+        """Current truth state (SI, ENU about the reset frame)."""
+        t, lat, lon, h, agl, ve, vn, vd, phi, theta, psi, vt = (nd.get_double_value() for nd in self._truth_nodes)
+        h_m = h * FT_TO_M
+        e, n, u = self.frame.to_enu(lat, lon, h_m)
+        agl_m = agl * FT_TO_M
+        if math.isnan(h_m) or math.isnan(e):
+            raise FloatingPointError(f"JSBSim state of {self.name} diverged (NaN) at t={t:.2f} s")
+        return VehicleState(
+            t_s=t,
+            lat_deg=lat,
+            lon_deg=lon,
+            alt_m=h_m,
+            east_m=e,
+            north_m=n,
+            up_m=u,
+            agl_m=agl_m,
+            v_east_mps=ve * FT_TO_M,
+            v_north_mps=vn * FT_TO_M,
+            v_up_mps=-vd * FT_TO_M,
+            roll_rad=phi,
+            pitch_rad=theta,
+            yaw_rad=psi,
+            airspeed_mps=vt * FT_TO_M,
+            on_ground=agl_m < 0.05,
+        )
