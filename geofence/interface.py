@@ -12,17 +12,20 @@ Nothing here knows which airframe it describes, and nothing imports JSBSim.
 
 Stick semantics (each stick in [-1, 1]):
 
-========  ==========================================  ========================================
-stick     multirotor (angle + altitude-rate mode)     fixed-wing (FBW-A with airspeed hold)
-========  ==========================================  ========================================
+========  ==========================================  ==========================================
+stick     multirotor (angle mode + altitude hold)     fixed-wing (FBW-B style: bank + climb rate)
+========  ==========================================  ==========================================
 roll      bank = roll * max_bank_rad (+ right)        bank = roll * max_bank_rad (+ right)
-pitch     pitch = pitch * max_pitch_rad (+ nose up,   pitch = pitch * max_pitch_rad (+ nose up)
-          i.e. +pitch decelerates / flies backwards)
-yaw       yaw rate = yaw * max_yaw_rate_radps         rudder = yaw (+ nose right), added to the
-          (+ nose right)                              turn coordinator
+pitch     pitch = pitch * max_pitch_rad (+ nose up,   climb rate: +1 -> max_climb_rate_mps,
+          i.e. +pitch decelerates / flies backwards)  -1 -> max_descent_rate_mps, 0 holds altitude
+yaw       yaw rate = yaw * max_yaw_rate_radps         rudder offset (+ nose right) on top of the
+          (+ nose right)                              turn coordinator; 0 = coordinated
 throttle  climb rate: +1 -> max_climb_rate_mps,       airspeed: -1 -> min_speed_mps,
           -1 -> max_descent_rate_mps, 0 holds alt     0 -> cruise_speed_mps, +1 -> max_speed_mps
-========  ==========================================  ========================================
+========  ==========================================  ==========================================
+
+All sticks at 0 therefore mean "level, hold altitude" on every platform
+(hover for a multirotor, straight and level at cruise for a fixed-wing).
 """
 
 from __future__ import annotations
