@@ -16,9 +16,11 @@ speaks feet; this class converts at the edge, and everything it returns is SI.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import math
 import os
 import shutil
+import sys
 import tempfile
 import xml.etree.ElementTree as ET
 from pathlib import Path
@@ -72,6 +74,30 @@ def _mirror_with_systems(name: str, extra_systems: list[Path], root: Path) -> No
     tree.write(target / f"{name}.xml", xml_declaration=True, encoding="utf-8")
 
 
+@contextlib.contextmanager
+def _quiet_native_output():
+    """Silence JSBSim's C++ banner and load-time warnings (it writes to fds 1 and 2 directly).
+
+    Set ``GFT_JSBSIM_VERBOSE=1`` to see them.
+    """
+    if os.environ.get("GFT_JSBSIM_VERBOSE"):
+        yield
+        return
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        os.dup2(devnull, 2)
+        yield
+    finally:
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, devnull):
+            os.close(fd)
+
+
 class JSBSimModel:
     """One JSBSim aircraft, stepped at a fixed rate, with SI accessors.
 
@@ -85,12 +111,14 @@ class JSBSimModel:
         self._root = Path(tempfile.mkdtemp(prefix="gft-jsbsim-"))
         atexit.register(shutil.rmtree, self._root, ignore_errors=True)
         _mirror_with_systems(name, list(extra_systems or []), self._root)
-        fdm = jsbsim.FGFDMExec(str(self._root))
-        fdm.set_debug_level(0)
-        fdm.set_engine_path(str(JSBSIM_ROOT / "engine"))
-        fdm.set_systems_path(str(JSBSIM_ROOT / "systems"))
-        fdm.set_dt(dt_s)
-        if not fdm.load_model(name):
+        with _quiet_native_output():
+            fdm = jsbsim.FGFDMExec(str(self._root))
+            fdm.set_debug_level(0)
+            fdm.set_engine_path(str(JSBSIM_ROOT / "engine"))
+            fdm.set_systems_path(str(JSBSIM_ROOT / "systems"))
+            fdm.set_dt(dt_s)
+            loaded = fdm.load_model(name)
+        if not loaded:
             raise UnknownAircraftError(f"JSBSim could not load aircraft model {name!r}")
         self.fdm = fdm
         self._pm = fdm.get_property_manager()
@@ -158,7 +186,9 @@ class JSBSimModel:
         s("ic/phi-deg", 0.0)
         s("ic/theta-deg", 0.0)
         s("ic/vt-kts", airspeed_mps / KT_TO_MPS)
-        if not self.fdm.run_ic():
+        with _quiet_native_output():
+            ok = self.fdm.run_ic()
+        if not ok:
             raise RuntimeError(f"JSBSim run_ic failed for {self.name}")
 
     def step(self, n_frames: int = 1) -> None:

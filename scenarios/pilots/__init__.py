@@ -1,0 +1,38 @@
+"""Pilots: what feeds outer-loop sticks to the aircraft (and, later, through the geofence).
+
+* :class:`~scenarios.pilots.mission.MissionAutopilot`: GPS waypoint autopilot.
+* :class:`~scenarios.pilots.scripted.ScriptedPilot`: adversarial stick scripts.
+
+Both answer ``command(state) -> StickCommand`` and report progress as
+``items_reached`` / ``items_total`` and ``finished``.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+from geofence.geodesy import LocalFrame
+from geofence.interface import Envelope, StickCommand, VehicleState
+from scenarios.schema import Scenario
+
+
+class Pilot(Protocol):
+    finished: bool
+
+    @property
+    def items_reached(self) -> int: ...
+
+    @property
+    def items_total(self) -> int: ...
+
+    def command(self, state: VehicleState) -> StickCommand: ...
+
+
+def build_pilot(scenario: Scenario, frame: LocalFrame, env: Envelope, start: VehicleState, dt_s: float) -> Pilot:
+    """The pilot a scenario asks for, ready to fly from ``start``."""
+    from scenarios.pilots.mission import MissionAutopilot
+    from scenarios.pilots.scripted import ScriptedPilot
+
+    if scenario.pilot.kind == "scripted":
+        return ScriptedPilot(scenario.pilot.segments, env, start, dt_s)
+    return MissionAutopilot(scenario.mission, frame, env, start, dt_s)

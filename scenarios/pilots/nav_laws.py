@@ -1,0 +1,187 @@
+"""Outer-loop navigation laws of the mission autopilot, as small stateful controllers.
+
+These turn a navigation goal (a point, a ground velocity, a course, a path or
+an orbit) into normalized sticks, using only the platform :class:`Envelope` to
+scale them (see :mod:`geofence.interface` for stick semantics). Plain Python
+floats throughout: they run on the simulation's per-step path.
+
+* :class:`MultirotorNavigator`: point -> velocity command (braking-limited
+  approach) -> PI velocity loop -> tilt sticks; altitude -> climb-rate stick.
+* :class:`FixedWingNavigator`: straight-line and orbit vector fields
+  (Beard & McLain, *Small Unmanned Aircraft*, ch. 10) -> commanded course ->
+  bank stick; altitude -> climb-rate stick; airspeed -> throttle stick.
+
+Angles are rad, courses and headings clockwise from north, positions ENU m.
+"""
+
+from __future__ import annotations
+
+import math
+
+from geofence.interface import Envelope, StickCommand, VehicleState
+
+G_MPS2 = 9.80665
+_HALF_PI = 0.5 * math.pi
+
+
+def wrap_pi(angle_rad: float) -> float:
+    """Wrap an angle to [-pi, pi)."""
+    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def _clip(x: float, lo: float, hi: float) -> float:
+    return lo if x < lo else (hi if x > hi else x)
+
+
+def climb_rate_to_stick(v_up_mps: float, env: Envelope) -> float:
+    """Climb-rate command (m/s, + up) -> the climb-rate stick of either platform kind."""
+    if v_up_mps >= 0.0:
+        return _clip(v_up_mps / env.max_climb_rate_mps, 0.0, 1.0)
+    return _clip(v_up_mps / env.max_descent_rate_mps, -1.0, 0.0)
+
+
+def altitude_to_climb_rate(target_up_m: float, up_m: float, env: Envelope, gain_per_s: float) -> float:
+    """Proportional altitude law: climb-rate command in m/s, limited by the envelope."""
+    return _clip(gain_per_s * (target_up_m - up_m), -env.max_descent_rate_mps, env.max_climb_rate_mps)
+
+
+class MultirotorNavigator:
+    """Position and velocity control of a multirotor through tilt / climb-rate sticks."""
+
+    def __init__(
+        self,
+        env: Envelope,
+        position_gain_per_s: float = 0.8,
+        velocity_gain_per_s: float = 1.6,
+        velocity_integral_gain_per_s2: float = 0.35,
+        altitude_gain_per_s: float = 1.0,
+        yaw_gain_per_s: float = 1.5,
+        approach_decel_fraction: float = 0.5,
+    ):
+        self.env = env
+        self.kp = position_gain_per_s
+        self.kv = velocity_gain_per_s
+        self.ki = velocity_integral_gain_per_s2
+        self.kh = altitude_gain_per_s
+        self.kpsi = yaw_gain_per_s
+        self.a_approach = approach_decel_fraction * env.braking_decel_mps2
+        self.a_max = G_MPS2 * math.tan(min(env.max_bank_rad, env.max_pitch_rad))
+        self._int_e = 0.0
+        self._int_n = 0.0
+
+    def reset(self) -> None:
+        self._int_e = self._int_n = 0.0
+
+    def velocity_toward(self, s: VehicleState, target_e: float, target_n: float, speed_mps: float) -> tuple[float, float]:
+        """Ground-velocity command (m/s, E/N) to reach a point and stop there without overshoot."""
+        de, dn = target_e - s.east_m, target_n - s.north_m
+        d = math.hypot(de, dn)
+        if d < 1e-6:
+            return 0.0, 0.0
+        v = min(speed_mps, self.kp * d, math.sqrt(2.0 * self.a_approach * d))
+        return v * de / d, v * dn / d
+
+    def sticks_for_velocity(
+        self, s: VehicleState, ve_cmd: float, vn_cmd: float, v_up_cmd: float, yaw_cmd_rad: float, dt_s: float
+    ) -> StickCommand:
+        """PI velocity loop -> horizontal acceleration -> tilt sticks; climb rate -> throttle stick."""
+        ee, en = ve_cmd - s.v_east_mps, vn_cmd - s.v_north_mps
+        ae = self.kv * ee + self.ki * self._int_e
+        an = self.kv * en + self.ki * self._int_n
+        a = math.hypot(ae, an)
+        if a > self.a_max:  # saturated: scale down and do not wind the integrator up
+            ae, an = ae * self.a_max / a, an * self.a_max / a
+        else:
+            self._int_e += ee * dt_s
+            self._int_n += en * dt_s
+        sy, cy = math.sin(s.yaw_rad), math.cos(s.yaw_rad)
+        a_fwd = an * cy + ae * sy
+        a_right = ae * cy - an * sy
+        pitch = -math.atan(a_fwd / G_MPS2)  # nose down to accelerate forward
+        roll = math.atan(a_right / G_MPS2)
+        yaw_rate = self.kpsi * wrap_pi(yaw_cmd_rad - s.yaw_rad)
+        return StickCommand(
+            roll=_clip(roll / self.env.max_bank_rad, -1.0, 1.0),
+            pitch=_clip(pitch / self.env.max_pitch_rad, -1.0, 1.0),
+            yaw=_clip(yaw_rate / self.env.max_yaw_rate_radps, -1.0, 1.0),
+            throttle=climb_rate_to_stick(v_up_cmd, self.env),
+        )
+
+    def sticks_to_point(
+        self, s: VehicleState, target_e: float, target_n: float, target_up: float, speed_mps: float, yaw_cmd_rad: float, dt_s: float
+    ) -> StickCommand:
+        ve, vn = self.velocity_toward(s, target_e, target_n, speed_mps)
+        vz = altitude_to_climb_rate(target_up, s.up_m, self.env, self.kh)
+        return self.sticks_for_velocity(s, ve, vn, vz, yaw_cmd_rad, dt_s)
+
+
+class FixedWingNavigator:
+    """Course, path and orbit following of a fixed-wing aircraft through bank / climb / airspeed sticks."""
+
+    def __init__(
+        self,
+        env: Envelope,
+        course_gain: float = 0.9,
+        path_approach_angle_rad: float = math.radians(60.0),
+        path_gain_per_m: float = 0.025,
+        orbit_gain: float = 2.0,
+        altitude_gain_per_s: float = 0.35,
+    ):
+        self.env = env
+        self.k_course = course_gain
+        self.chi_inf = path_approach_angle_rad
+        self.k_path = path_gain_per_m
+        self.k_orbit = orbit_gain
+        self.kh = altitude_gain_per_s
+
+    def min_turn_radius_m(self, airspeed_mps: float | None = None) -> float:
+        v = self.env.cruise_speed_mps if airspeed_mps is None else airspeed_mps
+        return v * v / (G_MPS2 * math.tan(self.env.max_bank_rad))
+
+    def airspeed_to_stick(self, airspeed_mps: float) -> float:
+        env = self.env
+        if airspeed_mps >= env.cruise_speed_mps:
+            span = env.max_speed_mps - env.cruise_speed_mps
+        else:
+            span = env.cruise_speed_mps - env.min_speed_mps
+        return _clip((airspeed_mps - env.cruise_speed_mps) / span, -1.0, 1.0) if span > 0 else 0.0
+
+    def bank_stick_for_course(self, s: VehicleState, course_cmd_rad: float) -> float:
+        """Coordinated-turn law: commanded turn rate proportional to course error -> bank."""
+        vg = max(s.ground_speed_mps, 1.0)
+        course = math.atan2(s.v_east_mps, s.v_north_mps) if s.ground_speed_mps > 0.5 else s.yaw_rad
+        turn_rate = self.k_course * wrap_pi(course_cmd_rad - course)
+        bank = math.atan(vg * turn_rate / G_MPS2)
+        return _clip(bank / self.env.max_bank_rad, -1.0, 1.0)
+
+    def course_on_line(self, s: VehicleState, e0: float, n0: float, e1: float, n1: float) -> tuple[float, float, float]:
+        """Vector-field course to follow the line p0 -> p1.
+
+        Returns (commanded course rad, along-track distance from p0 m, leg length m).
+        """
+        de, dn = e1 - e0, n1 - n0
+        length = math.hypot(de, dn)
+        if length < 1e-6:
+            return math.atan2(e1 - s.east_m, n1 - s.north_m), 0.0, 0.0
+        qe, qn = de / length, dn / length
+        pe, pn = s.east_m - e0, s.north_m - n0
+        along = pe * qe + pn * qn
+        cross_right = pe * qn - pn * qe  # + when right of the path
+        chi_q = math.atan2(qe, qn)
+        return chi_q - self.chi_inf * (2.0 / math.pi) * math.atan(self.k_path * cross_right), along, length
+
+    def course_on_orbit(self, s: VehicleState, ce: float, cn: float, radius_m: float, clockwise: bool = True) -> tuple[float, float]:
+        """Vector-field course to converge onto a circle; returns (course rad, distance from center m)."""
+        d = math.hypot(s.east_m - ce, s.north_m - cn)
+        bearing = math.atan2(s.east_m - ce, s.north_m - cn)
+        lam = 1.0 if clockwise else -1.0
+        return bearing + lam * (_HALF_PI + math.atan(self.k_orbit * (d - radius_m) / radius_m)), d
+
+    def sticks(self, s: VehicleState, course_cmd_rad: float, target_up_m: float, airspeed_mps: float) -> StickCommand:
+        vz = altitude_to_climb_rate(target_up_m, s.up_m, self.env, self.kh)
+        return StickCommand(
+            roll=self.bank_stick_for_course(s, course_cmd_rad),
+            pitch=climb_rate_to_stick(vz, self.env),
+            yaw=0.0,
+            throttle=self.airspeed_to_stick(airspeed_mps),
+        )

@@ -1,0 +1,116 @@
+"""Flight recording: preallocated per-step arrays, written to CSV once at the end.
+
+One row per outer-loop step. Column names carry their units; angles are in deg
+here (the CSV is an edge of the system), everything else SI.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from geofence.interface import StickCommand, VehicleState
+
+COLUMNS = (
+    "time_s",
+    "lat_deg",
+    "lon_deg",
+    "alt_m",
+    "east_m",
+    "north_m",
+    "up_m",
+    "agl_m",
+    "v_east_mps",
+    "v_north_mps",
+    "v_up_mps",
+    "ground_speed_mps",
+    "airspeed_mps",
+    "roll_deg",
+    "pitch_deg",
+    "yaw_deg",
+    "wind_east_mps",
+    "wind_north_mps",
+    "wind_up_mps",
+    "pilot_roll",
+    "pilot_pitch",
+    "pilot_yaw",
+    "pilot_throttle",
+    "cmd_roll",
+    "cmd_pitch",
+    "cmd_yaw",
+    "cmd_throttle",
+    "geofence_mode",
+    "mission_item",
+)
+COLUMN_INDEX = {name: i for i, name in enumerate(COLUMNS)}
+_DEG = 180.0 / math.pi
+
+
+class Recorder:
+    """Holds up to ``capacity`` rows; :meth:`append` is allocation-free."""
+
+    def __init__(self, capacity: int):
+        self.data = np.full((capacity, len(COLUMNS)), np.nan)
+        self.n = 0
+
+    def append(
+        self,
+        s: VehicleState,
+        wind_enu: tuple[float, float, float],
+        pilot: StickCommand,
+        cmd: StickCommand,
+        mode: int,
+        item: int,
+    ) -> None:
+        if self.n >= len(self.data):
+            self.data = np.concatenate([self.data, np.full_like(self.data, np.nan)])
+        self.data[self.n] = (
+            s.t_s,
+            s.lat_deg,
+            s.lon_deg,
+            s.alt_m,
+            s.east_m,
+            s.north_m,
+            s.up_m,
+            s.agl_m,
+            s.v_east_mps,
+            s.v_north_mps,
+            s.v_up_mps,
+            math.hypot(s.v_east_mps, s.v_north_mps),
+            s.airspeed_mps,
+            s.roll_rad * _DEG,
+            s.pitch_rad * _DEG,
+            s.yaw_rad * _DEG,
+            wind_enu[0],
+            wind_enu[1],
+            wind_enu[2],
+            pilot.roll,
+            pilot.pitch,
+            pilot.yaw,
+            pilot.throttle,
+            cmd.roll,
+            cmd.pitch,
+            cmd.yaw,
+            cmd.throttle,
+            mode,
+            item,
+        )
+        self.n += 1
+
+    def rows(self) -> np.ndarray:
+        return self.data[: self.n]
+
+    def column(self, name: str) -> np.ndarray:
+        return self.data[: self.n, COLUMN_INDEX[name]]
+
+    def write_csv(self, path: Path) -> None:
+        fmt = ["%.3f", "%.8f", "%.8f"] + ["%.4f"] * (len(COLUMNS) - 5) + ["%d", "%d"]
+        np.savetxt(path, self.rows(), delimiter=",", header=",".join(COLUMNS), comments="", fmt=fmt)
+
+
+def read_trajectory_csv(path: Path) -> dict[str, np.ndarray]:
+    """Read a trajectory CSV back into named columns."""
+    data = np.genfromtxt(path, delimiter=",", names=True)
+    return {name: np.asarray(data[name], dtype=float) for name in data.dtype.names}

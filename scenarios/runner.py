@@ -1,0 +1,135 @@
+"""The closed loop: fly one scenario and write its trajectory and summary.
+
+Per outer-loop step (``control_rate_hz``, default 40 Hz; JSBSim runs its own
+frames in between, with the flight controller inside JSBSim):
+
+    truth  = platform.truth()
+    wind   = wind_field.sample(t, position, airspeed) -> platform.set_wind_enu
+    cmd_in = pilot.command(truth)
+    cmd, mode = geofence.filter(...) if a geofence is configured, else cmd_in
+    platform.command(cmd); recorder.append(...); platform.step(frames_per_step)
+
+The run stops at ``duration_s`` or two seconds after the pilot finished its
+mission. Files: ``<out>/<scenario>/trajectory.csv`` and ``summary.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from aircraft.factory import build_platform
+from geofence.geodesy import LocalFrame
+from scenarios.pilots import build_pilot
+from scenarios.recorder import Recorder
+from scenarios.schema import Scenario
+from wind.config import wind_from_config
+from wind.field import CalmWind
+
+TAIL_AFTER_FINISH_S = 2.0
+
+
+@dataclass
+class FlightResult:
+    scenario: Scenario
+    summary: dict[str, Any]
+    recorder: Recorder
+    frame: LocalFrame
+    extras: dict[str, Any] = field(default_factory=dict)
+
+
+def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> FlightResult:
+    """Fly ``scenario`` in closed loop and return the recorded flight (nothing is written)."""
+    wall0 = time.perf_counter()
+    st = scenario.start
+    frame = LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m)
+    platform = build_platform(scenario.aircraft)
+    env = platform.envelope
+    platform.reset(frame, st.lat_deg, st.lon_deg, st.agl_m, st.heading_deg, st.airspeed_mps)
+    wind = wind_from_config(scenario.wind, scenario.seed) if scenario.wind is not None else CalmWind()
+
+    frames_per_step = max(1, round(1.0 / (scenario.control_rate_hz * platform.dt_s)))
+    dt_s = frames_per_step * platform.dt_s
+    n_steps = int(math.ceil(scenario.duration_s / dt_s))
+    recorder = Recorder(n_steps + 1)
+
+    truth = platform.truth()
+    t0 = truth.t_s
+    pilot = build_pilot(scenario, frame, env, truth, dt_s)
+
+    error = None
+    finished_at = None
+    mode = 0
+    step = 0
+    try:
+        for step in range(n_steps + 1):
+            truth = platform.truth()
+            truth.t_s -= t0
+            w = wind.sample(truth.t_s, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)
+            platform.set_wind_enu(*w)
+            cmd_in = pilot.command(truth)
+            cmd = cmd_in
+            platform.command(cmd)
+            recorder.append(truth, w, cmd_in, cmd, mode, pilot.items_reached)
+            if pilot.finished and finished_at is None:
+                finished_at = truth.t_s
+            if finished_at is not None and truth.t_s - finished_at >= TAIL_AFTER_FINISH_S:
+                break
+            if step == n_steps:
+                break
+            platform.step(frames_per_step)
+            if on_step is not None:
+                on_step(dt_s)
+    except FloatingPointError as exc:
+        error = str(exc)
+
+    wall = time.perf_counter() - wall0
+    frames = step * frames_per_step
+    mission = scenario.pilot.kind == "mission"
+    completed = error is None and (pilot.finished if mission else True)
+    summary = {
+        "scenario": scenario.name,
+        "aircraft": scenario.aircraft,
+        "platform_kind": env.kind.value,
+        "pilot": scenario.pilot.kind,
+        "seed": scenario.seed,
+        "completed": completed,
+        "mission_progress": f"{pilot.items_reached}/{pilot.items_total}",
+        "waypoints_reached": pilot.items_reached,
+        "waypoints_total": pilot.items_total,
+        "sim_time_s": round(float(recorder.column("time_s")[-1]) if recorder.n else 0.0, 3),
+        "wall_time_s": round(wall, 3),
+        "control_rate_hz": round(1.0 / dt_s, 3),
+        "jsbsim_frames": frames,
+        "jsbsim_frames_per_wall_s": round(frames / wall, 1) if wall > 0 else None,
+        "max_agl_m": round(float(recorder.column("agl_m").max()), 2) if recorder.n else 0.0,
+        "max_ground_speed_mps": round(float(recorder.column("ground_speed_mps").max()), 2) if recorder.n else 0.0,
+        "error": error,
+    }
+    return FlightResult(scenario=scenario, summary=summary, recorder=recorder, frame=frame)
+
+
+def write_result(result: FlightResult, out_dir: Path) -> Path:
+    """Write ``trajectory.csv`` and ``summary.json`` under ``out_dir/<scenario name>/`` atomically."""
+    folder = Path(out_dir) / result.scenario.name
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp_csv = folder / ".trajectory.csv.tmp"
+    result.recorder.write_csv(tmp_csv)
+    os.replace(tmp_csv, folder / "trajectory.csv")
+    tmp_json = folder / ".summary.json.tmp"
+    tmp_json.write_text(json.dumps(result.summary, indent=2) + "\n")
+    os.replace(tmp_json, folder / "summary.json")
+    return folder
+
+
+def run_scenario(scenario: Scenario, out_dir: Path, on_step: Callable[[float], None] | None = None) -> FlightResult:
+    """Fly a scenario and write its files; returns the result."""
+    result = fly(scenario, on_step=on_step)
+    write_result(result, out_dir)
+    return result
+

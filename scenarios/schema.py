@@ -1,0 +1,300 @@
+"""Scenario files: the YAML schema, loaded and validated into frozen dataclasses.
+
+A scenario says what flies (``aircraft``), where it starts (``start``), what the
+pilot does (``mission`` for the GPS autopilot, or a ``pilot`` script), the
+weather (``wind``), how long (``duration_s``) and, optionally, the
+``geofence``. Angles are in degrees and positions WGS-84 lat/lon here at the
+edge; everything downstream is SI. See ``README.md`` for a full example, and
+``scenarios/*.yaml`` for shipped ones.
+
+Every problem is reported as a :class:`~scenarios.errors.ConfigError` whose
+message is one line: ``<file>: <field>: <problem>``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from aircraft.profile import available_profiles
+from scenarios.errors import (
+    ConfigError,
+    integer,
+    latitude,
+    longitude,
+    number,
+    reject_unknown_keys,
+    require_mapping,
+    string,
+)
+from wind.config import WindConfig, parse_wind
+
+MISSION_ITEM_TYPES = ("takeoff", "waypoint", "loiter", "land")
+SCRIPT_SPEEDS = ("cruise", "max", "min")
+SCRIPT_CLIMBS = ("hold", "max", "descend")
+
+
+@dataclass(frozen=True)
+class StartConfig:
+    lat_deg: float
+    lon_deg: float
+    ground_alt_m: float = 0.0
+    """Ground elevation at the site, m above the WGS-84 ellipsoid (flat terrain)."""
+    agl_m: float = 0.0
+    """Start height above ground, m; 0 = on the ground."""
+    heading_deg: float = 0.0
+    airspeed_mps: float = 0.0
+    """Air-start airspeed (fixed-wing); 0 = the platform's cruise speed."""
+
+
+@dataclass(frozen=True)
+class MissionItem:
+    kind: str
+    """One of takeoff, waypoint, loiter, land."""
+    lat_deg: float | None = None
+    lon_deg: float | None = None
+    agl_m: float | None = None
+    duration_s: float = 0.0
+    """Loiter time, s."""
+    radius_m: float = 0.0
+    """Loiter circle radius, m (0 = the platform's default)."""
+
+
+@dataclass(frozen=True)
+class MissionConfig:
+    items: tuple[MissionItem, ...]
+    acceptance_radius_m: float = 5.0
+    speed_mps: float | None = None
+    """Ground speed (multirotor) or airspeed (fixed-wing) along legs; default cruise."""
+
+    @property
+    def n_waypoints(self) -> int:
+        return len(self.items)
+
+
+@dataclass(frozen=True)
+class ScriptSegment:
+    """One piece of a scripted (adversarial) pilot, held for ``duration_s``.
+
+    Either raw ``sticks`` (roll, pitch, yaw, throttle in [-1, 1]) or a behaviour:
+    steer ground ``course_deg`` at ``speed`` (cruise | max | min) while the
+    vertical channel does ``climb`` (hold | max | descend).
+    """
+
+    duration_s: float
+    sticks: tuple[float, float, float, float] | None = None
+    course_deg: float | None = None
+    speed: str = "max"
+    climb: str = "hold"
+
+
+@dataclass(frozen=True)
+class PilotConfig:
+    kind: str
+    """``mission`` (GPS autopilot flying ``mission``) or ``scripted``."""
+    segments: tuple[ScriptSegment, ...] = ()
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    source: Path | None
+    aircraft: str
+    start: StartConfig
+    duration_s: float
+    seed: int
+    pilot: PilotConfig
+    mission: MissionConfig | None
+    wind: WindConfig | None
+    control_rate_hz: float = 40.0
+    geofence: dict[str, Any] | None = None
+    """The raw ``geofence:`` block (validated by the geofence package)."""
+    description: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+_TOP_KEYS = frozenset(
+    {"name", "description", "aircraft", "start", "duration_s", "seed", "pilot", "mission", "wind", "control_rate_hz", "geofence"}
+)
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario YAML file."""
+    path = Path(path)
+    where = str(path)
+    if not path.is_file():
+        raise ConfigError(f"{where}: no such scenario file")
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
+        problem = getattr(exc, "problem", None) or str(exc).splitlines()[0]
+        raise ConfigError(f"{where}: malformed YAML{at}: {problem}") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"{where}: not a text file") from None
+    return parse_scenario(raw, where=where, default_name=path.stem, source=path)
+
+
+def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source: Path | None = None) -> Scenario:
+    """Validate an already-parsed YAML document (see :func:`load_scenario`)."""
+    if raw is None:
+        raise ConfigError(f"{where}: the file is empty")
+    require_mapping(raw, f"{where}: (top level)")
+    reject_unknown_keys(raw, _TOP_KEYS, f"{where}: (top level)")
+    for key in ("aircraft", "start", "duration_s"):
+        if key not in raw:
+            raise ConfigError(f"{where}: {key}: missing (required)")
+
+    aircraft = string(raw["aircraft"], f"{where}: aircraft")
+    known = available_profiles()
+    if aircraft not in known:
+        raise ConfigError(f"{where}: aircraft: unknown aircraft {aircraft!r} (known: {', '.join(known)})")
+
+    duration_s = number(raw["duration_s"], f"{where}: duration_s", strictly_positive=True, maximum=24 * 3600)
+    seed = integer(raw.get("seed", 0), f"{where}: seed", minimum=0)
+    rate = number(raw.get("control_rate_hz", 40.0), f"{where}: control_rate_hz", minimum=1.0, maximum=120.0)
+    name = string(raw.get("name", default_name), f"{where}: name")
+    if any(c in name for c in "/\\") or name.startswith("."):
+        raise ConfigError(f"{where}: name: {name!r} must be usable as a folder name (no slashes, no leading dot)")
+
+    start = _parse_start(raw["start"], f"{where}: start")
+    mission = _parse_mission(raw["mission"], f"{where}: mission") if raw.get("mission") is not None else None
+    pilot = _parse_pilot(raw.get("pilot"), f"{where}: pilot", has_mission=mission is not None)
+
+    wind = None
+    if raw.get("wind") is not None:
+        try:
+            wind = parse_wind(raw["wind"], f"{where}: wind")
+        except ConfigError:
+            raise
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+
+    geofence = raw.get("geofence")
+    if geofence is not None:
+        require_mapping(geofence, f"{where}: geofence")
+
+    return Scenario(
+        name=name,
+        source=source,
+        aircraft=aircraft,
+        start=start,
+        duration_s=duration_s,
+        seed=seed,
+        pilot=pilot,
+        mission=mission,
+        wind=wind,
+        control_rate_hz=rate,
+        geofence=dict(geofence) if geofence is not None else None,
+        description=str(raw.get("description", "")),
+    )
+
+
+def _parse_start(raw: Any, where: str) -> StartConfig:
+    require_mapping(raw, where)
+    reject_unknown_keys(raw, {"lat_deg", "lon_deg", "ground_alt_m", "agl_m", "heading_deg", "airspeed_mps"}, where)
+    for key in ("lat_deg", "lon_deg"):
+        if key not in raw:
+            raise ConfigError(f"{where}.{key}: missing (required)")
+    return StartConfig(
+        lat_deg=latitude(raw["lat_deg"], f"{where}.lat_deg"),
+        lon_deg=longitude(raw["lon_deg"], f"{where}.lon_deg"),
+        ground_alt_m=number(raw.get("ground_alt_m", 0.0), f"{where}.ground_alt_m", minimum=-500.0, maximum=9000.0),
+        agl_m=number(raw.get("agl_m", 0.0), f"{where}.agl_m", minimum=0.0, maximum=5000.0),
+        heading_deg=number(raw.get("heading_deg", 0.0), f"{where}.heading_deg", minimum=-360.0, maximum=360.0),
+        airspeed_mps=number(raw.get("airspeed_mps", 0.0), f"{where}.airspeed_mps", minimum=0.0, maximum=100.0),
+    )
+
+
+def _parse_mission(raw: Any, where: str) -> MissionConfig:
+    require_mapping(raw, where)
+    reject_unknown_keys(raw, {"items", "acceptance_radius_m", "speed_mps"}, where)
+    items_raw = raw.get("items")
+    if not isinstance(items_raw, list) or not items_raw:
+        raise ConfigError(f"{where}.items: expected a non-empty list of mission items")
+    items = tuple(_parse_item(item, f"{where}.items[{i}]") for i, item in enumerate(items_raw))
+    for i, item in enumerate(items):
+        if item.kind == "land" and i != len(items) - 1:
+            raise ConfigError(f"{where}.items[{i}]: land must be the last mission item")
+        if item.kind == "takeoff" and i != 0:
+            raise ConfigError(f"{where}.items[{i}]: takeoff must be the first mission item")
+    speed = raw.get("speed_mps")
+    return MissionConfig(
+        items=items,
+        acceptance_radius_m=number(raw.get("acceptance_radius_m", 5.0), f"{where}.acceptance_radius_m", strictly_positive=True),
+        speed_mps=None if speed is None else number(speed, f"{where}.speed_mps", strictly_positive=True, maximum=100.0),
+    )
+
+
+_ITEM_KEYS = {
+    "takeoff": {"agl_m"},
+    "waypoint": {"lat_deg", "lon_deg", "agl_m"},
+    "loiter": {"lat_deg", "lon_deg", "agl_m", "duration_s", "radius_m"},
+    "land": {"lat_deg", "lon_deg"},
+}
+
+
+def _parse_item(raw: Any, where: str) -> MissionItem:
+    require_mapping(raw, where)
+    kind = string(raw.get("type"), f"{where}.type", choices=list(MISSION_ITEM_TYPES))
+    reject_unknown_keys(raw, _ITEM_KEYS[kind] | {"type"}, where)
+    needs = {"takeoff": ("agl_m",), "waypoint": ("lat_deg", "lon_deg", "agl_m"), "loiter": ("lat_deg", "lon_deg", "agl_m", "duration_s"), "land": ()}
+    for key in needs[kind]:
+        if key not in raw:
+            raise ConfigError(f"{where}.{key}: missing (required for a {kind} item)")
+    if ("lat_deg" in raw) != ("lon_deg" in raw):
+        raise ConfigError(f"{where}: give both lat_deg and lon_deg, or neither")
+    return MissionItem(
+        kind=kind,
+        lat_deg=latitude(raw["lat_deg"], f"{where}.lat_deg") if "lat_deg" in raw else None,
+        lon_deg=longitude(raw["lon_deg"], f"{where}.lon_deg") if "lon_deg" in raw else None,
+        agl_m=number(raw["agl_m"], f"{where}.agl_m", minimum=0.0, maximum=5000.0) if "agl_m" in raw else None,
+        duration_s=number(raw.get("duration_s", 0.0), f"{where}.duration_s", minimum=0.0),
+        radius_m=number(raw.get("radius_m", 0.0), f"{where}.radius_m", minimum=0.0),
+    )
+
+
+def _parse_pilot(raw: Any, where: str, has_mission: bool) -> PilotConfig:
+    if raw is None:
+        if not has_mission:
+            raise ConfigError(f"{where}: missing: give a mission or a pilot script")
+        return PilotConfig(kind="mission")
+    require_mapping(raw, where)
+    reject_unknown_keys(raw, {"type", "segments"}, where)
+    kind = string(raw.get("type", "mission"), f"{where}.type", choices=["mission", "scripted"])
+    if kind == "mission":
+        if not has_mission:
+            raise ConfigError(f"{where}.type: 'mission' needs a mission: block")
+        return PilotConfig(kind="mission")
+    segs = raw.get("segments")
+    if not isinstance(segs, list) or not segs:
+        raise ConfigError(f"{where}.segments: expected a non-empty list of script segments")
+    return PilotConfig(kind="scripted", segments=tuple(_parse_segment(s, f"{where}.segments[{i}]") for i, s in enumerate(segs)))
+
+
+def _parse_segment(raw: Any, where: str) -> ScriptSegment:
+    require_mapping(raw, where)
+    reject_unknown_keys(raw, {"duration_s", "sticks", "course_deg", "speed", "climb"}, where)
+    if "duration_s" not in raw:
+        raise ConfigError(f"{where}.duration_s: missing (required)")
+    duration = number(raw["duration_s"], f"{where}.duration_s", strictly_positive=True)
+    if ("sticks" in raw) == ("course_deg" in raw):
+        raise ConfigError(f"{where}: give exactly one of sticks or course_deg")
+    if "sticks" in raw:
+        s = require_mapping(raw["sticks"], f"{where}.sticks")
+        reject_unknown_keys(s, {"roll", "pitch", "yaw", "throttle"}, f"{where}.sticks")
+        sticks = tuple(
+            number(s.get(k, 0.0), f"{where}.sticks.{k}", minimum=-1.0, maximum=1.0) for k in ("roll", "pitch", "yaw", "throttle")
+        )
+        return ScriptSegment(duration_s=duration, sticks=sticks)  # type: ignore[arg-type]
+    return ScriptSegment(
+        duration_s=duration,
+        course_deg=number(raw["course_deg"], f"{where}.course_deg", minimum=-360.0, maximum=360.0),
+        speed=string(raw.get("speed", "max"), f"{where}.speed", choices=list(SCRIPT_SPEEDS)),
+        climb=string(raw.get("climb", "hold"), f"{where}.climb", choices=list(SCRIPT_CLIMBS)),
+    )
+
