@@ -141,6 +141,7 @@ class JSBSimModel:
                 "attitude/theta-rad",
                 "attitude/psi-rad",
                 "velocities/vtrue-fps",
+                "gear/wow",
             )
         )
         self._wind_nodes = tuple(n(p) for p in ("atmosphere/wind-east-fps", "atmosphere/wind-north-fps", "atmosphere/wind-down-fps"))
@@ -206,7 +207,7 @@ class JSBSimModel:
 
     def truth(self) -> VehicleState:
         """Current truth state (SI, ENU about the reset frame)."""
-        t, lat, lon, h, agl, ve, vn, vd, phi, theta, psi, vt = (nd.get_double_value() for nd in self._truth_nodes)
+        t, lat, lon, h, agl, ve, vn, vd, phi, theta, psi, vt, wow = (nd.get_double_value() for nd in self._truth_nodes)
         h_m = h * FT_TO_M
         e, n, u = self.frame.to_enu(lat, lon, h_m)
         agl_m = agl * FT_TO_M
@@ -228,5 +229,5 @@ class JSBSimModel:
             pitch_rad=theta,
             yaw_rad=psi,
             airspeed_mps=vt * FT_TO_M,
-            on_ground=agl_m < 0.05,
+            on_ground=wow > 0.5,
         )

@@ -1,0 +1,82 @@
+"""Benchmark: closed-loop JSBSim frames per second vs bare JSBSim on the same model.
+
+For each platform it measures, interleaved in one run (repeats, median):
+
+* ``bare``: the same JSBSim model (with its flight-controller system) stepped
+  by ``fdm.run()`` in a tight Python loop, no guidance, no wind, no recording;
+* ``shipped``: the model as it ships, without our flight controller (reference);
+* ``closed``: the full closed loop of ``scenarios.runner.fly`` (pilot,
+  wind field, recorder, outer loop at the scenario's control rate).
+
+It prints frames/s for each and the ratio closed / bare (target >= 0.5).
+
+    python bench/closed_loop.py [--seconds 60] [--repeats 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+from pathlib import Path
+
+from aircraft.factory import build_platform
+from aircraft.jsbsim_model import JSBSimModel
+from geofence.geodesy import LocalFrame
+from scenarios.runner import fly
+from scenarios.schema import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+CASES = {
+    "F450": ROOT / "scenarios" / "multicopter_survey_wind.yaml",
+    "Tern": ROOT / "scenarios" / "fixedwing_survey_wind.yaml",
+}
+
+
+def bare_rate(model: str, frames: int, with_fc: bool) -> float:
+    platform = build_platform(model)
+    sc = load_scenario(CASES[model])
+    st = sc.start
+    frame = LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m)
+    if with_fc:
+        platform.reset(frame, st.lat_deg, st.lon_deg, max(st.agl_m, 30.0), st.heading_deg, st.airspeed_mps)
+        fdm = platform.model.fdm
+    else:
+        m = JSBSimModel(model, dt_s=platform.dt_s)
+        m.reset(frame, st.lat_deg, st.lon_deg, max(st.agl_m, 30.0), st.heading_deg, platform.envelope.cruise_speed_mps)
+        fdm = m.fdm
+    run = fdm.run
+    t0 = time.perf_counter()
+    for _ in range(frames):
+        run()
+    return frames / (time.perf_counter() - t0)
+
+
+def closed_rate(model: str, seconds: float) -> float:
+    sc = load_scenario(CASES[model])
+    from dataclasses import replace
+
+    sc = replace(sc, duration_s=seconds)
+    res = fly(sc)
+    return res.summary["jsbsim_frames"] / res.summary["wall_time_s"]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seconds", type=float, default=60.0, help="simulated seconds per closed-loop run (default 60)")
+    ap.add_argument("--repeats", type=int, default=3, help="interleaved repeats, median reported (default 3)")
+    args = ap.parse_args()
+    print(f"{'model':6s} {'shipped f/s':>12s} {'bare+FC f/s':>12s} {'closed f/s':>12s} {'closed/bare':>12s} {'closed/shipped':>15s}")
+    for model in CASES:
+        shipped, bare, closed = [], [], []
+        for _ in range(args.repeats):
+            closed.append(closed_rate(model, args.seconds))
+            frames = int(args.seconds * 120)
+            bare.append(bare_rate(model, frames, with_fc=True))
+            shipped.append(bare_rate(model, frames, with_fc=False))
+        s, b, c = (statistics.median(x) for x in (shipped, bare, closed))
+        print(f"{model:6s} {s:12.0f} {b:12.0f} {c:12.0f} {c / b:12.2f} {c / s:15.2f}")
+
+
+if __name__ == "__main__":
+    main()

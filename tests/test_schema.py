@@ -1,0 +1,117 @@
+"""Scenario YAML validation: every bad input becomes one line naming file, field and problem."""
+
+from pathlib import Path
+
+import pytest
+import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from scenarios.errors import ConfigError
+from scenarios.schema import load_scenario, parse_scenario
+
+SHIPPED = sorted((Path(__file__).parents[1] / "scenarios").glob("*.yaml"))
+
+BASE = {
+    "aircraft": "F450",
+    "duration_s": 10,
+    "start": {"lat_deg": 47.0, "lon_deg": 8.0, "ground_alt_m": 400},
+    "mission": {"items": [{"type": "takeoff", "agl_m": 5}, {"type": "land"}]},
+}
+
+
+def with_(**changes):
+    doc = yaml.safe_load(yaml.safe_dump(BASE))
+    for dotted, value in changes.items():
+        keys = dotted.split("__")
+        target = doc
+        for k in keys[:-1]:
+            target = target[k]
+        target[keys[-1]] = value
+    return doc
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.name)
+def test_shipped_scenarios_are_valid(path):
+    sc = load_scenario(path)
+    assert sc.name == path.stem
+    assert sc.duration_s > 0
+
+
+def test_base_document_parses():
+    sc = parse_scenario(BASE, "x.yaml")
+    assert sc.aircraft == "F450" and sc.pilot.kind == "mission" and len(sc.mission.items) == 2
+
+
+@pytest.mark.parametrize(
+    "doc, field, problem",
+    [
+        (with_(start__lat_deg=123), "start.lat_deg", "<= 90"),
+        (with_(start__lon_deg=-200), "start.lon_deg", ">= -180"),
+        (with_(duration_s=-5), "duration_s", "> 0"),
+        (with_(duration_s="long"), "duration_s", "expected a number"),
+        (with_(aircraft="Concorde"), "aircraft", "unknown aircraft 'Concorde'"),
+        (with_(colour="red"), "(top level)", "unknown key 'colour'"),
+        (with_(mission__items=[{"type": "hover"}]), "mission.items[0].type", "not one of"),
+        (with_(mission__items=[{"type": "waypoint", "lat_deg": 1}]), "mission.items[0].lon_deg", "missing"),
+        (with_(mission__items=[{"type": "land"}, {"type": "takeoff", "agl_m": 3}]), "mission.items[0]", "last"),
+        (with_(mission__acceptance_radius_m=0), "mission.acceptance_radius_m", "> 0"),
+        (with_(pilot={"type": "scripted", "segments": [{"duration_s": 3}]}), "pilot.segments[0]", "exactly one of"),
+        (with_(pilot={"type": "scripted", "segments": [{"duration_s": 3, "sticks": {"roll": 2}}]}), "pilot.segments[0].sticks.roll", "<= 1"),
+        (with_(wind={"speed_mps": -3}), "wind", "speed_mps"),
+    ],
+)
+def test_bad_values_name_file_and_field(doc, field, problem):
+    with pytest.raises(ConfigError) as err:
+        parse_scenario(doc, "bad.yaml")
+    msg = str(err.value)
+    assert msg.startswith("bad.yaml: ")
+    assert field in msg and problem in msg
+    assert "\n" not in msg
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(ConfigError, match="no such scenario file"):
+        load_scenario(tmp_path / "nope.yaml")
+
+
+def test_malformed_yaml_reports_line(tmp_path):
+    p = tmp_path / "broken.yaml"
+    p.write_text("aircraft: F450\nstart: {lat_deg: 1\n")
+    with pytest.raises(ConfigError, match=r"broken.yaml: malformed YAML at line \d+"):
+        load_scenario(p)
+
+
+def test_empty_file(tmp_path):
+    p = tmp_path / "empty.yaml"
+    p.write_text("")
+    with pytest.raises(ConfigError, match="empty"):
+        load_scenario(p)
+
+
+@settings(max_examples=200)
+@given(
+    st.recursive(
+        st.none() | st.booleans() | st.floats(allow_nan=True) | st.integers() | st.text(max_size=8),
+        lambda children: st.lists(children, max_size=4) | st.dictionaries(st.text(max_size=12), children, max_size=5),
+        max_leaves=20,
+    )
+)
+def test_parser_never_crashes_on_arbitrary_documents(doc):
+    """Whatever the YAML holds, the parser either accepts it or raises a one-line ConfigError."""
+    try:
+        parse_scenario(doc, "fuzz.yaml")
+    except ConfigError as exc:
+        assert str(exc).startswith("fuzz.yaml: ") and "\n" not in str(exc)
+
+
+@settings(max_examples=100)
+@given(st.fixed_dictionaries({}, optional={k: st.one_of(st.floats(), st.integers(), st.text(max_size=5), st.none()) for k in ("lat_deg", "lon_deg", "agl_m", "heading_deg", "airspeed_mps", "ground_alt_m")}))
+def test_start_block_fuzz(start):
+    doc = with_(start=start)
+    try:
+        sc = parse_scenario(doc, "f.yaml")
+    except ConfigError as exc:
+        assert "f.yaml: start" in str(exc)
+    else:
+        assert -90 <= sc.start.lat_deg <= 90 and -180 <= sc.start.lon_deg <= 180
