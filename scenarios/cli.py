@@ -57,6 +57,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml", help="scenario file(s) to fly")
     run.add_argument("--out", type=Path, default=Path("out"), metavar="DIR", help="output folder (default: ./out)")
     run.add_argument("--quiet", action="store_true", help="no progress display, only the final lines")
+    run.add_argument("--no-plot", action="store_true", help="skip flight.png/flight.svg (ground track, altitude, speed)")
 
     val = sub.add_parser("validate", help="check scenario files without flying", description="Load and validate scenario files; print one line per file.")
     val.add_argument("scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml")
@@ -119,6 +120,8 @@ def _cmd_run(args) -> int:
         finally:
             if bar:
                 bar.close()
+        if not args.no_plot:
+            _plot(result, args.out)
         s = result.summary
         status = "completed" if s["completed"] else "NOT completed"
         extra = f" error: {s['error']}" if s.get("error") else ""
@@ -128,6 +131,14 @@ def _cmd_run(args) -> int:
         )
         failed += not s["completed"]
     return EXIT_FLIGHT_FAILED if failed else 0
+
+
+def _plot(result, out_dir: Path) -> None:
+    from analysis.plots import plot_flight
+
+    rec = result.recorder
+    traj = {name: rec.column(name) for name in ("time_s", "east_m", "north_m", "agl_m", "ground_speed_mps", "airspeed_mps", "wind_east_mps", "wind_north_mps")}
+    plot_flight(traj, Path(out_dir) / result.scenario.name / "flight", f"{result.scenario.name} ({result.scenario.aircraft})")
 
 
 def _progress(sc, quiet: bool):
