@@ -1,0 +1,406 @@
+"""Wind configuration: frozen dataclasses, YAML validation and the field builder.
+
+The ``wind:`` block of a scenario::
+
+    wind:
+      speed_mps: 8                 # steady speed at the profile's reference height (default 0)
+      from_deg: 270                # direction FROM, deg clockwise from north (required if speed_mps > 0)
+      profile: {law: power, exponent: 0.14, reference_height_m: 10}      # optional
+      #        {law: log, roughness_length_m: 0.03, reference_height_m: 10}
+      #        {law: uniform}      (the default: same speed at every height)
+      turbulence: {severity: light}     # light | moderate | severe | none, or {w20_mps: 7.7}; optional
+      gusts:                            # optional list of discrete 1-cos gusts
+        - {onset_s: 20, amplitude_mps: 5, length_m: 30, from_deg: 270}
+        #   optional per gust: vertical_mps (signed, + up), hold_m (>= 0, .inf = rise and hold),
+        #   penetration_speed_mps (fixed speed: time-based gust); from_deg defaults to the steady one
+      random_gusts:                     # optional: gusts drawn from the seed
+        {count: 3, start_s: 10, end_s: 60, amplitude_mps: [2, 6], length_m: [10, 40],
+         spread_deg: 30}                #   optional: from_deg (default steady), vertical_mps: [lo, hi]
+      seed: 7                           # optional; else the scenario seed is used
+
+:func:`parse_wind` validates such a mapping; every error is a ``ValueError``
+with one line ``<where>.<field>: <problem>`` (``where`` names the block, e.g.
+``"scenarios/x.yaml: wind"``). Unknown keys are errors (typo protection).
+
+:func:`wind_from_config` builds the :class:`~wind.field.WindField`. Seeds: the
+turbulence and the random gusts get independent streams derived from the wind
+seed (``numpy.random.SeedSequence(seed, spawn_key=(k,))``), distinct from a
+plain ``default_rng(seed)`` that other parts of a scenario may use.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from wind.dryden import SEVERITY_W20_MPS, DrydenTurbulence
+from wind.field import CalmWind, CompositeWind, WindField
+from wind.gust import Gust, GustTrain
+from wind.steady import LogLawProfile, PowerLawProfile, SteadyWind, UniformProfile, WindProfile
+
+PROFILE_LAWS = ("uniform", "power", "log")
+SEVERITIES = (*SEVERITY_W20_MPS, "none")
+
+_TURBULENCE_STREAM = 0
+_GUST_STREAM = 1
+
+
+@dataclass(frozen=True)
+class ProfileConfig:
+    """Height profile of the steady wind (see :mod:`wind.steady`)."""
+
+    law: str = "uniform"
+    exponent: float = 0.14
+    reference_height_m: float = 10.0
+    roughness_length_m: float = 0.03
+
+    def build(self) -> WindProfile:
+        if self.law == "power":
+            return PowerLawProfile(self.exponent, self.reference_height_m)
+        if self.law == "log":
+            return LogLawProfile(self.roughness_length_m, self.reference_height_m)
+        if self.law == "uniform":
+            return UniformProfile()
+        raise ValueError(f"unknown profile law {self.law!r} (known: {', '.join(PROFILE_LAWS)})")
+
+
+@dataclass(frozen=True)
+class TurbulenceConfig:
+    """Dryden turbulence: a severity name, or an explicit W20 (wind speed at 20 ft) in m/s."""
+
+    severity: str | None = None
+    w20_mps: float | None = None
+
+    @property
+    def resolved_w20_mps(self) -> float:
+        if self.w20_mps is not None:
+            return self.w20_mps
+        if self.severity is None or self.severity == "none":
+            return 0.0
+        return SEVERITY_W20_MPS[self.severity]
+
+
+@dataclass(frozen=True)
+class GustConfig:
+    """One discrete gust; ``from_deg`` None means the steady wind's direction."""
+
+    onset_s: float
+    amplitude_mps: float
+    length_m: float
+    from_deg: float | None = None
+    vertical_mps: float = 0.0
+    hold_m: float = 0.0
+    penetration_speed_mps: float | None = None
+
+
+@dataclass(frozen=True)
+class RandomGustsConfig:
+    """``count`` gusts drawn from the wind seed (see :meth:`wind.gust.GustTrain.random`)."""
+
+    count: int
+    start_s: float
+    end_s: float
+    amplitude_mps: tuple[float, float]
+    length_m: tuple[float, float]
+    from_deg: float | None = None
+    spread_deg: float = 0.0
+    vertical_mps: tuple[float, float] = (0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class WindConfig:
+    """The whole wind configuration of a scenario. The default is calm air."""
+
+    speed_mps: float = 0.0
+    from_deg: float = 0.0
+    profile: ProfileConfig | None = None
+    turbulence: TurbulenceConfig | None = None
+    gusts: tuple[GustConfig, ...] = ()
+    random_gusts: RandomGustsConfig | None = None
+    seed: int | None = None
+
+    @property
+    def is_calm(self) -> bool:
+        t = self.turbulence
+        return (
+            self.speed_mps == 0.0
+            and (t is None or t.resolved_w20_mps == 0.0)
+            and not any(g.amplitude_mps > 0.0 or g.vertical_mps != 0.0 for g in self.gusts)
+            and (self.random_gusts is None or self.random_gusts.count == 0)
+        )
+
+
+# --------------------------------------------------------------------------- builder
+
+
+def wind_from_config(cfg: WindConfig | None, seed: int | None = None) -> WindField:
+    """The wind field a configuration describes.
+
+    ``seed`` is the scenario seed, used when ``cfg.seed`` is None (0 if both are
+    None, so a run is always reproducible). Components: steady wind (if
+    speed_mps > 0), Dryden turbulence (if W20 > 0) and a gust train (if any
+    gusts), summed; calm air gives :class:`~wind.field.CalmWind`.
+    """
+    if cfg is None:
+        return CalmWind()
+    s = cfg.seed if cfg.seed is not None else (seed if seed is not None else 0)
+    components: list[WindField] = []
+    steady = None
+    if cfg.speed_mps > 0.0:
+        profile = cfg.profile.build() if cfg.profile is not None else None
+        steady = SteadyWind(cfg.speed_mps, cfg.from_deg, profile)
+        components.append(steady)
+    if cfg.turbulence is not None and cfg.turbulence.resolved_w20_mps > 0.0:
+        components.append(
+            DrydenTurbulence(
+                cfg.turbulence.resolved_w20_mps,
+                seed=np.random.SeedSequence(s, spawn_key=(_TURBULENCE_STREAM,)),
+                mean_wind=steady,
+            )
+        )
+    gusts = [
+        Gust(
+            onset_s=g.onset_s,
+            amplitude_mps=g.amplitude_mps,
+            length_m=g.length_m,
+            from_deg=cfg.from_deg if g.from_deg is None else g.from_deg,
+            vertical_mps=g.vertical_mps,
+            hold_m=g.hold_m,
+            penetration_speed_mps=g.penetration_speed_mps,
+        )
+        for g in cfg.gusts
+    ]
+    rg = cfg.random_gusts
+    if rg is not None and rg.count > 0:
+        drawn = GustTrain.random(
+            np.random.SeedSequence(s, spawn_key=(_GUST_STREAM,)),
+            count=rg.count,
+            start_s=rg.start_s,
+            end_s=rg.end_s,
+            amplitude_mps=rg.amplitude_mps,
+            length_m=rg.length_m,
+            from_deg=cfg.from_deg if rg.from_deg is None else rg.from_deg,
+            spread_deg=rg.spread_deg,
+            vertical_mps=rg.vertical_mps,
+        )
+        gusts.extend(drawn.gusts)
+    if gusts:
+        components.append(GustTrain(gusts, mean_wind=steady))
+    if not components:
+        return CalmWind()
+    if len(components) == 1:
+        return components[0]
+    return CompositeWind(components)
+
+
+# --------------------------------------------------------------------------- validation
+
+
+def _kind(value: Any) -> str:
+    if value is None:
+        return "nothing"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, Mapping):
+        return "a mapping"
+    if isinstance(value, (list, tuple)):
+        return "a list"
+    return type(value).__name__
+
+
+def _mapping(value: Any, where: str) -> Mapping:
+    if not isinstance(value, Mapping):
+        raise ValueError(f"{where}: expected a mapping (key: value), got {_kind(value)}")
+    return value
+
+
+def _check_keys(m: Mapping, allowed: tuple[str, ...], where: str) -> None:
+    for key in m:
+        if key not in allowed:
+            close = difflib.get_close_matches(str(key), allowed, n=1)
+            hint = f"did you mean {close[0]!r}? " if close else ""
+            raise ValueError(f"{where}.{key}: unknown key ({hint}allowed: {', '.join(allowed)})")
+
+
+def _num(
+    value: Any,
+    where: str,
+    *,
+    minimum: float | None = None,
+    maximum: float | None = None,
+    positive: bool = False,
+    allow_inf: bool = False,
+) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{where}: expected a number, got {_kind(value)} {value!r}")
+    x = float(value)
+    if math.isnan(x) or (math.isinf(x) and not (allow_inf and x > 0)):
+        raise ValueError(f"{where}: must be a finite number, got {value!r}")
+    if positive and not x > 0.0:
+        raise ValueError(f"{where}: must be > 0, got {value!r}")
+    if minimum is not None and x < minimum:
+        raise ValueError(f"{where}: must be >= {minimum:g}, got {value!r}")
+    if maximum is not None and x > maximum:
+        raise ValueError(f"{where}: must be <= {maximum:g}, got {value!r}")
+    return x
+
+
+def _int(value: Any, where: str, *, minimum: int = 0) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ValueError(f"{where}: expected an integer, got {_kind(value)} {value!r}")
+    if value < minimum:
+        raise ValueError(f"{where}: must be >= {minimum}, got {value!r}")
+    return value
+
+
+def _range(value: Any, where: str, *, minimum: float | None = None, positive: bool = False) -> tuple[float, float]:
+    """A number (fixed value) or a [low, high] pair."""
+    if isinstance(value, (list, tuple)):
+        if len(value) != 2:
+            raise ValueError(f"{where}: expected a number or a [low, high] pair, got a list of {len(value)}")
+        lo = _num(value[0], f"{where}[0]", minimum=minimum, positive=positive)
+        hi = _num(value[1], f"{where}[1]", minimum=minimum, positive=positive)
+        if hi < lo:
+            raise ValueError(f"{where}: low must be <= high, got [{value[0]!r}, {value[1]!r}]")
+        return (lo, hi)
+    x = _num(value, where, minimum=minimum, positive=positive)
+    return (x, x)
+
+
+def _direction(value: Any, where: str) -> float:
+    return _num(value, where, minimum=0.0, maximum=360.0) % 360.0
+
+
+_WIND_KEYS = ("speed_mps", "from_deg", "profile", "turbulence", "gusts", "random_gusts", "seed")
+_PROFILE_KEYS = {
+    "uniform": ("law",),
+    "power": ("law", "exponent", "reference_height_m"),
+    "log": ("law", "roughness_length_m", "reference_height_m"),
+}
+_TURBULENCE_KEYS = ("severity", "w20_mps")
+_GUST_KEYS = ("onset_s", "amplitude_mps", "length_m", "from_deg", "vertical_mps", "hold_m", "penetration_speed_mps")
+_RANDOM_GUST_KEYS = ("count", "start_s", "end_s", "amplitude_mps", "length_m", "from_deg", "spread_deg", "vertical_mps")
+
+
+def parse_wind(mapping: Any, where: str = "wind") -> WindConfig:
+    """Validate the ``wind:`` block of a scenario (already loaded from YAML).
+
+    ``where`` names the block in messages (e.g. ``"scenarios/x.yaml: wind"``);
+    errors read ``"<where>.gusts[1].amplitude_mps: must be >= 0, got -3"``.
+    An empty block (None) is calm air.
+    """
+    if mapping is None:
+        return WindConfig()
+    m = _mapping(mapping, where)
+    _check_keys(m, _WIND_KEYS, where)
+
+    speed = _num(m.get("speed_mps", 0.0), f"{where}.speed_mps", minimum=0.0)
+    if "from_deg" in m:
+        from_deg = _direction(m["from_deg"], f"{where}.from_deg")
+    elif speed > 0.0:
+        raise ValueError(f"{where}.from_deg: missing (required when speed_mps > 0)")
+    else:
+        from_deg = 0.0
+
+    profile = _parse_profile(m["profile"], f"{where}.profile") if m.get("profile") is not None else None
+    turbulence = _parse_turbulence(m["turbulence"], f"{where}.turbulence") if m.get("turbulence") is not None else None
+
+    gusts: tuple[GustConfig, ...] = ()
+    if m.get("gusts") is not None:
+        raw = m["gusts"]
+        if not isinstance(raw, (list, tuple)):
+            raise ValueError(f"{where}.gusts: expected a list of gusts, got {_kind(raw)}")
+        gusts = tuple(_parse_gust(g, f"{where}.gusts[{i}]") for i, g in enumerate(raw))
+
+    random_gusts = None
+    if m.get("random_gusts") is not None:
+        random_gusts = _parse_random_gusts(m["random_gusts"], f"{where}.random_gusts")
+
+    seed = _int(m["seed"], f"{where}.seed") if m.get("seed") is not None else None
+    return WindConfig(speed, from_deg, profile, turbulence, gusts, random_gusts, seed)
+
+
+def _parse_profile(raw: Any, where: str) -> ProfileConfig:
+    m = _mapping(raw, where)
+    if "law" not in m:
+        raise ValueError(f"{where}.law: missing (one of {', '.join(PROFILE_LAWS)})")
+    law = m["law"]
+    if law not in PROFILE_LAWS:
+        raise ValueError(f"{where}.law: must be one of {', '.join(PROFILE_LAWS)}, got {law!r}")
+    for key in m:
+        if key not in _PROFILE_KEYS[law]:
+            if any(key in keys for keys in _PROFILE_KEYS.values()):
+                raise ValueError(f"{where}.{key}: not used by law {law!r} (allowed: {', '.join(_PROFILE_KEYS[law])})")
+    _check_keys(m, _PROFILE_KEYS[law], where)
+    defaults = ProfileConfig()
+    zref = _num(m.get("reference_height_m", defaults.reference_height_m), f"{where}.reference_height_m", positive=True)
+    exponent = defaults.exponent
+    z0 = defaults.roughness_length_m
+    if law == "power":
+        exponent = _num(m.get("exponent", defaults.exponent), f"{where}.exponent", positive=True, maximum=1.0)
+    if law == "log":
+        z0 = _num(m.get("roughness_length_m", defaults.roughness_length_m), f"{where}.roughness_length_m", positive=True)
+        if not zref > z0:
+            raise ValueError(f"{where}.reference_height_m: must be > roughness_length_m ({z0:g}), got {zref:g}")
+    return ProfileConfig(law, exponent, zref, z0)
+
+
+def _parse_turbulence(raw: Any, where: str) -> TurbulenceConfig:
+    m = _mapping(raw, where)
+    _check_keys(m, _TURBULENCE_KEYS, where)
+    has_sev, has_w20 = m.get("severity") is not None, m.get("w20_mps") is not None
+    if has_sev == has_w20:
+        raise ValueError(f"{where}: give exactly one of severity ({', '.join(SEVERITIES)}) or w20_mps")
+    if has_sev:
+        sev = m["severity"]
+        if not isinstance(sev, str) or sev.lower() not in SEVERITIES:
+            raise ValueError(f"{where}.severity: must be one of {', '.join(SEVERITIES)}, got {sev!r}")
+        return TurbulenceConfig(severity=sev.lower())
+    return TurbulenceConfig(w20_mps=_num(m["w20_mps"], f"{where}.w20_mps", minimum=0.0))
+
+
+def _parse_gust(raw: Any, where: str) -> GustConfig:
+    m = _mapping(raw, where)
+    _check_keys(m, _GUST_KEYS, where)
+    for key in ("onset_s", "amplitude_mps", "length_m"):
+        if key not in m:
+            raise ValueError(f"{where}.{key}: missing (required)")
+    pen = m.get("penetration_speed_mps")
+    return GustConfig(
+        onset_s=_num(m["onset_s"], f"{where}.onset_s", minimum=0.0),
+        amplitude_mps=_num(m["amplitude_mps"], f"{where}.amplitude_mps", minimum=0.0),
+        length_m=_num(m["length_m"], f"{where}.length_m", positive=True),
+        from_deg=_direction(m["from_deg"], f"{where}.from_deg") if m.get("from_deg") is not None else None,
+        vertical_mps=_num(m.get("vertical_mps", 0.0), f"{where}.vertical_mps"),
+        hold_m=_num(m.get("hold_m", 0.0), f"{where}.hold_m", minimum=0.0, allow_inf=True),
+        penetration_speed_mps=None if pen is None else _num(pen, f"{where}.penetration_speed_mps", positive=True),
+    )
+
+
+def _parse_random_gusts(raw: Any, where: str) -> RandomGustsConfig:
+    m = _mapping(raw, where)
+    _check_keys(m, _RANDOM_GUST_KEYS, where)
+    for key in ("count", "start_s", "end_s", "amplitude_mps", "length_m"):
+        if key not in m:
+            raise ValueError(f"{where}.{key}: missing (required)")
+    start = _num(m["start_s"], f"{where}.start_s", minimum=0.0)
+    end = _num(m["end_s"], f"{where}.end_s", minimum=0.0)
+    if end < start:
+        raise ValueError(f"{where}.end_s: must be >= start_s ({start:g}), got {m['end_s']!r}")
+    return RandomGustsConfig(
+        count=_int(m["count"], f"{where}.count"),
+        start_s=start,
+        end_s=end,
+        amplitude_mps=_range(m["amplitude_mps"], f"{where}.amplitude_mps", minimum=0.0),
+        length_m=_range(m["length_m"], f"{where}.length_m", positive=True),
+        from_deg=_direction(m["from_deg"], f"{where}.from_deg") if m.get("from_deg") is not None else None,
+        spread_deg=_num(m.get("spread_deg", 0.0), f"{where}.spread_deg", minimum=0.0, maximum=180.0),
+        vertical_mps=_range(m.get("vertical_mps", 0.0), f"{where}.vertical_mps"),
+    )

@@ -1,0 +1,244 @@
+"""Continuous Dryden turbulence, MIL-F-8785C / MIL-HDBK-1797 low-altitude form.
+
+Scales (h = height above ground in ft, clamped to [min_height, 1000 ft]):
+
+    L_w = h,            L_u = L_v = h / (0.177 + 0.000823 h) ** 1.2      (ft)
+    sigma_w = 0.1 W20,  sigma_u = sigma_v = sigma_w / (0.177 + 0.000823 h) ** 0.4
+
+with W20 the wind speed at 20 ft: 15 / 30 / 45 kt for light / moderate /
+severe. Lengths are converted to m (x 0.3048); the sigma ratios are
+dimensionless, so sigma is in m/s when W20 is. Above 1000 ft the values at
+1000 ft are held (there L_u = L_v = L_w = 1000 ft and sigma_u = sigma_w, the
+isotropic limit; the spec's medium/high-altitude model is not needed below the
+small-UAS ceiling). Below ``min_height_m`` (default 10 ft) h is clamped, so the
+turbulence neither vanishes nor gets infinitely fast at the ground.
+
+Spectra (spatial frequency Omega, rad/m), each integrating to sigma**2:
+
+    Phi_u = sigma_u**2 (2 L_u / pi) / (1 + (L_u Omega)**2)
+    Phi_v = sigma_v**2 (L_v / pi) (1 + 3 (L_v Omega)**2) / (1 + (L_v Omega)**2)**2   (same for w)
+
+i.e. autocorrelations R_u(x) = sigma_u**2 exp(-x/L_u) and R_v(x) =
+sigma_v**2 (1 - x / (2 L_v)) exp(-x/L_v). Note the integral scale of v and w is
+L/2, that of u is L.
+
+Time: frozen turbulence passes the aircraft at V = max(airspeed, mean wind
+speed at h, ``min_speed_mps``) (default 1 m/s), so a hovering vehicle in wind
+sees it convected by the wind and one in calm air still sees some; the time
+constants are tau = L / V.
+
+Discretization: **exact** (zero-order-hold on the white noise is not used;
+the discrete process has exactly the continuous process's covariance at the
+sample times, for any step):
+
+* u: Ornstein-Uhlenbeck, x <- a x + sqrt(1 - a**2) n, a = exp(-dt/tau_u).
+* v, w: H(s) ~ (1 + sqrt(3) tau s) / (1 + tau s)**2 realized as two cascaded
+  first-order lags x1 = 1/(1+tau s) [white], x2 = 1/(1+tau s) [x1], output
+  (sqrt(3) x1 + (1 - sqrt(3)) x2) / sqrt(2). With the input scaled so that
+  var(x1) = 1, the stationary covariance is P = [[1, 1/2], [1/2, 1/2]];
+  the transition is Phi = exp(-r) [[1, 0], [r, 1]] with r = dt/tau, and the
+  process noise is Q = P - Phi P Phi^T (closed form below), applied through
+  its 2x2 Cholesky factor.
+
+The states are normalized (unit-variance processes in scaled time) and the
+sigmas multiply the outputs, so changing height or airspeed never causes a
+variance transient, and any dt (a 40 Hz loop, an irregular one, or one huge
+jump) gives correctly distributed values. This is why the exact form is used
+rather than Tustin: Tustin warps the spectrum near Nyquist and needs
+re-derivation whenever dt or tau changes, which happens every step here.
+
+Axes: u along the mean horizontal wind at h (north if calm), v 90 deg to its
+left (counter-clockwise seen from above), w up; rotated to ENU on output.
+
+Noise: standard normals from ``numpy.random.default_rng(seed)``, drawn in
+blocks and consumed five per step, so a given seed and sequence of sample
+times reproduces the same series. The state starts from the stationary
+distribution (no start-up transient).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from wind.field import Vec3, WindField
+
+FT_M = 0.3048
+KT_MPS = 1852.0 / 3600.0
+
+#: W20 (wind speed at 20 ft) for the MIL-F-8785C severity levels, m/s.
+SEVERITY_W20_MPS: dict[str, float] = {"light": 15.0 * KT_MPS, "moderate": 30.0 * KT_MPS, "severe": 45.0 * KT_MPS}
+
+_SQRT3 = math.sqrt(3.0)
+_C1 = _SQRT3 / math.sqrt(2.0)  # output weights of the normalized 2nd-order form
+_C2 = (1.0 - _SQRT3) / math.sqrt(2.0)
+_POOL = 5 * 2048  # normals per refill (multiple of the 5 used per step)
+_H_MAX_FT = 1000.0
+
+
+def dryden_scales(up_m: float, w20_mps: float, min_height_m: float = 10.0 * FT_M) -> tuple[float, float, float, float]:
+    """(L_u = L_v in m, L_w in m, sigma_u = sigma_v in m/s, sigma_w in m/s) at height ``up_m`` AGL."""
+    h = up_m / FT_M
+    hmin = min_height_m / FT_M
+    if not h > hmin:  # also catches NaN
+        h = hmin
+    elif h > _H_MAX_FT:
+        h = _H_MAX_FT
+    d = 0.177 + 0.000823 * h
+    sw = 0.1 * w20_mps
+    return h * FT_M / d**1.2, h * FT_M, sw / d**0.4, sw
+
+
+class DrydenTurbulence:
+    """Seeded Dryden turbulence (zero mean), a :class:`~wind.field.WindField`.
+
+    Give either ``w20_mps`` (wind speed at 20 ft, m/s) or ``severity``
+    (``"light"``, ``"moderate"``, ``"severe"``). ``mean_wind`` (usually the
+    scenario's steady wind) sets the turbulence axes and the convection speed;
+    without it the axes are north-aligned and V = max(airspeed, floor).
+    """
+
+    __slots__ = (
+        "w20_mps", "seed", "mean_wind", "min_speed_mps", "min_height_m", "_rng", "_pool", "_i",
+        "_t", "_out", "_xu", "_xv1", "_xv2", "_xw1", "_xw2", "_mean_fn",
+    )  # fmt: skip
+
+    def __init__(
+        self,
+        w20_mps: float | None = None,
+        *,
+        severity: str | None = None,
+        seed: int | np.random.SeedSequence = 0,
+        mean_wind: WindField | None = None,
+        min_speed_mps: float = 1.0,
+        min_height_m: float = 10.0 * FT_M,
+    ) -> None:
+        if (w20_mps is None) == (severity is None):
+            raise ValueError("DrydenTurbulence: give exactly one of w20_mps or severity")
+        if severity is not None:
+            if severity not in SEVERITY_W20_MPS:
+                raise ValueError(f"turbulence severity must be one of {', '.join(SEVERITY_W20_MPS)}, got {severity!r}")
+            w20_mps = SEVERITY_W20_MPS[severity]
+        assert w20_mps is not None
+        if not (math.isfinite(w20_mps) and w20_mps >= 0.0):
+            raise ValueError(f"turbulence w20_mps must be >= 0, got {w20_mps!r}")
+        if not (math.isfinite(min_speed_mps) and min_speed_mps > 0.0):
+            raise ValueError(f"turbulence min_speed_mps must be > 0, got {min_speed_mps!r}")
+        if not (math.isfinite(min_height_m) and min_height_m > 0.0):
+            raise ValueError(f"turbulence min_height_m must be > 0, got {min_height_m!r}")
+        self.w20_mps = float(w20_mps)
+        self.seed = seed
+        self.mean_wind = mean_wind
+        self.min_speed_mps = float(min_speed_mps)
+        self.min_height_m = float(min_height_m)
+        self._mean_fn = mean_wind.mean if mean_wind is not None else None
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the initial seeded state: the next sample() restarts the series."""
+        self._rng = np.random.default_rng(self.seed)
+        self._pool: list[float] = []
+        self._i = 0
+        self._t: float | None = None
+        self._out: Vec3 = (0.0, 0.0, 0.0)
+        self._xu = self._xv1 = self._xv2 = self._xw1 = self._xw2 = 0.0
+
+    def scales(self, up_m: float) -> tuple[float, float, float, float]:
+        """(L_u = L_v in m, L_w in m, sigma_u = sigma_v in m/s, sigma_w in m/s) at ``up_m`` AGL."""
+        return dryden_scales(up_m, self.w20_mps, self.min_height_m)
+
+    def mean(self, up_m: float) -> Vec3:
+        return (0.0, 0.0, 0.0)
+
+    def _normals(self) -> tuple[float, float, float, float, float]:
+        i = self._i
+        if i >= len(self._pool):
+            self._pool = self._rng.standard_normal(_POOL).tolist()
+            i = 0
+        self._i = i + 5
+        p = self._pool
+        return p[i], p[i + 1], p[i + 2], p[i + 3], p[i + 4]
+
+    def sample(self, t_s: float, east_m: float, north_m: float, up_m: float, airspeed_mps: float) -> Vec3:
+        last = self._t
+        if t_s == last:
+            return self._out
+        if last is not None and not t_s > last:
+            raise ValueError(f"DrydenTurbulence.sample: time went backwards ({t_s!r} s after {last!r} s); call reset()")
+
+        # mean wind: axes and convection speed
+        if self._mean_fn is not None:
+            me, mn, _ = self._mean_fn(up_m)
+            wspd = math.sqrt(me * me + mn * mn)
+        else:
+            me = mn = wspd = 0.0
+        v = airspeed_mps if airspeed_mps > self.min_speed_mps else self.min_speed_mps
+        if wspd > v:
+            v = wspd
+
+        # MIL-F-8785C low-altitude scales (inlined dryden_scales)
+        h = up_m / FT_M
+        hmin = self.min_height_m / FT_M
+        if not h > hmin:
+            h = hmin
+        elif h > _H_MAX_FT:
+            h = _H_MAX_FT
+        d = 0.177 + 0.000823 * h
+        sw = 0.1 * self.w20_mps
+        su = sw / d**0.4
+        lw = h * FT_M
+        lu = lw / d**1.2
+
+        n0, n1, n2, n3, n4 = self._normals()
+        if last is None:  # start from the stationary distribution
+            xu = n0
+            xv1 = n1
+            xv2 = 0.5 * (n1 + n2)
+            xw1 = n3
+            xw2 = 0.5 * (n3 + n4)
+        else:
+            dt = t_s - last
+            # u (and v, which shares L): r = dt / tau
+            r = v * dt / lu
+            a = math.exp(-r)
+            q11 = -math.expm1(-2.0 * r)  # 1 - a^2, accurate for small r
+            l11 = math.sqrt(q11)
+            a2 = a * a
+            q12 = 0.5 * q11 - a2 * r
+            l21 = q12 / l11
+            q22 = 0.5 * q11 - a2 * r * (r + 1.0) - l21 * l21
+            l22 = math.sqrt(q22) if q22 > 0.0 else 0.0
+            xu = a * self._xu + l11 * n0
+            x1 = self._xv1
+            xv1 = a * x1 + l11 * n1
+            xv2 = a * (r * x1 + self._xv2) + l21 * n1 + l22 * n2
+            # w
+            r = v * dt / lw
+            a = math.exp(-r)
+            q11 = -math.expm1(-2.0 * r)
+            l11 = math.sqrt(q11)
+            a2 = a * a
+            q12 = 0.5 * q11 - a2 * r
+            l21 = q12 / l11
+            q22 = 0.5 * q11 - a2 * r * (r + 1.0) - l21 * l21
+            l22 = math.sqrt(q22) if q22 > 0.0 else 0.0
+            x1 = self._xw1
+            xw1 = a * x1 + l11 * n3
+            xw2 = a * (r * x1 + self._xw2) + l21 * n3 + l22 * n4
+        self._xu, self._xv1, self._xv2, self._xw1, self._xw2 = xu, xv1, xv2, xw1, xw2
+        self._t = t_s
+
+        tu = su * xu
+        tv = su * (_C1 * xv1 + _C2 * xv2)
+        tw = sw * (_C1 * xw1 + _C2 * xw2)
+        if wspd > 1e-9:
+            ce, cn = me / wspd, mn / wspd
+        else:
+            ce, cn = 0.0, 1.0
+        out = (tu * ce - tv * cn, tu * cn + tv * ce, tw)
+        self._out = out
+        return out
+
+    def __repr__(self) -> str:
+        return f"DrydenTurbulence(w20_mps={self.w20_mps!r}, seed={self.seed!r}, mean_wind={self.mean_wind!r})"

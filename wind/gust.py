@@ -1,0 +1,206 @@
+"""Discrete "1-cosine" gusts (MIL-F-8785C shape) and schedules of them.
+
+Shape, as a function of the distance x the gust front has travelled past the
+aircraft since onset (x < 0 before onset)::
+
+    rise   0 <= x <= d            v = (V_m / 2) (1 - cos(pi x / d))
+    hold   d <= x <= d + hold     v = V_m
+    fall   d + hold <= x <= 2d + hold
+                                  v = (V_m / 2) (1 - cos(pi (2d + hold - x) / d))
+    after  x >= 2d + hold         v = 0
+
+with d = ``length_m`` (the MIL-F-8785C gust length d_m: the distance to reach
+the peak). ``hold_m = 0`` (the default) is the usual full 1-cos gust, rising
+and falling over 2 d; ``hold_m = math.inf`` is the MIL-F-8785C rise-and-hold
+(ramp-to-a-new-level) form. The horizontal part has amplitude
+``amplitude_mps`` toward the opposite of ``from_deg`` (a gust from 270 pushes
+east); ``vertical_mps`` (signed, + up) follows the same shape.
+
+Time: by default a gust is a frozen pattern that the aircraft penetrates, so x
+grows at V = max(airspeed, mean wind speed, floor) (the same effective speed as
+the Dryden turbulence; a hovering vehicle sees the gust convected by the mean
+wind): a faster aircraft crosses the gust sooner. x is integrated step by step
+(V held over each step at its value at the step's end). Give
+``penetration_speed_mps`` to make a gust purely time-based instead: then
+x = penetration_speed_mps * (t - onset), and the rise time is
+length_m / penetration_speed_mps for every platform (useful to apply the
+identical disturbance to different aircraft).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from wind.field import Vec3, WindField, toward_unit
+
+
+@dataclass(frozen=True, slots=True)
+class Gust:
+    """One discrete gust (see the module docstring for the shape and timing)."""
+
+    onset_s: float
+    amplitude_mps: float
+    length_m: float
+    from_deg: float
+    vertical_mps: float = 0.0
+    hold_m: float = 0.0
+    penetration_speed_mps: float | None = None
+
+    def __post_init__(self) -> None:
+        if not math.isfinite(self.onset_s):
+            raise ValueError(f"gust onset_s must be finite, got {self.onset_s!r}")
+        if not (math.isfinite(self.amplitude_mps) and self.amplitude_mps >= 0.0):
+            raise ValueError(f"gust amplitude_mps must be >= 0, got {self.amplitude_mps!r}")
+        if not (math.isfinite(self.length_m) and self.length_m > 0.0):
+            raise ValueError(f"gust length_m must be > 0, got {self.length_m!r}")
+        if not math.isfinite(self.from_deg):
+            raise ValueError(f"gust from_deg must be finite, got {self.from_deg!r}")
+        if not math.isfinite(self.vertical_mps):
+            raise ValueError(f"gust vertical_mps must be finite, got {self.vertical_mps!r}")
+        if math.isnan(self.hold_m) or self.hold_m < 0.0:
+            raise ValueError(f"gust hold_m must be >= 0, got {self.hold_m!r}")
+        p = self.penetration_speed_mps
+        if p is not None and not (math.isfinite(p) and p > 0.0):
+            raise ValueError(f"gust penetration_speed_mps must be > 0, got {p!r}")
+
+    def shape(self, x_m: float) -> float:
+        """Shape factor in [0, 1] at penetration distance ``x_m`` past the onset."""
+        d = self.length_m
+        if x_m <= 0.0:
+            return 0.0
+        if x_m < d:
+            return 0.5 * (1.0 - math.cos(math.pi * x_m / d))
+        x_m -= d + self.hold_m
+        if x_m <= 0.0:
+            return 1.0
+        if x_m < d:
+            return 0.5 * (1.0 + math.cos(math.pi * x_m / d))
+        return 0.0
+
+    @property
+    def extent_m(self) -> float:
+        """Total penetration distance over which the gust is non-zero (inf for rise-and-hold)."""
+        return 2.0 * self.length_m + self.hold_m
+
+    def vector(self, x_m: float) -> Vec3:
+        """Gust wind vector ENU m/s at penetration distance ``x_m``."""
+        k = self.shape(x_m)
+        if k == 0.0:
+            return (0.0, 0.0, 0.0)
+        e, n = toward_unit(self.from_deg)
+        a = self.amplitude_mps * k
+        return (a * e, a * n, self.vertical_mps * k)
+
+
+class GustTrain:
+    """A schedule of discrete gusts, a :class:`~wind.field.WindField` (zero mean).
+
+    ``mean_wind`` and ``min_speed_mps`` set the penetration speed of the gusts
+    that have no fixed ``penetration_speed_mps`` (see the module docstring).
+    Overlapping gusts add.
+    """
+
+    __slots__ = ("gusts", "mean_wind", "min_speed_mps", "_mean_fn", "_t", "_out", "_x", "_dirs")
+
+    def __init__(self, gusts: Iterable[Gust], mean_wind: WindField | None = None, min_speed_mps: float = 1.0) -> None:
+        self.gusts: tuple[Gust, ...] = tuple(sorted(gusts, key=lambda g: g.onset_s))
+        if not (math.isfinite(min_speed_mps) and min_speed_mps > 0.0):
+            raise ValueError(f"gust min_speed_mps must be > 0, got {min_speed_mps!r}")
+        self.mean_wind = mean_wind
+        self.min_speed_mps = float(min_speed_mps)
+        self._mean_fn = mean_wind.mean if mean_wind is not None else None
+        self._dirs = tuple(toward_unit(g.from_deg) for g in self.gusts)
+        self.reset()
+
+    def reset(self) -> None:
+        """Back to the start: no distance travelled into any gust."""
+        self._t: float | None = None
+        self._out: Vec3 = (0.0, 0.0, 0.0)
+        self._x = [0.0] * len(self.gusts)
+
+    @classmethod
+    def random(
+        cls,
+        seed: int | np.random.SeedSequence,
+        count: int,
+        start_s: float,
+        end_s: float,
+        amplitude_mps: tuple[float, float],
+        length_m: tuple[float, float],
+        from_deg: float,
+        spread_deg: float = 0.0,
+        vertical_mps: tuple[float, float] = (0.0, 0.0),
+        mean_wind: WindField | None = None,
+        min_speed_mps: float = 1.0,
+    ) -> GustTrain:
+        """``count`` gusts with onsets uniform in [start_s, end_s], amplitudes and lengths
+        uniform in the given (low, high) ranges, directions uniform in from_deg +/- spread_deg,
+        vertical parts uniform in ``vertical_mps``; reproducible by ``seed``."""
+        if count < 0:
+            raise ValueError(f"gust count must be >= 0, got {count!r}")
+        if not end_s >= start_s:
+            raise ValueError(f"gust window end_s ({end_s!r}) must be >= start_s ({start_s!r})")
+        for name, (lo, hi) in (("amplitude_mps", amplitude_mps), ("length_m", length_m), ("vertical_mps", vertical_mps)):
+            if not hi >= lo:
+                raise ValueError(f"gust {name} range ({lo!r}, {hi!r}) must have low <= high")
+        rng = np.random.default_rng(seed)
+        onset = np.sort(rng.uniform(start_s, end_s, count))
+        amp = rng.uniform(amplitude_mps[0], amplitude_mps[1], count)
+        length = rng.uniform(length_m[0], length_m[1], count)
+        dirs = (from_deg + rng.uniform(-spread_deg, spread_deg, count)) % 360.0
+        vert = rng.uniform(vertical_mps[0], vertical_mps[1], count)
+        gusts = [
+            Gust(onset_s=float(o), amplitude_mps=float(a), length_m=float(d), from_deg=float(f), vertical_mps=float(w))
+            for o, a, d, f, w in zip(onset, amp, length, dirs, vert, strict=True)
+        ]
+        return cls(gusts, mean_wind=mean_wind, min_speed_mps=min_speed_mps)
+
+    def mean(self, up_m: float) -> Vec3:
+        return (0.0, 0.0, 0.0)
+
+    def sample(self, t_s: float, east_m: float, north_m: float, up_m: float, airspeed_mps: float) -> Vec3:
+        last = self._t
+        if t_s == last:
+            return self._out
+        if last is not None and not t_s > last:
+            raise ValueError(f"GustTrain.sample: time went backwards ({t_s!r} s after {last!r} s); call reset()")
+        self._t = t_s
+        gusts = self.gusts
+        if not gusts or t_s <= gusts[0].onset_s:
+            self._out = (0.0, 0.0, 0.0)
+            return self._out
+
+        v = airspeed_mps if airspeed_mps > self.min_speed_mps else self.min_speed_mps
+        if self._mean_fn is not None:
+            me, mn, _ = self._mean_fn(up_m)
+            w = math.sqrt(me * me + mn * mn)
+            if w > v:
+                v = w
+        e = n = u = 0.0
+        xs = self._x
+        for i, g in enumerate(gusts):
+            if t_s <= g.onset_s:
+                break  # sorted by onset
+            if g.penetration_speed_mps is not None:
+                x = g.penetration_speed_mps * (t_s - g.onset_s)
+            else:
+                t0 = g.onset_s if last is None or last < g.onset_s else last
+                x = xs[i] + v * (t_s - t0)
+                xs[i] = x
+            k = g.shape(x)
+            if k != 0.0:
+                de, dn = self._dirs[i]
+                a = g.amplitude_mps * k
+                e += a * de
+                n += a * dn
+                u += g.vertical_mps * k
+        self._out = (e, n, u)
+        return self._out
+
+    def __repr__(self) -> str:
+        return f"GustTrain({list(self.gusts)!r})"
+
