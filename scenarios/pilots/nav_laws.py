@@ -12,37 +12,29 @@ floats throughout: they run on the simulation's per-step path.
   bank stick; altitude -> climb-rate stick; airspeed -> throttle stick.
 
 Angles are rad, courses and headings clockwise from north, positions ENU m.
+The stick mappings themselves are the shared primitives of
+:mod:`geofence.control_laws`.
 """
 
 from __future__ import annotations
 
 import math
 
+from geofence.control_laws import (
+    G_MPS2,
+    airspeed_to_stick,
+    altitude_to_climb_rate,
+    bank_stick_for_turn_rate,
+    climb_rate_to_stick,
+    ground_course_rad,
+    max_horizontal_accel_mps2,
+    tilt_sticks_for_accel,
+    wrap_pi,
+    yaw_stick_for_heading,
+)
 from geofence.interface import Envelope, StickCommand, VehicleState
 
-G_MPS2 = 9.80665
 _HALF_PI = 0.5 * math.pi
-
-
-def wrap_pi(angle_rad: float) -> float:
-    """Wrap an angle to [-pi, pi)."""
-    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def _clip(x: float, lo: float, hi: float) -> float:
-    return lo if x < lo else (hi if x > hi else x)
-
-
-def climb_rate_to_stick(v_up_mps: float, env: Envelope) -> float:
-    """Climb-rate command (m/s, + up) -> the climb-rate stick of either platform kind."""
-    if v_up_mps >= 0.0:
-        return _clip(v_up_mps / env.max_climb_rate_mps, 0.0, 1.0)
-    return _clip(v_up_mps / env.max_descent_rate_mps, -1.0, 0.0)
-
-
-def altitude_to_climb_rate(target_up_m: float, up_m: float, env: Envelope, gain_per_s: float) -> float:
-    """Proportional altitude law: climb-rate command in m/s, limited by the envelope."""
-    return _clip(gain_per_s * (target_up_m - up_m), -env.max_descent_rate_mps, env.max_climb_rate_mps)
 
 
 class MultirotorNavigator:
@@ -65,7 +57,7 @@ class MultirotorNavigator:
         self.kh = altitude_gain_per_s
         self.kpsi = yaw_gain_per_s
         self.a_approach = approach_decel_fraction * env.braking_decel_mps2
-        self.a_max = G_MPS2 * math.tan(min(env.max_bank_rad, env.max_pitch_rad))
+        self.a_max = max_horizontal_accel_mps2(env)
         self._int_e = 0.0
         self._int_n = 0.0
 
@@ -94,16 +86,11 @@ class MultirotorNavigator:
         else:
             self._int_e += ee * dt_s
             self._int_n += en * dt_s
-        sy, cy = math.sin(s.yaw_rad), math.cos(s.yaw_rad)
-        a_fwd = an * cy + ae * sy
-        a_right = ae * cy - an * sy
-        pitch = -math.atan(a_fwd / G_MPS2)  # nose down to accelerate forward
-        roll = math.atan(a_right / G_MPS2)
-        yaw_rate = self.kpsi * wrap_pi(yaw_cmd_rad - s.yaw_rad)
+        roll, pitch = tilt_sticks_for_accel(ae, an, s.yaw_rad, self.env)
         return StickCommand(
-            roll=_clip(roll / self.env.max_bank_rad, -1.0, 1.0),
-            pitch=_clip(pitch / self.env.max_pitch_rad, -1.0, 1.0),
-            yaw=_clip(yaw_rate / self.env.max_yaw_rate_radps, -1.0, 1.0),
+            roll=roll,
+            pitch=pitch,
+            yaw=yaw_stick_for_heading(yaw_cmd_rad, s.yaw_rad, self.env, self.kpsi),
             throttle=climb_rate_to_stick(v_up_cmd, self.env),
         )
 
@@ -138,21 +125,11 @@ class FixedWingNavigator:
         v = self.env.cruise_speed_mps if airspeed_mps is None else airspeed_mps
         return v * v / (G_MPS2 * math.tan(self.env.max_bank_rad))
 
-    def airspeed_to_stick(self, airspeed_mps: float) -> float:
-        env = self.env
-        if airspeed_mps >= env.cruise_speed_mps:
-            span = env.max_speed_mps - env.cruise_speed_mps
-        else:
-            span = env.cruise_speed_mps - env.min_speed_mps
-        return _clip((airspeed_mps - env.cruise_speed_mps) / span, -1.0, 1.0) if span > 0 else 0.0
-
     def bank_stick_for_course(self, s: VehicleState, course_cmd_rad: float) -> float:
         """Coordinated-turn law: commanded turn rate proportional to course error -> bank."""
-        vg = max(s.ground_speed_mps, 1.0)
-        course = math.atan2(s.v_east_mps, s.v_north_mps) if s.ground_speed_mps > 0.5 else s.yaw_rad
+        course = ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad)
         turn_rate = self.k_course * wrap_pi(course_cmd_rad - course)
-        bank = math.atan(vg * turn_rate / G_MPS2)
-        return _clip(bank / self.env.max_bank_rad, -1.0, 1.0)
+        return bank_stick_for_turn_rate(turn_rate, s.ground_speed_mps, self.env)
 
     def course_on_line(self, s: VehicleState, e0: float, n0: float, e1: float, n1: float) -> tuple[float, float, float]:
         """Vector-field course to follow the line p0 -> p1.
@@ -183,5 +160,5 @@ class FixedWingNavigator:
             roll=self.bank_stick_for_course(s, course_cmd_rad),
             pitch=climb_rate_to_stick(vz, self.env),
             yaw=0.0,
-            throttle=self.airspeed_to_stick(airspeed_mps),
+            throttle=airspeed_to_stick(airspeed_mps, self.env),
         )

@@ -1,0 +1,86 @@
+"""Pure control-law primitives shared by every outer loop: maps from physical demands to sticks.
+
+Plain-float functions with no state, used by the geofence's recovery guidance
+and by the testbed's mission autopilot alike (they are the stick semantics of
+:mod:`geofence.interface` written as math, not a navigation strategy):
+
+* horizontal acceleration demand (ENU, m/s²) -> multirotor tilt sticks;
+* climb-rate demand (m/s) -> climb-rate stick (multirotor throttle, fixed-wing pitch);
+* turn-rate demand (rad/s) -> fixed-wing bank stick (coordinated turn);
+* airspeed demand (m/s) -> fixed-wing throttle stick.
+"""
+
+from __future__ import annotations
+
+import math
+
+from geofence.interface import Envelope
+
+G_MPS2 = 9.80665
+
+
+def clip(x: float, lo: float, hi: float) -> float:
+    return lo if x < lo else (hi if x > hi else x)
+
+
+def wrap_pi(angle_rad: float) -> float:
+    """Wrap an angle to [-pi, pi)."""
+    return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def max_horizontal_accel_mps2(env: Envelope) -> float:
+    """The horizontal acceleration a tilt-limited multirotor can command, g·tan(tilt_max)."""
+    return G_MPS2 * math.tan(min(env.max_bank_rad, env.max_pitch_rad))
+
+
+def tilt_sticks_for_accel(accel_east_mps2: float, accel_north_mps2: float, yaw_rad: float, env: Envelope) -> tuple[float, float]:
+    """(roll, pitch) sticks that tilt a multirotor to accelerate horizontally as demanded.
+
+    Forward acceleration needs nose-down pitch (negative pitch stick), rightward
+    acceleration needs right bank.
+    """
+    sy, cy = math.sin(yaw_rad), math.cos(yaw_rad)
+    a_fwd = accel_north_mps2 * cy + accel_east_mps2 * sy
+    a_right = accel_east_mps2 * cy - accel_north_mps2 * sy
+    pitch = -math.atan(a_fwd / G_MPS2)
+    roll = math.atan(a_right / G_MPS2)
+    return clip(roll / env.max_bank_rad, -1.0, 1.0), clip(pitch / env.max_pitch_rad, -1.0, 1.0)
+
+
+def climb_rate_to_stick(v_up_mps: float, env: Envelope) -> float:
+    """Climb-rate demand (m/s, + up) -> the climb-rate stick of either platform kind."""
+    if v_up_mps >= 0.0:
+        return clip(v_up_mps / env.max_climb_rate_mps, 0.0, 1.0)
+    return clip(v_up_mps / env.max_descent_rate_mps, -1.0, 0.0)
+
+
+def altitude_to_climb_rate(target_m: float, height_m: float, env: Envelope, gain_per_s: float) -> float:
+    """Proportional altitude law: climb-rate demand in m/s, limited by the envelope."""
+    return clip(gain_per_s * (target_m - height_m), -env.max_descent_rate_mps, env.max_climb_rate_mps)
+
+
+def bank_stick_for_turn_rate(turn_rate_radps: float, ground_speed_mps: float, env: Envelope) -> float:
+    """Coordinated turn: bank = atan(V·ω/g), as a fraction of the bank limit (+ right)."""
+    bank = math.atan(max(ground_speed_mps, 1.0) * turn_rate_radps / G_MPS2)
+    return clip(bank / env.max_bank_rad, -1.0, 1.0)
+
+
+def airspeed_to_stick(airspeed_mps: float, env: Envelope) -> float:
+    """Airspeed demand -> fixed-wing throttle stick (−1 min, 0 cruise, +1 max)."""
+    if airspeed_mps >= env.cruise_speed_mps:
+        span = env.max_speed_mps - env.cruise_speed_mps
+    else:
+        span = env.cruise_speed_mps - env.min_speed_mps
+    return clip((airspeed_mps - env.cruise_speed_mps) / span, -1.0, 1.0) if span > 0 else 0.0
+
+
+def yaw_stick_for_heading(yaw_cmd_rad: float, yaw_rad: float, env: Envelope, gain_per_s: float = 1.5) -> float:
+    """Multirotor yaw-rate stick that turns the nose toward ``yaw_cmd_rad``."""
+    return clip(gain_per_s * wrap_pi(yaw_cmd_rad - yaw_rad) / env.max_yaw_rate_radps, -1.0, 1.0)
+
+
+def ground_course_rad(v_east_mps: float, v_north_mps: float, fallback_rad: float) -> float:
+    """Ground course clockwise from north; ``fallback_rad`` (the heading) when nearly stopped."""
+    if v_east_mps * v_east_mps + v_north_mps * v_north_mps < 0.25:
+        return fallback_rad
+    return math.atan2(v_east_mps, v_north_mps)
