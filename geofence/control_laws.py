@@ -7,7 +7,10 @@ and by the testbed's mission autopilot alike (they are the stick semantics of
 * horizontal acceleration demand (ENU, m/s²) -> multirotor tilt sticks;
 * climb-rate demand (m/s) -> climb-rate stick (multirotor throttle, fixed-wing pitch);
 * turn-rate demand (rad/s) -> fixed-wing bank stick (coordinated turn);
-* airspeed demand (m/s) -> fixed-wing throttle stick.
+* airspeed demand (m/s) -> fixed-wing throttle stick;
+* :class:`VelocityController`: a multirotor PI ground-velocity loop on top of
+  the tilt mapping, and :func:`approach_velocity` (stop at a point without
+  overshoot).
 """
 
 from __future__ import annotations
@@ -84,3 +87,49 @@ def ground_course_rad(v_east_mps: float, v_north_mps: float, fallback_rad: float
     if v_east_mps * v_east_mps + v_north_mps * v_north_mps < 0.25:
         return fallback_rad
     return math.atan2(v_east_mps, v_north_mps)
+
+
+def approach_velocity(
+    east_m: float, north_m: float, target_e: float, target_n: float, speed_mps: float, gain_per_s: float, decel_mps2: float
+) -> tuple[float, float]:
+    """Ground-velocity demand (E, N m/s) toward a point: min(speed, k·d, sqrt(2·a·d)) so it stops there."""
+    de, dn = target_e - east_m, target_n - north_m
+    d = math.hypot(de, dn)
+    if d < 1e-6:
+        return 0.0, 0.0
+    v = min(speed_mps, gain_per_s * d, math.sqrt(2.0 * decel_mps2 * d))
+    return v * de / d, v * dn / d
+
+
+class VelocityController:
+    """Multirotor PI ground-velocity loop: velocity error -> acceleration -> tilt sticks.
+
+    The integrator trims out steady wind drag; it is frozen while the
+    acceleration demand saturates at g·tan(tilt_max) (anti-windup).
+    """
+
+    def __init__(self, env: Envelope, gain_per_s: float = 1.6, integral_gain_per_s2: float = 0.35):
+        self.env = env
+        self.kv = gain_per_s
+        self.ki = integral_gain_per_s2
+        self.a_max = max_horizontal_accel_mps2(env)
+        self._int_e = 0.0
+        self._int_n = 0.0
+
+    def reset(self) -> None:
+        self._int_e = self._int_n = 0.0
+
+    def tilt_sticks(
+        self, v_east_mps: float, v_north_mps: float, ve_cmd: float, vn_cmd: float, yaw_rad: float, dt_s: float
+    ) -> tuple[float, float]:
+        """(roll, pitch) sticks driving the ground velocity to (ve_cmd, vn_cmd)."""
+        ee, en = ve_cmd - v_east_mps, vn_cmd - v_north_mps
+        ae = self.kv * ee + self.ki * self._int_e
+        an = self.kv * en + self.ki * self._int_n
+        a = math.hypot(ae, an)
+        if a > self.a_max:
+            ae, an = ae * self.a_max / a, an * self.a_max / a
+        else:
+            self._int_e += ee * dt_s
+            self._int_n += en * dt_s
+        return tilt_sticks_for_accel(ae, an, yaw_rad, self.env)

@@ -27,8 +27,8 @@ from geofence.control_laws import (
     bank_stick_for_turn_rate,
     climb_rate_to_stick,
     ground_course_rad,
-    max_horizontal_accel_mps2,
-    tilt_sticks_for_accel,
+    VelocityController,
+    approach_velocity,
     wrap_pi,
     yaw_stick_for_heading,
 )
@@ -52,41 +52,20 @@ class MultirotorNavigator:
     ):
         self.env = env
         self.kp = position_gain_per_s
-        self.kv = velocity_gain_per_s
-        self.ki = velocity_integral_gain_per_s2
         self.kh = altitude_gain_per_s
         self.kpsi = yaw_gain_per_s
         self.a_approach = approach_decel_fraction * env.braking_decel_mps2
-        self.a_max = max_horizontal_accel_mps2(env)
-        self._int_e = 0.0
-        self._int_n = 0.0
-
-    def reset(self) -> None:
-        self._int_e = self._int_n = 0.0
+        self.velocity = VelocityController(env, velocity_gain_per_s, velocity_integral_gain_per_s2)
 
     def velocity_toward(self, s: VehicleState, target_e: float, target_n: float, speed_mps: float) -> tuple[float, float]:
         """Ground-velocity command (m/s, E/N) to reach a point and stop there without overshoot."""
-        de, dn = target_e - s.east_m, target_n - s.north_m
-        d = math.hypot(de, dn)
-        if d < 1e-6:
-            return 0.0, 0.0
-        v = min(speed_mps, self.kp * d, math.sqrt(2.0 * self.a_approach * d))
-        return v * de / d, v * dn / d
+        return approach_velocity(s.east_m, s.north_m, target_e, target_n, speed_mps, self.kp, self.a_approach)
 
     def sticks_for_velocity(
         self, s: VehicleState, ve_cmd: float, vn_cmd: float, v_up_cmd: float, yaw_cmd_rad: float, dt_s: float
     ) -> StickCommand:
-        """PI velocity loop -> horizontal acceleration -> tilt sticks; climb rate -> throttle stick."""
-        ee, en = ve_cmd - s.v_east_mps, vn_cmd - s.v_north_mps
-        ae = self.kv * ee + self.ki * self._int_e
-        an = self.kv * en + self.ki * self._int_n
-        a = math.hypot(ae, an)
-        if a > self.a_max:  # saturated: scale down and do not wind the integrator up
-            ae, an = ae * self.a_max / a, an * self.a_max / a
-        else:
-            self._int_e += ee * dt_s
-            self._int_n += en * dt_s
-        roll, pitch = tilt_sticks_for_accel(ae, an, s.yaw_rad, self.env)
+        """PI velocity loop -> tilt sticks; climb rate -> throttle stick; yaw toward ``yaw_cmd_rad``."""
+        roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve_cmd, vn_cmd, s.yaw_rad, dt_s)
         return StickCommand(
             roll=roll,
             pitch=pitch,
