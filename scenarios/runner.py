@@ -50,8 +50,10 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     frame = LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m)
     platform = build_platform(scenario.aircraft)
     env = platform.envelope
-    platform.reset(frame, st.lat_deg, st.lon_deg, st.agl_m, st.heading_deg, st.airspeed_mps)
     wind = wind_from_config(scenario.wind, scenario.seed) if scenario.wind is not None else CalmWind()
+    # the start is settled in the wind at t = 0 (platforms keep a wind set before reset)
+    platform.set_wind_enu(*wind.sample(0.0, 0.0, 0.0, st.agl_m, st.airspeed_mps or env.cruise_speed_mps))
+    platform.reset(frame, st.lat_deg, st.lon_deg, st.agl_m, st.heading_deg, st.airspeed_mps)
 
     frames_per_step = max(1, round(1.0 / (scenario.control_rate_hz * platform.dt_s)))
     dt_s = frames_per_step * platform.dt_s
