@@ -144,6 +144,7 @@ class JSBSimModel:
                 "gear/wow",
             )
         )
+        self._truth_getters = tuple(nd.get_double_value for nd in self._truth_nodes)
         self._wind_nodes = tuple(n(p) for p in ("atmosphere/wind-east-fps", "atmosphere/wind-north-fps", "atmosphere/wind-down-fps"))
 
     # -- property access ---------------------------------------------------
@@ -207,7 +208,7 @@ class JSBSimModel:
 
     def truth(self) -> VehicleState:
         """Current truth state (SI, ENU about the reset frame)."""
-        t, lat, lon, h, agl, ve, vn, vd, phi, theta, psi, vt, wow = (nd.get_double_value() for nd in self._truth_nodes)
+        t, lat, lon, h, agl, ve, vn, vd, phi, theta, psi, vt, wow = [get() for get in self._truth_getters]
         h_m = h * FT_TO_M
         e, n, u = self.frame.to_enu(lat, lon, h_m)
         agl_m = agl * FT_TO_M
