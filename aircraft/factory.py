@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 from aircraft.platform import Platform
-from aircraft.profile import load_profile
+from aircraft.profile import PlatformProfile, load_profile
 from geofence.interface import PlatformKind
 
 
-def build_platform(model: str) -> Platform:
-    """A ready-to-reset platform for ``model`` (multirotor or fixed-wing, per its profile)."""
-    profile = load_profile(model)
+def build_platform(model_or_profile: str | PlatformProfile) -> Platform:
+    """A ready-to-reset platform for a model name (shipped profile) or an explicit profile."""
+    profile = load_profile(model_or_profile) if isinstance(model_or_profile, str) else model_or_profile
     if profile.kind is PlatformKind.MULTIROTOR:
         from aircraft.multicopter import MulticopterPlatform
 

@@ -26,8 +26,10 @@ The platform adapters read it; scenarios pick it by model name.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import yaml
 
@@ -73,20 +75,59 @@ def load_profile(model: str) -> PlatformProfile:
     path = PROFILES_DIR / f"{model}.yaml"
     if not path.is_file():
         raise ProfileError(f"no platform profile for aircraft {model!r}; known: {', '.join(available_profiles())}")
-    raw = yaml.safe_load(path.read_text())
+    return parse_profile(yaml.safe_load(path.read_text()), model, str(path))
+
+
+def parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
+    """Validate a profile mapping (the file format above, or a scenario's inline ``profile:`` block).
+
+    An inline profile may name ``base: <model>`` to start from a shipped
+    profile and override only some envelope values or gains.
+    """
+    if not isinstance(raw, Mapping):
+        raise ProfileError(f"{where}: expected a mapping with kind, envelope and gains")
+    unknown = sorted(set(map(str, raw)) - {"model", "kind", "frame_rate_hz", "envelope", "gains", "base"})
+    if unknown:
+        raise ProfileError(f"{where}: unknown key {unknown[0]!r} (allowed: base, envelope, frame_rate_hz, gains, kind, model)")
+    base = load_profile(str(raw["base"])) if raw.get("base") is not None else None
+    kind_raw = raw.get("kind", base.kind.value if base else None)
     try:
-        kind = PlatformKind(raw["kind"])
-        env_raw = raw["envelope"]
-        values = {}
-        for key, scale in _ENVELOPE_FIELDS.items():
-            values[key.replace("_deg_s", "_radps").replace("_deg", "_rad")] = float(env_raw[key]) * scale
-        envelope = Envelope(kind=kind, **values)
-        return PlatformProfile(
-            model=raw.get("model", model),
-            kind=kind,
-            envelope=envelope,
-            frame_rate_hz=float(raw.get("frame_rate_hz", 120.0)),
-            gains={str(k): float(v) for k, v in (raw.get("gains") or {}).items()},
-        )
-    except (KeyError, TypeError, ValueError) as exc:
-        raise ProfileError(f"{path}: malformed profile ({exc})") from exc
+        kind = PlatformKind(kind_raw)
+    except ValueError:
+        raise ProfileError(f"{where}.kind: must be multirotor or fixed_wing, got {kind_raw!r}") from None
+    env_raw = raw.get("envelope") or {}
+    if not isinstance(env_raw, Mapping):
+        raise ProfileError(f"{where}.envelope: expected a mapping")
+    bad = sorted(set(map(str, env_raw)) - set(_ENVELOPE_FIELDS))
+    if bad:
+        raise ProfileError(f"{where}.envelope: unknown key {bad[0]!r} (allowed: {', '.join(_ENVELOPE_FIELDS)})")
+    values = {}
+    for key, scale in _ENVELOPE_FIELDS.items():
+        field_name = key.replace("_deg_s", "_radps").replace("_deg", "_rad")
+        if key in env_raw:
+            x = env_raw[key]
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) or x < 0:
+                raise ProfileError(f"{where}.envelope.{key}: must be a finite number >= 0, got {x!r}")
+            values[field_name] = float(x) * scale
+        elif base is not None:
+            values[field_name] = getattr(base.envelope, field_name)
+        else:
+            raise ProfileError(f"{where}.envelope.{key}: missing (required)")
+    gains = dict(base.gains) if base else {}
+    gains_raw = raw.get("gains") or {}
+    if not isinstance(gains_raw, Mapping):
+        raise ProfileError(f"{where}.gains: expected a mapping of property: value")
+    for k, v in gains_raw.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+            raise ProfileError(f"{where}.gains.{k}: must be a finite number, got {v!r}")
+        gains[str(k)] = float(v)
+    rate = raw.get("frame_rate_hz", base.frame_rate_hz if base else 120.0)
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 30.0 <= rate <= 1000.0:
+        raise ProfileError(f"{where}.frame_rate_hz: must be a number in [30, 1000], got {rate!r}")
+    return PlatformProfile(
+        model=str(raw.get("model", model)),
+        kind=kind,
+        envelope=Envelope(kind=kind, **values),
+        frame_rate_hz=float(rate),
+        gains=gains,
+    )

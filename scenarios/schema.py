@@ -19,7 +19,8 @@ from typing import Any
 
 import yaml
 
-from aircraft.profile import available_profiles
+from aircraft.jsbsim_model import UnknownAircraftError, model_folder
+from aircraft.profile import PlatformProfile, ProfileError, available_profiles, load_profile, parse_profile
 from scenarios.errors import (
     ConfigError,
     integer,
@@ -103,6 +104,8 @@ class Scenario:
     name: str
     source: Path | None
     aircraft: str
+    profile: PlatformProfile
+    """Envelope and flight-controller gains (shipped, or inline in the scenario)."""
     start: StartConfig
     duration_s: float
     seed: int
@@ -117,7 +120,7 @@ class Scenario:
 
 
 _TOP_KEYS = frozenset(
-    {"name", "description", "aircraft", "start", "duration_s", "seed", "pilot", "mission", "wind", "control_rate_hz", "geofence"}
+    {"name", "description", "aircraft", "profile", "start", "duration_s", "seed", "pilot", "mission", "wind", "control_rate_hz", "geofence"}
 )
 
 
@@ -150,9 +153,7 @@ def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source:
             raise ConfigError(f"{where}: {key}: missing (required)")
 
     aircraft = string(raw["aircraft"], f"{where}: aircraft")
-    known = available_profiles()
-    if aircraft not in known:
-        raise ConfigError(f"{where}: aircraft: unknown aircraft {aircraft!r} (known: {', '.join(known)})")
+    profile = _parse_aircraft_profile(aircraft, raw.get("profile"), where)
 
     duration_s = number(raw["duration_s"], f"{where}: duration_s", strictly_positive=True, maximum=24 * 3600)
     seed = integer(raw.get("seed", 0), f"{where}: seed", minimum=0)
@@ -182,6 +183,7 @@ def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source:
         name=name,
         source=source,
         aircraft=aircraft,
+        profile=profile,
         start=start,
         duration_s=duration_s,
         seed=seed,
@@ -192,6 +194,27 @@ def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source:
         geofence=dict(geofence) if geofence is not None else None,
         description=str(raw.get("description", "")),
     )
+
+
+def _parse_aircraft_profile(aircraft: str, inline: Any, where: str) -> PlatformProfile:
+    """The shipped profile of ``aircraft``, or an inline ``profile:`` block (any JSBSim model with standard controls)."""
+    try:
+        model_folder(aircraft)
+    except UnknownAircraftError:
+        raise ConfigError(
+            f"{where}: aircraft: unknown aircraft {aircraft!r} (flyable with a shipped profile: {', '.join(available_profiles())})"
+        ) from None
+    try:
+        if inline is not None:
+            return parse_profile(inline, aircraft, f"{where}: profile")
+        if aircraft not in available_profiles():
+            raise ConfigError(
+                f"{where}: aircraft: {aircraft!r} is a JSBSim model without a shipped profile; add a profile: block "
+                f"(kind, envelope, gains; or base: <model>) or use one of {', '.join(available_profiles())}"
+            )
+        return load_profile(aircraft)
+    except ProfileError as exc:
+        raise ConfigError(str(exc)) from None
 
 
 def _parse_start(raw: Any, where: str) -> StartConfig:

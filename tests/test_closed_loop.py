@@ -118,3 +118,19 @@ def test_multicopter_with_zero_sticks_drifts_with_the_air_mass():
     assert e[-1] > 20.0 and abs(n[-1]) < 0.1 * e[-1]
     assert ve.max() <= 5.0 + 0.05
     assert np.mean(ve[t > 30.0]) > np.mean(ve[(t > 5.0) & (t < 15.0)]) > 0.3
+
+
+def test_any_wheel_fixed_wing_with_standard_controls_flies_from_an_inline_profile():
+    """c172p has no shipped profile; the c172x one (same controls) flies it straight and level."""
+    doc = {
+        "aircraft": "c172p",
+        "profile": {"base": "c172x"},
+        "duration_s": 20.0,
+        "start": dict(SITE, agl_m=300.0, heading_deg=90.0),
+        "pilot": {"type": "scripted", "segments": [{"duration_s": 20.0, "sticks": {}}]},
+    }
+    res = fly(parse_scenario(doc, "c172p.yaml"))
+    up, tas = track(res, "up_m", "airspeed_mps")
+    assert res.summary["completed"]
+    assert np.ptp(up) < 10.0
+    assert abs(np.mean(tas) - res.scenario.profile.envelope.cruise_speed_mps) < 3.0

@@ -50,7 +50,10 @@ def test_base_document_parses():
         (with_(start__lon_deg=-200), "start.lon_deg", ">= -180"),
         (with_(duration_s=-5), "duration_s", "> 0"),
         (with_(duration_s="long"), "duration_s", "expected a number"),
-        (with_(aircraft="Concorde"), "aircraft", "unknown aircraft 'Concorde'"),
+        (with_(aircraft="Wright_Flyer_3000"), "aircraft", "unknown aircraft 'Wright_Flyer_3000'"),
+        (with_(aircraft="Concorde"), "aircraft", "without a shipped profile; add a profile: block"),
+        (with_(aircraft="c172p", profile={"base": "c172x", "envelope": {"max_bank_deg": -5}}), "profile.envelope.max_bank_deg", ">= 0"),
+        (with_(aircraft="c172p", profile={"kind": "glider"}), "profile.kind", "multirotor or fixed_wing"),
         (with_(colour="red"), "(top level)", "unknown key 'colour'"),
         (with_(mission__items=[{"type": "hover"}]), "mission.items[0].type", "not one of"),
         (with_(mission__items=[{"type": "waypoint", "lat_deg": 1}]), "mission.items[0].lon_deg", "missing"),
@@ -115,3 +118,10 @@ def test_start_block_fuzz(start):
         assert "f.yaml: start" in str(exc)
     else:
         assert -90 <= sc.start.lat_deg <= 90 and -180 <= sc.start.lon_deg <= 180
+
+
+def test_inline_profile_makes_any_wheel_model_flyable():
+    sc = parse_scenario(with_(aircraft="c172p", profile={"base": "c172x", "envelope": {"max_bank_deg": 25}}), "x.yaml")
+    assert sc.profile.model == "c172p"
+    assert sc.profile.envelope.max_bank_rad == pytest.approx(0.43633, rel=1e-4)
+    assert sc.profile.gains  # inherited from the c172x profile
