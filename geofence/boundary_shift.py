@@ -1,0 +1,502 @@
+"""Activation boundaries: how far inside the fence the geofence must act ("shifted fence").
+
+Pure functions on floats. The fence is shifted inward, edge by edge, by the
+room the vehicle needs to turn back (fixed-wing) or stop (multirotor) plus an
+estimate-uncertainty margin; vertically by the room to arrest a climb or a
+descent. The geofence acts when the *activation margin* (distance to an edge
+minus the room needed against that edge) reaches zero.
+
+Conventions: ENU metres and m/s; angles in rad. For an edge, ``n`` is the unit
+normal pointing *towards the breach* (outward across a keep-in edge, into a
+keep-out); a velocity or wind component along ``n`` is positive when it
+carries the vehicle towards the breach ("closing", "tailwind").
+``g = 9.80665 m/s²``.
+
+Fixed-wing: coordinated turn and the trochoid
+---------------------------------------------
+Coordinated turn at airspeed ``V`` and bank ``phi``: radius
+``R = V²/(g·tan phi)``, rate ``omega = g·tan phi / V``, course reversal in
+``t = pi/omega``. Let ``psi`` be the air-relative heading measured
+counter-clockwise from ``n`` (``psi0 = 0``: flying straight at the edge) and
+``w = W·n`` the wind component towards the edge. Turning in direction ``s``
+(+1 left/counter-clockwise, -1 right) by angle ``theta = omega·t``, the
+ground track is the trochoid
+
+    p(t) = s·R·(sin(psi0 + s·theta) - sin psi0, -(cos(psi0 + s·theta) - cos psi0))  (normal, tangent)
+           + W·t,
+
+so the excursion along the normal is
+
+    x(theta) = s·R·[sin(psi0 + s·theta) - sin psi0] + w·theta/omega.
+
+``dx/dtheta = (V·cos psi + w)/omega`` vanishes at ``cos psi = -w/V``; the
+vehicle stops closing on the edge at ``psi* = arccos(-w/V)`` (in [0, pi]).
+Turning the better way (away from the normal, ``a = |psi0| <= psi*``) the room
+needed **along the normal** is
+
+    x_max = R·(sin psi* - sin a) + w·(psi* - a)/omega.                      (1)
+
+Known cases of (1): a head-on calm-air approach (``a = 0, w = 0``) needs
+``x_max = R`` -- the track's extreme point is one radius ahead of the turn
+entry, while the *lateral* displacement after the 180 deg reversal is ``2R``
+(that is along the edge, not towards it). A parallel calm-air approach
+(``a = pi/2``) needs 0. Head-on with wind ``u = w/V`` gives
+``R·(sqrt(1-u²) + u·arccos(-u))``, whose derivative in ``u`` is
+``arccos(-u) > 0``: the room grows monotonically with tailwind, from 0 at a
+headwind equal to the airspeed to ``pi·R`` as the tailwind approaches the
+airspeed; a tailwind ``w >= V`` can never be turned against (infinite room).
+
+:func:`activation_margins` uses the maneuver the override flies: keep the
+current state for the reaction time (``max(v_ground·n, 0)·t_react``), then
+turn at the bank limit in direction ``s`` until the air heading is the
+wind-corrected heading towards the recovery point (a course reversal,
+``Delta = pi``, within 1 m of it), then fly straight. For each
+edge it takes the exact maximum of ``x(theta)`` over that turn
+(``theta in [0, Delta_s]``: end points and the interior maxima at
+``psi = s·psi* (mod 2 pi)``) and chooses the direction ``s`` with the larger
+worst-edge activation margin (both directions are scored against *all* edges,
+so convex corners and narrow corridors are handled). Assumed: constant
+airspeed and wind, instant roll-in (fold roll-in into ``reaction_time_s``),
+and a straight leg from roll-out to the recovery point inside the fence (true
+when the fence is star-shaped about it, e.g. convex). Consequences: the
+margin steps down when the vehicle overflies the recovery point (it then
+needs a reversal instead of no turn), and at the recovery point heading
+straight at an edge a reversal needs ``2R`` sideways -- if that exceeds the
+room, the activation margin is negative at the recovery point itself, which
+is what :func:`check_shift_feasible` reports for the whole fence.
+
+Multirotor: braking
+-------------------
+Stopping straight along the velocity: ``d = v·t_react + v²/(2·a_eff)``; its
+projection on an edge normal is ``v_n·t_react + v_n·v/(2·a_eff)`` (``v_n`` =
+ground velocity along ``n``; head-on this is the closed form exactly).
+Wind: the air drag on a tilt-limited vehicle is ``a_tilt·(v_air/v_max)²``
+(``a_tilt = g·tan(tilt_max)`` balances drag at ``max_speed_mps``). While
+braking, the drag from the wind at zero ground speed,
+``a_w = a_tilt·|W|·max(W·n, 0)/v_max²``, is taken as pushing towards the
+edge throughout: ``a_eff = a_brake - a_w``. This is conservative (a vehicle
+still moving towards the edge faster than the wind feels drag that *helps* it
+brake); no credit is taken for wind blowing away from the edge; ``a_eff <= 0``
+(cannot hold against the wind) gives infinite room.
+
+Vertical
+--------
+Arrest distance ``d = v_z·t_react + v_z²/(2·a_z)`` for a climb towards the
+ceiling (``v_z = v_up > 0``) and a descent towards the floor
+(``v_z = -v_up > 0``); 0 when moving away.
+
+Uncertainty
+-----------
+``k·sigma``: horizontally ``k·sqrt(lambda_max)`` of the 2x2 horizontal
+position covariance (conservative in every direction), vertically
+``k·sqrt(P_uu)``; or a fixed configured margin.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+from .fence import FEATURE_KEEP_OUT_CIRCLE, FenceError, LocalFence
+from .interface import Envelope, PlatformKind, VehicleState
+
+G_MPS2: float = 9.80665
+TWO_PI = 2.0 * math.pi
+
+
+# --------------------------------------------------------------------------- fixed-wing
+def turn_radius_m(airspeed_mps: float, bank_rad: float, g: float = G_MPS2) -> float:
+    """Coordinated-turn radius R = V²/(g·tan phi) in m."""
+    return airspeed_mps * airspeed_mps / (g * math.tan(bank_rad))
+
+
+def turn_rate_radps(airspeed_mps: float, bank_rad: float, g: float = G_MPS2) -> float:
+    """Coordinated-turn rate omega = g·tan phi / V in rad/s."""
+    return g * math.tan(bank_rad) / airspeed_mps
+
+
+def course_reversal_time_s(airspeed_mps: float, bank_rad: float, g: float = G_MPS2) -> float:
+    """Time for a 180 deg course reversal, pi/omega, in s."""
+    return math.pi / turn_rate_radps(airspeed_mps, bank_rad, g)
+
+
+def _wrap_pi(a: float) -> float:
+    return (a + math.pi) % TWO_PI - math.pi
+
+
+def _excursion(radius: float, inv_omega: float, v: float, w: float, psi0: float, s: float,
+               delta: float | None) -> float:
+    """max over theta in [0, delta] of x(theta) (see the module docstring), >= 0.
+
+    ``delta=None``: turn until no longer closing (the trochoid apex), 0 if not closing at start.
+    """
+    if delta is None:
+        if v * math.cos(psi0) + w <= 0.0:
+            return 0.0
+        if w >= v:
+            return math.inf
+        ps = math.acos(-w / v)
+        theta = (ps - s * psi0) % TWO_PI
+        return max(0.0, s * radius * (math.sin(psi0 + s * theta) - math.sin(psi0)) + w * theta * inv_omega)
+    best = s * radius * (math.sin(psi0 + s * delta) - math.sin(psi0)) + w * delta * inv_omega
+    if -v < w < v:
+        ps = math.acos(-w / v)
+        theta = (ps - s * psi0) % TWO_PI
+        while theta <= delta:
+            x = s * radius * (math.sin(psi0 + s * theta) - math.sin(psi0)) + w * theta * inv_omega
+            if x > best:
+                best = x
+            theta += TWO_PI
+    return best if best > 0.0 else 0.0
+
+
+def turn_excursion_m(airspeed_mps: float, bank_rad: float, psi0_rad: float, wind_normal_mps: float = 0.0,
+                     turn_sign: int = 0, turn_angle_rad: float | None = None, g: float = G_MPS2) -> float:
+    """Room along an edge normal used by a max-bank turn (no reaction distance), in m.
+
+    ``psi0_rad``: air-relative heading counter-clockwise from the edge's
+    breach-pointing normal (0 = head-on). ``wind_normal_mps``: wind component
+    towards the edge (+ tailwind). ``turn_sign``: +1 left, -1 right, 0 = the
+    better of the two. ``turn_angle_rad``: turn exactly this much (max of the
+    excursion over the turn); ``None`` = turn until no longer closing on the
+    edge, giving closed form (1) of the module docstring. ``inf`` if the
+    tailwind is >= the airspeed while closing.
+    """
+    v = airspeed_mps
+    r = turn_radius_m(v, bank_rad, g)
+    inv_omega = 1.0 / turn_rate_radps(v, bank_rad, g)
+    psi0 = _wrap_pi(psi0_rad)
+    if turn_sign:
+        return _excursion(r, inv_omega, v, wind_normal_mps, psi0, 1.0 if turn_sign > 0 else -1.0, turn_angle_rad)
+    return min(_excursion(r, inv_omega, v, wind_normal_mps, psi0, 1.0, turn_angle_rad),
+               _excursion(r, inv_omega, v, wind_normal_mps, psi0, -1.0, turn_angle_rad))
+
+
+def fixed_wing_room_m(airspeed_mps: float, bank_rad: float, psi0_rad: float, wind_normal_mps: float,
+                      reaction_time_s: float, g: float = G_MPS2) -> float:
+    """Room along the normal to turn back from an edge: reaction distance + closed form (1), in m.
+
+    Reaction distance: the ground-velocity component towards the edge,
+    ``max(V·cos psi0 + w, 0)``, times the reaction time. Head-on in calm air
+    this is ``V·t_react + V²/(g·tan phi)``.
+    """
+    closing = airspeed_mps * math.cos(psi0_rad) + wind_normal_mps
+    react = closing * reaction_time_s if closing > 0.0 else 0.0
+    return react + turn_excursion_m(airspeed_mps, bank_rad, psi0_rad, wind_normal_mps, 0, None, g)
+
+
+def fixed_wing_room_from_velocity_m(v_ground_normal: float, v_ground_tangent: float, wind_normal: float,
+                                    wind_tangent: float, bank_rad: float, reaction_time_s: float,
+                                    g: float = G_MPS2) -> float:
+    """:func:`fixed_wing_room_m` from ground velocity and wind split along (normal, tangent) of the edge."""
+    van, vat = v_ground_normal - wind_normal, v_ground_tangent - wind_tangent
+    v = math.hypot(van, vat)
+    if v == 0.0:
+        return 0.0
+    return fixed_wing_room_m(v, bank_rad, math.atan2(vat, van), wind_normal, reaction_time_s, g)
+
+
+# --------------------------------------------------------------------------- multirotor
+def wind_push_mps2(wind_speed_mps: float, wind_normal_mps: float, tilt_max_rad: float, max_speed_mps: float,
+                   g: float = G_MPS2) -> float:
+    """Drag acceleration from the wind towards an edge at zero ground speed: ``a_tilt·|W|·max(w_n, 0)/v_max²``."""
+    if wind_normal_mps <= 0.0 or max_speed_mps <= 0.0:
+        return 0.0
+    return g * math.tan(tilt_max_rad) * wind_speed_mps * wind_normal_mps / (max_speed_mps * max_speed_mps)
+
+
+def multicopter_stopping_distance_m(v_normal_mps: float, reaction_time_s: float, braking_decel_mps2: float,
+                                    speed_mps: float | None = None, wind_push_mps2: float = 0.0) -> float:
+    """Room along an edge normal to stop: ``v_n·t_react + v_n·v/(2·(a_brake - a_w))``, in m.
+
+    ``speed_mps`` (default ``|v_n|``) is the full ground speed (the vehicle
+    brakes along its velocity); ``wind_push_mps2`` from :func:`wind_push_mps2`.
+    0 when not closing; ``inf`` when the wind push is >= the braking deceleration.
+    """
+    if v_normal_mps <= 0.0:
+        return 0.0
+    v = abs(v_normal_mps) if speed_mps is None else max(speed_mps, v_normal_mps)
+    a = braking_decel_mps2 - wind_push_mps2
+    if a <= 0.0:
+        return math.inf
+    return v_normal_mps * reaction_time_s + v_normal_mps * v / (2.0 * a)
+
+
+# --------------------------------------------------------------------------- vertical and uncertainty
+def vertical_arrest_distance_m(v_toward_mps: float, reaction_time_s: float, accel_mps2: float) -> float:
+    """``v·t_react + v²/(2·a_z)`` for a climb towards the ceiling / descent towards the floor; 0 if moving away."""
+    if v_toward_mps <= 0.0:
+        return 0.0
+    if accel_mps2 <= 0.0:
+        return math.inf
+    return v_toward_mps * reaction_time_s + v_toward_mps * v_toward_mps / (2.0 * accel_mps2)
+
+
+def uncertainty_margin_m(cov: Sequence[Sequence[float]] | None, k_sigma: float = 3.0) -> tuple[float, float]:
+    """``(horizontal, vertical)`` margins ``k·sigma`` from a 2x2 (E, N) or 3x3 (E, N, U) position covariance.
+
+    Horizontal: ``k·sqrt`` of the largest eigenvalue of the E/N block;
+    vertical: ``k·sqrt(P_uu)`` (0 for a 2x2 covariance). ``None`` -> (0, 0).
+    """
+    if cov is None:
+        return 0.0, 0.0
+    a, b, d = float(cov[0][0]), 0.5 * (float(cov[0][1]) + float(cov[1][0])), float(cov[1][1])
+    lam = 0.5 * (a + d) + math.sqrt(0.25 * (a - d) ** 2 + b * b)
+    vert = 0.0
+    if len(cov) >= 3:
+        vert = k_sigma * math.sqrt(max(float(cov[2][2]), 0.0))
+    return k_sigma * math.sqrt(max(lam, 0.0)), vert
+
+
+# --------------------------------------------------------------------------- activation margins
+@dataclass(frozen=True, slots=True)
+class ShiftResult:
+    """Activation margins for one state (m; + = no action needed).
+
+    ``activation_margin_m = min(lateral_activation_m, vertical_activation_m)``.
+    Lateral: ``lateral_margin_m`` is the plain margin at the position; the
+    threatened constraint is the edge (or circle) with the smallest
+    ``distance - room``: its ``feature`` / ``feature_index`` / ``edge`` (-1 for
+    a circle), breach-pointing normal ``normal_e/normal_n``, unsigned distance
+    ``edge_distance_m``, required ``lateral_shift_m`` (room incl. reaction and
+    uncertainty) and ``lateral_activation_m = edge_distance_m -
+    lateral_shift_m`` (capped at ``lateral_margin_m`` once breached).
+    ``closing_speed_mps`` is the ground speed along that normal,
+    ``time_to_breach_s = edge_distance_m / closing_speed`` (``inf`` when not
+    closing, 0 when breached). ``turn_sign``: the turn direction scored best
+    (+1 left, -1 right; 0 for a multirotor). Vertical: margins to ceiling and
+    (gap-aware) floor, their shifts, ``vertical_activation_m`` and
+    ``vertical_time_to_breach_s``.
+    """
+
+    activation_margin_m: float
+    lateral_margin_m: float
+    lateral_shift_m: float
+    lateral_activation_m: float
+    feature: str
+    feature_index: int
+    edge: int
+    normal_e: float
+    normal_n: float
+    edge_distance_m: float
+    closing_speed_mps: float
+    time_to_breach_s: float
+    turn_sign: int
+    ceiling_margin_m: float
+    ceiling_shift_m: float
+    floor_margin_m: float
+    floor_shift_m: float
+    vertical_activation_m: float
+    vertical_time_to_breach_s: float
+
+
+def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: float, vn: float, vu: float,
+                       envelope: Envelope, wind_e: float = 0.0, wind_n: float = 0.0, *,
+                       h_uncertainty_m: float = 0.0, v_uncertainty_m: float = 0.0,
+                       g: float = G_MPS2) -> ShiftResult:
+    """Required shifts and activation margins for a state (see :class:`ShiftResult`).
+
+    ``(e, n)`` ENU position and ``h`` height in the fence's altitude reference
+    (m); ``(ve, vn, vu)`` ground velocity (m/s); ``(wind_e, wind_n)`` the steady
+    wind estimate (m/s, the direction the air moves towards);
+    ``h_uncertainty_m`` / ``v_uncertainty_m`` the horizontal / vertical
+    uncertainty margins (e.g. from :func:`uncertainty_margin_m`) added to every
+    lateral / vertical shift. Plain-Python scalar code for the per-step loop.
+    """
+    t_r = envelope.reaction_time_s
+    edges = fence.danger_edges()
+    # unsigned distance to every edge / circle
+    dists = []
+    min_d = math.inf
+    for ax, ay, dx, dy, il2, nx, ny, feat, idx, j in edges:
+        px, py = e - ax, n - ay
+        t = (px * dx + py * dy) * il2
+        t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+        qx, qy = px - t * dx, py - t * dy
+        d = math.sqrt(qx * qx + qy * qy)
+        dists.append((d, nx, ny, feat, idx, j))
+        if d < min_d:
+            min_d = d
+    for i, (ce, cn, r) in enumerate(fence.keep_out_circles):
+        dist = math.hypot(ce - e, cn - n)
+        ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
+        d = dist - r
+        dists.append((d, ux, uy, FEATURE_KEEP_OUT_CIRCLE, i, -1))
+        if d < min_d:
+            min_d = d
+    lat_margin = fence.lateral_margin_m(e, n)
+    speed = math.hypot(ve, vn)
+    wspeed = math.hypot(wind_e, wind_n)
+    hu = h_uncertainty_m
+
+    fixed_wing = envelope.kind is PlatformKind.FIXED_WING
+    if fixed_wing:
+        vae, van = ve - wind_e, vn - wind_n
+        v_air = math.hypot(vae, van)
+        if v_air > 0.0:
+            psi_abs = math.atan2(van, vae)
+        elif speed > 0.0:
+            psi_abs = math.atan2(vn, ve)
+        else:
+            psi_abs = 0.0
+        v_turn = max(v_air, envelope.min_speed_mps, 1e-3)
+        tanb = g * math.tan(envelope.max_bank_rad)
+        radius = v_turn * v_turn / tanb
+        inv_omega = v_turn / tanb
+        ca, sa = math.cos(psi_abs), math.sin(psi_abs)
+        # roll-out heading: the wind-corrected track to the recovery point
+        re, rn = fence.recovery_en
+        de, dn = re - e, rn - n
+        dd = math.hypot(de, dn)
+        if dd > 1.0:
+            psi_d = math.atan2(dn, de)
+            psi_f = psi_d
+            wc = (de * wind_n - dn * wind_e) / dd
+            if abs(wc) < v_turn:
+                cand = psi_d - math.asin(wc / v_turn)
+                if v_turn * math.cos(cand - psi_d) + (de * wind_e + dn * wind_n) / dd > 0.0:
+                    psi_f = cand
+            directions = ((1.0, (psi_f - psi_abs) % TWO_PI), (-1.0, (psi_abs - psi_f) % TWO_PI))
+        else:
+            # at the recovery point the direction to it is undefined: a course reversal
+            directions = ((1.0, math.pi), (-1.0, math.pi))
+        # no edge farther than min_d + bound can bind (bound >= any room, turns <= 2 pi)
+        bound = 2.0 * radius + wspeed * TWO_PI * inv_omega + (speed + wspeed) * t_r + hu
+    else:
+        a_tilt = g * math.tan(envelope.max_bank_rad)
+        vmax2 = envelope.max_speed_mps ** 2
+        a_brake = envelope.braking_decel_mps2
+        directions = ((0.0, 0.0),)
+        bound = math.inf
+
+    best = None
+    for s, delta in directions:
+        worst = math.inf
+        wk = None
+        for d, nx, ny, feat, idx, j in dists:
+            if d - bound >= min_d:
+                continue
+            v_n = ve * nx + vn * ny
+            w_n = wind_e * nx + wind_n * ny
+            room = v_n * t_r if v_n > 0.0 else 0.0
+            if fixed_wing:
+                # air heading relative to the normal: angle from n to (ca, sa)
+                psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
+                room += _excursion(radius, inv_omega, v_turn, w_n, psi0, s, delta)
+            elif v_n > 0.0:
+                push = a_tilt * wspeed * w_n / vmax2 if (w_n > 0.0 and vmax2 > 0.0) else 0.0
+                a = a_brake - push
+                room += v_n * (speed if speed > v_n else v_n) / (2.0 * a) if a > 0.0 else math.inf
+            room += hu
+            act = d - room
+            if act < worst:
+                worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)
+        if best is None or worst > best[0]:
+            best = (worst, s, wk)
+    lat_act, s_best, (room, feat, idx, j, nx, ny, d_edge, v_n) = best
+    if lat_margin < lat_act:
+        lat_act = lat_margin
+    if lat_margin <= 0.0:
+        ttb = 0.0
+    else:
+        ttb = d_edge / v_n if v_n > 1e-9 else math.inf
+
+    # vertical
+    c_m = fence.ceiling_m - h
+    f_m = fence.floor_margin_m(e, n, h)
+    c_s = vertical_arrest_distance_m(vu, t_r, envelope.vertical_accel_mps2) + v_uncertainty_m
+    f_s = (vertical_arrest_distance_m(-vu, t_r, envelope.vertical_accel_mps2) + v_uncertainty_m
+           if fence.floor_m is not None else 0.0)
+    v_act = min(c_m - c_s, f_m - f_s)
+    if c_m <= 0.0 or f_m <= 0.0:
+        vttb = 0.0
+    elif vu > 1e-9:
+        vttb = c_m / vu
+    elif vu < -1e-9 and fence.floor_m is not None:
+        vttb = f_m / -vu
+    else:
+        vttb = math.inf
+    return ShiftResult(
+        activation_margin_m=min(lat_act, v_act),
+        lateral_margin_m=lat_margin,
+        lateral_shift_m=room,
+        lateral_activation_m=lat_act,
+        feature=feat, feature_index=idx, edge=j, normal_e=nx, normal_n=ny,
+        edge_distance_m=d_edge, closing_speed_mps=v_n, time_to_breach_s=ttb,
+        turn_sign=int(s_best),
+        ceiling_margin_m=c_m, ceiling_shift_m=c_s, floor_margin_m=f_m, floor_shift_m=f_s,
+        vertical_activation_m=v_act, vertical_time_to_breach_s=vttb,
+    )
+
+
+def activation_margins_for_state(fence: LocalFence, state: VehicleState, envelope: Envelope,
+                                 wind_e: float = 0.0, wind_n: float = 0.0, **kw) -> ShiftResult:
+    """:func:`activation_margins` for a :class:`VehicleState` (height: ``agl_m`` or ``alt_m`` per the fence)."""
+    h = state.agl_m if fence.altitude_reference == "agl" else state.alt_m
+    return activation_margins(fence, state.east_m, state.north_m, h, state.v_east_mps, state.v_north_mps,
+                              state.v_up_mps, envelope, wind_e, wind_n, **kw)
+
+
+# --------------------------------------------------------------------------- feasibility
+@dataclass(frozen=True, slots=True)
+class ShiftFeasibility:
+    """Worst-case shifts for a platform and wind, and the room the fence offers (m)."""
+
+    lateral_shift_m: float
+    inradius_m: float
+    ceiling_shift_m: float
+    floor_shift_m: float
+    vertical_room_m: float
+
+
+def worst_case_lateral_shift_m(envelope: Envelope, wind_speed_mps: float, h_uncertainty_m: float = 0.0,
+                               g: float = G_MPS2) -> float:
+    """Largest lateral shift over speeds and approach angles: head-on with the wind as a tailwind."""
+    w = abs(wind_speed_mps)
+    t_r = envelope.reaction_time_s
+    if envelope.kind is PlatformKind.FIXED_WING:
+        speeds = [v for v in (envelope.min_speed_mps, envelope.cruise_speed_mps, envelope.max_speed_mps) if v > w]
+        if not speeds:
+            return math.inf
+        return max(fixed_wing_room_m(v, envelope.max_bank_rad, 0.0, w, t_r, g) for v in speeds) + h_uncertainty_m
+    push = wind_push_mps2(w, w, envelope.max_bank_rad, envelope.max_speed_mps, g)
+    v = envelope.max_speed_mps
+    return multicopter_stopping_distance_m(v, t_r, envelope.braking_decel_mps2, v, push) + h_uncertainty_m
+
+
+def check_shift_feasible(fence: LocalFence, envelope: Envelope, wind_speed_mps: float, *,
+                         h_uncertainty_m: float = 0.0, v_uncertainty_m: float = 0.0,
+                         g: float = G_MPS2) -> ShiftFeasibility:
+    """Raise :class:`FenceError` if the shifted (activation) boundary vanishes for this platform and wind.
+
+    Lateral: the worst-case shift (:func:`worst_case_lateral_shift_m`) must be
+    below the inradius of the allowed area (else no point is safe for every
+    heading). Vertical: with a floor, ceiling - floor must exceed the climb
+    plus descent arrest distances at the envelope's rates; with an AGL fence
+    and no floor, the ceiling must exceed the climb arrest distance.
+    """
+    kind = envelope.kind.value
+    w = abs(wind_speed_mps)
+    shift = worst_case_lateral_shift_m(envelope, w, h_uncertainty_m, g)
+    r = fence.inradius()[2]
+    if not shift < r:
+        why = "the wind is at least the airspeed" if envelope.kind is PlatformKind.FIXED_WING else \
+            "the wind push is at least the braking deceleration"
+        detail = f"{shift:.1f} m" if math.isfinite(shift) else f"infinite ({why})"
+        raise FenceError(f"shifted fence vanishes: worst-case lateral shift {detail} for {kind} at "
+                         f"{envelope.max_speed_mps:g} m/s in {w:g} m/s wind >= inradius {r:.1f} m of the allowed area")
+    t_r, az = envelope.reaction_time_s, envelope.vertical_accel_mps2
+    cs = vertical_arrest_distance_m(abs(envelope.max_climb_rate_mps), t_r, az) + v_uncertainty_m
+    fs = vertical_arrest_distance_m(abs(envelope.max_descent_rate_mps), t_r, az) + v_uncertainty_m
+    if fence.floor_m is not None:
+        room = fence.ceiling_m - fence.floor_m
+        need = cs + fs
+    elif fence.altitude_reference == "agl":
+        room, need, fs = fence.ceiling_m, cs, 0.0
+    else:
+        room, need, fs = math.inf, cs, 0.0
+    if not need < room:
+        raise FenceError(f"shifted fence vanishes vertically: climb + descent arrest {need:.1f} m for {kind} "
+                         f">= {room:.1f} m between floor and ceiling")
+    return ShiftFeasibility(shift, r, cs, fs, room)
