@@ -133,3 +133,13 @@ class VelocityController:
             self._int_e += ee * dt_s
             self._int_n += en * dt_s
         return tilt_sticks_for_accel(ae, an, yaw_rad, self.env)
+
+
+def orbit_course_rad(
+    east_m: float, north_m: float, center_e: float, center_n: float, radius_m: float, gain: float = 2.0, clockwise: bool = True
+) -> tuple[float, float]:
+    """Vector-field course onto a circle (Beard & McLain): (course rad, distance from the centre m)."""
+    d = math.hypot(east_m - center_e, north_m - center_n)
+    bearing = math.atan2(east_m - center_e, north_m - center_n)
+    lam = 1.0 if clockwise else -1.0
+    return bearing + lam * (0.5 * math.pi + math.atan(gain * (d - radius_m) / radius_m)), d

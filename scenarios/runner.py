@@ -25,6 +25,8 @@ from typing import Any, Callable
 
 from aircraft.factory import build_platform
 from geofence.geodesy import LocalFrame
+from analysis.scoring import score_flight
+from geofence.unit import GeofenceUnit
 from scenarios.pilots import build_pilot
 from scenarios.recorder import Recorder
 from scenarios.schema import Scenario
@@ -63,6 +65,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     truth = platform.truth()
     t0 = truth.t_s
     pilot = build_pilot(scenario, frame, env, truth, dt_s)
+    fence = scenario.geofence.fence.to_local(frame) if scenario.geofence else None
+    unit = GeofenceUnit(scenario.geofence, fence, env) if scenario.geofence else None
 
     error = None
     finished_at = None
@@ -75,7 +79,11 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
             w = wind.sample(truth.t_s, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)
             platform.set_wind_enu(*w)
             cmd_in = pilot.command(truth)
-            cmd = cmd_in
+            if unit is not None:
+                cmd = unit.update(truth.t_s, truth, cmd_in, dt_s)
+                mode = int(unit.mode)
+            else:
+                cmd = cmd_in
             platform.command(cmd)
             recorder.append(truth, w, cmd_in, cmd, mode, pilot.items_reached)
             if pilot.finished and finished_at is None:
@@ -113,7 +121,13 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         "max_ground_speed_mps": round(float(recorder.column("ground_speed_mps").max()), 2) if recorder.n else 0.0,
         "error": error,
     }
-    return FlightResult(scenario=scenario, summary=summary, recorder=recorder, frame=frame)
+    if unit is not None:
+        traj = {name: recorder.column(name) for name in ("time_s", "east_m", "north_m", "agl_m", "alt_m", "geofence_mode")}
+        summary.update(score_flight(traj, fence))
+        summary["activations"] = unit.activations
+        summary["final_mode"] = unit.mode.name
+        summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
+    return FlightResult(scenario=scenario, summary=summary, recorder=recorder, frame=frame, extras={"fence": fence, "unit": unit})
 
 
 def write_result(result: FlightResult, out_dir: Path) -> Path:

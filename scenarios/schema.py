@@ -31,6 +31,10 @@ from scenarios.errors import (
     require_mapping,
     string,
 )
+from geofence.boundary_shift import check_shift_feasible
+from geofence.config import GeofenceConfig, GeofenceConfigError, parse_geofence
+from geofence.fence import FenceError
+from geofence.geodesy import LocalFrame
 from wind.config import WindConfig, parse_wind
 
 MISSION_ITEM_TYPES = ("takeoff", "waypoint", "loiter", "land")
@@ -113,8 +117,8 @@ class Scenario:
     mission: MissionConfig | None
     wind: WindConfig | None
     control_rate_hz: float = 40.0
-    geofence: dict[str, Any] | None = None
-    """The raw ``geofence:`` block (validated by the geofence package)."""
+    geofence: GeofenceConfig | None = None
+    """The geofence unit's configuration (None: fly without a geofence)."""
     description: str = ""
     extra: dict[str, Any] = field(default_factory=dict)
 
@@ -175,9 +179,9 @@ def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source:
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
 
-    geofence = raw.get("geofence")
-    if geofence is not None:
-        require_mapping(geofence, f"{where}: geofence")
+    geofence = None
+    if raw.get("geofence") is not None:
+        geofence = _parse_geofence_block(raw["geofence"], f"{where}: geofence", start, profile, wind)
 
     return Scenario(
         name=name,
@@ -191,7 +195,7 @@ def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source:
         mission=mission,
         wind=wind,
         control_rate_hz=rate,
-        geofence=dict(geofence) if geofence is not None else None,
+        geofence=geofence,
         description=str(raw.get("description", "")),
     )
 
@@ -215,6 +219,21 @@ def _parse_aircraft_profile(aircraft: str, inline: Any, where: str) -> PlatformP
         return load_profile(aircraft)
     except ProfileError as exc:
         raise ConfigError(str(exc)) from None
+
+
+def _parse_geofence_block(raw: Any, where: str, start: StartConfig, profile: PlatformProfile, wind: WindConfig | None) -> GeofenceConfig:
+    """Validate the geofence block, and check that its activation boundary exists for this platform and wind."""
+    try:
+        cfg = parse_geofence(raw, where)
+        frame = LocalFrame(start.lat_deg, start.lon_deg, start.ground_alt_m)
+        wind_speed = wind.speed_mps if wind is not None else 0.0
+        check_shift_feasible(cfg.fence.to_local(frame), profile.envelope, wind_speed)
+    except FenceError as exc:
+        msg = str(exc)
+        raise ConfigError(msg if msg.startswith(where) else f"{where}.fence: {msg}") from None
+    except GeofenceConfigError as exc:
+        raise ConfigError(str(exc)) from None
+    return cfg
 
 
 def _parse_start(raw: Any, where: str) -> StartConfig:

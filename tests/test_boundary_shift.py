@@ -177,7 +177,10 @@ def test_multicopter_activation_head_on():
     e, n = 150.0, 0.0  # 50 m from the east edge
     v = 8.0
     res = activation_margins(lf, e, n, 50.0, v, 0.0, 0.0, MC)
-    shift = v * MC.reaction_time_s + v * v / (2 * MC.braking_decel_mps2)
+    # worst case: full-tilt acceleration toward the edge during the reaction time, then braking
+    t, a_p = MC.reaction_time_s, 9.80665 * math.tan(MC.max_bank_rad)
+    v1 = v + a_p * t
+    shift = v * t + 0.5 * a_p * t * t + v1 * v1 / (2 * MC.braking_decel_mps2)
     d = 200.0 - e
     assert (res.feature, res.edge) == ("keep_in", 1)
     assert (res.normal_e, res.normal_n) == pytest.approx((1.0, 0.0))
@@ -189,10 +192,13 @@ def test_multicopter_activation_head_on():
     # moving away: no shift, no breach in sight
     away = activation_margins(lf, e, n, 50.0, -v, 0.0, 0.0, MC)
     assert away.time_to_breach_s == math.inf and away.lateral_activation_m == pytest.approx(d, abs=1e-3)
+    # climbing while braking: the collective cut of the climb arrest costs extra room
+    climbing = activation_margins(lf, e, n, 50.0, v, 0.0, 2.0, MC)
+    assert climbing.lateral_shift_m > res.lateral_shift_m
     # a tailwind towards the edge increases the shift; uncertainty adds on top
     windy = activation_margins(lf, e, n, 50.0, v, 0.0, 0.0, MC, 6.0, 0.0, h_uncertainty_m=3.0)
     push = wind_push_mps2(6.0, 6.0, MC.max_bank_rad, MC.max_speed_mps)
-    assert windy.lateral_shift_m == pytest.approx(v * 0.1 + v * v / (2 * (5.0 - push)) + 3.0)
+    assert windy.lateral_shift_m == pytest.approx(v * t + 0.5 * a_p * t * t + v1 * v1 / (2 * (5.0 - push)) + 3.0)
 
 
 def test_fixed_wing_activation_head_on_calm():

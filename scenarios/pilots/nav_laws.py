@@ -27,6 +27,7 @@ from geofence.control_laws import (
     bank_stick_for_turn_rate,
     climb_rate_to_stick,
     ground_course_rad,
+    orbit_course_rad,
     VelocityController,
     approach_velocity,
     wrap_pi,
@@ -34,7 +35,6 @@ from geofence.control_laws import (
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
 
-_HALF_PI = 0.5 * math.pi
 
 
 class MultirotorNavigator:
@@ -128,10 +128,7 @@ class FixedWingNavigator:
 
     def course_on_orbit(self, s: VehicleState, ce: float, cn: float, radius_m: float, clockwise: bool = True) -> tuple[float, float]:
         """Vector-field course to converge onto a circle; returns (course rad, distance from center m)."""
-        d = math.hypot(s.east_m - ce, s.north_m - cn)
-        bearing = math.atan2(s.east_m - ce, s.north_m - cn)
-        lam = 1.0 if clockwise else -1.0
-        return bearing + lam * (_HALF_PI + math.atan(self.k_orbit * (d - radius_m) / radius_m)), d
+        return orbit_course_rad(s.east_m, s.north_m, ce, cn, radius_m, self.k_orbit, clockwise)
 
     def sticks(self, s: VehicleState, course_cmd_rad: float, target_up_m: float, airspeed_mps: float) -> StickCommand:
         vz = altitude_to_climb_rate(target_up_m, s.up_m, self.env, self.kh)

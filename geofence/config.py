@@ -1,0 +1,155 @@
+"""Geofence unit configuration: the ``geofence:`` block of a scenario, validated into a frozen dataclass.
+
+Example (every key but ``fence`` optional)::
+
+    geofence:
+      fence: {keep_in: [[lat, lon], ...], ceiling_m: 60, floor_m: 5, floor_gaps: [...]}
+      trigger: predictive          # predictive (shifted boundary) | reactive (act on the fence line)
+      min_override_s: 2.0          # hold an override at least this long
+      handback_margin_m: 5.0       # hand back once this far inside the activation boundary and moving inward
+      recovery_radius_m: 10.0      # ... or once within this distance of the recovery point
+      uncertainty_k_sigma: 2.0     # margin = k * estimator position sigma
+      extra_margin_m: 0.0          # a fixed extra margin on every boundary
+      multirotor_law: velocity     # velocity (default: brake, then fly back) | seed_pd (published PD + ramp)
+      seed_pd: {kp_xy: 0.2, kd_xy: 0.4, kp_z: 0.4, kp_yaw: 0.5, ...}   # stick units per m, per m/s, per rad
+      ramp_s: 3.0                  # seed_pd set-point ramp time
+      recovery_speed_mps: 5.0      # multirotor return speed (default: half cruise)
+      max_reactivations: 3         # still outside after this many override periods -> land in a gap
+      wind_prior: {speed_mps: 8, from_deg: 240}   # forecast wind until the estimate converges
+
+All messages are one line: ``<where>.<field>: <problem>``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from geofence.fence import Fence, FenceError, parse_fence
+
+TRIGGERS = ("predictive", "reactive")
+MULTIROTOR_LAWS = ("velocity", "seed_pd")
+
+
+class GeofenceConfigError(ValueError):
+    """A bad ``geofence:`` block; the message is one line naming the field."""
+
+
+@dataclass(frozen=True)
+class SeedPDGains:
+    """The seed work's decoupled PD law, in stick units (1 stick = 500 µs of RC PWM; see README).
+
+    ``*_limit`` are the per-axis saturations of the override command,
+    ``*_deadband`` the dead zones inside which an axis gets the neutral stick.
+    """
+
+    kp_xy: float = 0.2  # 100 µs/m
+    kd_xy: float = 0.4  # 200 µs/(m/s)
+    kp_z: float = 0.4  # 200 µs/m
+    kd_z: float = 0.0
+    kp_yaw: float = 0.5  # per rad; yaw is purely proportional
+    xy_limit: float = 0.24  # ±120 µs
+    z_limit: float = 0.15  # ±75 µs
+    yaw_limit: float = 0.15  # ±75 µs
+    z_deadband_m: float = 0.05
+    yaw_deadband_rad: float = 0.009
+
+
+@dataclass(frozen=True)
+class GeofenceConfig:
+    fence: Fence
+    trigger: str = "predictive"
+    min_override_s: float = 2.0
+    handback_margin_m: float = 5.0
+    recovery_radius_m: float = 10.0
+    uncertainty_k_sigma: float = 2.0
+    extra_margin_m: float = 0.0
+    multirotor_law: str = "velocity"
+    seed_pd: SeedPDGains = field(default_factory=SeedPDGains)
+    ramp_s: float = 3.0
+    recovery_speed_mps: float | None = None
+    max_reactivations: int = 3
+    wind_prior_enu: tuple[float, float] = (0.0, 0.0)
+    """Forecast wind (east, north m/s, toward) used until the estimate converges."""
+
+
+_KEYS = {
+    "fence", "trigger", "min_override_s", "handback_margin_m", "recovery_radius_m", "uncertainty_k_sigma",
+    "extra_margin_m", "multirotor_law", "seed_pd", "ramp_s", "recovery_speed_mps", "max_reactivations", "wind_prior",
+}
+
+
+def parse_geofence(raw: Any, where: str = "geofence") -> GeofenceConfig:
+    """Validate a ``geofence:`` mapping into a :class:`GeofenceConfig`."""
+    if not isinstance(raw, Mapping):
+        raise GeofenceConfigError(f"{where}: expected a mapping with at least a fence: block")
+    unknown = sorted(str(k) for k in raw if k not in _KEYS)
+    if unknown:
+        raise GeofenceConfigError(f"{where}: unknown key {unknown[0]!r} (allowed: {', '.join(sorted(_KEYS))})")
+    if "fence" not in raw:
+        raise GeofenceConfigError(f"{where}.fence: missing (required)")
+    try:
+        fence = parse_fence(raw["fence"], f"{where}.fence")
+    except FenceError as exc:
+        raise GeofenceConfigError(str(exc)) from None
+
+    def num(key: str, default: float, lo: float = 0.0, hi: float = math.inf) -> float:
+        x = raw.get(key, default)
+        if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) or not lo <= x <= hi:
+            raise GeofenceConfigError(f"{where}.{key}: must be a number in [{lo:g}, {hi:g}], got {x!r}")
+        return float(x)
+
+    def choice(key: str, default: str, options: tuple[str, ...]) -> str:
+        x = raw.get(key, default)
+        if x not in options:
+            raise GeofenceConfigError(f"{where}.{key}: {x!r} is not one of {', '.join(options)}")
+        return x
+
+    gains = SeedPDGains()
+    if raw.get("seed_pd") is not None:
+        g = raw["seed_pd"]
+        if not isinstance(g, Mapping):
+            raise GeofenceConfigError(f"{where}.seed_pd: expected a mapping of gains")
+        allowed = set(SeedPDGains.__dataclass_fields__)
+        values = {}
+        for k, v in g.items():
+            if k not in allowed:
+                raise GeofenceConfigError(f"{where}.seed_pd: unknown key {k!r} (allowed: {', '.join(sorted(allowed))})")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+                raise GeofenceConfigError(f"{where}.seed_pd.{k}: must be a number >= 0, got {v!r}")
+            values[k] = float(v)
+        gains = SeedPDGains(**values)
+
+    prior = (0.0, 0.0)
+    if raw.get("wind_prior") is not None:
+        w = raw["wind_prior"]
+        if not isinstance(w, Mapping) or set(w) - {"speed_mps", "from_deg"}:
+            raise GeofenceConfigError(f"{where}.wind_prior: expected {{speed_mps, from_deg}}")
+        speed, frm = w.get("speed_mps", 0.0), w.get("from_deg", 0.0)
+        for k, v in (("speed_mps", speed), ("from_deg", frm)):
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (k == "speed_mps" and v < 0):
+                raise GeofenceConfigError(f"{where}.wind_prior.{k}: must be a finite number{' >= 0' if k == 'speed_mps' else ''}, got {v!r}")
+        to = math.radians(frm + 180.0)
+        prior = (speed * math.sin(to), speed * math.cos(to))
+
+    speed = raw.get("recovery_speed_mps")
+    max_react = raw.get("max_reactivations", 3)
+    if isinstance(max_react, bool) or not isinstance(max_react, int) or max_react < 0:
+        raise GeofenceConfigError(f"{where}.max_reactivations: must be an integer >= 0, got {max_react!r}")
+    return GeofenceConfig(
+        fence=fence,
+        trigger=choice("trigger", "predictive", TRIGGERS),
+        min_override_s=num("min_override_s", 2.0, 0.0, 60.0),
+        handback_margin_m=num("handback_margin_m", 5.0, 0.0, 1000.0),
+        recovery_radius_m=num("recovery_radius_m", 10.0, 0.1, 10000.0),
+        uncertainty_k_sigma=num("uncertainty_k_sigma", 2.0, 0.0, 10.0),
+        extra_margin_m=num("extra_margin_m", 0.0, 0.0, 1000.0),
+        multirotor_law=choice("multirotor_law", "velocity", MULTIROTOR_LAWS),
+        seed_pd=gains,
+        ramp_s=num("ramp_s", 3.0, 0.0, 60.0),
+        recovery_speed_mps=None if speed is None else num("recovery_speed_mps", 0.0, 0.1, 100.0),
+        max_reactivations=max_react,
+        wind_prior_enu=prior,
+    )

@@ -1,0 +1,243 @@
+"""The geofence unit: monitor the flight, override when a breach is imminent, hand back, or land in a gap.
+
+State machine (every transition is logged with time and reason)::
+
+    MONITOR ──activation margin <= 0──▶ OVERRIDE ──hand-back criteria──▶ RECOVERED ──1 s──▶ MONITOR
+       ▲                                  │  ▲ still outside after min_override_s: re-activate │
+       └──────────────────────────────────┘  └───────────────────────────────────────────────┘
+    any ──position lost / return impossible / > max_reactivations──▶ LAND_IN_GAP ──▶ TERMINATE
+                                                                         (fixed-wing, low over the gap)
+
+* MONITOR and RECOVERED pass the pilot's sticks through unchanged.
+* Either a lateral or a vertical trigger starts the whole 3-D override
+  (lateral goal: the recovery point; vertical goal: a safe height band).
+* The activation margin is the estimated margin to the fence minus the room
+  the platform needs to turn back or stop in the current wind
+  (:mod:`geofence.boundary_shift`), minus k·σ of the estimate; with
+  ``trigger: reactive`` it is the plain margin (act on the line).
+* Hand-back: after at least ``min_override_s``, inside the fence, and either
+  ``handback_margin_m`` inside the activation boundary while not closing on
+  the threatened edge, or within ``recovery_radius_m`` of the recovery point.
+
+The unit sees only a state estimate, the platform :class:`Envelope`, a wind
+estimate, and the pilot's :class:`StickCommand`. Heights ``h`` are in the
+fence's altitude reference (AGL or AMSL).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+
+from geofence.boundary_shift import ShiftResult, activation_margins
+from geofence.config import GeofenceConfig
+from geofence.control_laws import clip
+from geofence.fence import LocalFence
+from geofence.guidance import FixedWingRecovery, LandingGuidance, MultirotorVelocityRecovery, SeedPDRecovery
+from geofence.interface import Envelope, StickCommand, VehicleState
+
+RECOVERED_HOLD_S = 1.0
+RETURN_IMPOSSIBLE_WIND_FRACTION = 0.9
+TERMINATE_BELOW_AGL_M = 8.0
+
+
+class Mode(IntEnum):
+    MONITOR = 0
+    OVERRIDE = 1
+    RECOVERED = 2
+    LAND_IN_GAP = 3
+    TERMINATE = 4
+
+
+@dataclass(frozen=True)
+class Transition:
+    t_s: float
+    from_mode: Mode
+    to_mode: Mode
+    reason: str
+
+    def as_dict(self) -> dict:
+        return {"t_s": round(self.t_s, 3), "from": self.from_mode.name, "to": self.to_mode.name, "reason": self.reason}
+
+
+class GeofenceUnit:
+    """The platform-independent geofence: ``update(...)`` once per outer-loop step."""
+
+    def __init__(self, config: GeofenceConfig, fence: LocalFence, envelope: Envelope):
+        self.config = config
+        self.fence = fence
+        self.env = envelope
+        self.mode = Mode.MONITOR
+        self.transitions: list[Transition] = []
+        self.activations = 0
+        self.reactivations = 0
+        self.last: ShiftResult | None = None
+        self.activation_margin_m = math.inf
+        self.wind_enu = [config.wind_prior_enu[0], config.wind_prior_enu[1]]
+        if envelope.is_multirotor:
+            if config.multirotor_law == "seed_pd":
+                self.recovery = SeedPDRecovery(envelope, config.seed_pd, config.ramp_s)
+            else:
+                self.recovery = MultirotorVelocityRecovery(envelope, config.recovery_speed_mps)
+        else:
+            self.recovery = FixedWingRecovery(envelope, self.wind_enu)
+        turn_r = envelope.cruise_speed_mps**2 / (9.80665 * math.tan(max(envelope.max_bank_rad, 0.05)))
+        self.landing = LandingGuidance(envelope, spiral_radius_m=max(1.2 * turn_r, 10.0))
+        self._mode_since_s = 0.0
+        self._override_period_start_s = 0.0
+        lo = fence.floor_m if fence.floor_m is not None else (0.0 if fence.altitude_reference == "agl" else -math.inf)
+        band = max(0.15 * (fence.ceiling_m - lo) if math.isfinite(lo) else 5.0, 0.1)
+        self._safe_band = (lo + band, fence.ceiling_m - band)
+
+    # -- helpers -------------------------------------------------------------
+    def _switch(self, t_s: float, to: Mode, reason: str) -> None:
+        self.transitions.append(Transition(t_s, self.mode, to, reason))
+        self.mode = to
+        self._mode_since_s = t_s
+
+    def height(self, s: VehicleState) -> float:
+        return s.agl_m if self.fence.altitude_reference == "agl" else s.alt_m
+
+    def _margins(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> ShiftResult:
+        k = self.config.uncertainty_k_sigma
+        extra = self.config.extra_margin_m
+        return activation_margins(
+            self.fence, s.east_m, s.north_m, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, self.env,
+            self.wind_enu[0], self.wind_enu[1],
+            h_uncertainty_m=k * sigma_h_m + extra, v_uncertainty_m=k * sigma_v_m + extra, latency_s=dt_s,
+        )  # fmt: skip
+
+    def _activation(self, r: ShiftResult) -> float:
+        if self.config.trigger == "reactive":
+            return min(r.lateral_margin_m, r.ceiling_margin_m, r.floor_margin_m) - self.config.extra_margin_m
+        return r.activation_margin_m
+
+    @staticmethod
+    def _outside(r: ShiftResult) -> bool:
+        return r.lateral_margin_m < 0.0 or r.ceiling_margin_m < 0.0 or r.floor_margin_m < 0.0
+
+    def _trigger_reason(self, r: ShiftResult) -> str:
+        if self.config.trigger == "reactive":
+            which = min(("lateral", r.lateral_margin_m), ("ceiling", r.ceiling_margin_m), ("floor", r.floor_margin_m), key=lambda x: x[1])
+            return f"{which[0]} margin {which[1]:.2f} m reached the fence line (reactive)"
+        if r.lateral_activation_m <= r.vertical_activation_m:
+            return (
+                f"lateral: {r.feature} edge {r.edge} at {r.edge_distance_m:.1f} m, needs {r.lateral_shift_m:.1f} m "
+                f"(closing {r.closing_speed_mps:.1f} m/s, breach in {r.time_to_breach_s:.1f} s)"
+            )
+        return f"vertical: ceiling margin {r.ceiling_margin_m:.1f} m, floor margin {r.floor_margin_m:.1f} m, activation {r.vertical_activation_m:.1f} m"
+
+    def _goal_height(self, h: float) -> float:
+        lo, hi = self._safe_band
+        return clip(h, lo, hi) if lo <= hi else 0.5 * (lo + hi)
+
+    def _return_impossible(self) -> str | None:
+        w = math.hypot(*self.wind_enu)
+        if w >= RETURN_IMPOSSIBLE_WIND_FRACTION * self.env.max_speed_mps:
+            return f"return impossible: wind {w:.1f} m/s >= {RETURN_IMPOSSIBLE_WIND_FRACTION:.0%} of max speed {self.env.max_speed_mps:.1f} m/s"
+        return None
+
+    def _landing_point(self, s: VehicleState) -> tuple[float, float]:
+        """Where to land: the most reachable floor gap (wind-aware), or here / the recovery point with no floor."""
+        fence = self.fence
+        if fence.floor_m is None or not fence.floor_gaps:
+            if fence.lateral_margin_m(s.east_m, s.north_m) > 0.0:
+                return s.east_m, s.north_m
+            return fence.recovery_en
+        we, wn = self.wind_enu
+        v = max(self.env.max_speed_mps, 1.0)
+        best, best_time = None, math.inf
+        for gap in fence.floor_gaps:
+            ge, gn, _ = gap.inradius()
+            d = math.hypot(ge - s.east_m, gn - s.north_m)
+            tail = (we * (ge - s.east_m) + wn * (gn - s.north_m)) / d if d > 1e-6 else 0.0
+            t = d / max(v + tail, 0.1 * v)
+            if t < best_time:
+                best, best_time = (ge, gn), t
+        return best
+
+    def _start_landing(self, t_s: float, s: VehicleState, h: float, reason: str) -> None:
+        pe, pn = self._landing_point(s)
+        self.landing.start(pe, pn, self._goal_height(h))
+        self._switch(t_s, Mode.LAND_IN_GAP, reason + f"; landing at ({pe:.0f}, {pn:.0f}) m ENU")
+
+    def _start_override(self, t_s: float, s: VehicleState, h: float, r: ShiftResult, reason: str) -> None:
+        re, rn = self.fence.recovery_en
+        self.recovery.start(s, re, rn, self._goal_height(h), h, t_s, r.turn_sign)
+        self._override_period_start_s = t_s
+        self._switch(t_s, Mode.OVERRIDE, reason)
+
+    # -- the per-step entry point ---------------------------------------------
+    def update(
+        self,
+        t_s: float,
+        est: VehicleState,
+        pilot: StickCommand,
+        dt_s: float,
+        wind_en: tuple[float, float] | None = None,
+        position_valid: bool = True,
+        sigma_h_m: float = 0.0,
+        sigma_v_m: float = 0.0,
+    ) -> StickCommand:
+        """One step: returns the sticks to send to the flight controller (the pilot's, or the override's)."""
+        if wind_en is not None:
+            self.wind_enu[0], self.wind_enu[1] = wind_en
+        h = self.height(est)
+        mode = self.mode
+        if mode is Mode.LAND_IN_GAP or mode is Mode.TERMINATE:
+            return self._land(t_s, est, h, dt_s)
+        if not position_valid:
+            self._start_landing(t_s, est, h, "position source lost")
+            return self._land(t_s, est, h, dt_s)
+
+        r = self._margins(est, h, sigma_h_m, sigma_v_m, dt_s)
+        self.last = r
+        act = self._activation(r)
+        self.activation_margin_m = act
+
+        if mode is Mode.MONITOR or mode is Mode.RECOVERED:
+            if act <= 0.0:
+                self.activations += 1
+                impossible = self._return_impossible()
+                if impossible:
+                    self._start_landing(t_s, est, h, impossible)
+                    return self._land(t_s, est, h, dt_s)
+                self._start_override(t_s, est, h, r, self._trigger_reason(r))
+            else:
+                if mode is Mode.RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
+                    self._switch(t_s, Mode.MONITOR, "hand-back complete")
+                return pilot
+
+        # OVERRIDE
+        if t_s - self._override_period_start_s >= self.config.min_override_s:
+            if self._outside(r):
+                self.reactivations += 1
+                if self.reactivations > self.config.max_reactivations:
+                    self._start_landing(t_s, est, h, f"still outside after {self.reactivations} override periods: recovery failed")
+                    return self._land(t_s, est, h, dt_s)
+                self._override_period_start_s = t_s
+                self.transitions.append(Transition(t_s, Mode.OVERRIDE, Mode.OVERRIDE, "still outside at the end of the override period: re-activated"))
+            elif self._handback_ok(est, r, act):
+                self.reactivations = 0
+                self._switch(t_s, Mode.RECOVERED, f"recovered: activation margin {act:.1f} m, closing {r.closing_speed_mps:.1f} m/s")
+                return pilot
+        return self.recovery.sticks(est, h, t_s, dt_s)
+
+    def _handback_ok(self, s: VehicleState, r: ShiftResult, act: float) -> bool:
+        re, rn = self.fence.recovery_en
+        at_point = math.hypot(re - s.east_m, rn - s.north_m) <= self.config.recovery_radius_m
+        vertical_ok = r.vertical_activation_m > 0.0 if self.config.trigger == "predictive" else min(r.ceiling_margin_m, r.floor_margin_m) > 0.0
+        lateral_ok = act >= self.config.handback_margin_m and r.closing_speed_mps <= 0.0
+        return vertical_ok and (lateral_ok or at_point)
+
+    def _land(self, t_s: float, s: VehicleState, h: float, dt_s: float) -> StickCommand:
+        if self.env.is_multirotor:
+            if s.on_ground:
+                return StickCommand(throttle=-1.0)
+            return self.landing.sticks(s, h, dt_s)
+        if self.mode is Mode.LAND_IN_GAP and self.landing.over_point(s) and s.agl_m < TERMINATE_BELOW_AGL_M:
+            self._switch(t_s, Mode.TERMINATE, f"flight termination over the landing gap at {s.agl_m:.1f} m AGL")
+        if self.mode is Mode.TERMINATE:
+            return StickCommand(roll=1.0, pitch=-1.0, yaw=0.0, throttle=-1.0)  # motor to minimum, spiral down
+        return self.landing.sticks(s, h, dt_s)
