@@ -232,6 +232,21 @@ def multicopter_stopping_distance_m(v_normal_mps: float, reaction_time_s: float,
     return v_normal_mps * reaction_time_s + v_normal_mps * v / (2.0 * a)
 
 
+def _reaction_arc_m(v_air: float, psi0: float, rot: float, omega: float, t: float, nx: float, ny: float, w_n: float) -> float:
+    """Displacement along the normal (nx, ny) while the current turn goes on for ``t`` s (>= 0).
+
+    Air heading ``psi0`` (ENU, counter-clockwise from east) rotates by ``-rot``
+    (``omega`` + = clockwise); the wind adds ``w_n·t``.
+    """
+    theta = math.atan2(ny, nx)
+    if abs(rot) < 1e-6:
+        along = v_air * t * math.cos(psi0 - theta)
+    else:
+        along = (v_air / omega) * (math.sin(psi0 - theta) - math.sin(psi0 - rot - theta))
+    d = along + w_n * t
+    return d if d > 0.0 else 0.0
+
+
 def _braking_room_m(v_n: float, v: float, a: float, climb_arrest: tuple[float, float]) -> float:
     """Room along the normal to stop from ground speed ``v`` (normal part ``v_n``) at deceleration ``a``.
 
@@ -323,7 +338,7 @@ class ShiftResult:
 def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: float, vn: float, vu: float,
                        envelope: Envelope, wind_e: float = 0.0, wind_n: float = 0.0, *,
                        h_uncertainty_m: float = 0.0, v_uncertainty_m: float = 0.0,
-                       latency_s: float = 0.0, g: float = G_MPS2) -> ShiftResult:
+                       latency_s: float = 0.0, bank_rad: float = 0.0, g: float = G_MPS2) -> ShiftResult:
     """Required shifts and activation margins for a state (see :class:`ShiftResult`).
 
     ``(e, n)`` ENU position and ``h`` height in the fence's altitude reference
@@ -373,6 +388,14 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
         tanb = g * math.tan(envelope.max_bank_rad)
         radius = v_turn * v_turn / tanb
         inv_omega = v_turn / tanb
+        # reaction phase: the pilot's current turn goes on, and rolling out of the
+        # current bank costs up to another roll time before the recovery turn starts
+        bank_now = max(-envelope.max_bank_rad, min(envelope.max_bank_rad, bank_rad))
+        t_fw = t_r + envelope.reaction_time_s * (abs(bank_now) / envelope.max_bank_rad if envelope.max_bank_rad > 0 else 0.0)
+        omega_now = g * math.tan(bank_now) / v_turn  # + = right turn = clockwise
+        rot = max(-math.pi, min(math.pi, omega_now * t_fw))
+        psi_react0 = psi_abs
+        psi_abs = psi_abs - rot
         ca, sa = math.cos(psi_abs), math.sin(psi_abs)
         # roll-out heading: the wind-corrected track to the recovery point
         re, rn = fence.recovery_en
@@ -391,7 +414,7 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
             # at the recovery point the direction to it is undefined: a course reversal
             directions = ((1.0, math.pi), (-1.0, math.pi))
         # no edge farther than min_d + bound can bind (bound >= any room, turns <= 2 pi)
-        bound = 2.0 * radius + wspeed * TWO_PI * inv_omega + (speed + wspeed) * t_r + hu
+        bound = 2.0 * radius + wspeed * TWO_PI * inv_omega + (speed + wspeed) * t_fw + hu
     else:
         a_tilt = g * math.tan(envelope.max_bank_rad)
         vmax2 = envelope.max_speed_mps ** 2
@@ -413,6 +436,7 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
             w_n = wind_e * nx + wind_n * ny
             room = v_n * t_r if v_n > 0.0 else 0.0
             if fixed_wing:
+                room = _reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n)
                 # air heading relative to the normal: angle from n to (ca, sa)
                 psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
                 room += _excursion(radius, inv_omega, v_turn, w_n, psi0, s, delta)

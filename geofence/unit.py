@@ -105,7 +105,7 @@ class GeofenceUnit:
         return activation_margins(
             self.fence, s.east_m, s.north_m, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, self.env,
             self.wind_enu[0], self.wind_enu[1],
-            h_uncertainty_m=k * sigma_h_m + extra, v_uncertainty_m=k * sigma_v_m + extra, latency_s=dt_s,
+            h_uncertainty_m=k * sigma_h_m + extra, v_uncertainty_m=k * sigma_v_m + extra, latency_s=dt_s, bank_rad=s.roll_rad,
         )  # fmt: skip
 
     def _activation(self, r: ShiftResult) -> float:

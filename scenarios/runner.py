@@ -80,7 +80,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
             platform.set_wind_enu(*w)
             cmd_in = pilot.command(truth)
             if unit is not None:
-                cmd = unit.update(truth.t_s, truth, cmd_in, dt_s)
+                we, wn, _ = wind.mean(truth.agl_m)
+                cmd = unit.update(truth.t_s, truth, cmd_in, dt_s, wind_en=(we, wn))
                 mode = int(unit.mode)
             else:
                 cmd = cmd_in
