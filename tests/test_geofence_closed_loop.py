@@ -1,0 +1,91 @@
+"""The geofence in closed loop: adversarial pilots never get either platform across the fence.
+
+An adversarial pilot flies straight at each keep-in edge at full speed, or
+climbs at max toward the ceiling, in calm air and in 8 m/s wind from the worst
+direction (a tailwind toward the edge). The geofence must activate before the
+line, keep the truth trajectory inside the keep-in polygon and below the
+ceiling, and hand control back afterwards.
+"""
+
+import math
+
+import pytest
+
+from geofence.geodesy import LocalFrame
+from scenarios.runner import fly
+from scenarios.schema import parse_scenario
+
+pytestmark = pytest.mark.closed_loop
+
+SITE = {"lat_deg": -35.363262, "lon_deg": 149.165237, "ground_alt_m": 584.0}
+FRAME = LocalFrame(SITE["lat_deg"], SITE["lon_deg"], SITE["ground_alt_m"])
+# per platform: fence half-size (m), start height AGL (m), ceiling (m)
+PLATFORMS = {"F450": (150.0, 20.0, 60.0), "Tern": (300.0, 60.0, 100.0)}
+
+
+def box(half_m):
+    corners = [(-half_m, -half_m), (half_m, -half_m), (half_m, half_m), (-half_m, half_m)]
+    return [list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in corners]
+
+
+def adversarial(aircraft, course_deg, wind_mps, climb="hold", duration_s=60.0):
+    half, agl, ceiling = PLATFORMS[aircraft]
+    doc = {
+        "aircraft": aircraft,
+        "duration_s": duration_s,
+        "seed": 5,
+        "start": dict(SITE, agl_m=agl, heading_deg=course_deg),
+        "pilot": {"type": "scripted", "segments": [{"duration_s": duration_s, "course_deg": course_deg, "speed": "max", "climb": climb}]},
+        "geofence": {"fence": {"keep_in": box(half), "ceiling_m": ceiling}},
+    }
+    if wind_mps:
+        doc["wind"] = {"speed_mps": wind_mps, "from_deg": (course_deg + 180.0) % 360.0}  # tailwind toward the edge
+    return fly(parse_scenario(doc, f"{aircraft}-{course_deg}.yaml"))
+
+
+def assert_fence_held(res):
+    s = res.summary
+    transitions = s["mode_transitions"]
+    assert s["activations"] >= 1, "the geofence never activated"
+    assert s["max_excursion_m"] <= 0.0, f"crossed the fence by {s['max_excursion_m']:.2f} m"
+    assert s["time_outside_s"] == 0.0
+    # it acted before the line: at the first activation the truth margin was positive
+    first = transitions[0]
+    assert first["to"] == "OVERRIDE"
+    t = res.recorder.column("time_s")
+    k = int((t >= first["t_s"] - 1e-9).argmax())
+    fence = res.extras["fence"]
+    e, n, agl = (res.recorder.column(c)[k] for c in ("east_m", "north_m", "agl_m"))
+    assert fence.margin_m(e, n, agl) > 0.0
+    # and control was handed back afterwards
+    assert any(tr["to"] == "RECOVERED" for tr in transitions), transitions
+
+
+@pytest.mark.parametrize("aircraft", list(PLATFORMS))
+@pytest.mark.parametrize("course_deg", [0.0, 90.0, 180.0, 270.0])
+@pytest.mark.parametrize("wind_mps", [0.0, 8.0])
+def test_adversarial_pilot_at_each_edge_never_crosses(aircraft, course_deg, wind_mps):
+    assert_fence_held(adversarial(aircraft, course_deg, wind_mps))
+
+
+@pytest.mark.parametrize("aircraft", list(PLATFORMS))
+@pytest.mark.parametrize("wind_mps", [0.0, 8.0])
+def test_max_climb_toward_the_ceiling_never_crosses(aircraft, wind_mps):
+    res = adversarial(aircraft, 45.0, wind_mps, climb="max")
+    assert_fence_held(res)
+    ceiling = PLATFORMS[aircraft][2]
+    assert res.recorder.column("agl_m").max() < ceiling
+
+
+def test_without_a_geofence_the_same_pilot_does_cross():
+    """Guard against a vacuous pass: the adversarial pilot really would breach."""
+    half, agl, _ = PLATFORMS["F450"]
+    doc = {
+        "aircraft": "F450",
+        "duration_s": 30.0,
+        "start": dict(SITE, agl_m=agl),
+        "pilot": {"type": "scripted", "segments": [{"duration_s": 30.0, "course_deg": 90.0, "speed": "max"}]},
+    }
+    res = fly(parse_scenario(doc, "nofence.yaml"))
+    assert res.recorder.column("east_m").max() > half + 50.0
+    assert math.isfinite(res.summary["sim_time_s"])
