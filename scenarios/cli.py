@@ -137,8 +137,11 @@ def _plot(result, out_dir: Path) -> None:
     from analysis.plots import plot_flight
 
     rec = result.recorder
-    traj = {name: rec.column(name) for name in ("time_s", "east_m", "north_m", "agl_m", "ground_speed_mps", "airspeed_mps", "wind_east_mps", "wind_north_mps")}
-    plot_flight(traj, Path(out_dir) / result.scenario.name / "flight", f"{result.scenario.name} ({result.scenario.aircraft})")
+    traj = {name: rec.column(name) for name in ("time_s", "east_m", "north_m", "agl_m", "ground_speed_mps", "airspeed_mps", "wind_east_mps", "wind_north_mps", "geofence_mode")}
+    plot_flight(
+        traj, Path(out_dir) / result.scenario.name / "flight", f"{result.scenario.name} ({result.scenario.aircraft})",
+        fence=result.extras.get("fence"), envelope=result.scenario.profile.envelope,
+    )
 
 
 def _progress(sc, quiet: bool):
