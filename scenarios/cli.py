@@ -3,6 +3,9 @@
 Subcommands:
 
 * ``run SCENARIO.yaml... --out DIR``: fly scenarios, write trajectory.csv + summary.json each.
+* ``batch PATH... --out DIR [--jobs N]``: fly every scenario (and sweep) found, in parallel,
+  resumably; write results.csv and report.md.
+* ``plot DIR`` / ``compare DIR``: regenerate figures / the platform comparison from saved results.
 * ``validate SCENARIO.yaml...``: check scenario files without flying them.
 * ``list``: the aircraft that can fly and the shipped example scenarios.
 
@@ -14,6 +17,7 @@ exits with code 2, never a traceback.
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 from pathlib import Path
 
@@ -59,6 +63,32 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--quiet", action="store_true", help="no progress display, only the final lines")
     run.add_argument("--no-plot", action="store_true", help="skip flight.png/flight.svg (ground track, altitude, speed)")
 
+    batch = sub.add_parser(
+        "batch",
+        help="fly every scenario found, in parallel, resumably",
+        description=(
+            "Fly every scenario YAML found under PATH (files or folders, searched recursively), expanding "
+            "sweeps (grids and Monte Carlo draws), in parallel processes. Each finished flight is written "
+            "atomically to DIR/<flight>/; re-running the same command skips finished flights, so an "
+            "interrupted batch resumes. A flight that fails is recorded with its error and the batch goes "
+            "on. At the end DIR/results.csv (one row per flight) and DIR/report.md (comparison table, "
+            "figures) are written. Exit code 0 if every flight completed, 1 otherwise, 130 if interrupted."
+        ),
+    )
+    batch.add_argument("paths", nargs="+", type=Path, metavar="PATH", help="scenario files or folders")
+    batch.add_argument("--out", type=Path, default=Path("out"), metavar="DIR", help="output folder (default: ./out)")
+    batch.add_argument("--jobs", type=int, default=None, metavar="N", help="parallel processes (default: all cores)")
+    batch.add_argument("--executor", choices=["process", "dask"], default="process", help="local processes (default) or a Dask cluster")
+    batch.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address, with --executor dask")
+    batch.add_argument("--quiet", action="store_true", help="no progress bar")
+    batch.add_argument("--no-report", action="store_true", help="skip report.md and its figures (results.csv is still written)")
+
+    plot = sub.add_parser("plot", help="regenerate figures from saved results", description="Regenerate each flight's flight.png/.svg and the batch figures in DIR from the saved trajectories and summaries, without re-flying.")
+    plot.add_argument("out", type=Path, metavar="DIR", help="a run or batch output folder")
+
+    compare = sub.add_parser("compare", help="platform comparison from saved results", description="Print the platform comparison table (per platform and wind level: breaches, peak excursion, activations, recovery time) of the flights in DIR and write DIR/platform_comparison.png/.svg.")
+    compare.add_argument("out", type=Path, metavar="DIR", help="a batch output folder")
+
     val = sub.add_parser("validate", help="check scenario files without flying", description="Load and validate scenario files; print one line per file.")
     val.add_argument("scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml")
 
@@ -72,6 +102,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         if args.command == "run":
             return _cmd_run(args)
+        if args.command == "batch":
+            return _cmd_batch(args)
+        if args.command == "plot":
+            return _cmd_plot(args)
+        if args.command == "compare":
+            return _cmd_compare(args)
         if args.command == "validate":
             return _cmd_validate(args)
         if args.command == "list":
@@ -120,6 +156,8 @@ def _cmd_run(args) -> int:
         finally:
             if bar:
                 bar.close()
+        if sc.source is not None:
+            shutil.copyfile(sc.source, args.out / sc.name / "scenario.yaml")
         if not args.no_plot:
             _plot(result, args.out)
         s = result.summary
@@ -131,6 +169,82 @@ def _cmd_run(args) -> int:
         )
         failed += not s["completed"]
     return EXIT_FLIGHT_FAILED if failed else 0
+
+
+def _cmd_batch(args) -> int:
+    from scenarios.batch import discover, plan, run_batch
+
+    if args.jobs is not None and args.jobs < 1:
+        from scenarios.errors import ConfigError
+
+        raise ConfigError(f"--jobs: must be >= 1, got {args.jobs}")
+    specs = plan(discover(args.paths))
+    outcome = run_batch(specs, args.out, jobs=args.jobs, executor=args.executor, scheduler=args.scheduler, progress=not args.quiet)
+    _write_batch_outputs(args.out, report=not args.no_report)
+    print(
+        f"{outcome.total} flights: {outcome.skipped} already done, {outcome.flown} flown, {len(outcome.failed)} failed "
+        f"in {outcome.wall_time_s:.1f} s -> {args.out / 'results.csv'}"
+    )
+    for flight in outcome.failed:
+        print(f"  failed: {flight} (see {args.out / flight / 'summary.json'})")
+    if outcome.interrupted:
+        print("interrupted: finished flights are kept; run the same command again to resume", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    return EXIT_FLIGHT_FAILED if outcome.failed else 0
+
+
+def _write_batch_outputs(out_dir: Path, report: bool) -> None:
+    from analysis.report import collect_results, write_report, write_results_csv
+
+    rows = collect_results(out_dir)
+    write_results_csv(rows, Path(out_dir) / "results.csv")
+    if report:
+        write_report(out_dir, rows)
+
+
+def _cmd_plot(args) -> int:
+    from scenarios.errors import ConfigError
+    from scenarios.recorder import read_trajectory_csv
+    from scenarios.schema import parse_scenario, read_document
+
+    folders = sorted(p.parent for p in Path(args.out).glob("*/trajectory.csv"))
+    if not folders and not (Path(args.out) / "trajectory.csv").is_file():
+        raise ConfigError(f"{args.out}: no flights found (no */trajectory.csv)")
+    if (Path(args.out) / "trajectory.csv").is_file():
+        folders = [Path(args.out)]
+    for folder in folders:
+        traj = read_trajectory_csv(folder / "trajectory.csv")
+        fence = envelope = None
+        if (folder / "scenario.yaml").is_file():
+            sc = parse_scenario(read_document(folder / "scenario.yaml"), str(folder / "scenario.yaml"), folder.name)
+            from geofence.geodesy import LocalFrame
+
+            if sc.geofence is not None:
+                st = sc.start
+                fence = sc.geofence.fence.to_local(LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m))
+            envelope = sc.profile.envelope
+        from analysis.plots import plot_flight
+
+        plot_flight(traj, folder / "flight", folder.name, fence=fence, envelope=envelope)
+        print(f"{folder / 'flight.png'}")
+    if len(folders) > 1 or folders[0] != Path(args.out):
+        _write_batch_outputs(args.out, report=True)
+        print(f"{Path(args.out) / 'report.md'}")
+    return 0
+
+
+def _cmd_compare(args) -> int:
+    from analysis.batch_plots import comparison_table, plot_platform_comparison
+    from analysis.report import collect_results
+    from scenarios.errors import ConfigError
+
+    rows = collect_results(args.out)
+    if not rows:
+        raise ConfigError(f"{args.out}: no flight results found (no */summary.json)")
+    print(comparison_table(rows))
+    for path in plot_platform_comparison(rows, Path(args.out) / "platform_comparison"):
+        print(path)
+    return 0
 
 
 def _plot(result, out_dir: Path) -> None:

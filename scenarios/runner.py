@@ -109,6 +109,9 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         "platform_kind": env.kind.value,
         "pilot": scenario.pilot.kind,
         "seed": scenario.seed,
+        "wind_speed_mps": scenario.wind.speed_mps if scenario.wind is not None else 0.0,
+        "wind_from_deg": scenario.wind.from_deg if scenario.wind is not None else None,
+        "geofence": scenario.geofence is not None,
         "completed": completed,
         "mission_progress": f"{pilot.items_reached}/{pilot.items_total}",
         "waypoints_reached": pilot.items_reached,
@@ -131,9 +134,12 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     return FlightResult(scenario=scenario, summary=summary, recorder=recorder, frame=frame, extras={"fence": fence, "unit": unit})
 
 
-def write_result(result: FlightResult, out_dir: Path) -> Path:
-    """Write ``trajectory.csv`` and ``summary.json`` under ``out_dir/<scenario name>/`` atomically."""
-    folder = Path(out_dir) / result.scenario.name
+def write_result(result: FlightResult, out_dir: Path, folder_name: str | None = None) -> Path:
+    """Write ``trajectory.csv`` then ``summary.json`` under ``out_dir/<scenario name>/``, each atomically.
+
+    The summary is written last: its presence marks a finished flight.
+    """
+    folder = Path(out_dir) / (folder_name or result.scenario.name)
     folder.mkdir(parents=True, exist_ok=True)
     tmp_csv = folder / ".trajectory.csv.tmp"
     result.recorder.write_csv(tmp_csv)

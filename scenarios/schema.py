@@ -128,8 +128,8 @@ _TOP_KEYS = frozenset(
 )
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Read and validate a scenario YAML file."""
+def read_document(path: str | Path) -> Any:
+    """Read a YAML file; any problem is a one-line :class:`ConfigError` naming the file."""
     path = Path(path)
     where = str(path)
     if not path.is_file():
@@ -143,7 +143,18 @@ def load_scenario(path: str | Path) -> Scenario:
         raise ConfigError(f"{where}: malformed YAML{at}: {problem}") from None
     except UnicodeDecodeError:
         raise ConfigError(f"{where}: not a text file") from None
-    return parse_scenario(raw, where=where, default_name=path.stem, source=path)
+    if raw is None:
+        raise ConfigError(f"{where}: the file is empty")
+    return raw
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read and validate a scenario YAML file (one without a ``sweep:`` block)."""
+    path = Path(path)
+    raw = read_document(path)
+    if isinstance(raw, dict) and "sweep" in raw:
+        raise ConfigError(f"{path}: sweep: this file is a sweep of many flights; run it with 'geofence-testbed batch'")
+    return parse_scenario(raw, where=str(path), default_name=path.stem, source=path)
 
 
 def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source: Path | None = None) -> Scenario:

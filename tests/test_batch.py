@@ -1,0 +1,132 @@
+"""Batches: parallel, loss-free, resumable; sweeps expand reproducibly; failures are recorded."""
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+
+from scenarios.batch import discover, plan, run_batch
+from scenarios.errors import ConfigError
+from scenarios.sweep import expand
+
+ROOT = Path(__file__).parents[1]
+CI_SUITE = ROOT / "scenarios" / "ci"
+
+
+def summaries(out: Path) -> dict[str, dict]:
+    return {p.parent.name: json.loads(p.read_text()) for p in out.glob("*/summary.json")}
+
+
+def test_grid_and_monte_carlo_expand_reproducibly():
+    base = yaml.safe_load((CI_SUITE / "multicopter_edges.yaml").read_text())
+    base["sweep"]["monte_carlo"] = {"count": 3, "seed": 4, "draws": {"seed": {"integers": [0, 1000]}, "wind.from_deg": {"uniform": [0, 360]}}}
+    a = expand(base, "x.yaml", "x")
+    b = expand(base, "x.yaml", "x")
+    assert len(a) == 4 * 3 * 3
+    assert [s.document for s in a] == [s.document for s in b]
+    assert len({s.flight_id for s in a}) == len(a)
+    assert {s.document["wind"]["speed_mps"] for s in a} == {0, 4, 8}
+    assert len({s.document["seed"] for s in a}) > 1
+
+
+@pytest.mark.parametrize(
+    "sweep, problem",
+    [
+        ({"grid": {"wind.speed_mps": []}}, "non-empty list"),
+        ({"monte_carlo": {"draws": {"seed": {"gaussian": [0, 1]}}}}, "exactly one of"),
+        ({"grid": {"pilot.segments.7.course_deg": [0]}}, "no such place"),
+        ({"repeat": 3}, "unknown key 'repeat'"),
+    ],
+)
+def test_bad_sweeps_name_the_field(sweep, problem):
+    base = yaml.safe_load((CI_SUITE / "multicopter_edges.yaml").read_text())
+    base["sweep"] = sweep
+    with pytest.raises(ConfigError, match=problem):
+        expand(base, "x.yaml", "x")
+
+
+def test_failed_scenarios_are_recorded_and_the_batch_goes_on(tmp_path):
+    good = yaml.safe_load((CI_SUITE / "multicopter_edges.yaml").read_text())
+    good["sweep"] = {"grid": {"wind.speed_mps": [0]}}
+    good["duration_s"] = 5
+    (tmp_path / "good.yaml").write_text(yaml.safe_dump(good))
+    (tmp_path / "broken.yaml").write_text("aircraft: [F450\n")
+    bad_value = dict(good, name="latitude_123")
+    bad_value.pop("sweep")
+    bad_value["start"] = dict(good["start"], lat_deg=123)
+    (tmp_path / "bad_value.yaml").write_text(yaml.safe_dump(bad_value))
+    specs = plan(discover([tmp_path]))
+    out = tmp_path / "out"
+    outcome = run_batch(specs, out, jobs=1, progress=False)
+    got = summaries(out)
+    assert outcome.flown == 3 and len(outcome.failed) == 2
+    assert got["broken"]["completed"] is False and "malformed YAML" in got["broken"]["error"]
+    assert got["latitude_123"]["completed"] is False and "start.lat_deg" in got["latitude_123"]["error"]
+    assert got["ci_multicopter__speed_mps=0"]["completed"] is True
+
+
+def test_ci_suite_batch_on_two_jobs_writes_every_result_and_no_breach(tmp_path):
+    out = tmp_path / "ci"
+    res = subprocess.run(
+        [sys.executable, "-m", "scenarios.cli", "batch", str(CI_SUITE), "--out", str(out), "--jobs", "2", "--quiet"],
+        capture_output=True, text=True, timeout=600,
+    )
+    assert res.returncode == 0, res.stdout + res.stderr
+    got = summaries(out)
+    assert len(got) == 24
+    rows = (out / "results.csv").read_text().strip().splitlines()
+    assert len(rows) == 1 + 24
+    assert (out / "report.md").is_file()
+    assert list(out.glob("*.png")), "batch figures missing"
+    for name, s in got.items():
+        assert s["completed"], name
+        assert s["max_excursion_m"] <= 0.0, f"{name}: breach of {s['max_excursion_m']:.2f} m"
+        assert not s["landed_outside_gap"], name
+    platforms = {s["aircraft"] for s in got.values()}
+    assert platforms == {"F450", "Tern"}
+
+
+def test_interrupted_batch_keeps_finished_flights_and_resumes_without_refling(tmp_path):
+    sweep = yaml.safe_load((CI_SUITE / "multicopter_edges.yaml").read_text())
+    sweep["duration_s"] = 150  # slow enough to interrupt halfway
+    sweep["sweep"] = {"grid": {"pilot.segments.0.course_deg": [0, 90, 180, 270], "wind.speed_mps": [0, 2, 4, 6, 8]}}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(sweep))
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "scenarios.cli", "batch", str(tmp_path / "s.yaml"), "--out", str(out), "--jobs", "2", "--quiet"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 300
+    while len(list(out.glob("*/summary.json"))) < 4 and time.monotonic() < deadline:
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=300)
+    first = summaries(out)
+    assert 4 <= len(first) < 20, f"{len(first)} flights finished before the interrupt"
+    assert proc.returncode == 130, err
+    stamps = {name: (out / name / "summary.json").stat().st_mtime_ns for name in first}
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert f"{len(first)} already done" in res.stdout
+    final = summaries(out)
+    assert len(final) == 20 and all(s["completed"] for s in final.values())
+    assert all((out / name / "summary.json").stat().st_mtime_ns == t for name, t in stamps.items())
+    assert not list(out.rglob(".*.tmp")), "a half-written file was left behind"
+
+
+def test_dask_executor_runs_the_same_batch_on_a_local_cluster(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    sweep = yaml.safe_load((CI_SUITE / "fixedwing_edges.yaml").read_text())
+    sweep["duration_s"] = 10
+    sweep["sweep"] = {"grid": {"pilot.segments.0.course_deg": [0, 90], "wind.speed_mps": [0, 8]}}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(sweep))
+    specs = plan(discover([tmp_path / "s.yaml"]))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        outcome = run_batch(specs, tmp_path / "out", executor="dask", scheduler=cluster.scheduler_address, progress=False)
+    assert outcome.flown == 4 and not outcome.failed
+    got = summaries(tmp_path / "out")
+    assert sorted(got) == sorted(s.flight_id for s in specs)
+    assert all(s["aircraft"] == "Tern" and s["completed"] for s in got.values())
