@@ -129,6 +129,9 @@ class GeofenceUnit:
         return f"vertical: ceiling margin {r.ceiling_margin_m:.1f} m, floor margin {r.floor_margin_m:.1f} m, activation {r.vertical_activation_m:.1f} m"
 
     def _goal_height(self, h: float) -> float:
+        rp = self.fence.fence.recovery_point
+        if rp is not None and len(rp) == 3:  # an explicit recovery set-point height
+            return self.fence.recovery_height_m
         lo, hi = self._safe_band
         return clip(h, lo, hi) if lo <= hi else 0.5 * (lo + hi)
 

@@ -96,11 +96,34 @@ class ScriptSegment:
     climb: str = "hold"
 
 
+BREACH_DIRECTIONS = ("north", "east", "south", "west", "up")
+
+
+@dataclass(frozen=True)
+class BreachAttemptsConfig:
+    """A pilot who pushes gently across the fence again and again (the seed flights' indoor pilot).
+
+    Each attempt starts from a hover ``home_agl_m`` above the start point, flies
+    toward ``directions[k % len]`` (a compass direction, or ``up`` toward the
+    ceiling) at a speed drawn uniformly from ``speed_mps`` = [low, high],
+    keeps pushing for ``push_m`` of travel, returns home and rests ``rest_s``.
+    """
+
+    attempts: int = 10
+    directions: tuple[str, ...] = ("west", "north", "up")
+    speed_mps: tuple[float, float] = (0.3, 1.0)
+    push_m: float = 1.5
+    rest_s: float = 3.0
+    home_agl_m: float = 0.8
+    seed: int = 0
+
+
 @dataclass(frozen=True)
 class PilotConfig:
     kind: str
-    """``mission`` (GPS autopilot flying ``mission``) or ``scripted``."""
+    """``mission`` (GPS autopilot flying ``mission``), ``scripted`` or ``breach_attempts``."""
     segments: tuple[ScriptSegment, ...] = ()
+    breach: BreachAttemptsConfig | None = None
 
 
 @dataclass(frozen=True)
@@ -317,8 +340,10 @@ def _parse_pilot(raw: Any, where: str, has_mission: bool) -> PilotConfig:
             raise ConfigError(f"{where}: missing: give a mission or a pilot script")
         return PilotConfig(kind="mission")
     require_mapping(raw, where)
+    kind = string(raw.get("type", "mission"), f"{where}.type", choices=["mission", "scripted", "breach_attempts"])
+    if kind == "breach_attempts":
+        return PilotConfig(kind=kind, breach=_parse_breach(raw, where))
     reject_unknown_keys(raw, {"type", "segments"}, where)
-    kind = string(raw.get("type", "mission"), f"{where}.type", choices=["mission", "scripted"])
     if kind == "mission":
         if not has_mission:
             raise ConfigError(f"{where}.type: 'mission' needs a mission: block")
@@ -327,6 +352,30 @@ def _parse_pilot(raw: Any, where: str, has_mission: bool) -> PilotConfig:
     if not isinstance(segs, list) or not segs:
         raise ConfigError(f"{where}.segments: expected a non-empty list of script segments")
     return PilotConfig(kind="scripted", segments=tuple(_parse_segment(s, f"{where}.segments[{i}]") for i, s in enumerate(segs)))
+
+
+def _parse_breach(raw: Any, where: str) -> BreachAttemptsConfig:
+    reject_unknown_keys(raw, {"type", "attempts", "directions", "speed_mps", "push_m", "rest_s", "home_agl_m", "seed"}, where)
+    d = BreachAttemptsConfig()
+    directions = raw.get("directions", list(d.directions))
+    if not isinstance(directions, list) or not directions:
+        raise ConfigError(f"{where}.directions: expected a non-empty list of {', '.join(BREACH_DIRECTIONS)}")
+    for i, x in enumerate(directions):
+        string(x, f"{where}.directions[{i}]", choices=list(BREACH_DIRECTIONS))
+    speeds = raw.get("speed_mps", list(d.speed_mps))
+    if not isinstance(speeds, list) or len(speeds) != 2:
+        raise ConfigError(f"{where}.speed_mps: expected [low, high] in m/s")
+    lo = number(speeds[0], f"{where}.speed_mps[0]", strictly_positive=True, maximum=30.0)
+    hi = number(speeds[1], f"{where}.speed_mps[1]", minimum=lo, maximum=30.0)
+    return BreachAttemptsConfig(
+        attempts=integer(raw.get("attempts", d.attempts), f"{where}.attempts", minimum=1),
+        directions=tuple(directions),
+        speed_mps=(lo, hi),
+        push_m=number(raw.get("push_m", d.push_m), f"{where}.push_m", strictly_positive=True),
+        rest_s=number(raw.get("rest_s", d.rest_s), f"{where}.rest_s", minimum=0.0),
+        home_agl_m=number(raw.get("home_agl_m", d.home_agl_m), f"{where}.home_agl_m", strictly_positive=True),
+        seed=integer(raw.get("seed", d.seed), f"{where}.seed", minimum=0),
+    )
 
 
 def _parse_segment(raw: Any, where: str) -> ScriptSegment:

@@ -2,6 +2,8 @@
 
 * :class:`~scenarios.pilots.mission.MissionAutopilot`: GPS waypoint autopilot.
 * :class:`~scenarios.pilots.scripted.ScriptedPilot`: adversarial stick scripts.
+* :class:`~scenarios.pilots.breach_attempts.BreachAttemptsPilot`: repeated gentle
+  breach attempts (the seed flights' indoor pilot).
 
 Both answer ``command(state) -> StickCommand`` and report progress as
 ``items_reached`` / ``items_total`` and ``finished``.
@@ -35,4 +37,8 @@ def build_pilot(scenario: Scenario, frame: LocalFrame, env: Envelope, start: Veh
 
     if scenario.pilot.kind == "scripted":
         return ScriptedPilot(scenario.pilot.segments, env, start, dt_s)
+    if scenario.pilot.kind == "breach_attempts":
+        from scenarios.pilots.breach_attempts import BreachAttemptsPilot
+
+        return BreachAttemptsPilot(scenario.pilot.breach, env, start, dt_s)
     return MissionAutopilot(scenario.mission, frame, env, start, dt_s)
