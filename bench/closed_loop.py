@@ -6,9 +6,11 @@ For each platform it measures, interleaved in one run (repeats, median):
   by ``fdm.run()`` in a tight Python loop, no guidance, no wind, no recording;
 * ``shipped``: the model as it ships, without our flight controller (reference);
 * ``closed``: the full closed loop of ``scenarios.runner.fly`` (pilot,
-  wind field, recorder, outer loop at the scenario's control rate).
+  wind field, recorder, outer loop at the scenario's control rate);
+* ``geofence``: the same with the geofence unit in the loop (an adversarial
+  pilot against a fence, so the override and its guidance run too).
 
-It prints frames/s for each and the ratio closed / bare (target >= 0.5).
+It prints frames/s for each and the ratios to bare (target >= 0.5).
 
     python bench/closed_loop.py [--seconds 60] [--repeats 3]
 """
@@ -31,6 +33,10 @@ CASES = {
     "F450": ROOT / "scenarios" / "multicopter_survey_wind.yaml",
     "Tern": ROOT / "scenarios" / "fixedwing_survey_wind.yaml",
 }
+GEOFENCE_CASES = {
+    "F450": ROOT / "scenarios" / "geofence_multicopter_adversarial_wind.yaml",
+    "Tern": ROOT / "scenarios" / "geofence_fixedwing_adversarial_wind.yaml",
+}
 
 
 def bare_rate(model: str, frames: int, with_fc: bool) -> float:
@@ -52,8 +58,8 @@ def bare_rate(model: str, frames: int, with_fc: bool) -> float:
     return frames / (time.perf_counter() - t0)
 
 
-def closed_rate(model: str, seconds: float) -> float:
-    sc = load_scenario(CASES[model])
+def closed_rate(path: Path, seconds: float) -> float:
+    sc = load_scenario(path)
     from dataclasses import replace
 
     sc = replace(sc, duration_s=seconds)
@@ -66,16 +72,20 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=60.0, help="simulated seconds per closed-loop run (default 60)")
     ap.add_argument("--repeats", type=int, default=3, help="interleaved repeats, median reported (default 3)")
     args = ap.parse_args()
-    print(f"{'model':6s} {'shipped f/s':>12s} {'bare+FC f/s':>12s} {'closed f/s':>12s} {'closed/bare':>12s} {'closed/shipped':>15s}")
+    print(
+        f"{'model':6s} {'shipped f/s':>12s} {'bare+FC f/s':>12s} {'closed f/s':>11s} {'+geofence':>10s}"
+        f" {'closed/bare':>12s} {'geofence/bare':>14s} {'closed/shipped':>15s}"
+    )
     for model in CASES:
-        shipped, bare, closed = [], [], []
+        shipped, bare, closed, fenced = [], [], [], []
         for _ in range(args.repeats):
-            closed.append(closed_rate(model, args.seconds))
+            closed.append(closed_rate(CASES[model], args.seconds))
+            fenced.append(closed_rate(GEOFENCE_CASES[model], args.seconds))
             frames = int(args.seconds * 120)
             bare.append(bare_rate(model, frames, with_fc=True))
             shipped.append(bare_rate(model, frames, with_fc=False))
-        s, b, c = (statistics.median(x) for x in (shipped, bare, closed))
-        print(f"{model:6s} {s:12.0f} {b:12.0f} {c:12.0f} {c / b:12.2f} {c / s:15.2f}")
+        s, b, c, g = (statistics.median(x) for x in (shipped, bare, closed, fenced))
+        print(f"{model:6s} {s:12.0f} {b:12.0f} {c:11.0f} {g:10.0f} {c / b:12.2f} {g / b:14.2f} {c / s:15.2f}")
 
 
 if __name__ == "__main__":

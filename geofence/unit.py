@@ -99,6 +99,40 @@ class GeofenceUnit:
     def height(self, s: VehicleState) -> float:
         return s.agl_m if self.fence.altitude_reference == "agl" else s.alt_m
 
+    def _far_from_everything(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> bool:
+        """Cheap pre-check: no edge, ceiling or floor is within the largest room any state could need.
+
+        An upper bound of the lateral room (max speed, strongest turn or
+        braking, the wind, two roll times) and of the vertical arrest distance;
+        when the plain margins exceed both, the full per-edge computation of
+        :func:`activation_margins` cannot trigger and is skipped.
+        """
+        env = self.env
+        k = self.config.uncertainty_k_sigma
+        extra = self.config.extra_margin_m
+        w = math.hypot(self.wind_enu[0], self.wind_enu[1])
+        v = env.max_speed_mps
+        g = 9.80665
+        t = 2.0 * env.reaction_time_s + dt_s
+        if env.is_multirotor:
+            a_p = g * math.tan(env.max_bank_rad)
+            push = a_p * w * w / (v * v) if v > 0 else 0.0
+            a = (env.braking_decel_mps2 - push) * max(1.0 - env.vertical_accel_mps2 / g, 0.05)
+            if a <= 0.0:
+                return False
+            v1 = v + a_p * t
+            room = v * t + 0.5 * a_p * t * t + v1 * v1 / (2.0 * a)
+        else:
+            tanb = g * math.tan(env.max_bank_rad)
+            room = 2.0 * v * v / tanb + w * 2.0 * math.pi * v / tanb + (v + w) * t
+        room += k * sigma_h_m + extra
+        vz = max(env.max_climb_rate_mps, env.max_descent_rate_mps, abs(s.v_up_mps))
+        vroom = vz * t + vz * vz / (2.0 * env.vertical_accel_mps2) + k * sigma_v_m + extra
+        fence = self.fence
+        if fence.lateral_margin_m(s.east_m, s.north_m) <= room or fence.ceiling_m - h <= vroom:
+            return False
+        return fence.floor_m is None or fence.floor_margin_m(s.east_m, s.north_m, h) > vroom
+
     def _margins(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> ShiftResult:
         k = self.config.uncertainty_k_sigma
         extra = self.config.extra_margin_m
@@ -194,6 +228,11 @@ class GeofenceUnit:
             self._start_landing(t_s, est, h, "position source lost")
             return self._land(t_s, est, h, dt_s)
 
+        monitoring = mode is Mode.MONITOR or mode is Mode.RECOVERED
+        if monitoring and self.config.trigger == "predictive" and self._far_from_everything(est, h, sigma_h_m, sigma_v_m, dt_s):
+            if mode is Mode.RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
+                self._switch(t_s, Mode.MONITOR, "hand-back complete")
+            return pilot
         r = self._margins(est, h, sigma_h_m, sigma_v_m, dt_s)
         self.last = r
         act = self._activation(r)
