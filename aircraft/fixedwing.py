@@ -26,10 +26,11 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from aircraft.jsbsim_model import FT_TO_M, M_TO_FT, OWN_SYSTEMS, JSBSimModel
+from aircraft.jsbsim_model import FT_TO_M, M_TO_FT, OWN_SYSTEMS
 from aircraft.profile import PlatformProfile
+from aircraft.stick_platform import StickPlatform
 from geofence.geodesy import LocalFrame, geodetic_to_ecef
-from geofence.interface import PlatformKind, StickCommand, VehicleState
+from geofence.interface import PlatformKind, StickCommand
 
 FC_SYSTEM_FILE: Path = OWN_SYSTEMS / "fixedwing_fc.xml"
 
@@ -38,17 +39,13 @@ FC_SYSTEM_FILE: Path = OWN_SYSTEMS / "fixedwing_fc.xml"
 SETTLE_S: float = 5.0
 
 
-class FixedWingPlatform:
+class FixedWingPlatform(StickPlatform):
     """A JSBSim fixed-wing aircraft with the generic FBW-B controller (Platform protocol)."""
 
     def __init__(self, profile: PlatformProfile):
         if profile.kind is not PlatformKind.FIXED_WING:
             raise ValueError(f"{profile.model}: profile kind is {profile.kind.value}, not fixed_wing")
-        self.profile = profile
-        self.name = profile.model
-        self.envelope = profile.envelope
-        self.dt_s = 1.0 / profile.frame_rate_hz
-        self.model = JSBSimModel(profile.model, dt_s=self.dt_s, extra_systems=[FC_SYSTEM_FILE])
+        super().__init__(profile, FC_SYSTEM_FILE)
         m = self.model
         env = profile.envelope
         self._params = {
@@ -63,7 +60,6 @@ class FixedWingPlatform:
         # Everything under gains: is written verbatim (controller gains, min pitch,
         # trim seeds such as fc/throttle-trim and fc/theta-trim-rad, fcs/pitch-trim-cmd-norm).
         self._params.update(profile.gains)
-        self._sticks = tuple(m.node(p) for p in ("fc/stick-roll", "fc/stick-pitch", "fc/stick-yaw", "fc/stick-throttle"))
         self._engaged = m.node("fc/engaged")
         self._wind_mps = (0.0, 0.0, 0.0)
         self._reset_args: tuple | None = None
@@ -110,8 +106,7 @@ class FixedWingPlatform:
         m = self.model
         env = self.envelope
         v0 = airspeed_mps if airspeed_mps > 0.0 else env.cruise_speed_mps
-        for node in self._sticks:
-            node.set_double_value(0.0)
+        self.command(StickCommand())
         self._write_params()
         theta0 = self._params.get("fc/theta-trim-rad", 0.0)
         m.set("fc/engaged", 0.0)
@@ -138,15 +133,15 @@ class FixedWingPlatform:
         m.set("fc/h-ref-ft", m.get("position/h-sl-ft"))
         # Settle; a small heading hold (Python, every 0.1 s) cancels the yaw
         # that the propeller spin-up puts in during the first frames.
-        roll_stick = self._sticks[0]
+        set_roll_stick = self._stick_setters[0]
         chunk = max(1, int(round(0.1 / self.dt_s)))
         # bank ~ V * heading error / (g * 1.2 s): closes the heading error with a ~1.2 s time constant
         k_stick_per_deg = math.radians(1.0) * v0 / (9.80665 * 1.2 * max(env.max_bank_rad, 0.1))
         for _ in range(int(round(SETTLE_S / (chunk * self.dt_s)))):
             err_deg = (heading_deg - math.degrees(m.get("attitude/psi-rad")) + 180.0) % 360.0 - 180.0
-            roll_stick.set_double_value(max(-0.5, min(0.5, k_stick_per_deg * err_deg)))
+            set_roll_stick(max(-0.5, min(0.5, k_stick_per_deg * err_deg)))
             m.step(chunk)
-        roll_stick.set_double_value(0.0)
+        set_roll_stick(0.0)
         m.set("fc/cruise-speed-mps", env.cruise_speed_mps)
         self._place(frame, lat_deg, lon_deg, agl_m)
         m.set("fc/h-ref-ft", m.get("position/h-sl-ft"))
@@ -161,14 +156,6 @@ class FixedWingPlatform:
         m.set("position/long-gc-deg", lon_deg)
         m.set("position/h-agl-ft", agl_m * M_TO_FT)
 
-    def command(self, cmd: StickCommand) -> None:
-        """Latch the sticks (clipped to [-1, 1]); they act from the next frame on."""
-        r, p, y, t = self._sticks
-        r.set_double_value(-1.0 if cmd.roll < -1.0 else (1.0 if cmd.roll > 1.0 else cmd.roll))
-        p.set_double_value(-1.0 if cmd.pitch < -1.0 else (1.0 if cmd.pitch > 1.0 else cmd.pitch))
-        y.set_double_value(-1.0 if cmd.yaw < -1.0 else (1.0 if cmd.yaw > 1.0 else cmd.yaw))
-        t.set_double_value(-1.0 if cmd.throttle < -1.0 else (1.0 if cmd.throttle > 1.0 else cmd.throttle))
-
     def set_wind_enu(self, east_mps: float, north_mps: float, up_mps: float) -> None:
         """Air-mass velocity in m/s (ENU, toward). Right after :meth:`reset`, re-settles in it."""
         wind = (east_mps, north_mps, up_mps)
@@ -181,9 +168,6 @@ class FixedWingPlatform:
     def step(self, n_frames: int = 1) -> None:
         self._fresh = False
         self.model.step(n_frames)
-
-    def truth(self) -> VehicleState:
-        return self.model.truth()
 
     # -- diagnostics -----------------------------------------------------------
     def fc(self, name: str) -> float:

@@ -26,10 +26,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from aircraft.jsbsim_model import JSBSimModel, _quiet_native_output
+from aircraft.jsbsim_model import _quiet_native_output
 from aircraft.profile import PlatformProfile
+from aircraft.stick_platform import StickPlatform
 from geofence.geodesy import LocalFrame
-from geofence.interface import StickCommand, VehicleState
+from geofence.interface import StickCommand
 
 FC_SYSTEM_XML = Path(__file__).parent / "systems" / "multicopter_fc.xml"
 
@@ -42,19 +43,12 @@ _SPIN_UP_S = 0.5
 """Time run after the initial conditions: rotors spin up (air start) or the gear settles (ground start)."""
 
 
-class MulticopterPlatform:
+class MulticopterPlatform(StickPlatform):
     """A multirotor with an angle-mode + altitude-hold flight controller (see module docstring)."""
 
     def __init__(self, profile: PlatformProfile):
-        self.profile = profile
-        self.name = profile.model
-        self.envelope = profile.envelope
-        self.dt_s = 1.0 / profile.frame_rate_hz
-        self.model = JSBSimModel(profile.model, dt_s=self.dt_s, extra_systems=[FC_SYSTEM_XML])
+        super().__init__(profile, FC_SYSTEM_XML)
         m = self.model
-        self._stick_nodes = tuple(
-            m.node(p) for p in ("fc/stick-roll", "fc/stick-pitch", "fc/stick-yaw", "fc/stick-throttle")
-        )
         self._reset_node = m.node("fc/reset-cmd")
         self._integrators_held = False
         self._started = False
@@ -129,14 +123,6 @@ class MulticopterPlatform:
             nd.set_double_value(v)
         self._integrators_held = True
 
-    def command(self, cmd: StickCommand) -> None:
-        """Latch the sticks (clipped to [-1, 1]); they act from the next frame."""
-        r, p, y, t = self._stick_nodes
-        r.set_double_value(_clip1(cmd.roll))
-        p.set_double_value(_clip1(cmd.pitch))
-        y.set_double_value(_clip1(cmd.yaw))
-        t.set_double_value(_clip1(cmd.throttle))
-
     def set_wind_enu(self, east_mps: float, north_mps: float, up_mps: float) -> None:
         """Steady air-mass velocity in m/s (ENU, toward); kept across :meth:`reset`."""
         self.model.set_wind_enu(east_mps, north_mps, up_mps)
@@ -149,12 +135,3 @@ class MulticopterPlatform:
             self._integrators_held = False
             n_frames -= 1
         self.model.step(n_frames)
-
-    def truth(self) -> VehicleState:
-        """True state (SI, ENU about the reset frame)."""
-        return self.model.truth()
-
-
-def _clip1(x: float) -> float:
-    x = float(x)
-    return -1.0 if x < -1.0 else (1.0 if x > 1.0 else x)
