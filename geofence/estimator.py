@@ -1,0 +1,412 @@
+"""The geofence unit's own state estimator: GNSS + baro + AHRS -> a :class:`VehicleState` estimate.
+
+The unit must not trust the autopilot's navigation, so it runs its own small
+linear Kalman filter on its own sensors (:mod:`geofence.measurements`).
+
+Horizontal (east and north, independent axes)
+    A constant-acceleration kinematic model per axis, state ``(p, v, a)``,
+    driven by white jerk (``jerk_psd_h``). Acceleration is a state because the
+    GNSS is 5 Hz and 0.2 s late: a plain constant-velocity filter would report
+    the velocity of up to 0.4 s ago, ~2 m/s off in a 30 deg-bank turn; with the
+    acceleration state the extrapolation follows turns and stick steps.
+
+    **Latency** is handled exactly, by a *delayed fusion horizon*: the filter
+    lives at the time of validity of the last fix, ``t_d``. A new fix stamped
+    ``t_m > t_d`` is fused by predicting the horizon to ``t_m`` and updating
+    there (position, then velocity, as scalar updates). Every step the output is
+    the horizon state extrapolated to the current time with the same model,
+    covariance included. For a linear model whose only delayed measurement is
+    the GNSS this is the same as buffering states and re-propagating, at a
+    fraction of the cost (the per-step work is one extrapolation).
+
+Vertical
+    A current-time filter with state ``(up, v_up, b)``: ``b`` is the baro offset
+    (baro altitude - frame origin height - up). The barometer (no latency)
+    updates every step; a GNSS height stamped ``L`` s ago updates through
+    ``up(t - L) ~= up - L * v_up`` (first-order latency compensation; its
+    neglected process noise ``q L^3 / 3`` is added to the measurement variance),
+    the GNSS vertical velocity as ``v_up`` (variance ``+ q L``).
+
+GNSS bias
+    A single-antenna receiver's error is mostly a slowly wandering bias
+    (metres, tau ~ 60 s), which no filter can separate from the position
+    without a second absolute source. The filters therefore track the
+    *receiver's* position (white noise only in the measurement model, the bias
+    wander ``2 sigma^2 / tau`` as extra position process noise) and the
+    reported standard deviations add the bias sigma:
+    ``sigma_h = sqrt(max(P_ee, P_nn) + gps_h_bias_m^2)``,
+    ``sigma_v = sqrt(P_uu + gps_v_bias_m^2)``. These are the figures the
+    geofence turns into an extra boundary margin (``k * sigma``).
+
+Loss of the position source
+    ``position_valid`` is False until the first valid fix and whenever no valid
+    fix arrived for longer than ``timeout_s`` (default 1 s); the state keeps
+    being extrapolated (with a growing covariance) so the unit can still fly
+    a landing, but the geofence must treat the position as lost.
+
+Output
+    :meth:`GeofenceEstimator.step` returns a :class:`VehicleState` in the
+    frame's ENU. ``alt_m`` adds the Earth-curvature drop ``(e^2 + n^2) / 2R``
+    to ``h0 + up`` and ``agl_m = alt_m - h0`` (flat ground at the origin
+    height, like the simulation's). ``lat_deg``/``lon_deg`` use the origin's
+    radii of curvature (linearized: < 0.5 m off within 2 km of the origin;
+    the geofence works in ENU). Attitude is the latest AHRS sample;
+    ``airspeed_mps`` is the pitot reading, or the ground speed without a pitot.
+
+Everything per step is plain Python floats (no numpy); see the tests for the
+measured cost (a few microseconds).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from geofence.geodesy import WGS84_A_M, WGS84_F, LocalFrame
+from geofence.interface import VehicleState
+from geofence.measurements import AirData, AttitudeSample, GpsFix
+
+_E2 = WGS84_F * (2.0 - WGS84_F)
+
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """Tuning of :class:`GeofenceEstimator`; the GNSS/baro figures should match the unit's sensors.
+
+    The defaults match :class:`aircraft.sensors.SensorConfig`'s defaults.
+    ``jerk_psd_h`` (m^2/s^5) is the horizontal white-jerk spectral density,
+    ``accel_psd_v`` (m^2/s^3) the vertical white-acceleration one.
+    """
+
+    jerk_psd_h: float = 3.0
+    accel_psd_v: float = 2.0
+    gps_h_white_m: float = 0.5
+    gps_h_bias_m: float = 1.5
+    gps_v_white_m: float = 1.0
+    gps_v_bias_m: float = 3.0
+    gps_bias_tau_s: float = 60.0
+    gps_vel_h_mps: float = 0.1
+    gps_vel_v_mps: float = 0.2
+    baro_noise_m: float = 0.3
+    baro_drift_m: float = 1.0
+    baro_drift_tau_s: float = 300.0
+    timeout_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in self.__dataclass_fields__:
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0.0):
+                raise ValueError(f"estimator.{name}: must be a finite number >= 0, got {v!r}")
+        for name in ("gps_bias_tau_s", "baro_drift_tau_s", "timeout_s"):
+            if not getattr(self, name) > 0.0:
+                raise ValueError(f"estimator.{name}: must be > 0, got {getattr(self, name)!r}")
+
+
+class _Axis:
+    """One horizontal axis: state (p, v, a), symmetric covariance stored as 6 floats."""
+
+    __slots__ = ("p", "v", "a", "P00", "P01", "P02", "P11", "P12", "P22")
+
+    def __init__(self, p: float, v: float, var_p: float, var_v: float, var_a: float) -> None:
+        self.p, self.v, self.a = p, v, 0.0
+        self.P00, self.P01, self.P02, self.P11, self.P12, self.P22 = var_p, 0.0, 0.0, var_v, 0.0, var_a
+
+    def predict(self, dt: float, qj: float, qp: float) -> None:
+        if dt <= 0.0:
+            return
+        h = 0.5 * dt * dt
+        self.p += self.v * dt + self.a * h
+        self.v += self.a * dt
+        P00, P01, P02, P11, P12, P22 = self.P00, self.P01, self.P02, self.P11, self.P12, self.P22
+        # F = [[1, dt, h], [0, 1, dt], [0, 0, 1]];  F P F^T + Q (white jerk) + position wander
+        r0 = (P00 + dt * P01 + h * P02, P01 + dt * P11 + h * P12, P02 + dt * P12 + h * P22)  # row 0 of F P
+        r1 = (P01 + dt * P02, P11 + dt * P12, P12 + dt * P22)  # row 1 of F P
+        d2, d3 = dt * dt, dt * dt * dt
+        self.P00 = r0[0] + dt * r0[1] + h * r0[2] + qj * d3 * d2 / 20.0 + qp * dt
+        self.P01 = r1[0] + dt * r1[1] + h * r1[2] + qj * d2 * d2 / 8.0
+        self.P02 = r0[2] + qj * d3 / 6.0
+        self.P11 = r1[1] + dt * r1[2] + qj * d3 / 3.0
+        self.P12 = r1[2] + qj * d2 / 2.0
+        self.P22 = P22 + qj * dt
+
+    def update_p(self, z: float, r: float) -> None:
+        s = self.P00 + r
+        k0, k1, k2 = self.P00 / s, self.P01 / s, self.P02 / s
+        y = z - self.p
+        self.p += k0 * y
+        self.v += k1 * y
+        self.a += k2 * y
+        c0, c1, c2 = self.P00, self.P01, self.P02
+        self.P00 -= k0 * c0
+        self.P01 -= k0 * c1
+        self.P02 -= k0 * c2
+        self.P11 -= k1 * c1
+        self.P12 -= k1 * c2
+        self.P22 -= k2 * c2
+
+    def update_v(self, z: float, r: float) -> None:
+        s = self.P11 + r
+        k0, k1, k2 = self.P01 / s, self.P11 / s, self.P12 / s
+        y = z - self.v
+        self.p += k0 * y
+        self.v += k1 * y
+        self.a += k2 * y
+        c0, c1, c2 = self.P01, self.P11, self.P12
+        self.P00 -= k0 * c0
+        self.P01 -= k0 * c1
+        self.P02 -= k0 * c2
+        self.P11 -= k1 * c1
+        self.P12 -= k1 * c2
+        self.P22 -= k2 * c2
+
+
+class GeofenceEstimator:
+    """GNSS/baro/AHRS state estimator of the geofence unit (see the module docstring).
+
+    Per outer-loop step::
+
+        est = estimator.step(dt_s, fix, air, att)   # fix may be None; air/att may be None
+        estimator.position_valid, estimator.sigma_h_m, estimator.sigma_v_m
+
+    The estimator's clock advances by ``dt_s`` and is re-synchronised to the
+    sensor time stamps (``air.t_s`` or ``att.t_s``) when they are given.
+    """
+
+    def __init__(self, frame: LocalFrame, config: EstimatorConfig | None = None) -> None:
+        self.frame = frame
+        self.config = cfg = config or EstimatorConfig()
+        self.t_s = 0.0
+        self._clock_set = False
+        self._h0 = frame.h0_m
+        lat0 = math.radians(frame.lat0_deg)
+        s = math.sin(lat0)
+        w = 1.0 - _E2 * s * s
+        n_rad = WGS84_A_M / math.sqrt(w)
+        m_rad = n_rad * (1.0 - _E2) / w
+        self._deg_per_m_n = math.degrees(1.0) / (m_rad + frame.h0_m)
+        self._deg_per_m_e = math.degrees(1.0) / ((n_rad + frame.h0_m) * math.cos(lat0))
+        self._inv_2r = 0.5 / math.sqrt(m_rad * n_rad)
+        # process noise
+        self._qj = cfg.jerk_psd_h
+        self._qp_h = 2.0 * cfg.gps_h_bias_m**2 / cfg.gps_bias_tau_s
+        self._qv = cfg.accel_psd_v
+        self._qb = 2.0 * cfg.gps_v_bias_m**2 / cfg.gps_bias_tau_s + 2.0 * cfg.baro_drift_m**2 / cfg.baro_drift_tau_s
+        self._r_p = cfg.gps_h_white_m**2
+        self._r_v = cfg.gps_vel_h_mps**2
+        self._r_pu = cfg.gps_v_white_m**2
+        self._r_vu = cfg.gps_vel_v_mps**2
+        self._r_baro = cfg.baro_noise_m**2
+        self._var_bias_h = cfg.gps_h_bias_m**2
+        self._var_bias_v = cfg.gps_v_bias_m**2
+        # horizontal (delayed horizon at t_d)
+        self._east: _Axis | None = None
+        self._north: _Axis | None = None
+        self._t_d = 0.0
+        # vertical (current time): up, v_up, baro offset b
+        self._u = self._vu = self._b = 0.0
+        self._V = [0.0] * 6  # P00 P01 P02 P11 P12 P22
+        self._v_init = False
+        self._pending_baro: float | None = None
+        # bookkeeping
+        self._last_fix_arrival_s = -math.inf
+        self.fixes_used = 0
+        self.fixes_rejected = 0
+        self._att = (0.0, 0.0, 0.0)
+        self._airspeed: float | None = None
+        self.position_valid = False
+        self.sigma_h_m = math.inf
+        self.sigma_v_m = math.inf
+        self.var_e_m2 = self.var_n_m2 = math.inf
+        self.state = VehicleState()
+
+    # -- public per-step entry point ------------------------------------------------
+    def step(
+        self,
+        dt_s: float,
+        fix: GpsFix | None = None,
+        air: AirData | None = None,
+        att: AttitudeSample | None = None,
+    ) -> VehicleState:
+        """Predict by ``dt_s``, fuse whatever arrived this step, and return the current estimate."""
+        self.predict(dt_s)
+        stamp = air.t_s if air is not None else (att.t_s if att is not None else None)
+        if stamp is not None and math.isfinite(stamp):
+            if not self._clock_set or stamp >= self.t_s - 1.0:
+                self.t_s = stamp
+                self._clock_set = True
+        if att is not None:
+            self.update_attitude(att)
+        if fix is not None:
+            self.update_gps(fix)
+        if air is not None:
+            self.update_air(air)
+        return self.output()
+
+    def predict(self, dt_s: float) -> None:
+        """Advance the estimator clock and the vertical filter by ``dt_s`` (horizontal: extrapolated at output)."""
+        if not (dt_s > 0.0) or not math.isfinite(dt_s):
+            return
+        self.t_s += dt_s
+        if not self._v_init:
+            return
+        P = self._V
+        P00, P01, P02, P11, P12, P22 = P
+        dt = dt_s
+        q = self._qv
+        self._u += self._vu * dt
+        P[0] = P00 + 2.0 * dt * P01 + dt * dt * P11 + q * dt * dt * dt / 3.0
+        P[1] = P01 + dt * P11 + 0.5 * q * dt * dt
+        P[2] = P02 + dt * P12
+        P[3] = P11 + q * dt
+        P[5] = P22 + self._qb * dt
+
+    def update_attitude(self, att: AttitudeSample) -> None:
+        r, p, y = att.roll_rad, att.pitch_rad, att.yaw_rad
+        if math.isfinite(r) and math.isfinite(p) and math.isfinite(y):
+            self._att = (r, p, y)
+
+    def update_air(self, air: AirData) -> None:
+        """Baro altitude (every step) and pitot airspeed."""
+        a = air.airspeed_mps
+        self._airspeed = a if (a is not None and math.isfinite(a)) else None
+        z = air.baro_alt_m
+        if not math.isfinite(z):
+            return
+        z -= self._h0
+        if not self._v_init:
+            self._pending_baro = z  # used to initialise the offset at the first fix
+            return
+        self._v_update(1.0, 0.0, 1.0, z, self._r_baro)
+
+    def update_gps(self, fix: GpsFix) -> None:
+        """Fuse one GNSS message (its ``t_s`` is the time of validity; arrival is the current time)."""
+        if not fix.valid:
+            return
+        vals = (fix.t_s, fix.lat_deg, fix.lon_deg, fix.alt_m, fix.v_east_mps, fix.v_north_mps, fix.v_up_mps)
+        if not all(math.isfinite(x) for x in vals) or abs(fix.lat_deg) > 90.0:
+            self.fixes_rejected += 1
+            return
+        e, n, u = self.frame.to_enu(fix.lat_deg, fix.lon_deg, fix.alt_m)
+        t_m = fix.t_s
+        lag = self.t_s - t_m
+        if lag < 0.0:
+            lag = 0.0
+        if self._east is None:
+            self._init(e, n, u, fix, t_m, lag)
+            self._last_fix_arrival_s = self.t_s
+            self.fixes_used += 1
+            return
+        if t_m <= self._t_d:  # stale or duplicate
+            self.fixes_rejected += 1
+            return
+        dt = t_m - self._t_d
+        ex, nx = self._east, self._north
+        ex.predict(dt, self._qj, self._qp_h)
+        nx.predict(dt, self._qj, self._qp_h)
+        self._t_d = t_m
+        ex.update_p(e, self._r_p)
+        nx.update_p(n, self._r_p)
+        ex.update_v(fix.v_east_mps, self._r_v)
+        nx.update_v(fix.v_north_mps, self._r_v)
+        # vertical: current-time filter, first-order latency compensation
+        q = self._qv
+        self._v_update(1.0, -lag, 0.0, u, self._r_pu + q * lag * lag * lag / 3.0)
+        self._v_update(0.0, 1.0, 0.0, fix.v_up_mps, self._r_vu + q * lag)
+        self._last_fix_arrival_s = self.t_s
+        self.fixes_used += 1
+
+    # -- output --------------------------------------------------------------------
+    def output(self) -> VehicleState:
+        """A new estimate at the current estimator time (also kept as ``self.state``)."""
+        now = self.t_s
+        self.position_valid = (now - self._last_fix_arrival_s) <= self.config.timeout_s
+        ex, nx = self._east, self._north
+        roll, pitch, yaw = self._att
+        if ex is None:
+            self.sigma_h_m = self.sigma_v_m = math.inf
+            self.state = VehicleState(t_s=now, roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw)
+            return self.state
+        d = now - self._t_d
+        if d < 0.0:
+            d = 0.0
+        h = 0.5 * d * d
+        e = ex.p + ex.v * d + ex.a * h
+        n = nx.p + nx.v * d + nx.a * h
+        ve = ex.v + ex.a * d
+        vn = nx.v + nx.a * d
+        # position variance extrapolated from the horizon: g P g^T + Q, g = (1, d, h)
+        qd = self._qj * d * d * d * d * d / 20.0 + self._qp_h * d
+        var_e = ex.P00 + 2.0 * d * ex.P01 + 2.0 * h * ex.P02 + d * d * ex.P11 + 2.0 * d * h * ex.P12 + h * h * ex.P22 + qd
+        var_n = nx.P00 + 2.0 * d * nx.P01 + 2.0 * h * nx.P02 + d * d * nx.P11 + 2.0 * d * h * nx.P12 + h * h * nx.P22 + qd
+        self.var_e_m2 = var_e
+        self.var_n_m2 = var_n
+        self.sigma_h_m = math.sqrt((var_e if var_e > var_n else var_n) + self._var_bias_h)
+        self.sigma_v_m = math.sqrt(self._V[0] + self._var_bias_v)
+        u = self._u
+        curv = (e * e + n * n) * self._inv_2r
+        a = self._airspeed
+        st = VehicleState(
+            now,
+            self.frame.lat0_deg + n * self._deg_per_m_n,
+            self.frame.lon0_deg + e * self._deg_per_m_e,
+            self._h0 + u + curv,
+            e, n, u, u + curv,
+            ve, vn, self._vu,
+            roll, pitch, yaw,
+            a if a is not None else math.sqrt(ve * ve + vn * vn),
+            False,
+        )
+        self.state = st
+        return st
+
+    @property
+    def baro_offset_m(self) -> float:
+        """Estimated baro offset (baro altitude - origin height - up) in m."""
+        return self._b
+
+    @property
+    def accel_en_mps2(self) -> tuple[float, float]:
+        """Estimated horizontal acceleration (east, north) at the fusion horizon, m/s^2."""
+        if self._east is None:
+            return (0.0, 0.0)
+        return (self._east.a, self._north.a)
+
+    # -- internals -----------------------------------------------------------------
+    def _init(self, e: float, n: float, u: float, fix: GpsFix, t_m: float, lag: float) -> None:
+        cfg = self.config
+        var_a = 4.0  # (2 m/s^2)^2: unknown initial acceleration
+        self._east = _Axis(e, fix.v_east_mps, self._r_p, self._r_v, var_a)
+        self._north = _Axis(n, fix.v_north_mps, self._r_p, self._r_v, var_a)
+        self._t_d = t_m
+        self._u = u + fix.v_up_mps * lag
+        self._vu = fix.v_up_mps
+        if self._pending_baro is not None:
+            self._b = self._pending_baro - self._u
+            var_b = self._r_pu + self._r_baro
+        else:
+            self._b = 0.0
+            var_b = cfg.baro_drift_m**2 + self._var_bias_v + 100.0
+        self._V[:] = [self._r_pu, 0.0, 0.0, self._r_vu, 0.0, var_b]
+        self._v_init = True
+
+    def _v_update(self, h0: float, h1: float, h2: float, z: float, r: float) -> None:
+        """Scalar update of the vertical filter with H = (h0, h1, h2)."""
+        P = self._V
+        P00, P01, P02, P11, P12, P22 = P
+        c0 = P00 * h0 + P01 * h1 + P02 * h2
+        c1 = P01 * h0 + P11 * h1 + P12 * h2
+        c2 = P02 * h0 + P12 * h1 + P22 * h2
+        s = h0 * c0 + h1 * c1 + h2 * c2 + r
+        if not s > 0.0:
+            return
+        y = z - (h0 * self._u + h1 * self._vu + h2 * self._b)
+        k0, k1, k2 = c0 / s, c1 / s, c2 / s
+        self._u += k0 * y
+        self._vu += k1 * y
+        self._b += k2 * y
+        P[0] = P00 - k0 * c0
+        P[1] = P01 - k0 * c1
+        P[2] = P02 - k0 * c2
+        P[3] = P11 - k1 * c1
+        P[4] = P12 - k1 * c2
+        P[5] = P22 - k2 * c2

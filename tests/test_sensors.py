@@ -1,0 +1,150 @@
+"""Sensor models of the geofence unit: noise statistics, rates, latency, outages, reproducibility, YAML block."""
+
+import math
+
+import numpy as np
+import pytest
+
+from aircraft.sensors import SensorConfig, SensorSuite, parse_sensors
+from geofence.geodesy import LocalFrame
+from geofence.interface import VehicleState
+
+FRAME = LocalFrame(47.0, 8.0, 400.0)
+DT = 0.025
+
+
+def hover_truth(t: float) -> VehicleState:
+    lat, lon, h = FRAME.to_geodetic(0.0, 0.0, 30.0)
+    return VehicleState(t, lat, lon, h, 0.0, 0.0, 30.0, 30.0, 0.0, 0.0, 0.0, 0.1, -0.05, 1.0, 20.0)
+
+
+def run(suite: SensorSuite, seconds: float, truth_fn=hover_truth):
+    out = []
+    for k in range(int(round(seconds / DT))):
+        t = k * DT
+        out.append((t, *suite.sample(truth_fn(t))))
+    return out
+
+
+def test_gps_rate_and_latency():
+    suite = SensorSuite(SensorConfig(gps_rate_hz=5.0, gps_latency_s=0.2), seed=1)
+    rows = run(suite, 20.0)
+    fixes = [(t, f) for t, f, _, _ in rows if f is not None]
+    # 5 Hz for 20 s, plus the pre-filled fix at step 0
+    assert len(fixes) == pytest.approx(100, abs=1)
+    assert fixes[0][0] == 0.0 and fixes[0][1].t_s == pytest.approx(-0.2)
+    for t, f in fixes:
+        assert t - f.t_s == pytest.approx(0.2, abs=1e-9)
+    gaps = np.diff([t for t, _ in fixes])
+    assert np.allclose(gaps, 0.2, atol=1e-9)
+
+
+def test_no_prefill_first_fix_after_latency():
+    suite = SensorSuite(SensorConfig(gps_latency_s=0.3), seed=1, prefill=False)
+    rows = run(suite, 2.0)
+    first = next(t for t, f, _, _ in rows if f is not None)
+    assert first == pytest.approx(0.3, abs=1e-9)
+
+
+def test_gps_noise_statistics():
+    cfg = SensorConfig(gps_bias_tau_s=1.0)  # short tau so a long run samples the bias distribution
+    suite = SensorSuite(cfg, seed=2)
+    rows = run(suite, 600.0)
+    enu = np.array([FRAME.to_enu(f.lat_deg, f.lon_deg, f.alt_m) for _, f, _, _ in rows if f is not None])
+    vel = np.array([(f.v_east_mps, f.v_north_mps, f.v_up_mps) for _, f, _, _ in rows if f is not None])
+    err = enu - np.array([0.0, 0.0, 30.0])
+    assert abs(err[:, 0].mean()) < 0.3 and abs(err[:, 1].mean()) < 0.3
+    assert err[:, 0].std() == pytest.approx(cfg.gps_h_sigma_m, rel=0.12)
+    assert err[:, 1].std() == pytest.approx(cfg.gps_h_sigma_m, rel=0.12)
+    assert err[:, 2].std() == pytest.approx(cfg.gps_v_sigma_m, rel=0.12)
+    assert vel[:, 0].std() == pytest.approx(0.1, rel=0.1)
+    assert vel[:, 2].std() == pytest.approx(0.2, rel=0.1)
+
+
+def test_gps_bias_is_slow():
+    """With the default tau = 60 s, consecutive fixes share most of their error (lag-1 correlation ~ 0.9)."""
+    suite = SensorSuite(SensorConfig(), seed=4)
+    rows = run(suite, 300.0)
+    e = np.array([FRAME.to_enu(f.lat_deg, f.lon_deg, f.alt_m)[0] for _, f, _, _ in rows if f is not None])
+    r1 = np.corrcoef(e[:-1], e[1:])[0, 1]
+    assert r1 > 0.8
+
+
+def test_baro_airspeed_ahrs_noise():
+    cfg = SensorConfig(baro_drift_m=0.0, ahrs_tau_s=0.0)
+    suite = SensorSuite(cfg, seed=5)
+    rows = run(suite, 200.0)
+    truth = hover_truth(0.0)
+    baro = np.array([a.baro_alt_m for _, _, a, _ in rows]) - truth.alt_m
+    tas = np.array([a.airspeed_mps for _, _, a, _ in rows]) - 20.0
+    roll = np.array([x.roll_rad for _, _, _, x in rows]) - truth.roll_rad
+    yaw = np.array([x.yaw_rad for _, _, _, x in rows]) - truth.yaw_rad
+    assert baro.std() == pytest.approx(0.3, rel=0.05) and abs(baro.mean()) < 0.02
+    assert tas.std() == pytest.approx(0.3, rel=0.05)
+    assert np.degrees(roll.std()) == pytest.approx(0.5, rel=0.05)
+    assert np.degrees(yaw.std()) == pytest.approx(2.0, rel=0.05)
+
+
+def test_multirotor_has_no_airspeed():
+    suite = SensorSuite(seed=1, has_pitot=False)
+    _, air, _ = suite.sample(hover_truth(0.0))
+    assert air.airspeed_mps is None
+
+
+def test_reproducible_by_seed_and_streams_independent():
+    a = run(SensorSuite(seed=7), 5.0)
+    b = run(SensorSuite(seed=7), 5.0)
+    c = run(SensorSuite(seed=8), 5.0)
+    assert a == b
+    assert a != c
+    # changing the pitot noise leaves the GNSS stream untouched
+    d = run(SensorSuite(SensorConfig(airspeed_noise_mps=1.0), seed=7), 5.0)
+    assert [r[1] for r in a] == [r[1] for r in d]
+    assert [r[2] for r in a] != [r[2] for r in d]
+
+
+def test_gps_fail_and_outage_windows():
+    suite = SensorSuite(SensorConfig(gps_outages=((3.0, 5.0),), gps_fail_at_s=10.0), seed=3)
+    rows = run(suite, 15.0)
+    fixes = [f for _, f, _, _ in rows if f is not None]
+    for f in fixes:
+        lost = 3.0 <= f.t_s < 5.0 or f.t_s >= 10.0
+        assert f.valid is (not lost)
+        if lost:
+            assert math.isnan(f.lat_deg) and math.isinf(f.horizontal_accuracy_m)
+        else:
+            assert math.isfinite(f.lat_deg)
+    assert any(not f.valid for f in fixes) and any(f.valid for f in fixes)
+
+
+def test_parse_sensors():
+    assert parse_sensors(None) == SensorConfig()
+    cfg = parse_sensors({"gps_rate_hz": 10, "gps_outages": [[1, 2]], "gps_fail_at_s": 30, "seed": 4}, "x.yaml: sensors")
+    assert cfg.gps_rate_hz == 10.0 and cfg.gps_outages == ((1.0, 2.0),) and cfg.gps_fail_at_s == 30.0 and cfg.seed == 4
+    bad = [
+        ({"gps_rat_hz": 5}, "x: sensors.gps_rat_hz: unknown key (did you mean 'gps_rate_hz'?"),
+        ({"gps_rate_hz": 0}, "x: sensors.gps_rate_hz: must be > 0"),
+        ({"baro_noise_m": -1}, "x: sensors.baro_noise_m: must be >= 0"),
+        ({"gps_latency_s": "0.2"}, "x: sensors.gps_latency_s: expected a number"),
+        ({"gps_outages": [[5, 2]]}, "x: sensors.gps_outages[0]: end_s must be > start_s"),
+        ({"gps_outages": 3}, "x: sensors.gps_outages: expected a list"),
+        ({"seed": -1}, "x: sensors.seed: expected an integer >= 0"),
+        ([1, 2], "x: sensors: expected a mapping"),
+    ]
+    for raw, msg in bad:
+        with pytest.raises(ValueError) as exc:
+            parse_sensors(raw, "x: sensors")
+        assert str(exc.value).startswith(msg), str(exc.value)
+        assert "\n" not in str(exc.value)
+
+
+def test_per_call_cost_printed():
+    import time
+
+    suite = SensorSuite(seed=1)
+    truths = [hover_truth(k * DT) for k in range(4000)]
+    t0 = time.perf_counter()
+    for tr in truths:
+        suite.sample(tr)
+    us = (time.perf_counter() - t0) / len(truths) * 1e6
+    print(f"SensorSuite.sample: {us:.1f} us per call")
