@@ -16,6 +16,7 @@ Example (every key but ``fence`` optional)::
       recovery_speed_mps: 5.0      # multirotor return speed (default: half cruise)
       max_reactivations: 3         # still outside after this many override periods -> land in a gap
       wind_prior: {speed_mps: 8, from_deg: 240}   # forecast wind until the estimate converges
+      state_source: estimate       # estimate (own sensors + Kalman filter, default) | truth (e.g. indoor motion capture)
 
 All messages are one line: ``<where>.<field>: <problem>``.
 """
@@ -73,11 +74,14 @@ class GeofenceConfig:
     max_reactivations: int = 3
     wind_prior_enu: tuple[float, float] = (0.0, 0.0)
     """Forecast wind (east, north m/s, toward) used until the estimate converges."""
+    state_source: str = "estimate"
+    """``estimate``: the unit's own sensors and filter; ``truth``: a perfect position source (motion capture)."""
 
 
 _KEYS = {
     "fence", "trigger", "min_override_s", "handback_margin_m", "recovery_radius_m", "uncertainty_k_sigma",
     "extra_margin_m", "multirotor_law", "seed_pd", "ramp_s", "recovery_speed_mps", "max_reactivations", "wind_prior",
+    "state_source",
 }
 
 
@@ -152,4 +156,5 @@ def parse_geofence(raw: Any, where: str = "geofence") -> GeofenceConfig:
         recovery_speed_mps=None if speed is None else num("recovery_speed_mps", 0.0, 0.1, 100.0),
         max_reactivations=max_react,
         wind_prior_enu=prior,
+        state_source=choice("state_source", "estimate", ("estimate", "truth")),
     )

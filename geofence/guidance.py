@@ -46,6 +46,7 @@ ALTITUDE_GAIN_PER_S = 1.0
 FIXED_WING_ALTITUDE_GAIN_PER_S = 0.35
 COURSE_GAIN_PER_S = 0.9
 ROLL_OUT_TOLERANCE_RAD = math.radians(15.0)
+LEVEL_TOUCHDOWN_BELOW_M = 1.5
 
 
 class MultirotorVelocityRecovery:
@@ -182,13 +183,16 @@ class LandingGuidance:
         pe, pn = self.point
         return math.hypot(pe - s.east_m, pn - s.north_m) < (2.0 if self.env.is_multirotor else 1.5 * self.spiral_radius_m)
 
-    def sticks(self, s: VehicleState, h: float, dt_s: float) -> StickCommand:
+    def sticks(self, s: VehicleState, h: float, dt_s: float, descend: bool | None = None) -> StickCommand:
+        """Sticks toward the landing point; descend when ``descend`` (default: when over the point)."""
         env = self.env
         pe, pn = self.point
-        over = self.over_point(s)
+        over = self.over_point(s) if descend is None else descend
         if self.velocity is not None:
             ve, vn = approach_velocity(s.east_m, s.north_m, pe, pn, 0.5 * env.cruise_speed_mps, 0.8, 0.5 * env.braking_decel_mps2)
             roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve, vn, s.yaw_rad, dt_s)
+            if over and h < LEVEL_TOUCHDOWN_BELOW_M:  # touch down level: a tilted landing gear tips over
+                roll = pitch = 0.0
             climb = -min(1.0, env.max_descent_rate_mps) if over else altitude_to_climb_rate(self.cruise_h, h, env, ALTITUDE_GAIN_PER_S)
             return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=climb_rate_to_stick(climb, env))
         course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, pe, pn, self.spiral_radius_m)

@@ -8,7 +8,13 @@ State machine (every transition is logged with time and reason)::
     any ──position lost / return impossible / > max_reactivations──▶ LAND_IN_GAP ──▶ TERMINATE
                                                                          (fixed-wing, low over the gap)
 
+With the position source lost, the unit navigates to the gap by dead
+reckoning from its last valid estimate (:mod:`geofence.dead_reckoning`).
+
 * MONITOR and RECOVERED pass the pilot's sticks through unchanged.
+* Return is impossible when the estimated wind reaches 90 % of the platform's
+  max speed: at an activation, or held for 3 s at any time, the unit goes
+  straight to LAND_IN_GAP (the most reachable floor gap, downwind preferred).
 * Either a lateral or a vertical trigger starts the whole 3-D override
   (lateral goal: the recovery point; vertical goal: a safe height band).
 * The activation margin is the estimated margin to the fence minus the room
@@ -32,14 +38,17 @@ from enum import IntEnum
 
 from geofence.boundary_shift import ShiftResult, activation_margins
 from geofence.config import GeofenceConfig
-from geofence.control_laws import clip
+from geofence.control_laws import climb_rate_to_stick, clip
+from geofence.dead_reckoning import DeadReckoning
 from geofence.fence import LocalFence
 from geofence.guidance import FixedWingRecovery, LandingGuidance, MultirotorVelocityRecovery, SeedPDRecovery
 from geofence.interface import Envelope, StickCommand, VehicleState
 
 RECOVERED_HOLD_S = 1.0
+WIND_BEYOND_AUTHORITY_PERSIST_S = 3.0
 RETURN_IMPOSSIBLE_WIND_FRACTION = 0.9
 TERMINATE_BELOW_AGL_M = 8.0
+LANDING_EDGE_MARGIN_M = 2.0
 
 
 class Mode(IntEnum):
@@ -85,6 +94,12 @@ class GeofenceUnit:
         turn_r = envelope.cruise_speed_mps**2 / (9.80665 * math.tan(max(envelope.max_bank_rad, 0.05)))
         self.landing = LandingGuidance(envelope, spiral_radius_m=max(1.2 * turn_r, 10.0))
         self._mode_since_s = 0.0
+        self._strong_wind_since_s: float | None = None
+        self._position_valid = True
+        self._last_valid: VehicleState | None = None
+        self.dead_reckoning = DeadReckoning(envelope)
+        self.estimate: VehicleState | None = None
+        """The state the unit acted on last (its estimate, or its dead reckoning)."""
         self._override_period_start_s = 0.0
         lo = fence.floor_m if fence.floor_m is not None else (0.0 if fence.altitude_reference == "agl" else -math.inf)
         band = max(0.15 * (fence.ceiling_m - lo) if math.isfinite(lo) else 5.0, 0.1)
@@ -220,6 +235,15 @@ class GeofenceUnit:
         """One step: returns the sticks to send to the flight controller (the pilot's, or the override's)."""
         if wind_en is not None:
             self.wind_enu[0], self.wind_enu[1] = wind_en
+        self._position_valid = position_valid
+        if position_valid:
+            self._last_valid = est
+            self.dead_reckoning.stop()
+        elif self._last_valid is not None:
+            if not self.dead_reckoning.active:
+                self.dead_reckoning.start(self._last_valid)
+            est = self.dead_reckoning.step(est, dt_s, (self.wind_enu[0], self.wind_enu[1]))
+        self.estimate = est
         h = self.height(est)
         mode = self.mode
         if mode is Mode.LAND_IN_GAP or mode is Mode.TERMINATE:
@@ -227,6 +251,15 @@ class GeofenceUnit:
         if not position_valid:
             self._start_landing(t_s, est, h, "position source lost")
             return self._land(t_s, est, h, dt_s)
+        impossible = self._return_impossible()
+        if impossible is None:
+            self._strong_wind_since_s = None
+        else:
+            if self._strong_wind_since_s is None:
+                self._strong_wind_since_s = t_s
+            if t_s - self._strong_wind_since_s >= WIND_BEYOND_AUTHORITY_PERSIST_S:
+                self._start_landing(t_s, est, h, impossible)
+                return self._land(t_s, est, h, dt_s)
 
         monitoring = mode is Mode.MONITOR or mode is Mode.RECOVERED
         if monitoring and self.config.trigger == "predictive" and self._far_from_everything(est, h, sigma_h_m, sigma_v_m, dt_s):
@@ -241,7 +274,6 @@ class GeofenceUnit:
         if mode is Mode.MONITOR or mode is Mode.RECOVERED:
             if act <= 0.0:
                 self.activations += 1
-                impossible = self._return_impossible()
                 if impossible:
                     self._start_landing(t_s, est, h, impossible)
                     return self._land(t_s, est, h, dt_s)
@@ -273,11 +305,20 @@ class GeofenceUnit:
         lateral_ok = act >= self.config.handback_margin_m and r.closing_speed_mps <= 0.0
         return vertical_ok and (lateral_ok or at_point)
 
+    def _safe_to_descend(self, s: VehicleState) -> bool:
+        """Over ground where landing is allowed, with room to spare (2 m, or inside a gap by 2 m)."""
+        fence = self.fence
+        if fence.lateral_margin_m(s.east_m, s.north_m) < LANDING_EDGE_MARGIN_M:
+            return False
+        return fence.floor_m is None or fence.gap_distance_m(s.east_m, s.north_m) >= LANDING_EDGE_MARGIN_M
+
     def _land(self, t_s: float, s: VehicleState, h: float, dt_s: float) -> StickCommand:
         if self.env.is_multirotor:
             if s.on_ground:
                 return StickCommand(throttle=-1.0)
-            return self.landing.sticks(s, h, dt_s)
+            if not self._position_valid and not self.dead_reckoning.active:  # never had a position: level, descend
+                return StickCommand(throttle=climb_rate_to_stick(-min(1.0, self.env.max_descent_rate_mps), self.env))
+            return self.landing.sticks(s, h, dt_s, descend=self._safe_to_descend(s) or self.landing.over_point(s))
         if self.mode is Mode.LAND_IN_GAP and self.landing.over_point(s) and s.agl_m < TERMINATE_BELOW_AGL_M:
             self._switch(t_s, Mode.TERMINATE, f"flight termination over the landing gap at {s.agl_m:.1f} m AGL")
         if self.mode is Mode.TERMINATE:

@@ -43,6 +43,12 @@ COLUMNS = (
     "cmd_throttle",
     "geofence_mode",
     "mission_item",
+    "est_east_m",
+    "est_north_m",
+    "est_agl_m",
+    "est_wind_east_mps",
+    "est_wind_north_mps",
+    "activation_margin_m",
 )
 COLUMN_INDEX = {name: i for i, name in enumerate(COLUMNS)}
 _DEG = 180.0 / math.pi
@@ -63,6 +69,9 @@ class Recorder:
         cmd: StickCommand,
         mode: int,
         item: int,
+        est: VehicleState | None = None,
+        wind_est: tuple[float, float] = (math.nan, math.nan),
+        activation_margin_m: float = math.nan,
     ) -> None:
         if self.n >= len(self.data):
             self.data = np.concatenate([self.data, np.full_like(self.data, np.nan)])
@@ -96,6 +105,12 @@ class Recorder:
             cmd.throttle,
             mode,
             item,
+            est.east_m if est is not None else math.nan,
+            est.north_m if est is not None else math.nan,
+            est.agl_m if est is not None else math.nan,
+            wind_est[0],
+            wind_est[1],
+            activation_margin_m,
         )
         self.n += 1
 
@@ -106,7 +121,7 @@ class Recorder:
         return self.data[: self.n, COLUMN_INDEX[name]]
 
     def write_csv(self, path: Path) -> None:
-        fmt = ["%.3f", "%.8f", "%.8f"] + ["%.4f"] * (len(COLUMNS) - 5) + ["%d", "%d"]
+        fmt = ["%.3f", "%.8f", "%.8f"] + ["%.4f"] * 24 + ["%d", "%d"] + ["%.4f"] * 6
         np.savetxt(path, self.rows(), delimiter=",", header=",".join(COLUMNS), comments="", fmt=fmt)
 
 

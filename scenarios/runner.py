@@ -67,6 +67,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     pilot = build_pilot(scenario, frame, env, truth, dt_s)
     fence = scenario.geofence.fence.to_local(frame) if scenario.geofence else None
     unit = GeofenceUnit(scenario.geofence, fence, env) if scenario.geofence else None
+    own = _GeofenceSensing(scenario, frame, env) if unit is not None else None
 
     error = None
     finished_at = None
@@ -80,16 +81,19 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
             platform.set_wind_enu(*w)
             cmd_in = pilot.command(truth)
             if unit is not None:
-                we, wn, _ = wind.mean(truth.agl_m)
-                cmd = unit.update(truth.t_s, truth, cmd_in, dt_s, wind_en=(we, wn))
+                est, wind_en, valid, sigma_h, sigma_v = own.sense(truth, dt_s)
+                cmd = unit.update(truth.t_s, est, cmd_in, dt_s, wind_en=wind_en, position_valid=valid, sigma_h_m=sigma_h, sigma_v_m=sigma_v)
                 mode = int(unit.mode)
+                recorder.append(truth, w, cmd_in, cmd, mode, pilot.items_reached, unit.estimate, wind_en, unit.activation_margin_m)
             else:
                 cmd = cmd_in
+                recorder.append(truth, w, cmd_in, cmd, mode, pilot.items_reached)
             platform.command(cmd)
-            recorder.append(truth, w, cmd_in, cmd, mode, pilot.items_reached)
-            if pilot.finished and finished_at is None:
+            ended_by_geofence = mode >= 3 and truth.on_ground  # landed in a gap / terminated
+            if (pilot.finished or ended_by_geofence) and finished_at is None:
                 finished_at = truth.t_s
-            if finished_at is not None and truth.t_s - finished_at >= TAIL_AFTER_FINISH_S:
+            tail = 0.0 if ended_by_geofence else TAIL_AFTER_FINISH_S  # after a touchdown in a gap: stop at once
+            if finished_at is not None and truth.t_s - finished_at >= tail:
                 break
             if step == n_steps:
                 break
@@ -102,7 +106,10 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     wall = time.perf_counter() - wall0
     frames = step * frames_per_step
     mission = scenario.pilot.kind == "mission"
-    completed = error is None and (pilot.finished if mission else True)
+    geofence_ended = unit is not None and int(unit.mode) >= 3 and finished_at is not None
+    # a flight is complete when it ran to its end: the mission finished, a script ran its
+    # duration, or the geofence ended it by landing in a floor gap / terminating there
+    completed = error is None and (pilot.finished or geofence_ended if mission else True)
     summary = {
         "scenario": scenario.name,
         "aircraft": scenario.aircraft,
@@ -113,6 +120,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         "wind_from_deg": scenario.wind.from_deg if scenario.wind is not None else None,
         "geofence": scenario.geofence is not None,
         "completed": completed,
+        "mission_finished": bool(pilot.finished),
+        "ended_by_geofence": bool(geofence_ended),
         "mission_progress": f"{pilot.items_reached}/{pilot.items_total}",
         "waypoints_reached": pilot.items_reached,
         "waypoints_total": pilot.items_total,
@@ -132,6 +141,49 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         summary["final_mode"] = unit.mode.name
         summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
     return FlightResult(scenario=scenario, summary=summary, recorder=recorder, frame=frame, extras={"fence": fence, "unit": unit})
+
+
+class _GeofenceSensing:
+    """The geofence unit's own view of the flight: sensors -> state estimator -> wind estimator.
+
+    With ``state_source: truth`` (e.g. indoor motion capture) the unit gets the
+    true state and the true steady wind instead.
+    """
+
+    def __init__(self, scenario: Scenario, frame: LocalFrame, env):
+        from aircraft.sensors import SensorSuite
+        from geofence.estimator import EstimatorConfig, GeofenceEstimator
+        from geofence.wind_estimator import WindEstimator, WindEstimatorConfig
+
+        cfg = scenario.geofence
+        self.truth_source = cfg.state_source == "truth"
+        sc = scenario.sensors
+        self.sensors = SensorSuite(sc, has_pitot=not env.is_multirotor, seed=scenario.seed)
+        self.estimator = GeofenceEstimator(
+            frame,
+            EstimatorConfig(
+                gps_h_white_m=sc.gps_h_white_m, gps_h_bias_m=sc.gps_h_bias_m, gps_v_white_m=sc.gps_v_white_m,
+                gps_v_bias_m=sc.gps_v_bias_m, gps_bias_tau_s=sc.gps_bias_tau_s, gps_vel_h_mps=sc.gps_vel_h_noise_mps,
+                gps_vel_v_mps=sc.gps_vel_v_noise_mps, baro_noise_m=sc.baro_noise_m, baro_drift_m=sc.baro_drift_m,
+                baro_drift_tau_s=sc.baro_drift_tau_s,
+            ),
+        )
+        self.wind = WindEstimator(env, WindEstimatorConfig(prior_enu=cfg.wind_prior_enu))
+        self._truth_wind = None
+        if self.truth_source and scenario.wind is not None:
+            self._truth_wind = wind_from_config(scenario.wind, scenario.seed)
+
+    def sense(self, truth, dt_s: float):
+        """(estimate, wind estimate (E, N) m/s, position valid, sigma_h m, sigma_v m) for this step."""
+        if self.truth_source:
+            we, wn = (self._truth_wind.mean(truth.agl_m)[:2]) if self._truth_wind is not None else (0.0, 0.0)
+            return truth, (we, wn), True, 0.0, 0.0
+        fix, air, att = self.sensors.sample(truth)
+        est = self.estimator.step(dt_s, fix, air, att)
+        est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
+        valid = self.estimator.position_valid
+        wind_en = self.wind.update(est, air.airspeed_mps, dt_s, valid)
+        return est, wind_en, valid, self.estimator.sigma_h_m, self.estimator.sigma_v_m
 
 
 def write_result(result: FlightResult, out_dir: Path, folder_name: str | None = None) -> Path:

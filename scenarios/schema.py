@@ -20,6 +20,7 @@ from typing import Any
 import yaml
 
 from aircraft.jsbsim_model import UnknownAircraftError, model_folder
+from aircraft.sensors import SensorConfig, parse_sensors
 from aircraft.profile import PlatformProfile, ProfileError, available_profiles, load_profile, parse_profile
 from scenarios.errors import (
     ConfigError,
@@ -143,11 +144,12 @@ class Scenario:
     geofence: GeofenceConfig | None = None
     """The geofence unit's configuration (None: fly without a geofence)."""
     description: str = ""
-    extra: dict[str, Any] = field(default_factory=dict)
+    sensors: SensorConfig = field(default_factory=SensorConfig)
+    """The geofence unit's sensors (noise, rates, GPS outages)."""
 
 
 _TOP_KEYS = frozenset(
-    {"name", "description", "aircraft", "profile", "start", "duration_s", "seed", "pilot", "mission", "wind", "control_rate_hz", "geofence"}
+    {"name", "description", "aircraft", "profile", "sensors", "start", "duration_s", "seed", "pilot", "mission", "wind", "control_rate_hz", "geofence"}
 )
 
 
@@ -213,6 +215,11 @@ def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source:
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
 
+    try:
+        sensors = parse_sensors(raw["sensors"], f"{where}: sensors") if raw.get("sensors") is not None else SensorConfig()
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
+
     geofence = None
     if raw.get("geofence") is not None:
         geofence = _parse_geofence_block(raw["geofence"], f"{where}: geofence", start, profile, wind)
@@ -231,6 +238,7 @@ def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source:
         control_rate_hz=rate,
         geofence=geofence,
         description=str(raw.get("description", "")),
+        sensors=sensors,
     )
 
 

@@ -11,12 +11,15 @@ import math
 
 import pytest
 
+from pathlib import Path
+
 from geofence.geodesy import LocalFrame
 from scenarios.runner import fly
 from scenarios.schema import parse_scenario
 
 pytestmark = pytest.mark.closed_loop
 
+ROOT_SCENARIOS = Path(__file__).parents[1] / "scenarios"
 SITE = {"lat_deg": -35.363262, "lon_deg": 149.165237, "ground_alt_m": 584.0}
 FRAME = LocalFrame(SITE["lat_deg"], SITE["lon_deg"], SITE["ground_alt_m"])
 # per platform: fence half-size (m), start height AGL (m), ceiling (m)
@@ -89,3 +92,20 @@ def test_without_a_geofence_the_same_pilot_does_cross():
     res = fly(parse_scenario(doc, "nofence.yaml"))
     assert res.recorder.column("east_m").max() > half + 50.0
     assert math.isfinite(res.summary["sim_time_s"])
+
+
+def test_position_loss_over_a_floor_ends_with_a_termination_inside_the_floor_gap():
+    """Return impossible (GPS lost): the unit dead-reckons to the floor gap and ends the flight inside it."""
+    from scenarios.schema import load_scenario
+
+    res = fly(load_scenario(ROOT_SCENARIOS / "geofence_gps_loss_fixedwing.yaml"))
+    s = res.summary
+    assert s["completed"] and s["ended_by_geofence"], s
+    modes = [tr["to"] for tr in s["mode_transitions"]]
+    assert modes[0] == "LAND_IN_GAP" and "position source lost" in s["mode_transitions"][0]["reason"]
+    assert modes[-1] in ("TERMINATE", "LAND_IN_GAP")
+    fence = res.extras["fence"]
+    e, n = res.recorder.column("east_m")[-1], res.recorder.column("north_m")[-1]
+    assert fence.in_floor_gap(e, n), f"ended at ({e:.0f}, {n:.0f}) m, outside the gap"
+    assert not s["landed_outside_gap"]
+    assert s["max_excursion_m"] <= 0.0  # never below the floor outside the gap, never outside the fence

@@ -1,0 +1,119 @@
+"""The geofence unit's state machine on synthetic states (no JSBSim): triggers, holds, hand-back, landing."""
+
+import math
+
+import pytest
+
+from geofence.config import parse_geofence
+from geofence.geodesy import LocalFrame
+from geofence.interface import Envelope, PlatformKind, StickCommand, VehicleState
+from geofence.unit import Mode, GeofenceUnit
+
+FRAME = LocalFrame(47.0, 8.0, 400.0)
+MC = Envelope(PlatformKind.MULTIROTOR, 8.0, 15.0, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0, 5.6, 4.5, 0.25)
+PILOT = StickCommand(roll=0.3, pitch=-0.8, yaw=0.0, throttle=0.2)
+DT = 0.025
+
+
+def box(half_m, extra=None):
+    corners = [(-half_m, -half_m), (half_m, -half_m), (half_m, half_m), (-half_m, half_m)]
+    fence = {"keep_in": [list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in corners], "ceiling_m": 60}
+    fence.update(extra or {})
+    return fence
+
+
+def unit(trigger="predictive", **kw):
+    cfg = parse_geofence({"fence": box(100.0), "trigger": trigger, **kw}, "test")
+    return GeofenceUnit(cfg, cfg.fence.to_local(FRAME), MC)
+
+
+def state(t, e, ve=0.0, agl=20.0, n=0.0, vn=0.0, vu=0.0):
+    return VehicleState(t_s=t, east_m=e, north_m=n, up_m=agl, agl_m=agl, alt_m=400 + agl, v_east_mps=ve, v_north_mps=vn, v_up_mps=vu)
+
+
+def test_passes_the_pilot_through_far_from_the_fence():
+    u = unit()
+    assert u.update(0.0, state(0.0, 0.0, ve=5.0), PILOT, DT) == PILOT
+    assert u.mode is Mode.MONITOR and u.transitions == []
+
+
+def test_predictive_trigger_acts_before_the_line_when_the_room_runs_out():
+    u = unit()
+    # 10 m/s toward the east edge at 100 m: the braking room is ~16 m
+    assert u.update(0.0, state(0.0, 50.0, ve=10.0), PILOT, DT) == PILOT
+    out = u.update(0.1, state(0.1, 88.0, ve=10.0), PILOT, DT)
+    assert u.mode is Mode.OVERRIDE and out != PILOT
+    assert out.roll < -0.5  # braking: bank left against the eastward motion (yaw 0 = facing north)
+    assert "lateral" in u.transitions[-1].reason and u.activations == 1
+
+
+def test_reactive_trigger_waits_for_the_line():
+    u = unit("reactive")
+    u.update(0.0, state(0.0, 95.0, ve=10.0), PILOT, DT)
+    assert u.mode is Mode.MONITOR
+    u.update(0.1, state(0.1, 100.5, ve=10.0), PILOT, DT)
+    assert u.mode is Mode.OVERRIDE and "reactive" in u.transitions[-1].reason
+
+
+def test_vertical_trigger_starts_the_whole_override():
+    u = unit()
+    u.update(0.0, state(0.0, 0.0, agl=58.5, vu=3.0), PILOT, DT)
+    assert u.mode is Mode.OVERRIDE and "vertical" in u.transitions[-1].reason
+
+
+def test_override_is_held_at_least_min_override_s_then_handed_back_inside():
+    u = unit(min_override_s=2.0, handback_margin_m=5.0)
+    u.update(0.0, state(0.0, 95.0, ve=8.0), PILOT, DT)
+    assert u.mode is Mode.OVERRIDE
+    # back inside and moving inward right away: still held until 2 s
+    u.update(1.0, state(1.0, 50.0, ve=-3.0), PILOT, DT)
+    assert u.mode is Mode.OVERRIDE
+    out = u.update(2.1, state(2.1, 50.0, ve=-3.0), PILOT, DT)
+    assert u.mode is Mode.RECOVERED and out == PILOT
+    u.update(3.2, state(3.2, 40.0, ve=-3.0), PILOT, DT)
+    assert u.mode is Mode.MONITOR
+
+
+def test_still_outside_at_the_end_of_the_period_reactivates_then_lands():
+    u = unit(min_override_s=2.0, max_reactivations=2)
+    u.update(0.0, state(0.0, 99.0, ve=8.0), PILOT, DT)
+    for k, t in enumerate((2.0, 4.0)):
+        u.update(t, state(t, 101.0, ve=1.0), PILOT, DT)
+        assert u.mode is Mode.OVERRIDE and "re-activated" in u.transitions[-1].reason
+    u.update(6.0, state(6.0, 101.0, ve=1.0), PILOT, DT)
+    assert u.mode is Mode.LAND_IN_GAP and "recovery failed" in u.transitions[-1].reason
+
+
+def test_position_loss_lands():
+    u = unit()
+    u.update(0.0, state(0.0, 10.0), PILOT, DT)
+    out = u.update(0.1, state(0.1, 10.0), PILOT, DT, position_valid=False)
+    assert u.mode is Mode.LAND_IN_GAP and "position source lost" in u.transitions[-1].reason
+    assert out != PILOT
+
+
+def test_wind_beyond_authority_for_3_s_lands():
+    u = unit()
+    strong = (14.0, 0.0)  # >= 90 % of the 15 m/s max speed
+    for k in range(0, 120):  # 3 s at 40 Hz
+        u.update(k * DT, state(k * DT, 0.0), PILOT, DT, wind_en=strong)
+    assert u.mode is Mode.MONITOR
+    u.update(3.1, state(3.1, 0.0), PILOT, DT, wind_en=strong)
+    assert u.mode is Mode.LAND_IN_GAP and "return impossible" in u.transitions[-1].reason
+
+
+def test_lands_in_the_most_reachable_floor_gap():
+    gaps = []
+    for ce in (-60.0, 60.0):
+        corners = [(ce - 10, -10), (ce + 10, -10), (ce + 10, 10), (ce - 10, 10)]
+        gaps.append([list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in corners])
+    cfg = parse_geofence({"fence": box(100.0, {"floor_m": 10, "floor_gaps": gaps})}, "test")
+    u = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), MC)
+    u.update(0.0, state(0.0, -5.0), PILOT, DT, wind_en=(0.0, 0.0))
+    u.update(0.1, state(0.1, -5.0), PILOT, DT, position_valid=False)
+    e, n = u.landing.point
+    assert e == pytest.approx(-60.0, abs=1.0)  # nearest in calm air
+    u2 = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), MC)
+    u2.update(0.0, state(0.0, -5.0), PILOT, DT, wind_en=(12.0, 0.0))  # a strong tailwind toward the east gap
+    u2.update(0.1, state(0.1, -5.0), PILOT, DT, wind_en=(12.0, 0.0), position_valid=False)
+    assert u2.landing.point[0] == pytest.approx(60.0, abs=1.0)
