@@ -6,6 +6,9 @@ Subcommands:
 * ``batch PATH... --out DIR [--jobs N]``: fly every scenario (and sweep) found, in parallel,
   resumably; write results.csv and report.md.
 * ``plot DIR`` / ``compare DIR``: regenerate figures / the platform comparison from saved results.
+* ``seed-reproduction DIR``: fly the seed work's indoor quad with the reactive and our predictive fence.
+* ``score-log LOG --fence FILE``: score a real flight log (tlog / DataFlash .bin) against a fence file.
+* ``import-fence FILE``: turn a QGC .plan / WPL 110 / MAVProxy fence file into a scenario ``geofence:`` block.
 * ``validate SCENARIO.yaml...``: check scenario files without flying them.
 * ``list``: the aircraft that can fly and the shipped example scenarios.
 
@@ -31,9 +34,11 @@ SHIPPED_SCENARIOS = Path(__file__).parent
 def _user_errors() -> tuple[type[BaseException], ...]:
     from aircraft.jsbsim_model import UnknownAircraftError
     from aircraft.profile import ProfileError
+    from analysis.logs import LogError
+    from geofence.fence import FenceError
     from scenarios.errors import ConfigError
 
-    return (ConfigError, ProfileError, UnknownAircraftError)
+    return (ConfigError, ProfileError, UnknownAircraftError, FenceError, LogError)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -89,6 +94,41 @@ def build_parser() -> argparse.ArgumentParser:
     compare = sub.add_parser("compare", help="platform comparison from saved results", description="Print the platform comparison table (per platform and wind level: breaches, peak excursion, activations, recovery time) of the flights in DIR and write DIR/platform_comparison.png/.svg.")
     compare.add_argument("out", type=Path, metavar="DIR", help="a batch output folder")
 
+    seed = sub.add_parser(
+        "seed-reproduction",
+        help="reproduce the seed flight tests (indoor quad, reactive vs predictive fence)",
+        description=(
+            "Fly scenarios/paper/indoor_quad.yaml (reactive fence, published PD law) and "
+            "indoor_quad_predictive.yaml (our predictive fence) on the same breach attempts; write DIR/seed_reproduction.md "
+            "with per-axis overshoot statistics (mean, sd, correlation with the velocity at activation) and the figures."
+        ),
+    )
+    seed.add_argument("out", type=Path, metavar="DIR", help="output folder")
+    seed.add_argument("--no-fly", action="store_true", help="re-analyse flights already in DIR")
+
+    score = sub.add_parser(
+        "score-log",
+        help="score a real flight log against a fence file",
+        description=(
+            "Read a MAVLink telemetry log (.tlog) or an ArduPilot DataFlash log (.bin) and a fence file "
+            "(QGroundControl .plan, QGC WPL 110 fence items, MAVProxy fence text), and print the breach scores: "
+            "peak excursion beyond the fence (m), time outside (s), minimum margin (m). Fence files carry no "
+            "ceiling, so give one with --ceiling (m above home)."
+        ),
+    )
+    score.add_argument("log", type=Path, metavar="LOG", help=".tlog or .bin flight log")
+    score.add_argument("--fence", type=Path, required=True, metavar="FILE", help="fence file (.plan, WPL 110, MAVProxy)")
+    score.add_argument("--ceiling", type=float, default=None, metavar="M", help="ceiling, m above home (default 120)")
+
+    imp = sub.add_parser(
+        "import-fence",
+        help="convert a fence file into a scenario geofence block",
+        description="Read a QGroundControl .plan, QGC WPL 110 or MAVProxy fence file and print (or write with -o) the equivalent scenario 'geofence:' YAML block, with any warnings on stderr.",
+    )
+    imp.add_argument("fence_file", type=Path, metavar="FILE")
+    imp.add_argument("--ceiling", type=float, default=None, metavar="M", help="ceiling, m above home (default 120)")
+    imp.add_argument("-o", "--output", type=Path, default=None, metavar="OUT.yaml", help="write here instead of stdout")
+
     val = sub.add_parser("validate", help="check scenario files without flying", description="Load and validate scenario files; print one line per file.")
     val.add_argument("scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml")
 
@@ -108,6 +148,15 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_plot(args)
         if args.command == "compare":
             return _cmd_compare(args)
+        if args.command == "seed-reproduction":
+            from analysis.seed_reproduction import run as seed_run
+
+            print(f"wrote {seed_run(args.out, fly_flights=not args.no_fly)}")
+            return 0
+        if args.command == "score-log":
+            return _cmd_score_log(args)
+        if args.command == "import-fence":
+            return _cmd_import_fence(args)
         if args.command == "validate":
             return _cmd_validate(args)
         if args.command == "list":
@@ -244,6 +293,47 @@ def _cmd_compare(args) -> int:
     print(comparison_table(rows))
     for path in plot_platform_comparison(rows, Path(args.out) / "platform_comparison"):
         print(path)
+    return 0
+
+
+def _cmd_score_log(args) -> int:
+    import json
+
+    from analysis.logs import describe, load_log
+    from analysis.scoring import score_flight
+    from geofence.importers import load_fence_file, summarize
+
+    imported = load_fence_file(args.fence, ceiling_m=args.ceiling)
+    traj, info = load_log(args.log)
+    frame = info.frame
+    scores = score_flight(traj, imported.fence.to_local(frame))
+    print(describe(info))
+    print(summarize(imported))
+    for w in imported.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    import math
+
+    def clean(v):
+        return (round(v, 3) if math.isfinite(v) else None) if isinstance(v, float) else v
+
+    print(json.dumps({k: clean(v) for k, v in scores.items()}, indent=2))
+    return 0
+
+
+def _cmd_import_fence(args) -> int:
+    import yaml
+
+    from geofence.importers import fence_to_yaml_block, load_fence_file
+
+    imported = load_fence_file(args.fence_file, ceiling_m=args.ceiling)
+    for w in imported.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    text = yaml.safe_dump(fence_to_yaml_block(imported), sort_keys=False)
+    if args.output:
+        args.output.write_text(text)
+        print(f"wrote {args.output}")
+    else:
+        print(text, end="")
     return 0
 
 

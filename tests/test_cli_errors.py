@@ -1,10 +1,12 @@
 """The CLI on bad input: one line on stderr naming file/field/problem, exit code 2, no traceback."""
 
+import json
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+import yaml
 
 GOOD = Path(__file__).parents[1] / "scenarios" / "multicopter_survey_calm.yaml"
 
@@ -59,3 +61,36 @@ def test_help_explains_every_subcommand():
         res = run_cli(*args)
         assert res.returncode == 0 and "usage: geofence-testbed" in res.stdout
     assert "trajectory.csv" in run_cli("run", "--help").stdout
+
+
+REALWORLD = Path(__file__).parents[2] / "shared" / "realworld"
+
+
+def test_score_log_scores_a_real_flight_against_a_real_fence_file():
+    log, fence = REALWORLD / "uavlogviewer_vtol.tlog", REALWORLD / "mavproxy_cmac-foamy-fence.txt"
+    if not (log.is_file() and fence.is_file()):
+        pytest.skip("shared/realworld is not beside the repo")
+    res = run_cli("score-log", str(log), "--fence", str(fence), "--ceiling", "100")
+    assert res.returncode == 0, res.stderr
+    scores = json.loads(res.stdout[res.stdout.index("{"):])
+    # the SITL quadplane stays below 100 m (its highest relative altitude is 63.4 m per PROVENANCE.md) ...
+    assert scores["max_vertical_excursion_m"] == pytest.approx(63.4 - 100.0, abs=0.2)
+    # ... but its CIRCLE segment takes it some 49 m outside the club's "foamy" fence
+    assert 40.0 < scores["max_lateral_excursion_m"] < 60.0 and scores["time_outside_s"] > 10.0
+
+
+def test_import_fence_prints_a_block_the_schema_accepts(tmp_path):
+    fence = REALWORLD / "qgc_ce_geofence_home_base.plan"
+    if not fence.is_file():
+        pytest.skip("shared/realworld is not beside the repo")
+    res = run_cli("import-fence", str(fence), "--ceiling", "40")
+    assert res.returncode == 0, res.stderr
+    block = yaml.safe_load(res.stdout)
+    assert len(block["geofence"]["fence"]["keep_in"]) == 4 and block["geofence"]["fence"]["ceiling_m"] == 40
+
+
+def test_bad_fence_file_is_one_line_exit_2(tmp_path):
+    bad = tmp_path / "f.plan"
+    bad.write_text("{not json")
+    res = run_cli("import-fence", str(bad))
+    assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1 and "Traceback" not in res.stderr
