@@ -1,74 +1,288 @@
-"""Breach scoring of one recorded flight against a fence (vectorized, numpy only).
+"""Breach scoring of recorded flights against a fence (vectorized, numpy only).
 
 Input: named trajectory columns (as in ``trajectory.csv``: ``time_s``,
-``east_m``, ``north_m``, ``agl_m`` or ``alt_m``, optional ``geofence_mode``)
-and a :class:`~geofence.fence.LocalFence` in the same ENU frame. Output: a
-flat dict of scores, all in SI units:
+``east_m``, ``north_m``, ``agl_m`` or ``alt_m``, optional ``geofence_mode``,
+``v_east_mps``, ``v_north_mps``, ``ground_speed_mps``) and a
+:class:`~geofence.fence.LocalFence` in the same ENU frame. Output: a flat dict
+of scores, all in SI units:
 
 * ``max_excursion_m``: the farthest the vehicle got beyond the fence, lateral
   or vertical (<= 0: never outside; then it is minus the closest approach);
 * ``max_lateral_excursion_m``, ``max_vertical_excursion_m``: the same per axis;
 * ``min_margin_m``: the smallest 3-D margin (+ inside);
-* ``time_outside_s``: total time with a negative margin;
+* ``time_outside_s``: total time with a negative margin (each sample counts
+  for the interval to the next sample; the last sample counts 0 s);
 * ``activations``: entries into OVERRIDE (from the recorded mode column);
 * ``breached_keep_out``: any sample inside a keep-out zone;
-* ``landed_outside_gap``: the flight ended on the ground where landing is not
-  allowed (outside the fence, or below the floor outside every gap).
+* ``landed_outside_gap``: the flight ended on the ground (``agl_m`` < 0.5 m)
+  where landing is not allowed (outside the fence, or below the floor outside
+  every gap);
+* ``time_to_peak_excursion_s``: from the first activation (first OVERRIDE
+  sample) to the sample of smallest 3-D margin at or after it;
+* ``time_to_handback_s``: mean over activations of the time from entering
+  OVERRIDE to the next sample in RECOVERED or MONITOR (activations that end in
+  LAND_IN_GAP, TERMINATE or the end of the record are left out);
+* ``ground_speed_at_activation_mps``: ground speed at the first activation;
+* ``approach_angle_at_activation_deg``: angle between the ground velocity and
+  the outward normal of the nearest keep-in edge at the first activation
+  (0 = flying straight out, 90 = along the edge, 180 = straight in).
+
+The last four are NaN when there was no activation (and
+``time_to_handback_s`` when no activation was handed back; the angle when the
+vehicle was not moving). Velocities come from ``v_east_mps``/``v_north_mps``
+when recorded, else from central differences of the position.
+
+:func:`score_flight` scores one flight; :func:`score_many` scores many in one
+vectorized pass (the margins dominate; they come from
+:mod:`analysis.fast_margins`, chunked and threaded).
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+
 import numpy as np
 
+from analysis.fast_margins import fence_margins
 from geofence.fence import LocalFence
 
+MONITOR_MODE = 0
 OVERRIDE_MODE = 1
+RECOVERED_MODE = 2
+ON_GROUND_AGL_M = 0.5
+
+SCORE_KEYS = (
+    "max_excursion_m",
+    "max_lateral_excursion_m",
+    "max_vertical_excursion_m",
+    "min_margin_m",
+    "time_outside_s",
+    "activations",
+    "breached_keep_out",
+    "landed_outside_gap",
+    "time_to_peak_excursion_s",
+    "time_to_handback_s",
+    "ground_speed_at_activation_mps",
+    "approach_angle_at_activation_deg",
+)
+"""Every key :func:`score_flight` returns, in this order."""
+
+Trajectory = Mapping[str, np.ndarray]
+
+
+def _height(traj: Trajectory, fence: LocalFence) -> np.ndarray:
+    return np.asarray(traj["agl_m"] if fence.altitude_reference == "agl" else traj["alt_m"], dtype=float)
 
 
 def margins(traj: dict[str, np.ndarray], fence: LocalFence) -> dict[str, np.ndarray]:
-    """Per-sample lateral, ceiling, floor and 3-D margins (m, + inside)."""
-    pts = np.column_stack([traj["east_m"], traj["north_m"]])
-    h = np.asarray(traj["agl_m"] if fence.altitude_reference == "agl" else traj["alt_m"], dtype=float)
-    lateral = fence.lateral_margin_array(pts)
-    ceiling = fence.ceiling_m - h
-    floor = fence.floor_margin_array(pts, h) if fence.floor_m is not None else np.full_like(h, np.inf)
-    return {"lateral": lateral, "ceiling": ceiling, "floor": floor, "total": np.minimum(lateral, np.minimum(ceiling, floor))}
+    """Per-sample lateral, ceiling, floor and 3-D (``total``) margins, and ``keep_out`` (m, + inside)."""
+    m = fence_margins(fence, traj["east_m"], traj["north_m"], _height(traj, fence))
+    return {"lateral": m["lateral"], "ceiling": m["ceiling"], "floor": m["floor"], "total": m["total"],
+            "keep_out": m["keep_out"]}
 
 
 def keep_out_margin(traj: dict[str, np.ndarray], fence: LocalFence) -> np.ndarray:
     """Per-sample distance outside the nearest keep-out zone (m, negative inside one; +inf with none)."""
-    pts = np.column_stack([traj["east_m"], traj["north_m"]])
-    m = np.full(len(pts), np.inf)
-    for k in fence.keep_out_polygons:
-        m = np.minimum(m, -k.signed_distance_array(pts))
-    for ce, cn, r in fence.keep_out_circles:
-        m = np.minimum(m, np.hypot(pts[:, 0] - ce, pts[:, 1] - cn) - r)
-    return m
+    x = np.asarray(traj["east_m"], dtype=float)
+    return fence_margins(fence, x, traj["north_m"], np.zeros_like(x))["keep_out"]
 
 
 def score_flight(traj: dict[str, np.ndarray], fence: LocalFence) -> dict[str, float | int | bool]:
     """Breach scores of one flight (see the module docstring)."""
+    return score_many([traj], fence)[0]
+
+
+def score_many(
+    trajs: Sequence[Trajectory], fences: LocalFence | Sequence[LocalFence], threads: int | None = None
+) -> list[dict[str, float | int | bool]]:
+    """Scores of many flights: one dict per trajectory, in order (see the module docstring).
+
+    ``fences`` is one :class:`LocalFence` for all flights or one per flight.
+    Flights sharing a fence object are concatenated and scored in one
+    vectorized pass (:func:`score_concatenated`). ``threads``: worker threads
+    for the margins (default: the usable cores).
+    """
+    trajs = list(trajs)
+    if isinstance(fences, LocalFence) or not isinstance(fences, Sequence):
+        fences = [fences] * len(trajs)
+    if len(fences) != len(trajs):
+        raise ValueError(f"score_many: {len(trajs)} trajectories but {len(fences)} fences")
+    out: list[dict | None] = [None] * len(trajs)
+    groups: dict[int, list[int]] = {}
+    for i, f in enumerate(fences):
+        groups.setdefault(id(f), []).append(i)
+    for idx in groups.values():
+        fence = fences[idx[0]]
+        scored = [i for i in idx if len(trajs[i]["time_s"])]
+        for i in idx:
+            if not len(trajs[i]["time_s"]):
+                out[i] = _empty_scores()
+        if not scored:
+            continue
+        cat = {k: np.concatenate([np.asarray(trajs[i][k], dtype=float) if k in trajs[i]
+                                  else np.full(len(trajs[i]["time_s"]), np.nan) for i in scored])
+               for k in _COLUMNS if any(k in trajs[i] for i in scored)}
+        lengths = np.array([len(trajs[i]["time_s"]) for i in scored])
+        for i, sc in zip(scored, score_concatenated(cat, lengths, fence, threads=threads)):
+            out[i] = sc
+    return out  # type: ignore[return-value]
+
+
+_COLUMNS = ("time_s", "east_m", "north_m", "agl_m", "alt_m", "geofence_mode",
+            "v_east_mps", "v_north_mps", "ground_speed_mps")
+
+
+def _empty_scores() -> dict:
+    nan = float("nan")
+    return {"max_excursion_m": 0.0, "max_lateral_excursion_m": 0.0, "max_vertical_excursion_m": 0.0,
+            "min_margin_m": 0.0, "time_outside_s": 0.0, "activations": 0, "breached_keep_out": False,
+            "landed_outside_gap": False, "time_to_peak_excursion_s": nan, "time_to_handback_s": nan,
+            "ground_speed_at_activation_mps": nan, "approach_angle_at_activation_deg": nan}
+
+
+def _first_per_segment(idx: np.ndarray, starts: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """For sorted sample indices ``idx``: their segment, and the first index per segment (-1 if none)."""
+    seg = np.searchsorted(starts, idx, side="right") - 1
+    first = np.full(k, -1, dtype=np.intp)
+    if len(idx):
+        u, pos = np.unique(seg, return_index=True)
+        first[u] = idx[pos]
+    return seg, first
+
+
+def score_concatenated(
+    traj: Trajectory, lengths, fence: LocalFence, threads: int | None = None
+) -> list[dict[str, float | int | bool]]:
+    """Scores of flights stored back to back in one set of columns (the vectorized core).
+
+    ``traj``: columns holding every flight's samples one flight after the
+    other; ``lengths``: samples per flight (all > 0, summing to the column
+    length). Returns one score dict per flight.
+    """
+    lengths = np.asarray(lengths, dtype=np.intp)
+    k = len(lengths)
+    if k == 0:
+        return []
+    if np.any(lengths <= 0):
+        raise ValueError("score_concatenated: every flight needs at least one sample")
+    ends = np.cumsum(lengths)
+    starts = ends - lengths
+    last = ends - 1
     t = np.asarray(traj["time_s"], dtype=float)
-    m = margins(traj, fence)
-    total = m["total"]
-    dt = np.diff(t, append=t[-1] if len(t) else 0.0)
-    vertical = np.minimum(m["ceiling"], m["floor"])
-    mode = np.asarray(traj.get("geofence_mode", np.zeros_like(t)), dtype=float)
-    in_override = mode == OVERRIDE_MODE
-    activations = int(np.count_nonzero(in_override[1:] & ~in_override[:-1]) + (1 if len(mode) and in_override[0] else 0))
-    landed_outside = False
-    if len(t) and "agl_m" in traj:
-        last = -1
-        on_ground = traj["agl_m"][last] < 0.5
-        if on_ground:
-            landed_outside = bool(m["lateral"][last] < 0.0 or m["floor"][last] < 0.0)
-    return {
-        "max_excursion_m": float(-total.min()) if len(t) else 0.0,
-        "max_lateral_excursion_m": float(-m["lateral"].min()) if len(t) else 0.0,
-        "max_vertical_excursion_m": float(-vertical.min()) if len(t) else 0.0,
-        "min_margin_m": float(total.min()) if len(t) else 0.0,
-        "time_outside_s": float(dt[total < 0.0].sum()),
-        "activations": activations,
-        "breached_keep_out": bool((keep_out_margin(traj, fence) < 0.0).any()),
-        "landed_outside_gap": landed_outside,
-    }
+    n = len(t)
+    if int(ends[-1]) != n:
+        raise ValueError(f"score_concatenated: lengths sum to {int(ends[-1])}, columns hold {n} samples")
+    x = np.asarray(traj["east_m"], dtype=float)
+    y = np.asarray(traj["north_m"], dtype=float)
+    m = fence_margins(fence, x, y, _height(traj, fence), threads=threads)
+    total, lateral = m["total"], m["lateral"]
+
+    min_total = np.minimum.reduceat(total, starts)
+    min_lateral = np.minimum.reduceat(lateral, starts)
+    min_vertical = np.minimum(np.minimum.reduceat(m["ceiling"], starts), np.minimum.reduceat(m["floor"], starts))
+    min_keep_out = np.minimum.reduceat(m["keep_out"], starts)
+    dt = np.empty(n)
+    np.subtract(t[1:], t[:-1], out=dt[:-1])
+    dt[last] = 0.0
+    time_outside = np.add.reduceat(np.where(total < 0.0, dt, 0.0), starts)
+
+    landed = np.zeros(k, dtype=bool)
+    if "agl_m" in traj:
+        agl_last = np.asarray(traj["agl_m"], dtype=float)[last]
+        landed = (agl_last < ON_GROUND_AGL_M) & ((lateral[last] < 0.0) | (m["floor"][last] < 0.0))
+
+    # ---- geofence modes: activations, hand-backs
+    if "geofence_mode" in traj:
+        mode = np.asarray(traj["geofence_mode"], dtype=float)
+    else:
+        mode = np.zeros(n)
+    ov = mode == OVERRIDE_MODE
+    entry = ov.copy()
+    entry[1:] &= ~ov[:-1]
+    entry[starts] = ov[starts]
+    entry_idx = np.flatnonzero(entry)
+    entry_seg, first = _first_per_segment(entry_idx, starts, k)
+    activations = np.bincount(entry_seg, minlength=k)
+
+    # next non-OVERRIDE sample after each entry, if in the same flight and RECOVERED/MONITOR
+    not_ov = np.flatnonzero(~ov)
+    nxt = np.full(len(entry_idx), n, dtype=np.intp)
+    if len(not_ov):
+        j = np.searchsorted(not_ov, entry_idx)
+        nxt = np.where(j < len(not_ov), not_ov[np.minimum(j, len(not_ov) - 1)], n)
+    ok = nxt < ends[entry_seg]
+    nxt_safe = np.where(ok, nxt, 0)
+    ok &= (mode[nxt_safe] == RECOVERED_MODE) | (mode[nxt_safe] == MONITOR_MODE)
+    hb_sum = np.bincount(entry_seg[ok], weights=t[nxt_safe[ok]] - t[entry_idx[ok]], minlength=k)
+    hb_cnt = np.bincount(entry_seg[ok], minlength=k)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        handback = np.where(hb_cnt > 0, hb_sum / np.maximum(hb_cnt, 1), np.nan)
+
+    # ---- peak excursion after the first activation
+    has = first >= 0
+    to_peak = np.full(k, np.nan)
+    if has.any():
+        seg_id = np.repeat(np.arange(k), lengths)
+        gate = np.where(has, first, ends)[seg_id]  # samples before the first activation (or all) are masked
+        masked = np.where(np.arange(n) >= gate, total, np.inf)
+        seg_min = np.minimum.reduceat(masked, starts)
+        hit = np.flatnonzero((masked == seg_min[seg_id]) & np.isfinite(masked))
+        _, peak = _first_per_segment(hit, starts, k)
+        sel = has & (peak >= 0)
+        to_peak[sel] = t[peak[sel]] - t[first[sel]]
+
+    # ---- state at the first activation
+    speed = np.full(k, np.nan)
+    angle = np.full(k, np.nan)
+    if has.any():
+        fi = first[has]
+        ve, vn = _velocity_at(traj, fi, starts[has], ends[has], t, x, y)
+        gs = np.hypot(ve, vn)
+        if "ground_speed_mps" in traj:
+            rec = np.asarray(traj["ground_speed_mps"], dtype=float)[fi]
+            gs = np.where(np.isfinite(rec), rec, gs)
+        speed[has] = gs
+        edge = fence.keep_in.nearest_edge_array(np.column_stack([x[fi], y[fi]]))
+        normal = fence.keep_in.outward_normals[edge]
+        v = np.hypot(ve, vn)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            c = (ve * normal[:, 0] + vn * normal[:, 1]) / v
+        angle[has] = np.where(v > 1e-9, np.degrees(np.arccos(np.clip(c, -1.0, 1.0))), np.nan)
+
+    out = []
+    for i in range(k):
+        out.append({
+            "max_excursion_m": float(-min_total[i]),
+            "max_lateral_excursion_m": float(-min_lateral[i]),
+            "max_vertical_excursion_m": float(-min_vertical[i]),
+            "min_margin_m": float(min_total[i]),
+            "time_outside_s": float(time_outside[i]),
+            "activations": int(activations[i]),
+            "breached_keep_out": bool(min_keep_out[i] < 0.0),
+            "landed_outside_gap": bool(landed[i]),
+            "time_to_peak_excursion_s": float(to_peak[i]),
+            "time_to_handback_s": float(handback[i]),
+            "ground_speed_at_activation_mps": float(speed[i]),
+            "approach_angle_at_activation_deg": float(angle[i]),
+        })
+    return out
+
+
+def _velocity_at(traj: Trajectory, idx: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                 t: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Ground velocity (east, north) at samples ``idx``: recorded, else central differences within [lo, hi)."""
+    ve = np.full(len(idx), np.nan)
+    vn = np.full(len(idx), np.nan)
+    if "v_east_mps" in traj and "v_north_mps" in traj:
+        ve = np.asarray(traj["v_east_mps"], dtype=float)[idx]
+        vn = np.asarray(traj["v_north_mps"], dtype=float)[idx]
+    missing = ~(np.isfinite(ve) & np.isfinite(vn))
+    if missing.any():
+        i = idx[missing]
+        a = np.maximum(i - 1, lo[missing])
+        b = np.minimum(i + 1, hi[missing] - 1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            span = t[b] - t[a]
+            ve[missing] = np.where(span > 0, (x[b] - x[a]) / span, np.nan)
+            vn[missing] = np.where(span > 0, (y[b] - y[a]) / span, np.nan)
+    return ve, vn

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import json
 import os
+import signal
 import sys
 import time
 import traceback
@@ -170,14 +171,28 @@ def run_batch(
     return outcome
 
 
+def _ignore_sigint() -> None:
+    """Workers leave Ctrl-C to the parent, which cancels what has not started; running flights finish."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
 def _run_processes(todo: list[FlightSpec], out_dir: Path, jobs: int, finished: Callable[[dict], None]) -> None:
-    pool = ProcessPoolExecutor(max_workers=jobs)
+    """At most ``jobs`` flights in flight at a time, so an interrupt only waits for those."""
+    pool = ProcessPoolExecutor(max_workers=jobs, initializer=_ignore_sigint)
+    queue = iter(todo)
+    pending = set()
     try:
-        pending = {pool.submit(fly_spec, spec, str(out_dir)) for spec in todo}
+        for spec in queue:
+            pending.add(pool.submit(fly_spec, spec, str(out_dir)))
+            if len(pending) >= jobs:
+                break
         while pending:
             done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for fut in done:
                 finished(fut.result())
+                nxt = next(queue, None)
+                if nxt is not None:
+                    pending.add(pool.submit(fly_spec, nxt, str(out_dir)))
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
 

@@ -135,7 +135,10 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         "error": error,
     }
     if unit is not None:
-        traj = {name: recorder.column(name) for name in ("time_s", "east_m", "north_m", "agl_m", "alt_m", "geofence_mode")}
+        traj = {
+            name: recorder.column(name)
+            for name in ("time_s", "east_m", "north_m", "agl_m", "alt_m", "v_east_mps", "v_north_mps", "ground_speed_mps", "geofence_mode")
+        }
         summary.update(score_flight(traj, fence))
         summary["activations"] = unit.activations
         summary["final_mode"] = unit.mode.name
@@ -197,9 +200,20 @@ def write_result(result: FlightResult, out_dir: Path, folder_name: str | None = 
     result.recorder.write_csv(tmp_csv)
     os.replace(tmp_csv, folder / "trajectory.csv")
     tmp_json = folder / ".summary.json.tmp"
-    tmp_json.write_text(json.dumps(result.summary, indent=2) + "\n")
+    tmp_json.write_text(json.dumps(_json_safe(result.summary), indent=2, allow_nan=False) + "\n")
     os.replace(tmp_json, folder / "summary.json")
     return folder
+
+
+def _json_safe(value):
+    """Strict JSON: non-finite floats (e.g. NaN "no activation" scores) become null."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_json_safe(v) for v in value]
+    return value
 
 
 def run_scenario(scenario: Scenario, out_dir: Path, on_step: Callable[[float], None] | None = None) -> FlightResult:

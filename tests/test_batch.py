@@ -93,12 +93,16 @@ def test_ci_suite_batch_on_two_jobs_writes_every_result_and_no_breach(tmp_path):
 
 def test_interrupted_batch_keeps_finished_flights_and_resumes_without_refling(tmp_path):
     sweep = yaml.safe_load((CI_SUITE / "multicopter_edges.yaml").read_text())
-    sweep["duration_s"] = 150  # slow enough to interrupt halfway
+    sweep["duration_s"] = 600  # slow enough (~1 s of wall time each) to interrupt halfway
     sweep["sweep"] = {"grid": {"pilot.segments.0.course_deg": [0, 90, 180, 270], "wind.speed_mps": [0, 2, 4, 6, 8]}}
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(sweep))
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "scenarios.cli", "batch", str(tmp_path / "s.yaml"), "--out", str(out), "--jobs", "2", "--quiet"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # a background job inherits an ignored SIGINT; give the batch the default, as in a terminal
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     deadline = time.monotonic() + 300
     while len(list(out.glob("*/summary.json"))) < 4 and time.monotonic() < deadline:
         time.sleep(0.02)
