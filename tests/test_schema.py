@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from scenarios.errors import ConfigError
 from scenarios.schema import load_scenario, parse_scenario
 
-SHIPPED = sorted((Path(__file__).parents[1] / "scenarios").glob("*.yaml"))
+SHIPPED = sorted((Path(__file__).parents[1] / "scenarios").rglob("*.yaml"))
 
 BASE = {
     "aircraft": "F450",
@@ -33,9 +33,16 @@ def with_(**changes):
 
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.name)
 def test_shipped_scenarios_are_valid(path):
-    sc = load_scenario(path)
-    assert sc.name == path.stem
-    assert sc.duration_s > 0
+    """Every shipped file (sweeps expanded) validates into scenarios."""
+    from scenarios.batch import plan
+
+    specs = plan([path])
+    assert specs and not [s.error for s in specs if s.error]
+    for spec in specs:
+        sc = parse_scenario(spec.document, str(path), path.stem)
+        assert sc.duration_s > 0
+    if len(specs) == 1:
+        assert load_scenario(path).name in (path.stem, specs[0].flight_id)
 
 
 def test_base_document_parses():
