@@ -115,6 +115,20 @@ def _enum_name(mavutil, enum: str, value: int, prefix: str) -> str:
     return e.name[len(prefix):] if e is not None and e.name.startswith(prefix) else f"{value}"
 
 
+def _messages(m, name: str, counts: collections.Counter):
+    """Every message of a pymavlink connection, counted by type; decoding errors become a LogError."""
+    while True:
+        try:
+            msg = m.recv_match()
+        except Exception as exc:
+            raise LogError(f"{name}: decoding failed after {sum(counts.values())} messages "
+                           f"({type(exc).__name__}: {exc})") from None
+        if msg is None:
+            return
+        counts[msg.get_type()] += 1
+        yield msg
+
+
 def _read_tlog(p: Path, name: str, frame: LocalFrame | None):
     mavutil, m = _connection(p, name)
     counts: collections.Counter = collections.Counter()
@@ -124,16 +138,8 @@ def _read_tlog(p: Path, name: str, frame: LocalFrame | None):
     first_t = last_t = None
     simulated = False
     gcs = mavutil.mavlink.MAV_TYPE_GCS
-    while True:
-        try:
-            msg = m.recv_match()
-        except Exception as exc:
-            raise LogError(f"{name}: decoding failed after {sum(counts.values())} messages "
-                           f"({type(exc).__name__}: {exc})") from None
-        if msg is None:
-            break
+    for msg in _messages(m, name, counts):
         t = msg.get_type()
-        counts[t] += 1
         if t == "BAD_DATA":
             continue
         ts = msg._timestamp
@@ -193,16 +199,8 @@ def _read_dataflash(p: Path, name: str, frame: LocalFrame | None):
     first_t = last_t = None
     firmware = None
     simulated = False
-    while True:
-        try:
-            msg = m.recv_match()
-        except Exception as exc:
-            raise LogError(f"{name}: decoding failed after {sum(counts.values())} messages "
-                           f"({type(exc).__name__}: {exc})") from None
-        if msg is None:
-            break
+    for msg in _messages(m, name, counts):
         t = msg.get_type()
-        counts[t] += 1
         if t in ("FMT", "FMTU", "UNIT", "MULT"):
             continue
         ts = msg._timestamp
