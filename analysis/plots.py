@@ -47,6 +47,29 @@ def _draw_fence(ax, fence, envelope, wind_en) -> None:
     ax.plot(re, rn, marker="*", color="tab:orange", ms=12, ls="none", label="recovery point")
 
 
+def _margin_panel(ax, traj: dict[str, np.ndarray], fence) -> None:
+    """Margin vs time: the true 3-D margin to the fence and the unit's activation margin, override shaded."""
+    from analysis.scoring import margins
+
+    t = traj["time_s"]
+    m = margins(traj, fence)
+    ax.plot(t, m["total"], color="black", lw=1.2, label="margin to the fence (truth)")
+    if "activation_margin_m" in traj and np.isfinite(traj["activation_margin_m"]).any():
+        act = np.where(np.isfinite(traj["activation_margin_m"]), traj["activation_margin_m"], np.nan)
+        ax.plot(t, act, color="tab:orange", lw=1.0, ls="--", label="activation margin (unit's estimate)")
+    ax.axhline(0.0, color="tab:red", lw=1.0)
+    override = traj.get("geofence_mode", np.zeros_like(t)) == 1
+    ax.fill_between(t, 0, 1, where=override, color="tab:red", alpha=0.15, transform=ax.get_xaxis_transform())
+    finite = m["total"][np.isfinite(m["total"])]
+    if finite.size:
+        top = float(np.percentile(finite, 95))
+        ax.set_ylim(min(float(finite.min()), 0.0) - 0.05 * max(top, 1.0), top * 1.1 + 0.5)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("margin (m)")
+    ax.legend(loc="upper right", fontsize="small")
+    ax.grid(alpha=0.3)
+
+
 def plot_flight(
     traj: dict[str, np.ndarray], out_path: Path, title: str, wind_note: str = "", fence=None, envelope=None
 ) -> list[Path]:
@@ -59,8 +82,9 @@ def plot_flight(
     """
     t, e, n = traj["time_s"], traj["east_m"], traj["north_m"]
     wind_title = ""
-    fig = plt.figure(figsize=(12, 6.4), constrained_layout=True)
-    grid = fig.add_gridspec(2, 2, width_ratios=[1.25, 1])
+    fig = plt.figure(figsize=(12, 7.4 if fence is not None else 6.4), constrained_layout=True)
+    rows = 3 if fence is not None else 2
+    grid = fig.add_gridspec(rows, 2, width_ratios=[1.25, 1])
     ax = fig.add_subplot(grid[:, 0])
     if fence is not None:
         wind_en = (float(np.nanmean(traj.get("wind_east_mps", [0.0]))), float(np.nanmean(traj.get("wind_north_mps", [0.0]))))
@@ -106,10 +130,13 @@ def plot_flight(
     ax_spd = fig.add_subplot(grid[1, 1], sharex=ax_alt)
     ax_spd.plot(t, traj["ground_speed_mps"], label="ground speed")
     ax_spd.plot(t, traj["airspeed_mps"], label="airspeed", alpha=0.8)
-    ax_spd.set_xlabel("time (s)")
     ax_spd.set_ylabel("speed (m/s)")
     ax_spd.legend(loc="upper right")
     ax_spd.grid(alpha=0.3)
+    if fence is not None:
+        _margin_panel(fig.add_subplot(grid[2, 1], sharex=ax_alt), traj, fence)
+    else:
+        ax_spd.set_xlabel("time (s)")
     fig.suptitle(title + (f" — {wind_note}" if wind_note else ""))
     written = []
     for suffix in (".png", ".svg"):
@@ -118,3 +145,13 @@ def plot_flight(
         written.append(path)
     plt.close(fig)
     return written
+
+
+def plot_result(result, folder: Path) -> list[Path]:
+    """``flight.png``/``.svg`` of a flown :class:`~scenarios.runner.FlightResult` into ``folder``."""
+    rec = result.recorder
+    traj = {name: rec.column(name) for name in rec.columns}
+    sc = result.scenario
+    return plot_flight(
+        traj, Path(folder) / "flight", f"{sc.name} ({sc.aircraft})", fence=result.extras.get("fence"), envelope=sc.profile.envelope
+    )

@@ -85,7 +85,7 @@ def is_done(out_dir: Path, flight_id: str) -> bool:
     return (Path(out_dir) / flight_id / SUMMARY).is_file()
 
 
-def fly_spec(spec: FlightSpec, out_dir: str) -> dict:
+def fly_spec(spec: FlightSpec, out_dir: str, flight_plots: bool = False) -> dict:
     """Fly one spec and write its folder; never raises (failures are written as a failed summary)."""
     from scenarios.runner import fly, write_result
     from scenarios.schema import parse_scenario
@@ -101,6 +101,10 @@ def fly_spec(spec: FlightSpec, out_dir: str) -> dict:
         result = fly(scenario)
         result.summary["flight"] = spec.flight_id
         result.summary["source"] = spec.source
+        if flight_plots:  # before the summary, which marks the flight done
+            from analysis.plots import plot_result
+
+            plot_result(result, folder)
         write_result(result, out_dir, folder_name=spec.flight_id)
         return result.summary
     except Exception as exc:  # a failed flight is a result, not a crash of the batch
@@ -133,6 +137,7 @@ def run_batch(
     scheduler: str | None = None,
     progress: bool = True,
     on_done: Callable[[dict], None] | None = None,
+    flight_plots: bool = False,
 ) -> BatchOutcome:
     """Fly every spec not already done in ``out_dir``; see the module docstring."""
     out_dir = Path(out_dir)
@@ -156,12 +161,12 @@ def run_batch(
         if not todo:
             pass
         elif executor == "dask":
-            _run_dask(todo, out_dir, scheduler, finished)
+            _run_dask(todo, out_dir, scheduler, finished, flight_plots)
         elif (jobs or os.cpu_count() or 1) == 1:
             for spec in todo:
-                finished(fly_spec(spec, str(out_dir)))
+                finished(fly_spec(spec, str(out_dir), flight_plots))
         else:
-            _run_processes(todo, out_dir, jobs or os.cpu_count() or 1, finished)
+            _run_processes(todo, out_dir, jobs or os.cpu_count() or 1, finished, flight_plots)
     except KeyboardInterrupt:
         outcome.interrupted = True
     finally:
@@ -176,14 +181,14 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
-def _run_processes(todo: list[FlightSpec], out_dir: Path, jobs: int, finished: Callable[[dict], None]) -> None:
+def _run_processes(todo: list[FlightSpec], out_dir: Path, jobs: int, finished: Callable[[dict], None], flight_plots: bool) -> None:
     """At most ``jobs`` flights in flight at a time, so an interrupt only waits for those."""
     pool = ProcessPoolExecutor(max_workers=jobs, initializer=_ignore_sigint)
     queue = iter(todo)
     pending = set()
     try:
         for spec in queue:
-            pending.add(pool.submit(fly_spec, spec, str(out_dir)))
+            pending.add(pool.submit(fly_spec, spec, str(out_dir), flight_plots))
             if len(pending) >= jobs:
                 break
         while pending:
@@ -192,12 +197,14 @@ def _run_processes(todo: list[FlightSpec], out_dir: Path, jobs: int, finished: C
                 finished(fut.result())
                 nxt = next(queue, None)
                 if nxt is not None:
-                    pending.add(pool.submit(fly_spec, nxt, str(out_dir)))
+                    pending.add(pool.submit(fly_spec, nxt, str(out_dir), flight_plots))
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
 
 
-def _run_dask(todo: list[FlightSpec], out_dir: Path, scheduler: str | None, finished: Callable[[dict], None]) -> None:
+def _run_dask(
+    todo: list[FlightSpec], out_dir: Path, scheduler: str | None, finished: Callable[[dict], None], flight_plots: bool
+) -> None:
     try:
         from dask.distributed import Client, as_completed
     except ImportError:
@@ -205,7 +212,9 @@ def _run_dask(todo: list[FlightSpec], out_dir: Path, scheduler: str | None, fini
     if not scheduler:
         raise ConfigError("--executor dask: give the cluster with --scheduler ADDRESS (e.g. tcp://127.0.0.1:8786)")
     with Client(scheduler) as client:
-        futures = [client.submit(fly_spec, spec, str(out_dir), key=f"flight-{spec.flight_id}", pure=False) for spec in todo]
+        futures = [
+            client.submit(fly_spec, spec, str(out_dir), flight_plots, key=f"flight-{spec.flight_id}", pure=False) for spec in todo
+        ]
         try:
             for fut in as_completed(futures):
                 finished(fut.result())

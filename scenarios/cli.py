@@ -87,6 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
     batch.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address, with --executor dask")
     batch.add_argument("--quiet", action="store_true", help="no progress bar")
     batch.add_argument("--no-report", action="store_true", help="skip report.md and its figures (results.csv is still written)")
+    batch.add_argument("--no-flight-plots", action="store_true", help="skip each flight's flight.png/.svg (faster)")
 
     plot = sub.add_parser("plot", help="regenerate figures from saved results", description="Regenerate each flight's flight.png/.svg and the batch figures in DIR from the saved trajectories and summaries, without re-flying.")
     plot.add_argument("out", type=Path, metavar="DIR", help="a run or batch output folder")
@@ -228,7 +229,10 @@ def _cmd_batch(args) -> int:
 
         raise ConfigError(f"--jobs: must be >= 1, got {args.jobs}")
     specs = plan(discover(args.paths))
-    outcome = run_batch(specs, args.out, jobs=args.jobs, executor=args.executor, scheduler=args.scheduler, progress=not args.quiet)
+    outcome = run_batch(
+        specs, args.out, jobs=args.jobs, executor=args.executor, scheduler=args.scheduler, progress=not args.quiet,
+        flight_plots=not args.no_flight_plots,
+    )
     _write_batch_outputs(args.out, report=not args.no_report)
     print(
         f"{outcome.total} flights: {outcome.skipped} already done, {outcome.flown} flown, {len(outcome.failed)} failed "
@@ -338,14 +342,9 @@ def _cmd_import_fence(args) -> int:
 
 
 def _plot(result, out_dir: Path) -> None:
-    from analysis.plots import plot_flight
+    from analysis.plots import plot_result
 
-    rec = result.recorder
-    traj = {name: rec.column(name) for name in ("time_s", "east_m", "north_m", "agl_m", "ground_speed_mps", "airspeed_mps", "wind_east_mps", "wind_north_mps", "geofence_mode")}
-    plot_flight(
-        traj, Path(out_dir) / result.scenario.name / "flight", f"{result.scenario.name} ({result.scenario.aircraft})",
-        fence=result.extras.get("fence"), envelope=result.scenario.profile.envelope,
-    )
+    plot_result(result, Path(out_dir) / result.scenario.name)
 
 
 def _progress(sc, quiet: bool):

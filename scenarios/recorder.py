@@ -114,6 +114,10 @@ class Recorder:
         )
         self.n += 1
 
+    @property
+    def columns(self) -> tuple[str, ...]:
+        return COLUMNS
+
     def rows(self) -> np.ndarray:
         return self.data[: self.n]
 

@@ -83,6 +83,7 @@ def test_ci_suite_batch_on_two_jobs_writes_every_result_and_no_breach(tmp_path):
     assert len(rows) == 1 + 24
     assert (out / "report.md").is_file()
     assert list(out.glob("*.png")), "batch figures missing"
+    assert len(list(out.glob("*/flight.png"))) == 24, "a flight figure is missing"
     for name, s in got.items():
         assert s["completed"], name
         assert s["max_excursion_m"] <= 0.0, f"{name}: breach of {s['max_excursion_m']:.2f} m"
@@ -97,7 +98,7 @@ def test_interrupted_batch_keeps_finished_flights_and_resumes_without_refling(tm
     sweep["sweep"] = {"grid": {"pilot.segments.0.course_deg": [0, 90, 180, 270], "wind.speed_mps": [0, 2, 4, 6, 8]}}
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(sweep))
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "scenarios.cli", "batch", str(tmp_path / "s.yaml"), "--out", str(out), "--jobs", "2", "--quiet"]
+    cmd = [sys.executable, "-m", "scenarios.cli", "batch", str(tmp_path / "s.yaml"), "--out", str(out), "--jobs", "2", "--quiet", "--no-flight-plots"]
     # a background job inherits an ignored SIGINT; give the batch the default, as in a terminal
     proc = subprocess.Popen(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,

@@ -5,6 +5,7 @@ same runner the CLI uses and checks the recorded truth trajectory.
 """
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -134,3 +135,17 @@ def test_any_wheel_fixed_wing_with_standard_controls_flies_from_an_inline_profil
     assert res.summary["completed"]
     assert np.ptp(up) < 10.0
     assert abs(np.mean(tas) - res.scenario.profile.envelope.cruise_speed_mps) < 3.0
+
+
+EXAMPLES = sorted((Path(__file__).parents[1] / "scenarios").glob("*.yaml"))
+
+
+@pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
+def test_every_shipped_example_flies_to_completion(path):
+    from scenarios.schema import load_scenario
+
+    res = fly(load_scenario(path))
+    assert res.summary["completed"], res.summary
+    assert res.summary["error"] is None
+    if res.scenario.pilot.kind == "mission" and not res.summary.get("ended_by_geofence"):
+        assert res.summary["waypoints_reached"] == res.summary["waypoints_total"]

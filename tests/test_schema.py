@@ -132,3 +132,17 @@ def test_inline_profile_makes_any_wheel_model_flyable():
     assert sc.profile.model == "c172p"
     assert sc.profile.envelope.max_bank_rad == pytest.approx(0.43633, rel=1e-4)
     assert sc.profile.gains  # inherited from the c172x profile
+
+
+def test_a_fence_too_small_for_the_platform_says_so_with_the_numbers():
+    from geofence.geodesy import LocalFrame
+
+    frame = LocalFrame(47.0, 8.0, 400.0)
+    box = [list(frame.to_geodetic(e, n, 0.0)[:2]) for e, n in [(-30, -30), (30, -30), (30, 30), (-30, 30)]]
+    doc = with_(aircraft="Tern", geofence={"fence": {"keep_in": box, "ceiling_m": 120}})
+    doc["start"]["agl_m"] = 60
+    with pytest.raises(ConfigError) as err:
+        parse_scenario(doc, "small.yaml")
+    msg = str(err.value)
+    assert msg.startswith("small.yaml: geofence") and "vanishes" in msg and "inradius 30.0 m" in msg
+    assert "\n" not in msg
