@@ -1,0 +1,32 @@
+"""Package boundaries: JSBSim only behind aircraft/, and the geofence knows no airframe."""
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).parents[1]
+
+
+def imported_modules(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text())
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name.split(".")[0] for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names.add(node.module.split(".")[0])
+    return names
+
+
+@pytest.mark.parametrize("package, forbidden", [("geofence", {"jsbsim", "aircraft", "scenarios", "wind", "analysis"}), ("wind", {"jsbsim", "aircraft", "scenarios"}), ("analysis", {"jsbsim", "aircraft"})])
+def test_package_does_not_import(package, forbidden):
+    offenders = {
+        str(p.relative_to(ROOT)): sorted(imported_modules(p) & forbidden) for p in (ROOT / package).rglob("*.py") if imported_modules(p) & forbidden
+    }
+    assert offenders == {}
+
+
+def test_only_the_model_loader_imports_jsbsim():
+    users = sorted(str(p.relative_to(ROOT)) for p in ROOT.rglob("*.py") if "tests" not in p.parts and "bench" not in p.parts and "jsbsim" in imported_modules(p))
+    assert users == ["aircraft/jsbsim_model.py"]
