@@ -149,3 +149,26 @@ def test_every_shipped_example_flies_to_completion(path):
     assert res.summary["error"] is None
     if res.scenario.pilot.kind == "mission" and not res.summary.get("ended_by_geofence"):
         assert res.summary["waypoints_reached"] == res.summary["waypoints_total"]
+
+
+def test_fixed_wing_lands_on_a_straight_in_approach():
+    """Downwind leg, turn, straight-in glide to the land point, flare: the mission ends on the ground."""
+    far_lat, far_lon = offset(0.0, 400.0)
+    base_lat, base_lon = offset(0.0, -300.0)
+    sc = scenario(
+        "Tern",
+        200.0,
+        start_extra={"agl_m": 40.0, "heading_deg": 0.0},
+        mission={"acceptance_radius_m": 15.0, "items": [
+            {"type": "waypoint", "lat_deg": far_lat, "lon_deg": far_lon, "agl_m": 40.0},
+            {"type": "waypoint", "lat_deg": base_lat, "lon_deg": base_lon, "agl_m": 30.0},
+            {"type": "land", "lat_deg": SITE["lat_deg"], "lon_deg": SITE["lon_deg"]},
+        ]},
+    )
+    res = fly(sc)
+    assert res.summary["completed"] and res.summary["mission_progress"] == "3/3", res.summary
+    agl, vu, n, e = track(res, "agl_m", "v_up_mps", "north_m", "east_m")
+    assert agl[-1] < 0.5  # on its gear
+    touchdown = int(np.argmax(agl < 0.5))
+    assert vu[touchdown] > -1.5, f"hard landing: {vu[touchdown]:.1f} m/s"
+    assert abs(e[-1]) < 10.0 and -50.0 < n[-1] < 200.0  # on the runway line, near the aim point
