@@ -130,28 +130,19 @@ class _Axis:
         self.P22 = P22 + qj * dt
 
     def update_p(self, z: float, r: float) -> None:
-        s = self.P00 + r
-        k0, k1, k2 = self.P00 / s, self.P01 / s, self.P02 / s
-        y = z - self.p
-        self.p += k0 * y
-        self.v += k1 * y
-        self.a += k2 * y
-        c0, c1, c2 = self.P00, self.P01, self.P02
-        self.P00 -= k0 * c0
-        self.P01 -= k0 * c1
-        self.P02 -= k0 * c2
-        self.P11 -= k1 * c1
-        self.P12 -= k1 * c2
-        self.P22 -= k2 * c2
+        """Scalar update with a position measurement (H = [1, 0, 0])."""
+        self._update(z - self.p, self.P00 + r, self.P00, self.P01, self.P02)
 
     def update_v(self, z: float, r: float) -> None:
-        s = self.P11 + r
-        k0, k1, k2 = self.P01 / s, self.P11 / s, self.P12 / s
-        y = z - self.v
+        """Scalar update with a velocity measurement (H = [0, 1, 0])."""
+        self._update(z - self.v, self.P11 + r, self.P01, self.P11, self.P12)
+
+    def _update(self, y: float, s: float, c0: float, c1: float, c2: float) -> None:
+        """Scalar Kalman update: innovation ``y``, its variance ``s``, ``(c0, c1, c2) = P H^T``."""
+        k0, k1, k2 = c0 / s, c1 / s, c2 / s
         self.p += k0 * y
         self.v += k1 * y
         self.a += k2 * y
-        c0, c1, c2 = self.P01, self.P11, self.P12
         self.P00 -= k0 * c0
         self.P01 -= k0 * c1
         self.P02 -= k0 * c2

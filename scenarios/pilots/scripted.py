@@ -38,7 +38,7 @@ class ScriptedPilot:
     def items_reached(self) -> int:
         return max(self._segment_index, 0)
 
-    def _segment_at(self, t_s: float) -> ScriptSegment:
+    def _segment_at(self, t_s: float) -> tuple[ScriptSegment, int]:
         i = 0
         while i < len(self.ends_s) - 1 and t_s >= self.ends_s[i]:
             i += 1
