@@ -26,7 +26,7 @@ from typing import Any, Callable
 from aircraft.factory import build_platform
 from geofence.geodesy import LocalFrame
 from analysis.scoring import score_flight
-from geofence.unit import GeofenceUnit
+from geofence.unit import GeofenceUnit, Mode
 from scenarios.pilots import build_pilot
 from scenarios.recorder import Recorder
 from scenarios.schema import Scenario
@@ -71,25 +71,29 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
 
     error = None
     finished_at = None
-    mode = 0
+    mode = Mode.MONITOR
     step = 0
+    # faster than this is a numerical blow-up (e.g. a ground-contact explosion), not flight
+    diverged_above_mps = 5.0 * env.max_speed_mps + 50.0
     try:
         for step in range(n_steps + 1):
             truth = platform.truth()
             truth.t_s -= t0
+            if abs(truth.v_east_mps) + abs(truth.v_north_mps) + abs(truth.v_up_mps) > diverged_above_mps:
+                raise FloatingPointError(f"JSBSim state of {scenario.aircraft} diverged (speed beyond {diverged_above_mps:.0f} m/s) at t={truth.t_s:.2f} s")
             w = wind.sample(truth.t_s, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)
             platform.set_wind_enu(*w)
             cmd_in = pilot.command(truth)
             if unit is not None:
                 est, wind_en, valid, sigma_h, sigma_v = own.sense(truth, dt_s)
                 cmd = unit.update(truth.t_s, est, cmd_in, dt_s, wind_en=wind_en, position_valid=valid, sigma_h_m=sigma_h, sigma_v_m=sigma_v)
-                mode = int(unit.mode)
-                recorder.append(truth, w, cmd_in, cmd, mode, pilot.items_reached, unit.estimate, wind_en, unit.activation_margin_m)
+                mode = unit.mode
+                recorder.append(truth, w, cmd_in, cmd, int(mode), pilot.items_reached, unit.estimate, wind_en, unit.activation_margin_m)
             else:
                 cmd = cmd_in
-                recorder.append(truth, w, cmd_in, cmd, mode, pilot.items_reached)
+                recorder.append(truth, w, cmd_in, cmd, int(mode), pilot.items_reached)
             platform.command(cmd)
-            ended_by_geofence = mode >= 3 and truth.on_ground  # landed in a gap / terminated
+            ended_by_geofence = mode >= Mode.LAND_IN_GAP and truth.on_ground  # landed in a gap / terminated
             if (pilot.finished or ended_by_geofence) and finished_at is None:
                 finished_at = truth.t_s
             tail = 0.0 if ended_by_geofence else TAIL_AFTER_FINISH_S  # after a touchdown in a gap: stop at once
@@ -106,7 +110,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     wall = time.perf_counter() - wall0
     frames = step * frames_per_step
     mission = scenario.pilot.kind == "mission"
-    geofence_ended = unit is not None and int(unit.mode) >= 3 and finished_at is not None
+    geofence_ended = unit is not None and unit.mode >= Mode.LAND_IN_GAP and finished_at is not None
     # a flight is complete when it ran to its end: the mission finished, a script ran its
     # duration, or the geofence ended it by landing in a floor gap / terminating there
     completed = error is None and (pilot.finished or geofence_ended if mission else True)
