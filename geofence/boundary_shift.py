@@ -425,32 +425,38 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
         directions = ((0.0, 0.0),)
         bound = math.inf
 
+    # per threatened edge, the direction-independent part: (d, ..., v_n, w_n, base room, psi0)
+    near = []
+    for d, nx, ny, feat, idx, j in dists:
+        if d - bound >= min_d:
+            continue
+        v_n = ve * nx + vn * ny
+        w_n = wind_e * nx + wind_n * ny
+        if fixed_wing:
+            base = _reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n) + hu
+            # air heading relative to the normal: angle from n to (ca, sa)
+            psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
+        else:
+            # worst case: the pilot keeps accelerating at the tilt limit toward the
+            # edge until the override acts (t_r), then the vehicle brakes
+            base = v_n * t_r if v_n > 0.0 else 0.0
+            a_p = a_tilt if speed < envelope.max_speed_mps else 0.0
+            v_n1 = v_n + a_p * t_r
+            if v_n1 > 0.0:
+                base = (v_n * t_r if v_n > 0.0 else 0.0) + 0.5 * a_p * t_r * t_r
+                v1 = speed + a_p * t_r
+                push = a_tilt * wspeed * w_n / vmax2 if (w_n > 0.0 and vmax2 > 0.0) else 0.0
+                base += _braking_room_m(v_n1, v1 if v1 > v_n1 else v_n1, a_brake - push, climb_arrest)
+            base += hu
+            psi0 = 0.0
+        near.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0))
+
     best = None
     for s, delta in directions:
         worst = math.inf
         wk = None
-        for d, nx, ny, feat, idx, j in dists:
-            if d - bound >= min_d:
-                continue
-            v_n = ve * nx + vn * ny
-            w_n = wind_e * nx + wind_n * ny
-            room = v_n * t_r if v_n > 0.0 else 0.0
-            if fixed_wing:
-                room = _reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n)
-                # air heading relative to the normal: angle from n to (ca, sa)
-                psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
-                room += _excursion(radius, inv_omega, v_turn, w_n, psi0, s, delta)
-            else:
-                # worst case: the pilot keeps accelerating at the tilt limit toward the
-                # edge until the override acts (t_r), then the vehicle brakes
-                a_p = a_tilt if speed < envelope.max_speed_mps else 0.0
-                v_n1 = v_n + a_p * t_r
-                if v_n1 > 0.0:
-                    room = (v_n * t_r if v_n > 0.0 else 0.0) + 0.5 * a_p * t_r * t_r
-                    v1 = speed + a_p * t_r
-                    push = a_tilt * wspeed * w_n / vmax2 if (w_n > 0.0 and vmax2 > 0.0) else 0.0
-                    room += _braking_room_m(v_n1, v1 if v1 > v_n1 else v_n1, a_brake - push, climb_arrest)
-            room += hu
+        for d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 in near:
+            room = base + _excursion(radius, inv_omega, v_turn, w_n, psi0, s, delta) if fixed_wing else base
             act = d - room
             if act < worst:
                 worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)

@@ -266,6 +266,9 @@ class GeofenceUnit:
             if mode is Mode.RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
                 self._switch(t_s, Mode.MONITOR, "hand-back complete")
             return pilot
+        if mode is Mode.OVERRIDE and t_s - self._override_period_start_s < self.config.min_override_s:
+            self.activation_margin_m = math.nan  # not needed (nor computed) until the minimum override has passed
+            return self.recovery.sticks(est, h, t_s, dt_s)
         r = self._margins(est, h, sigma_h_m, sigma_v_m, dt_s)
         self.last = r
         act = self._activation(r)

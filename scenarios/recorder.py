@@ -55,11 +55,24 @@ _DEG = 180.0 / math.pi
 
 
 class Recorder:
-    """Holds up to ``capacity`` rows; :meth:`append` is allocation-free."""
+    """Collects one row per step; :meth:`append` only stores a tuple (the cheapest thing per step).
 
-    def __init__(self, capacity: int):
-        self.data = np.full((capacity, len(COLUMNS)), np.nan)
-        self.n = 0
+    The rows become one float array the first time they are read.
+    """
+
+    def __init__(self, capacity: int = 0):
+        self._rows: list[tuple] = []
+        self._array: np.ndarray | None = None
+
+    @property
+    def n(self) -> int:
+        return len(self._rows)
+
+    @property
+    def data(self) -> np.ndarray:
+        if self._array is None or len(self._array) != len(self._rows):
+            self._array = np.array(self._rows, dtype=float).reshape(len(self._rows), len(COLUMNS))
+        return self._array
 
     def append(
         self,
@@ -73,9 +86,7 @@ class Recorder:
         wind_est: tuple[float, float] = (math.nan, math.nan),
         activation_margin_m: float = math.nan,
     ) -> None:
-        if self.n >= len(self.data):
-            self.data = np.concatenate([self.data, np.full_like(self.data, np.nan)])
-        self.data[self.n] = (
+        self._rows.append((
             s.t_s,
             s.lat_deg,
             s.lon_deg,
@@ -111,8 +122,7 @@ class Recorder:
             wind_est[0],
             wind_est[1],
             activation_margin_m,
-        )
-        self.n += 1
+        ))
 
     @property
     def columns(self) -> tuple[str, ...]:
