@@ -187,9 +187,9 @@ def _cmd_list() -> int:
     for model in available_profiles():
         p = load_profile(model)
         print(f"  {model:10s} {p.kind.value:11s} cruise {p.envelope.cruise_speed_mps:.0f} m/s")
-    print("shipped scenarios:")
-    for path in sorted(SHIPPED_SCENARIOS.glob("*.yaml")):
-        print(f"  {path}")
+    print("shipped scenarios (ci/ holds sweeps: run them with 'batch'):")
+    for path in sorted(SHIPPED_SCENARIOS.rglob("*.yaml")):
+        print(f"  {path.relative_to(SHIPPED_SCENARIOS.parent)}")
     return 0
 
 

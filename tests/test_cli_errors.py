@@ -57,10 +57,14 @@ def test_validate_accepts_shipped_example():
 
 
 def test_help_explains_every_subcommand():
-    for args in (["--help"], ["run", "--help"], ["validate", "--help"], ["list", "--help"]):
+    commands = ["run", "batch", "plot", "compare", "seed-reproduction", "score-log", "import-fence", "validate", "list"]
+    for args in (["--help"], *([c, "--help"] for c in commands)):
         res = run_cli(*args)
         assert res.returncode == 0 and "usage: geofence-testbed" in res.stdout
     assert "trajectory.csv" in run_cli("run", "--help").stdout
+    assert "resume" in run_cli("batch", "--help").stdout
+    listing = run_cli("list").stdout
+    assert "F450" in listing and "Tern" in listing and "scenarios/paper/indoor_quad.yaml" in listing
 
 
 REALWORLD = Path(__file__).parents[2] / "shared" / "realworld"
