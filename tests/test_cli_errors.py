@@ -41,7 +41,34 @@ def good_text(**replace):
     ids=["missing-file", "bad-yaml", "unknown-aircraft", "latitude-123", "negative-duration"],
 )
 def test_bad_input_one_line_exit_2(tmp_path, make, expected):
-    path = make(tmp_path)
+    _assert_one_line_exit_2(tmp_path, make(tmp_path), expected)
+
+
+GEOFENCE = Path(__file__).parents[1] / "scenarios" / "geofence_multicopter_adversarial_calm.yaml"
+
+
+def bad_fence(tmp_path, **changes):
+    doc = yaml.safe_load(GEOFENCE.read_text())
+    doc["geofence"]["fence"].update(changes)
+    p = tmp_path / "fence.yaml"
+    p.write_text(yaml.safe_dump(doc))
+    return p
+
+
+@pytest.mark.parametrize(
+    "changes, expected",
+    [
+        ({"keep_in": [[-35.3636, 149.1640], [-35.3617, 149.1665], [-35.3636, 149.1665], [-35.3617, 149.1640]]}, "intersect"),
+        ({"ceiling_m": 5, "floor_m": 8}, "ceiling"),
+        ({"keep_in": [[-35.3636, 149.1640], [-35.3617, 149.1665]]}, "3"),
+    ],
+    ids=["self-intersecting", "ceiling-below-floor", "two-vertices"],
+)
+def test_bad_fence_one_line_exit_2(tmp_path, changes, expected):
+    _assert_one_line_exit_2(tmp_path, bad_fence(tmp_path, **changes), expected)
+
+
+def _assert_one_line_exit_2(tmp_path, path, expected):
     res = run_cli("run", str(path), "--out", str(tmp_path / "out"))
     assert res.returncode == 2, res.stderr
     lines = [ln for ln in res.stderr.splitlines() if ln.strip()]
