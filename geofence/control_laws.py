@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from geofence.interface import Envelope
+from geofence.interface import Envelope, VehicleState
 
 G_MPS2 = 9.80665
 
@@ -66,6 +66,12 @@ def bank_stick_for_turn_rate(turn_rate_radps: float, ground_speed_mps: float, en
     """Coordinated turn: bank = atan(V·ω/g), as a fraction of the bank limit (+ right)."""
     bank = math.atan(max(ground_speed_mps, 1.0) * turn_rate_radps / G_MPS2)
     return clip(bank / env.max_bank_rad, -1.0, 1.0)
+
+
+def bank_stick_for_course(s: VehicleState, course_cmd_rad: float, env: Envelope, gain_per_s: float) -> float:
+    """Fixed-wing course law: turn rate = gain · course error (ground course), flown as a coordinated bank."""
+    course = ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad)
+    return bank_stick_for_turn_rate(gain_per_s * wrap_pi(course_cmd_rad - course), s.ground_speed_mps, env)
 
 
 def airspeed_to_stick(airspeed_mps: float, env: Envelope) -> float:

@@ -32,10 +32,9 @@ from geofence.control_laws import (
     airspeed_to_stick,
     altitude_to_climb_rate,
     approach_velocity,
-    bank_stick_for_turn_rate,
+    bank_stick_for_course,
     climb_rate_to_stick,
     clip,
-    ground_course_rad,
     orbit_course_rad,
     wrap_pi,
     yaw_stick_for_heading,
@@ -158,8 +157,7 @@ class FixedWingRecovery:
             course_cmd = math.atan2(ge - s.east_m, gn - s.north_m)
         else:
             course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, ge, gn, self.orbit_radius_m, clockwise=self.turn_sign < 0)
-        course = ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad)
-        roll = bank_stick_for_turn_rate(COURSE_GAIN_PER_S * wrap_pi(course_cmd - course), s.ground_speed_mps, env)
+        roll = bank_stick_for_course(s, course_cmd, env, COURSE_GAIN_PER_S)
         return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=throttle)
 
 
@@ -196,7 +194,6 @@ class LandingGuidance:
             climb = -min(1.0, env.max_descent_rate_mps) if over else altitude_to_climb_rate(self.cruise_h, h, env, ALTITUDE_GAIN_PER_S)
             return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=climb_rate_to_stick(climb, env))
         course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, pe, pn, self.spiral_radius_m)
-        course = ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad)
-        roll = bank_stick_for_turn_rate(COURSE_GAIN_PER_S * wrap_pi(course_cmd - course), s.ground_speed_mps, env)
+        roll = bank_stick_for_course(s, course_cmd, env, COURSE_GAIN_PER_S)
         climb = -env.max_descent_rate_mps if over else altitude_to_climb_rate(self.cruise_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S)
         return StickCommand(roll=roll, pitch=climb_rate_to_stick(climb, env), yaw=0.0, throttle=airspeed_to_stick(env.min_speed_mps, env))

@@ -24,7 +24,6 @@ from analysis.seed_reproduction import (
     attempts_from_items,
     axis_statistics,
     compare_reactive_predictive,
-    fly_seed_scenario,
     pearson_r,
     ramp_setpoints,
 )

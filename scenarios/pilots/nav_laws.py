@@ -24,13 +24,11 @@ from geofence.control_laws import (
     G_MPS2,
     airspeed_to_stick,
     altitude_to_climb_rate,
-    bank_stick_for_turn_rate,
+    bank_stick_for_course,
     climb_rate_to_stick,
-    ground_course_rad,
     orbit_course_rad,
     VelocityController,
     approach_velocity,
-    wrap_pi,
     yaw_stick_for_heading,
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
@@ -106,9 +104,7 @@ class FixedWingNavigator:
 
     def bank_stick_for_course(self, s: VehicleState, course_cmd_rad: float) -> float:
         """Coordinated-turn law: commanded turn rate proportional to course error -> bank."""
-        course = ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad)
-        turn_rate = self.k_course * wrap_pi(course_cmd_rad - course)
-        return bank_stick_for_turn_rate(turn_rate, s.ground_speed_mps, self.env)
+        return bank_stick_for_course(s, course_cmd_rad, self.env, self.k_course)
 
     def course_on_line(self, s: VehicleState, e0: float, n0: float, e1: float, n1: float) -> tuple[float, float, float]:
         """Vector-field course to follow the line p0 -> p1.
