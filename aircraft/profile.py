@@ -17,6 +17,8 @@ A profile lives in ``aircraft/profiles/<model>.yaml``::
       braking_decel_mps2: 5
       vertical_accel_mps2: 3
       reaction_time_s: 0.2
+      drag_linear_per_s: 0.45   # optional: drag law a = k1 v + k2 v^2 (multirotor)
+      drag_quadratic_per_m: 0.01
     gains:                      # flight-controller property -> value, written before run_ic
       fc/roll-kp: 4.0
 
@@ -49,7 +51,11 @@ _ENVELOPE_FIELDS = {
     "braking_decel_mps2": 1.0,
     "vertical_accel_mps2": 1.0,
     "reaction_time_s": 1.0,
+    "drag_linear_per_s": 1.0,
+    "drag_quadratic_per_m": 1.0,
 }
+_OPTIONAL_ENVELOPE_FIELDS = {"drag_linear_per_s": 0.0, "drag_quadratic_per_m": 0.0}
+"""Envelope keys a profile may leave out (see :class:`geofence.interface.Envelope`)."""
 
 
 class ProfileError(ValueError):
@@ -111,6 +117,8 @@ def parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
             values[field_name] = float(x) * scale
         elif base is not None:
             values[field_name] = getattr(base.envelope, field_name)
+        elif key in _OPTIONAL_ENVELOPE_FIELDS:
+            values[field_name] = _OPTIONAL_ENVELOPE_FIELDS[key]
         else:
             raise ProfileError(f"{where}.envelope.{key}: missing (required)")
     gains = dict(base.gains) if base else {}

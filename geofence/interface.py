@@ -69,7 +69,15 @@ class Envelope:
     when stopping; ``vertical_accel_mps2`` is the acceleration available to
     arrest a climb or descent; ``reaction_time_s`` is the latency from a command
     to the start of the response.
-    """
+
+    Horizontal air drag per unit mass (multirotor), as a function of the
+    airspeed ``v``: ``a = drag_linear_per_s·v + drag_quadratic_per_m·v²``. The
+    linear part is rotor drag (blade flapping / induced drag), the quadratic
+    part the airframe's parasitic drag. Both 0 (the default) means "not
+    identified": :func:`geofence.dynamics.drag_coefficients` then takes a
+    purely quadratic law that balances the tilt limit at ``max_speed_mps``.
+    Unused for a fixed-wing (it flies at an airspeed, not against a drag).
+    
 
     kind: PlatformKind
     cruise_speed_mps: float
@@ -83,6 +91,8 @@ class Envelope:
     braking_decel_mps2: float
     vertical_accel_mps2: float
     reaction_time_s: float
+    drag_linear_per_s: float = 0.0
+    drag_quadratic_per_m: float = 0.0
 
     @property
     def is_multirotor(self) -> bool:

@@ -1,0 +1,57 @@
+"""The point-mass dynamics the unit assumes for a platform: the one home of the drag law.
+
+A multirotor's horizontal air drag per unit mass at airspeed ``v`` (m/s) is
+
+    a_drag(v) = k1·v + k2·v²        (m/s²)
+
+with ``k1 = Envelope.drag_linear_per_s`` (rotor drag: blade flapping and
+induced drag, roughly linear in airspeed; about 0.3-0.6 s⁻¹ for 0.5-2 kg
+quads, Faessler et al. 2018) and ``k2 = Envelope.drag_quadratic_per_m`` (the
+airframe's parasitic drag). In steady flight the horizontal thrust balances
+it: ``g·tan(tilt) = a_drag(v_air)``. An envelope with both coefficients 0 has
+no identified drag law; the purely quadratic law that balances the tilt limit
+at ``max_speed_mps`` is used then (``k2 = g·tan(tilt_max)/v_max²``), which is
+what the unit assumed before the drag law was part of the envelope.
+
+Everything in the unit that needs the drag (the wind push in the activation
+margin, the wind estimator's tilt-to-airspeed inversion, the skip shortcut)
+calls these functions.
+"""
+
+from __future__ import annotations
+
+import math
+
+from geofence.interface import Envelope
+
+G_MPS2: float = 9.80665
+
+
+def drag_coefficients(env: Envelope) -> tuple[float, float]:
+    """``(k1 per s, k2 per m)`` of the horizontal drag law (see the module docstring)."""
+    k1, k2 = env.drag_linear_per_s, env.drag_quadratic_per_m
+    if k1 > 0.0 or k2 > 0.0:
+        return k1, k2
+    if env.max_speed_mps > 0.0 and env.max_bank_rad > 0.0:
+        return 0.0, G_MPS2 * math.tan(env.max_bank_rad) / env.max_speed_mps**2
+    return 0.0, 0.0
+
+
+def drag_accel_mps2(k1: float, k2: float, v_air_mps: float) -> float:
+    """Drag deceleration per unit mass ``k1·v + k2·v²`` at airspeed ``v >= 0``, m/s²."""
+    return (k1 + k2 * v_air_mps) * v_air_mps
+
+
+def airspeed_for_drag_mps(k1: float, k2: float, accel_mps2: float) -> float:
+    """The airspeed whose drag is ``accel_mps2`` (inverse of :func:`drag_accel_mps2`); ``inf`` with no drag."""
+    if accel_mps2 <= 0.0:
+        return 0.0
+    if k2 > 0.0:
+        return 2.0 * accel_mps2 / (k1 + math.sqrt(k1 * k1 + 4.0 * k2 * accel_mps2))
+    return accel_mps2 / k1 if k1 > 0.0 else math.inf
+
+
+def still_air_top_speed_mps(env: Envelope) -> float:
+    """Top airspeed at the tilt limit implied by the drag law, m/s."""
+    k1, k2 = drag_coefficients(env)
+    return airspeed_for_drag_mps(k1, k2, G_MPS2 * math.tan(env.max_bank_rad))
