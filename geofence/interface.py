@@ -77,7 +77,7 @@ class Envelope:
     identified": :func:`geofence.dynamics.drag_coefficients` then takes a
     purely quadratic law that balances the tilt limit at ``max_speed_mps``.
     Unused for a fixed-wing (it flies at an airspeed, not against a drag).
-    
+    """
 
     kind: PlatformKind
     cruise_speed_mps: float
