@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from geofence.boundary_shift import fixed_wing_room_m, multicopter_stopping_distance_m, wind_push_mps2
+from geofence.boundary_shift import fixed_wing_room_m, multicopter_stopping_distance_m
+from geofence.dynamics import drag_coefficients, wind_push_mps2
 from geofence.fence import LocalFence
 from geofence.interface import Envelope
 
@@ -26,7 +27,7 @@ def edge_shifts_m(fence: LocalFence, env: Envelope, wind_en: tuple[float, float]
     shifts = []
     for wn in w_n:
         if env.is_multirotor:
-            push = wind_push_mps2(wind_speed, float(wn), env.max_bank_rad, env.max_speed_mps)
+            push = wind_push_mps2(*drag_coefficients(env), wind_speed, float(wn))
             shifts.append(multicopter_stopping_distance_m(v, env.reaction_time_s, env.braking_decel_mps2, v, push))
         else:
             shifts.append(fixed_wing_room_m(v, env.max_bank_rad, 0.0, float(wn), env.reaction_time_s))

@@ -79,14 +79,18 @@ accelerating toward the edge at the tilt limit ``a_p = g·tan(tilt_max)``
 seconds) the collective cut lowers the braking deceleration to
 ``a_eff·(1 - a_z/g)``. Both were measured to matter in closed loop (an F450
 at full tilt and full climb overshot by 1.3 m without them, 0 with).
-Wind: the air drag on a tilt-limited vehicle is ``a_tilt·(v_air/v_max)²``
-(``a_tilt = g·tan(tilt_max)`` balances drag at ``max_speed_mps``). While
-braking, the drag from the wind at zero ground speed,
-``a_w = a_tilt·|W|·max(W·n, 0)/v_max²``, is taken as pushing towards the
-edge throughout: ``a_eff = a_brake - a_w``. This is conservative (a vehicle
-still moving towards the edge faster than the wind feels drag that *helps* it
+Wind: the platform's drag law ``a_drag(v) = k1·v + k2·v²``
+(:mod:`geofence.dynamics`, from the envelope; rotor drag makes it mostly
+linear). While braking, the drag from the wind at zero ground speed,
+``a_w = (k1 + k2·|W|)·max(W·n, 0)``, is taken as pushing towards the edge
+throughout: ``a_eff = a_brake - a_w``. This is conservative (a vehicle still
+moving towards the edge faster than the wind feels drag that *helps* it
 brake); no credit is taken for wind blowing away from the edge; ``a_eff <= 0``
 (cannot hold against the wind) gives infinite room.
+
+Turbulence and gusts: ``wind_extra_mps`` (k·σ of the turbulence plus a gust
+allowance, chosen by the caller) is added to the wind component towards every
+edge and to the wind speed, for the whole manoeuvre, on both platform kinds.
 
 Vertical
 --------
@@ -108,6 +112,7 @@ from dataclasses import dataclass
 from typing import Sequence
 
 from .fence import FEATURE_KEEP_OUT_CIRCLE, FenceError, LocalFence
+from .dynamics import drag_coefficients, wind_push_mps2
 from .interface import Envelope, PlatformKind, VehicleState
 
 G_MPS2: float = 9.80665
@@ -207,20 +212,13 @@ def fixed_wing_room_from_velocity_m(v_ground_normal: float, v_ground_tangent: fl
 
 
 # --------------------------------------------------------------------------- multirotor
-def wind_push_mps2(wind_speed_mps: float, wind_normal_mps: float, tilt_max_rad: float, max_speed_mps: float,
-                   g: float = G_MPS2) -> float:
-    """Drag acceleration from the wind towards an edge at zero ground speed: ``a_tilt·|W|·max(w_n, 0)/v_max²``."""
-    if wind_normal_mps <= 0.0 or max_speed_mps <= 0.0:
-        return 0.0
-    return g * math.tan(tilt_max_rad) * wind_speed_mps * wind_normal_mps / (max_speed_mps * max_speed_mps)
-
-
 def multicopter_stopping_distance_m(v_normal_mps: float, reaction_time_s: float, braking_decel_mps2: float,
                                     speed_mps: float | None = None, wind_push_mps2: float = 0.0) -> float:
     """Room along an edge normal to stop: ``v_n·t_react + v_n·v/(2·(a_brake - a_w))``, in m.
 
     ``speed_mps`` (default ``|v_n|``) is the full ground speed (the vehicle
-    brakes along its velocity); ``wind_push_mps2`` from :func:`wind_push_mps2`.
+    brakes along its velocity); ``wind_push_mps2`` from
+    :func:`geofence.dynamics.wind_push_mps2`.
     0 when not closing; ``inf`` when the wind push is >= the braking deceleration.
     """
     if v_normal_mps <= 0.0:
@@ -335,23 +333,9 @@ class ShiftResult:
     vertical_time_to_breach_s: float
 
 
-def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: float, vn: float, vu: float,
-                       envelope: Envelope, wind_e: float = 0.0, wind_n: float = 0.0, *,
-                       h_uncertainty_m: float = 0.0, v_uncertainty_m: float = 0.0,
-                       latency_s: float = 0.0, bank_rad: float = 0.0, g: float = G_MPS2) -> ShiftResult:
-    """Required shifts and activation margins for a state (see :class:`ShiftResult`).
-
-    ``(e, n)`` ENU position and ``h`` height in the fence's altitude reference
-    (m); ``(ve, vn, vu)`` ground velocity (m/s); ``(wind_e, wind_n)`` the steady
-    wind estimate (m/s, the direction the air moves towards);
-    ``h_uncertainty_m`` / ``v_uncertainty_m`` the horizontal / vertical
-    uncertainty margins (e.g. from :func:`uncertainty_margin_m`) added to every
-    lateral / vertical shift. Plain-Python scalar code for the per-step loop.
-    """
-    t_r = envelope.reaction_time_s + latency_s
-    edges = fence.danger_edges()
-    # unsigned distance to every edge / circle
-    dists = []
+def _edge_distances(edges: tuple, e: float, n: float) -> tuple[list, float]:
+    """``([(d, nx, ny, feature, index, edge), ...], min d)``: unsigned distance from (e, n) to each edge item."""
+    out = []
     min_d = math.inf
     for ax, ay, dx, dy, il2, nx, ny, feat, idx, j in edges:
         px, py = e - ax, n - ay
@@ -359,9 +343,38 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
         t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
         qx, qy = px - t * dx, py - t * dy
         d = math.sqrt(qx * qx + qy * qy)
-        dists.append((d, nx, ny, feat, idx, j))
+        out.append((d, nx, ny, feat, idx, j))
         if d < min_d:
             min_d = d
+    return out, min_d
+
+
+def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: float, vn: float, vu: float,
+                       envelope: Envelope, wind_e: float = 0.0, wind_n: float = 0.0, *,
+                       h_uncertainty_m: float = 0.0, v_uncertainty_m: float = 0.0,
+                       latency_s: float = 0.0, bank_rad: float = 0.0, wind_extra_mps: float = 0.0,
+                       g: float = G_MPS2) -> ShiftResult:
+    """Required shifts and activation margins for a state (see :class:`ShiftResult`).
+
+    ``(e, n)`` ENU position and ``h`` height in the fence's altitude reference
+    (m); ``(ve, vn, vu)`` ground velocity (m/s); ``(wind_e, wind_n)`` the steady
+    wind estimate (m/s, the direction the air moves towards);
+    ``h_uncertainty_m`` / ``v_uncertainty_m`` the horizontal / vertical
+    uncertainty margins (e.g. from :func:`uncertainty_margin_m`) added to every
+    lateral / vertical shift. ``wind_extra_mps`` is the turbulence and gust
+    allowance: every edge is scored as if the wind blew that much harder
+    towards it for the whole manoeuvre (``w_n + extra``, ``|W| + extra``).
+
+    Floor gaps: below the floor inside a gap, leaving the gap sideways is a
+    breach, so the gap's edges are scored like keep-in edges (lateral room).
+    The floor is safe while *either* the descent can be arrested above the
+    floor *or* the vehicle stays inside the gap it is over, so the floor
+    activation is the larger of the vertical arrest margin (gaps ignored) and
+    the lateral activation margin against the gap's edges.
+    Plain-Python scalar code for the per-step loop.
+    """
+    t_r = envelope.reaction_time_s + latency_s
+    dists, min_d = _edge_distances(fence.danger_edges(), e, n)
     for i, (ce, cn, r) in enumerate(fence.keep_out_circles):
         dist = math.hypot(ce - e, cn - n)
         ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
@@ -371,7 +384,8 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
             min_d = d
     lat_margin = fence.lateral_margin_m(e, n)
     speed = math.hypot(ve, vn)
-    wspeed = math.hypot(wind_e, wind_n)
+    extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
+    wspeed = math.hypot(wind_e, wind_n) + extra
     hu = h_uncertainty_m
 
     fixed_wing = envelope.kind is PlatformKind.FIXED_WING
@@ -417,7 +431,7 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
         bound = 2.0 * radius + wspeed * TWO_PI * inv_omega + (speed + wspeed) * t_fw + hu
     else:
         a_tilt = g * math.tan(envelope.max_bank_rad)
-        vmax2 = envelope.max_speed_mps ** 2
+        k1, k2 = drag_coefficients(envelope)
         a_brake = envelope.braking_decel_mps2
         # arresting a climb lowers the collective, and with it the horizontal braking force
         climb_arrest = (vu / envelope.vertical_accel_mps2, envelope.vertical_accel_mps2 / g) \
@@ -425,44 +439,47 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
         directions = ((0.0, 0.0),)
         bound = math.inf
 
-    # per threatened edge, the direction-independent part: (d, ..., v_n, w_n, base room, psi0)
-    near = []
-    for d, nx, ny, feat, idx, j in dists:
-        if d - bound >= min_d:
-            continue
-        v_n = ve * nx + vn * ny
-        w_n = wind_e * nx + wind_n * ny
-        if fixed_wing:
-            base = _reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n) + hu
-            # air heading relative to the normal: angle from n to (ca, sa)
-            psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
-        else:
-            # worst case: the pilot keeps accelerating at the tilt limit toward the
-            # edge until the override acts (t_r), then the vehicle brakes
-            base = v_n * t_r if v_n > 0.0 else 0.0
-            a_p = a_tilt if speed < envelope.max_speed_mps else 0.0
-            v_n1 = v_n + a_p * t_r
-            if v_n1 > 0.0:
-                base = (v_n * t_r if v_n > 0.0 else 0.0) + 0.5 * a_p * t_r * t_r
-                v1 = speed + a_p * t_r
-                push = a_tilt * wspeed * w_n / vmax2 if (w_n > 0.0 and vmax2 > 0.0) else 0.0
-                base += _braking_room_m(v_n1, v1 if v1 > v_n1 else v_n1, a_brake - push, climb_arrest)
-            base += hu
-            psi0 = 0.0
-        near.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0))
+    def worst_edge(dists: list, min_d: float):
+        """(activation, turn sign, (room, feature, index, edge, nx, ny, d, v_n)) of the binding edge."""
+        # per threatened edge, the direction-independent part: (d, ..., v_n, w_n, base room, psi0)
+        near = []
+        for d, nx, ny, feat, idx, j in dists:
+            if d - bound >= min_d:
+                continue
+            v_n = ve * nx + vn * ny
+            w_n = wind_e * nx + wind_n * ny + extra
+            if fixed_wing:
+                base = _reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n) + hu
+                # air heading relative to the normal: angle from n to (ca, sa)
+                psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
+            else:
+                # worst case: the pilot keeps accelerating at the tilt limit toward the
+                # edge until the override acts (t_r), then the vehicle brakes
+                base = v_n * t_r if v_n > 0.0 else 0.0
+                a_p = a_tilt if speed < envelope.max_speed_mps else 0.0
+                v_n1 = v_n + a_p * t_r
+                if v_n1 > 0.0:
+                    base = (v_n * t_r if v_n > 0.0 else 0.0) + 0.5 * a_p * t_r * t_r
+                    v1 = speed + a_p * t_r
+                    push = wind_push_mps2(k1, k2, wspeed, w_n)
+                    base += _braking_room_m(v_n1, v1 if v1 > v_n1 else v_n1, a_brake - push, climb_arrest)
+                base += hu
+                psi0 = 0.0
+            near.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0))
+        best = None
+        for s, delta in directions:
+            worst = math.inf
+            wk = None
+            for d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 in near:
+                room = base + _excursion(radius, inv_omega, v_turn, w_n, psi0, s, delta) if fixed_wing else base
+                act = d - room
+                if act < worst:
+                    worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)
+            if best is None or worst > best[0]:
+                best = (worst, s, wk)
+        return best
 
-    best = None
-    for s, delta in directions:
-        worst = math.inf
-        wk = None
-        for d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 in near:
-            room = base + _excursion(radius, inv_omega, v_turn, w_n, psi0, s, delta) if fixed_wing else base
-            act = d - room
-            if act < worst:
-                worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)
-        if best is None or worst > best[0]:
-            best = (worst, s, wk)
-    lat_act, s_best, (room, feat, idx, j, nx, ny, d_edge, v_n) = best
+    lat_act, s_best, (room, feat, idx, j, nx, ny, d_edge, v_n) = worst_edge(dists, min_d)
     if lat_margin < lat_act:
         lat_act = lat_margin
     if lat_margin <= 0.0:
@@ -472,11 +489,23 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
 
     # vertical
     c_m = fence.ceiling_m - h
-    f_m = fence.floor_margin_m(e, n, h)
     c_s = vertical_arrest_distance_m(vu, t_r, envelope.vertical_accel_mps2) + v_uncertainty_m
-    f_s = (vertical_arrest_distance_m(-vu, t_r, envelope.vertical_accel_mps2) + v_uncertainty_m
-           if fence.floor_m is not None else 0.0)
-    v_act = min(c_m - c_s, f_m - f_s)
+    if fence.floor_m is None:
+        f_m, f_s, f_act = math.inf, 0.0, math.inf
+    else:
+        f_m = fence.floor_margin_m(e, n, h)
+        f_act = h - fence.floor_m - vertical_arrest_distance_m(-vu, t_r, envelope.vertical_accel_mps2) - v_uncertainty_m
+        if fence.floor_gaps:
+            gi, gd = fence.best_gap(e, n)
+            if gd > 0.0:  # over a gap: staying inside it (laterally) also keeps the floor
+                gdists, gmin = _edge_distances(fence.gap_edges(gi), e, n)
+                g_act = worst_edge(gdists, gmin)[0]
+                if g_act > gd:
+                    g_act = gd
+                if g_act > f_act:
+                    f_act = g_act
+        f_s = f_m - f_act
+    v_act = min(c_m - c_s, f_act)
     if c_m <= 0.0 or f_m <= 0.0:
         vttb = 0.0
     elif vu > 1e-9:
@@ -520,7 +549,10 @@ class ShiftFeasibility:
 
 def worst_case_lateral_shift_m(envelope: Envelope, wind_speed_mps: float, h_uncertainty_m: float = 0.0,
                                g: float = G_MPS2) -> float:
-    """Largest lateral shift over speeds and approach angles: head-on with the wind as a tailwind."""
+    """Largest lateral shift over speeds and approach angles: head-on with the wind as a tailwind.
+
+    ``wind_speed_mps`` is the design wind (mean plus any turbulence and gust allowance).
+    """
     w = abs(wind_speed_mps)
     t_r = envelope.reaction_time_s
     if envelope.kind is PlatformKind.FIXED_WING:
@@ -528,7 +560,8 @@ def worst_case_lateral_shift_m(envelope: Envelope, wind_speed_mps: float, h_unce
         if not speeds:
             return math.inf
         return max(fixed_wing_room_m(v, envelope.max_bank_rad, 0.0, w, t_r, g) for v in speeds) + h_uncertainty_m
-    push = wind_push_mps2(w, w, envelope.max_bank_rad, envelope.max_speed_mps, g)
+    k1, k2 = drag_coefficients(envelope)
+    push = wind_push_mps2(k1, k2, w, w)
     v = envelope.max_speed_mps
     return multicopter_stopping_distance_m(v, t_r, envelope.braking_decel_mps2, v, push) + h_uncertainty_m
 

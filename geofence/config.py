@@ -15,7 +15,11 @@ Example (every key but ``fence`` optional)::
       ramp_s: 3.0                  # seed_pd set-point ramp time
       recovery_speed_mps: 5.0      # multirotor return speed (default: half cruise)
       max_reactivations: 3         # still outside after this many override periods -> land in a gap
-      wind_prior: {speed_mps: 8, from_deg: 240}   # forecast wind until the estimate converges
+      wind_prior: {speed_mps: 8, from_deg: 240, turbulence_sigma_mps: 1.0, gust_mps: 3}
+                                   # forecast: mean wind until the estimate converges; turbulence
+                                   # sigma and gust amplitude (m/s) for the activation margin
+      turbulence_k_sigma: 1.5      # wind allowance = k * max(forecast, estimated) turbulence sigma + gust
+      vertical_handback_m: 2.0     # hand back only this far inside the vertical activation boundary
       state_source: estimate       # estimate (own sensors + Kalman filter, default) | truth (e.g. indoor motion capture)
 
 All messages are one line: ``<where>.<field>: <problem>``.
@@ -76,12 +80,20 @@ class GeofenceConfig:
     """Forecast wind (east, north m/s, toward) used until the estimate converges."""
     state_source: str = "estimate"
     """``estimate``: the unit's own sensors and filter; ``truth``: a perfect position source (motion capture)."""
+    turbulence_sigma_mps: float = 0.0
+    """Forecast turbulence intensity (1-sigma of the horizontal gust velocity, m/s)."""
+    gust_mps: float = 0.0
+    """Forecast discrete-gust amplitude (m/s) added to the wind the margin allows for."""
+    turbulence_k_sigma: float = 1.5
+    """The wind allowance is ``k * max(forecast, estimated turbulence sigma) + gust_mps``."""
+    vertical_handback_m: float = 2.0
+    """Vertical hysteresis: hand back only with the vertical activation margin at least this large."""
 
 
 _KEYS = {
     "fence", "trigger", "min_override_s", "handback_margin_m", "recovery_radius_m", "uncertainty_k_sigma",
     "extra_margin_m", "multirotor_law", "seed_pd", "ramp_s", "recovery_speed_mps", "max_reactivations", "wind_prior",
-    "state_source",
+    "state_source", "turbulence_k_sigma", "vertical_handback_m",
 }
 
 
@@ -127,16 +139,20 @@ def parse_geofence(raw: Any, where: str = "geofence") -> GeofenceConfig:
         gains = SeedPDGains(**values)
 
     prior = (0.0, 0.0)
+    turb = gust = 0.0
     if raw.get("wind_prior") is not None:
         w = raw["wind_prior"]
-        if not isinstance(w, Mapping) or set(w) - {"speed_mps", "from_deg"}:
-            raise GeofenceConfigError(f"{where}.wind_prior: expected {{speed_mps, from_deg}}")
-        speed, frm = w.get("speed_mps", 0.0), w.get("from_deg", 0.0)
-        for k, v in (("speed_mps", speed), ("from_deg", frm)):
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (k == "speed_mps" and v < 0):
-                raise GeofenceConfigError(f"{where}.wind_prior.{k}: must be a finite number{' >= 0' if k == 'speed_mps' else ''}, got {v!r}")
-        to = math.radians(frm + 180.0)
+        allowed = ("speed_mps", "from_deg", "turbulence_sigma_mps", "gust_mps")
+        if not isinstance(w, Mapping) or set(w) - set(allowed):
+            raise GeofenceConfigError(f"{where}.wind_prior: expected a mapping with keys from {', '.join(allowed)}")
+        values = {k: w.get(k, 0.0) for k in allowed}
+        for k, v in values.items():
+            nonneg = k != "from_deg"
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (nonneg and v < 0):
+                raise GeofenceConfigError(f"{where}.wind_prior.{k}: must be a finite number{' >= 0' if nonneg else ''}, got {v!r}")
+        speed, to = values["speed_mps"], math.radians(values["from_deg"] + 180.0)
         prior = (speed * math.sin(to), speed * math.cos(to))
+        turb, gust = float(values["turbulence_sigma_mps"]), float(values["gust_mps"])
 
     speed = raw.get("recovery_speed_mps")
     max_react = raw.get("max_reactivations", 3)
@@ -157,4 +173,8 @@ def parse_geofence(raw: Any, where: str = "geofence") -> GeofenceConfig:
         max_reactivations=max_react,
         wind_prior_enu=prior,
         state_source=choice("state_source", "estimate", ("estimate", "truth")),
+        turbulence_sigma_mps=turb,
+        gust_mps=gust,
+        turbulence_k_sigma=num("turbulence_k_sigma", 1.5, 0.0, 10.0),
+        vertical_handback_m=num("vertical_handback_m", 2.0, 0.0, 100.0),
     )

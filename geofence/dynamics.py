@@ -51,6 +51,18 @@ def airspeed_for_drag_mps(k1: float, k2: float, accel_mps2: float) -> float:
     return accel_mps2 / k1 if k1 > 0.0 else math.inf
 
 
+def wind_push_mps2(k1: float, k2: float, wind_speed_mps: float, wind_normal_mps: float) -> float:
+    """Drag acceleration the wind exerts towards an edge on a vehicle at rest over the ground, m/s².
+
+    At zero ground speed the airspeed is ``|W|`` and the drag ``a_drag(|W|)``
+    points along the wind; its component along the edge normal is
+    ``(k1 + k2·|W|)·w_n``; 0 when the wind blows away from the edge.
+    """
+    if wind_normal_mps <= 0.0:
+        return 0.0
+    return (k1 + k2 * wind_speed_mps) * wind_normal_mps
+
+
 def still_air_top_speed_mps(env: Envelope) -> float:
     """Top airspeed at the tilt limit implied by the drag law, m/s."""
     k1, k2 = drag_coefficients(env)

@@ -338,6 +338,19 @@ def parse_fence(mapping: Any, where: str = "") -> Fence:
 FEATURE_KEEP_IN = "keep_in"
 FEATURE_KEEP_OUT_POLYGON = "keep_out_polygon"
 FEATURE_KEEP_OUT_CIRCLE = "keep_out_circle"
+FEATURE_FLOOR_GAP = "floor_gap"
+
+
+def _edge_items(p: PolygonIndex, feature: str, index: int, sign: float) -> tuple:
+    """``(ax, ay, dx, dy, inv_len2, nx, ny, feature, index, edge)`` per edge of ``p``; normal = sign · outward."""
+    out = []
+    for j in range(p.n):
+        ax, ay = float(p.starts[j, 0]), float(p.starts[j, 1])
+        dx, dy = float(p.ends[j, 0]) - ax, float(p.ends[j, 1]) - ay
+        l2 = dx * dx + dy * dy
+        nx, ny = sign * float(p.outward_normals[j, 0]), sign * float(p.outward_normals[j, 1])
+        out.append((ax, ay, dx, dy, 1.0 / l2 if l2 > 0.0 else 0.0, nx, ny, feature, index, j))
+    return tuple(out)
 
 
 class LocalFence:
@@ -355,7 +368,7 @@ class LocalFence:
 
     __slots__ = ("fence", "frame", "keep_in", "keep_out_polygons", "keep_out_circles", "floor_gaps",
                  "ceiling_m", "floor_m", "altitude_reference", "recovery_en", "recovery_height_m",
-                 "_inradius", "_no_keepouts", "_danger_edges")
+                 "_inradius", "_no_keepouts", "_danger_edges", "_gap_edges")
 
     def __init__(self, fence: Fence, frame: LocalFrame) -> None:
         self.fence = fence
@@ -376,6 +389,7 @@ class LocalFence:
         self._no_keepouts = not self.keep_out_polygons and not self.keep_out_circles
         self._inradius = None
         self._danger_edges = None
+        self._gap_edges = None
         rp = fence.recovery_point
         if rp is not None:
             self.recovery_en = frame.to_enu(rp[0], rp[1], h0)[:2]
@@ -533,18 +547,31 @@ class LocalFence:
         edges), and the edge's identity. Circles are in ``keep_out_circles``.
         """
         if self._danger_edges is None:
-            out = []
-            polys = [(self.keep_in, FEATURE_KEEP_IN, 0, 1.0)]
-            polys += [(k, FEATURE_KEEP_OUT_POLYGON, i, -1.0) for i, k in enumerate(self.keep_out_polygons)]
-            for p, feat, idx, sgn in polys:
-                for j in range(p.n):
-                    ax, ay = float(p.starts[j, 0]), float(p.starts[j, 1])
-                    dx, dy = float(p.ends[j, 0]) - ax, float(p.ends[j, 1]) - ay
-                    l2 = dx * dx + dy * dy
-                    nx, ny = sgn * float(p.outward_normals[j, 0]), sgn * float(p.outward_normals[j, 1])
-                    out.append((ax, ay, dx, dy, 1.0 / l2 if l2 > 0.0 else 0.0, nx, ny, feat, idx, j))
+            out = list(_edge_items(self.keep_in, FEATURE_KEEP_IN, 0, 1.0))
+            for i, k in enumerate(self.keep_out_polygons):
+                out += _edge_items(k, FEATURE_KEEP_OUT_POLYGON, i, -1.0)
             self._danger_edges = tuple(out)
         return self._danger_edges
+
+    def gap_edges(self, gap: int) -> tuple:
+        """The edges of floor gap ``gap`` in the :meth:`danger_edges` item format (cached).
+
+        The normal points *out of the gap*: below the floor, leaving the gap
+        sideways is the breach, so for a vehicle below the floor the gap's
+        edges are lateral boundaries like the keep-in's.
+        """
+        if self._gap_edges is None:
+            self._gap_edges = tuple(_edge_items(g, FEATURE_FLOOR_GAP, i, 1.0) for i, g in enumerate(self.floor_gaps))
+        return self._gap_edges[gap]
+
+    def best_gap(self, e: float, n: float) -> tuple[int, float]:
+        """``(index, signed distance)`` of the floor gap that (e, n) is deepest inside; ``(-1, -inf)`` with no gaps."""
+        best, best_d = -1, -math.inf
+        for i, g in enumerate(self.floor_gaps):
+            d = g.signed_distance(e, n)
+            if d > best_d:
+                best, best_d = i, d
+        return best, best_d
 
     # ---- whole-fence properties
     def inradius(self) -> tuple[float, float, float]:

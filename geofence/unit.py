@@ -40,6 +40,7 @@ from geofence.boundary_shift import ShiftResult, activation_margins
 from geofence.config import GeofenceConfig
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
+from geofence.dynamics import G_MPS2, drag_coefficients, wind_push_mps2
 from geofence.fence import LocalFence
 from geofence.guidance import FixedWingRecovery, LandingGuidance, MultirotorVelocityRecovery, SeedPDRecovery
 from geofence.interface import Envelope, StickCommand, VehicleState
@@ -84,6 +85,7 @@ class GeofenceUnit:
         self.last: ShiftResult | None = None
         self.activation_margin_m = math.inf
         self.wind_enu = [config.wind_prior_enu[0], config.wind_prior_enu[1]]
+        self._turbulence_est_mps = 0.0
         if envelope.is_multirotor:
             if config.multirotor_law == "seed_pd":
                 self.recovery = SeedPDRecovery(envelope, config.seed_pd, config.ramp_s)
@@ -102,8 +104,8 @@ class GeofenceUnit:
         """The state the unit acted on last (its estimate, or its dead reckoning)."""
         self._override_period_start_s = 0.0
         lo = fence.floor_m if fence.floor_m is not None else (0.0 if fence.altitude_reference == "agl" else -math.inf)
-        band = max(0.15 * (fence.ceiling_m - lo) if math.isfinite(lo) else 5.0, 0.1)
-        self._safe_band = (lo + band, fence.ceiling_m - band)
+        self._height_limits = (lo, fence.ceiling_m)
+        self._sigma_v_m = 0.0
 
     # -- helpers -------------------------------------------------------------
     def _switch(self, t_s: float, to: Mode, reason: str) -> None:
@@ -114,30 +116,38 @@ class GeofenceUnit:
     def height(self, s: VehicleState) -> float:
         return s.agl_m if self.fence.altitude_reference == "agl" else s.alt_m
 
-    def _far_from_everything(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> bool:
-        """Cheap pre-check: no edge, ceiling or floor is within the largest room any state could need.
+    @property
+    def wind_allowance_mps(self) -> float:
+        """Turbulence and gust allowance added to the wind in every margin: ``k·max(σ_forecast, σ_est) + gust``."""
+        cfg = self.config
+        return cfg.turbulence_k_sigma * max(cfg.turbulence_sigma_mps, self._turbulence_est_mps) + cfg.gust_mps
 
-        An upper bound of the lateral room (max speed, strongest turn or
-        braking, the wind, two roll times) and of the vertical arrest distance;
-        when the plain margins exceed both, the full per-edge computation of
-        :func:`activation_margins` cannot trigger and is skipped.
+    def _far_from_everything(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> bool:
+        """Cheap pre-check: no edge, ceiling or floor is within the largest room this state could need.
+
+        An upper bound of the lateral room that :func:`activation_margins`
+        can return for this state (the larger of max speed and the current
+        speed, the strongest turn or braking, the wind with its allowance, two
+        roll times) and of the vertical arrest distance; when the plain margins
+        exceed both, the full per-edge computation cannot trigger and is skipped.
         """
         env = self.env
         k = self.config.uncertainty_k_sigma
         extra = self.config.extra_margin_m
-        w = math.hypot(self.wind_enu[0], self.wind_enu[1])
-        v = env.max_speed_mps
-        g = 9.80665
+        w = math.hypot(self.wind_enu[0], self.wind_enu[1]) + self.wind_allowance_mps
+        g = G_MPS2
         t = 2.0 * env.reaction_time_s + dt_s
         if env.is_multirotor:
+            v = max(env.max_speed_mps, s.ground_speed_mps)
             a_p = g * math.tan(env.max_bank_rad)
-            push = a_p * w * w / (v * v) if v > 0 else 0.0
-            a = (env.braking_decel_mps2 - push) * max(1.0 - env.vertical_accel_mps2 / g, 0.05)
+            k1, k2 = drag_coefficients(env)
+            a = (env.braking_decel_mps2 - wind_push_mps2(k1, k2, w, w)) * max(1.0 - env.vertical_accel_mps2 / g, 0.05)
             if a <= 0.0:
                 return False
             v1 = v + a_p * t
             room = v * t + 0.5 * a_p * t * t + v1 * v1 / (2.0 * a)
         else:
+            v = max(env.max_speed_mps, math.hypot(s.v_east_mps - self.wind_enu[0], s.v_north_mps - self.wind_enu[1]))
             tanb = g * math.tan(env.max_bank_rad)
             room = 2.0 * v * v / tanb + w * 2.0 * math.pi * v / tanb + (v + w) * t
         room += k * sigma_h_m + extra
@@ -146,7 +156,9 @@ class GeofenceUnit:
         fence = self.fence
         if fence.lateral_margin_m(s.east_m, s.north_m) <= room or fence.ceiling_m - h <= vroom:
             return False
-        return fence.floor_m is None or fence.floor_margin_m(s.east_m, s.north_m, h) > vroom
+        if fence.floor_m is None or h - fence.floor_m > vroom:
+            return True
+        return fence.best_gap(s.east_m, s.north_m)[1] > room
 
     def _margins(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> ShiftResult:
         k = self.config.uncertainty_k_sigma
@@ -155,6 +167,7 @@ class GeofenceUnit:
             self.fence, s.east_m, s.north_m, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, self.env,
             self.wind_enu[0], self.wind_enu[1],
             h_uncertainty_m=k * sigma_h_m + extra, v_uncertainty_m=k * sigma_v_m + extra, latency_s=dt_s, bank_rad=s.roll_rad,
+            wind_extra_mps=self.wind_allowance_mps,
         )  # fmt: skip
 
     def _activation(self, r: ShiftResult) -> float:
@@ -178,11 +191,26 @@ class GeofenceUnit:
         return f"vertical: ceiling margin {r.ceiling_margin_m:.1f} m, floor margin {r.floor_margin_m:.1f} m, activation {r.vertical_activation_m:.1f} m"
 
     def _goal_height(self, h: float) -> float:
+        """Height the override flies to: the nearest one where hand-back is possible.
+
+        The vertical activation margin at rest must exceed the hand-back
+        hysteresis with room to arrest the altitude hold's own overshoot, so
+        the goal is ``h`` clipped to ``[floor + u + hyst + arrest, ceiling - u
+        - hyst - arrest]`` (``u``: the vertical uncertainty margin), or the
+        middle of the band when that is empty. An explicit recovery height wins.
+        """
         rp = self.fence.fence.recovery_point
         if rp is not None and len(rp) == 3:  # an explicit recovery set-point height
             return self.fence.recovery_height_m
-        lo, hi = self._safe_band
-        return clip(h, lo, hi) if lo <= hi else 0.5 * (lo + hi)
+        lo, hi = self._height_limits
+        env = self.env
+        u = self.config.uncertainty_k_sigma * self._sigma_v_m + self.config.extra_margin_m + self.config.vertical_handback_m
+        # the altitude hold approaches the goal at about 1 m/s per m: allow one arrest from 1 m/s
+        settle = 1.0 * env.reaction_time_s + 1.0 / (2.0 * max(env.vertical_accel_mps2, 0.1)) + 0.5
+        band_lo, band_hi = lo + u + settle, hi - u - settle
+        if band_lo <= band_hi:
+            return clip(h, band_lo, band_hi)
+        return 0.5 * (lo + hi) if math.isfinite(lo) else hi - 5.0
 
     def _return_impossible(self) -> str | None:
         w = math.hypot(*self.wind_enu)
@@ -231,10 +259,17 @@ class GeofenceUnit:
         position_valid: bool = True,
         sigma_h_m: float = 0.0,
         sigma_v_m: float = 0.0,
+        turbulence_sigma_mps: float | None = None,
     ) -> StickCommand:
-        """One step: returns the sticks to send to the flight controller (the pilot's, or the override's)."""
+        """One step: returns the sticks to send to the flight controller (the pilot's, or the override's).
+
+        ``turbulence_sigma_mps``: the wind estimator's current estimate of the
+        turbulence intensity (m/s, 1-sigma), if it has one.
+        """
         if wind_en is not None:
             self.wind_enu[0], self.wind_enu[1] = wind_en
+        if turbulence_sigma_mps is not None:
+            self._turbulence_est_mps = turbulence_sigma_mps
         self._position_valid = position_valid
         if position_valid:
             self._last_valid = est
@@ -244,6 +279,7 @@ class GeofenceUnit:
                 self.dead_reckoning.start(self._last_valid)
             est = self.dead_reckoning.step(est, dt_s, (self.wind_enu[0], self.wind_enu[1]))
         self.estimate = est
+        self._sigma_v_m = sigma_v_m
         h = self.height(est)
         mode = self.mode
         if mode is Mode.LAND_IN_GAP or mode is Mode.TERMINATE:
@@ -275,7 +311,7 @@ class GeofenceUnit:
         self.activation_margin_m = act
 
         if mode is Mode.MONITOR or mode is Mode.RECOVERED:
-            if act <= 0.0:
+            if act <= 0.0 and not est.on_ground:  # sitting on the ground breaches nothing
                 self.activations += 1
                 if impossible:
                     self._start_landing(t_s, est, h, impossible)
@@ -304,7 +340,10 @@ class GeofenceUnit:
     def _handback_ok(self, s: VehicleState, r: ShiftResult, act: float) -> bool:
         re, rn = self.fence.recovery_en
         at_point = math.hypot(re - s.east_m, rn - s.north_m) <= self.config.recovery_radius_m
-        vertical_ok = r.vertical_activation_m > 0.0 if self.config.trigger == "predictive" else min(r.ceiling_margin_m, r.floor_margin_m) > 0.0
+        if self.config.trigger == "predictive":
+            vertical_ok = r.vertical_activation_m >= self.config.vertical_handback_m
+        else:
+            vertical_ok = min(r.ceiling_margin_m, r.floor_margin_m) > 0.0
         lateral_ok = act >= self.config.handback_margin_m and r.closing_speed_mps <= 0.0
         return vertical_ok and (lateral_ok or at_point)
 

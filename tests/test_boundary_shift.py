@@ -23,9 +23,9 @@ from geofence.boundary_shift import (
     turn_rate_radps,
     uncertainty_margin_m,
     vertical_arrest_distance_m,
-    wind_push_mps2,
     worst_case_lateral_shift_m,
 )
+from geofence.dynamics import drag_coefficients, wind_push_mps2
 from geofence.fence import FenceError, parse_fence
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, VehicleState
@@ -148,12 +148,12 @@ def test_multicopter_braking_closed_form():
     assert multicopter_stopping_distance_m(vn, t, a, speed_mps=v) == pytest.approx(vn * t + vn * v / (2 * a))
     assert multicopter_stopping_distance_m(-1.0, t, a) == 0.0
     # wind pushing towards the edge reduces the braking deceleration
-    push = wind_push_mps2(6.0, 6.0, math.radians(30.0), 12.0)
+    push = wind_push_mps2(0.0, 9.80665 * math.tan(math.radians(30.0)) / 144.0, 6.0, 6.0)
     assert push == pytest.approx(G_MPS2 * math.tan(math.radians(30.0)) * 36.0 / 144.0)
     assert multicopter_stopping_distance_m(v, t, a, wind_push_mps2=push) == pytest.approx(v * t + v * v / (2 * (a - push)))
     assert multicopter_stopping_distance_m(v, t, a, wind_push_mps2=a) == math.inf
     # wind away from the edge: no credit taken
-    assert wind_push_mps2(6.0, -6.0, math.radians(30.0), 12.0) == 0.0
+    assert wind_push_mps2(0.0, 9.80665 * math.tan(math.radians(30.0)) / 144.0, 6.0, -6.0) == 0.0
 
 
 def test_vertical_arrest_closed_form():
@@ -197,7 +197,7 @@ def test_multicopter_activation_head_on():
     assert climbing.lateral_shift_m > res.lateral_shift_m
     # a tailwind towards the edge increases the shift; uncertainty adds on top
     windy = activation_margins(lf, e, n, 50.0, v, 0.0, 0.0, MC, 6.0, 0.0, h_uncertainty_m=3.0)
-    push = wind_push_mps2(6.0, 6.0, MC.max_bank_rad, MC.max_speed_mps)
+    push = wind_push_mps2(*drag_coefficients(MC), 6.0, 6.0)
     assert windy.lateral_shift_m == pytest.approx(v * t + 0.5 * a_p * t * t + v1 * v1 / (2 * (5.0 - push)) + 3.0)
 
 
@@ -279,7 +279,7 @@ def test_worst_case_shift_closed_forms():
     w = 4.0
     expected = max(fixed_wing_room_m(v, BANK, 0.0, w, FW.reaction_time_s) for v in (12.0, 18.0, 25.0))
     assert worst_case_lateral_shift_m(FW, w) == pytest.approx(expected)
-    push = wind_push_mps2(w, w, MC.max_bank_rad, MC.max_speed_mps)
+    push = wind_push_mps2(*drag_coefficients(MC), w, w)
     assert worst_case_lateral_shift_m(MC, w, 2.0) == pytest.approx(12.0 * 0.1 + 144.0 / (2 * (5.0 - push)) + 2.0)
 
 
