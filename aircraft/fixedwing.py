@@ -29,6 +29,7 @@ from pathlib import Path
 from aircraft.jsbsim_model import FT_TO_M, M_TO_FT, OWN_SYSTEMS
 from aircraft.profile import PlatformProfile
 from aircraft.stick_platform import StickPlatform
+from geofence.dynamics import isa_density_ratio
 from geofence.geodesy import LocalFrame, geodetic_to_ecef
 from geofence.interface import PlatformKind, StickCommand
 
@@ -80,7 +81,7 @@ class FixedWingPlatform(StickPlatform):
         heading_deg: float,
         airspeed_mps: float,
     ) -> None:
-        """Air start at ``agl_m`` (> 0), heading ``heading_deg``, ``airspeed_mps`` (cruise if 0).
+        """Air start at ``agl_m`` (> 0), heading ``heading_deg``, ``airspeed_mps`` (EAS; cruise if 0).
 
         JSBSim's trim cannot handle a small electric propeller (its engine
         steady-state search marches in 0.5 s steps, unstable for a 20 g prop),
@@ -123,7 +124,9 @@ class FixedWingPlatform(StickPlatform):
         m.set("fcs/throttle-cmd-norm", self._params.get("fc/throttle-trim", 0.5))
         m.set("ic/alpha-deg", math.degrees(theta0))
         m.set("ic/gamma-deg", 0.0)
-        m.reset(frame, lat_deg, lon_deg, agl_m, heading_deg, v0)
+        # v0 is an equivalent airspeed (what the FC holds); JSBSim's initial condition is true airspeed
+        v0_true = v0 / math.sqrt(isa_density_ratio(frame.h0_m + agl_m))
+        m.reset(frame, lat_deg, lon_deg, agl_m, heading_deg, v0_true)
         m.set_wind_enu(*self._wind_mps)  # run_ic zeroes JSBSim's wind
         m.set("propulsion/set-running", -1)
         # The controller's altitude reference is the start altitude, its speed

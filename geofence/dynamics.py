@@ -21,6 +21,7 @@ calls these functions.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 from geofence.interface import Envelope
 
@@ -67,3 +68,34 @@ def still_air_top_speed_mps(env: Envelope) -> float:
     """Top airspeed at the tilt limit implied by the drag law, m/s."""
     k1, k2 = drag_coefficients(env)
     return airspeed_for_drag_mps(k1, k2, G_MPS2 * math.tan(env.max_bank_rad))
+
+
+def isa_density_ratio(alt_m: float) -> float:
+    """ISA troposphere density ratio ``σ = ρ/ρ0 = (1 - 2.25577e-5·h)^4.2559`` at ``h`` m AMSL (valid below 11 km)."""
+    h = min(max(alt_m, -500.0), 11000.0)
+    return (1.0 - 2.25577e-5 * h) ** 4.2559
+
+
+def envelope_at_density(env: Envelope, density_ratio: float) -> Envelope:
+    """The envelope a platform really has at air-density ratio ``σ`` (a high site, a hot day).
+
+    Profiles are measured near sea level to 700 m and state the fixed-wing
+    speeds as equivalent airspeed (EAS), which is what the flight controller
+    holds. At density ratio ``σ`` the same EAS is a true airspeed ``EAS/√σ``,
+    so every fixed-wing speed (and with it the turn radius ``V²/(g·tan φ)``)
+    grows by ``1/√σ``. The excess thrust or power that climbs and arrests a
+    descent shrinks roughly with the density (propeller thrust at a given rpm
+    ``∝ ρ``), so ``max_climb_rate_mps`` and ``vertical_accel_mps2`` scale by
+    ``σ``; a multirotor's quadratic (parasitic) drag scales with ``ρ`` too. Bank
+    and tilt limits, braking and reaction time are kept. ``σ >= 1`` returns the
+    envelope unchanged (no credit is taken for dense air).
+    """
+    s = min(density_ratio, 1.0)
+    if s >= 1.0:
+        return env
+    common = {"max_climb_rate_mps": env.max_climb_rate_mps * s, "vertical_accel_mps2": env.vertical_accel_mps2 * s}
+    if env.is_multirotor:
+        return replace(env, drag_quadratic_per_m=env.drag_quadratic_per_m * s, **common)
+    f = 1.0 / math.sqrt(s)
+    return replace(env, cruise_speed_mps=env.cruise_speed_mps * f, max_speed_mps=env.max_speed_mps * f,
+                   min_speed_mps=env.min_speed_mps * f, **common)

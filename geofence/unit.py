@@ -21,6 +21,10 @@ reckoning from its last valid estimate (:mod:`geofence.dead_reckoning`).
   the platform needs to turn back or stop in the current wind
   (:mod:`geofence.boundary_shift`), minus k·σ of the estimate; with
   ``trigger: reactive`` it is the plain margin (act on the line).
+* The envelope is scaled to the air density at the site
+  (:func:`geofence.dynamics.envelope_at_density`, ISA density from the
+  estimated altitude): a high site or a hot day means faster true airspeeds,
+  wider turns and weaker climbs.
 * Hand-back: after at least ``min_override_s``, inside the fence, and either
   ``handback_margin_m`` inside the activation boundary while not closing on
   the threatened edge, or within ``recovery_radius_m`` of the recovery point.
@@ -40,7 +44,7 @@ from geofence.boundary_shift import ShiftResult, activation_margins
 from geofence.config import GeofenceConfig
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
-from geofence.dynamics import G_MPS2, drag_coefficients, wind_push_mps2
+from geofence.dynamics import G_MPS2, drag_coefficients, envelope_at_density, isa_density_ratio, wind_push_mps2
 from geofence.fence import LocalFence
 from geofence.guidance import FixedWingRecovery, LandingGuidance, MultirotorVelocityRecovery, SeedPDRecovery
 from geofence.interface import Envelope, StickCommand, VehicleState
@@ -50,6 +54,8 @@ WIND_BEYOND_AUTHORITY_PERSIST_S = 3.0
 RETURN_IMPOSSIBLE_WIND_FRACTION = 0.9
 TERMINATE_BELOW_AGL_M = 8.0
 LANDING_EDGE_MARGIN_M = 2.0
+DENSITY_REFRESH_M = 100.0
+"""The envelope is re-scaled to the air density when the altitude moved this much (while monitoring)."""
 
 
 class Mode(IntEnum):
@@ -77,7 +83,10 @@ class GeofenceUnit:
     def __init__(self, config: GeofenceConfig, fence: LocalFence, envelope: Envelope):
         self.config = config
         self.fence = fence
+        self.base_envelope = envelope
+        """The profile's envelope (sea-level-ish); :attr:`env` is it scaled to the air density at the site."""
         self.env = envelope
+        self._density_alt_m: float | None = None
         self.mode = Mode.MONITOR
         self.transitions: list[Transition] = []
         self.activations = 0
@@ -86,20 +95,11 @@ class GeofenceUnit:
         self.activation_margin_m = math.inf
         self.wind_enu = [config.wind_prior_enu[0], config.wind_prior_enu[1]]
         self._turbulence_est_mps = 0.0
-        if envelope.is_multirotor:
-            if config.multirotor_law == "seed_pd":
-                self.recovery = SeedPDRecovery(envelope, config.seed_pd, config.ramp_s)
-            else:
-                self.recovery = MultirotorVelocityRecovery(envelope, config.recovery_speed_mps)
-        else:
-            self.recovery = FixedWingRecovery(envelope, self.wind_enu)
-        turn_r = envelope.cruise_speed_mps**2 / (9.80665 * math.tan(max(envelope.max_bank_rad, 0.05)))
-        self.landing = LandingGuidance(envelope, spiral_radius_m=max(1.2 * turn_r, 10.0))
+        self._build_laws(envelope)
         self._mode_since_s = 0.0
         self._strong_wind_since_s: float | None = None
         self._position_valid = True
         self._last_valid: VehicleState | None = None
-        self.dead_reckoning = DeadReckoning(envelope)
         self.estimate: VehicleState | None = None
         """The state the unit acted on last (its estimate, or its dead reckoning)."""
         self._override_period_start_s = 0.0
@@ -108,6 +108,28 @@ class GeofenceUnit:
         self._sigma_v_m = 0.0
 
     # -- helpers -------------------------------------------------------------
+    def _build_laws(self, env: Envelope) -> None:
+        """The guidance laws and dead reckoning for envelope ``env``."""
+        self.env = env
+        config = self.config
+        if env.is_multirotor:
+            if config.multirotor_law == "seed_pd":
+                self.recovery = SeedPDRecovery(env, config.seed_pd, config.ramp_s)
+            else:
+                self.recovery = MultirotorVelocityRecovery(env, config.recovery_speed_mps)
+        else:
+            self.recovery = FixedWingRecovery(env, self.wind_enu)
+        turn_r = env.cruise_speed_mps**2 / (G_MPS2 * math.tan(max(env.max_bank_rad, 0.05)))
+        self.landing = LandingGuidance(env, spiral_radius_m=max(1.2 * turn_r, 10.0))
+        self.dead_reckoning = DeadReckoning(env)
+
+    def _scale_to_density(self, alt_m: float) -> None:
+        """Scale the envelope to the ISA density at ``alt_m`` (AMSL), while monitoring, when it moved > 100 m."""
+        if self._density_alt_m is not None and abs(alt_m - self._density_alt_m) < DENSITY_REFRESH_M:
+            return
+        self._density_alt_m = alt_m
+        self._build_laws(envelope_at_density(self.base_envelope, isa_density_ratio(alt_m)))
+
     def _switch(self, t_s: float, to: Mode, reason: str) -> None:
         self.transitions.append(Transition(t_s, self.mode, to, reason))
         self.mode = to
@@ -282,6 +304,8 @@ class GeofenceUnit:
         self._sigma_v_m = sigma_v_m
         h = self.height(est)
         mode = self.mode
+        if mode is Mode.MONITOR and position_valid:
+            self._scale_to_density(est.alt_m)
         if mode is Mode.LAND_IN_GAP or mode is Mode.TERMINATE:
             return self._land(t_s, est, h, dt_s)
         if not position_valid:
