@@ -217,7 +217,7 @@ def ramp_setpoints(
     an override are NaN.
     """
     from geofence.config import SeedPDGains
-    from geofence.guidance import SeedPDRecovery
+    from geofence.guidance import SeedPDRecovery, StraightRoute
     from geofence.interface import VehicleState
 
     t = np.asarray(traj["time_s"], float)
@@ -228,7 +228,7 @@ def ramp_setpoints(
     for j, ta in enumerate(starts):
         i0 = int(np.clip(np.searchsorted(t, ta - 1e-6), 0, len(t) - 1))
         s = VehicleState(t_s=t[i0], east_m=float(traj["east_m"][i0]), north_m=float(traj["north_m"][i0]), agl_m=float(traj["agl_m"][i0]))
-        law.start(s, goal_enh[0], goal_enh[1], goal_enh[2], s.agl_m, float(t[i0]))
+        law.start(s, StraightRoute(goal_enh[0], goal_enh[1]), goal_enh[2], s.agl_m, float(t[i0]))
         i = i0
         while i < len(t) and mode[i] == 1:
             out["east_m"][i], out["north_m"][i], out["height_m"][i] = law.setpoint(float(t[i]))

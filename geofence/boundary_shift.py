@@ -307,7 +307,8 @@ class ShiftResult:
     ``closing_speed_mps`` is the ground speed along that normal,
     ``time_to_breach_s = edge_distance_m / closing_speed`` (``inf`` when not
     closing, 0 when breached). ``turn_sign``: the turn direction scored best
-    (+1 left, -1 right; 0 for a multirotor). Vertical: margins to ceiling and
+    (+1 left, -1 right; 0 for a multirotor) and ``turn_angle_rad`` the turn
+    it scored (the guidance must not turn further). Vertical: margins to ceiling and
     (gap-aware) floor, their shifts, ``vertical_activation_m`` and
     ``vertical_time_to_breach_s``.
     """
@@ -325,6 +326,7 @@ class ShiftResult:
     closing_speed_mps: float
     time_to_breach_s: float
     turn_sign: int
+    turn_angle_rad: float
     ceiling_margin_m: float
     ceiling_shift_m: float
     floor_margin_m: float
@@ -353,7 +355,7 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
                        envelope: Envelope, wind_e: float = 0.0, wind_n: float = 0.0, *,
                        h_uncertainty_m: float = 0.0, v_uncertainty_m: float = 0.0,
                        latency_s: float = 0.0, bank_rad: float = 0.0, wind_extra_mps: float = 0.0,
-                       g: float = G_MPS2) -> ShiftResult:
+                       rollout_target_en: tuple[float, float] | None = None, g: float = G_MPS2) -> ShiftResult:
     """Required shifts and activation margins for a state (see :class:`ShiftResult`).
 
     ``(e, n)`` ENU position and ``h`` height in the fence's altitude reference
@@ -364,6 +366,8 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
     lateral / vertical shift. ``wind_extra_mps`` is the turbulence and gust
     allowance: every edge is scored as if the wind blew that much harder
     towards it for the whole manoeuvre (``w_n + extra``, ``|W| + extra``).
+    ``rollout_target_en``: where the fixed-wing's recovery turn rolls out
+    towards (the first point of its planned route; default the recovery point).
 
     Floor gaps: below the floor inside a gap, leaving the gap sideways is a
     breach, so the gap's edges are scored like keep-in edges (lateral room).
@@ -412,7 +416,7 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
         psi_abs = psi_abs - rot
         ca, sa = math.cos(psi_abs), math.sin(psi_abs)
         # roll-out heading: the wind-corrected track to the recovery point
-        re, rn = fence.recovery_en
+        re, rn = fence.recovery_en if rollout_target_en is None else rollout_target_en
         de, dn = re - e, rn - n
         dd = math.hypot(de, dn)
         if dd > 1.0:
@@ -476,10 +480,10 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
                 if act < worst:
                     worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)
             if best is None or worst > best[0]:
-                best = (worst, s, wk)
+                best = (worst, s, wk, delta)
         return best
 
-    lat_act, s_best, (room, feat, idx, j, nx, ny, d_edge, v_n) = worst_edge(dists, min_d)
+    lat_act, s_best, (room, feat, idx, j, nx, ny, d_edge, v_n), turn_angle = worst_edge(dists, min_d)
     if lat_margin < lat_act:
         lat_act = lat_margin
     if lat_margin <= 0.0:
@@ -521,7 +525,7 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
         lateral_activation_m=lat_act,
         feature=feat, feature_index=idx, edge=j, normal_e=nx, normal_n=ny,
         edge_distance_m=d_edge, closing_speed_mps=v_n, time_to_breach_s=ttb,
-        turn_sign=int(s_best),
+        turn_sign=int(s_best), turn_angle_rad=turn_angle,
         ceiling_margin_m=c_m, ceiling_shift_m=c_s, floor_margin_m=f_m, floor_shift_m=f_s,
         vertical_activation_m=v_act, vertical_time_to_breach_s=vttb,
     )

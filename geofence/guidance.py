@@ -1,23 +1,30 @@
 """Recovery guidance: the sticks the geofence flies while it overrides the pilot.
 
-Each law is started with the state at activation and a goal (a point in ENU m
-and a height in the fence's altitude reference), then asked for sticks every
-step. They see only the estimate and the :class:`Envelope`.
+Each law is started with the state at activation, a **route** (a polyline
+inside the allowed area that ends at the goal, planned by
+:mod:`geofence.recovery_path`, or a :class:`StraightRoute` where no planner
+is used) and a goal height in the fence's altitude reference, then asked for
+sticks every step. They see only the estimate and the :class:`Envelope`.
 
-* :class:`MultirotorVelocityRecovery` (default): brake at the tilt limit, then
-  fly back toward the recovery point at a moderate speed and stop there
-  (PI velocity loop with a braking-limited approach), altitude to the goal.
+* :class:`MultirotorVelocityRecovery` (default): brake at the tilt limit until
+  (nearly) stopped, then follow the route at a moderate speed (carrot on the
+  route, braking-limited so it stops at the end), altitude to the goal. With
+  ``hold_below_m`` set (below the floor inside a gap) it holds its position
+  and climbs above that height before moving sideways.
 * :class:`SeedPDRecovery`: the published law of the seed flights, per axis
   ``u = K_P·δx + K_D·δẋ`` on the error to a set-point that ramps linearly from
   the breach state to the goal over ``ramp_s``, with per-axis saturation and
   deadbands on height and yaw (gains in stick units, see ``SeedPDGains``).
 * :class:`FixedWingRecovery`: bank at the limit in the turn direction the
   boundary-shift computation scored best (the one that keeps the aircraft
-  inside given the wind), until the air heading points at the recovery point
-  (wind-corrected), then track to it and orbit it; arrest climb/descent toward
-  the goal height; cruise airspeed.
+  inside given the wind), until the air heading points at the route's carrot
+  (wind-corrected) -- but never turn further than the scored turn plus a
+  tolerance (the manoeuvre that was checked is the one that is flown) -- then
+  follow the route and orbit its end; arrest climb/descent toward the goal
+  height; cruise airspeed.
 * :class:`LandingGuidance`: go to a landing point (a floor gap) and descend;
-  a fixed-wing spirals down over it.
+  a multirotor descends only while nearly stopped over it
+  (``TOUCHDOWN_MAX_GROUND_SPEED_MPS``), a fixed-wing spirals down over it.
 
 Angles rad, positions ENU m, heights m, speeds m/s.
 """
@@ -25,6 +32,7 @@ Angles rad, positions ENU m, heights m, speeds m/s.
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 from geofence.config import SeedPDGains
 from geofence.control_laws import (
@@ -46,6 +54,36 @@ FIXED_WING_ALTITUDE_GAIN_PER_S = 0.35
 COURSE_GAIN_PER_S = 0.9
 ROLL_OUT_TOLERANCE_RAD = math.radians(15.0)
 LEVEL_TOUCHDOWN_BELOW_M = 1.5
+TOUCHDOWN_MAX_GROUND_SPEED_MPS = 0.7
+"""A multirotor descends to land only while slower than this over the ground (a moving touchdown tips over)."""
+
+
+class Route(Protocol):
+    """What a guidance law needs of a planned route (see :class:`geofence.recovery_path.RecoveryPath`)."""
+
+    @property
+    def end(self) -> tuple[float, float]: ...
+
+    def lookahead_point(self, e: float, n: float, lookahead_m: float) -> tuple[float, float]: ...
+
+    def remaining_m(self, e: float, n: float) -> float: ...
+
+
+class StraightRoute:
+    """A route of one straight leg to ``end`` (ENU m): no planner, or no admissible path."""
+
+    def __init__(self, end_e: float, end_n: float):
+        self.end = (end_e, end_n)
+
+    def lookahead_point(self, e: float, n: float, lookahead_m: float) -> tuple[float, float]:
+        return self.end
+
+    def remaining_m(self, e: float, n: float) -> float:
+        return math.hypot(self.end[0] - e, self.end[1] - n)
+
+
+BRAKE_DONE_MPS = 1.0
+"""The multirotor's braking phase ends below this ground speed (or after the time a full stop takes, plus 1 s)."""
 
 
 class MultirotorVelocityRecovery:
@@ -53,23 +91,51 @@ class MultirotorVelocityRecovery:
         self.env = env
         self.speed_mps = speed_mps if speed_mps is not None else 0.5 * env.cruise_speed_mps
         self.velocity = VelocityController(env)
-        self.goal = (0.0, 0.0, 0.0)
+        self.route: Route = StraightRoute(0.0, 0.0)
+        self.goal_h = 0.0
         self.yaw_hold = 0.0
+        self.hold_below_m: float | None = None
+        self.hold_en = (0.0, 0.0)
+        self._brake_until_s = 0.0
+        self.braking = False
 
-    def start(self, s: VehicleState, goal_e: float, goal_n: float, goal_h: float, h: float, t_s: float, turn_sign: int = 0) -> None:
-        self.goal = (goal_e, goal_n, goal_h)
+    def start(self, s: VehicleState, route: Route, goal_h: float, h: float, t_s: float, turn_sign: int = 0,
+              turn_limit_rad: float = math.inf, hold_below_m: float | None = None) -> None:
+        self.route = route
+        self.goal_h = goal_h
         self.yaw_hold = s.yaw_rad
         self.velocity.reset()
+        self.braking = True
+        self._brake_until_s = t_s + s.ground_speed_mps / max(self.env.braking_decel_mps2, 0.1) + 1.0
+        self.hold_below_m = hold_below_m
+        self.hold_en = (s.east_m, s.north_m)
 
     def sticks(self, s: VehicleState, h: float, t_s: float, dt_s: float) -> StickCommand:
-        ge, gn, gh = self.goal
-        ve, vn = approach_velocity(s.east_m, s.north_m, ge, gn, self.speed_mps, 0.8, 0.5 * self.env.braking_decel_mps2)
+        env = self.env
+        ve = vn = 0.0
+        goal_h = self.goal_h
+        if self.braking and (s.ground_speed_mps < BRAKE_DONE_MPS or t_s >= self._brake_until_s):
+            self.braking = False
+        if self.hold_below_m is not None and h < self.hold_below_m:
+            # below the floor inside a gap: stay over the gap, climb out first
+            ve, vn = approach_velocity(s.east_m, s.north_m, *self.hold_en, self.speed_mps, 0.8, 0.5 * env.braking_decel_mps2)
+            goal_h = max(goal_h, self.hold_below_m + 1.0)
+        elif not self.braking:
+            self.hold_below_m = None
+            lookahead = max(3.0, self.speed_mps)
+            ce, cn = self.route.lookahead_point(s.east_m, s.north_m, lookahead)
+            de, dn = ce - s.east_m, cn - s.north_m
+            d = math.hypot(de, dn)
+            if d > 1e-6:
+                rem = self.route.remaining_m(s.east_m, s.north_m)
+                v = min(self.speed_mps, 0.8 * rem, math.sqrt(2.0 * 0.5 * env.braking_decel_mps2 * rem))
+                ve, vn = v * de / d, v * dn / d
         roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve, vn, s.yaw_rad, dt_s)
         return StickCommand(
             roll=roll,
             pitch=pitch,
-            yaw=yaw_stick_for_heading(self.yaw_hold, s.yaw_rad, self.env),
-            throttle=climb_rate_to_stick(altitude_to_climb_rate(gh, h, self.env, ALTITUDE_GAIN_PER_S), self.env),
+            yaw=yaw_stick_for_heading(self.yaw_hold, s.yaw_rad, env),
+            throttle=climb_rate_to_stick(altitude_to_climb_rate(goal_h, h, env, ALTITUDE_GAIN_PER_S), env),
         )
 
 
@@ -85,9 +151,11 @@ class SeedPDRecovery:
         self.t0 = 0.0
         self.yaw_hold = 0.0
 
-    def start(self, s: VehicleState, goal_e: float, goal_n: float, goal_h: float, h: float, t_s: float, turn_sign: int = 0) -> None:
+    def start(self, s: VehicleState, route: Route, goal_h: float, h: float, t_s: float, turn_sign: int = 0,
+              turn_limit_rad: float = math.inf, hold_below_m: float | None = None) -> None:
+        """The published law ramps straight to the route's end (it has no notion of a path)."""
         self.start_point = (s.east_m, s.north_m, h)
-        self.goal = (goal_e, goal_n, goal_h)
+        self.goal = (route.end[0], route.end[1], goal_h)
         self.t0 = t_s
         self.yaw_hold = s.yaw_rad
 
@@ -122,39 +190,55 @@ class FixedWingRecovery:
     def __init__(self, env: Envelope, wind_enu: list[float]):
         self.env = env
         self.wind = wind_enu  # shared, updated by the unit
-        self.goal = (0.0, 0.0, 0.0)
+        self.route: Route = StraightRoute(0.0, 0.0)
+        self.goal_h = 0.0
         self.turn_sign = 0
         self.turning = True
+        self.turn_limit_rad = math.inf
+        self.turned_rad = 0.0
+        self._last_yaw = 0.0
         self.orbit_radius_m = 1.5 * env.cruise_speed_mps**2 / (9.80665 * math.tan(env.max_bank_rad))
 
-    def start(self, s: VehicleState, goal_e: float, goal_n: float, goal_h: float, h: float, t_s: float, turn_sign: int = 0) -> None:
-        self.goal = (goal_e, goal_n, goal_h)
-        self.turn_sign = turn_sign if turn_sign else (1 if wrap_pi(self._heading_to_goal(s) - s.yaw_rad) < 0 else -1)
-        self.turning = True
+    @property
+    def lookahead_m(self) -> float:
+        return self.orbit_radius_m
 
-    def _heading_to_goal(self, s: VehicleState) -> float:
-        """Air heading whose ground track points at the goal (wind triangle at cruise airspeed)."""
-        ge, gn, _ = self.goal
-        course = math.atan2(ge - s.east_m, gn - s.north_m)
+    def start(self, s: VehicleState, route: Route, goal_h: float, h: float, t_s: float, turn_sign: int = 0,
+              turn_limit_rad: float = math.inf, hold_below_m: float | None = None) -> None:
+        self.route = route
+        self.goal_h = goal_h
+        target = route.lookahead_point(s.east_m, s.north_m, self.lookahead_m)
+        self.turn_sign = turn_sign if turn_sign else (1 if wrap_pi(self._heading_to(s, target) - s.yaw_rad) < 0 else -1)
+        self.turning = True
+        self.turn_limit_rad = turn_limit_rad + ROLL_OUT_TOLERANCE_RAD
+        self.turned_rad = 0.0
+        self._last_yaw = s.yaw_rad
+
+    def _heading_to(self, s: VehicleState, target: tuple[float, float]) -> float:
+        """Air heading whose ground track points at ``target`` (wind triangle at the current airspeed)."""
+        course = math.atan2(target[0] - s.east_m, target[1] - s.north_m)
         we, wn = self.wind
         cross = we * math.cos(course) - wn * math.sin(course)  # wind component to the right of the course
         v = max(s.airspeed_mps, self.env.min_speed_mps, 1.0)
         return course - math.asin(clip(cross / v, -1.0, 1.0))
 
     def sticks(self, s: VehicleState, h: float, t_s: float, dt_s: float) -> StickCommand:
-        ge, gn, gh = self.goal
         env = self.env
-        pitch = climb_rate_to_stick(altitude_to_climb_rate(gh, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S), env)
+        pitch = climb_rate_to_stick(altitude_to_climb_rate(self.goal_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S), env)
         throttle = airspeed_to_stick(env.cruise_speed_mps, env)
+        target = self.route.lookahead_point(s.east_m, s.north_m, self.lookahead_m)
         if self.turning:
-            if abs(wrap_pi(self._heading_to_goal(s) - s.yaw_rad)) < ROLL_OUT_TOLERANCE_RAD:
+            self.turned_rad += abs(wrap_pi(s.yaw_rad - self._last_yaw))
+            self._last_yaw = s.yaw_rad
+            # roll out on the carrot's heading, or once the scored turn is used up (commit: no re-aiming past it)
+            if abs(wrap_pi(self._heading_to(s, target) - s.yaw_rad)) < ROLL_OUT_TOLERANCE_RAD or self.turned_rad >= self.turn_limit_rad:
                 self.turning = False
             else:
                 # turn_sign +1 = left (counter-clockwise) = negative roll stick
                 return StickCommand(roll=-float(self.turn_sign), pitch=pitch, yaw=0.0, throttle=throttle)
-        d = math.hypot(ge - s.east_m, gn - s.north_m)
-        if d > 1.2 * self.orbit_radius_m:
-            course_cmd = math.atan2(ge - s.east_m, gn - s.north_m)
+        ge, gn = self.route.end
+        if self.route.remaining_m(s.east_m, s.north_m) > 1.2 * self.orbit_radius_m:
+            course_cmd = math.atan2(target[0] - s.east_m, target[1] - s.north_m)
         else:
             course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, ge, gn, self.orbit_radius_m, clockwise=self.turn_sign < 0)
         roll = bank_stick_for_course(s, course_cmd, env, COURSE_GAIN_PER_S)
@@ -170,10 +254,13 @@ class LandingGuidance:
         self.spiral_radius_m = spiral_radius_m
         self.point = (0.0, 0.0)
         self.cruise_h = 0.0
+        self.route: Route = StraightRoute(0.0, 0.0)
 
-    def start(self, point_e: float, point_n: float, cruise_h: float) -> None:
+    def start(self, point_e: float, point_n: float, cruise_h: float, route: Route | None = None) -> None:
+        """Land at ``(point_e, point_n)``, flying ``route`` there (default: straight) at ``cruise_h``."""
         self.point = (point_e, point_n)
         self.cruise_h = cruise_h
+        self.route = route if route is not None else StraightRoute(point_e, point_n)
         if self.velocity:
             self.velocity.reset()
 
@@ -187,13 +274,23 @@ class LandingGuidance:
         pe, pn = self.point
         over = self.over_point(s) if descend is None else descend
         if self.velocity is not None:
-            ve, vn = approach_velocity(s.east_m, s.north_m, pe, pn, 0.5 * env.cruise_speed_mps, 0.8, 0.5 * env.braking_decel_mps2)
+            ce, cn = self.route.lookahead_point(s.east_m, s.north_m, max(3.0, 0.5 * env.cruise_speed_mps))
+            ve, vn = approach_velocity(s.east_m, s.north_m, ce, cn, 0.5 * env.cruise_speed_mps, 0.8, 0.5 * env.braking_decel_mps2)
             roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve, vn, s.yaw_rad, dt_s)
             if over and h < LEVEL_TOUCHDOWN_BELOW_M:  # touch down level: a tilted landing gear tips over
                 roll = pitch = 0.0
-            climb = -min(1.0, env.max_descent_rate_mps) if over else altitude_to_climb_rate(self.cruise_h, h, env, ALTITUDE_GAIN_PER_S)
+            if over and s.ground_speed_mps <= TOUCHDOWN_MAX_GROUND_SPEED_MPS:
+                climb = -min(1.0, env.max_descent_rate_mps)
+            elif over:  # over the point but still moving: hold the height until stopped over it
+                climb = 0.0
+            else:
+                climb = altitude_to_climb_rate(self.cruise_h, h, env, ALTITUDE_GAIN_PER_S)
             return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=climb_rate_to_stick(climb, env))
-        course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, pe, pn, self.spiral_radius_m)
+        if self.route.remaining_m(s.east_m, s.north_m) > 2.0 * self.spiral_radius_m:
+            ce, cn = self.route.lookahead_point(s.east_m, s.north_m, self.spiral_radius_m)
+            course_cmd = math.atan2(ce - s.east_m, cn - s.north_m)
+        else:
+            course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, pe, pn, self.spiral_radius_m)
         roll = bank_stick_for_course(s, course_cmd, env, COURSE_GAIN_PER_S)
         climb = -env.max_descent_rate_mps if over else altitude_to_climb_rate(self.cruise_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S)
         return StickCommand(roll=roll, pitch=climb_rate_to_stick(climb, env), yaw=0.0, throttle=airspeed_to_stick(env.min_speed_mps, env))

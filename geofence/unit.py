@@ -46,7 +46,14 @@ from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
 from geofence.dynamics import G_MPS2, drag_coefficients, envelope_at_density, isa_density_ratio, wind_push_mps2
 from geofence.fence import LocalFence
-from geofence.guidance import FixedWingRecovery, LandingGuidance, MultirotorVelocityRecovery, SeedPDRecovery
+from geofence.guidance import (
+    FixedWingRecovery,
+    LandingGuidance,
+    MultirotorVelocityRecovery,
+    Route,
+    SeedPDRecovery,
+    StraightRoute,
+)
 from geofence.interface import Envelope, StickCommand, VehicleState
 
 RECOVERED_HOLD_S = 1.0
@@ -54,6 +61,8 @@ WIND_BEYOND_AUTHORITY_PERSIST_S = 3.0
 RETURN_IMPOSSIBLE_WIND_FRACTION = 0.9
 TERMINATE_BELOW_AGL_M = 8.0
 LANDING_EDGE_MARGIN_M = 2.0
+VERTICAL_CLEARANCE_M = 2.0
+"""Below the floor inside a gap, the override climbs this far above the floor before it moves sideways."""
 DENSITY_REFRESH_M = 100.0
 """The envelope is re-scaled to the air density when the altitude moved this much (while monitoring)."""
 
@@ -105,6 +114,8 @@ class GeofenceUnit:
         self._override_period_start_s = 0.0
         lo = fence.floor_m if fence.floor_m is not None else (0.0 if fence.altitude_reference == "agl" else -math.inf)
         self._height_limits = (lo, fence.ceiling_m)
+        # the vertical hand-back hysteresis, at most a tenth of the vertical band (an indoor fence is 1 m high)
+        self._vertical_handback_m = min(config.vertical_handback_m, 0.1 * (fence.ceiling_m - lo))
         self._sigma_v_m = 0.0
 
     # -- helpers -------------------------------------------------------------
@@ -190,6 +201,7 @@ class GeofenceUnit:
             self.wind_enu[0], self.wind_enu[1],
             h_uncertainty_m=k * sigma_h_m + extra, v_uncertainty_m=k * sigma_v_m + extra, latency_s=dt_s, bank_rad=s.roll_rad,
             wind_extra_mps=self.wind_allowance_mps,
+            rollout_target_en=None if self.env.is_multirotor else self._rollout_target(s.east_m, s.north_m),
         )  # fmt: skip
 
     def _activation(self, r: ShiftResult) -> float:
@@ -226,7 +238,7 @@ class GeofenceUnit:
             return self.fence.recovery_height_m
         lo, hi = self._height_limits
         env = self.env
-        u = self.config.uncertainty_k_sigma * self._sigma_v_m + self.config.extra_margin_m + self.config.vertical_handback_m
+        u = self.config.uncertainty_k_sigma * self._sigma_v_m + self.config.extra_margin_m + self._vertical_handback_m
         # the altitude hold approaches the goal at about 1 m/s per m: allow one arrest from 1 m/s
         settle = 1.0 * env.reaction_time_s + 1.0 / (2.0 * max(env.vertical_accel_mps2, 0.1)) + 0.5
         band_lo, band_hi = lo + u + settle, hi - u - settle
@@ -259,14 +271,28 @@ class GeofenceUnit:
                 best, best_time = (ge, gn), t
         return best
 
+    def _route(self, s: VehicleState, goal_en: tuple[float, float]) -> Route:
+        """A route from the estimate to ``goal_en`` inside the allowed area (straight if none can be planned)."""
+        return StraightRoute(*goal_en)
+
+    def _rollout_target(self, e: float, n: float) -> tuple[float, float]:
+        """Where a fixed-wing's recovery turn rolls out towards from (e, n): the first point of its route."""
+        return self.fence.recovery_en
+
+    def _below_floor_in_gap(self, s: VehicleState, h: float) -> bool:
+        fence = self.fence
+        return fence.floor_m is not None and h < fence.floor_m and fence.best_gap(s.east_m, s.north_m)[1] > 0.0
+
     def _start_landing(self, t_s: float, s: VehicleState, h: float, reason: str) -> None:
         pe, pn = self._landing_point(s)
-        self.landing.start(pe, pn, self._goal_height(h))
+        self.landing.start(pe, pn, self._goal_height(h), self._route(s, (pe, pn)))
         self._switch(t_s, Mode.LAND_IN_GAP, reason + f"; landing at ({pe:.0f}, {pn:.0f}) m ENU")
 
     def _start_override(self, t_s: float, s: VehicleState, h: float, r: ShiftResult, reason: str) -> None:
-        re, rn = self.fence.recovery_en
-        self.recovery.start(s, re, rn, self._goal_height(h), h, t_s, r.turn_sign)
+        route = self._route(s, self.fence.recovery_en)
+        hold = self.fence.floor_m + VERTICAL_CLEARANCE_M if self._below_floor_in_gap(s, h) else None
+        goal_h = self._goal_height(max(h, hold) if hold is not None else h)
+        self.recovery.start(s, route, goal_h, h, t_s, r.turn_sign, r.turn_angle_rad, hold)
         self._override_period_start_s = t_s
         self._switch(t_s, Mode.OVERRIDE, reason)
 
@@ -365,7 +391,7 @@ class GeofenceUnit:
         re, rn = self.fence.recovery_en
         at_point = math.hypot(re - s.east_m, rn - s.north_m) <= self.config.recovery_radius_m
         if self.config.trigger == "predictive":
-            vertical_ok = r.vertical_activation_m >= self.config.vertical_handback_m
+            vertical_ok = r.vertical_activation_m >= self._vertical_handback_m
         else:
             vertical_ok = min(r.ceiling_margin_m, r.floor_margin_m) > 0.0
         lateral_ok = act >= self.config.handback_margin_m and r.closing_speed_mps <= 0.0

@@ -28,7 +28,7 @@ from analysis.seed_reproduction import (
     ramp_setpoints,
 )
 from geofence.config import SeedPDGains
-from geofence.guidance import SeedPDRecovery
+from geofence.guidance import SeedPDRecovery, StraightRoute
 from geofence.interface import Envelope, PlatformKind, VehicleState
 from scenarios.pilots.breach_attempts import BreachAttemptsPilot, draw_speeds
 from scenarios.schema import BreachAttemptsConfig, load_scenario, parse_scenario
@@ -47,7 +47,7 @@ ENV = Envelope(PlatformKind.MULTIROTOR, 13.0, 22.6, 0.0, math.radians(20), math.
 @settings(max_examples=60, deadline=None)
 def test_seed_pd_setpoint_ramps_linearly_over_ramp_s(start, goal, ramp_s, t0, frac):
     law = SeedPDRecovery(ENV, SeedPDGains(), ramp_s)
-    law.start(VehicleState(east_m=start[0], north_m=start[1]), goal[0], goal[1], goal[2], start[2], t0)
+    law.start(VehicleState(east_m=start[0], north_m=start[1]), StraightRoute(goal[0], goal[1]), goal[2], start[2], t0)
     sp = law.setpoint(t0 + frac * ramp_s)
     for k in range(3):
         assert sp[k] == pytest.approx(start[k] + frac * (goal[k] - start[k]), abs=1e-9)
