@@ -3,9 +3,14 @@
 From the last valid estimate (position, ground velocity) the horizontal state
 is propagated with what the unit still measures:
 
-* multirotor: the AHRS attitude gives the horizontal acceleration of a
-  tilt-controlled vehicle, ``a = g·tan(tilt)`` in the tilt direction
-  (drag neglected: conservative for a vehicle that is braking);
+* multirotor: the AHRS attitude gives the horizontal thrust of a
+  tilt-controlled vehicle, ``g·tan(tilt)`` in the tilt direction, and the
+  platform's drag law (:mod:`geofence.dynamics`) the air drag at the
+  dead-reckoned airspeed ``v_ground - wind`` (last wind estimate):
+  ``a = g·tan(tilt)·u_tilt - a_drag(|v_air|)·v_air/|v_air|``. Without the
+  drag term a vehicle holding its position against a steady wind (tilted
+  into it) would be dead-reckoned as accelerating upwind, and the guidance
+  would let it drift downwind at the wind speed;
 * fixed-wing: the airspeed along the AHRS heading plus the last wind estimate
   gives the ground velocity directly.
 
@@ -19,13 +24,14 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from geofence.control_laws import G_MPS2
+from geofence.dynamics import G_MPS2, drag_accel_mps2, drag_coefficients
 from geofence.interface import Envelope, VehicleState
 
 
 class DeadReckoning:
     def __init__(self, env: Envelope):
         self.env = env
+        self._k1, self._k2 = drag_coefficients(env)
         self.active = False
         self.e = self.n = self.ve = self.vn = 0.0
 
@@ -43,8 +49,15 @@ class DeadReckoning:
         if self.env.is_multirotor:
             a_fwd = -G_MPS2 * math.tan(est.pitch_rad)  # nose down accelerates forward
             a_right = G_MPS2 * math.tan(est.roll_rad)
-            self.ve += (a_fwd * sy + a_right * cy) * dt_s
-            self.vn += (a_fwd * cy - a_right * sy) * dt_s
+            ae, an = a_fwd * sy + a_right * cy, a_fwd * cy - a_right * sy
+            vae, van = self.ve - wind_en[0], self.vn - wind_en[1]
+            va = math.hypot(vae, van)
+            if va > 1e-6:
+                d = drag_accel_mps2(self._k1, self._k2, va) / va
+                ae -= d * vae
+                an -= d * van
+            self.ve += ae * dt_s
+            self.vn += an * dt_s
         else:
             v_air = max(est.airspeed_mps, self.env.min_speed_mps)
             self.ve = v_air * sy + wind_en[0]

@@ -117,3 +117,25 @@ def test_lands_in_the_most_reachable_floor_gap():
     u2.update(0.0, state(0.0, -5.0), PILOT, DT, wind_en=(12.0, 0.0))  # a strong tailwind toward the east gap
     u2.update(0.1, state(0.1, -5.0), PILOT, DT, wind_en=(12.0, 0.0), position_valid=False)
     assert u2.landing.point[0] == pytest.approx(60.0, abs=1.0)
+
+
+def test_envelope_is_scaled_to_the_air_density_at_a_high_site():
+    from geofence.dynamics import envelope_at_density, isa_density_ratio
+
+    fw = Envelope(PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0,
+                  0.6, 5.0, 1.1)
+    cfg = parse_geofence({"fence": box(2000.0)}, "test")
+    u = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), fw)
+    u.update(0.0, VehicleState(east_m=0.0, north_m=0.0, agl_m=100.0, alt_m=2780.0, v_north_mps=24.0), PILOT, DT)
+    sigma = isa_density_ratio(2780.0)
+    assert 0.74 < sigma < 0.78
+    # true airspeeds grow by 1/sqrt(sigma): the turn radius at max speed grows by 1/sigma
+    assert u.env.max_speed_mps == pytest.approx(24.0 / math.sqrt(sigma))
+    assert u.env.min_speed_mps == pytest.approx(12.0 / math.sqrt(sigma))
+    assert u.env.max_climb_rate_mps == pytest.approx(5.0 * sigma)
+    assert envelope_at_density(fw, 1.1) is fw  # no credit for dense air
+    # a slow aircraft turns at no less than the (true) minimum speed: more room at the high site
+    low = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), fw)
+    low.update(0.0, VehicleState(east_m=0.0, north_m=0.0, agl_m=100.0, alt_m=0.0, v_north_mps=24.0), PILOT, DT)
+    s = VehicleState(east_m=0.0, north_m=1900.0, agl_m=100.0, alt_m=2780.0, v_north_mps=12.0)
+    assert u._margins(s, 100.0, 0.0, 0.0, DT).lateral_shift_m > 1.2 * low._margins(s, 100.0, 0.0, 0.0, DT).lateral_shift_m

@@ -1,0 +1,174 @@
+"""The recovery holds on fences it was not tuned for: one closed-loop test per root cause of issue 8.
+
+Each case is a small scenario built here in local ENU metres (converted to
+WGS-84 at the site) and flown in closed loop with the unit's own sensors:
+
+* a U-shaped fence with the recovery point in the other arm (the straight
+  return would cross the notch);
+* a multirotor whose recovery point lies behind a keep-out circle;
+* a legal descent below the floor inside a large gap, then a dash toward the
+  gap's edge (gap edges are lateral boundaries below the floor);
+* a take-off from a small floor gap (climb inside it before anything sideways);
+* a fixed-wing activated right at the recovery point;
+* a high site (2,780 m) where the envelope must be scaled by air density;
+* a mission 10 m below the ceiling (no vertical chatter, never overridden);
+* a multirotor landing in a gap in wind (touchdown nearly stopped).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from geofence.geodesy import LocalFrame
+from scenarios.runner import fly
+from scenarios.schema import parse_scenario
+
+pytestmark = pytest.mark.closed_loop
+
+SITE = {"lat_deg": 47.3, "lon_deg": 8.5, "ground_alt_m": 450.0}
+FRAME = LocalFrame(SITE["lat_deg"], SITE["lon_deg"], SITE["ground_alt_m"])
+
+
+def ll(points, frame=FRAME):
+    return [list(frame.to_geodetic(e, n, 0.0)[:2]) for e, n in points]
+
+
+def box(half_e, half_n=None, ce=0.0, cn=0.0):
+    half_n = half_e if half_n is None else half_n
+    return [(ce - half_e, cn - half_n), (ce + half_e, cn - half_n), (ce + half_e, cn + half_n), (ce - half_e, cn + half_n)]
+
+
+def scenario(aircraft, start_en, agl, heading_deg, segments, fence, *, wind=None, duration_s=90.0, site=SITE, frame=FRAME,
+             sensors=None, mission=None, seed=3):
+    lat, lon, _ = frame.to_geodetic(start_en[0], start_en[1], 0.0)
+    doc = {
+        "aircraft": aircraft,
+        "duration_s": duration_s,
+        "seed": seed,
+        "start": {"lat_deg": lat, "lon_deg": lon, "ground_alt_m": site["ground_alt_m"], "agl_m": agl, "heading_deg": heading_deg},
+        "pilot": {"type": "mission"} if mission else {"type": "scripted", "segments": segments},
+        "geofence": {"fence": fence},
+    }
+    if mission:
+        doc["mission"] = mission
+    if wind:
+        doc["wind"] = wind
+    if sensors:
+        doc["sensors"] = sensors
+    return doc
+
+
+def fly_doc(doc, name):
+    return fly(parse_scenario(doc, f"{name}.yaml"))
+
+
+def assert_held(res, what):
+    s = res.summary
+    assert s["error"] is None, s["error"]
+    assert s["max_lateral_excursion_m"] <= 0.0, f"{what}: left the keep-in by {s['max_lateral_excursion_m']:.1f} m"
+    assert not s["breached_keep_out"], f"{what}: entered a keep-out"
+    assert s["max_excursion_m"] <= 0.0, f"{what}: breached by {s['max_excursion_m']:.1f} m (vertical {s['max_vertical_excursion_m']:.1f} m)"
+    assert not s["landed_outside_gap"], f"{what}: landed outside a gap"
+
+
+def test_fixed_wing_in_a_u_fence_returns_around_the_notch():
+    # arms x in [-600, -200] and [200, 600], joined below y = -150; the notch is open to the north
+    u = [(-600, -450), (600, -450), (600, 450), (200, 450), (200, -150), (-200, -150), (-200, 450), (-600, 450)]
+    rp = list(FRAME.to_geodetic(400.0, 250.0, 0.0)[:2])
+    fence = {"keep_in": ll(u), "ceiling_m": 150, "recovery_point": rp}
+    doc = scenario("Tern", (-400.0, -100.0), 60.0, 0.0, [{"duration_s": 120, "course_deg": 0, "speed": "max", "climb": "hold"}],
+                   fence, duration_s=120.0)
+    res = fly_doc(doc, "u_fence")
+    assert res.summary["activations"] >= 1
+    assert_held(res, "U fence")
+
+
+def test_multirotor_returns_around_a_keep_out_in_the_way():
+    fence = {"keep_in": ll(box(150.0)), "ceiling_m": 60,
+             "keep_out_circles": [{"center": list(FRAME.to_geodetic(60.0, 0.0, 0.0)[:2]), "radius_m": 35.0}]}
+    doc = scenario("F450", (110.0, 0.0), 20.0, 90.0, [{"duration_s": 60, "course_deg": 90, "speed": "max", "climb": "hold"}],
+                   fence, duration_s=60.0)
+    res = fly_doc(doc, "keep_out_in_the_way")
+    assert res.summary["activations"] >= 1
+    assert_held(res, "keep-out in the way")
+
+
+def test_legal_descent_in_a_large_gap_is_stopped_at_the_gap_edge():
+    fence = {"keep_in": ll(box(300.0)), "ceiling_m": 100, "floor_m": 30, "floor_gaps": [ll(box(100.0))]}
+    segs = [{"duration_s": 20, "sticks": {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": -1.0}},  # descend legally inside the gap to ~10 m
+            {"duration_s": 40, "course_deg": 90, "speed": "max", "climb": "hold"}]  # then dash at the gap's east edge
+    doc = scenario("F450", (0.0, 0.0), 45.0, 90.0, segs, fence, duration_s=60.0)
+    res = fly_doc(doc, "descent_in_gap")
+    agl = res.recorder.column("agl_m")
+    assert agl.min() < 30.0 - 5.0  # it really was below the floor
+    assert res.summary["activations"] >= 1
+    assert_held(res, "gap edge below the floor")
+
+
+def test_take_off_from_a_small_gap_climbs_inside_it():
+    fence = {"keep_in": ll(box(200.0)), "ceiling_m": 80, "floor_m": 20, "floor_gaps": [ll(box(6.0))]}
+    segs = [{"duration_s": 15, "sticks": {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": 1.0}},
+            {"duration_s": 25, "course_deg": 45, "speed": "cruise", "climb": "hold"}]
+    doc = scenario("F450", (0.0, 0.0), 0.0, 0.0, segs, fence, duration_s=40.0)
+    res = fly_doc(doc, "takeoff_small_gap")
+    assert_held(res, "take-off from a small gap")
+    # below the floor it never left the gap
+    e, n, agl = (res.recorder.column(c) for c in ("east_m", "north_m", "agl_m"))
+    low = agl < 20.0
+    assert np.all(np.maximum(np.abs(e[low]), np.abs(n[low])) <= 6.0)
+
+
+@pytest.mark.parametrize("course_deg", [0.0, 90.0, 200.0])
+def test_fixed_wing_activated_at_the_recovery_point_stays_inside(course_deg):
+    # a fence barely larger than the Tern needs: the activation happens near the recovery point
+    fence = {"keep_in": ll(box(330.0, 260.0)), "ceiling_m": 150}
+    doc = scenario("Tern", (0.0, 0.0), 60.0, course_deg,
+                   [{"duration_s": 90, "course_deg": course_deg, "speed": "max", "climb": "hold"}], fence, duration_s=90.0)
+    res = fly_doc(doc, f"fw_at_rp_{course_deg:.0f}")
+    assert_held(res, f"fixed-wing at the recovery point, course {course_deg}")
+
+
+def test_high_site_fixed_wing_holds_and_never_touches_the_ground():
+    site = {"lat_deg": -16.5, "lon_deg": -68.15, "ground_alt_m": 2780.0}
+    frame = LocalFrame(site["lat_deg"], site["lon_deg"], site["ground_alt_m"])
+    fence = {"keep_in": ll(box(330.0, 260.0), frame), "ceiling_m": 200}
+    doc = scenario("Tern", (0.0, -150.0), 80.0, 0.0, [{"duration_s": 90, "course_deg": 0, "speed": "max", "climb": "hold"}],
+                   fence, duration_s=90.0, site=site, frame=frame)
+    res = fly_doc(doc, "high_site")
+    assert_held(res, "high site")
+    assert res.recorder.column("agl_m").min() > 20.0
+
+
+def test_mission_ten_metres_below_the_ceiling_is_never_overridden():
+    fence = {"keep_in": ll(box(200.0)), "ceiling_m": 40}
+    wps = [(60.0, 60.0), (-60.0, 60.0), (-60.0, -60.0), (60.0, -60.0)]
+    items = [{"type": "takeoff", "agl_m": 30.0}]
+    for e, n in wps:
+        lat, lon, _ = FRAME.to_geodetic(e, n, 0.0)
+        items.append({"type": "waypoint", "lat_deg": lat, "lon_deg": lon, "agl_m": 30.0})
+    items.append({"type": "land"})
+    doc = scenario("F450", (0.0, 0.0), 0.0, 0.0, [], fence, mission={"items": items}, duration_s=200.0)
+    res = fly_doc(doc, "mission_under_ceiling")
+    assert res.summary["mission_finished"], res.summary["mission_progress"]
+    assert res.summary["activations"] == 0, res.summary["mode_transitions"]
+
+
+def test_multirotor_lands_in_a_gap_nearly_stopped_in_wind():
+    # a wind at 90 % of what the quad can fly against: return is impossible, the unit lands in the
+    # (downwind) gap, and touches down nearly stopped over the ground
+    fence = {"keep_in": ll(box(250.0)), "ceiling_m": 80, "floor_m": 20, "floor_gaps": [ll(box(25.0, 25.0, 120.0, 0.0))]}
+    hover = {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": 0.0}
+    doc = scenario("F450RD", (-100.0, 0.0), 40.0, 0.0, [{"duration_s": 150, "sticks": hover}], fence,
+                   wind={"speed_mps": 9.5, "from_deg": 270.0}, duration_s=150.0)
+    doc["geofence"]["wind_prior"] = {"speed_mps": 9.5, "from_deg": 270.0}
+    res = fly_doc(doc, "landing_in_wind")
+    s = res.summary
+    assert s["final_mode"] in ("LAND_IN_GAP", "TERMINATE"), s["mode_transitions"]
+    assert s["ended_by_geofence"], "it never touched down"
+    assert not s["landed_outside_gap"]
+    gs, agl = res.recorder.column("ground_speed_mps"), res.recorder.column("agl_m")
+    k = int(np.argmax(agl < 0.3))
+    assert k > 0 and gs[max(k - 8, 0):k + 1].max() < 1.0, f"touched down at {gs[k]:.1f} m/s"
