@@ -1,0 +1,227 @@
+"""Pre-flight mission check: will a planned route bring the activation margin to zero?
+
+Autopilots check a mission against the fence at upload (is every waypoint
+inside?). The geofence unit acts earlier than the fence line, at its
+activation boundary, so a mission that merely stays inside can still be
+overridden. This module flies the planned route *on paper* through the same
+:func:`geofence.boundary_shift.activation_margins` the unit uses in flight,
+at the planned speed, in the expected wind (with the unit's turbulence and
+gust allowance) and with the unit's nominal uncertainty margins, and reports
+every leg, turn and loiter where the activation margin would fall below a
+buffer. The goal: a mission that passes the check is never overridden.
+
+What "on paper" means (the autopilot's flight, idealised):
+
+* **legs**: straight from waypoint to waypoint at the planned speed (ground
+  speed for a multirotor; airspeed for a fixed-wing, which crabs to hold the
+  track in the wind); the height moves toward the next waypoint's at the
+  platform's max climb or descent rate; sampled every ``step_m``;
+* **fixed-wing turns**: the aircraft passes the waypoint, then turns onto the
+  next leg on an arc of the radius it has at its bank limit, starting at the
+  waypoint and tangent to the incoming leg (the outside of the turn, where
+  it sweeps toward the fence); sampled every 10 deg of heading;
+* **fixed-wing loiters**: the orbit (clockwise, as the autopilot flies it) at
+  ``max(radius, 1.5 R)`` around the loiter point, sampled every 10 deg;
+* a multirotor brakes to a stop at each waypoint; it is checked at full
+  planned speed right up to the waypoint (conservative).
+
+Everything is in the fence's local ENU frame (m, m/s) and altitude reference.
+Plain Python; a 20-leg mission in a 100-vertex fence checks in well under a
+second.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import Enum
+from typing import Sequence
+
+from geofence.boundary_shift import activation_margins
+from geofence.dynamics import G_MPS2
+from geofence.fence import LocalFence
+from geofence.interface import Envelope
+
+HEADING_STEP_RAD = math.radians(10.0)
+
+
+class RoutePart(str, Enum):
+    """Where on the route a finding lies."""
+
+    LEG = "leg"
+    TURN = "turn"
+    LOITER = "loiter"
+
+
+@dataclass(frozen=True)
+class PlannedWaypoint:
+    """One point of the planned route: ENU position (m), height in the fence's reference (m), optional loiter."""
+
+    east_m: float
+    north_m: float
+    height_m: float
+    label: str = ""
+    loiter_radius_m: float = 0.0
+    """> 0: the aircraft loiters here on a circle of (at least) this radius."""
+
+
+@dataclass(frozen=True)
+class PreflightFinding:
+    """A stretch of the route where the activation margin falls below the buffer."""
+
+    part: RoutePart
+    index: int
+    """Leg ``index`` goes from waypoint ``index`` to ``index + 1``; a turn or loiter is at waypoint ``index``."""
+    label: str
+    east_m: float
+    north_m: float
+    height_m: float
+    activation_margin_m: float
+    """The smallest activation margin on that stretch (m; <= buffer)."""
+    reason: str
+    """The binding constraint (lateral feature and edge, or vertical)."""
+
+    def describe(self) -> str:
+        where = f"({self.east_m:.0f}, {self.north_m:.0f}) m ENU at {self.height_m:.0f} m"
+        return f"{self.part.value} {self.label}: activation margin {self.activation_margin_m:.1f} m at {where}: {self.reason}"
+
+
+@dataclass(frozen=True)
+class _Sample:
+    e: float
+    n: float
+    h: float
+    ve: float
+    vn: float
+    vu: float
+
+
+def _ground_velocity(env: Envelope, speed_mps: float, course_rad: float, wind_en: tuple[float, float]) -> tuple[float, float]:
+    """Ground velocity (E, N) flying ``course_rad`` (math angle, counter-clockwise from east) at ``speed_mps``.
+
+    Multirotor: the speed is the ground speed. Fixed-wing: the speed is the
+    airspeed; the aircraft crabs so that its track is the course, and the
+    ground speed is what the wind triangle leaves (at least 1 m/s).
+    """
+    ce, cn = math.cos(course_rad), math.sin(course_rad)
+    if env.is_multirotor:
+        return speed_mps * ce, speed_mps * cn
+    we, wn = wind_en
+    along = we * ce + wn * cn
+    cross = -we * cn + wn * ce
+    v_air_along2 = speed_mps * speed_mps - cross * cross
+    gs = (math.sqrt(v_air_along2) if v_air_along2 > 0.0 else 0.0) + along
+    gs = max(gs, 1.0)
+    return gs * ce, gs * cn
+
+
+def _vertical_rate(env: Envelope, h: float, h_goal: float) -> float:
+    if h_goal > h + 0.5:
+        return env.max_climb_rate_mps
+    if h_goal < h - 0.5:
+        return -env.max_descent_rate_mps
+    return 0.0
+
+
+def _leg_samples(env, a: PlannedWaypoint, b: PlannedWaypoint, speed: float, wind_en, step_m: float) -> list[_Sample]:
+    de, dn = b.east_m - a.east_m, b.north_m - a.north_m
+    length = math.hypot(de, dn)
+    if length < 1e-6:
+        return []
+    course = math.atan2(dn, de)
+    ve, vn = _ground_velocity(env, speed, course, wind_en)
+    gs = math.hypot(ve, vn)
+    k = max(1, int(math.ceil(length / step_m)))
+    out = []
+    h = a.height_m
+    for i in range(k + 1):
+        f = i / k
+        # the height reached when flying at the platform's vertical rate from a's height toward b's
+        t = f * length / gs
+        vu = _vertical_rate(env, a.height_m, b.height_m)
+        h = a.height_m + vu * t
+        h = min(h, b.height_m) if vu > 0 else (max(h, b.height_m) if vu < 0 else h)
+        out.append(_Sample(a.east_m + f * de, a.north_m + f * dn, h, ve, vn, _vertical_rate(env, h, b.height_m)))
+    return out
+
+
+def _turn_radius(env: Envelope, speed: float) -> float:
+    return speed * speed / (G_MPS2 * math.tan(max(env.max_bank_rad, 0.05)))
+
+
+def _turn_samples(env, prev: PlannedWaypoint, wp: PlannedWaypoint, nxt: PlannedWaypoint, speed: float, wind_en) -> list[_Sample]:
+    """The fixed-wing's turn onto the next leg, starting at ``wp`` tangent to the incoming leg."""
+    c_in = math.atan2(wp.north_m - prev.north_m, wp.east_m - prev.east_m)
+    c_out = math.atan2(nxt.north_m - wp.north_m, nxt.east_m - wp.east_m)
+    delta = (c_out - c_in + math.pi) % (2.0 * math.pi) - math.pi  # + = left (counter-clockwise)
+    if abs(delta) < HEADING_STEP_RAD:
+        return []
+    r = _turn_radius(env, speed)
+    s = 1.0 if delta > 0.0 else -1.0
+    # centre of the turn: r to the left (s = +1) or right of the incoming track
+    cx, cy = wp.east_m - s * r * math.sin(c_in), wp.north_m + s * r * math.cos(c_in)
+    out = []
+    k = max(1, int(math.ceil(abs(delta) / HEADING_STEP_RAD)))
+    for i in range(k + 1):
+        c = c_in + delta * i / k
+        e, n = cx + s * r * math.sin(c), cy - s * r * math.cos(c)
+        ve, vn = _ground_velocity(env, speed, c, wind_en)
+        out.append(_Sample(e, n, wp.height_m, ve, vn, 0.0))
+    return out
+
+
+def _loiter_samples(env, wp: PlannedWaypoint, speed: float, wind_en) -> list[_Sample]:
+    r = max(wp.loiter_radius_m, 1.5 * _turn_radius(env, speed))
+    out = []
+    k = int(round(2.0 * math.pi / HEADING_STEP_RAD))
+    for i in range(k):
+        a = 2.0 * math.pi * i / k
+        e, n = wp.east_m + r * math.cos(a), wp.north_m + r * math.sin(a)
+        course = a - 0.5 * math.pi  # clockwise orbit: the track is the radius turned right
+        ve, vn = _ground_velocity(env, speed, course, wind_en)
+        out.append(_Sample(e, n, wp.height_m, ve, vn, 0.0))
+    return out
+
+
+def check_route(fence: LocalFence, env: Envelope, waypoints: Sequence[PlannedWaypoint], speed_mps: float, *,
+                wind_en: tuple[float, float] = (0.0, 0.0), wind_extra_mps: float = 0.0, h_uncertainty_m: float = 0.0,
+                v_uncertainty_m: float = 0.0, buffer_m: float = 0.0, step_m: float = 5.0) -> list[PreflightFinding]:
+    """Every leg, turn and loiter of the route whose activation margin falls to ``buffer_m`` or below.
+
+    ``speed_mps``: the planned speed (multirotor ground speed, fixed-wing
+    airspeed). ``wind_en``: the expected mean wind (E, N m/s, toward);
+    ``wind_extra_mps``, ``h_uncertainty_m``, ``v_uncertainty_m``: the same
+    allowances the unit adds in flight. One finding per offending stretch,
+    with its smallest margin. An empty list means the route passes.
+    """
+    findings: list[PreflightFinding] = []
+
+    def score(samples: list[_Sample], part: RoutePart, index: int, label: str) -> None:
+        worst = None
+        for p in samples:
+            r = activation_margins(fence, p.e, p.n, p.h, p.ve, p.vn, p.vu, env, wind_en[0], wind_en[1],
+                                   h_uncertainty_m=h_uncertainty_m, v_uncertainty_m=v_uncertainty_m,
+                                   wind_extra_mps=wind_extra_mps)
+            if worst is None or r.activation_margin_m < worst[0].activation_margin_m:
+                worst = (r, p)
+        if worst is None or worst[0].activation_margin_m > buffer_m:
+            return
+        r, p = worst
+        if r.lateral_activation_m <= r.vertical_activation_m:
+            reason = f"{r.feature} edge {r.edge} needs {r.lateral_shift_m:.1f} m, has {r.edge_distance_m:.1f} m"
+        else:
+            reason = (f"vertical: ceiling margin {r.ceiling_margin_m:.1f} m (needs {r.ceiling_shift_m:.1f}), "
+                      f"floor margin {r.floor_margin_m:.1f} m (needs {r.floor_shift_m:.1f})")
+        findings.append(PreflightFinding(part, index, label, p.e, p.n, p.h, r.activation_margin_m, reason))
+
+    wps = list(waypoints)
+    for i in range(len(wps) - 1):
+        a, b = wps[i], wps[i + 1]
+        score(_leg_samples(env, a, b, speed_mps, wind_en, step_m), RoutePart.LEG, i, f"{a.label or i} -> {b.label or i + 1}")
+        if not env.is_multirotor and 0 < i + 1 < len(wps) - 1:
+            score(_turn_samples(env, a, b, wps[i + 2], speed_mps, wind_en), RoutePart.TURN, i + 1, b.label or str(i + 1))
+    if not env.is_multirotor:
+        for i, wp in enumerate(wps):
+            if wp.loiter_radius_m > 0.0:
+                score(_loiter_samples(env, wp, speed_mps, wind_en), RoutePart.LOITER, i, wp.label or str(i))
+    return findings

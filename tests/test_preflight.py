@@ -1,0 +1,65 @@
+"""The pre-flight mission check flags the legs, turns and loiters that will meet the activation boundary."""
+
+import math
+
+import pytest
+
+from geofence.config import parse_geofence
+from geofence.geodesy import LocalFrame
+from geofence.interface import Envelope, PlatformKind
+from geofence.preflight import PlannedWaypoint, RoutePart, check_route
+
+FRAME = LocalFrame(47.0, 8.0, 400.0)
+MC = Envelope(PlatformKind.MULTIROTOR, 5.3, 10.3, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0,
+              6.0, 4.2, 0.15, drag_linear_per_s=0.435, drag_quadratic_per_m=0.011)
+FW = Envelope(PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0,
+              0.6, 5.0, 1.1)
+
+
+def fence(half=300.0, ceiling=60.0, **extra):
+    corners = [(-half, -half), (half, -half), (half, half), (-half, half)]
+    f = {"keep_in": [list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in corners], "ceiling_m": ceiling, **extra}
+    return parse_geofence({"fence": f}).fence.to_local(FRAME)
+
+
+def square(half, h):
+    return [PlannedWaypoint(-half, -half, h, "A"), PlannedWaypoint(half, -half, h, "B"), PlannedWaypoint(half, half, h, "C"),
+            PlannedWaypoint(-half, half, h, "D"), PlannedWaypoint(-half, -half, h, "E")]
+
+
+def test_a_comfortable_multirotor_survey_passes():
+    assert check_route(fence(), MC, square(150.0, 30.0), 5.3, wind_en=(4.0, 0.0)) == []
+
+
+def test_a_leg_that_ends_near_the_edge_is_flagged_with_its_edge():
+    wps = [PlannedWaypoint(0.0, 0.0, 30.0, "home"), PlannedWaypoint(295.0, 0.0, 30.0, "edge")]
+    out = check_route(fence(), MC, wps, 10.0)
+    assert len(out) == 1 and out[0].part is RoutePart.LEG and out[0].activation_margin_m <= 0.0
+    assert "keep_in edge 1" in out[0].reason and out[0].east_m > 250.0
+
+
+def test_the_ceiling_and_the_wind_count():
+    # climbing at max rate to 2 m below the ceiling: fine with a perfect height, flagged with 2 m of uncertainty
+    wps = [PlannedWaypoint(0.0, 0.0, 30.0), PlannedWaypoint(100.0, 0.0, 58.0)]
+    assert check_route(fence(), MC, wps, 5.0) == []
+    out = check_route(fence(), MC, wps, 5.0, v_uncertainty_m=2.0)
+    assert out and "vertical" in out[0].reason
+    # a survey that passes in calm air fails in a strong tailwind toward an edge
+    wps = [PlannedWaypoint(0.0, 0.0, 30.0), PlannedWaypoint(290.0, 0.0, 30.0)]
+    assert check_route(fence(), MC, wps, 5.3) == []
+    assert check_route(fence(), MC, wps, 5.3, wind_en=(8.0, 0.0), wind_extra_mps=1.0) != []
+
+
+def test_fixed_wing_turns_and_loiters_are_checked():
+    f = fence(half=600.0, ceiling=150.0)
+    r = 16.0**2 / (9.80665 * math.tan(math.radians(40)))
+    # a turn at a waypoint close to the edge sweeps outward: flagged as a turn
+    x = 600.0 - r - 10.0  # the turn's arc reaches 10 m from the edge
+    wps = [PlannedWaypoint(-300.0, 0.0, 80.0), PlannedWaypoint(x, 0.0, 80.0, "near"), PlannedWaypoint(x, 300.0, 80.0)]
+    turn = [x for x in check_route(f, FW, wps, 16.0) if x.part is RoutePart.TURN]
+    assert turn and turn[0].activation_margin_m <= 0.0
+    # a loiter whose orbit reaches the edge
+    wps = [PlannedWaypoint(0.0, 0.0, 80.0), PlannedWaypoint(520.0, 0.0, 80.0, "orbit", loiter_radius_m=60.0)]
+    assert any(x.part is RoutePart.LOITER for x in check_route(f, FW, wps, 16.0))
+    # a comfortable fixed-wing pattern passes
+    assert check_route(f, FW, square(250.0, 80.0), 16.0, wind_en=(0.0, 5.0)) == []
