@@ -58,8 +58,8 @@ def test_fixed_wing_turns_and_loiters_are_checked():
     wps = [PlannedWaypoint(-300.0, 0.0, 80.0), PlannedWaypoint(x, 0.0, 80.0, "near"), PlannedWaypoint(x, 300.0, 80.0)]
     turn = [x for x in check_route(f, FW, wps, 16.0) if x.part is RoutePart.TURN]
     assert turn and turn[0].activation_margin_m <= 0.0
-    # a loiter whose orbit reaches the edge
-    wps = [PlannedWaypoint(0.0, 0.0, 80.0), PlannedWaypoint(530.0, 0.0, 80.0, "orbit", loiter_radius_m=60.0)]
+    # a loiter whose orbit crosses the edge
+    wps = [PlannedWaypoint(0.0, 0.0, 80.0), PlannedWaypoint(560.0, 0.0, 80.0, "orbit", loiter_radius_m=60.0)]
     assert any(x.part is RoutePart.LOITER for x in check_route(f, FW, wps, 16.0))
     # a comfortable fixed-wing pattern passes
     assert check_route(f, FW, square(250.0, 80.0), 16.0, wind_en=(0.0, 5.0)) == []
