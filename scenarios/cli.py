@@ -114,12 +114,17 @@ def build_parser() -> argparse.ArgumentParser:
             "Read a MAVLink telemetry log (.tlog) or an ArduPilot DataFlash log (.bin) and a fence file "
             "(QGroundControl .plan, QGC WPL 110 fence items, MAVProxy fence text), and print the breach scores: "
             "peak excursion beyond the fence (m), time outside (s), minimum margin (m). Fence files carry no "
-            "ceiling, so give one with --ceiling (m above home)."
+            "ceiling, so give one with --ceiling (m above home). The log is checked first: a log with too many "
+            "CRC failures, time faults or position glitches, or far from the fence, is refused (exit 2); "
+            "otherwise it is scored over its clean part, with a warning on stderr saying what was dropped."
         ),
     )
     score.add_argument("log", type=Path, metavar="LOG", help=".tlog or .bin flight log")
     score.add_argument("--fence", type=Path, required=True, metavar="FILE", help="fence file (.plan, WPL 110, MAVProxy)")
     score.add_argument("--ceiling", type=float, default=None, metavar="M", help="ceiling, m above home (default 120)")
+    score.add_argument("--json", action="store_true", help="print only the scores, as one JSON object (warnings on stderr)")
+    score.add_argument("--max-fence-distance-km", type=float, default=50.0, metavar="KM",
+                       help="refuse a log whose median position is farther than this from the fence (default 50)")
 
     imp = sub.add_parser(
         "import-fence",
@@ -303,24 +308,29 @@ def _cmd_compare(args) -> int:
 def _cmd_score_log(args) -> int:
     import json
 
-    from analysis.logs import describe, load_log
+    import math
+
+    from analysis.logs import check_near_fence, describe, load_log
     from analysis.scoring import score_flight
     from geofence.importers import load_fence_file, summarize
 
     imported = load_fence_file(args.fence, ceiling_m=args.ceiling)
     traj, info = load_log(args.log)
-    frame = info.frame
-    scores = score_flight(traj, imported.fence.to_local(frame))
-    print(describe(info))
-    print(summarize(imported))
-    for w in imported.warnings:
+    check_near_fence(traj, imported.fence, args.max_fence_distance_km * 1000.0, name=str(args.log))
+    scores = score_flight(traj, imported.fence.to_local(info.frame))
+    warnings = list(dict.fromkeys([*imported.warnings, *info.warnings]))  # each once, in order
+    for w in warnings:
         print(f"warning: {w}", file=sys.stderr)
-    import math
 
     def clean(v):
         return (round(v, 3) if math.isfinite(v) else None) if isinstance(v, float) else v
 
-    print(json.dumps({k: clean(v) for k, v in scores.items()}, indent=2))
+    out = {k: clean(v) for k, v in scores.items()}
+    out["warnings"] = warnings
+    if not args.json:  # the summaries; their warning lines are already on stderr
+        print(describe(info))
+        print("\n".join(line for line in summarize(imported).splitlines() if not line.lstrip().startswith("warning:")))
+    print(json.dumps(out, indent=None if args.json else 2))
     return 0
 
 
