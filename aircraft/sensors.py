@@ -32,8 +32,14 @@ scenario's optional ``sensors:`` block, see :func:`parse_sensors`):
   included; the datasheet's 0.012 mbar RMS at OSR 4096 is ~0.1 m static)
   plus a Gauss-Markov drift, 1 m sigma, tau = 300 s (weather and temperature
   drift of a few dm per minute).
-* **Pitot airspeed**: white 0.3 m/s (MS4525DO-class differential pressure
-  sensor at cruise speeds); ``None`` for platforms without a pitot.
+* **Pitot airspeed**: reads the *indicated* airspeed, as a real pitot does
+  (a differential pressure q = rho V_t^2 / 2 calibrated at sea-level density
+  rho0): ``IAS = TAS * sqrt(rho / rho0)``, ISA troposphere density from the
+  true altitude (:func:`geofence.dynamics.isa_density_ratio`; 13 % below TAS
+  at 2,800 m AMSL), plus white 0.3 m/s (MS4525DO-class differential pressure
+  sensor at cruise speeds); ``None`` for platforms without a pitot. Users
+  that need TAS convert back with their own altitude estimate (the wind
+  estimator does).
 * **AHRS attitude**: Gauss-Markov errors, 0.5 deg roll/pitch and 2 deg yaw
   sigma with tau = 5 s (VectorNav VN-100-class figures: 0.5 deg pitch/roll and
   2 deg magnetic heading, dynamic; cheaper MEMS AHRS are worse). A tau of 0
@@ -56,6 +62,7 @@ from typing import Any
 
 import numpy as np
 
+from geofence.dynamics import isa_density_ratio
 from geofence.geodesy import WGS84_A_M, WGS84_F
 from geofence.interface import VehicleState
 from geofence.measurements import AirData, AttitudeSample, GpsFix
@@ -239,7 +246,8 @@ class SensorSuite:
         baro = truth.alt_m + drift + cfg.baro_noise_m * self._baro_n()
         airspeed = None
         if self.has_pitot:
-            airspeed = truth.airspeed_mps + cfg.airspeed_noise_mps * self._pitot_n()
+            # indicated airspeed: the true airspeed scaled by sqrt(rho / rho0)
+            airspeed = truth.airspeed_mps * math.sqrt(isa_density_ratio(truth.alt_m)) + cfg.airspeed_noise_mps * self._pitot_n()
             if airspeed < 0.0:
                 airspeed = 0.0
         air = AirData(t, airspeed, baro)

@@ -51,7 +51,10 @@ Output
     height, like the simulation's). ``lat_deg``/``lon_deg`` use the origin's
     radii of curvature (linearized: < 0.5 m off within 2 km of the origin;
     the geofence works in ENU). Attitude is the latest AHRS sample;
-    ``airspeed_mps`` is the pitot reading, or the ground speed without a pitot.
+    ``airspeed_mps`` is the true airspeed: the pitot's indicated reading
+    converted with the ISA density at the estimated altitude
+    (:func:`geofence.dynamics.isa_density_ratio`), or the ground speed
+    without a pitot.
 
 Everything per step is plain Python floats (no numpy); see the tests for the
 measured cost (a few microseconds).
@@ -62,6 +65,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from geofence.dynamics import isa_density_ratio
 from geofence.geodesy import WGS84_A_M, WGS84_F, LocalFrame
 from geofence.interface import VehicleState
 from geofence.measurements import AirData, AttitudeSample, GpsFix
@@ -336,6 +340,8 @@ class GeofenceEstimator:
         u = self._u
         curv = (e * e + n * n) * self._inv_2r
         a = self._airspeed
+        if a is not None:  # indicated -> true airspeed at the estimated altitude
+            a = a / math.sqrt(isa_density_ratio(self._h0 + u + curv))
         st = VehicleState(
             now,
             self.frame.lat0_deg + n * self._deg_per_m_n,

@@ -6,41 +6,76 @@ Conventions as in :mod:`wind.field`: ENU m/s, the direction the air moves
 Fixed-wing (a pitot airspeed is given)
     Each step the instantaneous wind is the ground velocity minus the
     air-relative velocity, taken along the heading (small sideslip assumed):
-    ``w = v_ground - V_h * (sin yaw, cos yaw)``, with the horizontal airspeed
-    ``V_h = sqrt(V_a^2 - v_up^2)`` (still air vertically). Heading and airspeed
-    errors average out over turns; a first-order low-pass (``tau_s``, default
-    20 s) keeps the steady part and rejects turbulence.
+    ``w = v_ground - V_h * (sin yaw, cos yaw)``, with the horizontal true
+    airspeed ``V_h = sqrt(V_t^2 - v_up^2)`` (still air vertically). The pitot
+    reads the indicated airspeed (:mod:`aircraft.sensors`); it is converted to
+    true airspeed with the unit's own altitude estimate,
+    ``V_t = V_i / sqrt(sigma(alt))`` (ISA density ratio,
+    :func:`geofence.dynamics.isa_density_ratio`; at 2,800 m AMSL ``V_t`` is
+    15 % above ``V_i``, so taking IAS for TAS would bias the wind by
+    several m/s upwind). ``airspeed_is_indicated = False`` takes the reading as
+    TAS. Heading and airspeed errors average out over turns; a first-order
+    low-pass (``tau_s``, default 20 s) keeps the steady part and rejects
+    turbulence.
 
-Multirotor (no airspeed sensor)
-    In steady flight the horizontal component of the thrust balances the
-    drag, so the air-relative velocity points along the tilt and its size
-    follows from the drag law. With ``f = g * |horizontal thrust direction| /
-    vertical component`` (= ``g tan(tilt)``) and drag ``c1 v + c2 v^2 = f``, we
-    get ``v_air`` from the root of that quadratic. By default the drag is
-    quadratic (``c1 = 0``) and calibrated from the envelope: the platform's
-    ``max_speed_mps`` is reached in still air at ``max_bank_rad``
-    (``c2 = g tan(max_tilt) / max_speed^2``). The F450 profile's envelope
-    notes (15.7 m/s at 10 deg tilt, 28.7 m/s at 30 deg) fit the quadratic law
-    within 2 %. Only quasi-steady samples are used: the estimated horizontal
-    acceleration must be below ``max_accel_mps2`` (default 1 m/s^2, the
-    velocity's change over the last ``accel_window_s`` from the estimate).
-    Limitation: near hover ``v ~ sqrt(tilt)`` is steep, so AHRS tilt errors
-    (0.5 deg -> ~3.5 m/s for the F450) map into the wind estimate; they
-    average out only if they are not biased. Use a pitot-less estimate with
-    that in mind (``sigma_mps`` stays at least ``multirotor_floor_mps``).
+Multirotor (no airspeed sensor): the horizontal force balance
+    Per unit mass, in ENU, the vehicle's horizontal acceleration over the
+    ground is the horizontal thrust minus the air drag::
+
+        a_ground = f_thrust_h - D(|v_air|) * v_air / |v_air|,    v_air = v_ground - wind
+
+    with ``D(v) = k1 v + k2 v^2`` the platform's drag law
+    (:func:`geofence.dynamics.drag_coefficients`, the one home of that
+    formula; ``drag_c1_per_s`` / ``drag_c2_per_m`` override k1 / k2). The
+    thrust points along the body's -z axis ``t_hat`` (from the attitude); its
+    size follows from the vertical balance ``T/m * t_up = g + a_up`` (vertical
+    drag neglected), so ``f_thrust_h = (g + a_up) * (t_e, t_n) / t_up``
+    (``= g tan(tilt)`` along the tilt in level flight). Hence the drag vector
+    ``d = f_thrust_h - a_ground`` points along ``v_air`` and has size
+    ``D(|v_air|)``, so::
+
+        v_air = D^-1(|d|) * d / |d|      (geofence.dynamics.airspeed_for_drag_mps)
+        wind  = v_ground - v_air
+
+    This holds while the vehicle accelerates, so no sample is thrown away for
+    it (the previous estimator gated on |a| < 1 m/s^2 and assumed
+    ``a_ground = 0``, which gave the wrong sign for tens of seconds of an
+    adversarial flight). ``a_ground`` and ``a_up`` come from the velocity
+    estimate through a first-order low-pass of time constant
+    ``accel_window_s`` (default 3 s): with ``v_lp`` the low-passed velocity,
+    ``a_lp = (v - v_lp) / tau`` is exactly the low-passed derivative, and the
+    same low-pass is applied to ``f_thrust_h`` and to the ground velocity, so
+    both sides of the balance see the same filter (its lag cancels).
+
+    The low-pass time constant is long enough (3 s) to average the velocity
+    estimate's noise out of its derivative: differentiating over 0.5 s made the
+    drag of a hovering F450 (0.17 m/s^2 in 5 m/s of wind) drown in noise.
+
+    Sample weights. The balance holds at any acceleration, but the
+    acceleration estimate's errors (the velocity estimate's lag behind the
+    attitude, GNSS latency, filter transients) grow with the manoeuvre, so each
+    sample enters the average with the weight
+    ``w = 1 / (1 + (|a_lp| / accel_ref_mps2)^2)`` (1 in steady flight, 0.1 at
+    3 x ``accel_ref_mps2``, default 1.5 m/s^2).
+
+    Limitation: with a purely quadratic law near hover (the F450 without rotor
+    drag) ``v ~ sqrt(tilt)`` is steep, so AHRS tilt errors (0.5 deg ->
+    ~3.5 m/s for the F450) map into the wind estimate and only average out if
+    they are not biased; a law with rotor drag (k1 > 0) has a bounded slope
+    ``1 / k1``. ``sigma_mps`` stays at least ``multirotor_floor_mps``.
 
 Prior and convergence
     Until enough samples have been seen, the estimate leans on the configured
     prior (e.g. a forecast) with its stated uncertainty: the filter starts at
-    the prior and its gain is ``dt / min(tau, prior_weight_s + t_used)``, i.e.
-    a growing-memory average in which the prior counts as ``prior_weight_s``
-    seconds of data, turning into the fixed ``tau`` low-pass once ``t_used``
-    (the time of accepted samples) exceeds ``tau - prior_weight_s``.
-    ``converged`` becomes True after ``tau`` seconds of accepted samples.
-    ``sigma_mps`` is a rough 1-sigma: the prior's sigma shrinking with the
-    accepted time, down to a floor.
+    the prior and its gain is ``w dt / min(tau, prior_weight_s + t_used)``
+    (``w`` = 1 for fixed-wing samples), i.e. a growing-memory average in which
+    the prior counts as ``prior_weight_s`` seconds of data, turning into the
+    fixed ``tau`` low-pass once ``t_used`` (the weighted time of accepted
+    samples) exceeds ``tau - prior_weight_s``. ``converged`` becomes True after
+    ``tau`` seconds of (weighted) samples. ``sigma_mps`` is a rough 1-sigma:
+    the prior's sigma shrinking with the accepted time, down to a floor.
 
-Per-step cost is a few plain-float operations.
+Per-step cost is a few dozen plain-float operations.
 """
 
 from __future__ import annotations
@@ -48,6 +83,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from geofence.dynamics import airspeed_for_drag_mps, drag_coefficients, isa_density_ratio
 from geofence.interface import Envelope, VehicleState
 
 G_MPS2 = 9.80665
@@ -63,19 +99,24 @@ class WindEstimatorConfig:
     prior_weight_s: float = 2.0
     min_airspeed_mps: float = 3.0
     max_bank_rad: float = math.radians(60.0)
-    max_accel_mps2: float = 1.0
-    accel_window_s: float = 0.5
+    airspeed_is_indicated: bool = True  # the pitot reads IAS: converted to TAS with the altitude estimate
+    accel_window_s: float = 3.0  # time constant of the low-pass that estimates the acceleration (multirotor)
+    accel_ref_mps2: float = 1.5  # a multirotor sample at this horizontal acceleration counts half
     min_agl_m: float = 1.0
-    drag_c1_per_s: float | None = None  # multirotor linear drag (1/s); None: 0
-    drag_c2_per_m: float | None = None  # multirotor quadratic drag (1/m); None: from the envelope
+    drag_c1_per_s: float | None = None  # multirotor linear drag (1/s); None: the envelope's drag law
+    drag_c2_per_m: float | None = None  # multirotor quadratic drag (1/m); None: the envelope's drag law
     fixed_wing_floor_mps: float = 0.5
     multirotor_floor_mps: float = 1.5
 
     def __post_init__(self) -> None:
-        for name in ("tau_s", "prior_weight_s", "accel_window_s"):
+        for name in ("tau_s", "prior_weight_s", "accel_window_s", "accel_ref_mps2"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0.0):
                 raise ValueError(f"wind_estimator.{name}: must be a finite number > 0, got {v!r}")
+        for name in ("drag_c1_per_s", "drag_c2_per_m"):
+            v = getattr(self, name)
+            if v is not None and not (math.isfinite(v) and v >= 0.0):
+                raise ValueError(f"wind_estimator.{name}: must be a finite number >= 0 or None, got {v!r}")
         if len(self.prior_enu) != 2 or not all(math.isfinite(x) for x in self.prior_enu):
             raise ValueError(f"wind_estimator.prior_enu: expected two finite numbers, got {self.prior_enu!r}")
 
@@ -84,24 +125,28 @@ class WindEstimator:
     """Steady-wind estimate of the geofence unit (see the module docstring).
 
     ``update(est, airspeed_mps, dt_s)`` once per outer-loop step with the
-    estimator's state and the pitot airspeed (None for a multirotor); returns
-    ``(wind_east_mps, wind_north_mps)``, also available as :attr:`wind_enu`.
+    estimator's state and the pitot reading (indicated airspeed; None for a
+    multirotor); returns ``(wind_east_mps, wind_north_mps)``, also available as
+    :attr:`wind_enu`.
     """
 
     def __init__(self, envelope: Envelope | None = None, config: WindEstimatorConfig | None = None) -> None:
         self.config = cfg = config or WindEstimatorConfig()
         self._we, self._wn = float(cfg.prior_enu[0]), float(cfg.prior_enu[1])
         self.t_used_s = 0.0
-        c2 = cfg.drag_c2_per_m
-        if c2 is None and envelope is not None and envelope.max_speed_mps > 0.0 and envelope.max_bank_rad > 0.0:
-            c2 = G_MPS2 * math.tan(envelope.max_bank_rad) / envelope.max_speed_mps**2
-        self._c1 = cfg.drag_c1_per_s or 0.0
-        self._c2 = c2 or 0.0
-        # short history of the ground velocity (for the quasi-steady gate of the multirotor model)
-        self._hist: list[tuple[float, float, float]] = []
-        self._t = 0.0
+        k1, k2 = drag_coefficients(envelope) if envelope is not None else (0.0, 0.0)
+        self._k1 = k1 if cfg.drag_c1_per_s is None else float(cfg.drag_c1_per_s)
+        self._k2 = k2 if cfg.drag_c2_per_m is None else float(cfg.drag_c2_per_m)
+        # low-pass state of the multirotor force balance: velocity (E, N, U) and horizontal thrust (E, N)
+        self._lp: list[float] | None = None
         self.last_sample: tuple[float, float] | None = None
+        self.last_weight = 0.0
         self._last_kind_mr = False
+
+    @property
+    def drag_coefficients(self) -> tuple[float, float]:
+        """``(k1 per s, k2 per m)`` of the drag law the multirotor model inverts."""
+        return (self._k1, self._k2)
 
     @property
     def wind_enu(self) -> tuple[float, float]:
@@ -123,50 +168,53 @@ class WindEstimator:
         cfg = self.config
         if not (dt_s > 0.0) or not math.isfinite(dt_s):
             return (self._we, self._wn)
-        self._t += dt_s
         sample = None
+        weight = 1.0
         if position_valid and est.agl_m >= cfg.min_agl_m:
             if airspeed_mps is not None:
                 sample = self._fixed_wing_sample(est, airspeed_mps)
             else:
                 self._last_kind_mr = True
-                sample = self._multirotor_sample(est)
+                r = self._multirotor_sample(est, dt_s)
+                if r is not None:
+                    we, wn, weight = r
+                    sample = (we, wn)
+        else:
+            self._lp = None  # the force balance restarts from fresh filter states
         self.last_sample = sample
-        if sample is not None:
+        self.last_weight = weight if sample is not None else 0.0
+        if sample is not None and weight > 0.0:
             we, wn = sample
             if math.isfinite(we) and math.isfinite(wn):
                 memory = min(cfg.tau_s, cfg.prior_weight_s + self.t_used_s)
-                k = dt_s / (memory + dt_s)
+                wdt = weight * dt_s
+                k = wdt / (memory + wdt)
                 self._we += k * (we - self._we)
                 self._wn += k * (wn - self._wn)
-                self.t_used_s += dt_s
+                self.t_used_s += wdt
         return (self._we, self._wn)
 
     def _fixed_wing_sample(self, s: VehicleState, va: float) -> tuple[float, float] | None:
         cfg = self.config
         if not math.isfinite(va) or va < cfg.min_airspeed_mps or abs(s.roll_rad) > cfg.max_bank_rad:
             return None
+        if cfg.airspeed_is_indicated:
+            va /= math.sqrt(isa_density_ratio(s.alt_m)) if math.isfinite(s.alt_m) else 1.0
         vu = s.v_up_mps
         vh2 = va * va - vu * vu
         vh = math.sqrt(vh2) if vh2 > 0.0 else 0.0
         y = s.yaw_rad
         return (s.v_east_mps - vh * math.sin(y), s.v_north_mps - vh * math.cos(y))
 
-    def _multirotor_sample(self, s: VehicleState) -> tuple[float, float] | None:
+    def _multirotor_sample(self, s: VehicleState, dt_s: float) -> tuple[float, float, float] | None:
         cfg = self.config
-        # quasi-steady gate: horizontal acceleration over the last accel_window_s
-        h = self._hist
-        h.append((self._t, s.v_east_mps, s.v_north_mps))
-        while len(h) > 2 and h[1][0] <= self._t - cfg.accel_window_s:
-            h.pop(0)
-        t0, ve0, vn0 = h[0]
-        span = self._t - t0
-        if span < 0.5 * cfg.accel_window_s:
+        k1, k2 = self._k1, self._k2
+        if k1 <= 0.0 and k2 <= 0.0:
             return None
-        ae, an = (s.v_east_mps - ve0) / span, (s.v_north_mps - vn0) / span
-        if ae * ae + an * an > cfg.max_accel_mps2**2 or self._c2 <= 0.0 and self._c1 <= 0.0:
+        ve, vn, vu = s.v_east_mps, s.v_north_mps, s.v_up_mps
+        if not (math.isfinite(ve) and math.isfinite(vn) and math.isfinite(vu)):
             return None
-        # horizontal direction of the thrust (body -z) in ENU, and the vertical component
+        # thrust direction (body -z) in ENU
         cr, sr = math.cos(s.roll_rad), math.sin(s.roll_rad)
         cp, sp = math.cos(s.pitch_rad), math.sin(s.pitch_rad)
         cy, sy = math.cos(s.yaw_rad), math.sin(s.yaw_rad)
@@ -174,15 +222,37 @@ class WindEstimator:
         t_e = -(sy * sp * cr - cy * sr)
         t_up = cp * cr
         if t_up < 0.2:
+            self._lp = None
             return None
-        f = G_MPS2 * math.hypot(t_e, t_n) / t_up  # = g tan(tilt): drag per unit mass in steady flight
-        c1, c2 = self._c1, self._c2
-        if c2 > 0.0:
-            v_air = (-c1 + math.sqrt(c1 * c1 + 4.0 * c2 * f)) / (2.0 * c2)
+        # low-passed velocity, its derivative (the acceleration), and the low-passed horizontal thrust
+        tau = cfg.accel_window_s
+        lp = self._lp
+        if lp is None:
+            # the vertical acceleration is unknown on the first step: take level flight
+            self._lp = [ve, vn, vu, G_MPS2 * t_e / t_up, G_MPS2 * t_n / t_up]
+            return None
+        ae = (ve - lp[0]) / (tau + dt_s)
+        an = (vn - lp[1]) / (tau + dt_s)
+        au = (vu - lp[2]) / (tau + dt_s)
+        alpha = dt_s / (tau + dt_s)
+        lp[0] += alpha * (ve - lp[0])
+        lp[1] += alpha * (vn - lp[1])
+        lp[2] += alpha * (vu - lp[2])
+        g_up = G_MPS2 + au
+        if g_up < 0.2 * G_MPS2:
+            g_up = 0.2 * G_MPS2  # free fall or a hard descent: the thrust size is unknown
+        lp[3] += alpha * (g_up * t_e / t_up - lp[3])
+        lp[4] += alpha * (g_up * t_n / t_up - lp[4])
+        # drag vector = thrust - acceleration; it points along the air-relative velocity
+        de, dn = lp[3] - ae, lp[4] - an
+        d = math.sqrt(de * de + dn * dn)
+        v_air = airspeed_for_drag_mps(k1, k2, d)
+        if not math.isfinite(v_air):
+            return None
+        if d > 1e-12:
+            we, wn = lp[0] - v_air * de / d, lp[1] - v_air * dn / d
         else:
-            v_air = f / c1
-        norm = math.hypot(t_e, t_n)
-        if norm < 1e-9:
-            return (s.v_east_mps, s.v_north_mps)
-        ue, un = t_e / norm, t_n / norm
-        return (s.v_east_mps - v_air * ue, s.v_north_mps - v_air * un)
+            we, wn = lp[0], lp[1]
+        # weight: trust falls with the manoeuvre (see the module docstring)
+        q = (ae * ae + an * an) / (cfg.accel_ref_mps2 * cfg.accel_ref_mps2)
+        return (we, wn, 1.0 / (1.0 + q))

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from aircraft.sensors import SensorConfig, SensorSuite, parse_sensors
+from geofence.dynamics import isa_density_ratio
 from geofence.geodesy import LocalFrame
 from geofence.interface import VehicleState
 
@@ -76,13 +77,23 @@ def test_baro_airspeed_ahrs_noise():
     rows = run(suite, 200.0)
     truth = hover_truth(0.0)
     baro = np.array([a.baro_alt_m for _, _, a, _ in rows]) - truth.alt_m
-    tas = np.array([a.airspeed_mps for _, _, a, _ in rows]) - 20.0
+    ias = 20.0 * math.sqrt(isa_density_ratio(truth.alt_m))  # the pitot reads IAS (about 19.6 m/s at 430 m AMSL)
+    tas = np.array([a.airspeed_mps for _, _, a, _ in rows]) - ias
     roll = np.array([x.roll_rad for _, _, _, x in rows]) - truth.roll_rad
     yaw = np.array([x.yaw_rad for _, _, _, x in rows]) - truth.yaw_rad
     assert baro.std() == pytest.approx(0.3, rel=0.05) and abs(baro.mean()) < 0.02
-    assert tas.std() == pytest.approx(0.3, rel=0.05)
+    assert tas.std() == pytest.approx(0.3, rel=0.05) and abs(tas.mean()) < 0.02
     assert np.degrees(roll.std()) == pytest.approx(0.5, rel=0.05)
     assert np.degrees(yaw.std()) == pytest.approx(2.0, rel=0.05)
+
+
+@pytest.mark.parametrize("alt_m, ias_over_tas", [(0.0, 1.0), (1000.0, 0.9526), (2800.0, 0.8704)])
+def test_pitot_reads_indicated_airspeed(alt_m, ias_over_tas):
+    """IAS = TAS sqrt(rho/rho0); ISA table: sigma = 0.9075 at 1 km (sqrt 0.9526), 0.7576 at 2.8 km (sqrt 0.8704)."""
+    suite = SensorSuite(SensorConfig(airspeed_noise_mps=0.0), seed=3)
+    _, air, _ = suite.sample(VehicleState(t_s=0.0, alt_m=alt_m, airspeed_mps=25.0))
+    assert air.airspeed_mps == pytest.approx(25.0 * ias_over_tas, rel=2e-4)
+    assert isa_density_ratio(alt_m) == pytest.approx(ias_over_tas**2, rel=4e-4)
 
 
 def test_multirotor_has_no_airspeed():

@@ -27,6 +27,7 @@ from wind import (
     parse_wind,
     wind_from_config,
 )
+from wind.gust import MAX_RISE_TIME_S
 
 FT = 0.3048
 KT = 1852.0 / 3600.0
@@ -266,11 +267,13 @@ def test_dryden_two_state_noise_keeps_the_stationary_covariance():
 def test_gust_shape_exact_at_known_points():
     g = Gust(onset_s=20.0, amplitude_mps=5.0, length_m=30.0, from_deg=270.0)
     train = GustTrain([g])
-    dt, v = 0.025, 10.0  # 10 m/s -> rise over 3 s, fall over the next 3 s
+    # 10 m/s through calm air -> rise over 3 s, fall over the next 3 s. The vehicle really moves: the
+    # penetration speed comes from its motion relative to the mean air (frozen field), not the airspeed argument.
+    dt, v = 0.025, 10.0
     out = {}
     for k in range(int(30.0 / dt) + 1):
         t = k * dt
-        out[round(t, 3)] = train.sample(t, 0.0, 0.0, 50.0, v)
+        out[round(t, 3)] = train.sample(t, 0.0, v * t, 50.0, v)
     assert out[19.0] == (0.0, 0.0, 0.0)
     assert out[20.0] == (0.0, 0.0, 0.0)
     assert out[21.5] == pytest.approx((2.5, 0.0, 0.0), abs=1e-9)  # x = d/2: V_m / 2
@@ -300,6 +303,56 @@ def test_gust_hovering_vehicle_is_convected_by_the_mean_wind():
     train.sample(0.0, 0, 0, 10, 0.0)
     assert train.sample(1.0, 0, 0, 10, 0.0) == pytest.approx((-1.5, 0.0, 0.0))  # x = 8 m = d/2
     assert train.sample(2.0, 0, 0, 10, 0.0) == pytest.approx((-3.0, 0.0, 0.0))  # peak
+
+
+def _peak_time_s(train, wind_toward_e, v_ground_e, seconds=30.0, dt=0.025):
+    """Time of the largest gust sample for a vehicle flying due east at ``v_ground_e`` (onset at t = 0)."""
+    best_t, best = 0.0, -1.0
+    for k in range(int(seconds / dt) + 1):
+        t = k * dt
+        e, n, _ = train.sample(t, v_ground_e * t, 0.0, 20.0, abs(v_ground_e - wind_toward_e))
+        a = math.hypot(e, n)
+        if a > best + 1e-12:
+            best_t, best = t, a
+    return best_t, best
+
+
+def test_gust_on_hovering_vehicle_in_wind_peaks_at_length_over_wind_speed():
+    g = Gust(onset_s=0.0, amplitude_mps=4.0, length_m=40.0, from_deg=270.0)
+    t, peak = _peak_time_s(GustTrain([g], mean_wind=SteadyWind(8.0, 270.0)), 8.0, 0.0)
+    assert peak == pytest.approx(4.0)
+    assert t == pytest.approx(40.0 / 8.0, abs=0.03)
+
+
+def test_gust_in_calm_air_peaks_within_the_documented_rise_time():
+    # the old model (airspeed with a 1 m/s floor) took 40 s to bring a 40 m gust to a hovering vehicle
+    for length in (4.0, 40.0, 120.0):
+        g = Gust(onset_s=0.0, amplitude_mps=4.0, length_m=length, from_deg=0.0)
+        t, peak = _peak_time_s(GustTrain([g]), 0.0, 0.0)
+        assert peak == pytest.approx(4.0)
+        assert 0.0 < t <= MAX_RISE_TIME_S + 0.03
+        assert t == pytest.approx(length / max(length / MAX_RISE_TIME_S, 1.0), abs=0.03)  # 4 m: 1 m/s floor
+
+
+def test_gust_on_aircraft_flying_into_headwind_peaks_at_relative_speed():
+    # 8 m/s wind from the west (toward east); the aircraft flies west at 16 m/s over the ground (24 m/s airspeed):
+    # the gust front comes toward it at 8 m/s while it goes toward the front at 16 m/s
+    g = Gust(onset_s=0.0, amplitude_mps=4.0, length_m=40.0, from_deg=270.0)
+    t, _ = _peak_time_s(GustTrain([g], mean_wind=SteadyWind(8.0, 270.0)), 8.0, -16.0, seconds=5.0)
+    assert t == pytest.approx(40.0 / 24.0, abs=0.03)
+    # drifting downwind with the air mass at 8 m/s (zero airspeed): only the documented floor sweeps it
+    t, _ = _peak_time_s(GustTrain([g], mean_wind=SteadyWind(8.0, 270.0)), 8.0, 8.0)
+    assert t == pytest.approx(MAX_RISE_TIME_S, abs=0.03)
+
+
+def test_gust_timing_ignores_the_airspeed_the_gust_itself_causes():
+    # a hovering vehicle hit by a strong gust reports a large airspeed; the frozen field still passes at |W|
+    g = Gust(onset_s=0.0, amplitude_mps=10.0, length_m=16.0, from_deg=90.0)
+    train = GustTrain([g], mean_wind=SteadyWind(8.0, 90.0))
+    train.sample(0.0, 0, 0, 10, 8.0)
+    assert train.sample(1.0, 0, 0, 10, 30.0) == pytest.approx((-5.0, 0.0, 0.0))  # x = 8 m = d/2
+    with pytest.raises(ValueError, match="max_rise_time_s"):
+        GustTrain([g], max_rise_time_s=0.0)
 
 
 @given(

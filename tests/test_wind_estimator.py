@@ -7,6 +7,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aircraft.sensors import SensorConfig, SensorSuite
+from aircraft.profile import load_profile
+from geofence.dynamics import airspeed_for_drag_mps, drag_accel_mps2, drag_coefficients
 from geofence.estimator import GeofenceEstimator
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, VehicleState
@@ -107,12 +109,173 @@ def test_multirotor_tilt_model(wind):
     assert we.sigma_mps >= we.config.multirotor_floor_mps
 
 
-def test_multirotor_ignores_accelerating_flight():
-    we = WindEstimator(QUAD, WindEstimatorConfig(prior_enu=(1.0, 1.0)))
-    for k in range(200):
+def test_multirotor_uses_accelerating_flight_through_the_force_balance():
+    # The old estimator ignored accelerating samples (|a| > 1 m/s^2) and assumed a = 0 in the rest; the force
+    # balance uses them, down-weighted. 4 m/s^2 north with g tan(0.3) = 3.04 m/s^2 of thrust northward: the
+    # drag is 0.96 m/s^2 *northward*, i.e. the air moves north past the vehicle faster than it flies.
+    we = WindEstimator(QUAD, WindEstimatorConfig(prior_enu=(0.0, 0.0), accel_window_s=2.0))
+    for k in range(800):  # 20 s = 10 filter time constants: the filter's start-up transient has died out
         s = VehicleState(agl_m=20.0, v_north_mps=0.1 * k, pitch_rad=-0.3)  # 4 m/s^2 along north
         we.update(s, None, DT)
-    assert we.wind_enu == (1.0, 1.0)
+    k1, k2 = we.drag_coefficients
+    v_air = airspeed_for_drag_mps(k1, k2, 4.0 - G_MPS2 * math.tan(0.3))
+    e, n = we.last_sample
+    assert e == pytest.approx(0.0, abs=1e-9)
+    assert n == pytest.approx(0.1 * 799 - 4.0 * we.config.accel_window_s + v_air, abs=0.01)  # v_lp lags v by a*tau
+    assert 0.0 < we.last_weight < 0.2  # 4 m/s^2: a manoeuvre, counted little
+
+
+def test_drag_law_comes_from_the_envelope_with_overrides():
+    rd = Envelope(PlatformKind.MULTIROTOR, 8.0, 10.3, 0.0, math.radians(30), math.radians(30), math.radians(90),
+                  3.0, 2.0, 5.6, 4.5, 0.25, drag_linear_per_s=0.435, drag_quadratic_per_m=0.011)
+    assert WindEstimator(rd).drag_coefficients == drag_coefficients(rd) == (0.435, 0.011)
+    assert WindEstimator(QUAD).drag_coefficients == pytest.approx(drag_coefficients(QUAD))
+    assert WindEstimator(rd, WindEstimatorConfig(drag_c1_per_s=0.2)).drag_coefficients == (0.2, 0.011)
+    assert WindEstimator(rd, WindEstimatorConfig(drag_c2_per_m=0.0)).drag_coefficients == (0.435, 0.0)
+    with pytest.raises(ValueError, match="drag_c1_per_s"):
+        WindEstimatorConfig(drag_c1_per_s=-1.0)
+
+
+# --------------------------------------------------------------------------- synthetic multirotor
+# A point mass obeying the drag law k1 v + k2 v^2 exactly, flown by a tilt controller (velocity P loop with the
+# drag as feed-forward, tilt limit, first-order attitude lag), in a steady wind; its truth goes through the unit's
+# own sensors (GNSS, AHRS with their noise) and Kalman filter, like in flight. No JSBSim.
+
+
+def synthetic_multirotor(k1, k2, wind, v_cmd_fn, seconds, max_tilt_rad=math.radians(30), yaw=0.3, kv=1.5,
+                         tau_att=0.15, sub=4):
+    """Truth states at DT; the vehicle starts in equilibrium at ``v_cmd_fn(0)``."""
+    w_e, w_n = wind
+
+    def drag(ve, vn):
+        ae, an = ve - w_e, vn - w_n
+        va = math.hypot(ae, an)
+        if va < 1e-12:
+            return 0.0, 0.0
+        d = drag_accel_mps2(k1, k2, va)
+        return d * ae / va, d * an / va
+
+    e = n = 0.0
+    ve, vn = v_cmd_fn(0.0)
+    de, dn = drag(ve, vn)
+    te, tn = de / G_MPS2, dn / G_MPS2  # tan(tilt) components: horizontal thrust / g
+    tmax, h = math.tan(max_tilt_rad), DT / sub
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    out = []
+    for k in range(int(round(seconds / DT))):
+        t = k * DT
+        norm = math.sqrt(te * te + tn * tn + 1.0)
+        roll = math.asin((te * cy - tn * sy) / norm)
+        pitch = math.atan2(-(te * sy + tn * cy) / norm, 1.0 / norm)
+        lat, lon, alt = FRAME.to_geodetic(e, n, 30.0)
+        out.append(VehicleState(t, lat, lon, alt, e, n, 30.0, 30.0, ve, vn, 0.0, roll, pitch, yaw,
+                                math.hypot(ve - w_e, vn - w_n)))
+        ce_v, cn_v = v_cmd_fn(t)
+        for _ in range(sub):
+            fe, fn = drag(ce_v, cn_v)
+            ce, cn = (kv * (ce_v - ve) + fe) / G_MPS2, (kv * (cn_v - vn) + fn) / G_MPS2
+            m = math.hypot(ce, cn)
+            if m > tmax:
+                ce, cn = ce * tmax / m, cn * tmax / m
+            te += h / tau_att * (ce - te)
+            tn += h / tau_att * (cn - tn)
+            de, dn = drag(ve, vn)
+            ve += (G_MPS2 * te - de) * h
+            vn += (G_MPS2 * tn - dn) * h
+            e += ve * h
+            n += vn * h
+    return out
+
+
+def _errors(hist, wind, t0, t1=math.inf):
+    return [math.hypot(e - wind[0], n - wind[1]) for t, e, n in hist if t0 <= t <= t1]
+
+
+PLATFORMS = {name: load_profile(name).envelope for name in ("F450", "F450RD", "Micro250")}
+
+
+@pytest.mark.parametrize("name", ["F450RD", "Micro250"])
+@pytest.mark.parametrize("wind, v_cmd", [((5.0, 0.0), (0.0, 0.0)), ((-3.0, -6.0), (0.0, 0.0)), ((5.0, 0.0), (0.0, 6.0))])
+def test_multirotor_within_1mps_after_15s_of_steady_flight(name, wind, v_cmd):
+    env = PLATFORMS[name]
+    states = synthetic_multirotor(*drag_coefficients(env), wind, lambda t: v_cmd, 40.0, env.max_bank_rad)
+    worst = 0.0
+    for seed in (1, 2):
+        worst = max(worst, max(_errors(run(lambda t: states[round(t / DT)], 40.0, WindEstimator(env), False, seed), wind, 15.0)))
+    print(f"{name} wind {wind} v_cmd {v_cmd}: worst error after 15 s {worst:.2f} m/s")
+    assert worst < 1.0
+
+
+@pytest.mark.parametrize("wind, v_cmd", [((5.0, 0.0), (0.0, 0.0)), ((5.0, 0.0), (0.0, 6.0))])
+def test_multirotor_without_rotor_drag_within_1mps_from_truth_attitudes(wind, v_cmd):
+    # The F450 (purely quadratic drag, no rotor drag) needs only 1 deg of tilt for 5 m/s of wind: a 0.5 deg AHRS
+    # error is half of it (see the module docstring), so this shipped platform meets the target with a good attitude.
+    env = PLATFORMS["F450"]
+    states = synthetic_multirotor(*drag_coefficients(env), wind, lambda t: v_cmd, 40.0, env.max_bank_rad)
+    sensors = SensorConfig(ahrs_roll_pitch_deg=0.0)
+    errs = _errors(run(lambda t: states[round(t / DT)], 40.0, WindEstimator(env), False, 1, sensors), wind, 15.0)
+    print(f"F450 wind {wind} v_cmd {v_cmd}: worst error after 15 s {max(errs):.2f} m/s")
+    assert max(errs) < 1.0
+
+
+@pytest.mark.parametrize("name", ["F450RD", "Micro250"])
+@pytest.mark.parametrize("direction", [+1.0, -1.0])
+def test_multirotor_sign_right_while_accelerating_from_rest(name, direction):
+    """From rest over the ground in 5 m/s of easterly-moving air, full tilt downwind (+1) or upwind (-1)."""
+    env = PLATFORMS[name]
+    wind = (5.0, 0.0)
+    v_max = 0.9 * env.max_speed_mps
+    states = synthetic_multirotor(*drag_coefficients(env), wind, lambda t: (0.0, 0.0) if t < 0.5 else (direction * v_max, 0.0),
+                                  12.0, env.max_bank_rad)
+    accel = [abs(states[k + 1].v_east_mps - states[k].v_east_mps) / DT for k in range(len(states) - 1)]
+    assert max(accel) > 2.0  # it really accelerates
+    hist = run(lambda t: states[round(t / DT)], 12.0, WindEstimator(env), False, 3)
+    east = [e for t, e, n in hist if t >= 1.0]
+    print(f"{name} direction {direction}: min east estimate {min(east):.2f}, final error {_errors(hist, wind, 11.9)[-1]:.2f}")
+    assert min(east) > 0.0  # never the wrong sign
+    assert _errors(hist, wind, 11.9)[-1] < 1.5
+
+
+@pytest.mark.parametrize("k1, k2", [(0.4, 0.0), (0.0, 0.02)])
+def test_multirotor_no_bias_for_purely_linear_or_quadratic_drag(k1, k2):
+    env = Envelope(PlatformKind.MULTIROTOR, 8.0, 12.0, 0.0, math.radians(35), math.radians(35), math.radians(90),
+                   3.0, 2.0, 5.6, 4.5, 0.25, drag_linear_per_s=k1, drag_quadratic_per_m=k2)
+    wind, v_cmd = (-4.0, 3.0), (3.0, 3.0)
+    states = synthetic_multirotor(k1, k2, wind, lambda t: v_cmd, 60.0, env.max_bank_rad)
+    sensors = SensorConfig(ahrs_roll_pitch_deg=0.0)  # the bias of the model, not of the AHRS
+    hist = run(lambda t: states[round(t / DT)], 60.0, WindEstimator(env), False, 4, sensors)
+    tail = [(e, n) for t, e, n in hist if t >= 30.0]
+    me, mn = sum(e for e, _ in tail) / len(tail), sum(n for _, n in tail) / len(tail)
+    print(f"k1 {k1} k2 {k2}: mean estimate ({me:.2f}, {mn:.2f}) for {wind}")
+    assert math.hypot(me - wind[0], mn - wind[1]) < 0.3
+
+
+# --------------------------------------------------------------------------- fixed-wing at a high site
+
+
+def straight(wind_e, wind_n, frame, va=20.0, yaw=0.5):
+    """Straight level flight at true airspeed ``va`` along ``yaw`` in a steady wind, 60 m above ``frame``."""
+    ve, vn = va * math.sin(yaw) + wind_e, va * math.cos(yaw) + wind_n
+
+    def truth(t):
+        lat, lon, h = frame.to_geodetic(ve * t, vn * t, 60.0)
+        return VehicleState(t, lat, lon, h, ve * t, vn * t, 60.0, 60.0, ve, vn, 0.0, 0.0, 0.03, yaw, va)
+
+    return truth
+
+
+def test_fixed_wing_unbiased_at_a_high_site_with_an_indicated_airspeed():
+    high = LocalFrame(47.0, 8.0, 2740.0)  # flight at 2,800 m AMSL: IAS = 0.87 TAS
+    wind = (4.0, -3.0)
+    sensors = SensorConfig(ahrs_yaw_deg=0.5)  # isolate the airspeed effect from the heading error
+    errs = {}
+    for indicated in (True, False):
+        we = WindEstimator(config=WindEstimatorConfig(airspeed_is_indicated=indicated))
+        hist = run(straight(*wind, high), 60.0, we, sensors=sensors)
+        errs[indicated] = _errors(hist, wind, 59.9)[-1]
+    print(f"2,800 m: error {errs[True]:.2f} m/s with IAS -> TAS, {errs[False]:.2f} m/s taking IAS as TAS")
+    assert errs[True] < 0.5
+    assert errs[False] > 2.0  # 13 % of 20 m/s along the heading
 
 
 finite = st.floats(-1e3, 1e3, allow_nan=False, allow_infinity=False)

@@ -16,15 +16,39 @@ and falling over 2 d; ``hold_m = math.inf`` is the MIL-F-8785C rise-and-hold
 ``amplitude_mps`` toward the opposite of ``from_deg`` (a gust from 270 pushes
 east); ``vertical_mps`` (signed, + up) follows the same shape.
 
-Time: by default a gust is a frozen pattern that the aircraft penetrates, so x
-grows at V = max(airspeed, mean wind speed, floor) (the same effective speed as
-the Dryden turbulence; a hovering vehicle sees the gust convected by the mean
-wind): a faster aircraft crosses the gust sooner. x is integrated step by step
-(V held over each step at its value at the step's end). Give
-``penetration_speed_mps`` to make a gust purely time-based instead: then
-x = penetration_speed_mps * (t - onset), and the rise time is
-length_m / penetration_speed_mps for every platform (useful to apply the
-identical disturbance to different aircraft).
+Time: a frozen field convected by the mean wind. By default a gust is a
+spatial pattern frozen into the mean air mass, which moves over the ground at
+the mean wind ``W`` (the steady wind at the vehicle's height; zero without a
+``mean_wind``). The vehicle moves through that air mass at its velocity
+relative to it, ``v_ground - W``, so x grows at the *relative* speed of the
+vehicle and the gust front::
+
+    dx/dt = max(|v_ground - W|, V_floor),   V_floor = max(min_speed_mps, length_m / max_rise_time_s)
+
+(horizontal speeds; the ground velocity comes from successive sampled
+positions, so the gust's own push on the vehicle does not feed back into its
+timing). Examples: a vehicle hovering in a mean wind W is swept at |W| (a 40 m
+gust in 8 m/s peaks after 5 s); an aircraft flying upwind at 16 m/s ground
+speed into an 8 m/s headwind (airspeed 24 m/s) meets it at 24 m/s (peak after
+40/24 s); a faster aircraft crosses the gust sooner.
+
+The floor ``V_floor`` is the documented minimum for slow vehicles in light or
+calm air, where the mean air barely moves relative to the vehicle (hovering in
+calm air, or drifting with the wind): a real gust front still passes, and
+without a floor a 40 m gust would take 40 s to rise (a ramp, not a gust).
+With the defaults (``min_speed_mps`` = 1 m/s, ``max_rise_time_s`` =
+:data:`MAX_RISE_TIME_S` = 5 s) every convected gust reaches its peak within
+5 s of its onset (and a gust of length d >= 5 m is swept at >= d / 5 s); in a
+mean wind or at airspeed the physics (|v_ground - W|) takes over as soon as it
+is faster than that.
+
+x is integrated step by step (the speed held over each step at its value over
+that step). The first sample of a train has no previous position: then the
+``airspeed_mps`` argument stands in for |v_ground - W| (max of airspeed and
+|W|), as do steps longer than 1 s. Give ``penetration_speed_mps`` to make a
+gust purely time-based instead: then x = penetration_speed_mps * (t - onset),
+and the rise time is length_m / penetration_speed_mps for every platform
+(useful to apply the identical disturbance to different aircraft).
 """
 
 from __future__ import annotations
@@ -36,6 +60,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from wind.field import Vec3, WindField, toward_unit
+
+MAX_RISE_TIME_S = 5.0
+"""Default upper bound on a convected gust's rise time (s): its speed floor is ``length_m / MAX_RISE_TIME_S``."""
+
+_MAX_VELOCITY_DT_S = 1.0  # longer steps: positions too far apart to difference into a velocity
 
 
 @dataclass(frozen=True, slots=True)
@@ -99,26 +128,39 @@ class Gust:
 class GustTrain:
     """A schedule of discrete gusts, a :class:`~wind.field.WindField` (zero mean).
 
-    ``mean_wind`` and ``min_speed_mps`` set the penetration speed of the gusts
-    that have no fixed ``penetration_speed_mps`` (see the module docstring).
-    Overlapping gusts add.
+    ``mean_wind`` (the air mass that convects the gusts), ``min_speed_mps``
+    and ``max_rise_time_s`` set the penetration speed of the gusts that have no
+    fixed ``penetration_speed_mps`` (see the module docstring). Overlapping
+    gusts add.
     """
 
-    __slots__ = ("gusts", "mean_wind", "min_speed_mps", "_mean_fn", "_t", "_out", "_x", "_dirs")
+    __slots__ = ("gusts", "mean_wind", "min_speed_mps", "max_rise_time_s", "_mean_fn", "_t", "_out", "_x", "_dirs",
+                 "_floor", "_pos")
 
-    def __init__(self, gusts: Iterable[Gust], mean_wind: WindField | None = None, min_speed_mps: float = 1.0) -> None:
+    def __init__(
+        self,
+        gusts: Iterable[Gust],
+        mean_wind: WindField | None = None,
+        min_speed_mps: float = 1.0,
+        max_rise_time_s: float = MAX_RISE_TIME_S,
+    ) -> None:
         self.gusts: tuple[Gust, ...] = tuple(sorted(gusts, key=lambda g: g.onset_s))
         if not (math.isfinite(min_speed_mps) and min_speed_mps > 0.0):
             raise ValueError(f"gust min_speed_mps must be > 0, got {min_speed_mps!r}")
+        if math.isnan(max_rise_time_s) or not max_rise_time_s > 0.0:
+            raise ValueError(f"gust max_rise_time_s must be > 0 (inf: no length floor), got {max_rise_time_s!r}")
         self.mean_wind = mean_wind
         self.min_speed_mps = float(min_speed_mps)
+        self.max_rise_time_s = float(max_rise_time_s)
         self._mean_fn = mean_wind.mean if mean_wind is not None else None
         self._dirs = tuple(toward_unit(g.from_deg) for g in self.gusts)
+        self._floor = tuple(max(self.min_speed_mps, g.length_m / self.max_rise_time_s) for g in self.gusts)
         self.reset()
 
     def reset(self) -> None:
         """Back to the start: no distance travelled into any gust."""
         self._t: float | None = None
+        self._pos: tuple[float, float] | None = None
         self._out: Vec3 = (0.0, 0.0, 0.0)
         self._x = [0.0] * len(self.gusts)
 
@@ -136,6 +178,7 @@ class GustTrain:
         vertical_mps: tuple[float, float] = (0.0, 0.0),
         mean_wind: WindField | None = None,
         min_speed_mps: float = 1.0,
+        max_rise_time_s: float = MAX_RISE_TIME_S,
     ) -> GustTrain:
         """``count`` gusts with onsets uniform in [start_s, end_s], amplitudes and lengths
         uniform in the given (low, high) ranges, directions uniform in from_deg +/- spread_deg,
@@ -157,7 +200,7 @@ class GustTrain:
             Gust(onset_s=float(o), amplitude_mps=float(a), length_m=float(d), from_deg=float(f), vertical_mps=float(w))
             for o, a, d, f, w in zip(onset, amp, length, dirs, vert, strict=True)
         ]
-        return cls(gusts, mean_wind=mean_wind, min_speed_mps=min_speed_mps)
+        return cls(gusts, mean_wind=mean_wind, min_speed_mps=min_speed_mps, max_rise_time_s=max_rise_time_s)
 
     def mean(self, up_m: float) -> Vec3:
         return (0.0, 0.0, 0.0)
@@ -169,19 +212,28 @@ class GustTrain:
         if last is not None and not t_s > last:
             raise ValueError(f"GustTrain.sample: time went backwards ({t_s!r} s after {last!r} s); call reset()")
         self._t = t_s
+        pos = self._pos
+        self._pos = (east_m, north_m)
         gusts = self.gusts
         if not gusts or t_s <= gusts[0].onset_s:
             self._out = (0.0, 0.0, 0.0)
             return self._out
 
-        v = airspeed_mps if airspeed_mps > self.min_speed_mps else self.min_speed_mps
+        # speed of the vehicle relative to the mean air mass that carries the frozen gusts
+        me = mn = 0.0
         if self._mean_fn is not None:
             me, mn, _ = self._mean_fn(up_m)
+        dt = t_s - last if last is not None else 0.0
+        if pos is not None and 0.0 < dt <= _MAX_VELOCITY_DT_S:
+            re = (east_m - pos[0]) / dt - me
+            rn = (north_m - pos[1]) / dt - mn
+            v = math.sqrt(re * re + rn * rn)
+        else:  # no previous position: the airspeed stands in
             w = math.sqrt(me * me + mn * mn)
-            if w > v:
-                v = w
+            v = airspeed_mps if airspeed_mps > w else w
         e = n = u = 0.0
         xs = self._x
+        floors = self._floor
         for i, g in enumerate(gusts):
             if t_s <= g.onset_s:
                 break  # sorted by onset
@@ -189,7 +241,8 @@ class GustTrain:
                 x = g.penetration_speed_mps * (t_s - g.onset_s)
             else:
                 t0 = g.onset_s if last is None or last < g.onset_s else last
-                x = xs[i] + v * (t_s - t0)
+                f = floors[i]
+                x = xs[i] + (v if v > f else f) * (t_s - t0)
                 xs[i] = x
             k = g.shape(x)
             if k != 0.0:
