@@ -1,0 +1,568 @@
+"""The efficacy campaign's report: breach counts, exact confidence bounds and figures.
+
+Input: a batch folder's ``results.csv`` (:func:`analysis.report.read_results_csv`)
+and the campaign's ``campaign.json`` manifest (written by
+:mod:`scenarios.campaign`); output: numbers, ``campaign_report.md`` and two
+figures. Nothing here flies.
+
+Flights are ``<case_id>__<variant>`` (variant ``predictive``, ``reactive`` or
+``unprotected``). The runner scores only flights with a geofence, so the
+unprotected twin is scored here (:func:`score_unprotected`): its recorded
+``trajectory.csv`` against the fence of its case in the manifest, in the ENU
+frame at the case's start point (the runner's frame), with
+:func:`analysis.scoring.score_flight`.
+
+Definitions (per flight; see :func:`flight_outcome`):
+
+* **keep-in breach**: ``max_lateral_excursion_m > KEEP_IN_TOLERANCE_M`` (0.0 m):
+  the vehicle was beyond a lateral boundary (a keep-in edge, or inside a
+  keep-out zone, which the lateral margin includes) by any amount;
+* **keep-out entry**: ``breached_keep_out``;
+* **vertical breach**: ``max_vertical_excursion_m > VERTICAL_TOLERANCE_M``
+  (0.0 m; above the ceiling, or below the floor outside every gap);
+* **out-of-gap landing**: ``landed_outside_gap``;
+* **breach**: any of the four. Failed flights (an error, or not completed)
+  are counted apart and never as breaches or as clean flights.
+
+Rates: breaches / flights with a one-sided exact (Clopper-Pearson) 95 % upper
+bound, ``beta.ppf(0.95, k + 1, n - k)`` (0 of 1000 -> 0.00299), and breaches
+per simulated flight hour with the Poisson 95 % upper bound
+``chi2.ppf(0.95, 2k + 2) / 2 / hours``.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import os
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy.stats import beta, chi2
+
+from analysis.batch_plots import num, truthy
+from analysis.report import RESULTS_CSV, read_results_csv
+from analysis.scoring import score_flight
+from geofence.fence import parse_fence
+from geofence.geodesy import LocalFrame
+
+MANIFEST = "campaign.json"
+REPORT_MD = "campaign_report.md"
+KEEP_IN_TOLERANCE_M = 0.0
+"""A keep-in breach is a lateral excursion strictly beyond this (m)."""
+VERTICAL_TOLERANCE_M = 0.0
+"""A vertical breach is a ceiling/floor excursion strictly beyond this (m)."""
+CONFIDENCE = 0.95
+VARIANTS = ("predictive", "reactive", "unprotected")
+FIGURES = {
+    "campaign_excursion": "Peak excursion per family: predictive vs reactive (vs unprotected)",
+    "campaign_breach_bounds": "Breach rate and its 95 % upper bound per platform",
+}
+_TRAJ_COLUMNS = ("time_s", "east_m", "north_m", "agl_m", "alt_m", "v_east_mps", "v_north_mps", "ground_speed_mps",
+                 "geofence_mode")
+
+
+# --------------------------------------------------------------------------- statistics
+def clopper_pearson_upper(k: int, n: int, confidence: float = CONFIDENCE) -> float:
+    """One-sided exact upper confidence bound of a binomial proportion (k successes in n trials)."""
+    if n <= 0:
+        return math.nan
+    if not 0 <= k <= n:
+        raise ValueError(f"k must be in [0, n], got k={k}, n={n}")
+    if k == n:
+        return 1.0
+    return float(beta.ppf(confidence, k + 1, n - k))
+
+
+def poisson_rate_upper(k: int, exposure: float, confidence: float = CONFIDENCE) -> float:
+    """One-sided upper confidence bound of a Poisson rate: k events in ``exposure`` (e.g. hours)."""
+    if exposure <= 0.0:
+        return math.nan
+    return float(chi2.ppf(confidence, 2 * k + 2) / 2.0 / exposure)
+
+
+# --------------------------------------------------------------------------- manifest and rows
+def load_manifest(path: str | Path) -> dict:
+    """``campaign.json`` as a mapping, with ``cases_by_id``."""
+    m = json.loads(Path(path).read_text())
+    m["cases_by_id"] = {c["case_id"]: c for c in m.get("cases", [])}
+    return m
+
+
+def split_flight(flight: str) -> tuple[str, str]:
+    """``"box-0003__predictive"`` -> ``("box-0003", "predictive")``; no variant -> ``(flight, "")``."""
+    case, sep, variant = str(flight).rpartition("__")
+    return (case, variant) if sep else (str(flight), "")
+
+
+def read_trajectory_columns(path: str | Path, names: Sequence[str] = _TRAJ_COLUMNS) -> dict[str, np.ndarray]:
+    """The named columns of a ``trajectory.csv`` (those present) as float arrays."""
+    path = Path(path)
+    with open(path, newline="") as fh:
+        header = next(csv.reader(fh))
+    cols = [header.index(n) for n in names if n in header]
+    data = np.loadtxt(path, delimiter=",", skiprows=1, usecols=cols, ndmin=2)
+    return {header[c]: data[:, i] for i, c in enumerate(cols)}
+
+
+def case_fence(case: Mapping):
+    """The :class:`~geofence.fence.LocalFence` of a manifest case, in the runner's frame (its start point)."""
+    st = case["start"]
+    frame = LocalFrame(float(st["lat_deg"]), float(st["lon_deg"]), float(st.get("ground_alt_m", 0.0)))
+    return parse_fence(case["fence"], f"campaign case {case['case_id']}").to_local(frame)
+
+
+def score_unprotected(batch_dir: str | Path, row: Mapping, case: Mapping) -> dict:
+    """Scores of an unprotected twin from its ``trajectory.csv`` (``{}`` if it was not recorded)."""
+    path = Path(batch_dir) / str(row.get("flight")) / "trajectory.csv"
+    if not path.is_file():
+        return {}
+    traj = read_trajectory_columns(path)
+    if len(traj.get("time_s", ())) == 0:
+        return {}
+    scores = score_flight(traj, case_fence(case))
+    scores["activations"] = 0
+    return scores
+
+
+def campaign_rows(rows: Iterable[Mapping], manifest: Mapping, batch_dir: str | Path | None = None) -> list[dict]:
+    """Rows joined with their case (``case_id``, ``variant``, ``family``, ``attack``, ``platform``, ...).
+
+    With ``batch_dir``, unprotected twins without scores are scored from their trajectories.
+    Rows of flights that are not in the manifest are left out.
+    """
+    cases = manifest.get("cases_by_id") or {c["case_id"]: c for c in manifest.get("cases", [])}
+    out = []
+    for r in rows:
+        case_id, variant = split_flight(r.get("flight") or r.get("scenario") or "")
+        case = cases.get(case_id)
+        if case is None or variant not in VARIANTS:
+            continue
+        row = dict(r)
+        row.update(case_id=case_id, variant=variant, family=case["family"], attack=case["attack"],
+                   platform=case["platform"], platform_kind=case.get("platform_kind", row.get("platform_kind")),
+                   case_pilot=case.get("pilot"), gps_fault=bool(case.get("gps_fault")))
+        if variant == "unprotected" and batch_dir is not None and not math.isfinite(num(row.get("max_excursion_m"))):
+            row.update(score_unprotected(batch_dir, row, case))
+        out.append(row)
+    return out
+
+
+# --------------------------------------------------------------------------- per-flight outcome
+def is_error(row: Mapping) -> bool:
+    return bool(row.get("error"))
+
+
+def is_failed(row: Mapping) -> bool:
+    """An error, or a flight that did not complete (e.g. a mission left unfinished)."""
+    return is_error(row) or not truthy(row.get("completed"))
+
+
+@dataclass(frozen=True)
+class FlightOutcome:
+    keep_in_breach: bool
+    keep_out_entry: bool
+    vertical_breach: bool
+    out_of_gap_landing: bool
+    scored: bool
+
+    @property
+    def breach(self) -> bool:
+        return self.keep_in_breach or self.keep_out_entry or self.vertical_breach or self.out_of_gap_landing
+
+
+def flight_outcome(row: Mapping) -> FlightOutcome:
+    """The per-flight breach flags (see the module docstring); unscored flights have none."""
+    lat = num(row.get("max_lateral_excursion_m"))
+    ver = num(row.get("max_vertical_excursion_m"))
+    scored = math.isfinite(num(row.get("max_excursion_m")))
+    return FlightOutcome(
+        keep_in_breach=scored and lat > KEEP_IN_TOLERANCE_M,
+        keep_out_entry=scored and truthy(row.get("breached_keep_out")),
+        vertical_breach=scored and ver > VERTICAL_TOLERANCE_M,
+        out_of_gap_landing=scored and truthy(row.get("landed_outside_gap")),
+        scored=scored,
+    )
+
+
+def is_mission(row: Mapping) -> bool:
+    return (row.get("case_pilot") or row.get("pilot")) == "mission"
+
+
+def mission_stalled(row: Mapping) -> bool:
+    """A mission that did not finish while the geofence had acted, without an error."""
+    return is_mission(row) and not is_error(row) and not truthy(row.get("mission_finished")) and num(row.get("activations")) > 0
+
+
+# --------------------------------------------------------------------------- group statistics
+@dataclass(frozen=True)
+class GroupStats:
+    """Counts and bounds of one group of flights (e.g. one variant x platform x family)."""
+
+    key: tuple[str, ...]
+    flights: int
+    errors: int
+    incomplete: int
+    scored: int
+    keep_in_breaches: int
+    keep_out_entries: int
+    vertical_breaches: int
+    out_of_gap_landings: int
+    breaches: int
+    hours: float
+    missions: int
+    nuisance_missions: int
+    stalled_missions: int
+
+    @property
+    def breach_rate(self) -> float:
+        return self.breaches / self.scored if self.scored else math.nan
+
+    @property
+    def breach_rate_upper(self) -> float:
+        return clopper_pearson_upper(self.breaches, self.scored)
+
+    @property
+    def per_hour(self) -> float:
+        return self.breaches / self.hours if self.hours > 0 else math.nan
+
+    @property
+    def per_hour_upper(self) -> float:
+        return poisson_rate_upper(self.breaches, self.hours)
+
+
+def group_stats(rows: Sequence[Mapping], key: tuple[str, ...] = ()) -> GroupStats:
+    """Counts over ``rows``: a breach counts only on a scored flight that did not error."""
+    ok = [r for r in rows if not is_error(r)]
+    outcomes = [flight_outcome(r) for r in ok]
+    scored = [o for o in outcomes if o.scored]
+    missions = [r for r in ok if is_mission(r)]
+    hours = sum(max(num(r.get("sim_time_s")), 0.0) for r in ok if math.isfinite(num(r.get("sim_time_s")))) / 3600.0
+    return GroupStats(
+        key=key,
+        flights=len(rows),
+        errors=len(rows) - len(ok),
+        incomplete=sum(1 for r in ok if not truthy(r.get("completed"))),
+        scored=len(scored),
+        keep_in_breaches=sum(o.keep_in_breach for o in scored),
+        keep_out_entries=sum(o.keep_out_entry for o in scored),
+        vertical_breaches=sum(o.vertical_breach for o in scored),
+        out_of_gap_landings=sum(o.out_of_gap_landing for o in scored),
+        breaches=sum(o.breach for o in scored),
+        hours=hours,
+        missions=len(missions),
+        nuisance_missions=sum(1 for r in missions if num(r.get("activations")) > 0),
+        stalled_missions=sum(1 for r in missions if mission_stalled(r)),
+    )
+
+
+def grouped(rows: Sequence[Mapping], fields: Sequence[str]) -> list[GroupStats]:
+    """:class:`GroupStats` per distinct value of ``fields`` (sorted by key)."""
+    groups: dict[tuple, list] = {}
+    for r in rows:
+        groups.setdefault(tuple(str(r.get(f)) for f in fields), []).append(r)
+    return [group_stats(v, k) for k, v in sorted(groups.items(), key=lambda kv: _variant_order(kv[0]))]
+
+
+def _variant_order(key: tuple) -> tuple:
+    return tuple((VARIANTS.index(k) if k in VARIANTS else len(VARIANTS), k) for k in key)
+
+
+# --------------------------------------------------------------------------- excursions
+@dataclass(frozen=True)
+class ExcursionStats:
+    n: int
+    mean_m: float
+    p95_m: float
+    max_m: float
+
+
+def excursion_stats(values: Iterable[float]) -> ExcursionStats:
+    v = np.asarray([x for x in values if math.isfinite(x)], dtype=float)
+    if not len(v):
+        return ExcursionStats(0, math.nan, math.nan, math.nan)
+    return ExcursionStats(len(v), float(v.mean()), float(np.percentile(v, 95)), float(v.max()))
+
+
+def excursion_comparison(rows: Sequence[Mapping], by: str = "family") -> list[dict]:
+    """Per ``by`` value (and ``all``): peak excursion stats per variant, and predictive/reactive ratios.
+
+    Peak excursion is ``max_excursion_m`` (m beyond the fence, lateral or
+    vertical; < 0: closest approach inside). The ratios compare the *depth
+    beyond the fence* ``max(excursion, 0)``: mean and max over flights,
+    predictive / reactive (NaN when the reactive depth is 0). ``paired_mean_m``
+    is the mean over cases flown in both variants of predictive - reactive.
+    """
+    ok = [r for r in rows if not is_error(r)]
+    keys = sorted({str(r.get(by)) for r in ok})
+    out = []
+    for k in [*keys, "all"]:
+        sel = [r for r in ok if k == "all" or str(r.get(by)) == k]
+        per = {v: [num(r.get("max_excursion_m")) for r in sel if r.get("variant") == v] for v in VARIANTS}
+        stats = {v: excursion_stats(per[v]) for v in VARIANTS}
+        depth = {v: np.clip(np.asarray([x for x in per[v] if math.isfinite(x)], dtype=float), 0.0, None) for v in VARIANTS}
+
+        def ratio(f) -> float:
+            p, q = depth["predictive"], depth["reactive"]
+            if not len(p) or not len(q) or f(q) <= 0.0:
+                return math.nan
+            return float(f(p) / f(q))
+
+        by_case = {}
+        for r in sel:
+            if r.get("variant") in ("predictive", "reactive"):
+                by_case.setdefault(r.get("case_id"), {})[r.get("variant")] = num(r.get("max_excursion_m"))
+        diffs = [d["predictive"] - d["reactive"] for d in by_case.values()
+                 if len(d) == 2 and math.isfinite(d["predictive"]) and math.isfinite(d["reactive"])]
+        out.append({by: k, "stats": stats, "mean_depth_ratio": ratio(np.mean), "max_depth_ratio": ratio(np.max),
+                    "paired_mean_m": float(np.mean(diffs)) if diffs else math.nan, "paired_n": len(diffs)})
+    return out
+
+
+def unprotected_vs_protected(rows: Sequence[Mapping]) -> dict[str, dict[str, int]]:
+    """Per protected variant: cases where the twin breached and the variant did / did not, and the reverse."""
+    by_case: dict[str, dict[str, Mapping]] = {}
+    for r in rows:
+        by_case.setdefault(str(r.get("case_id")), {})[str(r.get("variant"))] = r
+    out = {}
+    for v in ("predictive", "reactive"):
+        c = {"twin_breached": 0, "twin_breached_and_held": 0, "twin_breached_and_breached": 0, "twin_clean_but_breached": 0}
+        for d in by_case.values():
+            if v not in d or "unprotected" not in d or is_error(d[v]) or is_error(d["unprotected"]):
+                continue
+            tw, pr = flight_outcome(d["unprotected"]), flight_outcome(d[v])
+            if not (tw.scored and pr.scored):
+                continue
+            if tw.breach:
+                c["twin_breached"] += 1
+                c["twin_breached_and_breached" if pr.breach else "twin_breached_and_held"] += 1
+            elif pr.breach:
+                c["twin_clean_but_breached"] += 1
+        out[v] = c
+    return out
+
+
+def offending_flights(rows: Sequence[Mapping], variant: str = "predictive") -> list[Mapping]:
+    """Flights of ``variant`` with a keep-in breach, a keep-out entry or an out-of-gap landing."""
+    bad = []
+    for r in rows:
+        if r.get("variant") != variant or is_error(r):
+            continue
+        o = flight_outcome(r)
+        if o.keep_in_breach or o.keep_out_entry or o.out_of_gap_landing:
+            bad.append(r)
+    return bad
+
+
+def describe_flight(r: Mapping) -> str:
+    o = flight_outcome(r)
+    what = [w for w, f in (("keep-in", o.keep_in_breach), ("keep-out", o.keep_out_entry),
+                           ("vertical", o.vertical_breach), ("out-of-gap landing", o.out_of_gap_landing)) if f]
+    return (f"{r.get('flight')}: {', '.join(what) or 'clean'}; lateral excursion {num(r.get('max_lateral_excursion_m')):+.2f} m, "
+            f"vertical {num(r.get('max_vertical_excursion_m')):+.2f} m, {r.get('platform')} {r.get('family')}/{r.get('attack')}, "
+            f"wind {num(r.get('wind_speed_mps')):.1f} m/s{', GPS fault' if truthy(r.get('gps_fault')) else ''}, "
+            f"activations {r.get('activations')}, final mode {r.get('final_mode')}")
+
+
+# --------------------------------------------------------------------------- figures
+def plot_excursions(rows: Sequence[Mapping], out_base: Path) -> list[Path]:
+    """Strip plot of peak excursion per family and variant, on a symmetric-log axis (m)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from analysis.batch_plots import _save
+
+    ok = [r for r in rows if not is_error(r)]
+    families = sorted({str(r.get("family")) for r in ok})
+    colours = {"predictive": "tab:blue", "reactive": "tab:orange", "unprotected": "tab:grey"}
+    offsets = {"predictive": -0.25, "reactive": 0.0, "unprotected": 0.25}
+    fig, ax = plt.subplots(figsize=(max(7.0, 1.1 * len(families) + 3.0), 5.0))
+    rng = np.random.default_rng(0)
+    for v in VARIANTS:
+        for i, f in enumerate(families):
+            y = np.asarray([num(r.get("max_excursion_m")) for r in ok if r.get("family") == f and r.get("variant") == v])
+            y = y[np.isfinite(y)]
+            if not len(y):
+                continue
+            x = i + offsets[v] + rng.uniform(-0.07, 0.07, len(y))
+            ax.scatter(x, y, s=16, color=colours[v], alpha=0.75, edgecolors="none",
+                       label=v if i == 0 or not any(h.get_label() == v for h in ax.collections) else None)
+            ax.hlines(np.median(y), i + offsets[v] - 0.1, i + offsets[v] + 0.1, color=colours[v], lw=2)
+    ax.axhline(0.0, color="red", lw=1.0, ls="--")
+    ax.text(1.0, 0.0, " fence", color="red", va="bottom", ha="right", transform=ax.get_yaxis_transform())
+    ax.set_yscale("symlog", linthresh=1.0)
+    ax.set_xticks(range(len(families)))
+    ax.set_xticklabels(families, rotation=30, ha="right")
+    ax.set_xlabel("case family")
+    ax.set_ylabel("peak excursion beyond the fence (m, symlog; < 0 inside)")
+    ax.set_title("Peak excursion per family and variant (bar: median)")
+    handles, labels = ax.get_legend_handles_labels()
+    uniq = dict(zip(labels, handles))
+    ax.legend(uniq.values(), uniq.keys(), loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, out_base)
+
+
+def plot_breach_bounds(rows: Sequence[Mapping], out_base: Path) -> list[Path]:
+    """Per platform and variant: observed breach rate (dot) and its exact 95 % upper bound (bar)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from analysis.batch_plots import _save
+
+    stats = {s.key: s for s in grouped(rows, ("platform", "variant"))}
+    platforms = sorted({k[0] for k in stats})
+    colours = {"predictive": "tab:blue", "reactive": "tab:orange", "unprotected": "tab:grey"}
+    fig, ax = plt.subplots(figsize=(max(7.0, 1.3 * len(platforms) + 3.0), 4.8))
+    width = 0.26
+    for j, v in enumerate(VARIANTS):
+        xs, ub, rate, labels = [], [], [], []
+        for i, p in enumerate(platforms):
+            s = stats.get((p, v))
+            if s is None or not s.scored:
+                continue
+            xs.append(i + (j - 1) * width)
+            ub.append(s.breach_rate_upper)
+            rate.append(s.breach_rate)
+            labels.append(f"{s.breaches}/{s.scored}")
+        if not xs:
+            continue
+        ax.bar(xs, ub, width=width * 0.9, color=colours[v], alpha=0.35, label=f"{v}: 95 % upper bound")
+        ax.scatter(xs, rate, color=colours[v], zorder=3, s=22, label=f"{v}: observed")
+        for x, u, t in zip(xs, ub, labels):
+            ax.text(x, u + 0.01, t, ha="center", va="bottom", fontsize=7)
+    ax.set_xticks(range(len(platforms)))
+    ax.set_xticklabels(platforms)
+    ax.set_ylim(0.0, 1.12)
+    ax.set_xlabel("platform")
+    ax.set_ylabel("breach rate (fraction of scored flights)")
+    ax.set_title("Breach rate per platform: observed and exact (Clopper-Pearson) 95 % upper bound")
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=8)
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    return _save(fig, out_base)
+
+
+# --------------------------------------------------------------------------- report
+def _f(x: float, digits: int = 2) -> str:
+    return "n/a" if not math.isfinite(x) else f"{x:.{digits}f}"
+
+
+def _rate(s: GroupStats) -> str:
+    return f"{s.breaches}/{s.scored} ({_f(s.breach_rate, 3)}, ≤ {_f(s.breach_rate_upper, 4)})"
+
+
+def _stats_table(stats: Sequence[GroupStats], names: Sequence[str]) -> list[str]:
+    lines = ["| " + " | ".join(names) + " | flights | errors | incomplete | keep-in | keep-out | vertical | out-of-gap "
+             "| breaches/scored (rate, 95 % UB) | sim h | per h (95 % UB) |",
+             "|" + "---|" * len(names) + "---:|---:|---:|---:|---:|---:|---:|---|---:|---|"]
+    for s in stats:
+        lines.append("| " + " | ".join(s.key) + f" | {s.flights} | {s.errors} | {s.incomplete} | {s.keep_in_breaches} "
+                     f"| {s.keep_out_entries} | {s.vertical_breaches} | {s.out_of_gap_landings} | {_rate(s)} "
+                     f"| {s.hours:.3f} | {_f(s.per_hour, 1)} ({_f(s.per_hour_upper, 1)}) |")
+    return lines
+
+
+def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = None) -> list[str]:
+    """The markdown of the campaign report for joined rows (:func:`campaign_rows`)."""
+    rows = list(rows)
+    lines = ["# Geofence efficacy campaign", ""]
+    if manifest is not None:
+        lines.append(f"Campaign seed {manifest.get('seed')}: {manifest.get('n_cases')} cases "
+                     f"({manifest.get('skipped_cases', 0)} skipped: no platform fitted) x {len(VARIANTS)} variants; "
+                     f"{len(rows)} flights in the results.")
+        lines.append("")
+    lines += [
+        "Definitions: a **keep-in breach** is a lateral excursion > "
+        f"{KEEP_IN_TOLERANCE_M:g} m (beyond a keep-in edge or into a keep-out zone); a **vertical breach** an "
+        f"excursion > {VERTICAL_TOLERANCE_M:g} m above the ceiling or below the floor outside every gap; a "
+        "**breach** is any of keep-in, keep-out entry, vertical, or landing outside a gap. Rates are over scored "
+        "flights without an error; the upper bounds are one-sided exact 95 % (Clopper-Pearson for the rate, "
+        "Poisson for breaches per simulated flight hour). The unprotected twin is scored from its trajectory "
+        "against its case's fence.", ""]
+    lines += ["## Per variant", ""] + _stats_table(grouped(rows, ("variant",)), ["variant"]) + [""]
+    lines += ["## Per variant and platform", ""] + _stats_table(grouped(rows, ("variant", "platform")), ["variant", "platform"]) + [""]
+    lines += ["## Per variant and family", ""] + _stats_table(grouped(rows, ("variant", "family")), ["variant", "family"]) + [""]
+    lines += ["## Per variant, platform and family", ""] + _stats_table(
+        grouped(rows, ("variant", "platform", "family")), ["variant", "platform", "family"]) + [""]
+
+    lines += ["## Peak excursion: predictive vs reactive", "",
+              "Peak excursion `max_excursion_m` (m beyond the fence; < 0: closest approach inside). Ratios compare "
+              "the depth beyond the fence, max(excursion, 0), predictive / reactive (n/a when the reactive fence "
+              "was never crossed). Paired: mean over cases of predictive - reactive.", "",
+              "| family | variant | n | mean (m) | p95 (m) | max (m) | depth ratio mean / max | paired mean (m), n |",
+              "|---|---|---:|---:|---:|---:|---|---|"]
+    for c in excursion_comparison(rows):
+        for v in VARIANTS:
+            s = c["stats"][v]
+            if not s.n:
+                continue
+            extra = (f"{_f(c['mean_depth_ratio'], 3)} / {_f(c['max_depth_ratio'], 3)} | {_f(c['paired_mean_m'])}, {c['paired_n']}"
+                     if v == "predictive" else " | ")
+            lines.append(f"| {c['family']} | {v} | {s.n} | {_f(s.mean_m)} | {_f(s.p95_m)} | {_f(s.max_m)} | {extra} |")
+    lines.append("")
+
+    lines += ["## Unprotected twins", "",
+              "Cases whose unprotected twin breached, and what the protected flight of the same case did.", "",
+              "| variant | twin breached | ... and held | ... and breached too | twin clean but protected breached |",
+              "|---|---:|---:|---:|---:|"]
+    for v, c in unprotected_vs_protected(rows).items():
+        lines.append(f"| {v} | {c['twin_breached']} | {c['twin_breached_and_held']} | {c['twin_breached_and_breached']} "
+                     f"| {c['twin_clean_but_breached']} |")
+    lines.append("")
+
+    lines += ["## Normal missions", "",
+              "Missions keep every waypoint and leg 3 turn/stop rooms inside every boundary. A **nuisance override** "
+              "is a mission flight with activations > 0; **stalled** a mission that did not finish with activations "
+              "> 0 and no error; errors are counted apart.", "",
+              "| variant | missions | nuisance overrides | stalled by the geofence | errors |", "|---|---:|---:|---:|---:|"]
+    for v in VARIANTS:
+        sel = [r for r in rows if r.get("variant") == v and is_mission(r)]
+        if not sel:
+            continue
+        s = group_stats(sel)
+        lines.append(f"| {v} | {s.missions} | {s.nuisance_missions} | {s.stalled_missions} | {s.errors} |")
+    lines.append("")
+
+    lines += ["## Offending flights", ""]
+    for v in ("predictive", "reactive"):
+        bad = offending_flights(rows, v)
+        lines.append(f"**{v}** ({len(bad)}: keep-in breach, keep-out entry or out-of-gap landing):")
+        lines.append("")
+        lines += [f"- {describe_flight(r)}" for r in sorted(bad, key=lambda r: -num(r.get('max_lateral_excursion_m')))] or ["- none"]
+        lines.append("")
+    errs = [r for r in rows if is_error(r)]
+    lines += [f"## Errors ({len(errs)})", ""]
+    lines += [f"- `{r.get('flight')}`: {' '.join(str(r.get('error')).split())}" for r in errs] or ["None."]
+    lines.append("")
+    lines += ["## Figures", ""]
+    for stem, caption in FIGURES.items():
+        lines += [f"### {caption}", "", f"![{caption}]({stem}.png)", ""]
+    return lines
+
+
+def write_campaign_report(batch_dir: str | Path, manifest_path: str | Path, *, out_dir: str | Path | None = None) -> Path:
+    """Read ``<batch_dir>/results.csv`` and the manifest; write ``campaign_report.md`` and its figures.
+
+    Returns the report's path (in ``out_dir``, default ``batch_dir``).
+    """
+    batch_dir = Path(batch_dir)
+    out_dir = Path(out_dir) if out_dir is not None else batch_dir
+    out_dir.mkdir(parents=True, exist_ok=True)
+    manifest = load_manifest(manifest_path)
+    rows = campaign_rows(read_results_csv(batch_dir / RESULTS_CSV), manifest, batch_dir)
+    plot_excursions(rows, out_dir / "campaign_excursion")
+    plot_breach_bounds(rows, out_dir / "campaign_breach_bounds")
+    path = out_dir / REPORT_MD
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text("\n".join(campaign_report_lines(rows, manifest)))
+    os.replace(tmp, path)
+    return path

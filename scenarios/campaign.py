@@ -1,0 +1,948 @@
+"""The efficacy campaign generator: random fences nobody tuned for, flown three ways.
+
+:func:`generate_campaign` writes one scenario YAML per flight (the ordinary
+scenario format: ``geofence-testbed batch <dir>`` flies them) and a
+``campaign.json`` manifest, all reproducible from one seed. Each *case* is a
+random fence at a random site, a platform, a wind and a pilot, built by one
+:class:`CaseFamily` (a function of a numpy RNG returning the scenario
+mapping). Every case is written three times (:class:`Variant`):
+
+* ``<case_id>__predictive.yaml``: ``geofence.trigger: predictive``;
+* ``<case_id>__reactive.yaml``: ``geofence.trigger: reactive`` (the seed work's baseline);
+* ``<case_id>__unprotected.yaml``: no ``geofence:`` block at all (the
+  "unprotected twin": the same flight with nothing in the loop).
+
+The runner scores a flight only when a geofence is configured, so the twin's
+fence lives in the manifest (``cases[i].fence``, the exact ``geofence.fence``
+mapping of its protected siblings, and ``cases[i].start``, whose point is the
+runner's ENU origin); :mod:`analysis.campaign` scores the twin's
+``trajectory.csv`` against it with :func:`analysis.scoring.score_flight`.
+Nothing in the twin's scenario hints at a fence, so it flies exactly as the
+pilot would without one.
+
+Sizes are scaled to the platform's declared envelope
+(:func:`aircraft.profile.load_profile`): the *room* a platform needs is its
+max-bank turn radius at cruise ``V^2/(g tan(bank))`` (fixed-wing) or its
+stopping distance from top speed ``v t_r + v^2/(2 a)`` (multirotor), and the
+allowed area's inradius is several times the larger of that room and the
+geofence's worst-case lateral shift in the case's design wind
+(:func:`geofence.boundary_shift.worst_case_lateral_shift_m`). A fence that
+would not fit (wider than :data:`MAX_FENCE_SPAN_M`, or an infinite shift)
+makes the case skip that platform and try the next one.
+
+Every written document is re-read from its YAML text and validated with
+:func:`scenarios.schema.parse_scenario`; a rejected document is a generator
+bug and raises :class:`CampaignError`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from enum import Enum
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from aircraft.profile import PlatformProfile, available_profiles, load_profile
+from geofence.boundary_shift import G_MPS2, worst_case_lateral_shift_m
+from geofence.fence import LocalFence, parse_fence
+from geofence.geodesy import LocalFrame
+from geofence.polygon import PolygonIndex
+
+MANIFEST = "campaign.json"
+MAX_FENCE_SPAN_M = 9_000.0
+"""Largest keep-in extent generated (the fence model is exact to < 3 mm up to 10 km across)."""
+DEFAULT_MAX_DURATION_S = 180.0
+MISSION_INSET_ROOMS = 3.0
+"""Normal missions keep every waypoint and leg this many rooms inside every boundary."""
+GPS_FAULT_PROBABILITY = 0.04
+WIND_LIMIT_MULTIROTOR = 0.7
+"""Wind (steady + gust) up to this fraction of a multirotor's top speed."""
+WIND_LIMIT_FIXED_WING = 0.5
+"""Wind (steady + gust) up to this fraction of a fixed-wing's cruise airspeed."""
+TURBULENCE_SIGMA_MPS = {"none": 0.0, "light": 0.8, "moderate": 1.6}
+"""Rough low-level Dryden sigma per severity, only to size the design wind."""
+
+
+class CampaignError(RuntimeError):
+    """The generator produced something the scenario schema rejects (a bug here), or bad arguments."""
+
+
+class CaseFamily(Enum):
+    """What a case tests: the fence shape or feature, and the pilots that go with it."""
+
+    CONVEX_BOX = "box"
+    L_FENCE = "l_fence"
+    U_FENCE = "u_fence"
+    STAR = "star"
+    ACUTE_CORNER = "acute"
+    CORRIDOR = "corridor"
+    KEEP_OUT = "keep_out"
+    CEILING = "ceiling"
+    FLOOR_GAPS = "floor_gaps"
+
+
+class Attack(Enum):
+    """The pilot of a case."""
+
+    HEAD_ON = "head_on"
+    SHALLOW = "shallow"
+    CORNER = "corner"
+    TURNING = "turning"
+    REPEATED = "repeated"
+    CLIMB = "climb"
+    DESCEND = "descend"
+    GAP_DESCENT_DASH = "gap_descent_dash"
+    GAP_TAKEOFF = "gap_takeoff"
+    INTO_KEEP_OUT = "into_keep_out"
+    BEHIND_KEEP_OUT = "behind_keep_out"
+    MISSION = "mission"
+
+
+class Variant(Enum):
+    """The three flights of every case."""
+
+    PREDICTIVE = "predictive"
+    REACTIVE = "reactive"
+    UNPROTECTED = "unprotected"
+
+
+LATERAL_ATTACKS = (Attack.HEAD_ON, Attack.SHALLOW, Attack.CORNER, Attack.TURNING, Attack.REPEATED, Attack.MISSION)
+
+SITES: tuple[tuple[str, tuple[float, float], tuple[float, float]], ...] = (
+    # (continent, (lat lo, hi), (lon lo, hi)): boxes on land, incl. +-60 deg and beyond
+    ("north_america", (25.0, 62.0), (-124.0, -70.0)),
+    ("north_america_arctic", (60.0, 70.0), (-165.0, -140.0)),
+    ("south_america", (-55.0, 10.0), (-78.0, -40.0)),
+    ("europe", (36.0, 70.0), (-9.0, 30.0)),
+    ("africa", (-34.0, 35.0), (-17.0, 50.0)),
+    ("asia", (5.0, 65.0), (60.0, 140.0)),
+    ("oceania", (-45.0, -10.0), (113.0, 178.0)),
+    ("antarctica", (-78.0, -60.0), (-179.0, 179.0)),
+)
+MAX_GROUND_ALT_M = 2800.0
+
+
+# --------------------------------------------------------------------------- case context
+@dataclass(frozen=True)
+class CaseContext:
+    """Everything a family needs: platform, site, wind and the sizes derived from them (SI)."""
+
+    platform: str
+    profile: PlatformProfile
+    site: dict
+    wind: dict
+    design_wind_mps: float
+    room_m: float
+    """One turn (fixed-wing, radius at cruise and max bank) or one stop from top speed (multirotor)."""
+    shift_m: float
+    """The geofence's worst-case lateral shift in the design wind."""
+    max_duration_s: float
+    gps_fault: dict | None
+
+    @property
+    def multirotor(self) -> bool:
+        return self.profile.envelope.is_multirotor
+
+    @property
+    def frame(self) -> LocalFrame:
+        return LocalFrame(self.site["lat_deg"], self.site["lon_deg"], self.site["ground_alt_m"])
+
+    @property
+    def speed_max_mps(self) -> float:
+        return self.profile.envelope.max_speed_mps
+
+    def target_inradius_m(self, rng: np.random.Generator, low: float = 1.0) -> float:
+        """An allowed-area inradius 'several times' the room (and beyond the worst-case shift)."""
+        return max(rng.uniform(3.0, 6.0) * self.room_m, rng.uniform(1.4, 2.5) * self.shift_m) * low
+
+
+class _DoesNotFit(Exception):
+    """This case's fence does not fit this platform: try the next platform."""
+
+
+def platform_room_m(profile: PlatformProfile) -> float:
+    """One turn radius (fixed-wing, cruise at max bank) or one stop from top speed (multirotor), m."""
+    env = profile.envelope
+    if env.is_multirotor:
+        v = env.max_speed_mps
+        return v * env.reaction_time_s + v * v / (2.0 * env.braking_decel_mps2)
+    return env.cruise_speed_mps ** 2 / (G_MPS2 * math.tan(env.max_bank_rad))
+
+
+def wind_limit_mps(profile: PlatformProfile) -> float:
+    env = profile.envelope
+    return WIND_LIMIT_MULTIROTOR * env.max_speed_mps if env.is_multirotor else WIND_LIMIT_FIXED_WING * env.cruise_speed_mps
+
+
+# --------------------------------------------------------------------------- geometry helpers
+def _rot(points: np.ndarray, angle_rad: float) -> np.ndarray:
+    c, s = math.cos(angle_rad), math.sin(angle_rad)
+    return points @ np.array([[c, s], [-s, c]])
+
+
+def _scaled(unit: Sequence[Sequence[float]], inradius_m: float, rng: np.random.Generator) -> np.ndarray:
+    """A unit shape scaled to ``inradius_m``, centred on its pole, rotated at random."""
+    p = np.asarray(unit, dtype=float)
+    e, n, r = PolygonIndex(p).inradius(precision_m=1e-3)
+    p = (p - [e, n]) * (inradius_m / r)
+    return _rot(p, rng.uniform(0.0, 2.0 * math.pi))
+
+
+def _course_deg(vec: Sequence[float]) -> float:
+    return math.degrees(math.atan2(vec[0], vec[1])) % 360.0
+
+
+def _unit(deg: float) -> np.ndarray:
+    r = math.radians(deg)
+    return np.array([math.sin(r), math.cos(r)])
+
+
+def _r(x: float, nd: int = 2) -> float:
+    return round(float(x), nd)
+
+
+def _ll(frame: LocalFrame, points: np.ndarray) -> list[list[float]]:
+    out = []
+    for e, n in np.atleast_2d(points):
+        lat, lon, _ = frame.to_geodetic(float(e), float(n), 0.0)
+        out.append([round(lat, 8), round(lon, 8)])
+    return out
+
+
+@dataclass
+class FenceDraft:
+    """A fence being built in the site's ENU frame (metres)."""
+
+    keep_in: np.ndarray
+    ceiling_m: float
+    floor_m: float | None = None
+    floor_gaps: tuple[np.ndarray, ...] = ()
+    keep_out_polygons: tuple[np.ndarray, ...] = ()
+    keep_out_circles: tuple[tuple[float, float, float], ...] = ()
+
+    def span_m(self) -> float:
+        v = self.keep_in
+        return float(max(np.ptp(v[:, 0]), np.ptp(v[:, 1])))
+
+    def mapping(self, frame: LocalFrame) -> dict:
+        m: dict[str, Any] = {"keep_in": _ll(frame, self.keep_in), "ceiling_m": _r(self.ceiling_m, 1)}
+        if self.floor_m is not None:
+            m["floor_m"] = _r(self.floor_m, 1)
+        if self.floor_gaps:
+            m["floor_gaps"] = [_ll(frame, g) for g in self.floor_gaps]
+        if self.keep_out_polygons:
+            m["keep_out_polygons"] = [_ll(frame, k) for k in self.keep_out_polygons]
+        if self.keep_out_circles:
+            m["keep_out_circles"] = [
+                {"center": _ll(frame, np.array([[e, n]]))[0], "radius_m": _r(r, 1)} for e, n, r in self.keep_out_circles]
+        return m
+
+    def local(self, frame: LocalFrame) -> LocalFence:
+        """The fence as the unit will see it (validated; lat/lon rounded as written), cached per mapping."""
+        mapping = self.mapping(frame)
+        key = json.dumps([frame.lat0_deg, frame.lon0_deg, frame.h0_m, mapping], sort_keys=True)
+        if key not in _LOCAL_CACHE:
+            _LOCAL_CACHE.clear()
+            _LOCAL_CACHE[key] = parse_fence(mapping, "campaign").to_local(frame)
+        return _LOCAL_CACHE[key]
+
+
+_LOCAL_CACHE: dict[str, LocalFence] = {}
+
+
+# --------------------------------------------------------------------------- pilots
+@dataclass
+class Plan:
+    """A pilot plan in local metres: start point, heading, height, segments, duration."""
+
+    start_en: np.ndarray
+    heading_deg: float
+    agl_m: float
+    segments: list[dict]
+    approach_s: float
+    duration_s: float
+    mission: dict | None = None
+
+
+def _approach_speed(ctx: CaseContext, speed: str = "max") -> float:
+    env = ctx.profile.envelope
+    v = {"max": env.max_speed_mps, "cruise": env.cruise_speed_mps, "min": env.min_speed_mps}[speed]
+    if env.is_multirotor:  # it starts from a hover: average over the run-up
+        v = max(0.6 * v, 2.0)
+    return max(v, 1.0)
+
+
+def _segment_ok(local: LocalFence, a: np.ndarray, b: np.ndarray, min_margin_m: float, skip_end_m: float = 0.0) -> bool:
+    """Every point of a->b (but the last ``skip_end_m``) at least ``min_margin_m`` inside."""
+    length = float(np.hypot(*(b - a)))
+    n = max(2, int(length / max(local.inradius()[2] / 20.0, 1.0)) + 1)
+    for s in np.linspace(0.0, 1.0, n):
+        if s * length > length - skip_end_m and skip_end_m > 0.0:
+            break
+        p = a + s * (b - a)
+        if local.lateral_margin_m(float(p[0]), float(p[1])) < min_margin_m:
+            return False
+    return True
+
+
+def _run_up(rng: np.random.Generator, ctx: CaseContext, local: LocalFence, target: np.ndarray, course_deg: float,
+            speed: str = "max") -> tuple[np.ndarray, float]:
+    """A start point behind ``target`` on ``course_deg`` with the path inside; (start, approach time s).
+
+    Prefers a start beyond the activation distance (so the pilot, not the start, provokes the override)
+    and an approach time that leaves room for the recovery within the case's duration.
+    """
+    v = _approach_speed(ctx, speed)
+    u = _unit(course_deg)
+    r_in = local.inradius()[2]
+    want = min(1.3 * ctx.shift_m, 0.8 * r_in)
+    longest = max(v * (ctx.max_duration_s * 0.55), 1.0)
+    best: tuple[float, np.ndarray, float] | None = None
+    for _ in range(30):
+        d = min(rng.uniform(1.2, 3.0) * max(ctx.shift_m, ctx.room_m), longest)
+        d = max(d, 0.5 * want)
+        start = target - d * u
+        m = local.lateral_margin_m(float(start[0]), float(start[1]))
+        if m <= 0.0 or not _segment_ok(local, start, target, 0.0, skip_end_m=0.3 * d):
+            continue
+        score = min(m, want)
+        if best is None or score > best[0]:
+            best = (score, start, d)
+        if m >= want:
+            break
+    if best is None:  # walk back from the pole along the course line
+        e, n, _ = local.inradius()
+        start = np.array([e, n])
+        d = float(np.hypot(*(target - start)))
+        return start, d / v
+    return best[1], best[2] / v
+
+
+def _duration(ctx: CaseContext, approach_s: float, rng: np.random.Generator) -> float:
+    env = ctx.profile.envelope
+    turn_s = 0.0 if env.is_multirotor else math.pi * ctx.room_m / env.cruise_speed_mps
+    want = approach_s + turn_s + rng.uniform(15.0, 30.0)
+    return _r(min(want, ctx.max_duration_s), 1)
+
+
+def _edge_targets(local: LocalFence, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, int]:
+    """A random point on a random keep-in edge (weighted by length), the edge's outward normal, its index."""
+    ki = local.keep_in
+    w = ki.lengths / ki.lengths.sum()
+    i = int(rng.choice(len(w), p=w))
+    p = ki.starts[i] + rng.uniform(0.15, 0.85) * (ki.ends[i] - ki.starts[i])
+    return p, ki.outward_normals[i], i
+
+
+def _plan_lateral(rng: np.random.Generator, ctx: CaseContext, local: LocalFence, attack: Attack, agl_m: float,
+                  corner: int | None = None) -> Plan:
+    ki = local.keep_in
+    speed = "max" if rng.random() < 0.7 else "cruise"
+    if attack is Attack.CORNER:
+        # a convex vertex (interior angle < 180 deg), aimed along its outward bisector
+        v = ki.vertices
+        k = len(v)
+        convex = [j for j in range(k) if _is_convex_vertex(v, j, ki.ccw)]
+        j = corner if corner is not None else int(rng.choice(convex))
+        n_prev, n_next = ki.outward_normals[(j - 1) % k], ki.outward_normals[j]
+        bis = n_prev + n_next
+        bis = bis / np.hypot(*bis)
+        course = _course_deg(bis) + rng.uniform(-10.0, 10.0)
+        target = v[j]
+    elif attack is Attack.SHALLOW:
+        p, normal, i = _edge_targets(local, rng)
+        along = ki.directions[i] * (1.0 if rng.random() < 0.5 else -1.0)
+        a = math.radians(rng.uniform(10.0, 30.0))
+        vec = math.cos(a) * along + math.sin(a) * normal
+        course, target = _course_deg(vec), p
+    else:
+        p, normal, _ = _edge_targets(local, rng)
+        course, target = _course_deg(normal) + rng.uniform(-5.0, 5.0), p
+    if attack is Attack.REPEATED:
+        e, n, _ = local.inradius()
+        start = np.array([e, n])
+        v = _approach_speed(ctx, speed)
+        segs, t = [], 0.0
+        for _ in range(int(rng.integers(3, 6))):
+            p, normal, _ = _edge_targets(local, rng)
+            c = _course_deg(p - start)
+            push = float(np.hypot(*(p - start))) / v * rng.uniform(0.9, 1.4)
+            back = rng.uniform(3.0, 8.0)
+            segs += [{"duration_s": _r(push, 1), "course_deg": _r(c, 1), "speed": speed, "climb": "hold"},
+                     {"duration_s": _r(back, 1), "course_deg": _r((c + 180.0) % 360.0, 1), "speed": "cruise", "climb": "hold"}]
+            t += push + back
+        first = segs[0]["course_deg"]
+        approach = segs[0]["duration_s"]
+        return Plan(start, first, agl_m, segs, approach, _r(min(t + 10.0, ctx.max_duration_s), 1))
+    course = course % 360.0
+    start, approach = _run_up(rng, ctx, local, np.asarray(target, float), course, speed)
+    duration = _duration(ctx, approach, rng)
+    if attack is Attack.TURNING:
+        straight = _r(max(approach * rng.uniform(0.4, 0.8), 1.0), 1)
+        side = 1.0 if rng.random() < 0.5 else -1.0
+        if ctx.multirotor:
+            sticks = {"roll": _r(side * rng.uniform(0.2, 0.6)), "pitch": _r(-rng.uniform(0.5, 1.0)),
+                      "yaw": _r(side * rng.uniform(0.1, 0.4)), "throttle": 0.0}
+        else:
+            sticks = {"roll": _r(side * rng.uniform(0.4, 1.0)), "pitch": 0.0, "yaw": 0.0, "throttle": 1.0}
+        segs = [{"duration_s": straight, "course_deg": _r(course, 1), "speed": speed, "climb": "hold"},
+                {"duration_s": _r(max(duration - straight, 1.0), 1), "sticks": sticks}]
+    else:
+        segs = [{"duration_s": duration, "course_deg": _r(course, 1), "speed": speed, "climb": "hold"}]
+    return Plan(start, course, agl_m, segs, approach, duration)
+
+
+def _is_convex_vertex(v: np.ndarray, j: int, ccw: bool) -> bool:
+    """True if vertex ``j`` of polygon ``v`` turns toward the interior (interior angle < 180 deg)."""
+    k = len(v)
+    a, b, c = v[(j - 1) % k], v[j], v[(j + 1) % k]
+    cross = (b[0] - a[0]) * (c[1] - b[1]) - (b[1] - a[1]) * (c[0] - b[0])
+    return cross > 0.0 if ccw else cross < 0.0
+
+
+def _plan_mission(rng: np.random.Generator, ctx: CaseContext, local: LocalFence, frame: LocalFrame,
+                  agl_m: float) -> Plan | None:
+    """Waypoints and legs at least :data:`MISSION_INSET_ROOMS` rooms inside every boundary (None: no room)."""
+    inset = MISSION_INSET_ROOMS * ctx.room_m
+    env = ctx.profile.envelope
+    v = env.cruise_speed_mps
+    x0, y0, x1, y1 = local.keep_in.bbox
+    pts = []
+    for _ in range(4000):
+        p = np.array([rng.uniform(x0, x1), rng.uniform(y0, y1)])
+        if local.lateral_margin_m(float(p[0]), float(p[1])) >= inset:
+            pts.append(p)
+        if len(pts) >= 60:
+            break
+    if len(pts) < 2:
+        return None
+    budget = ctx.max_duration_s - 15.0
+    start = pts[0]
+    route = [start]
+    t = 0.0
+    for p in pts[1:]:
+        leg = float(np.hypot(*(p - route[-1])))
+        if leg < max(3.0 * ctx.room_m, 20.0):
+            continue
+        dt = leg / v + (0.0 if env.is_multirotor else math.pi * ctx.room_m / v) + (leg / v * 0.1)
+        if t + dt > budget or not _segment_ok(local, route[-1], p, inset):
+            continue
+        route.append(p)
+        t += dt
+        if len(route) >= int(rng.integers(3, 6)):
+            break
+    if len(route) < 2:
+        return None
+    items = []
+    for p in route[1:]:
+        lat, lon = _ll(frame, p)[0]
+        items.append({"type": "waypoint", "lat_deg": lat, "lon_deg": lon, "agl_m": _r(agl_m, 1)})
+    acceptance = 5.0 if env.is_multirotor else max(15.0, 0.3 * ctx.room_m)
+    heading = _course_deg(route[1] - route[0])
+    mission = {"acceptance_radius_m": _r(acceptance, 1), "items": items}
+    return Plan(start, heading, agl_m, [], t, _r(min(t * 1.3 + 20.0, ctx.max_duration_s), 1), mission=mission)
+
+
+# --------------------------------------------------------------------------- families
+def _heights(rng: np.random.Generator, ctx: CaseContext) -> tuple[float, float]:
+    """(ceiling m AGL, start/flight height m AGL) for a lateral case."""
+    if ctx.multirotor:
+        ceiling = rng.uniform(40.0, 120.0)
+        return ceiling, rng.uniform(15.0, ceiling - 15.0)
+    ceiling = rng.uniform(120.0, 400.0)
+    return ceiling, rng.uniform(60.0, ceiling - 40.0)
+
+
+def _lateral_case(rng: np.random.Generator, ctx: CaseContext, unit_shape: Sequence[Sequence[float]],
+                  attack: Attack | None = None, corner_angle: bool = False) -> tuple[FenceDraft, Plan, Attack]:
+    attack = attack or _pick(rng, LATERAL_ATTACKS, (3, 2, 2, 2, 2, 2))
+    r = ctx.target_inradius_m(rng) * (1.6 if attack is Attack.MISSION else 1.0)
+    ceiling, agl = _heights(rng, ctx)
+    draft = FenceDraft(_scaled(unit_shape, r, rng), ceiling)
+    if draft.span_m() > MAX_FENCE_SPAN_M:
+        raise _DoesNotFit
+    frame = ctx.frame
+    local = draft.local(frame)
+    if attack is Attack.MISSION:
+        plan = _plan_mission(rng, ctx, local, frame, agl)
+        if plan is not None:
+            return draft, plan, attack
+        attack = Attack.HEAD_ON
+    corner = None
+    if corner_angle:  # the acute corner is vertex 0 of the unit triangle
+        attack = Attack.CORNER if rng.random() < 0.6 else attack
+        corner = 0
+    return draft, _plan_lateral(rng, ctx, local, attack, agl, corner), attack
+
+
+def _pick(rng: np.random.Generator, options: Sequence, weights: Sequence[float]):
+    w = np.asarray(weights, dtype=float)
+    return options[int(rng.choice(len(options), p=w / w.sum()))]
+
+
+def family_box(rng: np.random.Generator, ctx: CaseContext):
+    a = rng.uniform(1.0, 2.5)
+    return _lateral_case(rng, ctx, [(-a, -1), (a, -1), (a, 1), (-a, 1)])
+
+
+def family_l(rng: np.random.Generator, ctx: CaseContext):
+    w, h = rng.uniform(3.0, 5.0), rng.uniform(3.0, 5.0)
+    return _lateral_case(rng, ctx, [(0, 0), (w, 0), (w, 1), (1, 1), (1, h), (0, h)])
+
+
+def family_u(rng: np.random.Generator, ctx: CaseContext):
+    w, h, b = rng.uniform(3.0, 5.0), rng.uniform(3.0, 5.0), rng.uniform(1.0, 1.6)
+    return _lateral_case(rng, ctx, [(0, 0), (w, 0), (w, h), (w - 1, h), (w - 1, b), (1, b), (1, h), (0, h)])
+
+
+def family_star(rng: np.random.Generator, ctx: CaseContext):
+    k = int(rng.integers(5, 8))
+    inner = rng.uniform(0.45, 0.7)
+    pts = []
+    for i in range(2 * k):
+        rad = 1.0 if i % 2 == 0 else inner
+        a = math.pi * i / k
+        pts.append((rad * math.sin(a), rad * math.cos(a)))
+    return _lateral_case(rng, ctx, pts)
+
+
+def family_acute(rng: np.random.Generator, ctx: CaseContext):
+    alpha = math.radians(rng.uniform(20.0, 40.0))
+    l2 = rng.uniform(0.8, 1.2)
+    tri = [(0.0, 0.0), (1.0, 0.0), (l2 * math.cos(alpha), l2 * math.sin(alpha))]
+    if rng.random() < 0.5:  # triangle-ish: blunt the far side with a fourth vertex
+        mid = (np.asarray(tri[1]) + np.asarray(tri[2])) / 2.0
+        out = mid / np.hypot(*mid) * rng.uniform(0.05, 0.2)
+        tri = [tri[0], tri[1], tuple(mid + out), tri[2]]
+    return _lateral_case(rng, ctx, tri, corner_angle=True)
+
+
+def family_corridor(rng: np.random.Generator, ctx: CaseContext):
+    r = ctx.target_inradius_m(rng)
+    c = min(rng.uniform(2.0, 4.0) * ctx.room_m, 1.6 * r)
+    half_len = rng.uniform(0.5, 1.5) * r
+    h = c / 2.0
+    x0, x1 = half_len, half_len + 2.0 * r
+    poly = np.array([(-x1, -r), (-x0, -r), (-x0, -h), (x0, -h), (x0, -r), (x1, -r), (x1, r), (x0, r), (x0, h),
+                     (-x0, h), (-x0, r), (-x1, r)])
+    poly = _rot(poly, rng.uniform(0.0, 2.0 * math.pi))
+    ceiling, agl = _heights(rng, ctx)
+    draft = FenceDraft(poly, ceiling)
+    if draft.span_m() > MAX_FENCE_SPAN_M:
+        raise _DoesNotFit
+    frame = ctx.frame
+    local = draft.local(frame)
+    attack = _pick(rng, (Attack.HEAD_ON, Attack.CORNER, Attack.TURNING, Attack.MISSION, Attack.SHALLOW), (2, 1, 1, 1, 3))
+    if attack is Attack.SHALLOW and rng.random() < 0.6:
+        # through the corridor: start in one room, fly along the corridor at the far room
+        pole = np.array(local.inradius()[:2])
+        far = -pole
+        course = _course_deg(far - pole) + rng.uniform(-8.0, 8.0)
+        start = pole
+        v = _approach_speed(ctx)
+        approach = float(np.hypot(*(far - pole))) / v
+        duration = _duration(ctx, approach, rng)
+        segs_d = [{"duration_s": duration, "course_deg": _r(course % 360.0, 1), "speed": "max", "climb": "hold"}]
+        return draft, Plan(start, course % 360.0, agl, segs_d, approach, duration), Attack.SHALLOW
+    if attack is Attack.MISSION:
+        plan = _plan_mission(rng, ctx, local, frame, agl)
+        if plan is not None:
+            return draft, plan, attack
+        attack = Attack.HEAD_ON
+    return draft, _plan_lateral(rng, ctx, local, attack, agl), attack
+
+
+def family_keep_out(rng: np.random.Generator, ctx: CaseContext):
+    r = ctx.target_inradius_m(rng) * 1.5
+    a = rng.uniform(1.0, 1.8)
+    box = _scaled([(-a, -1), (a, -1), (a, 1), (-a, 1)], r, rng)
+    ceiling, agl = _heights(rng, ctx)
+    draft = FenceDraft(box, ceiling)
+    if draft.span_m() > MAX_FENCE_SPAN_M:
+        raise _DoesNotFit
+    frame = ctx.frame
+    # the first keep-out sits off-centre; the pole of what is left is the default recovery point
+    rad = rng.uniform(0.15, 0.3) * r
+    off = _unit(rng.uniform(0, 360)) * rng.uniform(0.25, 0.5) * r
+    circles, polys = [], []
+    if rng.random() < 0.6:
+        circles.append((float(off[0]), float(off[1]), float(rad)))
+    else:
+        k = int(rng.integers(3, 7))
+        ang = np.sort(rng.uniform(0.0, 2 * math.pi, k)) if k > 3 else np.array([0.0, 2.1, 4.2]) + rng.uniform(0, 1)
+        polys.append(np.column_stack([off[0] + rad * np.sin(ang), off[1] + rad * np.cos(ang)]))
+    draft.keep_out_circles, draft.keep_out_polygons = tuple(circles), tuple(polys)
+    local = draft.local(frame)
+    pole = np.array(local.inradius()[:2])
+    attack = _pick(rng, (Attack.BEHIND_KEEP_OUT, Attack.INTO_KEEP_OUT, Attack.MISSION), (3, 3, 1))
+    if rng.random() < 0.5:  # a second, small keep-out near the path
+        mid = (pole + off) / 2.0 + _unit(rng.uniform(0, 360)) * 0.2 * r
+        draft.keep_out_circles = draft.keep_out_circles + ((float(mid[0]), float(mid[1]), float(0.08 * r)),)
+        local = draft.local(frame)
+        pole = np.array(local.inradius()[:2])
+    if attack is Attack.MISSION:
+        plan = _plan_mission(rng, ctx, local, frame, agl)
+        if plan is not None:
+            return draft, plan, attack
+        attack = Attack.INTO_KEEP_OUT
+    if attack is Attack.INTO_KEEP_OUT:
+        course = _course_deg(off - pole) + rng.uniform(-10.0, 10.0)
+        start, approach = _run_up(rng, ctx, local, off - _unit(course) * rad, course % 360.0)
+        duration = _duration(ctx, approach, rng)
+        segs = [{"duration_s": duration, "course_deg": _r(course % 360.0, 1), "speed": "max", "climb": "hold"}]
+        return draft, Plan(start, course % 360.0, agl, segs, approach, duration), attack
+    # behind the keep-out: start on its far side from the recovery point and push at the keep-in edge there,
+    # so the way back to the recovery point leads past (through, if straight) the keep-out
+    away = (off - pole) / max(np.hypot(*(off - pole)), 1e-9)
+    course = _course_deg(away) + rng.uniform(-15.0, 15.0)
+    u = _unit(course)
+    # the keep-in edge hit along the course from behind the keep-out
+    p = off + u * (rad + 1.0)
+    target = p
+    for s in np.linspace(0.0, 4.0 * r, 400):
+        q = p + u * s
+        if local.keep_in.signed_distance(float(q[0]), float(q[1])) < 0.0:
+            target = q
+            break
+    start = off + u * (rad + rng.uniform(0.1, 0.3) * r)
+    if local.lateral_margin_m(float(start[0]), float(start[1])) <= 0.0:
+        start = (target + off) / 2.0
+    v = _approach_speed(ctx)
+    approach = float(np.hypot(*(target - start))) / v
+    duration = _duration(ctx, approach, rng)
+    segs = [{"duration_s": duration, "course_deg": _r(course % 360.0, 1), "speed": "max", "climb": "hold"}]
+    return draft, Plan(start, course % 360.0, agl, segs, approach, duration), Attack.BEHIND_KEEP_OUT
+
+
+def family_ceiling(rng: np.random.Generator, ctx: CaseContext):
+    r = ctx.target_inradius_m(rng)
+    a = rng.uniform(1.0, 2.0)
+    box = _scaled([(-a, -1), (a, -1), (a, 1), (-a, 1)], r, rng)
+    env = ctx.profile.envelope
+    below = rng.uniform(8.0, 40.0)
+    agl = rng.uniform(15.0, 60.0) if ctx.multirotor else rng.uniform(60.0, 200.0)
+    draft = FenceDraft(box, agl + below)
+    if draft.span_m() > MAX_FENCE_SPAN_M:
+        raise _DoesNotFit
+    local = draft.local(ctx.frame)
+    pole = np.array(local.inradius()[:2])
+    course = rng.uniform(0.0, 360.0)
+    start = pole - _unit(course) * rng.uniform(0.0, 0.5) * r
+    approach = below / env.max_climb_rate_mps
+    duration = _duration(ctx, approach, rng)
+    speed = "cruise" if not ctx.multirotor or rng.random() < 0.5 else "min"
+    segs = [{"duration_s": duration, "course_deg": _r(course, 1), "speed": speed, "climb": "max"}]
+    return draft, Plan(start, course, agl, segs, approach, duration), Attack.CLIMB
+
+
+def _box_poly(ce: float, cn: float, half: float, angle: float) -> np.ndarray:
+    return _rot(np.array([(-half, -half), (half, -half), (half, half), (-half, half)]), angle) + [ce, cn]
+
+
+def family_floor_gaps(rng: np.random.Generator, ctx: CaseContext):
+    env = ctx.profile.envelope
+    options = [Attack.DESCEND, Attack.MISSION]
+    weights = [2, 1]
+    if ctx.multirotor:
+        options += [Attack.GAP_DESCENT_DASH, Attack.GAP_TAKEOFF]
+        weights += [2, 2]
+    attack = _pick(rng, options, weights)
+    if attack is Attack.GAP_TAKEOFF:
+        gap_half = max(rng.uniform(0.5, 1.0) * ctx.room_m, 10.0)  # small: about one stop
+    elif attack is Attack.GAP_DESCENT_DASH:
+        gap_half = rng.uniform(2.0, 3.5) * ctx.room_m
+    else:
+        gap_half = rng.uniform(1.5, 3.0) * ctx.room_m
+    r = max(ctx.target_inradius_m(rng), 2.5 * gap_half)
+    angle = rng.uniform(0.0, 2 * math.pi)
+    a = rng.uniform(1.0, 1.8)
+    keep_in = _rot(np.array([(-a * r, -r), (a * r, -r), (a * r, r), (-a * r, r)]), angle)
+    if ctx.multirotor:
+        floor = rng.uniform(8.0, 25.0)
+        ceiling = floor + rng.uniform(30.0, 80.0)
+    else:
+        floor = rng.uniform(30.0, 60.0)
+        ceiling = floor + rng.uniform(100.0, 250.0)
+    gaps = [_box_poly(*(_rot(np.array([[rng.uniform(-0.3, 0.3) * r, rng.uniform(-0.3, 0.3) * r]]), angle)[0]), gap_half, angle)]
+    if rng.random() < 0.5:  # a second gap near a corner
+        c = _rot(np.array([[0.6 * a * r * rng.choice([-1, 1]), 0.6 * r * rng.choice([-1, 1])]]), angle)[0]
+        half2 = min(gap_half, 0.3 * r)
+        gaps.append(_box_poly(c[0], c[1], half2, angle))
+    draft = FenceDraft(keep_in, ceiling, floor, tuple(gaps))
+    if draft.span_m() > MAX_FENCE_SPAN_M:
+        raise _DoesNotFit
+    frame = ctx.frame
+    local = draft.local(frame)
+    gap_c = gaps[0].mean(axis=0)
+    if attack is Attack.MISSION:
+        plan = _plan_mission(rng, ctx, local, frame, rng.uniform(floor + 0.3 * (ceiling - floor), floor + 0.7 * (ceiling - floor)))
+        if plan is not None:
+            return draft, plan, attack
+        attack = Attack.DESCEND
+    if attack is Attack.GAP_TAKEOFF:
+        course = rng.uniform(0.0, 360.0)
+        duration = _r(min(rng.uniform(25.0, 45.0), ctx.max_duration_s), 1)
+        segs = [{"duration_s": duration, "course_deg": _r(course, 1), "speed": "max", "climb": "max"}]
+        return draft, Plan(gap_c, course, 0.0, segs, 2.0, duration), attack
+    if attack is Attack.GAP_DESCENT_DASH:
+        course = rng.uniform(0.0, 360.0)
+        agl = floor + rng.uniform(5.0, 15.0)
+        low = rng.uniform(2.0, max(floor - 3.0, 3.0))
+        down_s = (agl - low) / env.max_descent_rate_mps
+        dash = _r(min(rng.uniform(15.0, 30.0), max(ctx.max_duration_s - down_s - 2.0, 5.0)), 1)
+        segs = [{"duration_s": _r(down_s, 1), "course_deg": _r(course, 1), "speed": "min", "climb": "descend"},
+                {"duration_s": dash, "course_deg": _r((course + rng.uniform(-60, 60)) % 360.0, 1), "speed": "max", "climb": "hold"}]
+        duration = _r(min(down_s + dash, ctx.max_duration_s), 1)
+        return draft, Plan(gap_c, course, agl, segs, down_s, duration), attack
+    # descend to the floor outside every gap
+    agl = floor + rng.uniform(8.0, 30.0)
+    for _ in range(50):
+        p = _rot(np.array([[rng.uniform(-0.8, 0.8) * a * r, rng.uniform(-0.8, 0.8) * r]]), angle)[0]
+        if local.gap_distance_m(float(p[0]), float(p[1])) < -ctx.room_m and local.lateral_margin_m(float(p[0]), float(p[1])) > 0.5 * r:
+            break
+    course = rng.uniform(0.0, 360.0)
+    approach = (agl - floor) / env.max_descent_rate_mps
+    duration = _duration(ctx, approach, rng)
+    speed = "cruise" if not ctx.multirotor else ("min" if rng.random() < 0.5 else "cruise")
+    segs = [{"duration_s": duration, "course_deg": _r(course, 1), "speed": speed, "climb": "descend"}]
+    return draft, Plan(p, course, agl, segs, approach, duration), Attack.DESCEND
+
+
+FAMILY_BUILDERS: dict[CaseFamily, Callable[[np.random.Generator, CaseContext], tuple[FenceDraft, Plan, Attack]]] = {
+    CaseFamily.CONVEX_BOX: family_box,
+    CaseFamily.L_FENCE: family_l,
+    CaseFamily.U_FENCE: family_u,
+    CaseFamily.STAR: family_star,
+    CaseFamily.ACUTE_CORNER: family_acute,
+    CaseFamily.CORRIDOR: family_corridor,
+    CaseFamily.KEEP_OUT: family_keep_out,
+    CaseFamily.CEILING: family_ceiling,
+    CaseFamily.FLOOR_GAPS: family_floor_gaps,
+}
+
+
+# --------------------------------------------------------------------------- site, wind, faults
+def draw_site(rng: np.random.Generator) -> dict:
+    continent, (la0, la1), (lo0, lo1) = SITES[int(rng.integers(len(SITES)))]
+    ground = float(rng.uniform(0.0, MAX_GROUND_ALT_M)) if rng.random() < 0.5 else float(rng.uniform(0.0, 400.0))
+    return {"continent": continent, "lat_deg": round(float(rng.uniform(la0, la1)), 6),
+            "lon_deg": round(float(rng.uniform(lo0, lo1)), 6), "ground_alt_m": round(ground, 1)}
+
+
+def draw_wind(rng: np.random.Generator, profile: PlatformProfile, approach_hint_s: float) -> tuple[dict, float]:
+    """The ``wind:`` block (steady + gusts up to the platform's limit, turbulence) and its design speed, m/s."""
+    limit = wind_limit_mps(profile)
+    total = limit * float(rng.uniform(0.0, 1.0))
+    from_deg = float(rng.uniform(0.0, 360.0))
+    severity = _pick(rng, ("none", "light", "moderate"), (3, 4, 3))
+    n_gusts = int(rng.integers(0, 3))
+    steady = total * (float(rng.uniform(0.6, 1.0)) if n_gusts else 1.0)
+    wind: dict[str, Any] = {"speed_mps": _r(steady), "from_deg": _r(from_deg, 1)}
+    if rng.random() < 0.5:
+        wind["profile"] = {"law": "power", "exponent": 0.14, "reference_height_m": 10}
+    if severity != "none":
+        wind["turbulence"] = {"severity": severity}
+    gust = total - steady
+    if n_gusts:
+        wind["gusts"] = [
+            {"onset_s": _r(max(1.0, approach_hint_s + rng.uniform(-4.0, 1.0)), 1), "amplitude_mps": _r(gust * rng.uniform(0.7, 1.0)),
+             "length_m": _r(rng.uniform(20.0, 80.0), 1), "from_deg": _r((from_deg + rng.uniform(-30.0, 30.0)) % 360.0, 1)}
+            for _ in range(n_gusts)]
+    design = steady + gust + 1.5 * TURBULENCE_SIGMA_MPS[severity]
+    return wind, design
+
+
+def _gps_fault(rng: np.random.Generator) -> dict | None:
+    if rng.random() >= GPS_FAULT_PROBABILITY:
+        return None
+    return {"kind": "fail" if rng.random() < 0.5 else "outage", "at_fraction": round(float(rng.uniform(0.5, 1.0)), 3),
+            "length_s": round(float(rng.uniform(2.0, 8.0)), 2)}
+
+
+# --------------------------------------------------------------------------- one case
+@dataclass(frozen=True)
+class Case:
+    """One generated case: its id, family, the three scenario documents and the manifest entry."""
+
+    case_id: str
+    family: CaseFamily
+    attack: Attack
+    documents: dict[Variant, dict]
+    manifest: dict
+
+
+def build_case(index: int, seed: int, family: CaseFamily, platforms: Sequence[str],
+               max_duration_s: float = DEFAULT_MAX_DURATION_S) -> Case | None:
+    """Case ``index`` of a campaign (reproducible from ``(seed, index)``); None when no platform fits."""
+    rng = np.random.default_rng([int(seed), int(index)])
+    site = draw_site(rng)
+    gps = _gps_fault(rng)
+    order = [platforms[int(i)] for i in rng.permutation(len(platforms))]
+    case_seed = int(rng.integers(0, 2**31 - 1))
+    for platform in order:
+        sub = np.random.default_rng([int(seed), int(index), len(platform), sum(map(ord, platform))])
+        profile = load_profile(platform)
+        hint = sub.uniform(5.0, 20.0)
+        wind, design = draw_wind(sub, profile, hint)
+        shift = worst_case_lateral_shift_m(profile.envelope, design)
+        if not math.isfinite(shift):
+            continue
+        ctx = CaseContext(platform, profile, site, wind, design, platform_room_m(profile), shift, max_duration_s, gps)
+        try:
+            draft, plan, attack = FAMILY_BUILDERS[family](sub, ctx)
+        except _DoesNotFit:
+            continue
+        return _assemble(index, family, attack, ctx, draft, plan, wind, case_seed, sub)
+    return None
+
+
+def _assemble(index: int, family: CaseFamily, attack: Attack, ctx: CaseContext, draft: FenceDraft, plan: Plan,
+              wind: dict, case_seed: int, rng: np.random.Generator) -> Case:
+    frame = ctx.frame
+    case_id = f"{family.value}-{index:04d}"
+    lat, lon = _ll(frame, np.asarray(plan.start_en, float))[0]
+    start = {"lat_deg": lat, "lon_deg": lon, "ground_alt_m": ctx.site["ground_alt_m"], "agl_m": _r(plan.agl_m, 1),
+             "heading_deg": _r(plan.heading_deg % 360.0, 1)}
+    # gusts: re-time them at the planned approach (the wind was drawn before the plan existed)
+    for g in wind.get("gusts", []):
+        g["onset_s"] = _r(max(1.0, plan.approach_s + rng.uniform(-4.0, 1.0)), 1)
+    duration = float(plan.duration_s)
+    doc: dict[str, Any] = {
+        "name": case_id,
+        "description": f"campaign case {case_id}: {family.value} fence, {attack.value} pilot, {ctx.platform} at "
+                       f"{ctx.site['continent']} ({ctx.site['lat_deg']:.3f}, {ctx.site['lon_deg']:.3f}, "
+                       f"{ctx.site['ground_alt_m']:.0f} m), wind {wind['speed_mps']:g} m/s from {wind['from_deg']:g} deg",
+        "aircraft": ctx.platform,
+        "seed": case_seed,
+        "duration_s": duration,
+        "start": start,
+    }
+    if plan.mission is not None:
+        doc["mission"] = plan.mission
+        doc["pilot"] = {"type": "mission"}
+    else:
+        doc["pilot"] = {"type": "scripted", "segments": plan.segments}
+    doc["wind"] = wind
+    fault = None
+    if ctx.gps_fault is not None:
+        at = _r(max(1.0, min(plan.approach_s, duration - 3.0) * ctx.gps_fault["at_fraction"]), 1)
+        if ctx.gps_fault["kind"] == "fail":
+            doc["sensors"] = {"gps_fail_at_s": at}
+        else:
+            doc["sensors"] = {"gps_outages": [[at, _r(at + ctx.gps_fault["length_s"], 1)]]}
+        fault = doc["sensors"]
+    fence = draft.mapping(frame)
+    forecast = {"speed_mps": _r(wind["speed_mps"] * rng.uniform(0.8, 1.2)),
+                "from_deg": _r((wind["from_deg"] + rng.uniform(-20.0, 20.0)) % 360.0, 1)}
+    documents = {}
+    for variant in Variant:
+        d = dict(doc)
+        d["name"] = f"{case_id}__{variant.value}"
+        if variant is not Variant.UNPROTECTED:
+            d["geofence"] = {"fence": fence, "trigger": variant.value, "wind_prior": forecast}
+        documents[variant] = d
+    local = draft.local(frame)
+    manifest = {
+        "case_id": case_id,
+        "family": family.value,
+        "attack": attack.value,
+        "pilot": "mission" if plan.mission is not None else "scripted",
+        "platform": ctx.platform,
+        "platform_kind": ctx.profile.kind.value,
+        "seed": case_seed,
+        "site": dict(ctx.site),
+        "wind": wind,
+        "design_wind_mps": round(ctx.design_wind_mps, 2),
+        "gps_fault": fault,
+        "room_m": round(ctx.room_m, 1),
+        "worst_case_shift_m": round(ctx.shift_m, 1),
+        "inradius_m": round(local.inradius()[2], 1),
+        "fence_span_m": round(draft.span_m(), 1),
+        "duration_s": duration,
+        "start": start,
+        "fence": fence,
+        "files": {v.value: f"{case_id}__{v.value}.yaml" for v in Variant},
+    }
+    return Case(case_id, family, attack, documents, manifest)
+
+
+# --------------------------------------------------------------------------- the campaign
+def _validate(text: str, where: str) -> None:
+    from scenarios.errors import ConfigError
+    from scenarios.schema import parse_scenario
+
+    try:
+        parse_scenario(yaml.safe_load(text), where=where)
+    except ConfigError as exc:
+        raise CampaignError(f"generator bug: the schema rejects a generated scenario: {exc}") from None
+
+
+def generate_cases(n_cases: int, seed: int, *, platforms: Sequence[str] | None = None,
+                   families: Sequence[CaseFamily] | None = None,
+                   max_duration_s: float = DEFAULT_MAX_DURATION_S) -> list[Case]:
+    """The cases of a campaign, in memory (see :func:`generate_campaign`)."""
+    if n_cases < 0:
+        raise CampaignError(f"n_cases: must be >= 0, got {n_cases}")
+    if not max_duration_s >= 20.0:
+        raise CampaignError(f"max_duration_s: must be >= 20 s, got {max_duration_s}")
+    known = available_profiles()
+    platforms = list(platforms) if platforms is not None else known
+    bad = [p for p in platforms if p not in known]
+    if bad or not platforms:
+        raise CampaignError(f"platforms: unknown {bad} (known: {', '.join(known)})" if bad else "platforms: empty")
+    families = list(families) if families is not None else list(CaseFamily)
+    if not families or not all(isinstance(f, CaseFamily) for f in families):
+        raise CampaignError(f"families: expected CaseFamily members, got {families!r}")
+    cases = []
+    for i in range(n_cases):
+        family = families[i % len(families)]
+        case = build_case(i, seed, family, platforms, max_duration_s)
+        if case is not None:
+            cases.append(case)
+    return cases
+
+
+def generate_campaign(out_dir: Path, n_cases: int, seed: int, *, platforms: Sequence[str] | None = None,
+                      families: Sequence[CaseFamily] | None = None,
+                      max_duration_s: float = DEFAULT_MAX_DURATION_S) -> list[Path]:
+    """Write ``n_cases`` cases x 3 variants of scenario YAML and ``campaign.json`` into ``out_dir``.
+
+    Families take turns (case ``i`` is ``families[i % len]``); everything else
+    is drawn from ``numpy.random.default_rng([seed, i])``, so the same
+    arguments always write the same files, and case ``i`` does not depend on
+    ``n_cases``. ``platforms`` defaults to every shipped profile; a case whose
+    fence fits none of them is left out (the manifest counts it). Flights last
+    at most ``max_duration_s`` of simulated time. Returns the YAML paths written.
+    """
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    cases = generate_cases(n_cases, seed, platforms=platforms, families=families, max_duration_s=max_duration_s)
+    written = []
+    for case in cases:
+        for variant, doc in case.documents.items():
+            path = out_dir / case.manifest["files"][variant.value]
+            text = f"# generated by scenarios/campaign.py (seed {seed}); {case.case_id} / {variant.value}\n" + \
+                yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=140)
+            _validate(text, str(path))
+            path.write_text(text)
+            written.append(path)
+    manifest = {
+        "generator": "scenarios/campaign.py",
+        "seed": int(seed),
+        "n_cases_requested": int(n_cases),
+        "n_cases": len(cases),
+        "skipped_cases": int(n_cases) - len(cases),
+        "max_duration_s": float(max_duration_s),
+        "platforms": list(platforms) if platforms is not None else available_profiles(),
+        "families": [f.value for f in (families or list(CaseFamily))],
+        "variants": [v.value for v in Variant],
+        "cases": [c.manifest for c in cases],
+    }
+    (out_dir / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n")
+    return written
