@@ -59,10 +59,12 @@ TOUCHDOWN_MAX_GROUND_SPEED_MPS = 0.7
 
 
 class Route(Protocol):
-    """What a guidance law needs of a planned route (see :class:`geofence.recovery_path.RecoveryPath`)."""
+    """What a guidance law needs of a planned route (see :class:`geofence.recovery_path.RecoveryPath`).
 
-    @property
-    def end(self) -> tuple[float, float]: ...
+    ``points``: the polyline (ENU m), start first, ending at the goal.
+    """
+
+    points: list[tuple[float, float]]
 
     def lookahead_point(self, e: float, n: float, lookahead_m: float) -> tuple[float, float]: ...
 
@@ -73,13 +75,14 @@ class StraightRoute:
     """A route of one straight leg to ``end`` (ENU m): no planner, or no admissible path."""
 
     def __init__(self, end_e: float, end_n: float):
-        self.end = (end_e, end_n)
+        self.points = [(end_e, end_n)]
 
     def lookahead_point(self, e: float, n: float, lookahead_m: float) -> tuple[float, float]:
-        return self.end
+        return self.points[-1]
 
     def remaining_m(self, e: float, n: float) -> float:
-        return math.hypot(self.end[0] - e, self.end[1] - n)
+        end = self.points[-1]
+        return math.hypot(end[0] - e, end[1] - n)
 
 
 BRAKE_DONE_MPS = 1.0
@@ -155,7 +158,7 @@ class SeedPDRecovery:
               turn_limit_rad: float = math.inf, hold_below_m: float | None = None) -> None:
         """The published law ramps straight to the route's end (it has no notion of a path)."""
         self.start_point = (s.east_m, s.north_m, h)
-        self.goal = (route.end[0], route.end[1], goal_h)
+        self.goal = (route.points[-1][0], route.points[-1][1], goal_h)
         self.t0 = t_s
         self.yaw_hold = s.yaw_rad
 
@@ -236,7 +239,7 @@ class FixedWingRecovery:
             else:
                 # turn_sign +1 = left (counter-clockwise) = negative roll stick
                 return StickCommand(roll=-float(self.turn_sign), pitch=pitch, yaw=0.0, throttle=throttle)
-        ge, gn = self.route.end
+        ge, gn = self.route.points[-1]
         if self.route.remaining_m(s.east_m, s.north_m) > 1.2 * self.orbit_radius_m:
             course_cmd = math.atan2(target[0] - s.east_m, target[1] - s.north_m)
         else:

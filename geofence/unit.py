@@ -55,12 +55,17 @@ from geofence.guidance import (
     StraightRoute,
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
+from geofence.recovery_path import RecoveryPlanner
 
 RECOVERED_HOLD_S = 1.0
 WIND_BEYOND_AUTHORITY_PERSIST_S = 3.0
 RETURN_IMPOSSIBLE_WIND_FRACTION = 0.9
 TERMINATE_BELOW_AGL_M = 8.0
 LANDING_EDGE_MARGIN_M = 2.0
+ROUTE_CLEARANCE_MULTIROTOR_M = 3.0
+"""Lateral clearance a multirotor's recovery route keeps from every boundary (halved, then quartered, if none fits)."""
+ROLLOUT_CELL_M = 10.0
+"""Cell size of the fixed-wing roll-out target cache (m)."""
 VERTICAL_CLEARANCE_M = 2.0
 """Below the floor inside a gap, the override climbs this far above the floor before it moves sideways."""
 DENSITY_REFRESH_M = 100.0
@@ -104,6 +109,8 @@ class GeofenceUnit:
         self.activation_margin_m = math.inf
         self.wind_enu = [config.wind_prior_enu[0], config.wind_prior_enu[1]]
         self._turbulence_est_mps = 0.0
+        self._planners: dict[float, RecoveryPlanner] = {}
+        self._rollout_cache: dict[tuple[int, int], tuple[float, float]] = {}
         self._build_laws(envelope)
         self._mode_since_s = 0.0
         self._strong_wind_since_s: float | None = None
@@ -140,6 +147,7 @@ class GeofenceUnit:
             return
         self._density_alt_m = alt_m
         self._build_laws(envelope_at_density(self.base_envelope, isa_density_ratio(alt_m)))
+        self._rollout_cache.clear()  # the route clearances follow the (true-airspeed) turn radius
 
     def _switch(self, t_s: float, to: Mode, reason: str) -> None:
         self.transitions.append(Transition(t_s, self.mode, to, reason))
@@ -271,13 +279,71 @@ class GeofenceUnit:
                 best, best_time = (ge, gn), t
         return best
 
+    # -- routes inside the fence ------------------------------------------------
+    def _planner(self, clearance_m: float) -> RecoveryPlanner:
+        p = self._planners.get(clearance_m)
+        if p is None:
+            p = self._planners[clearance_m] = RecoveryPlanner(self.fence, clearance_m)
+        return p
+
+    def _route_clearances(self) -> tuple[float, ...]:
+        """Lateral clearances to try, largest first: a fixed-wing wants its turn radius, a multirotor a few metres."""
+        env = self.env
+        if env.is_multirotor:
+            c = ROUTE_CLEARANCE_MULTIROTOR_M + self.config.extra_margin_m
+        else:
+            c = env.cruise_speed_mps**2 / (G_MPS2 * math.tan(max(env.max_bank_rad, 0.05))) + self.config.extra_margin_m
+        return (c, 0.5 * c, 0.25 * c)
+
     def _route(self, s: VehicleState, goal_en: tuple[float, float]) -> Route:
-        """A route from the estimate to ``goal_en`` inside the allowed area (straight if none can be planned)."""
-        return StraightRoute(*goal_en)
+        """A route from the estimate to ``goal_en`` inside the allowed area (:mod:`geofence.recovery_path`).
+
+        The largest clearance that reaches the goal wins; failing all, the
+        partial route that ends nearest it; with no admissible first leg at
+        all, the straight line (the only thing left to fly).
+        """
+        start = (s.east_m, s.north_m)
+        partial = None
+        for c in self._route_clearances():
+            path = self._planner(c).plan(start, goal_en)
+            if path is None:
+                continue
+            if path.reached_goal and len(path.points) >= 2:
+                return path
+            if partial is None and len(path.points) >= 2:
+                partial = path
+        return partial if partial is not None else StraightRoute(*goal_en)
+
+    def _recovery_goal(self, s: VehicleState) -> tuple[Route, tuple[float, float]]:
+        """The route and the goal of an override: the recovery point, or (fixed-wing) the nearest point
+        on the way where its recovery orbit fits."""
+        goal = self.fence.recovery_en
+        route = self._route(s, goal)
+        if not self.env.is_multirotor:
+            orbit_r = self.recovery.orbit_radius_m
+            c = self._route_clearances()[0]
+            if self.fence.lateral_margin_m(*goal) < orbit_r + c:
+                found = self._planner(c).safe_point_with_radius((s.east_m, s.north_m), orbit_r)
+                if found is not None:
+                    return found[1], found[0].en
+        return route, goal
 
     def _rollout_target(self, e: float, n: float) -> tuple[float, float]:
-        """Where a fixed-wing's recovery turn rolls out towards from (e, n): the first point of its route."""
-        return self.fence.recovery_en
+        """Where a fixed-wing's recovery turn rolls out towards from (e, n): the first point of its route.
+
+        Cached per cell of ``ROLLOUT_CELL_M`` (the route's first point changes
+        only where the view of the fence's corners changes).
+        """
+        key = (int(math.floor(e / ROLLOUT_CELL_M)), int(math.floor(n / ROLLOUT_CELL_M)))
+        t = self._rollout_cache.get(key)
+        if t is None:
+            route = self._route(VehicleState(east_m=e, north_m=n), self.fence.recovery_en)
+            pts = route.points
+            t = pts[1] if len(pts) >= 2 else pts[-1]
+            if len(self._rollout_cache) > 20000:
+                self._rollout_cache.clear()
+            self._rollout_cache[key] = t
+        return t
 
     def _below_floor_in_gap(self, s: VehicleState, h: float) -> bool:
         fence = self.fence
@@ -289,7 +355,7 @@ class GeofenceUnit:
         self._switch(t_s, Mode.LAND_IN_GAP, reason + f"; landing at ({pe:.0f}, {pn:.0f}) m ENU")
 
     def _start_override(self, t_s: float, s: VehicleState, h: float, r: ShiftResult, reason: str) -> None:
-        route = self._route(s, self.fence.recovery_en)
+        route, _ = self._recovery_goal(s)
         hold = self.fence.floor_m + VERTICAL_CLEARANCE_M if self._below_floor_in_gap(s, h) else None
         goal_h = self._goal_height(max(h, hold) if hold is not None else h)
         self.recovery.start(s, route, goal_h, h, t_s, r.turn_sign, r.turn_angle_rad, hold)

@@ -1,0 +1,792 @@
+"""Fence-aware recovery routes: a visibility-graph planner over the clearance-offset free space.
+
+The geofence unit used to fly straight at the recovery point, which in concave
+fences (L, U, star shapes, corridors) and past keep-outs cuts across forbidden
+ground. :class:`RecoveryPlanner` replaces that straight line by the shortest
+route (up to the conservatism below) that keeps a lateral clearance ``c`` from
+every boundary. Pure planar math in local ENU metres on a
+:class:`~geofence.fence.LocalFence`; floor gaps and heights are not involved.
+
+Free space and admissibility
+----------------------------
+``F = {p : lateral_margin_m(p) >= c}``: the keep-in shrunk by ``c`` minus every
+keep-out polygon and circle grown by ``c``. A segment is **admissible** when
+every point of it is in ``F``. This is decided *exactly* (no sampling): a
+segment ``p-q`` with ``margin(p) >= t > 0`` has ``margin >= t`` everywhere iff
+its distance to every keep-in/keep-out edge is ``>= t`` and its distance to
+every keep-out circle centre is ``>= r + t`` (a segment that stays ``t > 0``
+away from every boundary cannot change region, and inside the allowed region
+the margin *is* the distance to the nearest boundary). Segment-segment
+distances use floating point; a misjudged crossing can only happen within
+~1e-12 relative of an endpoint, where the endpoint distance already fails the
+test. Thresholds carry :data:`EPS_M` (1e-9 m) of slack for rounding, so an
+admissible segment has ``margin >= c - 1e-9`` m everywhere.
+
+The graph
+---------
+Nodes are the vertices of *circumscribed* polygons around the rounded corners
+of the grown obstacles: at each reflex keep-in vertex and each convex
+keep-out-polygon vertex, the arc of radius ``c' = c + 1e-6 m`` swept between the
+two edge normals is replaced by ``k = ceil(turn / 30 deg)`` tangent pieces (nodes
+at ``c' / cos(turn / 2k)`` from the vertex); each circle gets a 16-gon around the
+radius ``r + c'``. The circumscribed pieces contain the true Minkowski sum, so
+the routes are conservative (at most ~3.5 % longer round a corner, ~2 % round a
+circle), and they are tangent to the clearance circles, so consecutive nodes see
+each other. Nodes not in ``F`` (covered by another grown obstacle) are dropped.
+The safe points (below) are nodes too. Edges join the pairs of nodes whose
+segment is admissible (exact test above, vectorized over the pairs with
+early rejection) and *tangent* at both corner nodes (the line supports the
+node's circumscribed obstacle; a shortest path can only bend at a corner by
+wrapping round it, so other edges are never needed: the classic reduced
+visibility graph). Per query, the start and goal are joined to every node
+they see (no pruning at the ends). Shortest paths: Dijkstra over this graph plus, per query,
+the edges from the start and to the goal.
+
+Guarantee of :meth:`RecoveryPlanner.plan`
+-----------------------------------------
+* Every segment of the returned path **after the first** is admissible
+  (``margin >= c - 1e-9`` m everywhere on it); every vertex after the first is
+  in ``F``.
+* The **first leg** (start -> second point) keeps ``margin >= min(m_s, c) - tol``
+  everywhere, where ``m_s`` is the start's margin: it never takes the vehicle
+  closer to any boundary than it already is (and for a start in ``F`` it is an
+  ordinary admissible segment). ``tol`` is 1e-9 m when ``m_s > 0`` (exact test,
+  and the whole leg is inside the allowed area) and :data:`BREACHED_TOL_M`
+  (1 mm) when ``m_s <= 0`` (the start is already outside the allowed area: the
+  leg is certified by Lipschitz bisection of the 1-Lipschitz margin, i.e. it
+  never goes deeper into the breach). The first leg goes to a graph node, to
+  the goal, or to an *escape point* found by pushing the start along the
+  steepest margin ascent until it is in ``F``.
+* If the goal is not in ``F`` it is replaced by the point reached by the same
+  margin-ascent push (the exact nearest point of ``F`` when one boundary feature
+  binds), or failing that the nearest graph node.
+* If the (replaced) goal is not reachable in the start's component of ``F``,
+  the path ends at the reachable node nearest to it and
+  ``RecoveryPath.reached_goal`` is ``False``. ``plan`` returns ``None`` only when
+  no admissible first leg exists (the start's component of ``F`` is not
+  reachable from the start under the first-leg rule: e.g. a start in a
+  corridor narrower than ``2c``).
+* When the start is in ``F`` and the straight segment to the goal is
+  admissible, the path is exactly ``[start, goal]``.
+
+Complexity
+----------
+Build: ``O(V^2 E)`` for ``V`` nodes and ``E`` edges + circles, vectorized and
+with failed pairs dropped after each edge chunk (pairs blocked early cost
+little); the safe points cost a 64 x 64 grid of margins. Query:
+``O(V E)`` vectorized tests to connect the start and goal, then Dijkstra
+``O(G log V)`` over ``G`` graph edges. Per-step :meth:`RecoveryPath.lookahead_point`
+is plain Python: a projection over the path's segments and one or two exact
+chord tests (bounding-box filtered loops over the edges).
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Sequence
+
+import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .fence import LocalFence
+
+EPS_M: float = 1e-9
+"""Rounding slack (m) in the exact admissibility thresholds."""
+
+NODE_INFLATION_M: float = 1e-6
+"""Nodes sit on clearance circles of radius ``c + NODE_INFLATION_M``."""
+
+BREACHED_TOL_M: float = 1e-3
+"""Tolerance (m) of the certified first-leg test from a start outside the allowed area."""
+
+CORNER_STEP_RAD: float = math.pi / 6.0
+"""Largest turn covered by one circumscribed piece at a corner (30 deg)."""
+
+CIRCLE_SIDES: int = 16
+"""Sides of the polygon circumscribed round each grown keep-out circle."""
+
+GRID_CELLS: int = 64
+"""Safe-point search grid: cells along the keep-in's longer bounding-box side."""
+
+MAX_SAFE_POINTS: int = 12
+
+Point = tuple[float, float]
+
+
+# ----------------------------------------------------------------------------- scalar helpers
+def _pt_seg_d2(px: float, py: float, ax: float, ay: float, bx: float, by: float) -> float:
+    """Squared distance from point p to the closed segment a-b (m²)."""
+    dx, dy = bx - ax, by - ay
+    qx, qy = px - ax, py - ay
+    l2 = dx * dx + dy * dy
+    if l2 > 0.0:
+        t = (qx * dx + qy * dy) / l2
+        if t < 0.0:
+            t = 0.0
+        elif t > 1.0:
+            t = 1.0
+        qx -= t * dx
+        qy -= t * dy
+    return qx * qx + qy * qy
+
+
+def segment_segment_distance(p1: Point, p2: Point, q1: Point, q2: Point) -> float:
+    """Euclidean distance (m) between the closed segments p1-p2 and q1-q2 (0 if they meet)."""
+    if _cross_properly(p1[0], p1[1], p2[0], p2[1], q1[0], q1[1], q2[0], q2[1]):
+        return 0.0
+    return math.sqrt(min(_pt_seg_d2(p1[0], p1[1], q1[0], q1[1], q2[0], q2[1]),
+                         _pt_seg_d2(p2[0], p2[1], q1[0], q1[1], q2[0], q2[1]),
+                         _pt_seg_d2(q1[0], q1[1], p1[0], p1[1], p2[0], p2[1]),
+                         _pt_seg_d2(q2[0], q2[1], p1[0], p1[1], p2[0], p2[1])))
+
+
+def _cross_properly(ax, ay, bx, by, cx, cy, dx, dy) -> bool:
+    ux, uy = bx - ax, by - ay
+    o1 = ux * (cy - ay) - uy * (cx - ax)
+    o2 = ux * (dy - ay) - uy * (dx - ax)
+    if (o1 > 0.0 and o2 > 0.0) or (o1 < 0.0 and o2 < 0.0):
+        return False
+    vx, vy = dx - cx, dy - cy
+    o3 = vx * (ay - cy) - vy * (ax - cx)
+    o4 = vx * (by - cy) - vy * (bx - cx)
+    return o1 * o2 < 0.0 and o3 * o4 < 0.0
+
+
+# ----------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class SafePoint:
+    """A point deep inside the free space: ``(east_m, north_m)`` and its lateral margin ``clearance_m``."""
+
+    east_m: float
+    north_m: float
+    clearance_m: float
+
+    @property
+    def en(self) -> Point:
+        return (self.east_m, self.north_m)
+
+
+class RecoveryPath:
+    """A planned polyline, with carrot-chasing helpers (see the module docstring for its guarantee).
+
+    Attributes: ``points`` (list of ``(east_m, north_m)``, start first),
+    ``length_m``, ``goal_en`` (the goal asked for), ``reached_goal`` (``False``
+    when the path ends at the reachable point nearest an unreachable goal),
+    ``first_leg_floor_m`` (the margin guaranteed along the first leg, ``c`` for a
+    start in the free space) and ``progress_m`` (arc length of the furthest
+    projection so far; :meth:`lookahead_point` advances it, never backwards).
+    """
+
+    def __init__(self, planner: "RecoveryPlanner", points: Sequence[Point], goal_en: Point,
+                 reached_goal: bool, first_leg_floor_m: float) -> None:
+        self.planner = planner
+        self.points = [(float(p[0]), float(p[1])) for p in points]
+        cum = [0.0]
+        for (ax, ay), (bx, by) in zip(self.points, self.points[1:]):
+            cum.append(cum[-1] + math.hypot(bx - ax, by - ay))
+        self.cum_m = cum
+        self.length_m = cum[-1]
+        self.goal_en = (float(goal_en[0]), float(goal_en[1]))
+        self.reached_goal = reached_goal
+        self.first_leg_floor_m = first_leg_floor_m
+        self.progress_m = 0.0
+
+    def __repr__(self) -> str:
+        return f"RecoveryPath({len(self.points)} points, {self.length_m:.1f} m, reached_goal={self.reached_goal})"
+
+    def point_at(self, s_m: float) -> Point:
+        """The path point at arc length ``s_m`` (clamped to the path)."""
+        pts, cum = self.points, self.cum_m
+        if s_m <= 0.0 or len(pts) == 1:
+            return pts[0]
+        if s_m >= self.length_m:
+            return pts[-1]
+        i = 0
+        while cum[i + 1] < s_m:
+            i += 1
+        seg = cum[i + 1] - cum[i]
+        t = (s_m - cum[i]) / seg if seg > 0.0 else 0.0
+        (ax, ay), (bx, by) = pts[i], pts[i + 1]
+        return (ax + t * (bx - ax), ay + t * (by - ay))
+
+    def project(self, e: float, n: float) -> float:
+        """Arc length of the projection of (e, n) onto the path, at or after ``progress_m``.
+
+        Candidates are each segment's nearest point (the current segment
+        clipped to start at ``progress_m``), nearest first; the first whose
+        chord from (e, n) is safe (margin kept ``>= min(margin(e, n), c)``, see
+        :meth:`RecoveryPlanner.chord_ok`) wins, so the projection never jumps
+        across a wall to a later leg of the path. If none is, ``progress_m``.
+        Does not change ``progress_m``.
+        """
+        pts, cum = self.points, self.cum_m
+        s0 = self.progress_m
+        if len(pts) == 1:
+            return 0.0
+        cands = []
+        for i in range(len(pts) - 1):
+            if cum[i + 1] < s0:
+                continue
+            (ax, ay), (bx, by) = pts[i], pts[i + 1]
+            seg = cum[i + 1] - cum[i]
+            lo = (s0 - cum[i]) / seg if (seg > 0.0 and s0 > cum[i]) else 0.0
+            dx, dy = bx - ax, by - ay
+            t = ((e - ax) * dx + (n - ay) * dy) / (seg * seg) if seg > 0.0 else 0.0
+            t = lo if t < lo else (1.0 if t > 1.0 else t)
+            px, py = ax + t * dx, ay + t * dy
+            cands.append((math.hypot(e - px, n - py), cum[i] + t * seg, px, py))
+        cands.sort()
+        m_v = self.planner.fence.lateral_margin_m(e, n)
+        for k, (d, s, px, py) in enumerate(cands[:4]):
+            if d <= EPS_M or self.planner.chord_ok((e, n), (px, py), m_v):
+                return s
+        return s0
+
+    def remaining_m(self, e: float, n: float) -> float:
+        """Path length (m) left from the projection of (e, n) (see :meth:`project`) to the end."""
+        return max(0.0, self.length_m - self.project(e, n))
+
+    def lookahead_point(self, e: float, n: float, lookahead_m: float) -> Point:
+        """The carrot for a vehicle at (e, n): ``lookahead_m`` along the path past its projection.
+
+        Advances ``progress_m`` to the projection. If the chord from (e, n) to
+        the carrot is not safe (:meth:`RecoveryPlanner.chord_ok`: it would cut a
+        corner), the next path vertex after the projection is returned instead,
+        and if that chord is not safe either, the projection point itself. The
+        returned point always lies on the path (so in the free space, except on
+        the first leg).
+        """
+        s = self.project(e, n)
+        if s > self.progress_m:
+            self.progress_m = s
+        carrot = self.point_at(s + lookahead_m)
+        m_v = self.planner.fence.lateral_margin_m(e, n)
+        if self.planner.chord_ok((e, n), carrot, m_v):
+            return carrot
+        for i, c in enumerate(self.cum_m):
+            if c > s + EPS_M:
+                v = self.points[i]
+                if self.planner.chord_ok((e, n), v, m_v):
+                    return v
+                break
+        return self.point_at(s)
+
+
+# ----------------------------------------------------------------------------- planner
+class RecoveryPlanner:
+    """Shortest admissible routes inside a :class:`LocalFence` with lateral clearance ``clearance_m`` (> 0).
+
+    Built once per fence and clearance (the visibility graph and the safe
+    points are precomputed); :meth:`plan`, :meth:`nearest_safe_point` and
+    :meth:`safe_point_with_radius` answer at activation time. See the module
+    docstring for the guarantee.
+    """
+
+    def __init__(self, fence: "LocalFence", clearance_m: float) -> None:
+        c = float(clearance_m)
+        if not (c > 0.0 and math.isfinite(c)):
+            raise ValueError(f"clearance_m must be finite and > 0, got {clearance_m!r}")
+        self.fence = fence
+        self.clearance_m = c
+        self._thr = c - EPS_M
+        # ---- boundary edges (keep-in + keep-out polygons) and circles
+        polys = [fence.keep_in, *fence.keep_out_polygons]
+        a = np.concatenate([p.starts for p in polys])
+        b = np.concatenate([p.ends for p in polys])
+        self._ea, self._eb = a, b
+        self._edges = tuple(
+            (float(ax), float(ay), float(bx), float(by), min(ax, bx), max(ax, bx), min(ay, by), max(ay, by))
+            for (ax, ay), (bx, by) in zip(a.tolist(), b.tolist()))
+        circ = fence.keep_out_circles
+        self._circles = tuple((float(x), float(y), float(r)) for x, y, r in circ)
+        self._cc = np.array([(x, y) for x, y, _ in circ], dtype=float).reshape(-1, 2)
+        self._cr = np.array([r for _, _, r in circ], dtype=float)
+        # a fixed shuffled edge order spreads each chunk over the whole fence (earlier rejection)
+        self._perm = np.random.default_rng(12345).permutation(len(a))
+        # ---- nodes
+        corner = [p for p in self._corner_nodes() if fence.lateral_margin_m(p[0], p[1]) >= self._thr]
+        self._safe = self._find_safe_points()
+        self._safe_index = list(range(len(corner), len(corner) + len(self._safe)))
+        nodes = [(p[0], p[1]) for p in corner] + [sp.en for sp in self._safe]
+        self.nodes = nodes
+        self._nodes = np.array(nodes, dtype=float).reshape(-1, 2)
+        # normal cones (n1 -> n2 counter-clockwise) of the corner nodes; safe points: no cone
+        cones = np.array([p[2:] for p in corner] + [(0.0, 0.0, 0.0, 0.0)] * len(self._safe), dtype=float)
+        self._cones = cones.reshape(-1, 4)
+        self._is_corner = np.arange(len(nodes)) < len(corner)
+        self._adj: list[list[tuple[int, float]]] = [[] for _ in nodes]
+        nn = len(nodes)
+        if nn >= 2:
+            ii, jj = np.triu_indices(nn, k=1)
+            d = self._nodes[jj] - self._nodes[ii]
+            keep = self._tangent(ii, d) & self._tangent(jj, -d)
+            ii, jj = ii[keep], jj[keep]
+            ok = self._clear_batch(self._nodes[ii], self._nodes[jj], self._thr)
+            for i, j in zip(ii[ok].tolist(), jj[ok].tolist()):
+                w = math.hypot(nodes[i][0] - nodes[j][0], nodes[i][1] - nodes[j][1])
+                self._adj[i].append((j, w))
+                self._adj[j].append((i, w))
+        self.graph_edge_count = sum(len(x) for x in self._adj) // 2
+
+    # ------------------------------------------------------------------ construction
+    def _corner_nodes(self) -> list[Point]:
+        cp = self.clearance_m + NODE_INFLATION_M
+        out: list[tuple[float, float, float, float, float, float]] = []
+
+        def arc(vx: float, vy: float, a0: float, delta: float, radius: float, k: int = 0) -> None:
+            # node j: corner of the tangent lines at angles a0 + j·delta/k and a0 + (j+1)·delta/k
+            k = k or max(1, math.ceil(abs(delta) / CORNER_STEP_RAD - 1e-12))
+            dist = radius / math.cos(abs(delta) / (2 * k))
+            sg = 1.0 if delta >= 0.0 else -1.0
+            for j in range(k):
+                ang = a0 + (j + 0.5) * delta / k
+                a1, a2 = a0 + j * delta / k, a0 + (j + 1) * delta / k
+                # the two normals, ordered counter-clockwise (cone from n1 to n2)
+                if sg < 0.0:
+                    a1, a2 = a2, a1
+                out.append((vx + dist * math.cos(ang), vy + dist * math.sin(ang),
+                            math.cos(a1), math.sin(a1), math.cos(a2), math.sin(a2)))
+
+        def polygon(p, free_side: float) -> None:
+            # free_side=+1: free space is the polygon's interior (keep-in); -1: its exterior (keep-out)
+            v = p.vertices
+            sgn = 1.0 if p.ccw else -1.0
+            nv = len(v)
+            for i in range(nv):
+                px, py = float(v[i - 1, 0]), float(v[i - 1, 1])
+                vx, vy = float(v[i, 0]), float(v[i, 1])
+                qx, qy = float(v[(i + 1) % nv, 0]), float(v[(i + 1) % nv, 1])
+                d1x, d1y, d2x, d2y = vx - px, vy - py, qx - vx, qy - vy
+                l1, l2 = math.hypot(d1x, d1y), math.hypot(d2x, d2y)
+                if l1 == 0.0 or l2 == 0.0:
+                    continue
+                turn = sgn * (d1x * d2y - d1y * d2x)  # > 0: convex corner of the polygon
+                if free_side > 0.0 and turn >= 0.0:
+                    continue  # convex keep-in corner: no obstacle corner to wrap round
+                if free_side < 0.0 and turn <= 0.0:
+                    continue  # reflex keep-out corner
+                # normals pointing into the free space (inward for keep-in, outward for keep-out)
+                k = free_side * sgn
+                n1x, n1y = -k * d1y / l1, k * d1x / l1
+                n2x, n2y = -k * d2y / l2, k * d2x / l2
+                delta = math.atan2(n1x * n2y - n1y * n2x, n1x * n2x + n1y * n2y)
+                arc(vx, vy, math.atan2(n1y, n1x), delta, cp)
+
+        polygon(self.fence.keep_in, 1.0)
+        for p in self.fence.keep_out_polygons:
+            polygon(p, -1.0)
+        for x, y, r in self._circles:
+            arc(x, y, -math.pi / CIRCLE_SIDES, 2.0 * math.pi, r + cp, CIRCLE_SIDES)
+        return out
+
+    def _find_safe_points(self) -> list[SafePoint]:
+        from .polygon import pole_of_inaccessibility
+
+        f = self.fence
+        c = self.clearance_m
+        x0, y0, x1, y1 = f.keep_in.bbox
+        h = max(x1 - x0, y1 - y0) / GRID_CELLS
+        xs = np.arange(x0 + 0.5 * h, x1, h)
+        ys = np.arange(y0 + 0.5 * h, y1, h)
+        gx, gy = np.meshgrid(xs, ys)
+        m = f.lateral_margin_array(np.column_stack([gx.ravel(), gy.ravel()])).reshape(gx.shape)
+        pad = np.pad(m, 1, constant_values=-np.inf)
+        is_max = np.ones(m.shape, dtype=bool)
+        for di in (-1, 0, 1):
+            for dj in (-1, 0, 1):
+                if di or dj:
+                    is_max &= m >= pad[1 + di:1 + di + m.shape[0], 1 + dj:1 + dj + m.shape[1]]
+        is_max &= m >= c
+        cand = [(float(m[i, j]), float(gx[i, j]), float(gy[i, j])) for i, j in zip(*np.nonzero(is_max))]
+        ex, ey, er = f.inradius()
+        cand.append((float(er), float(ex), float(ey)))
+        cand.sort(reverse=True)
+        kept: list[SafePoint] = []
+        for r, x, y in cand:
+            if r < c or len(kept) >= MAX_SAFE_POINTS:
+                break
+            # same lobe as a kept point: the straight line between them keeps 70 % of the smaller clearance
+            if any(self._clear_one((k.east_m, k.north_m), (x, y), 0.7 * r) for k in kept):
+                continue
+            px, py, pr = pole_of_inaccessibility(f.lateral_margin_m, (x - h, y - h, x + h, y + h),
+                                                 precision_m=max(0.01, 1e-3 * h), max_cells=400)
+            if pr < r:
+                px, py, pr = x, y, r
+            kept.append(SafePoint(px, py, f.lateral_margin_m(px, py)))
+        return kept
+
+    def _tangent(self, idx: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """For nodes ``idx`` and directions ``d`` (leaving them): can a shortest path use that direction there?
+
+        A shortest path only bends at a corner node by wrapping round it: the
+        line through the node along ``d`` must support the node's local
+        (circumscribed) obstacle, i.e. a normal of the line lies in the node's
+        normal cone. Non-corner nodes (safe points) accept every direction.
+        Collinear cases (within 1e-9 relative) count as tangent.
+        """
+        c = self._cones[idx]
+        px, py = -d[:, 1], d[:, 0]  # a normal of the line
+        tol = -1e-9 * np.hypot(px, py)
+        s1 = c[:, 0] * py - c[:, 1] * px      # cross(n1, m)
+        s2 = px * c[:, 3] - py * c[:, 2]      # cross(m, n2)
+        in_cone = ((s1 >= tol) & (s2 >= tol)) | ((s1 <= -tol) & (s2 <= -tol))
+        return in_cone | ~self._is_corner[idx]
+
+    # ------------------------------------------------------------------ exact segment tests
+    def _clear_one(self, p: Point, q: Point, thr: float) -> bool:
+        """Exact: with ``margin(p) >= thr > 0`` (caller's duty), is ``margin >= thr`` all along p-q?"""
+        ax, ay = p
+        bx, by = q
+        t2 = thr * thr
+        xmin, xmax = min(ax, bx) - thr, max(ax, bx) + thr
+        ymin, ymax = min(ay, by) - thr, max(ay, by) + thr
+        for cx, cy, dx, dy, exmin, exmax, eymin, eymax in self._edges:
+            if exmax < xmin or exmin > xmax or eymax < ymin or eymin > ymax:
+                continue
+            if _cross_properly(ax, ay, bx, by, cx, cy, dx, dy):
+                return False
+            if (_pt_seg_d2(ax, ay, cx, cy, dx, dy) < t2 or _pt_seg_d2(bx, by, cx, cy, dx, dy) < t2
+                    or _pt_seg_d2(cx, cy, ax, ay, bx, by) < t2 or _pt_seg_d2(dx, dy, ax, ay, bx, by) < t2):
+                return False
+        for cx, cy, r in self._circles:
+            rr = r + thr
+            if cx + rr < xmin + thr or cx - rr > xmax - thr or cy + rr < ymin + thr or cy - rr > ymax - thr:
+                continue
+            if _pt_seg_d2(cx, cy, ax, ay, bx, by) < rr * rr:
+                return False
+        return True
+
+    def _clear_batch(self, p: np.ndarray, q: np.ndarray, thr: float, block: int = 8192,
+                     chunk: int = 48) -> np.ndarray:
+        """Vectorized :meth:`_clear_one` for (M, 2) arrays of endpoints; returns (M,) bool."""
+        m = len(p)
+        out = np.zeros(m, dtype=bool)
+        t2 = thr * thr
+        ea, eb = self._ea[self._perm], self._eb[self._perm]
+        for s in range(0, m, block):
+            idx = np.arange(s, min(m, s + block))
+            # circles first (cheap, few)
+            if len(self._cr):
+                pa, pb = p[idx], q[idx]
+                d2 = _pt_seg_d2_np(self._cc[None, :, :], pa[:, None, :], pb[:, None, :])
+                idx = idx[np.all(d2 >= (self._cr[None, :] + thr) ** 2, axis=1)]
+            for k in range(0, len(ea), chunk):
+                if len(idx) == 0:
+                    break
+                pa, pb = p[idx][:, None, :], q[idx][:, None, :]
+                ca, cb = ea[None, k:k + chunk, :], eb[None, k:k + chunk, :]
+                bad = _cross_np(pa, pb, ca, cb)
+                bad |= _pt_seg_d2_np(pa, ca, cb) < t2
+                bad |= _pt_seg_d2_np(pb, ca, cb) < t2
+                bad |= _pt_seg_d2_np(ca, pa, pb) < t2
+                bad |= _pt_seg_d2_np(cb, pa, pb) < t2
+                idx = idx[~bad.any(axis=1)]
+            out[idx] = True
+        return out
+
+    def _visible_from(self, p: Point, thr: float, dist: list[float] | None = None) -> list[int]:
+        """Graph nodes joined to p by a segment keeping ``margin >= thr`` (exact; ``margin(p) >= thr > 0``).
+
+        Every node is tested (no tangency pruning here: the start or goal may
+        lie between a clearance arc and its circumscribed polygon, outside the
+        polygonal domain the pruning argument holds in), except, with ``dist``,
+        nodes whose ``dist`` is infinite.
+        """
+        if not self.nodes:
+            return []
+        pa = np.asarray(p, dtype=float)
+        keep = np.ones(len(self.nodes), dtype=bool)
+        if dist is not None:
+            keep &= np.isfinite(np.asarray(dist[:len(self.nodes)]))
+        idx = np.nonzero(keep)[0]
+        ok = self._clear_batch(np.broadcast_to(pa, (len(idx), 2)), self._nodes[idx], thr)
+        return idx[ok].tolist()
+
+    def _certified(self, p: Point, q: Point, t: float, tol: float = BREACHED_TOL_M,
+                   max_evals: int = 4000) -> bool:
+        """Certified: ``margin >= t - tol`` all along p-q, by bisection with the 1-Lipschitz bound.
+
+        ``True`` is a proof (each piece of length L has ``margin(mid) - L/2 >=
+        t - tol``, or ``L <= tol`` and ``margin(mid) >= t - tol/2``); ``False``
+        means a violation was found or the budget ran out.
+        """
+        f = self.fence.lateral_margin_m
+        (ax, ay), (bx, by) = p, q
+        length = math.hypot(bx - ax, by - ay)
+        stack = [(0.0, 1.0)]
+        evals = 0
+        while stack:
+            u0, u1 = stack.pop()
+            um = 0.5 * (u0 + u1)
+            half = 0.5 * (u1 - u0) * length
+            v = f(ax + um * (bx - ax), ay + um * (by - ay))
+            evals += 1
+            if v - half >= t - tol:
+                continue
+            if v < t - tol or evals > max_evals:
+                return False
+            if half <= 0.5 * tol:
+                if v >= t - 0.5 * tol:
+                    continue
+                return False
+            stack.append((u0, um))
+            stack.append((um, u1))
+        return True
+
+    def chord_ok(self, p: Point, q: Point, margin_p: float | None = None) -> bool:
+        """Is the straight move p -> q safe for a vehicle at p?
+
+        Safe means the margin stays ``>= min(margin(p), c)`` (within 1e-9 m,
+        exact) all along; for a breached p (``margin(p) <= 0``) it must not go
+        deeper than ``margin(p)`` (within 1 mm, certified). For p in the free
+        space this is plain admissibility.
+        """
+        m = self.fence.lateral_margin_m(p[0], p[1]) if margin_p is None else margin_p
+        t = min(m, self.clearance_m) - EPS_M
+        if t > 0.0:
+            return self._clear_one(p, q, t)
+        return self._certified(p, q, min(m, 0.0))
+
+    def admissible(self, p: Point, q: Point) -> bool:
+        """Exact: is every point of segment p-q in the free space (``margin >= c - 1e-9``)?"""
+        if self.fence.lateral_margin_m(p[0], p[1]) < self._thr:
+            return False
+        return self._clear_one((float(p[0]), float(p[1])), (float(q[0]), float(q[1])), self._thr)
+
+    # ------------------------------------------------------------------ queries
+    def _push_into_free(self, x: float, y: float, iters: int = 8) -> Point | None:
+        """Push (x, y) along steepest margin ascent until it is in the free space; ``None`` if that fails."""
+        f = self.fence
+        target = self.clearance_m + NODE_INFLATION_M
+        for _ in range(iters):
+            m, _, _, _, dx, dy = f.lateral_nearest(x, y)
+            if m >= self._thr:
+                return (x, y)
+            step = target - m
+            x, y = x - dx * step, y - dy * step
+        return (x, y) if f.lateral_margin_m(x, y) >= self._thr else None
+
+    def _search(self, s: Point):
+        """Dijkstra from s with the first-leg rule. Returns a context dict (``None``: no first leg)."""
+        f = self.fence
+        m_s = f.lateral_margin_m(s[0], s[1])
+        nodes = self.nodes
+        nn = len(nodes)
+        in_free = m_s >= self._thr
+        floor = self.clearance_m if in_free else m_s
+        extra: list[Point] = []  # per-query nodes: the escape point
+        if not in_free:
+            x = self._push_into_free(s[0], s[1])
+            if x is not None:
+                extra.append(x)
+        allpts = nodes + extra
+        # first legs
+        if in_free or m_s - EPS_M > 0.0:
+            thr = self._thr if in_free else m_s - EPS_M
+            cand = self._visible_from(s, thr)
+            if extra and self._clear_one(s, extra[0], thr):
+                cand.append(nn)
+            first = cand
+        else:
+            order = sorted(range(len(allpts)), key=lambda i: math.hypot(allpts[i][0] - s[0], allpts[i][1] - s[1]))
+            if extra:
+                order.remove(nn)
+                order.insert(0, nn)
+            first = [i for i in order[:32] if self._certified(s, allpts[i], m_s)]
+        dist = [math.inf] * len(allpts)
+        pred = [-1] * len(allpts)
+        heap = []
+        for i in first:
+            d = math.hypot(allpts[i][0] - s[0], allpts[i][1] - s[1])
+            dist[i] = d
+            heap.append((d, i))
+        heapq.heapify(heap)
+        adj = self._adj
+        extra_adj = None
+        while heap:
+            d, i = heapq.heappop(heap)
+            if d > dist[i]:
+                continue
+            if i < nn:
+                nbrs = adj[i]
+            else:
+                if extra_adj is None:
+                    extra_adj = [(j, math.hypot(nodes[j][0] - extra[0][0], nodes[j][1] - extra[0][1]))
+                                 for j in self._visible_from(extra[0], self._thr)]
+                nbrs = extra_adj
+            for j, w in nbrs:
+                nd = d + w
+                if nd < dist[j]:
+                    dist[j] = nd
+                    pred[j] = i
+                    heapq.heappush(heap, (nd, j))
+        return {"s": (float(s[0]), float(s[1])), "m_s": m_s, "in_free": in_free, "floor": floor,
+                "pts": allpts, "dist": dist, "pred": pred, "first": set(first)}
+
+    def _path_to(self, ctx, i: int, end: Point | None) -> list[Point]:
+        chain = []
+        while i != -1:
+            chain.append(ctx["pts"][i])
+            i = ctx["pred"][i]
+        pts = [ctx["s"], *reversed(chain)]
+        if end is not None:
+            pts.append(end)
+        return pts
+
+    def _direct_ok(self, ctx, g: Point) -> bool:
+        s = ctx["s"]
+        if ctx["in_free"]:
+            return self._clear_one(s, g, self._thr)
+        if ctx["m_s"] - EPS_M > 0.0:
+            return self._clear_one(s, g, ctx["m_s"] - EPS_M)
+        return self._certified(s, g, ctx["m_s"])
+
+    def plan(self, start_en: Point, goal_en: Point) -> RecoveryPath | None:
+        """Shortest admissible route from ``start_en`` to ``goal_en`` (see the module docstring's guarantee).
+
+        Returns ``None`` only if no admissible first leg leaves the start (its
+        component of the free space is unreachable under the first-leg rule).
+        A start in the free space with nothing reachable gives the one-point
+        path ``[start]`` with ``reached_goal=False``.
+        """
+        s = (float(start_en[0]), float(start_en[1]))
+        goal = (float(goal_en[0]), float(goal_en[1]))
+        g = goal
+        if self.fence.lateral_margin_m(g[0], g[1]) < self._thr:
+            g = self._push_into_free(g[0], g[1])
+            if g is None:
+                if not self.nodes:
+                    g = None
+                else:
+                    d = np.hypot(self._nodes[:, 0] - goal[0], self._nodes[:, 1] - goal[1])
+                    g = self.nodes[int(np.argmin(d))]
+        m_s = self.fence.lateral_margin_m(s[0], s[1])
+        in_free = m_s >= self._thr
+        floor = self.clearance_m if in_free else m_s
+        # the straight segment first (the shortest possible route)
+        if g is not None:
+            if in_free:
+                direct = self._clear_one(s, g, self._thr)
+            elif m_s - EPS_M > 0.0:
+                direct = self._clear_one(s, g, m_s - EPS_M)
+            else:
+                direct = self._certified(s, g, m_s)
+            if direct:
+                return RecoveryPath(self, [s, g], goal, True, floor)
+        ctx = self._search(s)
+        if not ctx["first"]:
+            if in_free:
+                return RecoveryPath(self, [s], goal, False, floor)
+            return None
+        dist, pts = ctx["dist"], ctx["pts"]
+        best_i, best_d = -1, math.inf
+        if g is not None:
+            vis = [i for i in self._visible_from(g, self._thr, dist) if dist[i] < math.inf]
+            if len(pts) > len(self.nodes) and dist[-1] < math.inf and self._clear_one(pts[-1], g, self._thr):
+                vis.append(len(pts) - 1)
+            for i in vis:
+                d = dist[i] + math.hypot(pts[i][0] - g[0], pts[i][1] - g[1])
+                if d < best_d:
+                    best_i, best_d = i, d
+        if best_i >= 0:
+            return RecoveryPath(self, self._path_to(ctx, best_i, g), goal, True, floor)
+        # unreachable goal: end at the reachable point nearest to it
+        target = g if g is not None else goal
+        cand = [i for i in range(len(pts)) if dist[i] < math.inf]
+        i = min(cand, key=lambda k: (math.hypot(pts[k][0] - target[0], pts[k][1] - target[1]), dist[k]))
+        return RecoveryPath(self, self._path_to(ctx, i, None), goal, False, floor)
+
+    def safe_points(self) -> list[SafePoint]:
+        """Points deep inside the free space, largest clearance first.
+
+        The pole of inaccessibility of the whole allowed area, plus one local
+        maximum of the margin per lobe (maxima of a 64 x 64 grid of margins,
+        refined by polylabel; a maximum is dropped when the straight line to a
+        larger kept one keeps 70 % of its clearance: same lobe). Only points in
+        the free space (clearance >= c); at most 12. Lobes narrower than a grid
+        cell can be missed.
+        """
+        return list(self._safe)
+
+    def nearest_safe_point(self, start_en: Point) -> tuple[SafePoint, RecoveryPath] | None:
+        """The safe point with the shortest admissible route from ``start_en``, and that route.
+
+        ``None`` if no safe point is reachable (see :meth:`plan`'s first-leg rule).
+        """
+        return self._best_safe(start_en, self.clearance_m)
+
+    def safe_point_with_radius(self, start_en: Point, radius_m: float) -> tuple[SafePoint, RecoveryPath] | None:
+        """The nearest (by route length) point where a circle of ``radius_m`` keeps the clearance.
+
+        Returns ``(point, route)`` with ``point.clearance_m >= radius_m + c``, so
+        an orbit of radius ``radius_m`` round it keeps margin ``>= c``. Among the
+        reachable safe points with enough clearance, the one with the shortest
+        route is taken; the route is then cut at its first point whose margin
+        reaches ``radius_m + c`` (found by sphere tracing along the route, which
+        cannot skip such a point since the margin is 1-Lipschitz). ``None`` if no
+        reachable safe point has that clearance.
+        """
+        need = float(radius_m) + self.clearance_m
+        best = self._best_safe(start_en, need)
+        if best is None:
+            return None
+        sp, path = best
+        f = self.fence
+        pts = path.points
+        for k in range(1, len(pts)):
+            (ax, ay), (bx, by) = pts[k - 1], pts[k]
+            seg = math.hypot(bx - ax, by - ay)
+            u = 0.0
+            for _ in range(2000):
+                x, y = ax + u * (bx - ax), ay + u * (by - ay)
+                m = f.lateral_margin_m(x, y)
+                if m >= need:
+                    cut = [*pts[:k], (x, y)] if u > 0.0 else pts[:k]
+                    return SafePoint(x, y, m), RecoveryPath(self, cut, path.goal_en, True, path.first_leg_floor_m)
+                if seg == 0.0:
+                    break
+                u += max(need - m, 1e-3) / seg  # sphere tracing: no point with margin >= need is skipped
+                if u > 1.0:
+                    break
+        return sp, path
+
+    def _best_safe(self, start_en: Point, need: float) -> tuple[SafePoint, RecoveryPath] | None:
+        want = [(k, sp) for k, sp in zip(self._safe_index, self._safe) if sp.clearance_m >= need]
+        if not want:
+            return None
+        s = (float(start_en[0]), float(start_en[1]))
+        ctx = self._search(s)
+        dist = ctx["dist"]
+        # a direct first leg to a safe point counts too (the graph search already includes it)
+        best = min(want, key=lambda kv: dist[kv[0]])
+        if dist[best[0]] == math.inf:
+            return None
+        k, sp = best
+        return sp, RecoveryPath(self, self._path_to(ctx, k, None), sp.en, True, ctx["floor"])
+
+
+# ----------------------------------------------------------------------------- numpy kernels
+def _pt_seg_d2_np(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Squared distance from points p to segments a-b (broadcast over leading axes; last axis 2)."""
+    d = b - a
+    w = p - a
+    l2 = d[..., 0] * d[..., 0] + d[..., 1] * d[..., 1]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(l2 > 0.0, (w[..., 0] * d[..., 0] + w[..., 1] * d[..., 1]) / np.where(l2 > 0.0, l2, 1.0), 0.0)
+    t = np.clip(t, 0.0, 1.0)
+    qx = w[..., 0] - t * d[..., 0]
+    qy = w[..., 1] - t * d[..., 1]
+    return qx * qx + qy * qy
+
+
+def _cross_np(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """Proper crossing of segments a-b and c-d (broadcast)."""
+    u = b - a
+    o1 = u[..., 0] * (c[..., 1] - a[..., 1]) - u[..., 1] * (c[..., 0] - a[..., 0])
+    o2 = u[..., 0] * (d[..., 1] - a[..., 1]) - u[..., 1] * (d[..., 0] - a[..., 0])
+    v = d - c
+    o3 = v[..., 0] * (a[..., 1] - c[..., 1]) - v[..., 1] * (a[..., 0] - c[..., 0])
+    o4 = v[..., 0] * (b[..., 1] - c[..., 1]) - v[..., 1] * (b[..., 0] - c[..., 0])
+    return (o1 * o2 < 0.0) & (o3 * o4 < 0.0)
