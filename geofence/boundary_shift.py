@@ -73,8 +73,9 @@ ground velocity along ``n``; head-on this is the closed form exactly; it is
 what :func:`multicopter_stopping_distance_m` returns).
 :func:`activation_margins` adds the worst-case pilot: until the override
 acts (``t_react`` plus the control-step ``latency_s``) the vehicle may keep
-accelerating toward the edge at the tilt limit ``a_p = g·tan(tilt_max)``
-(while below max speed), so ``d = v_n·t + a_p·t²/2 + v_n1·v1/(2·a_eff)`` with
+accelerating toward the edge at the tilt limit ``g·tan(tilt_max)`` (while
+below max airspeed) plus the wind's push ``a_w`` (below),
+``a_p = g·tan(tilt_max) + a_w``, so ``d = v_n·t + a_p·t²/2 + v_n1·v1/(2·a_eff)`` with
 ``v1 = v + a_p·t``; and while a climb is being arrested (``v_up/a_z``
 seconds) the collective cut lowers the braking deceleration to
 ``a_eff·(1 - a_z/g)``. Both were measured to matter in closed loop (an F450
@@ -436,6 +437,7 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
     else:
         a_tilt = g * math.tan(envelope.max_bank_rad)
         k1, k2 = drag_coefficients(envelope)
+        v_air_mc = math.hypot(ve - wind_e, vn - wind_n)
         a_brake = envelope.braking_decel_mps2
         # arresting a climb lowers the collective, and with it the horizontal braking force
         climb_arrest = (vu / envelope.vertical_accel_mps2, envelope.vertical_accel_mps2 / g) \
@@ -458,14 +460,15 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
                 psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
             else:
                 # worst case: the pilot keeps accelerating at the tilt limit toward the
-                # edge until the override acts (t_r), then the vehicle brakes
+                # edge (while below max airspeed), helped by the wind's push, until the
+                # override acts (t_r); then the vehicle brakes against that push
                 base = v_n * t_r if v_n > 0.0 else 0.0
-                a_p = a_tilt if speed < envelope.max_speed_mps else 0.0
+                push = wind_push_mps2(k1, k2, wspeed, w_n)
+                a_p = (a_tilt if v_air_mc < envelope.max_speed_mps else 0.0) + push
                 v_n1 = v_n + a_p * t_r
                 if v_n1 > 0.0:
                     base = (v_n * t_r if v_n > 0.0 else 0.0) + 0.5 * a_p * t_r * t_r
                     v1 = speed + a_p * t_r
-                    push = wind_push_mps2(k1, k2, wspeed, w_n)
                     base += _braking_room_m(v_n1, v1 if v1 > v_n1 else v_n1, a_brake - push, climb_arrest)
                 base += hu
                 psi0 = 0.0

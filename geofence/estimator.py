@@ -310,6 +310,16 @@ class GeofenceEstimator:
         self._last_fix_arrival_s = self.t_s
         self.fixes_used += 1
 
+    @property
+    def data_age_s(self) -> float:
+        """Age (s) of the newest fused GNSS data: now minus its time of validity.
+
+        The horizontal estimate is that data extrapolated over this age; an
+        acceleration that started within it is not yet in the estimate, so the
+        geofence adds it to its reaction time (up to latency + one GNSS period).
+        """
+        return max(self.t_s - self._t_d, 0.0) if self._east is not None else 0.0
+
     # -- output --------------------------------------------------------------------
     def output(self) -> VehicleState:
         """A new estimate at the current estimator time (also kept as ``self.state``)."""

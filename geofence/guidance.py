@@ -90,10 +90,10 @@ BRAKE_DONE_MPS = 1.0
 
 
 class MultirotorVelocityRecovery:
-    def __init__(self, env: Envelope, speed_mps: float | None = None):
+    def __init__(self, env: Envelope, speed_mps: float | None = None, wind_enu: list[float] | None = None):
         self.env = env
         self.speed_mps = speed_mps if speed_mps is not None else 0.5 * env.cruise_speed_mps
-        self.velocity = VelocityController(env)
+        self.velocity = VelocityController(env, wind_enu=wind_enu)
         self.route: Route = StraightRoute(0.0, 0.0)
         self.goal_h = 0.0
         self.yaw_hold = 0.0
@@ -251,9 +251,9 @@ class FixedWingRecovery:
 class LandingGuidance:
     """Fly to a landing point at a safe height, then descend onto it (fixed-wing: spiral down over it)."""
 
-    def __init__(self, env: Envelope, spiral_radius_m: float):
+    def __init__(self, env: Envelope, spiral_radius_m: float, wind_enu: list[float] | None = None):
         self.env = env
-        self.velocity = VelocityController(env) if env.is_multirotor else None
+        self.velocity = VelocityController(env, wind_enu=wind_enu) if env.is_multirotor else None
         self.spiral_radius_m = spiral_radius_m
         self.point = (0.0, 0.0)
         self.cruise_h = 0.0

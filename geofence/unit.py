@@ -63,7 +63,7 @@ RETURN_IMPOSSIBLE_WIND_FRACTION = 0.9
 TERMINATE_BELOW_AGL_M = 8.0
 LANDING_EDGE_MARGIN_M = 2.0
 ROUTE_CLEARANCE_MULTIROTOR_M = 3.0
-"""Lateral clearance a multirotor's recovery route keeps from every boundary (halved, then quartered, if none fits)."""
+"""Lateral clearance (beyond k·σ_h) a multirotor's recovery route keeps from every boundary."""
 ROLLOUT_CELL_M = 10.0
 """Cell size of the fixed-wing roll-out target cache (m)."""
 VERTICAL_CLEARANCE_M = 2.0
@@ -109,6 +109,7 @@ class GeofenceUnit:
         self.activation_margin_m = math.inf
         self.wind_enu = [config.wind_prior_enu[0], config.wind_prior_enu[1]]
         self._turbulence_est_mps = 0.0
+        self._latency_s = 0.0
         self._planners: dict[float, RecoveryPlanner] = {}
         self._rollout_cache: dict[tuple[int, int], tuple[float, float]] = {}
         self._build_laws(envelope)
@@ -124,6 +125,7 @@ class GeofenceUnit:
         # the vertical hand-back hysteresis, at most a tenth of the vertical band (an indoor fence is 1 m high)
         self._vertical_handback_m = min(config.vertical_handback_m, 0.1 * (fence.ceiling_m - lo))
         self._sigma_v_m = 0.0
+        self._sigma_h_m = 0.0
 
     # -- helpers -------------------------------------------------------------
     def _build_laws(self, env: Envelope) -> None:
@@ -134,11 +136,11 @@ class GeofenceUnit:
             if config.multirotor_law == "seed_pd":
                 self.recovery = SeedPDRecovery(env, config.seed_pd, config.ramp_s)
             else:
-                self.recovery = MultirotorVelocityRecovery(env, config.recovery_speed_mps)
+                self.recovery = MultirotorVelocityRecovery(env, config.recovery_speed_mps, self.wind_enu)
         else:
             self.recovery = FixedWingRecovery(env, self.wind_enu)
         turn_r = env.cruise_speed_mps**2 / (G_MPS2 * math.tan(max(env.max_bank_rad, 0.05)))
-        self.landing = LandingGuidance(env, spiral_radius_m=max(1.2 * turn_r, 10.0))
+        self.landing = LandingGuidance(env, spiral_radius_m=max(1.2 * turn_r, 10.0), wind_enu=self.wind_enu)
         self.dead_reckoning = DeadReckoning(env)
 
     def _scale_to_density(self, alt_m: float) -> None:
@@ -177,12 +179,13 @@ class GeofenceUnit:
         extra = self.config.extra_margin_m
         w = math.hypot(self.wind_enu[0], self.wind_enu[1]) + self.wind_allowance_mps
         g = G_MPS2
-        t = 2.0 * env.reaction_time_s + dt_s
+        t = 2.0 * env.reaction_time_s + self._latency_s
         if env.is_multirotor:
             v = max(env.max_speed_mps, s.ground_speed_mps)
-            a_p = g * math.tan(env.max_bank_rad)
             k1, k2 = drag_coefficients(env)
-            a = (env.braking_decel_mps2 - wind_push_mps2(k1, k2, w, w)) * max(1.0 - env.vertical_accel_mps2 / g, 0.05)
+            push = wind_push_mps2(k1, k2, w, w)
+            a_p = g * math.tan(env.max_bank_rad) + push
+            a = (env.braking_decel_mps2 - push) * max(1.0 - env.vertical_accel_mps2 / g, 0.05)
             if a <= 0.0:
                 return False
             v1 = v + a_p * t
@@ -207,7 +210,8 @@ class GeofenceUnit:
         return activation_margins(
             self.fence, s.east_m, s.north_m, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, self.env,
             self.wind_enu[0], self.wind_enu[1],
-            h_uncertainty_m=k * sigma_h_m + extra, v_uncertainty_m=k * sigma_v_m + extra, latency_s=dt_s, bank_rad=s.roll_rad,
+            h_uncertainty_m=k * sigma_h_m + extra, v_uncertainty_m=k * sigma_v_m + extra, latency_s=self._latency_s,
+            bank_rad=s.roll_rad,
             wind_extra_mps=self.wind_allowance_mps,
             rollout_target_en=None if self.env.is_multirotor else self._rollout_target(s.east_m, s.north_m),
         )  # fmt: skip
@@ -264,9 +268,17 @@ class GeofenceUnit:
         """Where to land: the most reachable floor gap (wind-aware), or here / the recovery point with no floor."""
         fence = self.fence
         if fence.floor_m is None or not fence.floor_gaps:
-            if fence.lateral_margin_m(s.east_m, s.north_m) > 0.0:
+            if self.env.is_multirotor:
+                if fence.lateral_margin_m(s.east_m, s.north_m) > LANDING_EDGE_MARGIN_M:
+                    return s.east_m, s.north_m
+                return fence.recovery_en
+            # a fixed-wing spirals down: the nearest point (by route) where its spiral fits inside
+            r = self.landing.spiral_radius_m
+            c = self._route_clearances()[0]
+            if fence.lateral_margin_m(s.east_m, s.north_m) >= r + c:
                 return s.east_m, s.north_m
-            return fence.recovery_en
+            found = self._planner(c).safe_point_with_radius((s.east_m, s.north_m), r)
+            return found[0].en if found is not None else fence.recovery_en
         we, wn = self.wind_enu
         v = max(self.env.max_speed_mps, 1.0)
         best, best_time = None, math.inf
@@ -287,13 +299,19 @@ class GeofenceUnit:
         return p
 
     def _route_clearances(self) -> tuple[float, ...]:
-        """Lateral clearances to try, largest first: a fixed-wing wants its turn radius, a multirotor a few metres."""
+        """Lateral clearances to try, largest first (m, rounded up to whole metres so planners can be reused).
+
+        A fixed-wing wants its turn radius, a multirotor a few metres; both add
+        the position uncertainty margin ``k·σ_h``, since the route is flown on
+        the estimate, and half of the halved clearance is tried before giving up.
+        """
         env = self.env
+        hu = self.config.uncertainty_k_sigma * self._sigma_h_m + self.config.extra_margin_m
         if env.is_multirotor:
-            c = ROUTE_CLEARANCE_MULTIROTOR_M + self.config.extra_margin_m
+            c = ROUTE_CLEARANCE_MULTIROTOR_M + hu
         else:
-            c = env.cruise_speed_mps**2 / (G_MPS2 * math.tan(max(env.max_bank_rad, 0.05))) + self.config.extra_margin_m
-        return (c, 0.5 * c, 0.25 * c)
+            c = env.cruise_speed_mps**2 / (G_MPS2 * math.tan(max(env.max_bank_rad, 0.05))) + hu
+        return tuple(float(math.ceil(x)) for x in (c, 0.5 * c, 0.25 * c))
 
     def _route(self, s: VehicleState, goal_en: tuple[float, float]) -> Route:
         """A route from the estimate to ``goal_en`` inside the allowed area (:mod:`geofence.recovery_path`).
@@ -374,12 +392,17 @@ class GeofenceUnit:
         sigma_h_m: float = 0.0,
         sigma_v_m: float = 0.0,
         turbulence_sigma_mps: float | None = None,
+        estimate_age_s: float = 0.0,
     ) -> StickCommand:
         """One step: returns the sticks to send to the flight controller (the pilot's, or the override's).
 
         ``turbulence_sigma_mps``: the wind estimator's current estimate of the
-        turbulence intensity (m/s, 1-sigma), if it has one.
+        turbulence intensity (m/s, 1-sigma), if it has one. ``estimate_age_s``:
+        the age of the position data behind the estimate (a GNSS fix's latency
+        plus the time since it): the vehicle may have accelerated for that long
+        unseen, so it adds to the reaction time in every margin.
         """
+        self._latency_s = dt_s + max(estimate_age_s, 0.0)
         if wind_en is not None:
             self.wind_enu[0], self.wind_enu[1] = wind_en
         if turbulence_sigma_mps is not None:
@@ -394,6 +417,8 @@ class GeofenceUnit:
             est = self.dead_reckoning.step(est, dt_s, (self.wind_enu[0], self.wind_enu[1]))
         self.estimate = est
         self._sigma_v_m = sigma_v_m
+        if math.isfinite(sigma_h_m):
+            self._sigma_h_m = sigma_h_m
         h = self.height(est)
         mode = self.mode
         if mode is Mode.MONITOR and position_valid:

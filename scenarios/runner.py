@@ -86,7 +86,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
             cmd_in = pilot.command(truth)
             if unit is not None:
                 est, wind_en, valid, sigma_h, sigma_v = own.sense(truth, dt_s)
-                cmd = unit.update(truth.t_s, est, cmd_in, dt_s, wind_en=wind_en, position_valid=valid, sigma_h_m=sigma_h, sigma_v_m=sigma_v)
+                cmd = unit.update(truth.t_s, est, cmd_in, dt_s, wind_en=wind_en, position_valid=valid, sigma_h_m=sigma_h,
+                                  sigma_v_m=sigma_v, estimate_age_s=own.data_age_s)
                 mode = unit.mode
                 recorder.append(truth, w, cmd_in, cmd, int(mode), pilot.items_reached, unit.estimate, wind_en, unit.activation_margin_m)
             else:
@@ -179,6 +180,11 @@ class _GeofenceSensing:
         self._truth_wind = None
         if self.truth_source and scenario.wind is not None:
             self._truth_wind = wind_from_config(scenario.wind, scenario.seed)
+
+    @property
+    def data_age_s(self) -> float:
+        """Age of the position data behind the estimate (0 for a perfect, immediate source)."""
+        return 0.0 if self.truth_source else self.estimator.data_age_s
 
     def sense(self, truth, dt_s: float):
         """(estimate, wind estimate (E, N) m/s, position valid, sigma_h m, sigma_v m) for this step."""

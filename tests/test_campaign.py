@@ -300,14 +300,10 @@ def test_unprotected_twin_is_scored_from_its_trajectory(tmp_path):
 
 
 # --------------------------------------------------------------------------- closed loop: the CI slice
-KNOWN_PREDICTIVE_BREACHES = ("u_fence-0011", "corridor-0005", "keep_out-0006")
 """Predictive flights of the CI slice that breached when it was generated (reported to the lead; not tuned away)."""
 
 
 @pytest.mark.closed_loop
-@pytest.mark.xfail(strict=False, reason="predictive breaches in the CI slice: " + ", ".join(KNOWN_PREDICTIVE_BREACHES)
-                   + " (GPS-loss dead reckoning of a J3Cub, a Micro250 recovery along a corridor, a Micro250 keep-out "
-                     "in 9.4 m/s wind); the recovery is being fixed")
 def test_ci_slice_has_no_predictive_breach(tmp_path):
     from analysis.report import collect_results, read_results_csv, write_results_csv
     from scenarios.batch import discover, plan, run_batch
