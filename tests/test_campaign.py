@@ -300,7 +300,6 @@ def test_unprotected_twin_is_scored_from_its_trajectory(tmp_path):
 
 
 # --------------------------------------------------------------------------- closed loop: the CI slice
-"""Predictive flights of the CI slice that breached when it was generated (reported to the lead; not tuned away)."""
 
 
 @pytest.mark.closed_loop
