@@ -134,6 +134,7 @@ class WindEstimator:
         self.config = cfg = config or WindEstimatorConfig()
         self._we, self._wn = float(cfg.prior_enu[0]), float(cfg.prior_enu[1])
         self.t_used_s = 0.0
+        self._var = 0.0
         k1, k2 = drag_coefficients(envelope) if envelope is not None else (0.0, 0.0)
         self._k1 = k1 if cfg.drag_c1_per_s is None else float(cfg.drag_c1_per_s)
         self._k2 = k2 if cfg.drag_c2_per_m is None else float(cfg.drag_c2_per_m)
@@ -192,7 +193,19 @@ class WindEstimator:
                 self._we += k * (we - self._we)
                 self._wn += k * (wn - self._wn)
                 self.t_used_s += wdt
+                # turbulence: the spread of the samples about the mean (per horizontal axis)
+                de, dn = we - self._we, wn - self._wn
+                self._var += k * (0.5 * (de * de + dn * dn) - self._var)
         return (self._we, self._wn)
+
+    @property
+    def turbulence_sigma_mps(self) -> float:
+        """Estimated turbulence intensity: the RMS per axis of the wind samples about the estimate (m/s).
+
+        It includes the samples' own noise (sensor and attitude errors), so it
+        errs on the high side; 0 until samples were used.
+        """
+        return math.sqrt(self._var) if self._var > 0.0 else 0.0
 
     def _fixed_wing_sample(self, s: VehicleState, va: float) -> tuple[float, float] | None:
         cfg = self.config

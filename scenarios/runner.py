@@ -87,7 +87,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
             if unit is not None:
                 est, wind_en, valid, sigma_h, sigma_v = own.sense(truth, dt_s)
                 cmd = unit.update(truth.t_s, est, cmd_in, dt_s, wind_en=wind_en, position_valid=valid, sigma_h_m=sigma_h,
-                                  sigma_v_m=sigma_v, estimate_age_s=own.data_age_s)
+                                  sigma_v_m=sigma_v, estimate_age_s=own.data_age_s,
+                                  turbulence_sigma_mps=own.turbulence_sigma_mps)
                 mode = unit.mode
                 recorder.append(truth, w, cmd_in, cmd, int(mode), pilot.items_reached, unit.estimate, wind_en, unit.activation_margin_m)
             else:
@@ -180,6 +181,11 @@ class _GeofenceSensing:
         self._truth_wind = None
         if self.truth_source and scenario.wind is not None:
             self._truth_wind = wind_from_config(scenario.wind, scenario.seed)
+
+    @property
+    def turbulence_sigma_mps(self) -> float | None:
+        """The wind estimator's turbulence intensity (None with a truth source: the unit is told nothing)."""
+        return None if self.truth_source else self.wind.turbulence_sigma_mps
 
     @property
     def data_age_s(self) -> float:
