@@ -216,6 +216,10 @@ class GroupStats:
     missions: int
     nuisance_missions: int
     stalled_missions: int
+    checked_missions: int = 0
+    """Missions that passed the pre-flight check (``preflight.passed`` in the summary)."""
+    checked_nuisance: int = 0
+    """... of which the geofence overrode anyway (the check's promise broken)."""
 
     @property
     def breach_rate(self) -> float:
@@ -256,6 +260,8 @@ def group_stats(rows: Sequence[Mapping], key: tuple[str, ...] = ()) -> GroupStat
         missions=len(missions),
         nuisance_missions=sum(1 for r in missions if num(r.get("activations")) > 0),
         stalled_missions=sum(1 for r in missions if mission_stalled(r)),
+        checked_missions=sum(1 for r in missions if truthy(r.get("preflight.passed"))),
+        checked_nuisance=sum(1 for r in missions if truthy(r.get("preflight.passed")) and num(r.get("activations")) > 0),
     )
 
 
@@ -522,14 +528,17 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
     lines += ["## Normal missions", "",
               "Missions keep every waypoint and leg 3 turn/stop rooms inside every boundary. A **nuisance override** "
               "is a mission flight with activations > 0; **stalled** a mission that did not finish with activations "
-              "> 0 and no error; errors are counted apart.", "",
-              "| variant | missions | nuisance overrides | stalled by the geofence | errors |", "|---|---:|---:|---:|---:|"]
+              "> 0 and no error; errors are counted apart. **Passed the check**: missions the pre-flight check "
+              "(`geofence-testbed check`) passed; the check promises that these are never overridden.", "",
+              "| variant | missions | nuisance overrides | stalled by the geofence | errors | passed the check | "
+              "... and overridden anyway |", "|---|---:|---:|---:|---:|---:|---:|"]
     for v in VARIANTS:
         sel = [r for r in rows if r.get("variant") == v and is_mission(r)]
         if not sel:
             continue
         s = group_stats(sel)
-        lines.append(f"| {v} | {s.missions} | {s.nuisance_missions} | {s.stalled_missions} | {s.errors} |")
+        lines.append(f"| {v} | {s.missions} | {s.nuisance_missions} | {s.stalled_missions} | {s.errors} | "
+                     f"{s.checked_missions} | {s.checked_nuisance} |")
     lines.append("")
 
     lines += ["## Offending flights", ""]

@@ -10,7 +10,8 @@ frames in between, with the flight controller inside JSBSim):
     platform.command(cmd); recorder.append(...); platform.step(frames_per_step)
 
 The run stops at ``duration_s`` or two seconds after the pilot finished its
-mission. Files: ``<out>/<scenario>/trajectory.csv`` and ``summary.json``.
+mission. Files: ``<out>/<scenario>/trajectory.csv`` and ``summary.json`` (see
+:func:`write_result`: the folder is replaced as a whole).
 """
 
 from __future__ import annotations
@@ -18,6 +19,8 @@ from __future__ import annotations
 import json
 import math
 import os
+import shutil
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -28,6 +31,7 @@ from geofence.geodesy import LocalFrame
 from analysis.scoring import score_flight
 from geofence.unit import GeofenceUnit, Mode
 from scenarios.pilots import build_pilot
+from scenarios.preflight import findings_summary, preflight_findings
 from scenarios.recorder import Recorder
 from scenarios.schema import Scenario
 from wind.config import wind_from_config
@@ -141,6 +145,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         "error": error,
     }
     if unit is not None:
+        summary["preflight"] = findings_summary(preflight_findings(scenario))
         traj = {
             name: recorder.column(name)
             for name in ("time_s", "east_m", "north_m", "agl_m", "alt_m", "v_east_mps", "v_north_mps", "ground_speed_mps", "geofence_mode")
@@ -205,20 +210,114 @@ class _GeofenceSensing:
         return est, wind_en, valid, self.estimator.sigma_h_m, self.estimator.sigma_v_m
 
 
-def write_result(result: FlightResult, out_dir: Path, folder_name: str | None = None) -> Path:
-    """Write ``trajectory.csv`` then ``summary.json`` under ``out_dir/<scenario name>/``, each atomically.
+def write_result(
+    result: FlightResult,
+    out_dir: Path,
+    folder_name: str | None = None,
+    *,
+    scenario_text: str | None = None,
+    plot: bool = False,
+    scenario_hash: str | None = None,
+) -> Path:
+    """Write a flight's folder ``out_dir/<folder_name or scenario name>/``, replacing any previous one as a whole.
 
-    The summary is written last: its presence marks a finished flight.
+    Everything (``scenario.yaml`` when ``scenario_text`` is given, ``trajectory.csv``,
+    ``flight.png``/``.svg`` when ``plot``, then ``summary.json``) is written into a
+    temporary folder beside it, which is then swapped in: nothing of an earlier
+    flight of the same name (a stale ``flight.png``, ``attempts.json``) survives,
+    and a reader never sees a half-written folder. The summary gains
+    ``scenario_hash`` (the flight's identity, see :func:`scenarios.sweep.scenario_hash`;
+    computed from ``scenario.source`` when not given), ``incomplete_reason`` and
+    ``warnings`` (inconsistencies the scenario allowed).
     """
-    folder = Path(out_dir) / (folder_name or result.scenario.name)
-    folder.mkdir(parents=True, exist_ok=True)
-    tmp_csv = folder / ".trajectory.csv.tmp"
-    result.recorder.write_csv(tmp_csv)
-    os.replace(tmp_csv, folder / "trajectory.csv")
-    tmp_json = folder / ".summary.json.tmp"
-    tmp_json.write_text(json.dumps(_json_safe(result.summary), indent=2, allow_nan=False) + "\n")
-    os.replace(tmp_json, folder / "summary.json")
-    return folder
+    finalize_summary(result, scenario_hash)
+
+    def fill(folder: Path) -> None:
+        if scenario_text is not None:
+            (folder / "scenario.yaml").write_text(scenario_text)
+        result.recorder.write_csv(folder / "trajectory.csv")
+        if plot:
+            from analysis.plots import plot_result
+
+            plot_result(result, folder)
+        (folder / "summary.json").write_text(json.dumps(_json_safe(result.summary), indent=2, allow_nan=False) + "\n")
+
+    return replace_folder(Path(out_dir) / (folder_name or result.scenario.name), fill)
+
+
+def replace_folder(final: Path, fill: Callable[[Path], None]) -> Path:
+    """Let ``fill`` write a temporary folder beside ``final``, then swap it in for ``final`` (removing the old one)."""
+    final = Path(final)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=STAGING_SUFFIX, dir=final.parent))
+    try:
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(staging, 0o777 & ~umask)  # an ordinary folder, not mkdtemp's private 0700
+        fill(staging)
+        old = None
+        if final.is_dir() and not final.is_symlink():
+            old = Path(tempfile.mkdtemp(prefix=f".{final.name}.", suffix=STAGING_SUFFIX, dir=final.parent))
+            os.replace(final, old / "previous")
+        elif final.exists() or final.is_symlink():
+            final.unlink()
+        os.replace(staging, final)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return final
+
+
+STAGING_SUFFIX = ".tmp"
+"""Temporary flight folders are ``.<flight>.<random>.tmp`` beside the flight (removed, or swept at a batch's start)."""
+
+
+def finalize_summary(result: FlightResult, scenario_hash: str | None = None) -> dict[str, Any]:
+    """Add ``scenario_hash``, ``incomplete_reason`` and ``warnings`` to ``result.summary`` (in place); returns it."""
+    s = result.summary
+    sc = result.scenario
+    if scenario_hash is None and "scenario_hash" not in s:
+        scenario_hash = _hash_of_source(sc)
+    if scenario_hash is not None:
+        s["scenario_hash"] = scenario_hash
+    s["incomplete_reason"] = incomplete_reason(s, sc)
+    if sc.warnings:
+        s["warnings"] = list(sc.warnings)
+    return s
+
+
+def incomplete_reason(summary: dict[str, Any], scenario: Scenario) -> str | None:
+    """Why a flight did not complete, in one sentence (``None`` if it completed)."""
+    if summary.get("completed"):
+        return None
+    if summary.get("error"):
+        return f"the simulation stopped: {summary['error']}"
+    reason = "the flight did not run to its end"
+    if scenario.pilot.kind == "mission" and not summary.get("mission_finished"):
+        reason = (f"the mission was not finished within duration_s = {scenario.duration_s:g} s "
+                  f"(reached {summary.get('mission_progress', '?')} mission items)")
+    if summary.get("activations"):
+        reason += f"; the geofence overrode the pilot {summary['activations']} time(s) (final mode {summary.get('final_mode')})"
+    if scenario.warnings:
+        reason += "; the scenario allows: " + ", ".join(sorted(scenario.allow))
+    return reason
+
+
+def _hash_of_source(scenario: Scenario) -> str | None:
+    """The identity of a scenario loaded from a (non-sweep) file, or None."""
+    if scenario.source is None or not Path(scenario.source).is_file():
+        return None
+    from scenarios.errors import ConfigError
+    from scenarios.schema import read_document
+    from scenarios.sweep import expand
+
+    try:
+        specs = expand(read_document(scenario.source), str(scenario.source), Path(scenario.source).stem)
+    except ConfigError:
+        return None
+    return specs[0].scenario_hash if len(specs) == 1 else None
 
 
 def _json_safe(value):
@@ -232,9 +331,17 @@ def _json_safe(value):
     return value
 
 
-def run_scenario(scenario: Scenario, out_dir: Path, on_step: Callable[[float], None] | None = None) -> FlightResult:
-    """Fly a scenario and write its files; returns the result."""
+def run_scenario(
+    scenario: Scenario,
+    out_dir: Path,
+    on_step: Callable[[float], None] | None = None,
+    *,
+    plot: bool = False,
+    scenario_hash: str | None = None,
+) -> FlightResult:
+    """Fly a scenario and write its folder (see :func:`write_result`; ``scenario.yaml`` is a copy of its source file)."""
     result = fly(scenario, on_step=on_step)
-    write_result(result, out_dir)
+    text = Path(scenario.source).read_text() if scenario.source is not None and Path(scenario.source).is_file() else None
+    write_result(result, out_dir, scenario_text=text, plot=plot, scenario_hash=scenario_hash)
     return result
 

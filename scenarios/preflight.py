@@ -1,0 +1,98 @@
+"""The pre-flight mission check of a scenario: its mission as the unit will see it, through :mod:`geofence.preflight`.
+
+This module owns the translation from a scenario (mission items in WGS-84, the
+platform, the geofence configuration, the sensors) to what the check needs:
+the planned route in the fence's local frame, the planned speed, the expected
+wind (the geofence block's forecast ``wind_prior``), the unit's turbulence and
+gust allowance from that forecast, and its nominal uncertainty margins
+(``k·σ`` of the GNSS errors the sensors declare). The check itself, and what
+it guarantees, lives in :mod:`geofence.preflight`.
+
+Only missions are checked; a scripted or breach-attempt pilot has no plan.
+"""
+
+from __future__ import annotations
+
+import math
+
+from geofence.dynamics import envelope_at_density, isa_density_ratio
+from geofence.geodesy import LocalFrame
+from geofence.preflight import PlannedWaypoint, PreflightFinding, check_route
+from scenarios.schema import Scenario
+
+BUFFER_M = 2.0
+"""A mission passes when its activation margin stays above this everywhere (m): tracking errors, estimator noise."""
+
+
+def planned_route(scenario: Scenario, frame: LocalFrame) -> list[PlannedWaypoint]:
+    """The mission's positioned items as planned waypoints (ENU m, heights AGL as the mission gives them)."""
+    st = scenario.start
+    e0, n0 = 0.0, 0.0
+    h = st.agl_m
+    out = [PlannedWaypoint(e0, n0, h, "start")]
+    for i, item in enumerate(scenario.mission.items):
+        if item.lat_deg is not None:
+            e, n, _ = frame.to_enu(item.lat_deg, item.lon_deg, frame.h0_m)
+        else:
+            e, n = out[-1].east_m, out[-1].north_m
+        h = item.agl_m if item.agl_m is not None else out[-1].height_m
+        if item.kind == "land":
+            h = out[-1].height_m  # the descent itself is over the land point
+        radius = item.radius_m if item.kind == "loiter" else 0.0
+        if item.kind == "loiter" and radius <= 0.0:
+            radius = 1e-3  # the platform's default orbit (check_route takes max(radius, 1.5 R))
+        out.append(PlannedWaypoint(e, n, h, f"{i + 1}:{item.kind}", radius))
+    return out
+
+
+def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
+    """The findings of the pre-flight check, or None when the scenario has no mission or no geofence."""
+    cfg = scenario.geofence
+    if cfg is None or scenario.mission is None or scenario.pilot.kind != "mission":
+        return None
+    st = scenario.start
+    frame = LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m)
+    fence = cfg.fence.to_local(frame)
+    env = scenario.profile.envelope
+    env = envelope_at_density(env, isa_density_ratio(st.ground_alt_m + max(st.agl_m, 0.0)))
+    speed = scenario.mission.speed_mps or env.cruise_speed_mps
+    k = cfg.uncertainty_k_sigma
+    sensors = scenario.sensors
+    route = planned_route(scenario, frame)
+    if fence.altitude_reference == "amsl":
+        route = [PlannedWaypoint(w.east_m, w.north_m, w.height_m + st.ground_alt_m, w.label, w.loiter_radius_m) for w in route]
+    return check_route(
+        fence, env, route, speed,
+        wind_en=cfg.wind_prior_enu,
+        wind_extra_mps=cfg.turbulence_k_sigma * cfg.turbulence_sigma_mps + cfg.gust_mps,
+        h_uncertainty_m=k * sensors.gps_h_sigma_m + cfg.extra_margin_m,
+        v_uncertainty_m=k * sensors.gps_v_sigma_m + cfg.extra_margin_m,
+        buffer_m=BUFFER_M,
+    )
+
+
+def describe_findings(findings: list[PreflightFinding] | None) -> str:
+    """One line per finding (or a one-line verdict)."""
+    if findings is None:
+        return "pre-flight check: nothing to check (no mission with a geofence)"
+    if not findings:
+        return "pre-flight check: passed (the activation margin stays above %.0f m along the whole mission)" % BUFFER_M
+    lines = [f"pre-flight check: {len(findings)} place(s) where the geofence would override the mission:"]
+    lines += [f"  {f.describe()}" for f in findings]
+    return "\n".join(lines)
+
+
+def findings_summary(findings: list[PreflightFinding] | None) -> dict | None:
+    """The check's result for summary.json."""
+    if findings is None:
+        return None
+    return {
+        "passed": not findings,
+        "findings": [
+            {"part": f.part.value, "index": f.index, "label": f.label, "east_m": round(f.east_m, 1),
+             "north_m": round(f.north_m, 1), "height_m": round(f.height_m, 1),
+             "activation_margin_m": round(f.activation_margin_m, 2) if math.isfinite(f.activation_margin_m) else None,
+             "reason": f.reason}
+            for f in findings
+        ],
+    }
