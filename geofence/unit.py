@@ -68,6 +68,10 @@ ROLLOUT_CELL_M = 10.0
 """Cell size of the fixed-wing roll-out target cache (m)."""
 VERTICAL_CLEARANCE_M = 2.0
 """Below the floor inside a gap, the override climbs this far above the floor before it moves sideways."""
+DEAD_RECKONING_LANDING_MARGIN_M = 25.0
+"""With the position source lost, a multirotor lands in place only this far inside (else at the nearest point that is)."""
+FRESH_ESTIMATE_AGE_S = 0.5
+"""Dead reckoning starts from the last estimate whose GNSS data was at most this old (not a long extrapolation)."""
 DENSITY_REFRESH_M = 100.0
 """The envelope is re-scaled to the air density when the altitude moved this much (while monitoring)."""
 
@@ -269,9 +273,12 @@ class GeofenceUnit:
         fence = self.fence
         if fence.floor_m is None or not fence.floor_gaps:
             if self.env.is_multirotor:
-                if fence.lateral_margin_m(s.east_m, s.north_m) > LANDING_EDGE_MARGIN_M:
+                # without a position source, dead reckoning drifts: land only where there is room for it
+                need = LANDING_EDGE_MARGIN_M if self._position_valid else DEAD_RECKONING_LANDING_MARGIN_M
+                if fence.lateral_margin_m(s.east_m, s.north_m) > need:
                     return s.east_m, s.north_m
-                return fence.recovery_en
+                found = self._planner(self._route_clearances()[0]).safe_point_with_radius((s.east_m, s.north_m), need)
+                return found[0].en if found is not None else fence.recovery_en
             # a fixed-wing spirals down: the nearest point (by route) where its spiral fits inside
             r = self.landing.spiral_radius_m
             c = self._route_clearances()[0]
@@ -408,13 +415,17 @@ class GeofenceUnit:
         if turbulence_sigma_mps is not None:
             self._turbulence_est_mps = turbulence_sigma_mps
         self._position_valid = position_valid
-        if position_valid:
+        if position_valid and estimate_age_s <= FRESH_ESTIMATE_AGE_S:
             self._last_valid = est
             self.dead_reckoning.stop()
         elif self._last_valid is not None:
+            # fixes are missing: dead reckoning runs from the last fresh estimate (in the shadow while the
+            # estimator still extrapolates, in charge once it declares the position lost)
             if not self.dead_reckoning.active:
                 self.dead_reckoning.start(self._last_valid)
-            est = self.dead_reckoning.step(est, dt_s, (self.wind_enu[0], self.wind_enu[1]))
+            reckoned = self.dead_reckoning.step(est, dt_s, (self.wind_enu[0], self.wind_enu[1]))
+            if not position_valid:
+                est = reckoned
         self.estimate = est
         self._sigma_v_m = sigma_v_m
         if math.isfinite(sigma_h_m):
