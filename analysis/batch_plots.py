@@ -288,11 +288,13 @@ def plot_breach_distribution(rows: Sequence[Mapping], out_base: Path) -> list[Pa
 def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Path]:
     """Small multiples per platform and wind level; writes ``out_base`` .png and .svg.
 
-    Panels: breaches (count of the scored flights, labelled breaches/scored),
-    peak excursion (every flight as a dot, the mean as a bar, the max as a
-    triangle; m beyond the fence, fence line at 0), activations per flight
-    (mean) and mean recovery time (OVERRIDE to hand-back, s). Wind level on x,
-    one bar/column per platform, one shared platform legend.
+    Panels: breaches (count of the scored flights, labelled breaches/scored;
+    "no breaches" written in the panel when there are none), activations per
+    flight (mean), the peak lateral excursion and the peak vertical excursion
+    in separate panels (every flight as a dot, the mean as a bar, the max as a
+    triangle; m beyond the fence, fence line at 0; never mixed), and mean
+    recovery time (OVERRIDE to hand-back, s). Wind level on x, one
+    bar/column per platform, every bar labelled with its platform, one key.
     """
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
@@ -303,14 +305,47 @@ def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Pa
     levels_all, level_of = wind_levels(rows)
     levels = [w for w in levels_all if any(s["wind"] == w for s in stats)]
     colour = _colours(platforms)
-    fig, axes = plt.subplots(2, 2, figsize=(12, 8.4), layout="constrained")
-    ax_b, ax_e, ax_a, ax_r = axes.ravel()
+    fig, axes = plt.subplots(3, 2, figsize=(12, 11.5), layout="constrained")
+    ax_b, ax_a, ax_lat, ax_vert, ax_r, ax_key = axes.ravel()
+    ax_key.axis("off")
+    axes = np.array([ax_b, ax_a, ax_lat, ax_vert, ax_r])
     x = np.arange(len(levels))
     width = 0.8 / max(1, len(platforms))
     table = {(s["platform"], s["wind"]): s for s in stats}
 
     def offsets(i: int) -> np.ndarray:
         return x - 0.4 + width * (i + 0.5)
+
+    def excursion_panel(ax, good, key: str, axis: str) -> None:
+        """Every flight's peak excursion along one axis as a dot, the mean as a bar, the max as a triangle."""
+        rng = np.random.default_rng(0)
+        any_data = False
+        for i, p in enumerate(platforms):
+            xs = offsets(i)
+            for j, w in enumerate(levels):
+                vals = np.array([num(r.get(key)) for r in good if platform_of(r) == p and level_of(r) == w])
+                vals = vals[np.isfinite(vals)]
+                if not len(vals):
+                    continue
+                any_data = True
+                jitter = rng.uniform(-0.28, 0.28, len(vals)) * width
+                ax.scatter(xs[j] + jitter, vals, s=14, color=colour[p], alpha=0.55, edgecolors="none", zorder=3)
+                ax.hlines(vals.mean(), xs[j] - 0.42 * width, xs[j] + 0.42 * width, color=colour[p], lw=3, zorder=4)
+                ax.plot(xs[j], vals.max(), marker="v", ms=9, color=colour[p], markeredgecolor="black", ls="none", zorder=5)
+                ax.annotate(p.split(" (")[0], (xs[j], vals.max()), xytext=(0, 7), textcoords="offset points",
+                            ha="center", va="bottom", fontsize="x-small", color=colour[p])
+        ax.axhline(0.0, **FENCE_STYLE)
+        if not any_data:
+            _no_data(ax, f"no {axis} excursions recorded")
+        lo, hi = ax.get_ylim()
+        hi = max(hi, 0.15 * (hi - lo), 0.5)
+        lo, hi = lo - 0.04 * (hi - lo), hi + 0.10 * (hi - lo)
+        ax.axhspan(0.0, hi, color="tab:red", alpha=0.08)
+        ax.set_ylim(lo, hi)
+        what = "edge or keep-out" if axis == "lateral" else "ceiling or floor"
+        ax.set_ylabel(f"peak {axis} excursion (m)")
+        ax.set_title(f"peak {axis} excursion beyond the {what}\n(< 0: closest approach, stayed inside by that much)",
+                     fontsize="medium")
 
     def bars(ax, key: str, fmt: str, label_total: bool = False) -> None:
         for i, p in enumerate(platforms):
@@ -322,6 +357,7 @@ def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Pa
                 text = "–" if not math.isfinite(v) else fmt.format(v)
                 if label_total:
                     text += f"/{table[(p, w)]['scored']}"
+                text = f"{p.split(' (')[0]}\n{text}"
                 ax.annotate(text, (rect.get_x() + rect.get_width() / 2, max(rect.get_height(), 0.0)),
                             xytext=(0, 2), textcoords="offset points", ha="center", va="bottom", fontsize="small")
         ax.set_ylim(0, max(ax.get_ylim()[1], 1e-9) * 1.18)
@@ -333,34 +369,14 @@ def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Pa
         bars(ax_b, "breaches", "{:.0f}", label_total=True)
         ax_b.set_ylim(0, max([s["breaches"] for s in stats] + [1]) * 1.25)
         if not any(s["breaches"] for s in stats):
-            ax_b.text(0.5, 0.5, "no breaches", transform=ax_b.transAxes, ha="center", va="center",
-                      color="tab:green", fontsize="large")
+            ax_b.text(0.5, 0.55, f"no breaches in {sum(s['scored'] for s in stats)} scored flights", transform=ax_b.transAxes,
+                      ha="center", va="center", color="tab:green", fontsize="large", fontweight="bold")
         ax_b.set_ylabel("flights with a breach")
         ax_b.set_title("breaches (peak excursion > 0 m; labels: breaches/scored)", fontsize="medium")
 
-        rng = np.random.default_rng(0)
         good = [r for r in rows if is_scored(r) and not is_failed(r)]
-        for i, p in enumerate(platforms):
-            xs = offsets(i)
-            for j, w in enumerate(levels):
-                if (p, w) not in table:
-                    continue
-                vals = np.array([num(r["max_excursion_m"]) for r in good if platform_of(r) == p and level_of(r) == w])
-                jitter = rng.uniform(-0.28, 0.28, len(vals)) * width
-                ax_e.scatter(xs[j] + jitter, vals, s=14, color=colour[p], alpha=0.55, edgecolors="none", zorder=3)
-                st = table[(p, w)]
-                ax_e.hlines(st["mean_peak_excursion_m"], xs[j] - 0.42 * width, xs[j] + 0.42 * width,
-                            color=colour[p], lw=3, zorder=4)
-                ax_e.plot(xs[j], st["max_peak_excursion_m"], marker="v", ms=9, color=colour[p],
-                          markeredgecolor="black", ls="none", zorder=5)
-        ax_e.axhline(0.0, **FENCE_STYLE)
-        lo, hi = ax_e.get_ylim()
-        hi = max(hi, 0.15 * (hi - lo), 0.5)
-        lo, hi = lo - 0.04 * (hi - lo), hi + 0.06 * (hi - lo)
-        ax_e.axhspan(0.0, hi, color="tab:red", alpha=0.08)
-        ax_e.set_ylim(lo, hi)
-        ax_e.set_ylabel("peak excursion beyond the fence (m)")
-        ax_e.set_title("peak excursion per flight (< 0: stayed inside by that much)", fontsize="medium")
+        for ax, key, axis in ((ax_lat, "max_lateral_excursion_m", "lateral"), (ax_vert, "max_vertical_excursion_m", "vertical")):
+            excursion_panel(ax, good, key, axis)
         bars(ax_a, "mean_activations", "{:.1f}")
         ax_a.set_ylabel("activations per flight (mean)")
         ax_a.set_title("geofence activations (entries into OVERRIDE)", fontsize="medium")
@@ -381,7 +397,6 @@ def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Pa
             Line2D([], [], **FENCE_STYLE, label="fence line"),
             Patch(color="tab:red", alpha=0.15, label="beyond the fence"),
         ]
-        fig.legend(handles=keys, loc="outside lower center", ncol=min(len(keys), 5 if len(platforms) > 3 else 8),
-                   frameon=False, fontsize="small")
+        ax_key.legend(handles=keys, loc="center", ncol=2, frameon=False, fontsize="small", title="key")
     fig.suptitle(f"Platform comparison by wind level ({_counts_note(rows)})")
     return _save(fig, out_base)

@@ -1,11 +1,24 @@
 """The activation ("shifted") boundary as a field on a grid, for plots.
 
 The geofence acts at a boundary that depends on the state; for a picture we
-draw the representative one: every keep-in edge moved inward by the room the
-platform needs when it approaches that edge head-on at cruise speed in the
-given steady wind (so the downwind edges move in further). The field is
-``min_i(distance to edge i - shift_i)`` inside the keep-in polygon; its zero
-contour is the activation boundary (exact for concave polygons too).
+draw it for one speed and one steady wind (by default the platform's cruise
+speed; :mod:`analysis.plots` passes the speed and wind recorded at each
+activation): every boundary is moved toward the allowed side by the room the
+platform needs when it approaches that boundary head-on at that speed in that
+wind (so the downwind edges move further):
+
+* keep-in edges move inward;
+* keep-out polygons grow outward (each edge by the room for a head-on
+  approach from outside);
+* keep-out circles grow outward, the room at each point for an approach
+  straight at the centre (the wind component along that line varies around
+  the circle, so the grown circle is not a circle in wind).
+
+The field is ``min(distance to the boundary - room)`` over every boundary,
+positive on the allowed side; its zero contour is the activation boundary
+(exact for concave polygons too). The unit's own boundary also includes its
+uncertainty margin and wind allowance, and the approach angle; this field is
+the head-on one without them.
 """
 
 from __future__ import annotations
@@ -18,24 +31,49 @@ from geofence.fence import LocalFence
 from geofence.interface import Envelope
 
 
-def edge_shifts_m(fence: LocalFence, env: Envelope, wind_en: tuple[float, float]) -> np.ndarray:
-    """Per keep-in edge: the room (m) needed for a head-on approach at cruise speed in the wind."""
+def room_m(env: Envelope, speed_mps: float, wind_toward_mps: float, wind_speed_mps: float) -> float:
+    """Room (m) to stop or turn back in a head-on approach at ``speed_mps``.
+
+    ``speed_mps``: airspeed for a fixed-wing, ground speed for a multirotor;
+    ``wind_toward_mps``: the wind component toward the boundary (+ tailwind).
+    """
+    if env.is_multirotor:
+        push = wind_push_mps2(*drag_coefficients(env), wind_speed_mps, float(wind_toward_mps))
+        return multicopter_stopping_distance_m(speed_mps, env.reaction_time_s, env.braking_decel_mps2, speed_mps, push)
+    return fixed_wing_room_m(speed_mps, env.max_bank_rad, 0.0, float(wind_toward_mps), env.reaction_time_s)
+
+
+def _speed(env: Envelope, speed_mps: float | None) -> float:
+    return env.cruise_speed_mps if speed_mps is None or not np.isfinite(speed_mps) else float(speed_mps)
+
+
+def edge_shifts_m(fence: LocalFence, env: Envelope, wind_en: tuple[float, float], speed_mps: float | None = None) -> np.ndarray:
+    """Per keep-in edge: the room (m) needed for a head-on approach at ``speed_mps`` (default cruise) in the wind."""
     normals = fence.keep_in.outward_normals
     w_n = normals @ np.asarray(wind_en, dtype=float)
     wind_speed = float(np.hypot(*wind_en))
-    v = env.cruise_speed_mps
-    shifts = []
-    for wn in w_n:
-        if env.is_multirotor:
-            push = wind_push_mps2(*drag_coefficients(env), wind_speed, float(wn))
-            shifts.append(multicopter_stopping_distance_m(v, env.reaction_time_s, env.braking_decel_mps2, v, push))
-        else:
-            shifts.append(fixed_wing_room_m(v, env.max_bank_rad, 0.0, float(wn), env.reaction_time_s))
-    return np.asarray(shifts)
+    v = _speed(env, speed_mps)
+    return np.asarray([room_m(env, v, float(wn), wind_speed) for wn in w_n])
 
 
-def activation_field(fence: LocalFence, env: Envelope, wind_en: tuple[float, float], resolution: int = 220):
-    """(E, N, field) grids over the keep-in bounding box; field < 0 outside the activation boundary."""
+def _segment_distances(poly, pts: np.ndarray) -> np.ndarray:
+    """(points, edges) distances from each point to each edge of a polygon index."""
+    a = poly.starts[None, :, :]
+    d = (poly.ends - poly.starts)[None, :, :]
+    p = pts[:, None, :]
+    t = np.clip(((p - a) * d).sum(-1) / (d * d).sum(-1), 0.0, 1.0)
+    return np.linalg.norm(p - (a + t[..., None] * d), axis=-1)
+
+
+def activation_field(
+    fence: LocalFence, env: Envelope, wind_en: tuple[float, float], resolution: int = 220, speed_mps: float | None = None
+):
+    """(E, N, field) grids over the keep-in bounding box; field < 0 outside the activation boundary.
+
+    Keep-in edges, keep-out polygons and keep-out circles, each with its own
+    head-on room at ``speed_mps`` (airspeed for a fixed-wing, ground speed for a
+    multirotor; default cruise) in the steady wind ``wind_en`` (m/s toward E, N).
+    """
     k = fence.keep_in
     x0, y0, x1, y1 = k.bbox
     pad = 0.05 * max(x1 - x0, y1 - y0)
@@ -43,13 +81,30 @@ def activation_field(fence: LocalFence, env: Envelope, wind_en: tuple[float, flo
     n = np.linspace(y0 - pad, y1 + pad, resolution)
     E, N = np.meshgrid(e, n)
     pts = np.column_stack([E.ravel(), N.ravel()])
-    shifts = edge_shifts_m(fence, env, wind_en)
-    a = k.starts[None, :, :]
-    d = (k.ends - k.starts)[None, :, :]
-    p = pts[:, None, :]
-    t = np.clip(((p - a) * d).sum(-1) / (d * d).sum(-1), 0.0, 1.0)
-    dist = np.linalg.norm(p - (a + t[..., None] * d), axis=-1)
+    wind = np.asarray(wind_en, dtype=float)
+    wind_speed = float(np.hypot(*wind))
+    v = _speed(env, speed_mps)
+
+    shifts = edge_shifts_m(fence, env, wind_en, v)
+    dist = _segment_distances(k, pts)
     field = (dist - shifts[None, :]).min(axis=1)
-    inside = k.contains_array(pts)
-    field = np.where(inside, field, -dist.min(axis=1))
+    field = np.where(k.contains_array(pts), field, -dist.min(axis=1))
+
+    for poly in fence.keep_out_polygons:
+        # approaching from outside: the aircraft moves along the inward normal, so the tailwind is -(n . w)
+        sh = np.asarray([room_m(env, v, float(-wn), wind_speed) for wn in poly.outward_normals @ wind])
+        d = _segment_distances(poly, pts)
+        f = (d - sh[None, :]).min(axis=1)
+        field = np.minimum(field, np.where(poly.contains_array(pts), -d.min(axis=1), f))
+
+    if fence.keep_out_circles:
+        # room as a function of the tailwind component, interpolated (it is smooth and monotone in it)
+        w_grid = np.linspace(-wind_speed, wind_speed, 41) if wind_speed > 0 else np.zeros(1)
+        r_grid = np.asarray([room_m(env, v, float(w), wind_speed) for w in w_grid])
+        for ce, cn, r in fence.keep_out_circles:
+            rel = np.asarray([ce, cn]) - pts
+            dc = np.linalg.norm(rel, axis=1)
+            toward = (rel @ wind) / np.maximum(dc, 1e-9)
+            sh = np.interp(toward, w_grid, r_grid) if len(w_grid) > 1 else np.full(len(pts), r_grid[0])
+            field = np.minimum(field, (dc - r) - np.where(dc > r, sh, 0.0))
     return E, N, field.reshape(E.shape)

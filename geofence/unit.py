@@ -451,6 +451,7 @@ class GeofenceUnit:
 
         monitoring = mode is Mode.MONITOR or mode is Mode.RECOVERED
         if monitoring and self.config.trigger == "predictive" and self._far_from_everything(est, h, sigma_h_m, sigma_v_m, dt_s):
+            self.activation_margin_m = math.inf  # larger than any room: not computed in detail
             if mode is Mode.RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
                 self._switch(t_s, Mode.MONITOR, "hand-back complete")
             return pilot
@@ -492,11 +493,14 @@ class GeofenceUnit:
     def _handback_ok(self, s: VehicleState, r: ShiftResult, act: float) -> bool:
         re, rn = self.fence.recovery_en
         at_point = math.hypot(re - s.east_m, rn - s.north_m) <= self.config.recovery_radius_m
+        # each axis against its own hysteresis: the vertical goal height leaves only the vertical one
         if self.config.trigger == "predictive":
             vertical_ok = r.vertical_activation_m >= self._vertical_handback_m
+            lateral = r.lateral_activation_m
         else:
             vertical_ok = min(r.ceiling_margin_m, r.floor_margin_m) > 0.0
-        lateral_ok = act >= self.config.handback_margin_m and r.closing_speed_mps <= 0.0
+            lateral = r.lateral_margin_m - self.config.extra_margin_m
+        lateral_ok = lateral >= self.config.handback_margin_m and r.closing_speed_mps <= 0.0
         return vertical_ok and (lateral_ok or at_point)
 
     def _safe_to_descend(self, s: VehicleState) -> bool:
