@@ -98,26 +98,59 @@ def _quiet_native_output():
             os.close(fd)
 
 
+TEMP_PREFIX = "gft-jsbsim-"
+"""Prefix of the temporary model folders (in :func:`tempfile.gettempdir`)."""
+
+_LIVE_ROOTS: set[Path] = set()
+"""Temporary model folders that exist right now (only while a model loads)."""
+
+
+def _remove_root(root: Path) -> None:
+    shutil.rmtree(root, ignore_errors=True)
+    _LIVE_ROOTS.discard(root)
+
+
+def remove_temporary_folders() -> None:
+    """Remove every temporary model folder this process still holds (at exit, on SIGTERM in a worker)."""
+    for root in list(_LIVE_ROOTS):
+        _remove_root(root)
+
+
+atexit.register(remove_temporary_folders)
+
+
 class JSBSimModel:
     """One JSBSim aircraft, stepped at a fixed rate, with SI accessors.
 
     ``dt_s`` is the JSBSim frame time (default 1/120 s). ``extra_systems`` are
     paths of JSBSim ``<system>`` XML files appended to the model.
+
+    The model is mirrored into a temporary folder (``gft-jsbsim-*``) only for
+    the load: the folder is removed as soon as JSBSim has read it (and on an
+    exception, at interpreter exit, or by :func:`remove_temporary_folders` in
+    a batch worker's SIGTERM handler), so none is left behind. :meth:`close`
+    (or ``with JSBSimModel(...) as m:``) releases the JSBSim instance.
     """
 
     def __init__(self, name: str, dt_s: float = 1.0 / 120.0, extra_systems: list[Path] | None = None):
         self.name = name
         self.dt_s = dt_s
-        self._root = Path(tempfile.mkdtemp(prefix="gft-jsbsim-"))
-        atexit.register(shutil.rmtree, self._root, ignore_errors=True)
-        _mirror_with_systems(name, list(extra_systems or []), self._root)
-        with _quiet_native_output():
-            fdm = jsbsim.FGFDMExec(str(self._root))
-            fdm.set_debug_level(0)
-            fdm.set_engine_path(str(JSBSIM_ROOT / "engine"))
-            fdm.set_systems_path(str(JSBSIM_ROOT / "systems"))
-            fdm.set_dt(dt_s)
-            loaded = fdm.load_model(name)
+        self.closed = False
+        self._root = Path(tempfile.mkdtemp(prefix=TEMP_PREFIX))
+        _LIVE_ROOTS.add(self._root)
+        try:
+            _mirror_with_systems(name, list(extra_systems or []), self._root)
+            with _quiet_native_output():
+                fdm = jsbsim.FGFDMExec(str(self._root))
+                fdm.set_debug_level(0)
+                fdm.set_engine_path(str(JSBSIM_ROOT / "engine"))
+                fdm.set_systems_path(str(JSBSIM_ROOT / "systems"))
+                fdm.set_dt(dt_s)
+                loaded = fdm.load_model(name)
+        finally:
+            # JSBSim has read every file it needs (model, engines, systems) once load_model returns,
+            # so the mirror goes at once: no folder outlives the load, even if the process is killed later
+            _remove_root(self._root)
         if not loaded:
             raise UnknownAircraftError(f"JSBSim could not load aircraft model {name!r}")
         self.fdm = fdm
@@ -163,6 +196,23 @@ class JSBSimModel:
         self.node(prop).set_double_value(float(value))
 
     # -- lifecycle -----------------------------------------------------------
+    def close(self) -> None:
+        """Release the JSBSim instance and any temporary folder; idempotent."""
+        if self.closed:
+            return
+        self.closed = True
+        _remove_root(self._root)
+        self._nodes.clear()
+        self._truth_nodes = self._truth_getters = self._wind_nodes = ()
+        self._pm = None
+        self.fdm = None
+
+    def __enter__(self) -> "JSBSimModel":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
     def reset(
         self,
         frame: LocalFrame,

@@ -408,6 +408,11 @@ def run(out_dir: Path, fly_flights: bool = True, reactive_path: Path = REACTIVE_
             from scenarios.schema import load_scenario
 
             name = load_scenario(path).name
+            if not (out_dir / name / "trajectory.csv").is_file():
+                from scenarios.errors import ConfigError
+
+                raise ConfigError(f"{out_dir}: --no-fly: no flight {name!r} to re-analyse here (no {name}/trajectory.csv); "
+                                  f"run without --no-fly to fly it first")
             analyses.append(analyse_folder(out_dir / name, path))
     reactive, predictive = analyses
     figures = plot_all(reactive, predictive, out_dir)

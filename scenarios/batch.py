@@ -4,12 +4,22 @@
   :func:`plan` expands each (sweeps included) into :class:`FlightSpec` s.
 * :func:`run_batch` flies the specs on local processes (default: all cores)
   or on a Dask cluster, with a progress bar (done/total, failures, ETA).
-* Every finished flight is written atomically into ``<out>/<flight_id>/``
-  (``scenario.yaml``, ``trajectory.csv``, ``summary.json`` last, which marks
-  it done). Re-running the same command skips finished flights; a crash or
-  Ctrl-C keeps them. A flight that fails (bad configuration, divergence, an
-  exception) gets a ``summary.json`` with ``completed: false`` and the
+* Every finished flight is written into a temporary folder beside
+  ``<out>/<flight_id>/`` and swapped in as a whole (``scenario.yaml``,
+  ``trajectory.csv``, figures, ``summary.json``), so a folder is either the
+  complete result of one flight or absent. Its ``summary.json`` holds the
+  flight's ``scenario_hash`` (sha256 of the resolved scenario and the version,
+  :func:`scenarios.sweep.scenario_hash`): re-running skips only flights whose
+  stored hash matches, and flies an edited scenario again. A crash or Ctrl-C
+  keeps finished flights. A flight that fails (bad configuration, divergence,
+  an exception) gets a ``summary.json`` with ``completed: false`` and the
   ``error``, and the batch goes on.
+* Refused up front (:class:`ConfigError`, nothing flown): two flights with the
+  same name, a sweep whose structure or dotted paths are wrong, an unreachable
+  Dask scheduler.
+* Temporary JSBSim model folders never outlive a model's load
+  (:mod:`aircraft.jsbsim_model`); a worker that gets SIGTERM removes any
+  in-progress one before it exits.
 * At the end, ``results.csv`` (one row per flight) and ``report.md`` with
   figures are (re)written from all summaries in the folder.
 """
@@ -41,6 +51,10 @@ class BatchOutcome:
     skipped: int
     flown: int
     failed: list[str] = field(default_factory=list)
+    changed: int = 0
+    """Flights whose stored result was of another version of the scenario: flown again."""
+    reasons: dict[str, str] = field(default_factory=dict)
+    """Why each failed flight did not complete (its ``incomplete_reason``)."""
     interrupted: bool = False
     wall_time_s: float = 0.0
 
@@ -59,53 +73,94 @@ def discover(paths: Iterable[str | Path]) -> list[Path]:
 
 
 def plan(files: Iterable[Path]) -> list[FlightSpec]:
-    """Expand files into flights; a file that cannot be read or expanded becomes one failed spec."""
+    """Expand files into flights.
+
+    A file that cannot be read becomes one failed spec (recorded, the batch goes on); a sweep that
+    cannot be expanded (bad structure, a dotted path that points nowhere) and two flights with the
+    same name are refused up front with a :class:`ConfigError`.
+    """
     from scenarios.schema import read_document
 
     specs: list[FlightSpec] = []
     for path in files:
         try:
             raw = read_document(path)
-            specs.extend(expand(raw, str(path), path.stem))
         except ConfigError as exc:
             specs.append(FlightSpec(path.stem, None, str(path), error=str(exc)))
+            continue
+        specs.extend(expand(raw, str(path), path.stem))
+    check_unique_names(specs)
+    return specs
+
+
+def check_unique_names(specs: Iterable[FlightSpec]) -> None:
+    """Two flights of one invocation must not write the same folder: refuse, naming both files."""
     seen: dict[str, str] = {}
-    unique = []
     for spec in specs:
         if spec.flight_id in seen:
-            msg = f"{spec.source}: name: flight {spec.flight_id!r} is also defined in {seen[spec.flight_id]}"
-            unique.append(FlightSpec(f"{spec.flight_id}__dup{len(unique)}", None, spec.source, error=msg))
-            continue
+            first = seen[spec.flight_id]
+            where = f"{spec.source} and {first}" if spec.source != first else spec.source
+            raise ConfigError(f"{spec.source}: name: flight {spec.flight_id!r} is defined twice ({where}); names must be unique in one run")
         seen[spec.flight_id] = spec.source
-        unique.append(spec)
-    return unique
 
 
-def is_done(out_dir: Path, flight_id: str) -> bool:
-    return (Path(out_dir) / flight_id / SUMMARY).is_file()
+@dataclass
+class ResumeState:
+    """Which specs already have a matching result in the output folder."""
+
+    done: list[FlightSpec] = field(default_factory=list)
+    changed: list[FlightSpec] = field(default_factory=list)
+    """A result exists, but of another version of the scenario (or without a hash): flown again."""
+    new: list[FlightSpec] = field(default_factory=list)
+
+
+def resume_state(specs: Iterable[FlightSpec], out_dir: Path) -> ResumeState:
+    state = ResumeState()
+    for spec in specs:
+        stored = stored_hash(out_dir, spec.flight_id)
+        if stored is None:
+            state.new.append(spec)
+        elif stored == spec.scenario_hash:
+            state.done.append(spec)
+        else:
+            state.changed.append(spec)
+    return state
+
+
+def stored_hash(out_dir: Path, flight_id: str) -> str | None:
+    """The ``scenario_hash`` of the result in ``out_dir/flight_id`` ("" if it has none); None without a result."""
+    path = Path(out_dir) / flight_id / SUMMARY
+    if not path.is_file():
+        return None
+    try:
+        return str(json.loads(path.read_text()).get("scenario_hash") or "")
+    except (OSError, ValueError, AttributeError):
+        return ""
+
+
+def is_done(out_dir: Path, spec: FlightSpec) -> bool:
+    """True if ``out_dir`` holds this exact flight's result (same name and same scenario hash)."""
+    return stored_hash(out_dir, spec.flight_id) == spec.scenario_hash
 
 
 def fly_spec(spec: FlightSpec, out_dir: str, flight_plots: bool = False) -> dict:
     """Fly one spec and write its folder; never raises (failures are written as a failed summary)."""
-    from scenarios.runner import fly, write_result
+    from scenarios.runner import fly, replace_folder, write_result
     from scenarios.schema import parse_scenario
 
-    folder = Path(out_dir) / spec.flight_id
-    folder.mkdir(parents=True, exist_ok=True)
+    final = Path(out_dir) / spec.flight_id
     t0 = time.perf_counter()
     try:
         if spec.error:
             raise ConfigError(spec.error)
-        _atomic_write(folder / "scenario.yaml", yaml.safe_dump(spec.document, sort_keys=False))
         scenario = parse_scenario(spec.document, where=spec.source, default_name=spec.flight_id)
         result = fly(scenario)
         result.summary["flight"] = spec.flight_id
         result.summary["source"] = spec.source
-        if flight_plots:  # before the summary, which marks the flight done
-            from analysis.plots import plot_result
-
-            plot_result(result, folder)
-        write_result(result, out_dir, folder_name=spec.flight_id)
+        write_result(
+            result, out_dir, folder_name=spec.flight_id, scenario_text=yaml.safe_dump(spec.document, sort_keys=False),
+            plot=flight_plots, scenario_hash=spec.scenario_hash,
+        )
         return result.summary
     except Exception as exc:  # a failed flight is a result, not a crash of the batch
         kind = "bad configuration" if isinstance(exc, ValueError) else type(exc).__name__
@@ -115,18 +170,34 @@ def fly_spec(spec: FlightSpec, out_dir: str, flight_plots: bool = False) -> dict
             "source": spec.source,
             "completed": False,
             "error": f"{kind}: {exc}",
+            "incomplete_reason": f"{kind}: {exc}",
+            "scenario_hash": spec.scenario_hash,
             "wall_time_s": round(time.perf_counter() - t0, 3),
         }
-        if not isinstance(exc, ConfigError):
-            _atomic_write(folder / "error.txt", traceback.format_exc())
-        _atomic_write(folder / SUMMARY, json.dumps(summary, indent=2) + "\n")
+        trace = None if isinstance(exc, ConfigError) else traceback.format_exc()
+
+        def fill(folder: Path) -> None:
+            if spec.document is not None:
+                (folder / "scenario.yaml").write_text(yaml.safe_dump(spec.document, sort_keys=False))
+            if trace is not None:
+                (folder / "error.txt").write_text(trace)
+            (folder / SUMMARY).write_text(json.dumps(summary, indent=2) + "\n")
+
+        replace_folder(final, fill)
         return summary
 
 
-def _atomic_write(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    os.replace(tmp, path)
+def remove_stale_staging(out_dir: Path) -> None:
+    """Remove temporary flight folders (``.<flight>.*.tmp``) a killed run left behind."""
+    import shutil
+
+    from scenarios.runner import STAGING_SUFFIX
+
+    for p in Path(out_dir).glob(f".*{STAGING_SUFFIX}"):
+        if p.is_dir():
+            shutil.rmtree(p, ignore_errors=True)
+        else:
+            p.unlink(missing_ok=True)
 
 
 def run_batch(
@@ -141,16 +212,23 @@ def run_batch(
 ) -> BatchOutcome:
     """Fly every spec not already done in ``out_dir``; see the module docstring."""
     out_dir = Path(out_dir)
+    check_unique_names(specs)
     out_dir.mkdir(parents=True, exist_ok=True)
-    todo = [s for s in specs if not is_done(out_dir, s.flight_id)]
-    outcome = BatchOutcome(total=len(specs), skipped=len(specs) - len(todo), flown=0)
+    remove_stale_staging(out_dir)
+    state = resume_state(specs, out_dir)
+    done = {s.flight_id for s in state.done}
+    todo = [s for s in specs if s.flight_id not in done]
+    outcome = BatchOutcome(total=len(specs), skipped=len(done), flown=0, changed=len(state.changed))
     t0 = time.perf_counter()
+    client = _dask_client(scheduler) if executor == "dask" and todo else None  # refused before any progress is shown
     bar = _bar(len(specs), outcome.skipped, progress)
 
     def finished(summary: dict) -> None:
         outcome.flown += 1
         if not summary.get("completed"):
-            outcome.failed.append(summary.get("flight", "?"))
+            flight = summary.get("flight", "?")
+            outcome.failed.append(flight)
+            outcome.reasons[flight] = str(summary.get("incomplete_reason") or summary.get("error") or "")
         if bar is not None:
             bar.update(1)
             bar.set_postfix_str(f"failed {len(outcome.failed)}")
@@ -160,8 +238,8 @@ def run_batch(
     try:
         if not todo:
             pass
-        elif executor == "dask":
-            _run_dask(todo, out_dir, scheduler, finished, flight_plots)
+        elif client is not None:
+            _run_dask(todo, out_dir, client, finished, flight_plots)
         elif (jobs or os.cpu_count() or 1) == 1:
             for spec in todo:
                 finished(fly_spec(spec, str(out_dir), flight_plots))
@@ -177,8 +255,20 @@ def run_batch(
 
 
 def _ignore_sigint() -> None:
-    """Workers leave Ctrl-C to the parent, which cancels what has not started; running flights finish."""
+    """Workers leave Ctrl-C to the parent, which cancels what has not started; running flights finish.
+
+    On SIGTERM a worker removes its temporary files (a JSBSim model folder being loaded) and exits at once:
+    a pool worker does not run ``atexit`` handlers.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _worker_sigterm)
+
+
+def _worker_sigterm(signum, frame) -> None:  # pragma: no cover - runs in a worker being killed
+    from aircraft.jsbsim_model import remove_temporary_folders
+
+    remove_temporary_folders()
+    os._exit(128 + signum)
 
 
 def _run_processes(todo: list[FlightSpec], out_dir: Path, jobs: int, finished: Callable[[dict], None], flight_plots: bool) -> None:
@@ -202,16 +292,21 @@ def _run_processes(todo: list[FlightSpec], out_dir: Path, jobs: int, finished: C
         pool.shutdown(wait=False, cancel_futures=True)
 
 
-def _run_dask(
-    todo: list[FlightSpec], out_dir: Path, scheduler: str | None, finished: Callable[[dict], None], flight_plots: bool
-) -> None:
-    try:
-        from dask.distributed import Client, as_completed
-    except ImportError:
-        raise ConfigError("--executor dask: dask.distributed is not installed (pip install 'geofence-testbed[dask]')") from None
+def _dask_client(scheduler: str | None):
     if not scheduler:
         raise ConfigError("--executor dask: give the cluster with --scheduler ADDRESS (e.g. tcp://127.0.0.1:8786)")
-    with Client(scheduler) as client:
+    _probe_scheduler(scheduler)  # before the slow import of dask
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise ConfigError("--executor dask: dask.distributed is not installed (pip install 'geofence-testbed[dask]')") from None
+    return connect_dask(Client, scheduler)
+
+
+def _run_dask(todo: list[FlightSpec], out_dir: Path, client, finished: Callable[[dict], None], flight_plots: bool) -> None:
+    from dask.distributed import as_completed
+
+    with client:
         futures = [
             client.submit(fly_spec, spec, str(out_dir), flight_plots, key=f"flight-{spec.flight_id}", pure=False) for spec in todo
         ]
@@ -220,6 +315,47 @@ def _run_dask(
                 finished(fut.result())
         finally:
             client.cancel(futures)
+
+
+DASK_CONNECT_TIMEOUT_S = 10.0
+
+
+def connect_dask(client_cls, scheduler: str):
+    """A Dask client of ``scheduler``, or a one-line :class:`ConfigError` (see also :func:`_probe_scheduler`)."""
+    import logging
+
+    where = f"--scheduler {scheduler}"
+    quiet = logging.getLogger("distributed")
+    level = quiet.level
+    quiet.setLevel(logging.CRITICAL)  # the connection failure is reported below, once
+    try:
+        return client_cls(scheduler, timeout=DASK_CONNECT_TIMEOUT_S)
+    except (OSError, TimeoutError, ValueError) as exc:
+        first = (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise ConfigError(f"{where}: cannot reach the Dask scheduler ({first})") from None
+    finally:
+        quiet.setLevel(level)
+
+
+def _probe_scheduler(scheduler: str) -> None:
+    """A TCP address where nothing listens is refused at once (instead of the client's connect timeout)."""
+    import socket
+    from urllib.parse import urlsplit
+
+    where = f"--scheduler {scheduler}"
+    parts = urlsplit(scheduler if "://" in scheduler else f"tcp://{scheduler}")
+    if parts.scheme not in ("tcp", "tls"):
+        return
+    try:
+        host, port = parts.hostname, parts.port
+    except ValueError:
+        host = port = None
+    if not host or not port:
+        raise ConfigError(f"{where}: expected an address like tcp://HOST:PORT")
+    try:
+        socket.create_connection((host, port), timeout=min(5.0, DASK_CONNECT_TIMEOUT_S)).close()
+    except OSError as exc:
+        raise ConfigError(f"{where}: cannot reach the Dask scheduler ({exc.strerror or exc})") from None
 
 
 def _bar(total: int, initial: int, enabled: bool):

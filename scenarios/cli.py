@@ -13,15 +13,19 @@ Subcommands:
 * ``list``: the aircraft that can fly and the shipped example scenarios.
 
 Bad input (a missing or malformed file, an unknown aircraft, a value out of
-range) prints one line ``error: <file>: <field>: <problem>`` on stderr and
-exits with code 2, never a traceback.
+range, a scenario that cannot make sense, two flights of the same name, an
+output folder that cannot be written) prints one line
+``error: <file>: <field>: <problem>`` on stderr and exits with code 2, never a
+traceback, and before anything is flown.
 """
 
 from __future__ import annotations
 
 import argparse
-import shutil
+import os
+import signal
 import sys
+import tempfile
 from pathlib import Path
 
 EXIT_BAD_INPUT = 2
@@ -50,6 +54,7 @@ def build_parser() -> argparse.ArgumentParser:
         ),
         epilog="Example: geofence-testbed run scenarios/multicopter_survey_calm.yaml --out out/",
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     run = sub.add_parser(
@@ -59,8 +64,9 @@ def build_parser() -> argparse.ArgumentParser:
             "Fly each SCENARIO.yaml in closed loop and write DIR/<scenario-name>/trajectory.csv "
             "(one row per control step: time s, lat/lon deg, alt m, ENU position m, ground velocity m/s, "
             "attitude deg, pilot and commanded sticks, geofence mode) and DIR/<scenario-name>/summary.json "
-            "(completed, mission_progress, sim_time_s, wall_time_s, ...). Exit code 0 if every flight "
-            "completed, 1 if one did not, 2 on bad input."
+            "(completed, mission_progress, incomplete_reason, scenario_hash, ...). The folder is replaced as a "
+            "whole. Two files with the same scenario name are refused. Exit code 0 if every flight "
+            "completed, 1 if one did not, 2 on bad input (checked before flying, output folder included)."
         ),
     )
     run.add_argument("scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml", help="scenario file(s) to fly")
@@ -74,8 +80,8 @@ def build_parser() -> argparse.ArgumentParser:
         description=(
             "Fly every scenario YAML found under PATH (files or folders, searched recursively), expanding "
             "sweeps (grids and Monte Carlo draws), in parallel processes. Each finished flight is written "
-            "atomically to DIR/<flight>/; re-running the same command skips finished flights, so an "
-            "interrupted batch resumes. A flight that fails is recorded with its error and the batch goes "
+            "atomically to DIR/<flight>/; re-running the same command skips finished flights whose scenario is "
+            "unchanged (same scenario_hash) and re-flies edited ones, so an interrupted batch resumes. A flight that fails is recorded with its error and the batch goes "
             "on. At the end DIR/results.csv (one row per flight) and DIR/report.md (comparison table, "
             "figures) are written. Exit code 0 if every flight completed, 1 otherwise, 130 if interrupted."
         ),
@@ -133,9 +139,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     imp.add_argument("fence_file", type=Path, metavar="FILE")
     imp.add_argument("--ceiling", type=float, default=None, metavar="M", help="ceiling, m above home (default 120)")
-    imp.add_argument("-o", "--output", type=Path, default=None, metavar="OUT.yaml", help="write here instead of stdout")
+    imp.add_argument("-o", "--output", type=Path, default=None, metavar="OUT.yaml", help="write here instead of stdout (coordinates rounded to 1e-7 deg)")
+    imp.add_argument("--force", action="store_true", help="overwrite OUT.yaml if it exists")
 
-    val = sub.add_parser("validate", help="check scenario files without flying", description="Load and validate scenario files; print one line per file.")
+    val = sub.add_parser(
+        "validate",
+        help="check scenario files without flying",
+        description=(
+            "Load and validate scenario files, sweeps included (every expanded flight is checked); print one line per "
+            "file: 'ok: ...' on stdout, or 'error: ...' on stderr. Every file is checked; exit code 2 if any failed."
+        ),
+    )
     val.add_argument("scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml")
 
     sub.add_parser("list", help="list flyable aircraft and shipped scenarios", description="List aircraft that have a platform profile, and the example scenarios shipped with the testbed.")
@@ -145,6 +159,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.command in ("run", "batch", "seed-reproduction"):
+        _sigterm_interrupts()
     try:
         if args.command == "run":
             return _cmd_run(args)
@@ -157,6 +173,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "seed-reproduction":
             from analysis.seed_reproduction import run as seed_run
 
+            check_output_dir(args.out, "DIR")
             print(f"wrote {seed_run(args.out, fly_flights=not args.no_fly)}")
             return 0
         if args.command == "score-log":
@@ -170,6 +187,10 @@ def main(argv: list[str] | None = None) -> int:
     except _user_errors() as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except OSError as exc:  # a file system refusal we could not foresee (disk full, a folder removed meanwhile)
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print("interrupted: finished results are kept", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -177,12 +198,35 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _cmd_validate(args) -> int:
-    from scenarios.schema import load_scenario
+    """Every file is checked (sweeps expanded, each flight validated); one line per file; exit 2 if any failed."""
+    from scenarios.batch import check_unique_names
+    from scenarios.schema import parse_scenario, read_document
+    from scenarios.sweep import expand
 
+    failed = 0
     for path in args.scenarios:
-        sc = load_scenario(path)
-        print(f"ok: {path}: {sc.name} ({sc.aircraft}, {sc.pilot.kind}, {sc.duration_s:g} s)")
-    return 0
+        try:
+            raw = read_document(path)
+            specs = expand(raw, str(path), path.stem)
+            check_unique_names(specs)
+            sweep = isinstance(raw, dict) and "sweep" in raw
+            scenarios = [
+                parse_scenario(spec.document, f"{path} [{spec.flight_id}]" if sweep else str(path), spec.flight_id, source=path)
+                for spec in specs
+            ]
+        except _user_errors() as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            failed += 1
+            continue
+        for w in dict.fromkeys(w for sc in scenarios for w in sc.warnings):
+            print(f"warning: {w}", file=sys.stderr)
+        sc = scenarios[0]
+        if sweep:
+            aircraft = ", ".join(dict.fromkeys(x.aircraft for x in scenarios))
+            print(f"ok: {path}: sweep of {len(scenarios)} flights ({aircraft}, {sc.pilot.kind}, up to {max(x.duration_s for x in scenarios):g} s)")
+        else:
+            print(f"ok: {path}: {sc.name} ({sc.aircraft}, {sc.pilot.kind}, {sc.duration_s:g} s)")
+    return EXIT_BAD_INPUT if failed else 0
 
 
 def _cmd_list() -> int:
@@ -198,42 +242,103 @@ def _cmd_list() -> int:
     return 0
 
 
+PROGRESS_LABELS = {"mission": "mission", "scripted": "segments", "breach_attempts": "attempts"}
+"""What ``mission_progress`` counts, per pilot kind, in the console line."""
+
+
 def _cmd_run(args) -> int:
+    from scenarios.batch import check_unique_names
     from scenarios.runner import run_scenario
-    from scenarios.schema import load_scenario
+    from scenarios.schema import load_scenario, read_document
+    from scenarios.sweep import expand
 
     scenarios = [load_scenario(p) for p in args.scenarios]  # validate everything before flying anything
+    specs = [expand(read_document(p), str(p), p.stem)[0] for p in args.scenarios]
+    check_unique_names(specs)
+    check_output_dir(args.out, "--out")
+    for w in dict.fromkeys(w for sc in scenarios for w in sc.warnings):
+        print(f"warning: {w}", file=sys.stderr)
     failed = 0
-    for sc in scenarios:
+    for sc, spec in zip(scenarios, specs):
         bar = _progress(sc, quiet=args.quiet)
         try:
-            result = run_scenario(sc, args.out, on_step=bar.update if bar else None)
+            result = run_scenario(sc, args.out, on_step=bar.update if bar else None, plot=not args.no_plot,
+                                  scenario_hash=spec.scenario_hash)
         finally:
             if bar:
                 bar.close()
-        if sc.source is not None:
-            shutil.copyfile(sc.source, args.out / sc.name / "scenario.yaml")
-        if not args.no_plot:
-            _plot(result, args.out)
         s = result.summary
         status = "completed" if s["completed"] else "NOT completed"
-        extra = f" error: {s['error']}" if s.get("error") else ""
+        label = PROGRESS_LABELS.get(s.get("pilot"), "progress")
         print(
-            f"{sc.name}: {status}, mission {s['mission_progress']}, {s['sim_time_s']:.1f} s simulated "
-            f"in {s['wall_time_s']:.1f} s -> {args.out / sc.name}{extra}"
+            f"{sc.name}: {status}, {label} {s['mission_progress']}, {s['sim_time_s']:.1f} s simulated "
+            f"in {s['wall_time_s']:.1f} s -> {args.out / sc.name}"
         )
+        if not s["completed"]:
+            print(f"  why: {s.get('incomplete_reason') or s.get('error') or 'unknown'}")
         failed += not s["completed"]
     return EXIT_FLIGHT_FAILED if failed else 0
 
 
+def check_output_dir(path: Path, option: str = "--out") -> None:
+    """Refuse, before anything is flown, an output folder that is a file or cannot be created or written."""
+    from scenarios.errors import ConfigError
+
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise ConfigError(f"{option}: {path}: exists and is not a folder")
+    probe = path
+    while not probe.exists() and probe.parent != probe:
+        probe = probe.parent  # the nearest existing ancestor, where the folder would be created
+    if not probe.is_dir():
+        raise ConfigError(f"{option}: {path}: cannot be created: {probe} is not a folder")
+    if not _writable(probe):
+        problem = "is not writable" if probe == path else f"cannot be created: {probe} is not writable"
+        raise ConfigError(f"{option}: {path}: {problem}")
+
+
+def _writable(folder: Path) -> bool:
+    """Whether a file can be created in ``folder`` (tried for real: permissions, read-only mounts, root)."""
+    try:
+        fd, name = tempfile.mkstemp(prefix=".gft-write-test-", dir=folder)
+    except OSError:
+        return False
+    os.close(fd)
+    os.unlink(name)
+    return True
+
+
+def _sigterm_interrupts() -> None:
+    """SIGTERM ends a run like Ctrl-C: finished results are kept, temporary files removed, exit 130."""
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt
+
+    try:
+        signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # pragma: no cover - not the main thread (main() called from a thread)
+        pass
+
+
+def _version() -> str:
+    from scenarios.sweep import project_version
+
+    return project_version()
+
+
 def _cmd_batch(args) -> int:
-    from scenarios.batch import discover, plan, run_batch
+    from scenarios.batch import discover, plan, resume_state, run_batch
 
     if args.jobs is not None and args.jobs < 1:
         from scenarios.errors import ConfigError
 
         raise ConfigError(f"--jobs: must be >= 1, got {args.jobs}")
-    specs = plan(discover(args.paths))
+    specs = plan(discover(args.paths))  # refuses duplicate names and bad sweeps up front
+    check_output_dir(args.out, "--out")
+    if args.out.is_dir():
+        changed = len(resume_state(specs, args.out).changed)
+        if changed:
+            print(f"re-flying {changed} changed flight{'s' if changed != 1 else ''} (scenario or version differs from the stored result)")
     outcome = run_batch(
         specs, args.out, jobs=args.jobs, executor=args.executor, scheduler=args.scheduler, progress=not args.quiet,
         flight_plots=not args.no_flight_plots,
@@ -244,7 +349,8 @@ def _cmd_batch(args) -> int:
         f"in {outcome.wall_time_s:.1f} s -> {args.out / 'results.csv'}"
     )
     for flight in outcome.failed:
-        print(f"  failed: {flight} (see {args.out / flight / 'summary.json'})")
+        why = outcome.reasons.get(flight)
+        print(f"  failed: {flight}{f': {why}' if why else ''} (see {args.out / flight / 'summary.json'})")
     if outcome.interrupted:
         print("interrupted: finished flights are kept; run the same command again to resume", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -338,23 +444,42 @@ def _cmd_import_fence(args) -> int:
     import yaml
 
     from geofence.importers import fence_to_yaml_block, load_fence_file
+    from scenarios.errors import ConfigError
 
+    out = args.output
+    if out is not None:
+        if out.is_dir():
+            raise ConfigError(f"-o: {out}: is a folder; give a file name, e.g. {out / 'fence.yaml'}")
+        if out.exists() and not args.force:
+            raise ConfigError(f"-o: {out}: exists; add --force to overwrite it")
+        check_output_dir(out.parent, "-o")
     imported = load_fence_file(args.fence_file, ceiling_m=args.ceiling)
     for w in imported.warnings:
         print(f"warning: {w}", file=sys.stderr)
-    text = yaml.safe_dump(fence_to_yaml_block(imported), sort_keys=False)
-    if args.output:
-        args.output.write_text(text)
-        print(f"wrote {args.output}")
+    text = yaml.safe_dump(_rounded(fence_to_yaml_block(imported)), sort_keys=False)
+    if out is not None:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = out.with_name(f".{out.name}.tmp")
+        tmp.write_text(text)
+        os.replace(tmp, out)
+        print(f"wrote {out}")
     else:
         print(text, end="")
     return 0
 
 
-def _plot(result, out_dir: Path) -> None:
-    from analysis.plots import plot_result
+COORDINATE_DECIMALS = 7
+"""import-fence rounds every number to 1e-7 (about 1 cm in latitude): no float noise like 8.543435299999999."""
 
-    plot_result(result, Path(out_dir) / result.scenario.name)
+
+def _rounded(value):
+    if isinstance(value, float):
+        return round(value, COORDINATE_DECIMALS)
+    if isinstance(value, dict):
+        return {k: _rounded(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_rounded(v) for v in value]
+    return value
 
 
 def _progress(sc, quiet: bool):

@@ -9,6 +9,14 @@ edge; everything downstream is SI. See ``README.md`` for a full example, and
 
 Every problem is reported as a :class:`~scenarios.errors.ConfigError` whose
 message is one line: ``<file>: <field>: <problem>``.
+
+Besides each value's own range, a scenario must make sense as a whole
+(:func:`_check_consistency`): the start inside the geofence's allowed area,
+mission items inside it, a mean wind the platform can fly against, and nothing
+within ~100 km of a pole. The first three may be deliberate (a test of the
+fence's recovery, a storm): list them under ``allow:`` (:data:`ALLOWABLE`) and
+they become warnings (``Scenario.warnings``) instead of errors. Near a pole the
+local frame and the autopilot's geometry break down, so that is always refused.
 """
 
 from __future__ import annotations
@@ -39,6 +47,10 @@ from geofence.geodesy import LocalFrame
 from wind.config import WindConfig, parse_wind
 
 MISSION_ITEM_TYPES = ("takeoff", "waypoint", "loiter", "land")
+ALLOWABLE = ("start_outside_fence", "mission_outside_fence", "wind_above_platform_speed")
+"""Inconsistencies a scenario may ask for deliberately, with ``allow: [...]``."""
+POLE_LIMIT_DEG = 88.0
+"""Latitudes beyond +/- this (within ~220 km of a pole) are refused."""
 SCRIPT_SPEEDS = ("cruise", "max", "min")
 SCRIPT_CLIMBS = ("hold", "max", "descend")
 
@@ -146,10 +158,15 @@ class Scenario:
     description: str = ""
     sensors: SensorConfig = field(default_factory=SensorConfig)
     """The geofence unit's sensors (noise, rates, GPS outages)."""
+    allow: frozenset[str] = frozenset()
+    """Inconsistencies the scenario asks for deliberately (see :data:`ALLOWABLE`)."""
+    warnings: tuple[str, ...] = ()
+    """One line each: the allowed inconsistencies this scenario actually has."""
 
 
 _TOP_KEYS = frozenset(
-    {"name", "description", "aircraft", "profile", "sensors", "start", "duration_s", "seed", "pilot", "mission", "wind", "control_rate_hz", "geofence"}
+    {"name", "description", "aircraft", "profile", "sensors", "start", "duration_s", "seed", "pilot", "mission", "wind", "control_rate_hz",
+     "geofence", "allow"}
 )
 
 
@@ -202,8 +219,13 @@ def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source:
     if any(c in name for c in "/\\") or name.startswith("."):
         raise ConfigError(f"{where}: name: {name!r} must be usable as a folder name (no slashes, no leading dot)")
 
+    allow = _parse_allow(raw.get("allow"), f"{where}: allow")
     start = _parse_start(raw["start"], f"{where}: start")
+    _check_latitude(start.lat_deg, f"{where}: start.lat_deg")
     mission = _parse_mission(raw["mission"], f"{where}: mission") if raw.get("mission") is not None else None
+    for i, item in enumerate(mission.items if mission is not None else ()):
+        if item.lat_deg is not None:
+            _check_latitude(item.lat_deg, f"{where}: mission.items[{i}].lat_deg")
     pilot = _parse_pilot(raw.get("pilot"), f"{where}: pilot", has_mission=mission is not None)
 
     wind = None
@@ -220,9 +242,12 @@ def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source:
     except ValueError as exc:
         raise ConfigError(str(exc)) from None
 
+    warnings: list[str] = []
+    _check_wind(wind, profile, aircraft, where, allow, warnings)
     geofence = None
     if raw.get("geofence") is not None:
         geofence = _parse_geofence_block(raw["geofence"], f"{where}: geofence", start, profile, wind)
+        _check_inside_fence(geofence, start, mission if pilot.kind == "mission" else None, where, allow, warnings)
 
     return Scenario(
         name=name,
@@ -239,7 +264,77 @@ def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source:
         geofence=geofence,
         description=str(raw.get("description", "")),
         sensors=sensors,
+        allow=allow,
+        warnings=tuple(warnings),
     )
+
+
+def _parse_allow(raw: Any, where: str) -> frozenset[str]:
+    if raw is None:
+        return frozenset()
+    if not isinstance(raw, list):
+        raise ConfigError(f"{where}: expected a list of {', '.join(ALLOWABLE)}")
+    return frozenset(string(x, f"{where}[{i}]", choices=list(ALLOWABLE)) for i, x in enumerate(raw))
+
+
+def _inconsistent(message: str, key: str, allow: frozenset[str], warnings: list[str]) -> None:
+    """An error, unless the scenario allows ``key``: then a warning."""
+    if key in allow:
+        warnings.append(f"{message} (allowed by allow: {key})")
+    else:
+        raise ConfigError(f"{message}; fix it, or add 'allow: [{key}]' to fly it on purpose")
+
+
+def _check_latitude(lat: float, where: str) -> None:
+    if abs(lat) > POLE_LIMIT_DEG:
+        raise ConfigError(
+            f"{where}: {lat:g} deg is within {(90.0 - abs(lat)) * 111.0:.0f} km of the pole; the testbed's local frame and "
+            f"mission geometry are only valid up to +/-{POLE_LIMIT_DEG:g} deg latitude"
+        )
+
+
+def _check_wind(wind: WindConfig | None, profile: PlatformProfile, aircraft: str, where: str, allow: frozenset[str], warnings: list[str]) -> None:
+    """A mean wind at or above what the platform can fly against (multirotor: max speed; fixed-wing: cruise)."""
+    if wind is None:
+        return
+    env = profile.envelope
+    limit, what = (env.max_speed_mps, "max speed") if env.is_multirotor else (env.cruise_speed_mps, "cruise airspeed")
+    if wind.speed_mps >= limit:
+        _inconsistent(
+            f"{where}: wind.speed_mps: a mean wind of {wind.speed_mps:g} m/s is at or above the {what} of the {aircraft} "
+            f"({limit:g} m/s): it cannot fly against it and would be blown away",
+            "wind_above_platform_speed", allow, warnings,
+        )
+
+
+def _check_inside_fence(cfg: GeofenceConfig, start: StartConfig, mission: MissionConfig | None, where: str,
+                        allow: frozenset[str], warnings: list[str]) -> None:
+    """The start and the mission's items inside the geofence's allowed area (laterally, and below an AGL ceiling)."""
+    local = cfg.fence.to_local(LocalFrame(start.lat_deg, start.lon_deg, start.ground_alt_m))
+    agl_ceiling = local.ceiling_m if local.altitude_reference == "agl" else None
+
+    def outside(lat: float | None, lon: float | None, agl: float | None, radius: float = 0.0) -> str | None:
+        if lat is not None and lon is not None:
+            e, n = local.horizontal_en(lat, lon)
+            margin, feature, index, *_ = local.lateral_nearest(e, n)
+            if margin < radius:
+                place = "the keep-in" if feature == "keep_in" else f"{feature.replace('_', '-')} {index}"
+                if margin >= 0.0:
+                    return f"its {radius:g} m loiter circle crosses {place} ({margin:.0f} m from the boundary)"
+                return f"{-margin:.0f} m outside the keep-in" if feature == "keep_in" else f"{-margin:.0f} m inside {place}"
+        if agl is not None and agl_ceiling is not None and agl > agl_ceiling:
+            return f"{agl:g} m AGL is above the ceiling ({agl_ceiling:g} m AGL)"
+        return None
+
+    problem = outside(start.lat_deg, start.lon_deg, start.agl_m)
+    if problem:
+        _inconsistent(f"{where}: start: the start ({start.lat_deg:.6f}, {start.lon_deg:.6f}) is {problem} of the geofence",
+                      "start_outside_fence", allow, warnings)
+    for i, item in enumerate(mission.items if mission is not None else ()):
+        problem = outside(item.lat_deg, item.lon_deg, item.agl_m, item.radius_m if item.kind == "loiter" else 0.0)
+        if problem:
+            _inconsistent(f"{where}: mission.items[{i}]: this {item.kind} is {problem} of the geofence: the mission cannot be "
+                          f"flown to the end", "mission_outside_fence", allow, warnings)
 
 
 def _parse_aircraft_profile(aircraft: str, inline: Any, where: str) -> PlatformProfile:
@@ -267,6 +362,13 @@ def _parse_geofence_block(raw: Any, where: str, start: StartConfig, profile: Pla
     """Validate the geofence block, and check that its activation boundary exists for this platform and wind."""
     try:
         cfg = parse_geofence(raw, where)
+        f = cfg.fence
+        for name, polys in (("keep_in", (f.keep_in,)), ("floor_gaps", f.floor_gaps), ("keep_out_polygons", f.keep_out_polygons)):
+            for poly in polys:
+                for lat, _ in poly:
+                    _check_latitude(lat, f"{where}.fence.{name}")
+        for c in f.keep_out_circles:
+            _check_latitude(c.center_lat_deg, f"{where}.fence.keep_out_circles")
         frame = LocalFrame(start.lat_deg, start.lon_deg, start.ground_alt_m)
         wind_speed = wind.speed_mps if wind is not None else 0.0
         check_shift_feasible(cfg.fence.to_local(frame), profile.envelope, wind_speed)

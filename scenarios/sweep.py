@@ -20,15 +20,28 @@ With both, each grid point gets ``count`` draws. Each flight is named
 ``<name>__<param>=<value>...`` (grid) and ``__mc<k>`` (draws); its document is
 validated like any scenario. Draws use numpy's PCG64 seeded by ``seed``, so the
 same file always expands to the same flights.
+
+Every dotted path is checked when the sweep expands: a path into a list must
+name an existing index, and a path that adds a key the scenario does not have
+must add one the schema knows (``wind.speedd_mps`` is refused up front, not
+once per flight).
+
+Each flight carries a :func:`scenario_hash`: the sha256 of a canonical JSON of
+its fully resolved document (after expansion, with its name), the shipped
+platform profile it names, and the project version. A batch resumes only
+flights whose stored hash matches, so an edited scenario is flown again.
 """
 
 from __future__ import annotations
 
 import copy
+import hashlib
 import itertools
+import json
 import math
 import re
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -47,6 +60,54 @@ class FlightSpec:
     source: str
     error: str | None = None
     """Set when the source file could not be read or expanded; the flight is recorded as failed."""
+    scenario_hash: str = ""
+    """The flight's identity (:func:`scenario_hash` of ``document``, or of ``error``)."""
+
+    def __post_init__(self) -> None:
+        if not self.scenario_hash:
+            h = scenario_hash(self.document) if self.document is not None else _sha256({"error": self.error, "version": project_version()})
+            object.__setattr__(self, "scenario_hash", h)
+
+
+def project_version() -> str:
+    """The installed version of ``geofence-testbed`` (``"unknown"`` when run from a bare checkout)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("geofence-testbed")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+def scenario_hash(document: dict) -> str:
+    """A flight's identity: sha256 of the canonical JSON of its resolved document, its shipped profile(s) and the version."""
+    doc = dict(document)
+    payload = {"scenario": doc, "version": project_version(), "profiles": _profile_texts(doc)}
+    return _sha256(payload)
+
+
+def _sha256(payload: Any) -> str:
+    text = json.dumps(payload, sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _profile_texts(doc: dict) -> dict[str, str]:
+    """The shipped profile files a document resolves through (its aircraft, an inline profile's base)."""
+    names = [doc.get("aircraft")]
+    if isinstance(doc.get("profile"), dict):
+        names.append(doc["profile"].get("base"))
+    return {n: _profile_text(n) for n in names if isinstance(n, str) and _profile_text(n)}
+
+
+@lru_cache(maxsize=64)
+def _profile_text(name: str) -> str:
+    from aircraft.profile import PROFILES_DIR
+
+    path = PROFILES_DIR / f"{name}.yaml"
+    try:
+        return path.read_text() if path.is_file() else ""
+    except OSError:
+        return ""
 
 
 def expand(document: dict, where: str, default_name: str) -> list[FlightSpec]:
@@ -56,15 +117,18 @@ def expand(document: dict, where: str, default_name: str) -> list[FlightSpec]:
     sweep = doc.pop("sweep", None)
     base_name = str(doc.get("name", default_name))
     if sweep is None:
-        return [FlightSpec(base_name, doc, where)]
+        return [FlightSpec(base_name, doc if "name" in doc else dict(doc, name=base_name), where)]
     require_mapping(sweep, f"{where}: sweep")
     reject_unknown_keys(sweep, {"grid", "monte_carlo"}, f"{where}: sweep")
     grid_points = _grid(sweep.get("grid"), f"{where}: sweep.grid")
     mc = sweep.get("monte_carlo")
+    if grid_points and grid_points[0]:
+        for path, value in grid_points[0]:
+            _check_path(doc, path, value, f"{where}: sweep.grid.{path}", where)
     specs = []
     for point in grid_points:
         suffix = "".join(f"__{_short(k)}={_fmt(v)}" for k, v in point)
-        draws = _draws(mc, f"{where}: sweep.monte_carlo", salt=len(specs)) if mc is not None else [()]
+        draws = _draws(mc, f"{where}: sweep.monte_carlo", len(specs), doc, where) if mc is not None else [()]
         for k, draw in enumerate(draws):
             variant = copy.deepcopy(doc)
             for path, value in (*point, *draw):
@@ -88,7 +152,7 @@ def _grid(raw: Any, where: str) -> list[tuple[tuple[str, Any], ...]]:
     return [tuple(zip(keys, combo)) for combo in itertools.product(*values)]
 
 
-def _draws(raw: Any, where: str, salt: int) -> list[tuple[tuple[str, Any], ...]]:
+def _draws(raw: Any, where: str, salt: int, base_doc: dict, file_where: str) -> list[tuple[tuple[str, Any], ...]]:
     require_mapping(raw, where)
     reject_unknown_keys(raw, {"count", "seed", "draws"}, where)
     count = integer(raw.get("count", 10), f"{where}.count", minimum=1)
@@ -107,6 +171,9 @@ def _draws(raw: Any, where: str, salt: int) -> list[tuple[tuple[str, Any], ...]]
             raise ConfigError(f"{where}.draws.{key}.{kind}: expected [low, high] (uniform, integers) or [mean, sd] (normal)")
         samplers.append((str(key), kind, args))
     out = []
+    for key, kind, args in samplers if salt == 0 else ():  # each path checked once, with a representative value
+        probe = args[0] if kind == "choice" else (int(args[0]) if kind == "integers" else float(args[0]))
+        _check_path(base_doc, key, probe, f"{where}.draws.{key}", file_where)
     for _ in range(count):
         draw = []
         for key, kind, args in samplers:
@@ -145,6 +212,35 @@ def _set_path(doc: dict, path: str, value: Any, where: str) -> None:
         node[last] = value
     else:
         raise ConfigError(f"{where}: {path}: cannot set a value inside a {type(node).__name__}")
+
+
+def _check_path(doc: dict, path: str, value: Any, label: str, where: str) -> None:
+    """Refuse a dotted path that points nowhere: a missing list index, or a new key the schema does not know."""
+    parts = path.split(".")
+    node: Any = doc
+    missing_from = None
+    for i, part in enumerate(parts):
+        if isinstance(node, dict) and part in node:
+            node = node[part]
+        elif isinstance(node, list) and part.isdigit() and int(part) < len(node):
+            node = node[int(part)]
+        else:
+            missing_from = i
+            break
+    if missing_from is None:
+        return  # the path exists in the base scenario
+    trial = copy.deepcopy(doc)
+    _set_path(trial, path, value, f"{where}: sweep")  # a bad list index or scalar parent raises here
+    from scenarios.schema import parse_scenario
+
+    try:
+        parse_scenario(trial, where=where)
+    except ConfigError as exc:
+        msg = str(exc)
+        for created in parts[missing_from:]:  # the modules word it "unknown key 'x'" or "x: unknown key"
+            if f"unknown key {created!r}" in msg or f"{created}: unknown key" in msg:
+                problem = msg[len(where) + 2:] if msg.startswith(f"{where}: ") else msg
+                raise ConfigError(f"{label}: no such field in a scenario ({problem})") from None
 
 
 def _short(path: str) -> str:
