@@ -89,6 +89,8 @@ def collect_results(out_dir: str | Path) -> list[dict]:
     """
     rows = []
     for path in sorted(Path(out_dir).glob(f"*/{SUMMARY}")):
+        if path.parent.name.startswith("."):  # a flight being written (or left by a killed process)
+            continue
         flight = path.parent.name
         try:
             summary = json.loads(path.read_text())

@@ -12,8 +12,9 @@ With the position source lost, the unit navigates to the gap by dead
 reckoning from its last valid estimate (:mod:`geofence.dead_reckoning`).
 
 * MONITOR and RECOVERED pass the pilot's sticks through unchanged.
-* Return is impossible when the estimated wind reaches 90 % of the platform's
-  max speed: at an activation, or held for 3 s at any time, the unit goes
+* Return is impossible when the design wind (the estimated mean wind plus
+  the turbulence and gust allowance) reaches 90 % of the platform's max
+  speed: at an activation, or held for 3 s at any time, the unit goes
   straight to LAND_IN_GAP (the most reachable floor gap, downwind preferred).
 * Either a lateral or a vertical trigger starts the whole 3-D override
   (lateral goal: the recovery point; vertical goal: a safe height band).
@@ -263,9 +264,13 @@ class GeofenceUnit:
         return 0.5 * (lo + hi) if math.isfinite(lo) else hi - 5.0
 
     def _return_impossible(self) -> str | None:
-        w = math.hypot(*self.wind_enu)
+        """Why return is impossible, or None: the design wind (mean plus the turbulence and gust
+        allowance) at 90 % of the platform's max speed or more."""
+        mean = math.hypot(*self.wind_enu)
+        w = mean + self.wind_allowance_mps
         if w >= RETURN_IMPOSSIBLE_WIND_FRACTION * self.env.max_speed_mps:
-            return f"return impossible: wind {w:.1f} m/s >= {RETURN_IMPOSSIBLE_WIND_FRACTION:.0%} of max speed {self.env.max_speed_mps:.1f} m/s"
+            return (f"return impossible: wind {mean:.1f} m/s + {w - mean:.1f} m/s turbulence/gust allowance >= "
+                    f"{RETURN_IMPOSSIBLE_WIND_FRACTION:.0%} of max speed {self.env.max_speed_mps:.1f} m/s")
         return None
 
     def _landing_point(self, s: VehicleState) -> tuple[float, float]:

@@ -11,6 +11,9 @@ Subcommands:
 * ``import-fence FILE``: turn a QGC .plan / WPL 110 / MAVProxy fence file into a scenario ``geofence:`` block.
 * ``validate SCENARIO.yaml...``: check scenario files without flying them.
 * ``list``: the aircraft that can fly and the shipped example scenarios.
+* ``check SCENARIO.yaml...``: the pre-flight mission check (where would the geofence override the mission?).
+* ``validate-models``: fly every platform through standard manoeuvres, write docs/validation.md.
+* ``campaign generate DIR`` / ``campaign report RESULTS --campaign DIR``: the adversarial efficacy campaign.
 
 Bad input (a missing or malformed file, an unknown aircraft, a value out of
 range, a scenario that cannot make sense, two flights of the same name, an
@@ -152,6 +155,56 @@ def build_parser() -> argparse.ArgumentParser:
     )
     val.add_argument("scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml")
 
+    chk = sub.add_parser(
+        "check",
+        help="pre-flight check: will the geofence override this mission?",
+        description=(
+            "Fly each mission on paper through the geofence unit's own activation margin (planned speed, the "
+            "geofence block's forecast wind_prior with its turbulence and gust allowance, the unit's nominal k-sigma "
+            "GNSS margins) and list every leg, fixed-wing turn and loiter where the margin falls to 2 m or below: "
+            "there the unit would override the mission. A mission that passes is not overridden in flight. "
+            "Exit code 0 if every mission passes, 1 if one would be overridden, 2 on bad input."
+        ),
+    )
+    chk.add_argument("scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml", help="scenario file(s) with a mission and a geofence")
+
+    vm = sub.add_parser(
+        "validate-models",
+        help="fly every platform through standard manoeuvres; write docs/validation.md",
+        description=(
+            "Fly each platform (default: every shipped profile) through standard manoeuvres (full-tilt or "
+            "full-throttle step, stop from top speed, zero-tilt wind pick-up, max-bank turn, climb, roll step, "
+            "best glide), compare with published figures and write a markdown table per platform. With "
+            "--check-profiles, exit 1 if a profile's envelope differs from what was measured."
+        ),
+    )
+    vm.add_argument("--models", nargs="+", default=None, metavar="MODEL", help="models to fly (default: every profile)")
+    vm.add_argument("--out", default="docs/validation.md", metavar="FILE", help="markdown output (default docs/validation.md)")
+    vm.add_argument("--check-profiles", action="store_true", help="exit 1 when a profile's envelope is not what was measured")
+    vm.add_argument("--allow-conservative", action="store_true", help="with --check-profiles: a figure off on the safe side only warns")
+
+    camp = sub.add_parser(
+        "campaign",
+        help="generate an adversarial efficacy campaign, or report on a flown one",
+        description=(
+            "generate: write N adversarial cases (fence shapes: box, L, U, star, acute corner, corridor, keep-outs, "
+            "ceilings, floors with gaps; every shipped platform; sites worldwide up to 2,800 m; winds, turbulence, "
+            "gusts, GPS faults; head-on, shallow, corner, turning and repeated attempts, and normal missions), each "
+            "three times (predictive, reactive, unprotected), plus campaign.json, into DIR; fly them with "
+            "'geofence-testbed batch DIR --out RESULTS'. report: breaches with 95 % upper confidence bounds per "
+            "flight and per flight hour, peak excursions, nuisance overrides, written to RESULTS/campaign_report.md."
+        ),
+    )
+    camp_sub = camp.add_subparsers(dest="campaign_command", required=True, metavar="ACTION")
+    gen = camp_sub.add_parser("generate", help="write the campaign's scenario files", description="Write N cases x 3 variants of scenario YAML and campaign.json into DIR (reproducible from --seed).")
+    gen.add_argument("out", type=Path, metavar="DIR", help="folder for the scenario files (must be new or empty)")
+    gen.add_argument("--cases", type=int, default=1000, metavar="N", help="number of cases (default 1000; each is flown 3 times)")
+    gen.add_argument("--seed", type=int, default=2026, help="campaign seed (default 2026)")
+    gen.add_argument("--max-duration-s", type=float, default=180.0, metavar="S", help="longest flight, s (default 180)")
+    rep = camp_sub.add_parser("report", help="write campaign_report.md from a flown campaign", description="Read RESULTS/results.csv (from batch) and the campaign's campaign.json; write RESULTS/campaign_report.md and its figures.")
+    rep.add_argument("results", type=Path, metavar="RESULTS", help="the batch output folder")
+    rep.add_argument("--campaign", type=Path, required=True, metavar="DIR", help="the folder written by 'campaign generate' (holds campaign.json)")
+
     sub.add_parser("list", help="list flyable aircraft and shipped scenarios", description="List aircraft that have a platform profile, and the example scenarios shipped with the testbed.")
     return parser
 
@@ -184,6 +237,15 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_validate(args)
         if args.command == "list":
             return _cmd_list()
+        if args.command == "check":
+            return _cmd_check(args)
+        if args.command == "validate-models":
+            from aircraft.validation import run_validation
+
+            return run_validation(args.models, args.out, check_profiles=args.check_profiles,
+                                  allow_conservative=args.allow_conservative)
+        if args.command == "campaign":
+            return _cmd_campaign(args)
     except _user_errors() as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -195,6 +257,45 @@ def main(argv: list[str] | None = None) -> int:
         print("interrupted: finished results are kept", file=sys.stderr)
         return EXIT_INTERRUPTED
     return EXIT_BAD_INPUT  # pragma: no cover - argparse guarantees a command
+
+
+def _cmd_check(args) -> int:
+    """The pre-flight mission check of each scenario (exit 1 if any mission would be overridden)."""
+    from scenarios.preflight import describe_findings, preflight_findings
+    from scenarios.schema import load_scenario
+
+    scenarios = [load_scenario(p) for p in args.scenarios]  # every file validated before anything is checked
+    overridden = 0
+    for path, sc in zip(args.scenarios, scenarios):
+        findings = preflight_findings(sc)
+        overridden += bool(findings)
+        print(f"{path}: {describe_findings(findings)}")
+    return EXIT_FLIGHT_FAILED if overridden else 0
+
+
+def _cmd_campaign(args) -> int:
+    if args.campaign_command == "generate":
+        from scenarios.campaign import generate_campaign
+
+        if args.cases < 1:
+            print(f"error: --cases: must be >= 1, got {args.cases}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        if args.out.exists() and (not args.out.is_dir() or any(args.out.iterdir())):
+            print(f"error: {args.out}: must be a new or empty folder (a campaign is never written over another)", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        paths = generate_campaign(args.out, args.cases, args.seed, max_duration_s=args.max_duration_s)
+        print(f"wrote {len(paths)} scenario files and {args.out / 'campaign.json'}; fly them with: "
+              f"geofence-testbed batch {args.out} --out RESULTS")
+        return 0
+    from analysis.campaign import write_campaign_report
+
+    manifest = args.campaign / "campaign.json"
+    for path, what in ((args.results / "results.csv", "RESULTS/results.csv (run batch first)"), (manifest, "campaign.json")):
+        if not path.is_file():
+            print(f"error: {path}: missing ({what})", file=sys.stderr)
+            return EXIT_BAD_INPUT
+    print(f"wrote {write_campaign_report(args.results, manifest)}")
+    return 0
 
 
 def _cmd_validate(args) -> int:

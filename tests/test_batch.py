@@ -90,6 +90,10 @@ def test_ci_suite_batch_on_two_jobs_writes_every_result_and_no_breach(tmp_path):
         assert not s["landed_outside_gap"], name
     platforms = {s["aircraft"] for s in got.values()}
     assert platforms == {"F450", "Tern"}
+    # the suite tests what it says: every flight really approached its edge, the ceiling and the floor
+    from test_ci_suite import assert_ci_suite_approaches
+
+    assert_ci_suite_approaches(out)
 
 
 def test_interrupted_batch_keeps_finished_flights_and_resumes_without_refling(tmp_path):
