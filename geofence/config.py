@@ -18,7 +18,8 @@ Example (every key but ``fence`` optional)::
       wind_prior: {speed_mps: 8, from_deg: 240, turbulence_sigma_mps: 1.0, gust_mps: 3}
                                    # forecast: mean wind until the estimate converges; turbulence
                                    # sigma and gust amplitude (m/s) for the activation margin
-      turbulence_k_sigma: 1.5      # wind allowance = k * max(forecast, estimated) turbulence sigma + gust
+      turbulence_k_sigma: 1.5      # wind allowance = k * turbulence sigma + gust
+      turbulence_source: forecast  # forecast (wind_prior's sigma) | estimate (max of forecast and the unit's estimate)
       vertical_handback_m: 2.0     # hand back only this far inside the vertical activation boundary
       state_source: estimate       # estimate (own sensors + Kalman filter, default) | truth (e.g. indoor motion capture)
 
@@ -30,12 +31,23 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from enum import Enum
 from typing import Any
 
 from geofence.fence import Fence, FenceError, parse_fence
 
 TRIGGERS = ("predictive", "reactive")
 MULTIROTOR_LAWS = ("velocity", "seed_pd")
+
+
+class TurbulenceSource(str, Enum):
+    """Which turbulence intensity the activation margin allows for."""
+
+    FORECAST = "forecast"
+    """The forecast's ``wind_prior.turbulence_sigma_mps`` (default)."""
+    ESTIMATE = "estimate"
+    """The larger of the forecast and the unit's own estimate (the spread of its wind samples; it holds the
+    samples' noise too, which near the platform's wind limit makes the boundary chatter: measured, see README)."""
 
 
 class GeofenceConfigError(ValueError):
@@ -85,7 +97,8 @@ class GeofenceConfig:
     gust_mps: float = 0.0
     """Forecast discrete-gust amplitude (m/s) added to the wind the margin allows for."""
     turbulence_k_sigma: float = 1.5
-    """The wind allowance is ``k * max(forecast, estimated turbulence sigma) + gust_mps``."""
+    """The wind allowance is ``k * sigma + gust_mps`` (sigma per :attr:`turbulence_source`)."""
+    turbulence_source: TurbulenceSource = TurbulenceSource.FORECAST
     vertical_handback_m: float = 2.0
     """Vertical hysteresis: hand back only with the vertical activation margin at least this large."""
 
@@ -93,7 +106,7 @@ class GeofenceConfig:
 _KEYS = {
     "fence", "trigger", "min_override_s", "handback_margin_m", "recovery_radius_m", "uncertainty_k_sigma",
     "extra_margin_m", "multirotor_law", "seed_pd", "ramp_s", "recovery_speed_mps", "max_reactivations", "wind_prior",
-    "state_source", "turbulence_k_sigma", "vertical_handback_m",
+    "state_source", "turbulence_k_sigma", "vertical_handback_m", "turbulence_source",
 }
 
 
@@ -177,4 +190,5 @@ def parse_geofence(raw: Any, where: str = "geofence") -> GeofenceConfig:
         gust_mps=gust,
         turbulence_k_sigma=num("turbulence_k_sigma", 1.5, 0.0, 10.0),
         vertical_handback_m=num("vertical_handback_m", 2.0, 0.0, 100.0),
+        turbulence_source=TurbulenceSource(choice("turbulence_source", "forecast", tuple(t.value for t in TurbulenceSource))),
     )

@@ -134,6 +134,17 @@ class VelocityController:
     def reset(self) -> None:
         self._int_e = self._int_n = 0.0
 
+    def wind_balance_sticks(self, yaw_rad: float) -> tuple[float, float]:
+        """(roll, pitch) sticks of the steady tilt that holds the ground position against the wind estimate.
+
+        The drag feed-forward alone, no feedback: level in calm air or without a wind estimate.
+        """
+        if self.wind is None:
+            return 0.0, 0.0
+        we, wn = -self.wind[0], -self.wind[1]  # air velocity of a vehicle at rest over the ground
+        k = self._k1 + self._k2 * math.hypot(we, wn)
+        return tilt_sticks_for_accel(k * we, k * wn, yaw_rad, self.env)
+
     def tilt_sticks(
         self, v_east_mps: float, v_north_mps: float, ve_cmd: float, vn_cmd: float, yaw_rad: float, dt_s: float
     ) -> tuple[float, float]:

@@ -22,10 +22,19 @@ Horizontal (east and north, independent axes)
 Vertical
     A current-time filter with state ``(up, v_up, b)``: ``b`` is the baro offset
     (baro altitude - frame origin height - up). The barometer (no latency)
-    updates every step; a GNSS height stamped ``L`` s ago updates through
+    updates every step; the GNSS vertical velocity updates ``v_up`` (its
+    latency ``L`` adds ``q L`` to the variance). With ``baro_referenced``
+    (default: the barometer was set to the field elevation at start-up, as
+    autopilots do) and a baro drift below the GNSS height bias (1 m vs 3 m by
+    default) the barometer is the height reference: ``b`` starts at 0
+    with the baro drift as its uncertainty and the GNSS height is not fused,
+    because its bias (~3 m, wandering over a minute) is three times the baro
+    drift; ``sigma_v`` is then about the baro drift (1 m) instead of the GNSS
+    bias. Without it, a GNSS height stamped ``L`` s ago updates through
     ``up(t - L) ~= up - L * v_up`` (first-order latency compensation; its
-    neglected process noise ``q L^3 / 3`` is added to the measurement variance),
-    the GNSS vertical velocity as ``v_up`` (variance ``+ q L``).
+    neglected process noise ``q L^3 / 3`` is added to the measurement
+    variance), ``b`` is initialised from the first fix and the GNSS bias
+    wander is part of its process noise.
 
 GNSS bias
     A single-antenna receiver's error is mostly a slowly wandering bias
@@ -95,10 +104,15 @@ class EstimatorConfig:
     baro_drift_m: float = 1.0
     baro_drift_tau_s: float = 300.0
     timeout_s: float = 1.0
+    baro_referenced: bool = True
+    """The barometer was set to the field elevation at start-up (QNH/zeroed at home). If it also drifts
+    less than the GNSS height is biased, it is the height reference and the GNSS height is not fused."""
 
     def __post_init__(self) -> None:
         for name in self.__dataclass_fields__:
             v = getattr(self, name)
+            if name == "baro_referenced":
+                continue
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0.0):
                 raise ValueError(f"estimator.{name}: must be a finite number >= 0, got {v!r}")
         for name in ("gps_bias_tau_s", "baro_drift_tau_s", "timeout_s"):
@@ -185,14 +199,18 @@ class GeofenceEstimator:
         self._qj = cfg.jerk_psd_h
         self._qp_h = 2.0 * cfg.gps_h_bias_m**2 / cfg.gps_bias_tau_s
         self._qv = cfg.accel_psd_v
-        self._qb = 2.0 * cfg.gps_v_bias_m**2 / cfg.gps_bias_tau_s + 2.0 * cfg.baro_drift_m**2 / cfg.baro_drift_tau_s
+        # baro-primary height: a referenced barometer that drifts less than the GNSS height is biased
+        self._baro_primary = cfg.baro_referenced and cfg.baro_drift_m < cfg.gps_v_bias_m
+        self._qb = 2.0 * cfg.baro_drift_m**2 / cfg.baro_drift_tau_s
+        if not self._baro_primary:  # the offset also absorbs the wander of the GNSS height it is tied to
+            self._qb += 2.0 * cfg.gps_v_bias_m**2 / cfg.gps_bias_tau_s
         self._r_p = cfg.gps_h_white_m**2
         self._r_v = cfg.gps_vel_h_mps**2
         self._r_pu = cfg.gps_v_white_m**2
         self._r_vu = cfg.gps_vel_v_mps**2
         self._r_baro = cfg.baro_noise_m**2
         self._var_bias_h = cfg.gps_h_bias_m**2
-        self._var_bias_v = cfg.gps_v_bias_m**2
+        self._var_bias_v = 0.0 if self._baro_primary else cfg.gps_v_bias_m**2
         # horizontal (delayed horizon at t_d)
         self._east: _Axis | None = None
         self._north: _Axis | None = None
@@ -270,6 +288,8 @@ class GeofenceEstimator:
         z -= self._h0
         if not self._v_init:
             self._pending_baro = z  # used to initialise the offset at the first fix
+            if self._east is not None and self._baro_primary:
+                self._init_vertical_from_baro(z)  # the first fix came before the first baro sample
             return
         self._v_update(1.0, 0.0, 1.0, z, self._r_baro)
 
@@ -305,7 +325,8 @@ class GeofenceEstimator:
         nx.update_v(fix.v_north_mps, self._r_v)
         # vertical: current-time filter, first-order latency compensation
         q = self._qv
-        self._v_update(1.0, -lag, 0.0, u, self._r_pu + q * lag * lag * lag / 3.0)
+        if not self._baro_primary:
+            self._v_update(1.0, -lag, 0.0, u, self._r_pu + q * lag * lag * lag / 3.0)
         self._v_update(0.0, 1.0, 0.0, fix.v_up_mps, self._r_vu + q * lag)
         self._last_fix_arrival_s = self.t_s
         self.fixes_used += 1
@@ -387,6 +408,11 @@ class GeofenceEstimator:
         self._t_d = t_m
         self._u = u + fix.v_up_mps * lag
         self._vu = fix.v_up_mps
+        if self._baro_primary:
+            # the barometer reads the true altitude up to its drift: it sets the height, b ~ 0
+            if self._pending_baro is not None:
+                self._init_vertical_from_baro(self._pending_baro)
+            return
         if self._pending_baro is not None:
             self._b = self._pending_baro - self._u
             var_b = self._r_pu + self._r_baro
@@ -394,6 +420,15 @@ class GeofenceEstimator:
             self._b = 0.0
             var_b = cfg.baro_drift_m**2 + self._var_bias_v + 100.0
         self._V[:] = [self._r_pu, 0.0, 0.0, self._r_vu, 0.0, var_b]
+        self._v_init = True
+
+    def _init_vertical_from_baro(self, z: float) -> None:
+        """Vertical state from a referenced barometer: up = baro - b with b ~ 0 (the baro drift)."""
+        var_b = self.config.baro_drift_m**2
+        self._b = 0.0
+        self._u = z
+        # up and b are correlated: up = z - b
+        self._V[:] = [self._r_baro + var_b, 0.0, -var_b, self._r_vu, 0.0, var_b]
         self._v_init = True
 
     def _v_update(self, h0: float, h1: float, h2: float, z: float, r: float) -> None:

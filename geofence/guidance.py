@@ -280,8 +280,10 @@ class LandingGuidance:
             ce, cn = self.route.lookahead_point(s.east_m, s.north_m, max(3.0, 0.5 * env.cruise_speed_mps))
             ve, vn = approach_velocity(s.east_m, s.north_m, ce, cn, 0.5 * env.cruise_speed_mps, 0.8, 0.5 * env.braking_decel_mps2)
             roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve, vn, s.yaw_rad, dt_s)
-            if over and h < LEVEL_TOUCHDOWN_BELOW_M:  # touch down level: a tilted landing gear tips over
-                roll = pitch = 0.0
+            if over and h < LEVEL_TOUCHDOWN_BELOW_M:
+                # touch down without manoeuvring (a tilted, moving gear tips over), but keep the steady
+                # tilt into the wind: levelled in a strong wind, the vehicle is blown away near the ground
+                roll, pitch = self.velocity.wind_balance_sticks(s.yaw_rad)
             if over and s.ground_speed_mps <= TOUCHDOWN_MAX_GROUND_SPEED_MPS:
                 climb = -min(1.0, env.max_descent_rate_mps)
             elif over:  # over the point but still moving: hold the height until stopped over it

@@ -12,9 +12,8 @@ With the position source lost, the unit navigates to the gap by dead
 reckoning from its last valid estimate (:mod:`geofence.dead_reckoning`).
 
 * MONITOR and RECOVERED pass the pilot's sticks through unchanged.
-* Return is impossible when the design wind (the estimated mean wind plus
-  the turbulence and gust allowance) reaches 90 % of the platform's max
-  speed: at an activation, or held for 3 s at any time, the unit goes
+* Return is impossible when the estimated mean wind reaches 90 % of the
+  platform's max speed: at an activation, or held for 3 s at any time, the unit goes
   straight to LAND_IN_GAP (the most reachable floor gap, downwind preferred).
 * Either a lateral or a vertical trigger starts the whole 3-D override
   (lateral goal: the recovery point; vertical goal: a safe height band).
@@ -42,7 +41,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 from geofence.boundary_shift import ShiftResult, activation_margins
-from geofence.config import GeofenceConfig
+from geofence.config import GeofenceConfig, TurbulenceSource
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
 from geofence.dynamics import G_MPS2, drag_coefficients, envelope_at_density, isa_density_ratio, wind_push_mps2
@@ -166,9 +165,13 @@ class GeofenceUnit:
 
     @property
     def wind_allowance_mps(self) -> float:
-        """Turbulence and gust allowance added to the wind in every margin: ``k·max(σ_forecast, σ_est) + gust``."""
+        """Turbulence and gust allowance added to the wind in every margin: ``k·σ + gust`` (σ: the forecast's,
+        or with ``turbulence_source: estimate`` the larger of it and the unit's own estimate)."""
         cfg = self.config
-        return cfg.turbulence_k_sigma * max(cfg.turbulence_sigma_mps, self._turbulence_est_mps) + cfg.gust_mps
+        sigma = cfg.turbulence_sigma_mps
+        if cfg.turbulence_source is TurbulenceSource.ESTIMATE and self._turbulence_est_mps > sigma:
+            sigma = self._turbulence_est_mps
+        return cfg.turbulence_k_sigma * sigma + cfg.gust_mps
 
     def _far_from_everything(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> bool:
         """Cheap pre-check: no edge, ceiling or floor is within the largest room this state could need.
@@ -264,13 +267,14 @@ class GeofenceUnit:
         return 0.5 * (lo + hi) if math.isfinite(lo) else hi - 5.0
 
     def _return_impossible(self) -> str | None:
-        """Why return is impossible, or None: the design wind (mean plus the turbulence and gust
-        allowance) at 90 % of the platform's max speed or more."""
-        mean = math.hypot(*self.wind_enu)
-        w = mean + self.wind_allowance_mps
+        """Why return is impossible, or None: the mean wind at 90 % of the platform's max speed or more.
+
+        (Judged on the mean: the estimated turbulence also holds the estimate's own noise, and landing
+        because of it was measured to cause more breaches than it prevents.)
+        """
+        w = math.hypot(*self.wind_enu)
         if w >= RETURN_IMPOSSIBLE_WIND_FRACTION * self.env.max_speed_mps:
-            return (f"return impossible: wind {mean:.1f} m/s + {w - mean:.1f} m/s turbulence/gust allowance >= "
-                    f"{RETURN_IMPOSSIBLE_WIND_FRACTION:.0%} of max speed {self.env.max_speed_mps:.1f} m/s")
+            return f"return impossible: wind {w:.1f} m/s >= {RETURN_IMPOSSIBLE_WIND_FRACTION:.0%} of max speed {self.env.max_speed_mps:.1f} m/s"
         return None
 
     def _landing_point(self, s: VehicleState) -> tuple[float, float]:

@@ -203,9 +203,12 @@ class WindEstimator:
         """Estimated turbulence intensity: the RMS per axis of the wind samples about the estimate (m/s).
 
         It includes the samples' own noise (sensor and attitude errors), so it
-        errs on the high side; 0 until samples were used.
+        errs on the high side; 0 until the mean estimate has converged (before
+        that the spread is mostly the estimate's own start-up transient).
         """
-        return math.sqrt(self._var) if self._var > 0.0 else 0.0
+        if not self.converged or self._var <= 0.0:
+            return 0.0
+        return math.sqrt(self._var)
 
     def _fixed_wing_sample(self, s: VehicleState, va: float) -> tuple[float, float] | None:
         cfg = self.config
