@@ -89,6 +89,8 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
+from .polygon import pole_of_inaccessibility
+
 if TYPE_CHECKING:  # pragma: no cover
     from .fence import LocalFence
 
@@ -233,13 +235,14 @@ class RecoveryPath:
             seg = cum[i + 1] - cum[i]
             lo = (s0 - cum[i]) / seg if (seg > 0.0 and s0 > cum[i]) else 0.0
             dx, dy = bx - ax, by - ay
-            t = ((e - ax) * dx + (n - ay) * dy) / (seg * seg) if seg > 0.0 else 0.0
+            l2 = dx * dx + dy * dy
+            t = ((e - ax) * dx + (n - ay) * dy) / l2 if l2 > 0.0 else 0.0
             t = lo if t < lo else (1.0 if t > 1.0 else t)
             px, py = ax + t * dx, ay + t * dy
             cands.append((math.hypot(e - px, n - py), cum[i] + t * seg, px, py))
         cands.sort()
         m_v = self.planner.fence.lateral_margin_m(e, n)
-        for k, (d, s, px, py) in enumerate(cands[:4]):
+        for d, s, px, py in cands[:4]:
             if d <= EPS_M or self.planner.chord_ok((e, n), (px, py), m_v):
                 return s
         return s0
@@ -382,8 +385,6 @@ class RecoveryPlanner:
         return out
 
     def _find_safe_points(self) -> list[SafePoint]:
-        from .polygon import pole_of_inaccessibility
-
         f = self.fence
         c = self.clearance_m
         x0, y0, x1, y1 = f.keep_in.bbox
@@ -635,14 +636,6 @@ class RecoveryPlanner:
             pts.append(end)
         return pts
 
-    def _direct_ok(self, ctx, g: Point) -> bool:
-        s = ctx["s"]
-        if ctx["in_free"]:
-            return self._clear_one(s, g, self._thr)
-        if ctx["m_s"] - EPS_M > 0.0:
-            return self._clear_one(s, g, ctx["m_s"] - EPS_M)
-        return self._certified(s, g, ctx["m_s"])
-
     def plan(self, start_en: Point, goal_en: Point) -> RecoveryPath | None:
         """Shortest admissible route from ``start_en`` to ``goal_en`` (see the module docstring's guarantee).
 
@@ -724,8 +717,9 @@ class RecoveryPlanner:
         an orbit of radius ``radius_m`` round it keeps margin ``>= c``. Among the
         reachable safe points with enough clearance, the one with the shortest
         route is taken; the route is then cut at its first point whose margin
-        reaches ``radius_m + c`` (found by sphere tracing along the route, which
-        cannot skip such a point since the margin is 1-Lipschitz). ``None`` if no
+        reaches ``radius_m + c`` (found by sphere tracing along the route: steps
+        of ``max(deficit, 1 mm)``, which skip no such point by more than 1 mm
+        since the margin is 1-Lipschitz; the cut point's margin is checked). ``None`` if no
         reachable safe point has that clearance.
         """
         need = float(radius_m) + self.clearance_m
