@@ -82,11 +82,14 @@ def check_path(pl, path, start, eroded=None):
     for p in pts[1:]:
         assert lf.lateral_margin_m(*p) >= c - SLACK_M
     if eroded is not None:
+        # shapely's reference approximates arcs by chords, and GEOS's overlay of coincident circles and
+        # keep-out polygons was seen 0.095 m off (the exact sampled margins above held): a reference tolerance
+        tol = SLACK_M + max(1e-3 * c, 0.2)
         tail = pts[1:] if m_s < c else pts
         if len(tail) >= 2:
-            assert eroded.buffer(SLACK_M).covers(LineString(tail))
+            assert eroded.buffer(tol).covers(LineString(tail))
         elif len(tail) == 1:
-            assert eroded.buffer(SLACK_M).covers(Point(tail[0]))
+            assert eroded.buffer(tol).covers(Point(tail[0]))
     assert path.length_m >= math.hypot(pts[-1][0] - start[0], pts[-1][1] - start[1]) - 1e-9
 
 
