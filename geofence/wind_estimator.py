@@ -202,13 +202,11 @@ class WindEstimator:
     def turbulence_sigma_mps(self) -> float:
         """Estimated turbulence intensity: the RMS per axis of the wind samples about the estimate (m/s).
 
-        It includes the samples' own noise (sensor and attitude errors), so it
-        errs on the high side; 0 until the mean estimate has converged (before
-        that the spread is mostly the estimate's own start-up transient).
+        It includes the samples' own noise (sensor and attitude errors) and the
+        mean estimate's start-up transient, so it errs on the high side; 0 until
+        samples were used.
         """
-        if not self.converged or self._var <= 0.0:
-            return 0.0
-        return math.sqrt(self._var)
+        return math.sqrt(self._var) if self._var > 0.0 else 0.0
 
     def _fixed_wing_sample(self, s: VehicleState, va: float) -> tuple[float, float] | None:
         cfg = self.config
