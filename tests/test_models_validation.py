@@ -35,17 +35,7 @@ FRAME = LocalFrame(LAT0, LON0, H0)
 OUTER_HZ = 40.0
 
 
-def fly(pl, cmd: StickCommand, seconds: float, until=None):
-    frames = max(1, round(1.0 / (OUTER_HZ * pl.dt_s)))
-    states = []
-    for _ in range(int(round(seconds * OUTER_HZ))):
-        pl.command(cmd)
-        pl.step(frames)
-        s = pl.truth()
-        states.append(s)
-        if until is not None and until(s):
-            break
-    return states
+from test_multicopter_platform import fly  # noqa: E402  (hold sticks at the 40 Hz outer loop)
 
 
 @pytest.fixture(scope="module")
