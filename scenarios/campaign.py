@@ -49,7 +49,9 @@ import numpy as np
 import yaml
 
 from aircraft.profile import PlatformProfile, available_profiles, load_profile
-from geofence.boundary_shift import G_MPS2, worst_case_lateral_shift_m
+from aircraft.sensors import SensorConfig
+from geofence.boundary_shift import G_MPS2, activation_margins, worst_case_lateral_shift_m
+from geofence.dynamics import envelope_at_density, isa_density_ratio
 from geofence.fence import LocalFence, parse_fence
 from geofence.geodesy import LocalFrame
 from geofence.polygon import PolygonIndex
@@ -798,8 +800,34 @@ def build_case(index: int, seed: int, family: CaseFamily, platforms: Sequence[st
             draft, plan, attack = FAMILY_BUILDERS[family](sub, ctx)
         except _DoesNotFit:
             continue
+        if not legal_start(ctx, draft, plan):
+            continue  # the geofence would have to act at t = 0: not a fair case for this platform
         return _assemble(index, family, attack, ctx, draft, plan, wind, case_seed, sub)
     return None
+
+
+def legal_start(ctx: CaseContext, draft: FenceDraft, plan: Plan) -> bool:
+    """True when the start is outside the unit's activation boundary (positive margin at t = 0).
+
+    The start state as flown: a multirotor at rest, a fixed-wing at cruise (equivalent) airspeed on the
+    start heading, crabbing in the mean wind; the envelope at the site's air density; the unit's
+    nominal k·sigma margins of the default sensors. A case whose start already needs an override
+    cannot be won by any geofence and measures nothing.
+    """
+    env = envelope_at_density(ctx.profile.envelope, isa_density_ratio(ctx.site["ground_alt_m"] + plan.agl_m))
+    local = draft.local(ctx.frame)
+    to = math.radians(float(ctx.wind["from_deg"]) + 180.0)
+    we, wn = float(ctx.wind["speed_mps"]) * math.sin(to), float(ctx.wind["speed_mps"]) * math.cos(to)
+    ve = vn = 0.0
+    if not env.is_multirotor:
+        hdg = math.radians(plan.heading_deg)
+        ve, vn = env.cruise_speed_mps * math.sin(hdg) + we, env.cruise_speed_mps * math.cos(hdg) + wn
+    e, n = float(plan.start_en[0]), float(plan.start_en[1])
+    sensors = SensorConfig()
+    k = 2.0
+    r = activation_margins(local, e, n, plan.agl_m, ve, vn, 0.0, env, we, wn,
+                           h_uncertainty_m=k * sensors.gps_h_sigma_m, v_uncertainty_m=k * sensors.gps_v_sigma_m)
+    return r.lateral_activation_m > 0.0
 
 
 def _assemble(index: int, family: CaseFamily, attack: Attack, ctx: CaseContext, draft: FenceDraft, plan: Plan,
