@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 from typing import Protocol
 
+from geofence.boundary_shift import turn_radius_m
 from geofence.config import SeedPDGains
 from geofence.control_laws import (
     VelocityController,
@@ -200,7 +201,7 @@ class FixedWingRecovery:
         self.turn_limit_rad = math.inf
         self.turned_rad = 0.0
         self._last_yaw = 0.0
-        self.orbit_radius_m = 1.5 * env.cruise_speed_mps**2 / (9.80665 * math.tan(env.max_bank_rad))
+        self.orbit_radius_m = 1.5 * turn_radius_m(env.cruise_speed_mps, env.max_bank_rad)
 
     @property
     def lookahead_m(self) -> float:

@@ -37,8 +37,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Sequence
 
-from geofence.boundary_shift import activation_margins
-from geofence.dynamics import G_MPS2
+from geofence.boundary_shift import activation_margins, turn_radius_m
 from geofence.fence import LocalFence
 from geofence.interface import Envelope
 
@@ -146,7 +145,7 @@ def _leg_samples(env, a: PlannedWaypoint, b: PlannedWaypoint, speed: float, wind
 
 
 def _turn_radius(env: Envelope, speed: float) -> float:
-    return speed * speed / (G_MPS2 * math.tan(max(env.max_bank_rad, 0.05)))
+    return turn_radius_m(speed, max(env.max_bank_rad, 0.05))
 
 
 def _turn_samples(env, prev: PlannedWaypoint, wp: PlannedWaypoint, nxt: PlannedWaypoint, speed: float, wind_en) -> list[_Sample]:

@@ -40,7 +40,7 @@ import math
 from dataclasses import dataclass
 from enum import IntEnum
 
-from geofence.boundary_shift import ShiftResult, activation_margins
+from geofence.boundary_shift import ShiftResult, activation_margins, turn_radius_m
 from geofence.config import GeofenceConfig, TurbulenceSource
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
@@ -143,7 +143,7 @@ class GeofenceUnit:
                 self.recovery = MultirotorVelocityRecovery(env, config.recovery_speed_mps, self.wind_enu)
         else:
             self.recovery = FixedWingRecovery(env, self.wind_enu)
-        turn_r = env.cruise_speed_mps**2 / (G_MPS2 * math.tan(max(env.max_bank_rad, 0.05)))
+        turn_r = turn_radius_m(env.cruise_speed_mps, max(env.max_bank_rad, 0.05))
         self.landing = LandingGuidance(env, spiral_radius_m=max(1.2 * turn_r, 10.0), wind_enu=self.wind_enu)
         self.dead_reckoning = DeadReckoning(env)
 
@@ -286,15 +286,14 @@ class GeofenceUnit:
                 need = LANDING_EDGE_MARGIN_M if self._position_valid else DEAD_RECKONING_LANDING_MARGIN_M
                 if fence.lateral_margin_m(s.east_m, s.north_m) > need:
                     return s.east_m, s.north_m
-                found = self._planner(self._route_clearances()[0]).safe_point_with_radius((s.east_m, s.north_m), need)
-                return found[0].en if found is not None else fence.recovery_en
+                found = self._point_with_room(s, need)
+                return found[1] if found is not None else fence.recovery_en
             # a fixed-wing spirals down: the nearest point (by route) where its spiral fits inside
             r = self.landing.spiral_radius_m
-            c = self._route_clearances()[0]
-            if fence.lateral_margin_m(s.east_m, s.north_m) >= r + c:
+            if fence.lateral_margin_m(s.east_m, s.north_m) >= r + self._route_clearances()[0]:
                 return s.east_m, s.north_m
-            found = self._planner(c).safe_point_with_radius((s.east_m, s.north_m), r)
-            return found[0].en if found is not None else fence.recovery_en
+            found = self._point_with_room(s, r)
+            return found[1] if found is not None else fence.recovery_en
         we, wn = self.wind_enu
         v = max(self.env.max_speed_mps, 1.0)
         best, best_time = None, math.inf
@@ -326,7 +325,7 @@ class GeofenceUnit:
         if env.is_multirotor:
             c = ROUTE_CLEARANCE_MULTIROTOR_M + hu
         else:
-            c = env.cruise_speed_mps**2 / (G_MPS2 * math.tan(max(env.max_bank_rad, 0.05))) + hu
+            c = turn_radius_m(env.cruise_speed_mps, max(env.max_bank_rad, 0.05)) + hu
         return tuple(float(math.ceil(x)) for x in (c, 0.5 * c, 0.25 * c))
 
     def _route(self, s: VehicleState, goal_en: tuple[float, float]) -> Route:
@@ -352,15 +351,19 @@ class GeofenceUnit:
         """The route and the goal of an override: the recovery point, or (fixed-wing) the nearest point
         on the way where its recovery orbit fits."""
         goal = self.fence.recovery_en
-        route = self._route(s, goal)
         if not self.env.is_multirotor:
             orbit_r = self.recovery.orbit_radius_m
-            c = self._route_clearances()[0]
-            if self.fence.lateral_margin_m(*goal) < orbit_r + c:
-                found = self._planner(c).safe_point_with_radius((s.east_m, s.north_m), orbit_r)
+            if self.fence.lateral_margin_m(*goal) < orbit_r + self._route_clearances()[0]:
+                found = self._point_with_room(s, orbit_r)
                 if found is not None:
-                    return found[1], found[0].en
-        return route, goal
+                    return found
+        return self._route(s, goal), goal
+
+    def _point_with_room(self, s: VehicleState, radius_m: float) -> tuple[Route, tuple[float, float]] | None:
+        """The route to, and the nearest point (by route) where a circle of ``radius_m`` keeps the largest route
+        clearance from every boundary; None if no reachable point has that room."""
+        found = self._planner(self._route_clearances()[0]).safe_point_with_radius((s.east_m, s.north_m), radius_m)
+        return None if found is None else (found[1], found[0].en)
 
     def _rollout_target(self, e: float, n: float) -> tuple[float, float]:
         """Where a fixed-wing's recovery turn rolls out towards from (e, n): the first point of its route.

@@ -51,6 +51,7 @@ import yaml
 from aircraft.profile import PlatformProfile, available_profiles, load_profile
 from aircraft.sensors import SensorConfig
 from geofence.boundary_shift import G_MPS2, activation_margins, worst_case_lateral_shift_m
+from geofence.config import GeofenceConfig
 from geofence.dynamics import envelope_at_density, isa_density_ratio
 from geofence.fence import LocalFence, parse_fence
 from geofence.geodesy import LocalFrame
@@ -824,7 +825,7 @@ def legal_start(ctx: CaseContext, draft: FenceDraft, plan: Plan) -> bool:
         ve, vn = env.cruise_speed_mps * math.sin(hdg) + we, env.cruise_speed_mps * math.cos(hdg) + wn
     e, n = float(plan.start_en[0]), float(plan.start_en[1])
     sensors = SensorConfig()
-    k = 2.0
+    k = GeofenceConfig.uncertainty_k_sigma  # the unit's default k
     r = activation_margins(local, e, n, plan.agl_m, ve, vn, 0.0, env, we, wn,
                            h_uncertainty_m=k * sensors.gps_h_sigma_m, v_uncertainty_m=k * sensors.gps_v_sigma_m)
     return r.lateral_activation_m > 0.0
