@@ -240,8 +240,11 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "check":
             return _cmd_check(args)
         if args.command == "validate-models":
+            from aircraft.profile import load_profile
             from aircraft.validation import run_validation
 
+            for model in args.models or []:
+                load_profile(model)  # an unknown model is one line, exit 2, before anything flies
             return run_validation(args.models, args.out, check_profiles=args.check_profiles,
                                   allow_conservative=args.allow_conservative)
         if args.command == "campaign":

@@ -54,3 +54,8 @@ def test_campaign_generate_and_report_refuse_bad_folders(tmp_path):
     r = run_cli("campaign", "generate", str(tmp_path / "new"), "--cases", "2", "--seed", "3")
     assert r.returncode == 0 and (tmp_path / "new" / "campaign.json").is_file()
     assert len(list((tmp_path / "new").glob("*.yaml"))) == 6
+
+
+def test_validate_models_refuses_an_unknown_model_before_flying():
+    r = run_cli("validate-models", "--models", "Nope", "--out", "unused.md")
+    assert r.returncode == 2 and r.stdout == "" and "no platform profile for aircraft 'Nope'" in r.stderr
