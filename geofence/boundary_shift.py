@@ -379,14 +379,6 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
     Plain-Python scalar code for the per-step loop.
     """
     t_r = envelope.reaction_time_s + latency_s
-    dists, min_d = _edge_distances(fence.danger_edges(), e, n)
-    for i, (ce, cn, r) in enumerate(fence.keep_out_circles):
-        dist = math.hypot(ce - e, cn - n)
-        ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
-        d = dist - r
-        dists.append((d, ux, uy, FEATURE_KEEP_OUT_CIRCLE, i, -1))
-        if d < min_d:
-            min_d = d
     lat_margin = fence.lateral_margin_m(e, n)
     speed = math.hypot(ve, vn)
     extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
@@ -443,7 +435,25 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
         climb_arrest = (vu / envelope.vertical_accel_mps2, envelope.vertical_accel_mps2 / g) \
             if vu > 0.0 and envelope.vertical_accel_mps2 > 0.0 else (0.0, 0.0)
         directions = ((0.0, 0.0),)
-        bound = math.inf
+        # no edge farther than min_d + bound can bind: bound >= the room against any edge (the largest
+        # closing speed, push and pilot acceleration, the weakest braking; the room grows with each)
+        push_max = wind_push_mps2(k1, k2, wspeed, wspeed)
+        a_p_max = a_tilt + push_max
+        v1_max = speed + (a_p_max * t_r if a_p_max > 0.0 else 0.0)
+        brake = _braking_room_m(v1_max, v1_max, a_brake - push_max, climb_arrest) if v1_max > 0.0 else 0.0
+        bound = (speed * t_r + 0.5 * max(a_p_max, 0.0) * t_r * t_r + brake + hu) * (1.0 + 1e-9) + 1e-6
+    grid = fence.grid()
+    if grid is not None and bound < math.inf:
+        dists, min_d = grid.near(e, n, bound)
+    else:
+        dists, min_d = _edge_distances(fence.danger_edges(), e, n)
+        for i, (ce, cn, r) in enumerate(fence.keep_out_circles):
+            dist = math.hypot(ce - e, cn - n)
+            ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
+            d = dist - r
+            dists.append((d, ux, uy, FEATURE_KEEP_OUT_CIRCLE, i, -1))
+            if d < min_d:
+                min_d = d
 
     def worst_edge(dists: list, min_d: float):
         """(activation, turn sign, (room, feature, index, edge, nx, ny, d, v_n)) of the binding edge."""

@@ -13,7 +13,10 @@ raises :class:`FenceError` with one line naming the field and the problem.
 (by default one at the keep-in vertices' centre) and returns a
 :class:`LocalFence` with precomputed :class:`~geofence.polygon.PolygonIndex`
 objects and fast scalar margins (plain Python floats, for the 40 Hz loop) plus
-vectorized ``*_array`` versions for analysis.
+vectorized ``*_array`` versions for analysis. For a fence of more than a few
+dozen elements the per-step lateral queries are answered from a
+:class:`~geofence.fence_grid.FenceGrid` (only the elements within reach; the
+same answers as the full scan, which stays as ``lateral_margin_scan_m``).
 
 Margins (all in m, positive = inside/safe, negative = breached)
 -------------------------------------------------------------------
@@ -62,6 +65,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from .fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame, ecef_to_geodetic, geodetic_to_ecef
 from .polygon import (
     PolygonIndex,
@@ -200,13 +204,14 @@ class Fence:
         lat, lon = self.center()
         return LocalFrame(lat, lon, 0.0)
 
-    def to_local(self, frame: LocalFrame | None = None) -> "LocalFence":
-        """This fence projected into ``frame`` (default: :meth:`default_frame`, cached)."""
-        if frame is None:
+    def to_local(self, frame: LocalFrame | None = None, *, index: bool | None = None) -> "LocalFence":
+        """This fence projected into ``frame`` (default: :meth:`default_frame`, cached); ``index``: see
+        :class:`LocalFence`."""
+        if frame is None and index is None:
             if not self._default_local:
                 self._default_local.append(LocalFence(self, self.default_frame()))
             return self._default_local[0]
-        return LocalFence(self, frame)
+        return LocalFence(self, frame if frame is not None else self.default_frame(), index=index)
 
     def resolved_recovery_point(self) -> tuple[float, float, float | None]:
         """``(lat, lon, alt_m)``: the declared recovery point, with defaults filled in.
@@ -368,11 +373,15 @@ class LocalFence:
 
     __slots__ = ("fence", "frame", "keep_in", "keep_out_polygons", "keep_out_circles", "floor_gaps",
                  "ceiling_m", "floor_m", "altitude_reference", "recovery_en", "recovery_height_m",
-                 "_inradius", "_no_keepouts", "_danger_edges", "_gap_edges")
+                 "_inradius", "_no_keepouts", "_danger_edges", "_gap_edges", "_grid", "_use_index")
 
-    def __init__(self, fence: Fence, frame: LocalFrame) -> None:
+    def __init__(self, fence: Fence, frame: LocalFrame, *, index: bool | None = None) -> None:
+        """``index``: answer the per-step lateral queries from a :class:`~geofence.fence_grid.FenceGrid`
+        (``None``: when the fence has at least :data:`~geofence.fence_grid.SMALL_FENCE_ELEMENTS` elements;
+        ``False``: always the full scan, the reference the index is tested against)."""
         self.fence = fence
         self.frame = frame
+        self._grid = None
         h0 = frame.h0_m
 
         def proj(poly: PolygonLL) -> PolygonIndex:
@@ -387,6 +396,8 @@ class LocalFence:
         self.floor_m = fence.floor_m
         self.altitude_reference = fence.altitude_reference
         self._no_keepouts = not self.keep_out_polygons and not self.keep_out_circles
+        n_elements = self.keep_in.n + sum(k.n for k in self.keep_out_polygons) + len(self.keep_out_circles)
+        self._use_index = index if index is not None else n_elements >= SMALL_FENCE_ELEMENTS
         self._inradius = None
         self._danger_edges = None
         self._gap_edges = None
@@ -411,9 +422,25 @@ class LocalFence:
         e, n, _ = self.frame.to_enu(lat_deg, lon_deg, self.frame.h0_m)
         return e, n
 
+    def grid(self) -> FenceGrid | None:
+        """The candidate-set index of the lateral elements (built on first use), or None for a small fence."""
+        if self._grid is None and self._use_index:
+            self._grid = FenceGrid(self.danger_edges(), self.keep_out_circles, FEATURE_KEEP_OUT_CIRCLE,
+                                   self.keep_in, self.keep_out_polygons)
+        return self._grid
+
     # ---- scalar margins (per-step)
     def lateral_margin_m(self, e: float, n: float) -> float:
         """Lateral margin in m: + inside the allowed area, - breached (keep-in or a keep-out)."""
+        grid = self._grid if self._grid is not None else self.grid()
+        if grid is not None:
+            m = grid.clearly_allowed(e, n)
+            if m is not None:
+                return m
+        return self.lateral_margin_scan_m(e, n)
+
+    def lateral_margin_scan_m(self, e: float, n: float) -> float:
+        """:meth:`lateral_margin_m` by the full scan of every element (the reference; also the breached case)."""
         m = self.keep_in.signed_distance(e, n)
         if self._no_keepouts:
             return m

@@ -51,7 +51,10 @@ Point = tuple[float, float]
 # --------------------------------------------------------------------------- basics
 def as_vertices(points: Iterable[Sequence[float]]) -> np.ndarray:
     """An (N, 2) float array of vertices; a closing vertex equal to the first is dropped."""
-    v = np.asarray([(float(p[0]), float(p[1])) for p in points], dtype=float).reshape(-1, 2)
+    if isinstance(points, np.ndarray) and points.ndim == 2 and points.shape[1] == 2:
+        v = points.astype(float)
+    else:
+        v = np.asarray([(float(p[0]), float(p[1])) for p in points], dtype=float).reshape(-1, 2)
     if len(v) >= 2 and v[0, 0] == v[-1, 0] and v[0, 1] == v[-1, 1]:
         v = v[:-1]
     return v
@@ -163,33 +166,40 @@ def self_intersections(vertices) -> list[tuple[int, int]]:
         if seg[i][0] == seg[i][1]:
             out.append((i, i))
     zero = {i for i, _ in out}
-    # bounding boxes for a cheap reject
+    # bounding boxes for a cheap reject, and a sweep over x so only pairs whose x-ranges meet are visited
     bx = [(min(a[0], b[0]), max(a[0], b[0]), min(a[1], b[1]), max(a[1], b[1])) for a, b in seg]
-    for i in range(n):
-        if i in zero:
+    order = sorted(range(n), key=lambda k: bx[k][0])
+    pairs = []
+    for oi, i in enumerate(order):
+        hi = bx[i][1]
+        for oj in range(oi + 1, n):
+            j = order[oj]
+            if bx[j][0] > hi:
+                break
+            pairs.append((i, j) if i < j else (j, i))
+    pairs.sort()
+    for i, j in pairs:
+        if i in zero or j in zero:
             continue
         a, b = seg[i]
-        for j in range(i + 1, n):
-            if j in zero:
-                continue
-            adjacent_next = j == i + 1
-            adjacent_wrap = i == 0 and j == n - 1
-            bi, bj = bx[i], bx[j]
-            if bi[1] < bj[0] or bj[1] < bi[0] or bi[3] < bj[2] or bj[3] < bi[2]:
-                continue
-            c, d = seg[j]
-            if adjacent_next or adjacent_wrap:
-                # shared vertex: they intersect elsewhere only if collinear and folding back
-                if adjacent_next:
-                    p, q, r = a, b, d  # edge i = p->q, edge j = q->r
-                else:
-                    p, q, r = c, d, b  # edge j = p->q (= v[n-1] -> v[0]), edge i = q->r
-                if orient2d(p, q, r) == 0:
-                    if (q[0] - p[0]) * (r[0] - q[0]) + (q[1] - p[1]) * (r[1] - q[1]) < 0:
-                        out.append((i, j))
-                continue
-            if segments_intersect(a, b, c, d):
-                out.append((i, j))
+        adjacent_next = j == i + 1
+        adjacent_wrap = i == 0 and j == n - 1
+        bi, bj = bx[i], bx[j]
+        if bi[1] < bj[0] or bj[1] < bi[0] or bi[3] < bj[2] or bj[3] < bi[2]:
+            continue
+        c, d = seg[j]
+        if adjacent_next or adjacent_wrap:
+            # shared vertex: they intersect elsewhere only if collinear and folding back
+            if adjacent_next:
+                p, q, r = a, b, d  # edge i = p->q, edge j = q->r
+            else:
+                p, q, r = c, d, b  # edge j = p->q (= v[n-1] -> v[0]), edge i = q->r
+            if orient2d(p, q, r) == 0:
+                if (q[0] - p[0]) * (r[0] - q[0]) + (q[1] - p[1]) * (r[1] - q[1]) < 0:
+                    out.append((i, j))
+            continue
+        if segments_intersect(a, b, c, d):
+            out.append((i, j))
     return out
 
 
@@ -214,6 +224,22 @@ def point_location(x: float, y: float, vertices, tol: float = BOUNDARY_TOL_M) ->
     """``1`` inside, ``0`` on the boundary (within ``tol`` m), ``-1`` outside."""
     v = as_vertices(vertices)
     n = len(v)
+    if n > 64:  # the same arithmetic, vectorised
+        w = np.roll(v, -1, axis=0)
+        d = w - v
+        px, py = x - v[:, 0], y - v[:, 1]
+        l2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(l2 == 0.0, 0.0, (px * d[:, 0] + py * d[:, 1]) / np.where(l2 == 0.0, 1.0, l2))
+            t = np.clip(t, 0.0, 1.0)
+            qx, qy = px - t * d[:, 0], py - t * d[:, 1]
+            best = float(np.min(qx * qx + qy * qy))
+            straddle = (v[:, 1] > y) != (w[:, 1] > y)
+            xc = v[:, 0] + (y - v[:, 1]) * d[:, 0] / np.where(straddle, d[:, 1], 1.0)
+            inside = bool(np.count_nonzero(straddle & (x < xc)) % 2)
+        if best <= tol * tol:
+            return 0
+        return 1 if inside else -1
     inside = False
     best = math.inf
     for i in range(n):
@@ -268,10 +294,24 @@ def polygon_covers_polygon(outer, inner) -> bool:
     return True
 
 
+def _edges_meeting_box(v: np.ndarray, box: tuple[float, float, float, float]) -> np.ndarray:
+    """Indices of the edges of polygon ``v`` whose bounding boxes meet ``box = (xmin, ymin, xmax, ymax)``."""
+    w = np.roll(v, -1, axis=0)
+    lo, hi = np.minimum(v, w), np.maximum(v, w)
+    return np.flatnonzero((lo[:, 0] <= box[2]) & (hi[:, 0] >= box[0]) & (lo[:, 1] <= box[3]) & (hi[:, 1] >= box[1]))
+
+
 def polygons_intersect(a, b) -> bool:
-    """True if the closed polygons share any point (overlap, containment or touching)."""
+    """True if the closed polygons share any point (overlap, containment or touching).
+
+    Only the edges of ``a`` whose bounding boxes meet ``b``'s are tested (the
+    others cannot touch ``b``), so a small polygon against a large one costs
+    little; containment is the parity test, vectorised for the larger polygon.
+    """
     va, vb = as_vertices(a), as_vertices(b)
-    sa = [(tuple(va[k]), tuple(va[(k + 1) % len(va)])) for k in range(len(va))]
+    box_b = (float(vb[:, 0].min()), float(vb[:, 1].min()), float(vb[:, 0].max()), float(vb[:, 1].max()))
+    na = len(va)
+    sa = [(tuple(va[k]), tuple(va[(k + 1) % na])) for k in _edges_meeting_box(va, box_b).tolist()]
     for k in range(len(vb)):
         p, q = tuple(vb[k]), tuple(vb[(k + 1) % len(vb)])
         for c, d in sa:

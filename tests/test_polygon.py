@@ -220,3 +220,55 @@ def test_polygon_relations_agree_with_shapely(a, b):
     assert polygons_intersect(a, b) == pa.intersects(pb)
     if pa.boundary.distance(pb.boundary) > 1e-6:
         assert polygon_covers_polygon(a, b) == pa.covers(pb)
+
+
+def _self_intersections_all_pairs(vertices):
+    """Reference: every pair of edges tested (the check before the x-sweep)."""
+    from geofence.polygon import as_vertices, orient2d, segments_intersect
+
+    v = [tuple(map(float, p)) for p in as_vertices(vertices)]
+    n = len(v)
+    if n < 3:
+        return []
+    seg = [(v[i], v[(i + 1) % n]) for i in range(n)]
+    out = [(i, i) for i in range(n) if seg[i][0] == seg[i][1]]
+    zero = {i for i, _ in out}
+    for i in range(n):
+        for j in range(i + 1, n):
+            if i in zero or j in zero:
+                continue
+            (a, b), (c, d) = seg[i], seg[j]
+            if j == i + 1 or (i == 0 and j == n - 1):
+                p, q, r = (a, b, d) if j == i + 1 else (c, d, b)
+                if orient2d(p, q, r) == 0 and (q[0] - p[0]) * (r[0] - q[0]) + (q[1] - p[1]) * (r[1] - q[1]) < 0:
+                    out.append((i, j))
+                continue
+            if segments_intersect(a, b, c, d):
+                out.append((i, j))
+    return out
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.tuples(st.integers(-6, 6), st.integers(-6, 6)), min_size=3, max_size=14))
+def test_self_intersections_sweep_equals_all_pairs(points):
+    """The x-sweep visits every pair that can meet: same pairs, same order, as testing all pairs."""
+    assert self_intersections(points) == _self_intersections_all_pairs(points)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50)), min_size=65, max_size=120),
+       st.floats(-60, 60), st.floats(-60, 60))
+def test_point_location_vectorised_equals_scalar(points, x, y):
+    """Polygons above 64 vertices take the vectorised branch: the same answer as the per-edge loop."""
+    import geofence.polygon as P
+
+    v = P.as_vertices(points)
+    inside, best = False, math.inf
+    n = len(v)
+    for i in range(n):
+        ax, ay, bx, by = float(v[i, 0]), float(v[i, 1]), float(v[(i + 1) % n, 0]), float(v[(i + 1) % n, 1])
+        best = min(best, P._segment_dist2(x, y, ax, ay, bx, by))
+        if (ay > y) != (by > y) and x < ax + (y - ay) * (bx - ax) / (by - ay):
+            inside = not inside
+    expected = 0 if best <= P.BOUNDARY_TOL_M ** 2 else (1 if inside else -1)
+    assert point_location(x, y, points) == expected

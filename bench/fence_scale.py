@@ -1,0 +1,215 @@
+"""Benchmark: geofence unit cost per update against fence size, indexed vs full scan, side by side.
+
+For fences of one family -- a noisy star-shaped keep-in about 6 km across with
+``V`` vertices and ``K`` square keep-outs (20-40 m buildings on a jittered grid)
+-- it times :meth:`GeofenceUnit.update` per call for the two platform kinds
+(the F450RD and Tern profiles' envelopes) in a 6 m/s wind:
+
+* ``near``: the vehicle flies along the boundary at cruise speed, closing on it
+  (the outward component of the velocity is a third of the speed), at a
+  distance where the activation margin stays positive (so the unit keeps
+  monitoring and computes the full margin every step); the position advances
+  every call at the 40 Hz outer-loop step, so cache-cell changes are paid at
+  the rate a real flight pays them;
+* ``far``: the same at the fence's centre (the skip shortcut answers).
+
+Each case runs with the fence index (``index=True``) and with the full scan
+(``index=False``, the reference) in the same run; medians of interleaved repeats.
+It prints a table and saves ``bench/fence_scale.png`` (log-log).
+
+    python bench/fence_scale.py [--quick] [--repeats 3] [--out bench/fence_scale.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import random
+import statistics
+import time
+from pathlib import Path
+
+from aircraft.profile import load_profile
+from geofence.config import GeofenceConfig
+from geofence.fence import Fence
+from geofence.geodesy import LocalFrame
+from geofence.interface import StickCommand, VehicleState
+from geofence.unit import GeofenceUnit
+
+FRAME = LocalFrame(47.0, 8.0, 400.0)
+RADIUS_M = 3000.0
+DT_S = 1.0 / 40.0
+WIND_EN = (6.0 * math.cos(0.7), 6.0 * math.sin(0.7))
+PLATFORMS = ("F450RD", "Tern")
+
+
+def star_fence(n_vertices: int, n_keepouts: int, seed: int = 1) -> Fence:
+    rng = random.Random(seed)
+    ll = lambda e, n: tuple(FRAME.to_geodetic(e, n, FRAME.h0_m)[:2])  # noqa: E731
+    keep_in = []
+    for i in range(n_vertices):
+        a = 2.0 * math.pi * i / n_vertices
+        keep_in.append(ll(*_boundary(a)))
+    squares = []
+    if n_keepouts:
+        side = math.ceil(math.sqrt(n_keepouts / 0.5))
+        step = 1.4 * RADIUS_M * 0.8 / side
+        cells = [(i, j) for i in range(side) for j in range(side)]
+        rng.shuffle(cells)
+        for i, j in cells:
+            if len(squares) >= n_keepouts:
+                break
+            cx = (i - side / 2 + 0.5) * step + rng.uniform(-0.2, 0.2) * step
+            cy = (j - side / 2 + 0.5) * step + rng.uniform(-0.2, 0.2) * step
+            if math.hypot(cx, cy) > 0.6 * RADIUS_M or math.hypot(cx, cy) < 100.0:
+                continue
+            s, t = rng.uniform(10.0, 20.0), rng.uniform(0.0, math.pi / 2)
+            squares.append(tuple(ll(cx + s * math.cos(t + k * math.pi / 2), cy + s * math.sin(t + k * math.pi / 2))
+                                 for k in range(4)))
+    return Fence(keep_in=tuple(keep_in), ceiling_m=120.0, keep_out_polygons=tuple(squares))
+
+
+def _boundary(a: float) -> tuple[float, float]:
+    r = RADIUS_M * (1.0 + 0.15 * math.sin(5.0 * a) + 0.03 * math.sin(37.0 * a))
+    return r * math.cos(a), r * math.sin(a)
+
+
+def _states(unit: GeofenceUnit, near: bool, n: int) -> list[VehicleState]:
+    """States along the boundary (or at the centre), advancing at cruise speed per 40 Hz step."""
+    env = unit.env
+    v = env.cruise_speed_mps
+    out = []
+    a = 0.3
+    inset = None
+    for k in range(n):
+        if not near:
+            e, nn = 0.0, 0.0
+            ve, vn = v * math.cos(0.3 * k * DT_S), v * math.sin(0.3 * k * DT_S)
+        else:
+            be, bn = _boundary(a)
+            r = math.hypot(be, bn)
+            if inset is None:
+                inset = _inset_for_positive_margin(unit, a, v)
+            e, nn = be * (r - inset) / r, bn * (r - inset) / r
+            ue, un = be / r, bn / r
+            te, tn = -un, ue
+            ve, vn = v * (0.94 * te + 0.33 * ue), v * (0.94 * tn + 0.33 * un)
+            a += v * DT_S / r
+        out.append(VehicleState(t_s=k * DT_S, east_m=e, north_m=nn, alt_m=FRAME.h0_m + 40.0, agl_m=40.0,
+                                v_east_mps=ve, v_north_mps=vn, airspeed_mps=v))
+    return out
+
+
+def _inset_for_positive_margin(unit: GeofenceUnit, a: float, v: float) -> float:
+    """A distance inside the boundary where the activation margin is a few metres positive all along."""
+    for inset in range(5, 2000, 5):
+        ok = True
+        for k in range(0, 400, 20):
+            aa = a + k * v * DT_S / RADIUS_M
+            be, bn = _boundary(aa)
+            r = math.hypot(be, bn)
+            e, n = be * (r - inset) / r, bn * (r - inset) / r
+            ue, un = be / r, bn / r
+            s = VehicleState(east_m=e, north_m=n, agl_m=40.0, alt_m=FRAME.h0_m + 40.0,
+                             v_east_mps=v * (-0.94 * un + 0.33 * ue), v_north_mps=v * (0.94 * ue + 0.33 * un),
+                             airspeed_mps=v)
+            if unit._margins(s, 40.0, 1.0, 1.0, DT_S).activation_margin_m < 3.0:
+                ok = False
+                break
+        if ok:
+            return float(inset) + 5.0
+    raise RuntimeError("no inset with a positive activation margin")
+
+
+def time_updates(fence: Fence, platform: str, near: bool, index: bool, calls: int) -> tuple[float, int]:
+    """(µs per update, activations) over ``calls`` updates of a moving vehicle."""
+    local = fence.to_local(FRAME, index=index)
+    env = load_profile(platform).envelope
+    unit = GeofenceUnit(GeofenceConfig(fence=fence, wind_prior_enu=WIND_EN), local, env)
+    states = _states(unit, near, calls)
+    pilot = StickCommand()
+    update = unit.update
+    for s in states[:5]:  # warm-up: density scaling, first cell
+        update(s.t_s, s, pilot, DT_S, WIND_EN, True, 1.0, 1.0)
+    t0 = time.perf_counter()
+    for s in states:
+        update(s.t_s, s, pilot, DT_S, WIND_EN, True, 1.0, 1.0)
+    dt = time.perf_counter() - t0
+    return 1e6 * dt / len(states), unit.activations
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="fewer sizes and calls (a smoke run)")
+    ap.add_argument("--repeats", type=int, default=3, help="interleaved repeats, median reported (default 3)")
+    ap.add_argument("--out", type=Path, default=Path(__file__).with_name("fence_scale.png"), help="figure path")
+    args = ap.parse_args()
+    if args.quick:
+        sizes = [(4, 0), (100, 0), (1000, 0), (10000, 500)]
+    else:
+        sizes = [(4, 0), (10, 0), (100, 0), (1000, 0), (10000, 0), (100000, 0),
+                 (1000, 50), (1000, 500), (1000, 5000), (10000, 500)]
+    rows = []
+    print(f"{'vertices':>9s} {'keep-outs':>9s} {'build s':>8s}  "
+          + "  ".join(f"{p + ' ' + w:>15s} idx/scan µs" for p in PLATFORMS for w in ("near", "far")))
+    for nv, nk in sizes:
+        t0 = time.perf_counter()
+        fence = star_fence(nv, nk)
+        build = time.perf_counter() - t0
+        cells = []
+        for platform in PLATFORMS:
+            for near in (True, False):
+                res = {}
+                for index in (True, False):
+                    # a full scan of 100k elements costs ~0.1 s per call: time fewer calls there
+                    calls = 400 if (index or nv + 4 * nk <= 2000) else (60 if nv + 4 * nk <= 30000 else 12)
+                    if args.quick:
+                        calls = min(calls, 200)
+                    runs = [time_updates(fence, platform, near, index, calls) for _ in range(args.repeats)]
+                    res[index] = (statistics.median(r[0] for r in runs), max(r[1] for r in runs))
+                cells.append((platform, near, res[True][0], res[False][0], res[True][1] + res[False][1]))
+        rows.append((nv, nk, build, cells))
+        print(f"{nv:9d} {nk:9d} {build:8.1f}  "
+              + "  ".join(f"{c[2]:12.1f} / {c[3]:9.1f}" + ("!" if c[4] else " ") for c in cells), flush=True)
+    print("(! = the unit activated during the run: the case measured an override, not monitoring)")
+    _plot(rows, args.out)
+    print(f"figure: {args.out}")
+
+
+def _plot(rows, out: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
+    styles = {("F450RD", True): ("tab:blue", "o"), ("F450RD", False): ("tab:cyan", "s"),
+              ("Tern", True): ("tab:red", "o"), ("Tern", False): ("tab:orange", "s")}
+    for ax, sel, xlabel, xi in ((axes[0], lambda r: r[1] == 0, "keep-in vertices (no keep-outs)", 0),
+                                (axes[1], lambda r: r[0] == 1000, "keep-out polygons (1,000 keep-in vertices)", 1)):
+        part = [r for r in rows if sel(r)]
+        if not part:
+            continue
+        xs = [max(r[xi], 1) for r in part]
+        for k, (platform, near) in enumerate((p, w) for p in PLATFORMS for w in (True, False)):
+            colour, marker = styles[(platform, near)]
+            label = f"{platform} {'near edge' if near else 'far'}"
+            ax.plot(xs, [r[3][k][2] for r in part], color=colour, marker=marker, label=label + ", index")
+            ax.plot(xs, [r[3][k][3] for r in part], color=colour, marker=marker, ls=":", alpha=0.7,
+                    label=label + ", full scan")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("GeofenceUnit.update, µs per call")
+        ax.grid(True, which="both", alpha=0.3)
+    axes[0].legend(fontsize=7, ncol=2)
+    big = [r for r in rows if r[0] == 10000 and r[1] == 500]
+    title = "Geofence cost per update vs fence size (solid: indexed, dotted: full scan)"
+    if big:
+        title += f" — 10,000 vertices + 500 keep-outs: see table"
+    fig.suptitle(title)
+    fig.savefig(out, dpi=110)
+
+
+if __name__ == "__main__":
+    main()

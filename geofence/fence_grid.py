@@ -1,0 +1,239 @@
+"""Which lateral fence elements can matter near a point: the per-step candidate sets of a large fence.
+
+One question: for a position ``p`` and a *reach* ``r`` (the largest room the
+platform can need against any edge in the current wind, see
+:func:`geofence.boundary_shift.activation_margins`), which boundary elements
+can have ``d(p) < d_min(p) + r``, where ``d`` is an element's distance and
+``d_min`` the nearest element's? Only those can bind the activation margin
+(an element's activation is ``d - room >= d - r``), so the per-step cost
+depends on the elements *within reach*, not on the size of the fence.
+
+Elements and their distance ``d`` (the same float arithmetic as the full scan,
+so the answers are bit-identical): keep-in and keep-out polygon edges
+(unsigned point-segment distance) and keep-out circles (``hypot - radius``,
+negative inside), in the order of :meth:`LocalFence.danger_edges` followed by
+``keep_out_circles``.
+
+The index is a table of square cells (``cell_m`` on a side) filled lazily:
+the first time the vehicle is in a cell, one vectorised pass over all elements
+(numpy, ``O(N)``) computes their distances ``d(c)`` from the cell centre ``c``
+and keeps, sorted by ``d(c)``, those with ``d(c) <= U + r_cell + h`` where
+``h`` is the half diagonal and ``U = min d(c) + h`` bounds ``d_min`` anywhere
+in the cell. While the vehicle stays in the cell every step reuses that list:
+it walks it in order of ``d(c)`` and stops as soon as the lower bound
+``d(c) - |p - c|`` exceeds the best distance found plus the reach (every
+element's ``d`` is 1-Lipschitz in ``p``). A step therefore costs
+``O(elements within reach)``; a new cell costs one ``O(N)`` numpy pass. A
+larger reach than the cell was built for rebuilds it (with 1.5x the reach).
+
+Containment for the lateral margin (inside the keep-in? inside a keep-out?)
+is exact too: each cell records whether it lies wholly inside or outside the
+keep-in (no keep-in edge within its half diagonal) and which keep-out
+polygons' bounding boxes meet it; in a cell the keep-in boundary crosses, the
+crossing parity is counted over the edges of one horizontal row strip (the
+only edges that can straddle the point's latitude line), with the same test
+as :meth:`geofence.polygon.PolygonIndex.signed_distance`.
+
+``tests/test_fence_grid.py`` compares every answer with the full scan on
+random fences and states (next to corners, inside keep-outs, outside).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from .polygon import BOUNDARY_TOL_M, PolygonIndex
+
+SMALL_FENCE_ELEMENTS: int = 48
+"""Fences with fewer lateral elements than this are scanned in full (the scan is cheaper than the bookkeeping)."""
+
+DEFAULT_CELL_M: float = 16.0
+"""Side of a cache cell (m): a vehicle at 20 m/s enters a new cell about every 0.8 s."""
+
+MIN_REACH_M: float = 50.0
+"""A cell is built for at least this reach (m), so small changes of speed do not rebuild it."""
+
+MAX_CELLS: int = 50_000
+"""Cells kept before the table is cleared (memory bound for long flights over big fences)."""
+
+Item = tuple  # (d, nx, ny, feature, feature_index, edge): the ``dists`` format of activation_margins
+
+
+class FenceGrid:
+    """The candidate-set index of one :class:`~geofence.fence.LocalFence` (see the module docstring).
+
+    ``edges``: the :meth:`LocalFence.danger_edges` items ``(ax, ay, dx, dy,
+    inv_len2, nx, ny, feature, feature_index, edge)``; ``circles``: ``(east,
+    north, radius)``; ``circle_feature``: the feature name reported for a
+    circle; ``keep_in`` / ``keep_outs``: the polygons, for containment.
+    """
+
+    def __init__(self, edges: Sequence[tuple], circles: Sequence[tuple[float, float, float]], circle_feature: str,
+                 keep_in: PolygonIndex, keep_outs: Sequence[PolygonIndex], cell_m: float = DEFAULT_CELL_M) -> None:
+        self.cell_m = float(cell_m)
+        self.half_diag_m = self.cell_m * math.sqrt(0.5)
+        self._circle_feature = circle_feature
+        s = len(edges)
+        self.n_elements = s + len(circles)
+        # per element: (id, a, b, c, d, inv_len2, nx, ny, feature, index, edge); inv_len2 < 0 marks a circle
+        recs = [(i, ax, ay, dx, dy, il2, nx, ny, feat, idx, j) for i, (ax, ay, dx, dy, il2, nx, ny, feat, idx, j)
+                in enumerate(edges)]
+        recs += [(s + k, ce, cn, r, 0.0, -1.0, 0.0, 0.0, circle_feature, k, -1) for k, (ce, cn, r) in enumerate(circles)]
+        self._recs = recs
+        e = np.array([[r[1], r[2], r[3], r[4], r[5]] for r in recs[:s]], dtype=float).reshape(-1, 5)
+        self._ax, self._ay, self._dx, self._dy, self._il2 = (e[:, k].copy() for k in range(5))
+        c = np.array(list(circles), dtype=float).reshape(-1, 3)
+        self._ce, self._cn, self._cr = (c[:, k].copy() for k in range(3))
+        self._keep_in = keep_in
+        self._ki_min_dist_h = None
+        self._keep_outs = tuple(keep_outs)
+        kb = np.array([k.bbox for k in keep_outs], dtype=float).reshape(-1, 4)
+        self._ko_bbox = kb
+        self._cells: dict[tuple[int, int], tuple] = {}
+        self._rows = _RowStrips(keep_in)
+
+    # ---- cells
+    def _distances_from(self, x: float, y: float) -> np.ndarray:
+        """``d`` of every element from (x, y), vectorised, in element order."""
+        px = x - self._ax
+        py = y - self._ay
+        t = np.clip((px * self._dx + py * self._dy) * self._il2, 0.0, 1.0)
+        qx = px - t * self._dx
+        qy = py - t * self._dy
+        d_seg = np.sqrt(qx * qx + qy * qy)
+        d_circ = np.hypot(self._ce - x, self._cn - y) - self._cr
+        return np.concatenate([d_seg, d_circ])
+
+    def _cell(self, e: float, n: float, reach: float) -> tuple:
+        c = self.cell_m
+        key = (math.floor(e / c), math.floor(n / c))
+        cell = self._cells.get(key)
+        if cell is not None and cell[0] >= reach:
+            return cell
+        built_for = max(reach, MIN_REACH_M, 1.5 * cell[0] if cell is not None else 0.0)
+        cx, cy = (key[0] + 0.5) * c, (key[1] + 0.5) * c
+        h = self.half_diag_m
+        d = self._distances_from(cx, cy)
+        u = float(d.min()) + h
+        sel = np.flatnonzero(d <= u + built_for + h)
+        sel = sel[np.argsort(d[sel], kind="stable")]
+        recs = self._recs
+        cands = tuple((float(d[i]),) + recs[i] for i in sel.tolist())
+        # keep-in: wholly inside (+1), wholly outside (-1) or crossed by its boundary (0)
+        ki = self._keep_in
+        sd = float(ki.signed_distance_array(np.array([[cx, cy]]))[0])
+        ki_state = 0 if abs(sd) <= h + 1e-6 else (1 if sd > 0.0 else -1)
+        kb = self._ko_bbox
+        lo_x, lo_y, hi_x, hi_y = key[0] * c, key[1] * c, (key[0] + 1) * c, (key[1] + 1) * c
+        ko = tuple(np.flatnonzero((kb[:, 0] <= hi_x) & (kb[:, 2] >= lo_x) & (kb[:, 1] <= hi_y) & (kb[:, 3] >= lo_y)).tolist())
+        cell = (built_for, cx, cy, cands, ki_state, ko)
+        if len(self._cells) >= MAX_CELLS:
+            self._cells.clear()
+        self._cells[key] = cell
+        return cell
+
+    # ---- queries
+    def near(self, e: float, n: float, reach: float) -> tuple[list[Item], float]:
+        """``(items, d_min)``: every element with ``d - reach < d_min``, in element order, and the nearest ``d``.
+
+        Items are ``(d, nx, ny, feature, feature_index, edge)`` with the
+        breach-pointing unit normal (for a circle: towards its centre).
+        """
+        _, cx, cy, cands, _, _ = self._cell(e, n, reach)
+        delta = math.hypot(e - cx, n - cy)
+        best = math.inf
+        found = []
+        for lb, i, a, b, c, dd, il2, nx, ny, feat, idx, j in cands:
+            if lb - delta - reach > best:
+                break
+            if il2 >= 0.0:
+                px, py = e - a, n - b
+                t = (px * c + py * dd) * il2
+                t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+                qx, qy = px - t * c, py - t * dd
+                d = math.sqrt(qx * qx + qy * qy)
+            else:
+                dist = math.hypot(a - e, b - n)
+                nx, ny = ((a - e) / dist, (b - n) / dist) if dist > 0.0 else (1.0, 0.0)
+                d = dist - c
+            found.append((i, (d, nx, ny, feat, idx, j)))
+            if d < best:
+                best = d
+        found.sort()
+        return [f[1] for f in found], best
+
+    def nearest_distance(self, e: float, n: float) -> float:
+        """The nearest element's ``d`` (circles signed: negative inside)."""
+        _, cx, cy, cands, _, _ = self._cell(e, n, 0.0)
+        delta = math.hypot(e - cx, n - cy)
+        best = math.inf
+        for lb, _, a, b, c, dd, il2, *_ in cands:
+            if lb - delta > best:
+                break
+            if il2 >= 0.0:
+                px, py = e - a, n - b
+                t = (px * c + py * dd) * il2
+                t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+                qx, qy = px - t * c, py - t * dd
+                d = math.sqrt(qx * qx + qy * qy)
+            else:
+                d = math.hypot(a - e, b - n) - c
+            if d < best:
+                best = d
+        return best
+
+    def clearly_allowed(self, e: float, n: float) -> float | None:
+        """The lateral margin when (e, n) is strictly inside the allowed area (more than the boundary
+        tolerance from every element), else ``None`` (the caller then computes it in full).
+
+        Inside the allowed area the lateral margin *is* the nearest element's distance.
+        """
+        best = self.nearest_distance(e, n)
+        if best <= BOUNDARY_TOL_M:
+            return None
+        _, _, _, _, ki_state, ko = self._cells[(math.floor(e / self.cell_m), math.floor(n / self.cell_m))]
+        if ki_state < 0 or (ki_state == 0 and not self._rows.inside(e, n)):
+            return None
+        kb = self._ko_bbox
+        for k in ko:
+            if kb[k, 0] <= e <= kb[k, 2] and kb[k, 1] <= n <= kb[k, 3] and self._keep_outs[k].signed_distance(e, n) >= 0.0:
+                return None
+        return best
+
+
+class _RowStrips:
+    """Crossing parity of a polygon from one horizontal row strip of its edges (exact point-in-polygon)."""
+
+    def __init__(self, poly: PolygonIndex) -> None:
+        v = poly.starts
+        w = poly.ends
+        y0, y1 = float(poly.bbox[1]), float(poly.bbox[3])
+        rows = max(1, min(8192, poly.n // 2))
+        self.y0 = y0
+        self.h = max((y1 - y0) / rows, 1e-9)
+        self.rows: list[list[tuple[float, float, float, float]]] = [[] for _ in range(rows)]
+        self.n_rows = rows
+        for i in range(poly.n):
+            ax, ay = float(v[i, 0]), float(v[i, 1])
+            by = float(w[i, 1])
+            dx, dy = float(w[i, 0]) - ax, by - ay
+            rec = (ax, ay, by, dx / dy if dy != 0.0 else 0.0)
+            r0 = self._row(min(ay, by))
+            r1 = self._row(max(ay, by))
+            for r in range(r0, r1 + 1):
+                self.rows[r].append(rec)
+
+    def _row(self, y: float) -> int:
+        r = int((y - self.y0) / self.h)
+        return 0 if r < 0 else (self.n_rows - 1 if r >= self.n_rows else r)
+
+    def inside(self, x: float, y: float) -> bool:
+        """The parity test of :meth:`PolygonIndex.signed_distance` (boundary tolerance not applied)."""
+        inside = False
+        for ax, ay, by, dxdy in self.rows[self._row(y)]:
+            if (ay > y) != (by > y) and x - ax < (y - ay) * dxdy:
+                inside = not inside
+        return inside

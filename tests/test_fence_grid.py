@@ -1,0 +1,138 @@
+"""Property: the fence index changes no answer.
+
+On random fences (noisy star-shaped keep-ins of 40-600 vertices, keep-out squares and circles) and
+random states (next to vertices and edges, inside keep-outs, outside the keep-in, far inside), the
+indexed :meth:`LocalFence.lateral_margin_m` and :func:`activation_margins` equal the full scan
+(``index=False``) bit for bit, for a multirotor and a fixed-wing in wind.
+"""
+
+import dataclasses
+import math
+import random
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from geofence.boundary_shift import activation_margins
+from geofence.fence import Fence, KeepOutCircle
+from geofence.fence_grid import SMALL_FENCE_ELEMENTS
+from geofence.geodesy import LocalFrame
+from geofence.interface import Envelope, PlatformKind
+
+FRAME = LocalFrame(47.0, 8.0, 400.0)
+FW = Envelope(PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0,
+              0.6, 5.0, 1.1)
+MC = Envelope(PlatformKind.MULTIROTOR, 5.3, 10.3, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0,
+              6.0, 4.2, 0.15, drag_linear_per_s=0.435, drag_quadratic_per_m=0.011)
+
+
+def _ll(e, n):
+    lat, lon, _ = FRAME.to_geodetic(e, n, FRAME.h0_m)
+    return (lat, lon)
+
+
+def random_fence(seed: int, n_vertices: int, n_squares: int, n_circles: int) -> Fence:
+    rng = random.Random(seed)
+    r0 = rng.uniform(300.0, 900.0)
+    keep_in = []
+    for i in range(n_vertices):
+        a = 2.0 * math.pi * i / n_vertices
+        r = r0 * (1.0 + 0.25 * math.sin(3 * a + seed) + 0.04 * rng.uniform(-1.0, 1.0))
+        keep_in.append((r * math.cos(a), r * math.sin(a)))
+    squares, circles, placed = [], [], []
+    for _ in range(200):
+        if len(squares) >= n_squares and len(circles) >= n_circles:
+            break
+        a, r = rng.uniform(0, 2 * math.pi), rng.uniform(0.0, 0.55 * r0)
+        cx, cy, s = r * math.cos(a), r * math.sin(a), rng.uniform(8.0, 30.0)
+        if any(math.hypot(cx - px, cy - py) < s + ps + 10.0 for px, py, ps in placed):
+            continue
+        placed.append((cx, cy, s))
+        if len(squares) < n_squares:
+            t = rng.uniform(0, math.pi)
+            squares.append(tuple(_ll(cx + s * math.cos(t + k * math.pi / 2), cy + s * math.sin(t + k * math.pi / 2))
+                                 for k in range(4)))
+        else:
+            circles.append(KeepOutCircle(*_ll(cx, cy), s))
+    return Fence(keep_in=tuple(_ll(e, n) for e, n in keep_in), ceiling_m=120.0,
+                 keep_out_polygons=tuple(squares), keep_out_circles=tuple(circles))
+
+
+def probe_points(local, rng: random.Random, count: int):
+    """Points near vertices and edges (both sides), inside keep-outs, far inside and outside."""
+    pts = []
+    ki = local.keep_in
+    for _ in range(count):
+        kind = rng.randrange(5)
+        if kind == 0:
+            v = ki.vertices[rng.randrange(ki.n)]
+            pts.append((v[0] + rng.gauss(0, 3.0), v[1] + rng.gauss(0, 3.0)))
+        elif kind == 1:
+            i = rng.randrange(ki.n)
+            a, b = ki.starts[i], ki.ends[i]
+            t = rng.random()
+            o = ki.outward_normals[i] * rng.uniform(-40.0, 40.0)
+            pts.append((a[0] + t * (b[0] - a[0]) + o[0], a[1] + t * (b[1] - a[1]) + o[1]))
+        elif kind == 2 and local.keep_out_polygons:
+            k = local.keep_out_polygons[rng.randrange(len(local.keep_out_polygons))]
+            c = k.vertices.mean(axis=0)
+            pts.append((c[0] + rng.uniform(-25, 25), c[1] + rng.uniform(-25, 25)))
+        elif kind == 3 and local.keep_out_circles:
+            ce, cn, r = local.keep_out_circles[rng.randrange(len(local.keep_out_circles))]
+            pts.append((ce + rng.uniform(-1.5 * r, 1.5 * r), cn + rng.uniform(-1.5 * r, 1.5 * r)))
+        else:
+            pts.append((rng.uniform(-1500, 1500), rng.uniform(-1500, 1500)))
+    return pts
+
+
+@settings(max_examples=12, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(40, 600), n_squares=st.integers(0, 25),
+       n_circles=st.integers(0, 8))
+def test_index_equals_full_scan(seed, n_vertices, n_squares, n_circles):
+    fence = random_fence(seed, n_vertices, n_squares, n_circles)
+    indexed = fence.to_local(FRAME, index=True)
+    scan = fence.to_local(FRAME, index=False)
+    assert indexed.grid() is not None and scan.grid() is None
+    rng = random.Random(seed)
+    for e, n in probe_points(indexed, rng, 150):
+        assert indexed.lateral_margin_m(e, n) == scan.lateral_margin_m(e, n), (e, n)
+        for env in (MC, FW):
+            speed = rng.uniform(0.0, env.max_speed_mps * 1.2)
+            course = rng.uniform(-math.pi, math.pi)
+            w, wd = rng.uniform(0.0, 9.0), rng.uniform(-math.pi, math.pi)
+            args = (e, n, 30.0, speed * math.cos(course), speed * math.sin(course), rng.uniform(-3, 3), env,
+                    w * math.cos(wd), w * math.sin(wd))
+            kw = dict(h_uncertainty_m=rng.uniform(0, 6), v_uncertainty_m=1.0, latency_s=rng.uniform(0, 0.3),
+                      bank_rad=rng.uniform(-0.5, 0.5), wind_extra_mps=rng.uniform(0, 3))
+            a = activation_margins(indexed, *args, **kw)
+            b = activation_margins(scan, *args, **kw)
+            assert dataclasses.astuple(a) == dataclasses.astuple(b), (e, n, env.kind)
+
+
+def test_small_fences_are_scanned_and_large_ones_indexed():
+    assert random_fence(1, 4, 0, 0).to_local(FRAME).grid() is None
+    assert random_fence(1, SMALL_FENCE_ELEMENTS, 0, 0).to_local(FRAME).grid() is not None
+
+
+def test_a_cell_is_rebuilt_for_a_larger_reach():
+    local = random_fence(7, 300, 10, 3).to_local(FRAME, index=True)
+    scan = random_fence(7, 300, 10, 3).to_local(FRAME, index=False)
+    grid = local.grid()
+    e, n = 0.7 * local.keep_in.vertices[0]
+    near_small, d0 = grid.near(e, n, 5.0)
+    near_big, d1 = grid.near(e, n, 2000.0)  # more than the cell was built for
+    assert d0 == d1 == min(scan.lateral_margin_m(e, n), d0)
+    assert len(near_big) > len(near_small)
+    assert len(near_big) == local.grid().n_elements  # 2 km covers the whole fence
+
+
+def test_the_binding_edge_beyond_the_nearest_one_is_kept():
+    """Flying fast at an edge while close to another: the farther edge binds, and the index keeps it."""
+    sq = [(-200.0, -200.0), (200.0, -200.0), (200.0, 200.0), (-200.0, 200.0)]
+    fence = Fence(keep_in=tuple(_ll(e, n) for e, n in sq), ceiling_m=120.0)
+    indexed, scan = fence.to_local(FRAME, index=True), fence.to_local(FRAME, index=False)
+    for env, e, n, speed in ((MC, 185.0, -192.0, 12.0), (FW, 120.0, -190.0, 22.0)):
+        args = (e, n, 30.0, speed, 0.0, 0.0, env, 0.0, 0.0)
+        a, b = activation_margins(indexed, *args), activation_margins(scan, *args)
+        assert a.edge == 1 and a.edge_distance_m > 14.0  # the east edge, not the nearer south one
+        assert dataclasses.astuple(a) == dataclasses.astuple(b)
