@@ -110,7 +110,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 from .fence import FEATURE_KEEP_OUT_CIRCLE, FenceError, LocalFence
 from .dynamics import drag_coefficients, wind_push_mps2
@@ -293,8 +293,7 @@ def uncertainty_margin_m(cov: Sequence[Sequence[float]] | None, k_sigma: float =
 
 
 # --------------------------------------------------------------------------- activation margins
-@dataclass(frozen=True, slots=True)
-class ShiftResult:
+class ShiftResult(NamedTuple):
     """Activation margins for one state (m; + = no action needed).
 
     ``activation_margin_m = min(lateral_activation_m, vertical_activation_m)``.

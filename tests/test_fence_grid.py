@@ -6,7 +6,6 @@ indexed :meth:`LocalFence.lateral_margin_m` and :func:`activation_margins` equal
 (``index=False``) bit for bit, for a multirotor and a fixed-wing in wind.
 """
 
-import dataclasses
 import math
 import random
 
@@ -106,7 +105,7 @@ def test_index_equals_full_scan(seed, n_vertices, n_squares, n_circles):
                       bank_rad=rng.uniform(-0.5, 0.5), wind_extra_mps=rng.uniform(0, 3))
             a = activation_margins(indexed, *args, **kw)
             b = activation_margins(scan, *args, **kw)
-            assert dataclasses.astuple(a) == dataclasses.astuple(b), (e, n, env.kind)
+            assert tuple(a) == tuple(b), (e, n, env.kind)
 
 
 def test_small_fences_are_scanned_and_large_ones_indexed():
@@ -135,4 +134,4 @@ def test_the_binding_edge_beyond_the_nearest_one_is_kept():
         args = (e, n, 30.0, speed, 0.0, 0.0, env, 0.0, 0.0)
         a, b = activation_margins(indexed, *args), activation_margins(scan, *args)
         assert a.edge == 1 and a.edge_distance_m > 14.0  # the east edge, not the nearer south one
-        assert dataclasses.astuple(a) == dataclasses.astuple(b)
+        assert tuple(a) == tuple(b)
