@@ -400,7 +400,7 @@ def plot_result(result, folder: Path) -> list[Path]:
     rec = result.recorder
     traj = {name: rec.column(name) for name in rec.columns}
     sc = result.scenario
-    return plot_flight(traj, Path(folder) / "flight", f"{sc.name} ({sc.aircraft})", fence=result.extras.get("fence"),
+    return plot_flight(traj, Path(folder) / "flight", f"{sc.name} ({sc.aircraft})", fence=result.fence,
                        envelope=sc.profile.envelope, **scenario_plot_kwargs(sc))
 
 

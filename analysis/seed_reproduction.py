@@ -258,9 +258,9 @@ def analyse_flight(result) -> SeedAnalysis:
     from scenarios.recorder import COLUMNS
 
     traj = {c: result.recorder.column(c) for c in COLUMNS}
-    fence = result.extras["fence"]
-    unit = result.extras["unit"]
-    pilot_log = result.extras.get("pilot_attempts")
+    fence = result.fence
+    unit = result.unit
+    pilot_log = getattr(result.pilot, "attempt_log", None)
     attempts = pilot_log if pilot_log else attempts_from_items(traj, result.scenario.pilot.breach)
     an = _analysis(result.scenario.name, result.scenario.geofence, traj, unit.transitions, attempts, boundaries_from_fence(fence))
     _add_setpoints(an, result.scenario, fence)
@@ -373,24 +373,10 @@ def fly_seed_scenario(path: Path, out_dir: Path | None = None):
     from scenarios.runner import write_result
     from scenarios.schema import load_scenario
 
-    scenario = load_scenario(path)
-    pilots: list = []
-    build = runner.build_pilot
-
-    def keep(*a, **kw):  # keep a handle on the pilot the runner builds, for its attempt log
-        pilots.append(build(*a, **kw))
-        return pilots[-1]
-
-    runner.build_pilot = keep
-    try:
-        result = runner.fly(scenario)
-    finally:
-        runner.build_pilot = build
-    if pilots:
-        result.extras["pilot_attempts"] = pilots[-1].attempt_log
+    result = runner.fly(load_scenario(path))
     if out_dir is not None:
         folder = write_result(result, Path(out_dir))
-        (folder / "attempts.json").write_text(json.dumps(result.extras.get("pilot_attempts", []), indent=1) + "\n")
+        (folder / "attempts.json").write_text(json.dumps(getattr(result.pilot, "attempt_log", []), indent=1) + "\n")
     return result
 
 

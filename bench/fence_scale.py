@@ -89,7 +89,7 @@ def _states(unit: GeofenceUnit, near: bool, n: int) -> list[VehicleState]:
             be, bn = _boundary(a)
             r = math.hypot(be, bn)
             if inset is None:
-                inset = _inset_for_positive_margin(unit, a, v)
+                inset = _inset_for_positive_margin(unit, a, v, n)
             e, nn = be * (r - inset) / r, bn * (r - inset) / r
             ue, un = be / r, bn / r
             te, tn = -un, ue
@@ -100,11 +100,11 @@ def _states(unit: GeofenceUnit, near: bool, n: int) -> list[VehicleState]:
     return out
 
 
-def _inset_for_positive_margin(unit: GeofenceUnit, a: float, v: float) -> float:
+def _inset_for_positive_margin(unit: GeofenceUnit, a: float, v: float, steps: int) -> float:
     """A distance inside the boundary where the activation margin is a few metres positive all along."""
     for inset in range(5, 2000, 5):
         ok = True
-        for k in range(0, 400, 20):
+        for k in range(0, steps, 10):
             aa = a + k * v * DT_S / RADIUS_M
             be, bn = _boundary(aa)
             r = math.hypot(be, bn)

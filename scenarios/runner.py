@@ -30,7 +30,8 @@ from aircraft.factory import build_platform
 from geofence.geodesy import LocalFrame
 from analysis.scoring import score_flight
 from geofence.unit import GeofenceUnit, Mode
-from scenarios.pilots import build_pilot
+from geofence.fence import LocalFence
+from scenarios.pilots import Pilot, build_pilot
 from scenarios.preflight import findings_summary, preflight_findings
 from scenarios.recorder import Recorder
 from scenarios.schema import Scenario
@@ -42,11 +43,19 @@ TAIL_AFTER_FINISH_S = 2.0
 
 @dataclass
 class FlightResult:
+    """A flown scenario: its summary and arrays, and the objects that flew it (for experiments to read).
+
+    ``pilot``: the pilot the runner built (e.g. its ``attempt_log``); ``unit`` and
+    ``fence``: the geofence unit and its local fence (None without a geofence).
+    """
+
     scenario: Scenario
     summary: dict[str, Any]
     recorder: Recorder
     frame: LocalFrame
-    extras: dict[str, Any] = field(default_factory=dict)
+    pilot: Pilot
+    unit: GeofenceUnit | None = None
+    fence: LocalFence | None = None
 
 
 def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> FlightResult:
@@ -154,7 +163,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         summary["activations"] = unit.activations
         summary["final_mode"] = unit.mode.name
         summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
-    return FlightResult(scenario=scenario, summary=summary, recorder=recorder, frame=frame, extras={"fence": fence, "unit": unit})
+    return FlightResult(scenario=scenario, summary=summary, recorder=recorder, frame=frame, pilot=pilot, unit=unit,
+                        fence=fence)
 
 
 class _GeofenceSensing:

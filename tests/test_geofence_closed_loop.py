@@ -57,7 +57,7 @@ def assert_fence_held(res):
     assert first["to"] == "OVERRIDE"
     t = res.recorder.column("time_s")
     k = int((t >= first["t_s"] - 1e-9).argmax())
-    fence = res.extras["fence"]
+    fence = res.fence
     e, n, agl = (res.recorder.column(c)[k] for c in ("east_m", "north_m", "agl_m"))
     assert fence.margin_m(e, n, agl) > 0.0
     # and control was handed back afterwards
@@ -104,7 +104,7 @@ def test_position_loss_over_a_floor_ends_with_a_termination_inside_the_floor_gap
     modes = [tr["to"] for tr in s["mode_transitions"]]
     assert modes[0] == "LAND_IN_GAP" and "position source lost" in s["mode_transitions"][0]["reason"]
     assert modes[-1] in ("TERMINATE", "LAND_IN_GAP")
-    fence = res.extras["fence"]
+    fence = res.fence
     e, n = res.recorder.column("east_m")[-1], res.recorder.column("north_m")[-1]
     assert fence.in_floor_gap(e, n), f"ended at ({e:.0f}, {n:.0f}) m, outside the gap"
     assert not s["landed_outside_gap"]

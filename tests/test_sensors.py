@@ -148,14 +148,3 @@ def test_parse_sensors():
         assert str(exc.value).startswith(msg), str(exc.value)
         assert "\n" not in str(exc.value)
 
-
-def test_per_call_cost_printed():
-    import time
-
-    suite = SensorSuite(seed=1)
-    truths = [hover_truth(k * DT) for k in range(4000)]
-    t0 = time.perf_counter()
-    for tr in truths:
-        suite.sample(tr)
-    us = (time.perf_counter() - t0) / len(truths) * 1e6
-    print(f"SensorSuite.sample: {us:.1f} us per call")

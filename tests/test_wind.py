@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 import pytest
@@ -526,23 +525,3 @@ def test_any_valid_config_builds_a_finite_field(speed, from_deg, law, severity, 
     m = field.mean(10.0)
     assert math.hypot(m[0], m[1]) == pytest.approx(speed, abs=1e-9)
 
-
-def test_per_sample_cost_is_reported(record_property, capsys):
-    """Measures (does not assert) the per-step cost of the full example field."""
-    field = wind_from_config(parse_wind(EXAMPLE), seed=0)
-    n = 20_000
-    sample = field.sample
-    t0 = time.perf_counter()
-    for k in range(n):
-        sample(k * 0.025, 0.0, 0.0, 30.0, 12.0)
-    us = (time.perf_counter() - t0) / n * 1e6
-    turb = DrydenTurbulence(severity="light", seed=0, mean_wind=SteadyWind(8.0, 270.0))
-    t0 = time.perf_counter()
-    for k in range(n):
-        turb.sample(k * 0.025, 0.0, 0.0, 30.0, 12.0)
-    us_turb = (time.perf_counter() - t0) / n * 1e6
-    record_property("wind_sample_us", us)
-    record_property("dryden_sample_us", us_turb)
-    with capsys.disabled():
-        print(f"\n[wind] per-sample cost: composite {us:.2f} us, Dryden alone {us_turb:.2f} us")
-    assert math.isfinite(us)
