@@ -44,6 +44,7 @@ from geofence.control_laws import (
     bank_stick_for_course,
     climb_rate_to_stick,
     clip,
+    ground_course_rad,
     orbit_course_rad,
     wrap_pi,
     yaw_stick_for_heading,
@@ -56,6 +57,9 @@ COURSE_GAIN_PER_S = 0.9
 ROLL_OUT_TOLERANCE_RAD = math.radians(15.0)
 LEVEL_TOUCHDOWN_BELOW_M = 1.5
 TOUCHDOWN_MAX_GROUND_SPEED_MPS = 0.7
+HURRIED_SLOW_BELOW_M = 5.0
+"""A hurried landing (position source lost) descends at the full rate down to this height, then levels off
+(wind-balance tilt) and touches down at 1 m/s."""
 """A multirotor descends to land only while slower than this over the ground (a moving touchdown tips over)."""
 
 
@@ -259,12 +263,20 @@ class LandingGuidance:
         self.point = (0.0, 0.0)
         self.cruise_h = 0.0
         self.route: Route = StraightRoute(0.0, 0.0)
+        self.turn_sign = 0
 
-    def start(self, point_e: float, point_n: float, cruise_h: float, route: Route | None = None) -> None:
-        """Land at ``(point_e, point_n)``, flying ``route`` there (default: straight) at ``cruise_h``."""
+    def start(self, point_e: float, point_n: float, cruise_h: float, route: Route | None = None,
+              turn_sign: int = 0) -> None:
+        """Land at ``(point_e, point_n)``, flying ``route`` there (default: straight) at ``cruise_h``.
+
+        ``turn_sign`` (fixed-wing; +1 left, -1 right): the direction of the first turn onto the route,
+        at the bank limit -- the one the activation margin scored as safe against every edge (the
+        shorter turn is not always: it can swing out across the nearby boundary). 0: the shorter turn.
+        """
         self.point = (point_e, point_n)
         self.cruise_h = cruise_h
         self.route = route if route is not None else StraightRoute(point_e, point_n)
+        self.turn_sign = turn_sign
         if self.velocity:
             self.velocity.reset()
 
@@ -272,8 +284,14 @@ class LandingGuidance:
         pe, pn = self.point
         return math.hypot(pe - s.east_m, pn - s.north_m) < (2.0 if self.env.is_multirotor else 1.5 * self.spiral_radius_m)
 
-    def sticks(self, s: VehicleState, h: float, dt_s: float, descend: bool | None = None) -> StickCommand:
-        """Sticks toward the landing point; descend when ``descend`` (default: when over the point)."""
+    def sticks(self, s: VehicleState, h: float, dt_s: float, descend: bool | None = None,
+               hurry: bool = False) -> StickCommand:
+        """Sticks toward the landing point; descend when ``descend`` (default: when over the point).
+
+        ``hurry`` (multirotor, position source lost): while ``descend`` allows it, descend at the full
+        rate *on the way* instead of over the point -- dead reckoning drifts with every second in the
+        air -- and below :data:`HURRIED_SLOW_BELOW_M` stop manoeuvring and touch down where it is.
+        """
         env = self.env
         pe, pn = self.point
         over = self.over_point(s) if descend is None else descend
@@ -281,6 +299,13 @@ class LandingGuidance:
             ce, cn = self.route.lookahead_point(s.east_m, s.north_m, max(3.0, 0.5 * env.cruise_speed_mps))
             ve, vn = approach_velocity(s.east_m, s.north_m, ce, cn, 0.5 * env.cruise_speed_mps, 0.8, 0.5 * env.braking_decel_mps2)
             roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve, vn, s.yaw_rad, dt_s)
+            if hurry and over:
+                if h > HURRIED_SLOW_BELOW_M:
+                    climb = -env.max_descent_rate_mps
+                else:
+                    roll, pitch = self.velocity.wind_balance_sticks(s.yaw_rad)
+                    climb = -min(1.0, env.max_descent_rate_mps)
+                return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=climb_rate_to_stick(climb, env))
             if over and h < LEVEL_TOUCHDOWN_BELOW_M:
                 # touch down without manoeuvring (a tilted, moving gear tips over), but keep the steady
                 # tilt into the wind: levelled in a strong wind, the vehicle is blown away near the ground
@@ -297,6 +322,11 @@ class LandingGuidance:
             course_cmd = math.atan2(ce - s.east_m, cn - s.north_m)
         else:
             course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, pe, pn, self.spiral_radius_m)
-        roll = bank_stick_for_course(s, course_cmd, env, COURSE_GAIN_PER_S)
+        course = ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad)
+        if self.turn_sign and abs(wrap_pi(course_cmd - course)) > ROLL_OUT_TOLERANCE_RAD:
+            roll = -float(self.turn_sign)  # the committed first turn (+1 left = negative roll stick)
+        else:
+            self.turn_sign = 0
+            roll = bank_stick_for_course(s, course_cmd, env, COURSE_GAIN_PER_S)
         climb = -env.max_descent_rate_mps if over else altitude_to_climb_rate(self.cruise_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S)
         return StickCommand(roll=roll, pitch=climb_rate_to_stick(climb, env), yaw=0.0, throttle=airspeed_to_stick(env.min_speed_mps, env))

@@ -388,7 +388,10 @@ class GeofenceUnit:
 
     def _start_landing(self, t_s: float, s: VehicleState, h: float, reason: str) -> None:
         pe, pn = self._landing_point(s)
-        self.landing.start(pe, pn, self._goal_height(h), self._route(s, (pe, pn)))
+        turn_sign = 0
+        if not self.env.is_multirotor and not s.on_ground:
+            turn_sign = self._margins(s, h, self._sigma_h_m, self._sigma_v_m, 0.0).turn_sign
+        self.landing.start(pe, pn, self._goal_height(h), self._route(s, (pe, pn)), turn_sign)
         self._switch(t_s, Mode.LAND_IN_GAP, reason + f"; landing at ({pe:.0f}, {pn:.0f}) m ENU")
 
     def _start_override(self, t_s: float, s: VehicleState, h: float, r: ShiftResult, reason: str) -> None:
@@ -528,6 +531,10 @@ class GeofenceUnit:
                 return StickCommand(throttle=-1.0)
             if not self._position_valid and not self.dead_reckoning.active:  # never had a position: level, descend
                 return StickCommand(throttle=climb_rate_to_stick(-min(1.0, self.env.max_descent_rate_mps), self.env))
+            if not self._position_valid and self.fence.floor_m is None:
+                # dead reckoning: away from the edges first, then down at the full rate (it drifts every second)
+                room = self.fence.lateral_margin_m(s.east_m, s.north_m) >= DEAD_RECKONING_LANDING_MARGIN_M
+                return self.landing.sticks(s, h, dt_s, descend=room or self.landing.over_point(s), hurry=True)
             return self.landing.sticks(s, h, dt_s, descend=self._safe_to_descend(s) or self.landing.over_point(s))
         if self.mode is Mode.LAND_IN_GAP and self.landing.over_point(s) and s.agl_m < TERMINATE_BELOW_AGL_M:
             self._switch(t_s, Mode.TERMINATE, f"flight termination over the landing gap at {s.agl_m:.1f} m AGL")

@@ -12,19 +12,23 @@ WGS-84 at the site) and flown in closed loop with the unit's own sensors:
 * a fixed-wing activated right at the recovery point;
 * a high site (2,780 m) where the envelope must be scaled by air density;
 * a mission 10 m below the ceiling (no vertical chatter, never overridden);
-* a multirotor landing in a gap in wind (touchdown nearly stopped).
+* a multirotor landing in a gap in wind (touchdown nearly stopped);
+* a fixed-wing that loses GPS near the boundary (campaign case u_fence-0569: its landing turn
+  swung out 170 m across the boundary; the first turn now goes the way the margin scored safe);
+* a multirotor that loses GPS deep inside comes down at its full descent rate, not 1 m/s.
 """
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from geofence.geodesy import LocalFrame
 from scenarios.runner import fly
-from scenarios.schema import parse_scenario
+from scenarios.schema import load_scenario, parse_scenario
 
 pytestmark = pytest.mark.closed_loop
 
@@ -172,3 +176,23 @@ def test_multirotor_lands_in_a_gap_nearly_stopped_in_wind():
     gs, agl = res.recorder.column("ground_speed_mps"), res.recorder.column("agl_m")
     k = int(np.argmax(agl < 0.3))
     assert k > 0 and gs[max(k - 8, 0):k + 1].max() < 1.0, f"touched down at {gs[k]:.1f} m/s"
+
+
+def test_fixed_wing_losing_gps_near_the_boundary_turns_the_safe_way():
+    res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_u_fence_0569_gps_outage.yaml"))
+    assert any("position source lost" in t.reason for t in res.unit.transitions)
+    assert_held(res, "J3Cub landing after a GPS outage")
+
+
+def test_multirotor_losing_gps_deep_inside_descends_at_its_full_rate():
+    fence = {"keep_in": ll(box(300.0)), "ceiling_m": 120}
+    hover = {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": 0.0}
+    doc = scenario("F450RD", (0.0, 0.0), 60.0, 0.0, [{"duration_s": 90, "sticks": hover}], fence,
+                   sensors={"gps_fail_at_s": 5.0}, duration_s=90.0)
+    res = fly_doc(doc, "gps_loss_deep_inside")
+    assert res.summary["ended_by_geofence"], res.summary["mode_transitions"]
+    t, agl = res.recorder.column("time_s"), res.recorder.column("agl_m")
+    touchdown_s = float(t[int(np.argmax(agl < 0.3))]) - 5.0
+    rate = res.unit.env.max_descent_rate_mps
+    assert touchdown_s < 60.0 / rate + 10.0, f"took {touchdown_s:.0f} s from 60 m (1 m/s would take 60 s)"
+    assert_held(res, "multirotor landing by dead reckoning")
