@@ -4,6 +4,10 @@ Example (every key but ``fence`` optional)::
 
     geofence:
       fence: {keep_in: [[lat, lon], ...], ceiling_m: 60, floor_m: 5, floor_gaps: [...]}
+      # or a fence file (any format geofence.importers.load_fence_file reads: GeoJSON, QGC .plan, WPL 110,
+      # MAVProxy), its path relative to the scenario file; the other keys override or add to the file's:
+      # fence: {file: airspace/city_park.geojson, ceiling_m: 60, floor_m: 5, floor_gaps: [...],
+      #         recovery_point: [lat, lon], altitude_reference: agl}
       trigger: predictive          # predictive (shifted boundary) | reactive (act on the fence line)
       min_override_s: 2.0          # hold an override at least this long
       handback_margin_m: 5.0       # hand back once this far inside the activation boundary and moving inward
@@ -24,17 +28,28 @@ Example (every key but ``fence`` optional)::
       state_source: estimate       # estimate (own sensors + Kalman filter, default) | truth (e.g. indoor motion capture)
 
 All messages are one line: ``<where>.<field>: <problem>``.
+
+Fence files (``fence: {file: ...}``): a relative path is resolved against ``base_dir`` (the scenario
+file's folder, see :func:`scenarios.schema.parse_scenario`); against the working directory only when
+no ``base_dir`` is known. Inline ``ceiling_m``, ``floor_m`` and ``altitude_reference`` win over the
+file's values (GeoJSON properties); ``floor_gaps`` are added (no format carries them); an inline
+``recovery_point`` replaces the file's return point as the recovery point. A ceiling is required:
+inline, or in the file (a scenario never flies under the importer's silent default). The importer's
+warnings (dropped keep-outs, ignored zones, ...) are kept in :attr:`GeofenceConfig.fence_warnings`.
 """
 
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import Enum
+from pathlib import Path
 from typing import Any
 
-from geofence.fence import Fence, FenceError, parse_fence
+from geofence.fence import ALTITUDE_REFERENCES, Fence, FenceError, parse_fence
+from geofence.importers import load_fence_file
 
 TRIGGERS = ("predictive", "reactive")
 MULTIROTOR_LAWS = ("velocity", "seed_pd")
@@ -102,6 +117,10 @@ class GeofenceConfig:
     turbulence_source: TurbulenceSource = TurbulenceSource.ESTIMATE
     vertical_handback_m: float = 2.0
     """Vertical hysteresis: hand back only with the vertical activation margin at least this large."""
+    fence_file: str | None = None
+    """The fence file the fence was read from (resolved path), or None for an inline fence."""
+    fence_warnings: tuple[str, ...] = ()
+    """The importer's warnings about the fence file (one line each)."""
 
 
 _KEYS = {
@@ -111,8 +130,15 @@ _KEYS = {
 }
 
 
-def parse_geofence(raw: Any, where: str = "geofence") -> GeofenceConfig:
-    """Validate a ``geofence:`` mapping into a :class:`GeofenceConfig`."""
+FENCE_FILE_KEYS = ("file", "ceiling_m", "floor_m", "floor_gaps", "recovery_point", "altitude_reference")
+"""The keys of a ``fence:`` block that references a fence file."""
+
+
+def parse_geofence(raw: Any, where: str = "geofence", base_dir: str | Path | None = None) -> GeofenceConfig:
+    """Validate a ``geofence:`` mapping into a :class:`GeofenceConfig`.
+
+    ``base_dir``: the folder a relative ``fence: {file: ...}`` is resolved against (the scenario file's).
+    """
     if not isinstance(raw, Mapping):
         raise GeofenceConfigError(f"{where}: expected a mapping with at least a fence: block")
     unknown = sorted(str(k) for k in raw if k not in _KEYS)
@@ -120,8 +146,12 @@ def parse_geofence(raw: Any, where: str = "geofence") -> GeofenceConfig:
         raise GeofenceConfigError(f"{where}: unknown key {unknown[0]!r} (allowed: {', '.join(sorted(_KEYS))})")
     if "fence" not in raw:
         raise GeofenceConfigError(f"{where}.fence: missing (required)")
+    fence_file, fence_warnings = None, ()
     try:
-        fence = parse_fence(raw["fence"], f"{where}.fence")
+        if isinstance(raw["fence"], Mapping) and "file" in raw["fence"]:
+            fence, fence_file, fence_warnings = _fence_from_file(raw["fence"], f"{where}.fence", base_dir)
+        else:
+            fence = parse_fence(raw["fence"], f"{where}.fence")
     except FenceError as exc:
         raise GeofenceConfigError(str(exc)) from None
 
@@ -192,4 +222,55 @@ def parse_geofence(raw: Any, where: str = "geofence") -> GeofenceConfig:
         turbulence_k_sigma=num("turbulence_k_sigma", 1.5, 0.0, 10.0),
         vertical_handback_m=num("vertical_handback_m", 2.0, 0.0, 100.0),
         turbulence_source=TurbulenceSource(choice("turbulence_source", "estimate", tuple(t.value for t in TurbulenceSource))),
+        fence_file=fence_file,
+        fence_warnings=tuple(fence_warnings),
     )
+
+
+def fence_file_path(file: Any, where: str, base_dir: str | Path | None) -> Path:
+    """The path a ``fence.file`` value names: relative ones against ``base_dir`` (the scenario's folder)."""
+    if not isinstance(file, str) or not file.strip():
+        raise GeofenceConfigError(f"{where}.file: must be a path to a fence file, got {file!r}")
+    path = Path(file).expanduser()
+    if not path.is_absolute() and base_dir is not None:
+        path = Path(base_dir) / path
+    return path
+
+
+def _fence_from_file(block: Mapping, where: str, base_dir: str | Path | None) -> tuple[Fence, str, list[str]]:
+    """A ``fence: {file: ..., <overrides>}`` block: the file read by the importer, the inline keys applied."""
+    unknown = [k for k in block if k not in FENCE_FILE_KEYS]
+    if unknown:
+        extra = " (keep_in comes from the file)" if "keep_in" in unknown else ""
+        raise GeofenceConfigError(f"{where}: unknown key(s) {', '.join(repr(k) for k in unknown)} with a fence file "
+                                  f"(allowed: {', '.join(FENCE_FILE_KEYS)}){extra}")
+    path = fence_file_path(block["file"], where, base_dir)
+    if not path.is_file():
+        place = f" (relative to {base_dir})" if base_dir is not None and not Path(block["file"]).is_absolute() else ""
+        if path.exists():
+            raise GeofenceConfigError(f"{where}.file: {block['file']!r} is not a file{place}")
+        raise GeofenceConfigError(f"{where}.file: no such file {block['file']!r}{place}")
+    for key in ("ceiling_m", "floor_m"):
+        v = block.get(key)
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)):
+            raise GeofenceConfigError(f"{where}.{key}: must be a number, got {v!r}")
+    ref = block.get("altitude_reference")
+    if ref is not None and (not isinstance(ref, str) or ref.lower() not in ALTITUDE_REFERENCES):
+        raise GeofenceConfigError(f"{where}.altitude_reference: must be 'agl' or 'amsl', got {ref!r}")
+    gaps = block.get("floor_gaps")
+    if gaps is not None and (isinstance(gaps, (str, Mapping)) or not isinstance(gaps, (list, tuple))):
+        raise GeofenceConfigError(f"{where}.floor_gaps: must be a list of polygons, got {type(gaps).__name__}")
+    try:
+        imported = load_fence_file(path, ceiling_m=block.get("ceiling_m"), floor_m=block.get("floor_m"),
+                                   altitude_reference=ref, floor_gaps=tuple(gaps or ()),
+                                   recovery_point=block.get("recovery_point"))
+    except FenceError as exc:
+        msg = str(exc)
+        rest = msg[len(str(path)) + 2:] if msg.startswith(f"{path}: ") else msg
+        field = re.match(r"[a-z_]*", rest).group(0)
+        if field in block and field != "file":  # the inline value is the problem (e.g. a floor gap outside the keep-in)
+            raise GeofenceConfigError(f"{where}.{rest}") from None
+        raise GeofenceConfigError(f"{where}.file: {msg}") from None
+    if imported.ceiling_source == "default":
+        raise GeofenceConfigError(f"{where}.ceiling_m: required: the fence file {block['file']!r} gives no ceiling")
+    return imported.fence, str(path), list(imported.warnings)

@@ -24,6 +24,36 @@ Supported formats (detected from the content, not the file name):
     reported in ``warnings``).
 ``mavproxy_rally``
     MAVProxy rally text: ``RALLY lat lon alt break_alt land_dir flags``.
+``geojson``
+    RFC 7946 GeoJSON (large airspace fences): a ``FeatureCollection``, a bare
+    ``Feature`` or a bare ``Polygon``/``MultiPolygon`` geometry. Positions are
+    **[lon, lat]** (RFC 7946 order; a third element, the height above the
+    ellipsoid, is ignored), WGS-84 only (a legacy ``crs`` member naming
+    anything but CRS84/EPSG:4326 is refused). A feature's role is its
+    ``properties.geofence``: ``"keep_in"``, ``"keep_out"`` (Polygon or
+    MultiPolygon), ``"return_point"`` or ``"rally"`` (Point). Without it, the
+    EUROCAE ED-269 UAS-zone property ``restriction`` is read:
+    ``"PROHIBITED"``, ``"REQ_AUTHORISATION"`` and ``"CONDITIONAL"`` are
+    keep-outs (the testbed flies without authorisations, so every restricted
+    zone is closed to it); a ``"NO_RESTRICTION"`` zone is ignored with a
+    warning. ``geofence`` wins when both are given; a feature with neither is
+    an error naming it. Zone volumes (ED-269 ``upperLimit``/``lowerLimit``)
+    are not read: keep-outs are full-height columns. A bare geometry is the
+    keep-in. Rings must be closed (last position = first; the duplicate is
+    dropped) with >= 3 distinct vertices; either winding is accepted (RFC 7946
+    asks writers, not readers, for the right-hand rule). Holes (interior rings)
+    of the keep-in polygon become keep-out polygons; holes of keep-out polygons
+    are ignored with a warning (a keep-out's hole would be allowed airspace
+    inside forbidden airspace, which :class:`Fence` cannot express). Optional
+    numeric properties ``ceiling_m``, ``floor_m`` and the string
+    ``altitude_reference`` on the collection (a ``"properties"`` foreign
+    member) or on the keep-in feature (which wins) give the vertical limits;
+    explicit arguments of :func:`load_fence_file` win over both. A ``Point``'s
+    ``alt_m`` property is its altitude above home. Sizes are limited
+    (:data:`MAX_FENCE_VERTICES`, :data:`MAX_FENCE_POLYGONS`, checked before the
+    coordinates are read). RFC 7946 cuts an area crossing the antimeridian
+    into a MultiPolygon; such a keep-in is not re-joined (only its first part
+    is used, with a warning).
 
 Parser choice: our own, not :mod:`pymavlink.mavwp`. pymavlink's
 ``MissionItemProtocol_Fence``/``_Rally`` loaders only work when the
@@ -52,14 +82,20 @@ Mapping to :class:`Fence`
 * keep-outs: exclusion polygons and exclusion circles. One that lies entirely
   outside the keep-in constrains nothing (ArduPilot allows it, ``Fence``
   rejects it), so it is dropped with a warning.
-* ceiling/floor: none of these formats carries one (ArduPilot keeps
+* ceiling/floor: none of the MAVLink/QGC formats carries one (ArduPilot keeps
   ``FENCE_ALT_MAX`` in parameters, PX4 ``GF_MAX_VER_DIST``). The ceiling is
-  the caller's ``ceiling_m``, default :data:`DEFAULT_CEILING_M` = 120 m AGL
-  (the EU open-category / FAA Part 107 400 ft order of magnitude), stated in
-  ``warnings`` when the default was used.
-* recovery point: the return point (``FENCE_RETURN_POINT``, the first line of
-  an old MAVProxy fence, QGC v1 ``breachReturn``) when it lies inside the
+  the caller's ``ceiling_m``, else the file's (GeoJSON only), else
+  :data:`DEFAULT_CEILING_M` = 120 m AGL (the EU open-category / FAA Part 107
+  400 ft order of magnitude), stated in ``warnings`` when the default was
+  used (``ImportedFence.ceiling_source`` says which).
+* recovery point: the caller's ``recovery_point`` if given; else the return
+  point (``FENCE_RETURN_POINT``, the first line of an old MAVProxy fence, QGC
+  v1 ``breachReturn``, a GeoJSON ``return_point``) when it lies inside the
   allowed area; otherwise it is kept in ``return_point`` only, with a warning.
+* The :class:`Fence` is built once, at the end: its own validation (simple
+  polygons, keep-outs meeting the keep-in, ...) is not repeated here, and its
+  messages name the file's item (``exclusion polygon 3``, ``features[12]
+  (name 'building 7')``) instead of the fence field.
 """
 
 from __future__ import annotations
@@ -67,13 +103,16 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from .fence import Fence, FenceError, KeepOutCircle, PolygonLL
-from .geodesy import geodesic_destination
-from .polygon import polygons_intersect
+from .geodesy import LocalFrame, ecef_to_geodetic, geodesic_destination, geodetic_to_ecef
+from .polygon import PolygonIndex, polygons_intersect
 
 DEFAULT_CEILING_M = 120.0
 """Ceiling used when the caller gives none (m, AGL)."""
@@ -90,7 +129,17 @@ MAV_CMD_NAV_RALLY_POINT = 5100
 _FENCE_CMDS = {5000, 5001, 5002, 5003, 5004}
 _FRAME_REF = {0: "amsl", 5: "amsl", 3: "relative", 6: "relative", 10: "terrain", 11: "terrain"}
 
-FORMATS = ("qgc_plan", "qgc_wpl_110", "mavproxy_fence", "mavproxy_rally")
+FORMATS = ("qgc_plan", "qgc_wpl_110", "mavproxy_fence", "mavproxy_rally", "geojson")
+
+MAX_FENCE_VERTICES = 200_000
+"""Default limit on the polygon vertices of one fence file (all rings, closing duplicates included)."""
+MAX_FENCE_POLYGONS = 20_000
+"""Default limit on the polygons (rings, holes included) of one fence file."""
+
+ED269_KEEP_OUT = ("PROHIBITED", "REQ_AUTHORISATION", "CONDITIONAL")
+"""ED-269 ``restriction`` values read as keep-outs (``NO_RESTRICTION`` zones are ignored)."""
+GEOJSON_TYPES = ("FeatureCollection", "Feature", "Polygon", "MultiPolygon", "Point", "MultiPoint",
+                 "LineString", "MultiLineString", "GeometryCollection")
 
 
 @dataclass(frozen=True)
@@ -142,6 +191,8 @@ class ImportedFence:
     rally_points: tuple[RallyPoint, ...] = ()
     home: tuple[float, float, float] | None = None
     warnings: list[str] = field(default_factory=list)
+    ceiling_source: str = "argument"
+    """Where ``fence.ceiling_m`` came from: ``"argument"``, ``"file"`` or ``"default"``."""
 
 
 @dataclass
@@ -157,6 +208,15 @@ class _Raw:
     rally: list = field(default_factory=list)
     home: tuple | None = None
     warnings: list = field(default_factory=list)
+    exc_labels: list = field(default_factory=list)
+    """Names of ``exc_polys`` in messages (default ``exclusion polygon <i>``)."""
+    inc_label: str = ""
+    """Name of the first inclusion polygon in messages (default ``keep_in``)."""
+    ceiling_m: float | None = None
+    floor_m: float | None = None
+    altitude_reference: str | None = None
+    n_vertices: int = 0
+    n_polygons: int = 0
 
     def has_fence(self) -> bool:
         return bool(self.inc_polys or self.exc_polys or self.inc_circles or self.exc_circles)
@@ -168,30 +228,53 @@ def load_fence_file(
     *,
     ceiling_m: float | None = None,
     floor_m: float | None = None,
-    altitude_reference: str = "agl",
+    altitude_reference: str | None = None,
     rally_path: str | Path | None = None,
     circle_tolerance_m: float = DEFAULT_CIRCLE_TOLERANCE_M,
     return_point_as_recovery: bool = True,
+    floor_gaps: Sequence[PolygonLL] = (),
+    recovery_point: tuple[float, ...] | None = None,
+    max_vertices: int = MAX_FENCE_VERTICES,
+    max_polygons: int = MAX_FENCE_POLYGONS,
 ) -> ImportedFence:
     """Read a fence file (any format in :data:`FORMATS` except rally-only) into an :class:`ImportedFence`.
 
+    ``ceiling_m``, ``floor_m``, ``altitude_reference``: explicit values win over the file's (only
+    GeoJSON files carry them, see the module docstring); ``None`` means the file's, else the default
+    (ceiling :data:`DEFAULT_CEILING_M`, no floor, ``"agl"``). ``floor_gaps`` and ``recovery_point``
+    are passed to :class:`Fence` (no format carries floor gaps; an explicit recovery point replaces
+    the file's return point as the recovery point, the return point is still reported).
     ``rally_path``: an optional separate rally file (MAVProxy keeps rally points
     apart from the fence) whose points are appended to ``rally_points``.
+    ``max_vertices``/``max_polygons``: refuse a file with more polygon vertices / polygons (rings)
+    than this, before building anything.
     Raises :class:`FenceError` with one line naming the file and the problem.
     """
     name = str(path)
-    raw = _read_raw(Path(path))
+    raw = _raw_from_text(_read_text(Path(path)), name, max_vertices=max_vertices, max_polygons=max_polygons)
+    if raw.fmt != "geojson":  # GeoJSON is checked before its coordinates are read
+        polys = [*raw.inc_polys, *raw.exc_polys]
+        _check_size(name, sum(len(p) for p in polys), len(polys), max_vertices, max_polygons)
     if not raw.has_fence():
         what = "only rally points" if raw.rally else "no fence items"
         raise FenceError(f"{name}: {what} (no inclusion/exclusion polygon or circle)")
     if not raw.inc_polys and not raw.inc_circles:
         raise FenceError(f"{name}: no inclusion polygon or circle (only exclusions); a keep-in area is required")
     warnings = list(raw.warnings)
-    if ceiling_m is None:
-        ceiling_m = DEFAULT_CEILING_M
-        warnings.append(f"no ceiling in the file format; using the default ceiling {DEFAULT_CEILING_M:g} m {altitude_reference.upper()}")
+    if altitude_reference is None:
+        altitude_reference = raw.altitude_reference or "agl"
+    if floor_m is None:
+        floor_m = raw.floor_m
+    ceiling_source = "argument"
+    if ceiling_m is None and raw.ceiling_m is not None:
+        ceiling_m, ceiling_source = raw.ceiling_m, "file"
+    elif ceiling_m is None:
+        ceiling_m, ceiling_source = DEFAULT_CEILING_M, "default"
+        ref = altitude_reference.upper() if isinstance(altitude_reference, str) else altitude_reference
+        warnings.append(f"no ceiling in the file; using the default ceiling {DEFAULT_CEILING_M:g} m {ref}")
 
     # keep-in
+    keep_in_label = raw.inc_label
     if raw.inc_polys:
         keep_in = raw.inc_polys[0]
         if len(raw.inc_polys) > 1:
@@ -201,49 +284,73 @@ def load_fence_file(
     else:
         c = raw.inc_circles[0]
         keep_in, n, sag = circle_to_polygon(c.center_lat_deg, c.center_lon_deg, c.radius_m, circle_tolerance_m)
+        keep_in_label = "inclusion circle 0"
         warnings.append(f"inclusion circle r={c.radius_m:g} m approximated by an inscribed {n}-gon (max gap {sag:.3f} m inside the circle)")
         if len(raw.inc_circles) > 1:
             warnings.append(f"{len(raw.inc_circles) - 1} further inclusion circle(s) ignored: the fence uses the first only")
 
-    def build(**kw: Any) -> Fence:
-        try:
-            return Fence(keep_in=keep_in, ceiling_m=ceiling_m, floor_m=floor_m,
-                         altitude_reference=altitude_reference, **kw)
-        except FenceError as exc:
-            raise FenceError(f"{name}: {exc}") from None
+    # Format-level relations in a local frame at the keep-in (vectorised; the Fence validates the
+    # geometry itself, once, below): drop keep-outs that constrain nothing, check the return point.
+    frame = _frame_at(keep_in)
 
-    base = build()
-    local = base.to_local()
-    keep_out_polys = []
+    def en(poly) -> np.ndarray:
+        lat = np.array([p[0] for p in poly], dtype=float)
+        lon = np.array([p[1] for p in poly], dtype=float)
+        return frame.to_enu_array(lat, lon, np.zeros(len(poly)))[:, :2]
+
+    ki = PolygonIndex(en(keep_in))
+    labels = raw.exc_labels if len(raw.exc_labels) == len(raw.exc_polys) else \
+        [f"exclusion polygon {i}" for i in range(len(raw.exc_polys))]
+    exc_en = [en(p) for p in raw.exc_polys]
+    first_inside = ki.contains_array(np.array([e[0] for e in exc_en])) if exc_en else np.zeros(0, dtype=bool)
+    keep_out_polys, keep_out_labels, kept_en = [], [], []
     for i, p in enumerate(raw.exc_polys):
-        try:
-            Fence(keep_in=p, ceiling_m=ceiling_m, floor_m=floor_m, altitude_reference=altitude_reference)
-        except FenceError as exc:
-            raise FenceError(f"{name}: exclusion polygon {i}: {exc}") from None
-        en = [local.horizontal_en(lat, lon) for lat, lon in p]
-        if polygons_intersect(local.keep_in.vertices, en):
+        if first_inside[i] or polygons_intersect(ki.vertices, exc_en[i]):
             keep_out_polys.append(p)
+            keep_out_labels.append(labels[i])
+            kept_en.append(exc_en[i])
         else:
-            warnings.append(f"exclusion polygon {i} lies entirely outside the keep-in area: dropped (it constrains nothing)")
-    keep_out_circles = []
+            warnings.append(f"{labels[i]} lies entirely outside the keep-in area: dropped (it constrains nothing)")
+    keep_out_circles, circles_en = [], []
     for i, c in enumerate(raw.exc_circles):
-        e, n = local.horizontal_en(c.center_lat_deg, c.center_lon_deg)
-        if local.keep_in.signed_distance(e, n) <= -c.radius_m:
+        e, n = frame.to_enu(c.center_lat_deg, c.center_lon_deg, 0.0)[:2]
+        if ki.signed_distance(e, n) <= -c.radius_m:
             warnings.append(f"exclusion circle {i} lies entirely outside the keep-in area: dropped (it constrains nothing)")
         else:
             keep_out_circles.append(c)
-    fence = build(keep_out_polygons=tuple(keep_out_polys), keep_out_circles=tuple(keep_out_circles))
+            circles_en.append((e, n, c.radius_m))
 
-    if raw.return_point is not None and return_point_as_recovery:
+    rp_from_file = False
+    if recovery_point is None and raw.return_point is not None and return_point_as_recovery:
         lat, lon = raw.return_point[0], raw.return_point[1]
-        lf = fence.to_local()
-        m = lf.lateral_margin_m(*lf.horizontal_en(lat, lon))
+        e, n = frame.to_enu(lat, lon, 0.0)[:2]
+        m = ki.signed_distance(e, n)
+        for k in kept_en:
+            m = min(m, -PolygonIndex(k).signed_distance(e, n))
+        for ce, cn, r in circles_en:
+            m = min(m, math.hypot(e - ce, n - cn) - r)
         if m > 0.0:
-            fence = build(keep_out_polygons=fence.keep_out_polygons, keep_out_circles=fence.keep_out_circles,
-                          recovery_point=(lat, lon))
+            recovery_point, rp_from_file = (lat, lon), True
         else:
             warnings.append(f"return point ({lat:.7f}, {lon:.7f}) is not inside the allowed area "
                             f"(margin {m:.1f} m): not used as the recovery point")
+
+    def build(rp: tuple | None) -> Fence:
+        return Fence(keep_in=keep_in, ceiling_m=ceiling_m, floor_m=floor_m, altitude_reference=altitude_reference,
+                     floor_gaps=tuple(floor_gaps), keep_out_polygons=tuple(keep_out_polys),
+                     keep_out_circles=tuple(keep_out_circles), recovery_point=rp)
+
+    try:
+        try:
+            fence = build(recovery_point)
+        except FenceError as exc:
+            if not (rp_from_file and str(exc).startswith("recovery_point:")):
+                raise
+            warnings.append(f"return point ({recovery_point[0]:.7f}, {recovery_point[1]:.7f}): {exc}: "
+                            f"not used as the recovery point")
+            fence = build(None)
+    except FenceError as exc:
+        raise FenceError(f"{name}: {_relabel(str(exc), keep_in_label, keep_out_labels)}") from None
 
     rally = list(raw.rally)
     if rally_path is not None:
@@ -260,7 +367,41 @@ def load_fence_file(
         rally_points=tuple(rally),
         home=raw.home,
         warnings=warnings,
+        ceiling_source=ceiling_source,
     )
+
+
+def _frame_at(poly: PolygonLL) -> LocalFrame:
+    """A local frame at the vertices' centre (mean of their ECEF unit vectors, like :meth:`Fence.center`)."""
+    xs = ys = zs = 0.0
+    for lat, lon in poly:
+        x, y, z = geodetic_to_ecef(lat, lon, 0.0)
+        xs, ys, zs = xs + x, ys + y, zs + z
+    k = len(poly)
+    lat, lon, _ = ecef_to_geodetic(xs / k, ys / k, zs / k)
+    return LocalFrame(lat, lon, 0.0)
+
+
+_KEEP_OUT_FIELD = re.compile(r"^keep_out_polygons\[(\d+)\]")
+
+
+def _relabel(msg: str, keep_in_label: str, keep_out_labels: list[str]) -> str:
+    """A :class:`Fence` message with its field (``keep_out_polygons[3]``, ``keep_in``) named as in the file."""
+    m = _KEEP_OUT_FIELD.match(msg)
+    if m and int(m.group(1)) < len(keep_out_labels):
+        return keep_out_labels[int(m.group(1))] + msg[m.end():]
+    if keep_in_label and re.match(r"^keep_in\b", msg):
+        return keep_in_label + msg[len("keep_in"):]
+    return msg
+
+
+def _check_size(name: str, n_vertices: int, n_polygons: int, max_vertices: int, max_polygons: int) -> None:
+    if n_vertices > max_vertices:
+        raise FenceError(f"{name}: {n_vertices} polygon vertices exceed the limit of {max_vertices} "
+                         f"(max_vertices); simplify or split the fence")
+    if n_polygons > max_polygons:
+        raise FenceError(f"{name}: {n_polygons} polygons exceed the limit of {max_polygons} "
+                         f"(max_polygons); merge or drop keep-outs")
 
 
 def load_rally_file(path: str | Path) -> tuple[RallyPoint, ...]:
@@ -337,31 +478,49 @@ _LATLON_LINE = re.compile(rf"^\s*{_NUM}\s+{_NUM}\s*$")
 
 
 def _detect(text: str, name: str) -> str:
+    return _sniff(text, name)[0]
+
+
+def _sniff(text: str, name: str) -> tuple[str, Any]:
+    """``(format, parsed JSON document or None)``: JSON is told apart by its top-level ``type``."""
     for line in text.splitlines():
         s = line.strip()
         if not s or s.startswith("#"):
             continue
         if s.startswith(("{", "[")):
-            return "qgc_plan"
+            try:
+                doc = json.loads(text)
+            except json.JSONDecodeError:
+                return "qgc_plan", None  # _parse_plan reports where the JSON is broken
+            if isinstance(doc, dict) and doc.get("type") in GEOJSON_TYPES:
+                return "geojson", doc
+            return "qgc_plan", doc
         if s.startswith("QGC WPL"):
             if s.split() == ["QGC", "WPL", "110"]:
-                return "qgc_wpl_110"
+                return "qgc_wpl_110", None
             raise FenceError(f"{name}: unsupported waypoint file version {s!r} (only 'QGC WPL 110')")
         if s.split()[0].upper() == "RALLY":
-            return "mavproxy_rally"
+            return "mavproxy_rally", None
         if _LATLON_LINE.match(s):
-            return "mavproxy_fence"
+            return "mavproxy_fence", None
         raise FenceError(f"{name}: unrecognised fence file format (first line {s[:40]!r}); "
-                         f"expected .plan JSON, 'QGC WPL 110', 'lat lon' lines or 'RALLY' lines")
+                         f"expected .plan JSON, GeoJSON, 'QGC WPL 110', 'lat lon' lines or 'RALLY' lines")
     raise FenceError(f"{name}: empty file")
 
 
 def _read_raw(path: Path) -> _Raw:
-    text = _read_text(path)
-    name = str(path)
-    fmt = _detect(text, name)
-    return {"qgc_plan": _parse_plan, "qgc_wpl_110": _parse_wpl110,
-            "mavproxy_fence": _parse_mavproxy_fence, "mavproxy_rally": _parse_mavproxy_rally}[fmt](text, name)
+    return _raw_from_text(_read_text(path), str(path))
+
+
+def _raw_from_text(text: str, name: str, *, max_vertices: int = MAX_FENCE_VERTICES,
+                   max_polygons: int = MAX_FENCE_POLYGONS) -> _Raw:
+    fmt, doc = _sniff(text, name)
+    if fmt == "qgc_plan":
+        return _parse_plan(text, name, doc)
+    if fmt == "geojson":
+        return _parse_geojson(doc, name, max_vertices=max_vertices, max_polygons=max_polygons)
+    return {"qgc_wpl_110": _parse_wpl110, "mavproxy_fence": _parse_mavproxy_fence,
+            "mavproxy_rally": _parse_mavproxy_rally}[fmt](text, name)
 
 
 def _float(tok: str, name: str, where: str, what: str) -> float:
@@ -408,11 +567,12 @@ def _json_point(p: Any, name: str, where: str, n: int | tuple = 2) -> tuple[floa
     return vals
 
 
-def _parse_plan(text: str, name: str) -> _Raw:
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise FenceError(f"{name}: not JSON: {exc.msg} at line {exc.lineno} column {exc.colno}") from None
+def _parse_plan(text: str, name: str, doc: Any = None) -> _Raw:
+    if doc is None:
+        try:
+            doc = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise FenceError(f"{name}: not JSON: {exc.msg} at line {exc.lineno} column {exc.colno}") from None
     if not isinstance(doc, dict):
         raise FenceError(f"{name}: not a QGroundControl plan (top level is not a JSON object)")
     raw = _Raw("qgc_plan")
@@ -621,6 +781,192 @@ def _parse_mavproxy_rally(text: str, name: str) -> _Raw:
             raise FenceError(f"{name}: {where}: flags {a[6]!r} is not an integer")
         raw.rally.append(RallyPoint(lat, lon, v[2], "relative", break_alt_m=v[3], land_dir_deg=v[4], flags=int(v[5])))
     return raw
+
+
+# ---- GeoJSON (RFC 7946)
+_GEOFENCE_ROLES = ("keep_in", "keep_out", "return_point", "rally")
+_ED269_RESTRICTIONS = (*ED269_KEEP_OUT, "NO_RESTRICTION")
+_WGS84_CRS = re.compile(r"(?:CRS:?84|EPSG:{1,2}4326)$")
+
+
+def _parse_geojson(doc: Any, name: str, *, max_vertices: int = MAX_FENCE_VERTICES,
+                   max_polygons: int = MAX_FENCE_POLYGONS) -> _Raw:
+    raw = _Raw("geojson")
+    crs = doc.get("crs")
+    if crs is not None:
+        crs_name = crs.get("properties", {}).get("name") if isinstance(crs, dict) and isinstance(crs.get("properties"), dict) else None
+        if not isinstance(crs_name, str) or not _WGS84_CRS.search(crs_name):
+            raise FenceError(f"{name}: crs: {json.dumps(crs)[:80]} is not WGS-84 longitude/latitude; RFC 7946 GeoJSON "
+                             f"is always WGS-84 [lon, lat] (reproject the file, e.g. ogr2ogr -t_srs EPSG:4326)")
+    kind = doc["type"]
+    top: Any = {}
+    if kind == "FeatureCollection":
+        feats = doc.get("features")
+        if not isinstance(feats, list):
+            raise FenceError(f"{name}: features: must be a list of Feature objects")
+        items = [(f"features[{i}]", f) for i, f in enumerate(feats)]
+        top = doc.get("properties") or {}
+        if not isinstance(top, dict):
+            raise FenceError(f"{name}: properties: must be an object")
+    elif kind == "Feature":
+        items = [("feature", doc)]
+    elif kind in ("Polygon", "MultiPolygon"):
+        items = [("geometry", {"type": "Feature", "properties": {"geofence": "keep_in"}, "geometry": doc})]
+    else:
+        raise FenceError(f"{name}: a bare {kind} geometry is not a fence: expected a FeatureCollection, a Feature, "
+                         f"or a Polygon/MultiPolygon keep-in")
+
+    # size limits first, from the list lengths alone (nothing converted yet)
+    n_vertices = n_polygons = 0
+    for _, f in items:
+        g = f.get("geometry") if isinstance(f, dict) else None
+        c = g.get("coordinates") if isinstance(g, dict) else None
+        if not isinstance(c, list):
+            continue
+        polys = [c] if g.get("type") == "Polygon" else (c if g.get("type") == "MultiPolygon" else [])
+        for poly in polys:
+            for ring in poly if isinstance(poly, list) else ():
+                if isinstance(ring, list):
+                    n_vertices += len(ring)
+                    n_polygons += 1
+    _check_size(name, n_vertices, n_polygons, max_vertices, max_polygons)
+    raw.n_vertices, raw.n_polygons = n_vertices, n_polygons
+
+    keep_in_props: dict | None = None
+    for base, f in items:
+        if not isinstance(f, dict) or f.get("type") != "Feature":
+            raise FenceError(f"{name}: {base}: must be a Feature object, got {json.dumps(f)[:60]}")
+        label = _gj_label(base, f)
+        props = f.get("properties")
+        if props is None:
+            props = {}
+        elif not isinstance(props, dict):
+            raise FenceError(f"{name}: {label}: properties: must be an object or null")
+        role = _gj_role(props, name, label, raw)
+        if role is None:
+            continue
+        geom = f.get("geometry")
+        if not isinstance(geom, dict):
+            raise FenceError(f"{name}: {label}: geometry: must be a GeoJSON geometry object, got {json.dumps(geom)[:60]}")
+        gtype, coords = geom.get("type"), geom.get("coordinates")
+        if role in ("keep_in", "keep_out"):
+            if gtype == "Polygon":
+                parts = [("", coords, "geometry.coordinates")]
+            elif gtype == "MultiPolygon":
+                if not isinstance(coords, list) or not coords:
+                    raise FenceError(f"{name}: {label}: geometry.coordinates: must be a non-empty list of polygons")
+                parts = [(f" polygon {p}", c, f"geometry.coordinates[{p}]") for p, c in enumerate(coords)]
+            else:
+                raise FenceError(f"{name}: {label}: a {role.replace('_', '-')} area must be a Polygon or MultiPolygon, "
+                                 f"got {gtype!r}")
+            for suffix, pc, where in parts:
+                rings = _gj_polygon(pc, name, f"{label}: {where}")
+                if role == "keep_in":
+                    raw.inc_polys.append(rings[0])
+                    if len(raw.inc_polys) > 1:
+                        continue  # ignored (with a warning) by load_fence_file, holes and all
+                    raw.inc_label = f"{label}{suffix}"
+                    keep_in_props = props
+                    for h, hole in enumerate(rings[1:], 1):
+                        raw.exc_polys.append(hole)
+                        raw.exc_labels.append(f"{label}{suffix} hole {h} (a keep-out)")
+                else:
+                    raw.exc_polys.append(rings[0])
+                    raw.exc_labels.append(f"{label}{suffix}")
+                    if len(rings) > 1:
+                        raw.warnings.append(f"{label}{suffix}: {len(rings) - 1} hole(s) of a keep-out ignored "
+                                            f"(the whole exterior ring is kept out)")
+        else:
+            if gtype != "Point":
+                raise FenceError(f"{name}: {label}: a {role.replace('_', ' ')} must be a Point, got {gtype!r}")
+            lat, lon = _gj_position(coords, name, f"{label}: geometry.coordinates")
+            alt = props.get("alt_m")
+            if alt is not None:
+                alt = _json_number(alt, name, f"{label}: properties.alt_m")
+            if role == "return_point":
+                if raw.return_point is not None:
+                    raw.warnings.append(f"{label}: second return point ignored")
+                else:
+                    raw.return_point = (lat, lon) if alt is None else (lat, lon, alt)
+            else:
+                raw.rally.append(RallyPoint(lat, lon, 0.0 if alt is None else alt,
+                                            "unknown" if alt is None else "relative"))
+
+    # vertical limits: the collection's, then the keep-in feature's (which win)
+    for where, props in (("properties", top), (f"{raw.inc_label}: properties", keep_in_props or {})):
+        for key in ("ceiling_m", "floor_m"):
+            if props.get(key) is not None:
+                setattr(raw, key, _json_number(props[key], name, f"{where}.{key}"))
+        ref = props.get("altitude_reference")
+        if ref is not None:
+            if not isinstance(ref, str) or ref.lower() not in ("agl", "amsl"):
+                raise FenceError(f"{name}: {where}.altitude_reference: must be 'agl' or 'amsl', got {ref!r}")
+            raw.altitude_reference = ref.lower()
+    return raw
+
+
+def _gj_label(base: str, f: Any) -> str:
+    """``features[3]``, with the feature's ``id`` or ``name`` property when it has one."""
+    if isinstance(f, dict):
+        if isinstance(f.get("id"), (str, int)) and not isinstance(f.get("id"), bool):
+            return f"{base} (id {f['id']!r})"
+        props = f.get("properties")
+        if isinstance(props, dict) and isinstance(props.get("name"), str):
+            return f"{base} (name {props['name']!r})"
+    return base
+
+
+def _gj_role(props: dict, name: str, label: str, raw: _Raw) -> str | None:
+    """The feature's role from ``geofence`` (ours) or ``restriction`` (ED-269); None = ignored."""
+    role = props.get("geofence")
+    if role is not None:
+        if role not in _GEOFENCE_ROLES:
+            raise FenceError(f"{name}: {label}: properties.geofence: {role!r} is not one of {', '.join(_GEOFENCE_ROLES)}")
+        return role
+    restriction = props.get("restriction")
+    if restriction is not None:
+        if restriction in ED269_KEEP_OUT:
+            return "keep_out"
+        if restriction == "NO_RESTRICTION":
+            raw.warnings.append(f"{label}: ED-269 restriction NO_RESTRICTION: ignored (not a keep-out)")
+            return None
+        raise FenceError(f"{name}: {label}: properties.restriction: {restriction!r} is not an ED-269 restriction "
+                         f"({', '.join(_ED269_RESTRICTIONS)})")
+    raise FenceError(f"{name}: {label}: no role: give properties.geofence ({', '.join(_GEOFENCE_ROLES)}) "
+                     f"or an ED-269 properties.restriction")
+
+
+def _gj_polygon(coords: Any, name: str, where: str) -> list[PolygonLL]:
+    """A GeoJSON Polygon's rings as (lat, lon) vertex tuples: ``[exterior, *holes]``."""
+    if not isinstance(coords, list) or not coords:
+        raise FenceError(f"{name}: {where}: must be a non-empty list of linear rings")
+    return [_gj_ring(ring, name, f"{where}[{k}]") for k, ring in enumerate(coords)]
+
+
+def _gj_ring(ring: Any, name: str, where: str) -> PolygonLL:
+    if not isinstance(ring, list):
+        raise FenceError(f"{name}: {where}: must be a list of [lon, lat] positions")
+    pts = [_gj_position(p, name, f"{where}[{j}]") for j, p in enumerate(ring)]
+    if len(ring) < 2 or ring[0] != ring[-1]:
+        raise FenceError(f"{name}: {where}: ring is not closed (RFC 7946: its last position must repeat the first)")
+    pts = pts[:-1]
+    distinct = len(set(pts))
+    if distinct < 3:
+        raise FenceError(f"{name}: {where}: ring needs at least 3 distinct vertices, got {distinct}")
+    return tuple(pts)
+
+
+def _gj_position(p: Any, name: str, where: str) -> tuple[float, float]:
+    """A GeoJSON position ``[lon, lat]`` or ``[lon, lat, height]`` -> ``(lat, lon)``."""
+    if not isinstance(p, list) or not 2 <= len(p) <= 3:
+        raise FenceError(f"{name}: {where}: must be a position [lon, lat] or [lon, lat, height], got {json.dumps(p)[:60]}")
+    vals = [_json_number(v, name, where) for v in p]
+    lon, lat = vals[0], vals[1]
+    if not -180.0 <= lon <= 180.0:
+        raise FenceError(f"{name}: {where}: longitude {lon:g} deg is outside [-180, 180] (GeoJSON positions are [lon, lat])")
+    if not -90.0 <= lat <= 90.0:
+        raise FenceError(f"{name}: {where}: latitude {lat:g} deg is outside [-90, 90] (GeoJSON positions are [lon, lat])")
+    return lat, lon
 
 
 def summarize(imported: ImportedFence) -> str:

@@ -9,7 +9,8 @@
   ``trajectory.csv``, figures, ``summary.json``), so a folder is either the
   complete result of one flight or absent. Its ``summary.json`` holds the
   flight's ``scenario_hash`` (sha256 of the resolved scenario and the version,
-  :func:`scenarios.sweep.scenario_hash`): re-running skips only flights whose
+  :func:`scenarios.sweep.scenario_hash`, and of the bytes of a fence file it references,
+  :func:`with_referenced_files`): re-running skips only flights whose
   stored hash matches, and flies an edited scenario again. A crash or Ctrl-C
   keeps finished flights. A flight that fails (bad configuration, divergence,
   an exception) gets a ``summary.json`` with ``completed: false`` and the
@@ -26,6 +27,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import signal
@@ -34,7 +36,7 @@ import time
 import traceback
 from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import yaml
@@ -88,9 +90,38 @@ def plan(files: Iterable[Path]) -> list[FlightSpec]:
         except ConfigError as exc:
             specs.append(FlightSpec(path.stem, None, str(path), error=str(exc)))
             continue
-        specs.extend(expand(raw, str(path), path.stem))
+        specs.extend(with_referenced_files(expand(raw, str(path), path.stem), path.parent))
     check_unique_names(specs)
     return specs
+
+
+def with_referenced_files(specs: Iterable[FlightSpec], base_dir: Path) -> list[FlightSpec]:
+    """The specs, each ``scenario_hash`` also covering the bytes of the files its scenario references.
+
+    A ``geofence.fence.file`` (relative to ``base_dir``, the scenario file's folder) is part of the
+    flight: editing it must re-fly a resumed batch, though the scenario document did not change.
+    A file that cannot be read hashes as missing (the flight then fails with the schema's message).
+    """
+    from scenarios.schema import referenced_files
+
+    out = []
+    for spec in specs:
+        try:
+            files = referenced_files(spec.document, base_dir) if spec.document is not None else []
+        except ValueError:  # a malformed file: key; the schema reports it when the flight is parsed
+            files = []
+        if not files:
+            out.append(spec)
+            continue
+        digests = {}
+        for p in files:
+            try:
+                digests[str(p)] = hashlib.sha256(p.read_bytes()).hexdigest()
+            except OSError:
+                digests[str(p)] = "missing"
+        payload = json.dumps({"scenario_hash": spec.scenario_hash, "files": sorted(digests.values())})
+        out.append(replace(spec, scenario_hash=hashlib.sha256(payload.encode("utf-8")).hexdigest()))
+    return out
 
 
 def check_unique_names(specs: Iterable[FlightSpec]) -> None:

@@ -8,7 +8,7 @@ Subcommands:
 * ``plot DIR`` / ``compare DIR``: regenerate figures / the platform comparison from saved results.
 * ``seed-reproduction DIR``: fly the seed work's indoor quad with the reactive and our predictive fence.
 * ``score-log LOG --fence FILE``: score a real flight log (tlog / DataFlash .bin) against a fence file.
-* ``import-fence FILE``: turn a QGC .plan / WPL 110 / MAVProxy fence file into a scenario ``geofence:`` block.
+* ``import-fence FILE``: turn a GeoJSON / QGC .plan / WPL 110 / MAVProxy fence file into a scenario ``geofence:`` block.
 * ``validate SCENARIO.yaml...``: check scenario files without flying them.
 * ``list``: the aircraft that can fly and the shipped example scenarios.
 * ``check SCENARIO.yaml...``: the pre-flight mission check (where would the geofence override the mission?).
@@ -121,16 +121,16 @@ def build_parser() -> argparse.ArgumentParser:
         help="score a real flight log against a fence file",
         description=(
             "Read a MAVLink telemetry log (.tlog) or an ArduPilot DataFlash log (.bin) and a fence file "
-            "(QGroundControl .plan, QGC WPL 110 fence items, MAVProxy fence text), and print the breach scores: "
-            "peak excursion beyond the fence (m), time outside (s), minimum margin (m). Fence files carry no "
-            "ceiling, so give one with --ceiling (m above home). The log is checked first: a log with too many "
+            "(QGroundControl .plan, QGC WPL 110 fence items, MAVProxy fence text, GeoJSON airspace), and print the breach "
+            "scores: peak excursion beyond the fence (m), time outside (s), minimum margin (m). Only GeoJSON files can "
+            "carry a ceiling, so give one with --ceiling (m above home). The log is checked first: a log with too many "
             "CRC failures, time faults or position glitches, or far from the fence, is refused (exit 2); "
             "otherwise it is scored over its clean part, with a warning on stderr saying what was dropped."
         ),
     )
     score.add_argument("log", type=Path, metavar="LOG", help=".tlog or .bin flight log")
-    score.add_argument("--fence", type=Path, required=True, metavar="FILE", help="fence file (.plan, WPL 110, MAVProxy)")
-    score.add_argument("--ceiling", type=float, default=None, metavar="M", help="ceiling, m above home (default 120)")
+    score.add_argument("--fence", type=Path, required=True, metavar="FILE", help="fence file (.plan, WPL 110, MAVProxy, GeoJSON)")
+    score.add_argument("--ceiling", type=float, default=None, metavar="M", help="ceiling, m above home (default: the file's, else 120)")
     score.add_argument("--json", action="store_true", help="print only the scores, as one JSON object (warnings on stderr)")
     score.add_argument("--max-fence-distance-km", type=float, default=50.0, metavar="KM",
                        help="refuse a log whose median position is farther than this from the fence (default 50)")
@@ -138,10 +138,17 @@ def build_parser() -> argparse.ArgumentParser:
     imp = sub.add_parser(
         "import-fence",
         help="convert a fence file into a scenario geofence block",
-        description="Read a QGroundControl .plan, QGC WPL 110 or MAVProxy fence file and print (or write with -o) the equivalent scenario 'geofence:' YAML block, with any warnings on stderr.",
+        description=(
+            "Read a fence file and print (or write with -o) the equivalent scenario 'geofence:' YAML block, with any "
+            "warnings on stderr. Formats (told apart by content): QGroundControl .plan, QGC WPL 110, MAVProxy fence/rally "
+            "text, and RFC 7946 GeoJSON airspace ([lon, lat]; Polygon/MultiPolygon features with properties.geofence "
+            "keep_in/keep_out, or the ED-269 properties.restriction, where PROHIBITED/REQ_AUTHORISATION/CONDITIONAL are "
+            "keep-outs; holes of the keep-in become keep-outs; a Point with geofence return_point; optional ceiling_m/floor_m "
+            "properties). A scenario can also reference the file directly: geofence: {fence: {file: PATH}}."
+        ),
     )
     imp.add_argument("fence_file", type=Path, metavar="FILE")
-    imp.add_argument("--ceiling", type=float, default=None, metavar="M", help="ceiling, m above home (default 120)")
+    imp.add_argument("--ceiling", type=float, default=None, metavar="M", help="ceiling, m above home (wins over the file's; default: the file's, else 120)")
     imp.add_argument("-o", "--output", type=Path, default=None, metavar="OUT.yaml", help="write here instead of stdout (coordinates rounded to 1e-7 deg)")
     imp.add_argument("--force", action="store_true", help="overwrite OUT.yaml if it exists")
 

@@ -41,7 +41,7 @@ from scenarios.errors import (
     string,
 )
 from geofence.boundary_shift import check_shift_feasible
-from geofence.config import GeofenceConfig, GeofenceConfigError, parse_geofence
+from geofence.config import GeofenceConfig, GeofenceConfigError, fence_file_path, parse_geofence
 from geofence.fence import FenceError
 from geofence.geodesy import LocalFrame
 from wind.config import WindConfig, parse_wind
@@ -199,8 +199,42 @@ def load_scenario(path: str | Path) -> Scenario:
     return parse_scenario(raw, where=str(path), default_name=path.stem, source=path)
 
 
-def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source: Path | None = None) -> Scenario:
-    """Validate an already-parsed YAML document (see :func:`load_scenario`)."""
+def scenario_base_dir(where: str, source: Path | str | None = None, base_dir: Path | str | None = None) -> Path | None:
+    """The folder files a scenario references (``geofence.fence.file``) are relative to.
+
+    ``base_dir`` if given; else the folder of ``source``; else, when ``where`` (the label of a
+    document read from a file, as batches and sweeps pass it) names an existing file, its folder;
+    else None (relative paths then resolve against the working directory).
+    """
+    if base_dir is not None:
+        return Path(base_dir)
+    if source is not None:
+        return Path(source).parent
+    try:
+        return Path(where).parent if where and Path(where).is_file() else None
+    except (OSError, ValueError):
+        return None
+
+
+def referenced_files(document: Any, base_dir: Path | str | None) -> list[Path]:
+    """The files a scenario document reads besides itself (its ``geofence.fence.file``), resolved; [] if none.
+
+    For content hashes (:func:`scenarios.batch.plan`): editing such a file changes the flight.
+    """
+    geofence = document.get("geofence") if isinstance(document, dict) else None
+    fence = geofence.get("fence") if isinstance(geofence, dict) else None
+    if not isinstance(fence, dict) or not isinstance(fence.get("file"), str) or not fence["file"].strip():
+        return []
+    return [fence_file_path(fence["file"], "geofence.fence", base_dir)]
+
+
+def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source: Path | None = None,
+                   base_dir: Path | str | None = None) -> Scenario:
+    """Validate an already-parsed YAML document (see :func:`load_scenario`).
+
+    ``base_dir``: where a relative ``geofence.fence.file`` is looked for (see :func:`scenario_base_dir`:
+    by default the folder of ``source``, or of ``where`` when that names the scenario file).
+    """
     if raw is None:
         raise ConfigError(f"{where}: the file is empty")
     require_mapping(raw, f"{where}: (top level)")
@@ -246,7 +280,8 @@ def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source:
     _check_wind(wind, profile, aircraft, where, allow, warnings)
     geofence = None
     if raw.get("geofence") is not None:
-        geofence = _parse_geofence_block(raw["geofence"], f"{where}: geofence", start, profile, wind)
+        geofence = _parse_geofence_block(raw["geofence"], f"{where}: geofence", start, profile, wind,
+                                         scenario_base_dir(where, source, base_dir))
         _check_inside_fence(geofence, start, mission if pilot.kind == "mission" else None, where, allow, warnings)
 
     return Scenario(
@@ -358,10 +393,11 @@ def _parse_aircraft_profile(aircraft: str, inline: Any, where: str) -> PlatformP
         raise ConfigError(str(exc)) from None
 
 
-def _parse_geofence_block(raw: Any, where: str, start: StartConfig, profile: PlatformProfile, wind: WindConfig | None) -> GeofenceConfig:
+def _parse_geofence_block(raw: Any, where: str, start: StartConfig, profile: PlatformProfile, wind: WindConfig | None,
+                          base_dir: Path | None = None) -> GeofenceConfig:
     """Validate the geofence block, and check that its activation boundary exists for this platform and wind."""
     try:
-        cfg = parse_geofence(raw, where)
+        cfg = parse_geofence(raw, where, base_dir=base_dir)
         f = cfg.fence
         for name, polys in (("keep_in", (f.keep_in,)), ("floor_gaps", f.floor_gaps), ("keep_out_polygons", f.keep_out_polygons)):
             for poly in polys:

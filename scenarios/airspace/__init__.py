@@ -1,0 +1,1 @@
+"""Airspace-scale fences: the synthetic city park generator and its GeoJSON files (see ``generate.py``)."""
