@@ -56,7 +56,9 @@ edge it takes the exact maximum of ``x(theta)`` over that turn
 ``psi = s·psi* (mod 2 pi)``) and chooses the direction ``s`` with the larger
 worst-edge activation margin (both directions are scored against *all* edges,
 so convex corners and narrow corridors are handled). Assumed: constant
-airspeed and wind, instant roll-in (fold roll-in into ``reaction_time_s``),
+airspeed -- the larger of the current one and cruise, since the override flies at
+cruise and a slow aircraft's turn widens as it speeds up (campaign case acute-0013,
+a Cessna 172 caught at 45 m/s: 58 m outside with the current airspeed) -- and wind, instant roll-in (fold roll-in into ``reaction_time_s``),
 and a straight leg from roll-out to the recovery point inside the fence (true
 when the fence is star-shaped about it, e.g. convex). Consequences: the
 margin steps down when the vehicle overflies the recovery point (it then
@@ -394,7 +396,7 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
             psi_abs = math.atan2(vn, ve)
         else:
             psi_abs = 0.0
-        v_turn = max(v_air, envelope.min_speed_mps, 1e-3)
+        v_turn = max(v_air, envelope.cruise_speed_mps, envelope.min_speed_mps, 1e-3)  # the override flies at cruise
         tanb = g * math.tan(envelope.max_bank_rad)
         radius = v_turn * v_turn / tanb
         inv_omega = v_turn / tanb

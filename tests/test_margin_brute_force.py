@@ -5,7 +5,9 @@ needs against that edge. Here the same manoeuvre is integrated numerically as a 
 
 * fixed-wing: keep the current (straight) course for the reaction time, then turn at the bank limit
   in the direction the margin chose, by exactly the angle it scored (to the roll-out heading), in a
-  steady wind; the room is the largest displacement along the edge's outward normal;
+  steady wind, at the override's airspeed (cruise, or the current airspeed when faster: the
+  override accelerates a slow aircraft to cruise, which widens its turn); the room is the largest
+  displacement along the edge's outward normal;
 * multirotor, head-on: accelerate toward the edge at the tilt limit plus the wind's push for the
   reaction time, then brake at the braking deceleration minus the push until stopped.
 
@@ -66,7 +68,8 @@ def test_fixed_wing_room_matches_the_integrated_turn(v_air, heading, wind, wind_
     r = activation_margins(FENCE, e, n, 100.0, ve, vn, 0.0, FW, we, wn)
     if (r.feature, r.edge) != ("keep_in", 1):
         return  # another edge binds: not this test's subject
-    room_sim = simulate_fixed_wing(e, n, v_air, heading, we, wn, FW.reaction_time_s, r.turn_sign, r.turn_angle_rad)
+    v_fly = max(v_air, FW.cruise_speed_mps)
+    room_sim = simulate_fixed_wing(e, n, v_fly, heading, we, wn, FW.reaction_time_s, r.turn_sign, r.turn_angle_rad)
     assert abs(room_sim - r.lateral_shift_m) <= 0.01 * r.lateral_shift_m + 0.2, (room_sim, r)
 
 
