@@ -123,9 +123,8 @@ class FenceGrid:
         recs = self._recs
         cands = tuple((float(d[i]),) + recs[i] for i in sel.tolist())
         # keep-in: wholly inside (+1), wholly outside (-1) or crossed by its boundary (0)
-        ki = self._keep_in
-        sd = float(ki.signed_distance_array(np.array([[cx, cy]]))[0])
-        ki_state = 0 if abs(sd) <= h + 1e-6 else (1 if sd > 0.0 else -1)
+        d_ki = float(d[: self._keep_in.n].min())  # the keep-in's edges come first
+        ki_state = 0 if d_ki <= h + 1e-6 else (1 if self._rows.inside(cx, cy) else -1)
         kb = self._ko_bbox
         lo_x, lo_y, hi_x, hi_y = key[0] * c, key[1] * c, (key[0] + 1) * c, (key[1] + 1) * c
         ko = tuple(np.flatnonzero((kb[:, 0] <= hi_x) & (kb[:, 2] >= lo_x) & (kb[:, 1] <= hi_y) & (kb[:, 3] >= lo_y)).tolist())
