@@ -439,6 +439,16 @@ class LocalFence:
                 return m
         return self.lateral_margin_scan_m(e, n)
 
+    def lateral_margin_exceeds(self, e: float, n: float, m: float) -> bool:
+        """``lateral_margin_m(e, n) > m``, answered from the index's lower bound when it suffices (far from
+        every boundary), else exactly."""
+        grid = self._grid if self._grid is not None else self.grid()
+        if grid is not None:
+            lb = grid.margin_lower_bound(e, n)
+            if lb is not None and lb > m:
+                return True
+        return self.lateral_margin_m(e, n) > m
+
     def lateral_margin_scan_m(self, e: float, n: float) -> float:
         """:meth:`lateral_margin_m` by the full scan of every element (the reference; also the breached case)."""
         m = self.keep_in.signed_distance(e, n)

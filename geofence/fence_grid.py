@@ -184,6 +184,21 @@ class FenceGrid:
                 best = d
         return best
 
+    def margin_lower_bound(self, e: float, n: float) -> float | None:
+        """A lower bound of the lateral margin at (e, n) in O(1) (no walk), or None where the cell is not wholly
+        inside the keep-in or a keep-out's bounding box holds the point.
+
+        The nearest element's distance from the cell centre, less the distance to it (1-Lipschitz).
+        """
+        _, cx, cy, cands, ki_state, ko = self._cell(e, n, 0.0)
+        if ki_state != 1 or not cands:
+            return None
+        kb = self._ko_bbox
+        for k in ko:
+            if kb[k, 0] <= e <= kb[k, 2] and kb[k, 1] <= n <= kb[k, 3]:
+                return None
+        return cands[0][0] - math.hypot(e - cx, n - cy)
+
     def clearly_allowed(self, e: float, n: float) -> float | None:
         """The lateral margin when (e, n) is strictly inside the allowed area (more than the boundary
         tolerance from every element), else ``None`` (the caller then computes it in full).

@@ -206,7 +206,7 @@ class GeofenceUnit:
         vz = max(env.max_climb_rate_mps, env.max_descent_rate_mps, abs(s.v_up_mps))
         vroom = vz * t + vz * vz / (2.0 * env.vertical_accel_mps2) + k * sigma_v_m + extra
         fence = self.fence
-        if fence.lateral_margin_m(s.east_m, s.north_m) <= room or fence.ceiling_m - h <= vroom:
+        if fence.ceiling_m - h <= vroom or not fence.lateral_margin_exceeds(s.east_m, s.north_m, room):
             return False
         if fence.floor_m is None or h - fence.floor_m > vroom:
             return True

@@ -135,3 +135,17 @@ def test_the_binding_edge_beyond_the_nearest_one_is_kept():
         a, b = activation_margins(indexed, *args), activation_margins(scan, *args)
         assert a.edge == 1 and a.edge_distance_m > 14.0  # the east edge, not the nearer south one
         assert tuple(a) == tuple(b)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(48, 400), n_squares=st.integers(0, 20))
+def test_lower_bound_and_exceeds_agree_with_the_margin(seed, n_vertices, n_squares):
+    fence = random_fence(seed, n_vertices, n_squares, 2)
+    local, scan = fence.to_local(FRAME, index=True), fence.to_local(FRAME, index=False)
+    rng = random.Random(seed)
+    for e, n in probe_points(local, rng, 120):
+        m = scan.lateral_margin_m(e, n)
+        lb = local.grid().margin_lower_bound(e, n)
+        assert lb is None or lb <= m + 1e-9
+        for x in (m - 1.0, m - 1e-6, m + 1e-6, m + 5.0, 0.0):
+            assert local.lateral_margin_exceeds(e, n, x) == (m > x)
