@@ -59,6 +59,13 @@ MIN_REACH_M: float = 50.0
 MAX_CELLS: int = 50_000
 """Cells kept before the table is cleared (memory bound for long flights over big fences)."""
 
+PREFIX_ITEMS: int = 512
+"""Candidates a cell keeps as ready Python tuples (the walk rarely goes further); the rest stay numpy indices."""
+
+MAX_CACHED_CANDIDATES: int = 4_000_000
+"""Candidates (all cells together) kept before the table is cleared: a cell far inside a 100,000-vertex fence
+can hold most of its elements, and scattered queries (an inradius search) visit thousands of cells."""
+
 Item = tuple  # (d, nx, ny, feature, feature_index, edge): the ``dists`` format of activation_margins
 
 
@@ -72,8 +79,10 @@ class FenceGrid:
     """
 
     def __init__(self, edges: Sequence[tuple], circles: Sequence[tuple[float, float, float]], circle_feature: str,
-                 keep_in: PolygonIndex, keep_outs: Sequence[PolygonIndex], cell_m: float = DEFAULT_CELL_M) -> None:
+                 keep_in: PolygonIndex, keep_outs: Sequence[PolygonIndex], cell_m: float = DEFAULT_CELL_M,
+                 prefix_items: int = PREFIX_ITEMS) -> None:
         self.cell_m = float(cell_m)
+        self.prefix_items = int(prefix_items)
         self.half_diag_m = self.cell_m * math.sqrt(0.5)
         self._circle_feature = circle_feature
         s = len(edges)
@@ -93,6 +102,7 @@ class FenceGrid:
         kb = np.array([k.bbox for k in keep_outs], dtype=float).reshape(-1, 4)
         self._ko_bbox = kb
         self._cells: dict[tuple[int, int], tuple] = {}
+        self._cached = 0
         self._rows = _RowStrips(keep_in)
 
     # ---- cells
@@ -121,18 +131,36 @@ class FenceGrid:
         sel = np.flatnonzero(d <= u + built_for + h)
         sel = sel[np.argsort(d[sel], kind="stable")]
         recs = self._recs
-        cands = tuple((float(d[i]),) + recs[i] for i in sel.tolist())
+        cands = tuple((float(d[i]),) + recs[i] for i in sel[: self.prefix_items].tolist())
+        rest = sel[self.prefix_items:]
+        rest_lb = d[rest]
         # keep-in: wholly inside (+1), wholly outside (-1) or crossed by its boundary (0)
         d_ki = float(d[: self._keep_in.n].min())  # the keep-in's edges come first
         ki_state = 0 if d_ki <= h + 1e-6 else (1 if self._rows.inside(cx, cy) else -1)
         kb = self._ko_bbox
         lo_x, lo_y, hi_x, hi_y = key[0] * c, key[1] * c, (key[0] + 1) * c, (key[1] + 1) * c
         ko = tuple(np.flatnonzero((kb[:, 0] <= hi_x) & (kb[:, 2] >= lo_x) & (kb[:, 1] <= hi_y) & (kb[:, 3] >= lo_y)).tolist())
-        cell = (built_for, cx, cy, cands, ki_state, ko)
-        if len(self._cells) >= MAX_CELLS:
+        cell = (built_for, cx, cy, cands, ki_state, ko, rest, rest_lb)
+        if len(self._cells) >= MAX_CELLS or self._cached + len(sel) > MAX_CACHED_CANDIDATES:
             self._cells.clear()
+            self._cached = 0
         self._cells[key] = cell
+        self._cached += len(sel)
         return cell
+
+    def _rest(self, e: float, n: float, rest: np.ndarray, rest_lb: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
+        """``(ids, d)`` of the candidates past a cell's tuple prefix whose lower bound is within ``limit``
+        (``d`` with the scalar walk's arithmetic: vectorised for edges, math.hypot for circles)."""
+        ids = rest[: int(np.searchsorted(rest_lb, limit, side="right"))]
+        seg = ids[ids < len(self._ax)]
+        px, py = e - self._ax[seg], n - self._ay[seg]
+        t = np.clip((px * self._dx[seg] + py * self._dy[seg]) * self._il2[seg], 0.0, 1.0)
+        qx, qy = px - t * self._dx[seg], py - t * self._dy[seg]
+        d_seg = np.sqrt(qx * qx + qy * qy)
+        circ = ids[ids >= len(self._ax)]
+        recs = self._recs
+        d_circ = np.array([math.hypot(recs[i][1] - e, recs[i][2] - n) - recs[i][3] for i in circ.tolist()], dtype=float)
+        return np.concatenate([seg, circ]), np.concatenate([d_seg, d_circ])
 
     # ---- queries
     def near(self, e: float, n: float, reach: float) -> tuple[list[Item], float]:
@@ -141,12 +169,14 @@ class FenceGrid:
         Items are ``(d, nx, ny, feature, feature_index, edge)`` with the
         breach-pointing unit normal (for a circle: towards its centre).
         """
-        _, cx, cy, cands, _, _ = self._cell(e, n, reach)
+        _, cx, cy, cands, _, _, rest, rest_lb = self._cell(e, n, reach)
         delta = math.hypot(e - cx, n - cy)
         best = math.inf
         found = []
+        stopped = False
         for lb, i, a, b, c, dd, il2, nx, ny, feat, idx, j in cands:
             if lb - delta - reach > best:
+                stopped = True
                 break
             if il2 >= 0.0:
                 px, py = e - a, n - b
@@ -161,16 +191,31 @@ class FenceGrid:
             found.append((i, (d, nx, ny, feat, idx, j)))
             if d < best:
                 best = d
+        if not stopped and len(rest):
+            ids, ds = self._rest(e, n, rest, rest_lb, best + delta + reach)
+            if len(ds):
+                best = min(best, float(ds.min()))
+            recs = self._recs
+            for i, d in zip(ids.tolist(), ds.tolist()):
+                if d - reach >= best:
+                    continue
+                _, a, b, c, dd, il2, nx, ny, feat, idx, j = recs[i]
+                if il2 < 0.0:
+                    dist = math.hypot(a - e, b - n)
+                    nx, ny = ((a - e) / dist, (b - n) / dist) if dist > 0.0 else (1.0, 0.0)
+                found.append((i, (d, nx, ny, feat, idx, j)))
         found.sort()
         return [f[1] for f in found], best
 
     def nearest_distance(self, e: float, n: float) -> float:
         """The nearest element's ``d`` (circles signed: negative inside)."""
-        _, cx, cy, cands, _, _ = self._cell(e, n, 0.0)
+        _, cx, cy, cands, _, _, rest, rest_lb = self._cell(e, n, 0.0)
         delta = math.hypot(e - cx, n - cy)
         best = math.inf
+        stopped = False
         for lb, _, a, b, c, dd, il2, *_ in cands:
             if lb - delta > best:
+                stopped = True
                 break
             if il2 >= 0.0:
                 px, py = e - a, n - b
@@ -182,6 +227,10 @@ class FenceGrid:
                 d = math.hypot(a - e, b - n) - c
             if d < best:
                 best = d
+        if not stopped and len(rest):
+            _, ds = self._rest(e, n, rest, rest_lb, best + delta)
+            if len(ds):
+                best = min(best, float(ds.min()))
         return best
 
     def margin_lower_bound(self, e: float, n: float) -> float | None:
@@ -190,7 +239,7 @@ class FenceGrid:
 
         The nearest element's distance from the cell centre, less the distance to it (1-Lipschitz).
         """
-        _, cx, cy, cands, ki_state, ko = self._cell(e, n, 0.0)
+        _, cx, cy, cands, ki_state, ko, _, _ = self._cell(e, n, 0.0)
         if ki_state != 1 or not cands:
             return None
         kb = self._ko_bbox
@@ -208,7 +257,7 @@ class FenceGrid:
         best = self.nearest_distance(e, n)
         if best <= BOUNDARY_TOL_M:
             return None
-        _, _, _, _, ki_state, ko = self._cells[(math.floor(e / self.cell_m), math.floor(n / self.cell_m))]
+        _, _, _, _, ki_state, ko, _, _ = self._cells[(math.floor(e / self.cell_m), math.floor(n / self.cell_m))]
         if ki_state < 0 or (ki_state == 0 and not self._rows.inside(e, n)):
             return None
         kb = self._ko_bbox

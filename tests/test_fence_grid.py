@@ -149,3 +149,25 @@ def test_lower_bound_and_exceeds_agree_with_the_margin(seed, n_vertices, n_squar
         assert lb is None or lb <= m + 1e-9
         for x in (m - 1.0, m - 1e-6, m + 1e-6, m + 5.0, 0.0):
             assert local.lateral_margin_exceeds(e, n, x) == (m > x)
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(48, 400), prefix=st.integers(1, 40))
+def test_candidates_past_the_tuple_prefix_give_the_same_answers(seed, n_vertices, prefix):
+    """A cell keeps only its first candidates as tuples; the walk continues over the rest vectorised."""
+    from geofence.fence import FEATURE_KEEP_OUT_CIRCLE
+    from geofence.fence_grid import FenceGrid
+
+    local = random_fence(seed, n_vertices, 8, 3).to_local(FRAME, index=True)
+    full = local.grid()
+    short = FenceGrid(local.danger_edges(), local.keep_out_circles, FEATURE_KEEP_OUT_CIRCLE, local.keep_in,
+                      local.keep_out_polygons, prefix_items=prefix)
+    rng = random.Random(seed)
+    for e, n in probe_points(local, rng, 100):
+        assert short.nearest_distance(e, n) == full.nearest_distance(e, n)
+        reach = rng.uniform(0.0, 300.0)
+        a_items, a_min = short.near(e, n, reach)
+        b_items, b_min = full.near(e, n, reach)
+        assert a_min == b_min
+        # the walk may visit different supersets; what can bind (d - reach < d_min) must be identical
+        assert [x for x in a_items if x[0] - reach < a_min] == [x for x in b_items if x[0] - reach < b_min]
