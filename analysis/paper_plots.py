@@ -1,6 +1,6 @@
 """Figures of the seed-flight reproduction, in the style of the seed paper's figures.
 
-From :class:`analysis.seed_reproduction.SeedAnalysis` objects (recorded arrays,
+From :class:`scenarios.seed_reproduction.SeedAnalysis` objects (recorded arrays,
 unit transitions, the attempt schedule): headless Agg, PNG + SVG.
 
 * :func:`plot_xy_tracks`: x–y track near the corner of the fence, pilot vs
@@ -26,6 +26,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from geofence.unit import Mode  # noqa: E402
+
 PILOT_COLOUR = "tab:blue"
 OVERRIDE_COLOUR = "tab:red"
 SETPOINT_COLOUR = "black"
@@ -46,7 +48,7 @@ def _save(fig, out_dir: Path, stem: str) -> list[Path]:
 
 def _split_by_mode(t, y, mode):
     """(pilot, override) copies of ``y`` with the other segments NaN; override segments overlap one sample to join."""
-    over = mode == 1
+    over = mode == Mode.OVERRIDE
     joined = over | np.concatenate([[False], over[:-1]]) | np.concatenate([over[1:], [False]])
     return np.where(~over, y, np.nan), np.where(joined, y, np.nan)
 

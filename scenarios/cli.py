@@ -231,7 +231,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "compare":
             return _cmd_compare(args)
         if args.command == "seed-reproduction":
-            from analysis.seed_reproduction import run as seed_run
+            from scenarios.seed_reproduction import run as seed_run
 
             check_output_dir(args.out, "DIR")
             print(f"wrote {seed_run(args.out, fly_flights=not args.no_fly)}")

@@ -19,7 +19,18 @@ def imported_modules(path: Path) -> set[str]:
     return names
 
 
-@pytest.mark.parametrize("package, forbidden", [("geofence", {"jsbsim", "aircraft", "scenarios", "wind", "analysis"}), ("wind", {"jsbsim", "aircraft", "scenarios"}), ("analysis", {"jsbsim", "aircraft"})])
+# The layers, bottom up (docs/architecture.md): geofence and wind (pure math) -> aircraft (JSBSim behind one
+# adapter) and analysis (arrays in, numbers and figures out) -> scenarios (data, the simulated flight, the
+# application). A package may import only from the layers below it.
+LAYER_FORBIDDEN = [
+    ("geofence", {"jsbsim", "aircraft", "scenarios", "wind", "analysis"}),
+    ("wind", {"jsbsim", "aircraft", "scenarios", "geofence", "analysis"}),
+    ("aircraft", {"scenarios", "analysis"}),
+    ("analysis", {"jsbsim", "aircraft", "scenarios"}),
+]
+
+
+@pytest.mark.parametrize("package, forbidden", LAYER_FORBIDDEN)
 def test_package_does_not_import(package, forbidden):
     offenders = {
         str(p.relative_to(ROOT)): sorted(imported_modules(p) & forbidden) for p in (ROOT / package).rglob("*.py") if imported_modules(p) & forbidden

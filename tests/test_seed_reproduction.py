@@ -15,7 +15,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from analysis.seed_reproduction import (
+from scenarios.seed_reproduction import (
     PREDICTIVE_SCENARIO,
     REACTIVE_SCENARIO,
     Boundaries,

@@ -20,7 +20,7 @@ It sees only the vehicle state (never the geofence mode) and flies with the
 mission autopilot's :class:`~scenarios.pilots.nav_laws.MultirotorNavigator`.
 ``attempt_log`` holds, per attempt, its index, direction, drawn speed and the
 start/end times of its phases (s, flight time) for the analysis
-(:mod:`analysis.seed_reproduction`).
+(:mod:`scenarios.seed_reproduction`).
 """
 
 from __future__ import annotations

@@ -19,7 +19,7 @@ Entry points: :func:`analyse_flight` (a :class:`~scenarios.runner.FlightResult`)
 :func:`analyse_folder` (a written ``trajectory.csv`` + ``summary.json``;
 attempts from ``attempts.json`` if present, else rebuilt from the
 ``mission_item`` column and the pilot's seed), :func:`compare_reactive_predictive`
-(markdown table), and ``python -m analysis.seed_reproduction OUT_DIR [--no-fly]``
+(markdown table), and ``python -m scenarios.seed_reproduction OUT_DIR [--no-fly]``
 which flies both scenarios into ``OUT_DIR`` (or reads them), writes
 ``OUT_DIR/seed_reproduction.md`` and the figures of :mod:`analysis.paper_plots`.
 Works on recorded arrays only; no JSBSim import unless it flies.
@@ -219,6 +219,7 @@ def ramp_setpoints(
     from geofence.config import SeedPDGains
     from geofence.guidance import SeedPDRecovery, StraightRoute
     from geofence.interface import VehicleState
+    from geofence.unit import Mode
 
     t = np.asarray(traj["time_s"], float)
     mode = np.asarray(traj["geofence_mode"], float)
@@ -230,7 +231,7 @@ def ramp_setpoints(
         s = VehicleState(t_s=t[i0], east_m=float(traj["east_m"][i0]), north_m=float(traj["north_m"][i0]), agl_m=float(traj["agl_m"][i0]))
         law.start(s, StraightRoute(goal_enh[0], goal_enh[1]), goal_enh[2], s.agl_m, float(t[i0]))
         i = i0
-        while i < len(t) and mode[i] == 1:
+        while i < len(t) and mode[i] == Mode.OVERRIDE:
             out["east_m"][i], out["north_m"][i], out["height_m"][i] = law.setpoint(float(t[i]))
             i += 1
     return out
@@ -410,7 +411,7 @@ def run(out_dir: Path, fly_flights: bool = True, reactive_path: Path = REACTIVE_
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m analysis.seed_reproduction", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m scenarios.seed_reproduction", description=__doc__.splitlines()[0])
     p.add_argument("out_dir", type=Path, help="where the flights, seed_reproduction.md and the figures go")
     p.add_argument("--no-fly", action="store_true", help="read the flights already written in OUT_DIR instead of flying them")
     args = p.parse_args(argv)
