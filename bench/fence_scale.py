@@ -41,6 +41,8 @@ RADIUS_M = 3000.0
 DT_S = 1.0 / 40.0
 WIND_EN = (6.0 * math.cos(0.7), 6.0 * math.sin(0.7))
 PLATFORMS = ("F450RD", "Tern")
+PLANNER_LIMIT_ELEMENTS = 30_000
+"""Above this many fence elements the fixed-wing cases are skipped (n/a): see the note in main()."""
 
 
 def star_fence(n_vertices: int, n_keepouts: int, seed: int = 1) -> Fence:
@@ -159,6 +161,11 @@ def main() -> None:
         cells = []
         for platform in PLATFORMS:
             for near in (True, False):
+                if platform == "Tern" and nv + 4 * nk > PLANNER_LIMIT_ELEMENTS:
+                    # a fixed-wing's margin needs its recovery route (the roll-out target): the route planner's
+                    # visibility graph does not scale to this size yet (its build is quadratic in the corners)
+                    cells.append((platform, near, math.nan, math.nan, 0))
+                    continue
                 res = {}
                 for index in (True, False):
                     # a full scan of 100k elements costs ~0.1 s per call: time fewer calls there
@@ -171,7 +178,8 @@ def main() -> None:
         rows.append((nv, nk, build, cells))
         print(f"{nv:9d} {nk:9d} {build:8.1f}  "
               + "  ".join(f"{c[2]:12.1f} / {c[3]:9.1f}" + ("!" if c[4] else " ") for c in cells), flush=True)
-    print("(! = the unit activated during the run: the case measured an override, not monitoring)")
+    print("(! = the unit activated during the run: the case measured an override, not monitoring;")
+    print(" nan = not measured: the fixed-wing margin needs the recovery route planner, which does not scale there yet)")
     _plot(rows, args.out)
     print(f"figure: {args.out}")
 
