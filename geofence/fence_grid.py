@@ -209,29 +209,7 @@ class FenceGrid:
 
     def nearest_distance(self, e: float, n: float) -> float:
         """The nearest element's ``d`` (circles signed: negative inside)."""
-        _, cx, cy, cands, _, _, rest, rest_lb = self._cell(e, n, 0.0)
-        delta = math.hypot(e - cx, n - cy)
-        best = math.inf
-        stopped = False
-        for lb, _, a, b, c, dd, il2, *_ in cands:
-            if lb - delta > best:
-                stopped = True
-                break
-            if il2 >= 0.0:
-                px, py = e - a, n - b
-                t = (px * c + py * dd) * il2
-                t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
-                qx, qy = px - t * c, py - t * dd
-                d = math.sqrt(qx * qx + qy * qy)
-            else:
-                d = math.hypot(a - e, b - n) - c
-            if d < best:
-                best = d
-        if not stopped and len(rest):
-            _, ds = self._rest(e, n, rest, rest_lb, best + delta)
-            if len(ds):
-                best = min(best, float(ds.min()))
-        return best
+        return self.near(e, n, 0.0)[1]
 
     def margin_lower_bound(self, e: float, n: float) -> float | None:
         """A lower bound of the lateral margin at (e, n) in O(1) (no walk), or None where the cell is not wholly
