@@ -208,6 +208,7 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("--cases", type=int, default=1000, metavar="N", help="number of cases (default 1000; each is flown 3 times)")
     gen.add_argument("--seed", type=int, default=2026, help="campaign seed (default 2026)")
     gen.add_argument("--max-duration-s", type=float, default=180.0, metavar="S", help="longest flight, s (default 180)")
+    gen.add_argument("--platforms", default=None, metavar="A,B", help="comma-separated platform profiles to draw from (default: every shipped profile)")
     rep = camp_sub.add_parser("report", help="write campaign_report.md from a flown campaign", description="Read RESULTS/results.csv (from batch) and the campaign's campaign.json; write RESULTS/campaign_report.md and its figures.")
     rep.add_argument("results", type=Path, metavar="RESULTS", help="the batch output folder")
     rep.add_argument("--campaign", type=Path, required=True, metavar="DIR", help="the folder written by 'campaign generate' (holds campaign.json)")
@@ -293,7 +294,17 @@ def _cmd_campaign(args) -> int:
         if args.out.exists() and (not args.out.is_dir() or any(args.out.iterdir())):
             print(f"error: {args.out}: must be a new or empty folder (a campaign is never written over another)", file=sys.stderr)
             return EXIT_BAD_INPUT
-        paths = generate_campaign(args.out, args.cases, args.seed, max_duration_s=args.max_duration_s)
+        platforms = None
+        if args.platforms is not None:
+            from aircraft.profile import available_profiles
+
+            platforms = [p.strip() for p in args.platforms.split(",") if p.strip()]
+            unknown = [p for p in platforms if p not in available_profiles()]
+            if not platforms or unknown:
+                print(f"error: --platforms: unknown profile {unknown[0] if unknown else '(none given)'!r} "
+                      f"(shipped: {', '.join(available_profiles())})", file=sys.stderr)
+                return EXIT_BAD_INPUT
+        paths = generate_campaign(args.out, args.cases, args.seed, platforms=platforms, max_duration_s=args.max_duration_s)
         print(f"wrote {len(paths)} scenario files and {args.out / 'campaign.json'}; fly them with: "
               f"geofence-testbed batch {args.out} --out RESULTS")
         return 0
