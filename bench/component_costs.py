@@ -25,9 +25,9 @@ from aircraft.factory import build_platform
 from aircraft.sensors import SensorSuite
 from geofence.geodesy import LocalFrame
 from geofence.interface import StickCommand, VehicleState
+from wind import SteadyWind
 from wind.config import parse_wind, wind_from_config
 from wind.dryden import DrydenTurbulence
-from wind import SteadyWind
 
 sys.path.insert(0, str(Path(__file__).parent))
 import fence_scale  # noqa: E402  (the fence family and the moving-vehicle states)

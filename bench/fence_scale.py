@@ -17,7 +17,8 @@ Each case runs with the fence index (``index=True``) and with the full scan
 (``index=False``, the reference) in the same run; medians of interleaved repeats.
 It prints a table and saves ``bench/fence_scale.png`` (log-log).
 
-    python bench/fence_scale.py [--quick] [--repeats 3] [--out bench/fence_scale.png]
+    python bench/fence_scale.py [--quick] [--repeats 3] [--sizes 100x0,10000x500] [--out bench/fence_scale.png]
+    python bench/fence_scale.py --plot-from run1.txt run2.txt   # the figure from saved tables
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ RADIUS_M = 3000.0
 DT_S = 1.0 / 40.0
 WIND_EN = (6.0 * math.cos(0.7), 6.0 * math.sin(0.7))
 PLATFORMS = ("F450RD", "Tern")
-PLANNER_LIMIT_ELEMENTS = 30_000
+PLANNER_LIMIT_ELEMENTS = 10_000
 """Above this many fence elements the fixed-wing cases are skipped (n/a): see the note in main()."""
 
 
@@ -145,8 +146,19 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="fewer sizes and calls (a smoke run)")
     ap.add_argument("--repeats", type=int, default=3, help="interleaved repeats, median reported (default 3)")
     ap.add_argument("--out", type=Path, default=Path(__file__).with_name("fence_scale.png"), help="figure path")
+    ap.add_argument("--sizes", default=None, metavar="VxK,...",
+                    help="fence sizes to run, keep-in vertices x keep-outs (default: the full list)")
+    ap.add_argument("--plot-from", nargs="+", type=Path, default=None, metavar="TABLE",
+                    help="draw the figure from tables this script printed (no measuring)")
     args = ap.parse_args()
-    if args.quick:
+    if args.plot_from:
+        rows = [r for path in args.plot_from for r in _read_table(path)]
+        _plot(sorted(rows, key=lambda r: (r[1], r[0])), args.out)
+        print(f"figure: {args.out}")
+        return
+    if args.sizes:
+        sizes = [tuple(int(x) for x in item.split("x")) for item in args.sizes.split(",")]
+    elif args.quick:
         sizes = [(4, 0), (100, 0), (1000, 0), (10000, 500)]
     else:
         sizes = [(4, 0), (10, 0), (100, 0), (1000, 0), (10000, 0), (100000, 0),
@@ -184,6 +196,21 @@ def main() -> None:
     print(f"figure: {args.out}")
 
 
+def _read_table(path: Path) -> list:
+    """The rows of a table this script printed: ``(vertices, keep_outs, build_s, cells)``."""
+    rows = []
+    for line in path.read_text().splitlines():
+        parts = line.replace("!", " ").replace("/", " ").split()
+        if len(parts) != 11 or not parts[0].isdigit():
+            continue
+        nv, nk, build = int(parts[0]), int(parts[1]), float(parts[2])
+        vals = [float(x) for x in parts[3:]]
+        cells = [(p, near, vals[2 * k], vals[2 * k + 1], 0)
+                 for k, (p, near) in enumerate((p, w) for p in PLATFORMS for w in (True, False))]
+        rows.append((nv, nk, build, cells))
+    return rows
+
+
 def _plot(rows, out: Path) -> None:
     import matplotlib
 
@@ -194,7 +221,7 @@ def _plot(rows, out: Path) -> None:
     styles = {("F450RD", True): ("tab:blue", "o"), ("F450RD", False): ("tab:cyan", "s"),
               ("Tern", True): ("tab:red", "o"), ("Tern", False): ("tab:orange", "s")}
     for ax, sel, xlabel, xi in ((axes[0], lambda r: r[1] == 0, "keep-in vertices (no keep-outs)", 0),
-                                (axes[1], lambda r: r[0] == 1000, "keep-out polygons (1,000 keep-in vertices)", 1)):
+                                (axes[1], lambda r: r[0] == 1000, "keep-out polygons (1,000 keep-in vertices; 0 drawn at 1)", 1)):
         part = [r for r in rows if sel(r)]
         if not part:
             continue
@@ -210,12 +237,14 @@ def _plot(rows, out: Path) -> None:
         ax.set_xlabel(xlabel)
         ax.set_ylabel("GeofenceUnit.update, µs per call")
         ax.grid(True, which="both", alpha=0.3)
+    for r in rows:
+        if r[0] == 10000 and r[1] == 500:  # the issue's target size, beside the keep-in-only line
+            for k, (platform, near) in enumerate((p, w) for p in PLATFORMS for w in (True, False)):
+                if near and r[3][k][2] == r[3][k][2]:
+                    axes[0].plot([10000], [r[3][k][2]], marker="*", ms=13, ls="none",
+                                 color=styles[(platform, near)][0], label=f"{platform} near, + 500 keep-outs, index")
     axes[0].legend(fontsize=7, ncol=2)
-    big = [r for r in rows if r[0] == 10000 and r[1] == 500]
-    title = "Geofence cost per update vs fence size (solid: indexed, dotted: full scan)"
-    if big:
-        title += f" — 10,000 vertices + 500 keep-outs: see table"
-    fig.suptitle(title)
+    fig.suptitle("Geofence cost per update vs fence size (solid: indexed, dotted: full scan)")
     fig.savefig(out, dpi=110)
 
 

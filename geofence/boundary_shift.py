@@ -114,8 +114,8 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple, Sequence
 
-from .fence import FEATURE_KEEP_OUT_CIRCLE, FenceError, LocalFence
 from .dynamics import drag_coefficients, wind_push_mps2
+from .fence import FEATURE_KEEP_OUT_CIRCLE, FenceError, LocalFence
 from .interface import Envelope, PlatformKind, VehicleState
 
 G_MPS2: float = 9.80665

@@ -352,7 +352,7 @@ def _cmd_validate(args) -> int:
 
 
 def _cmd_list() -> int:
-    from aircraft.profile import load_profile, available_profiles
+    from aircraft.profile import available_profiles, load_profile
 
     print("aircraft (platform profiles):")
     for model in available_profiles():
@@ -535,7 +535,6 @@ def _cmd_compare(args) -> int:
 
 def _cmd_score_log(args) -> int:
     import json
-
     import math
 
     from analysis.logs import check_near_fence, describe, load_log

@@ -22,15 +22,15 @@ import os
 import shutil
 import tempfile
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
 from aircraft.factory import build_platform
-from geofence.geodesy import LocalFrame
 from analysis.scoring import score_flight
-from geofence.unit import GeofenceUnit, Mode
 from geofence.fence import LocalFence
+from geofence.geodesy import LocalFrame
+from geofence.unit import GeofenceUnit, Mode
 from scenarios.pilots import Pilot, build_pilot
 from scenarios.preflight import findings_summary, preflight_findings
 from scenarios.recorder import Recorder

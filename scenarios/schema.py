@@ -28,8 +28,12 @@ from typing import Any
 import yaml
 
 from aircraft.jsbsim_model import UnknownAircraftError, model_folder
-from aircraft.sensors import SensorConfig, parse_sensors
 from aircraft.profile import PlatformProfile, ProfileError, available_profiles, load_profile, parse_profile
+from aircraft.sensors import SensorConfig, parse_sensors
+from geofence.boundary_shift import check_shift_feasible
+from geofence.config import GeofenceConfig, GeofenceConfigError, fence_file_path, parse_geofence
+from geofence.fence import FenceError
+from geofence.geodesy import LocalFrame
 from scenarios.errors import (
     ConfigError,
     integer,
@@ -40,10 +44,6 @@ from scenarios.errors import (
     require_mapping,
     string,
 )
-from geofence.boundary_shift import check_shift_feasible
-from geofence.config import GeofenceConfig, GeofenceConfigError, fence_file_path, parse_geofence
-from geofence.fence import FenceError
-from geofence.geodesy import LocalFrame
 from wind.config import WindConfig, parse_wind
 
 MISSION_ITEM_TYPES = ("takeoff", "waypoint", "loiter", "land")

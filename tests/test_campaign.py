@@ -24,6 +24,7 @@ import pytest
 import yaml
 from scipy.stats import binom, poisson
 
+from aircraft.profile import load_profile
 from analysis.campaign import (
     KEEP_IN_TOLERANCE_M,
     campaign_rows,
@@ -40,7 +41,6 @@ from analysis.campaign import (
     unprotected_vs_protected,
     write_campaign_report,
 )
-from aircraft.profile import load_profile
 from geofence.boundary_shift import worst_case_lateral_shift_m
 from geofence.geodesy import LocalFrame
 from scenarios.campaign import (

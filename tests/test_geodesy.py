@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geofence.geodesy import LocalFrame, ecef_to_geodetic, geodesic_distance_m, geodesic_destination, geodetic_to_ecef
+from geofence.geodesy import LocalFrame, ecef_to_geodetic, geodesic_destination, geodesic_distance_m, geodetic_to_ecef
 
 lats = st.floats(-80.0, 80.0)
 lons = st.floats(-179.0, 179.0)

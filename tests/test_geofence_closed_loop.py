@@ -8,10 +8,9 @@ ceiling, and hand control back afterwards.
 """
 
 import math
+from pathlib import Path
 
 import pytest
-
-from pathlib import Path
 
 from geofence.geodesy import LocalFrame
 from scenarios.runner import fly

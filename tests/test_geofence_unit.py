@@ -7,7 +7,7 @@ import pytest
 from geofence.config import parse_geofence
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, StickCommand, VehicleState
-from geofence.unit import Mode, GeofenceUnit
+from geofence.unit import GeofenceUnit, Mode
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 MC = Envelope(PlatformKind.MULTIROTOR, 8.0, 15.0, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0, 5.6, 4.5, 0.25)

@@ -158,7 +158,9 @@ def _tlog(path: Path, msgs) -> Path:
 
 def test_gps_raw_int_fallback(tmp_path):
     t0 = 1.7e9
-    hb = lambda m: m.MAVLink_heartbeat_message(2, 3, 1, 3, 4, 3)  # QUADROTOR, ARDUPILOTMEGA, custom mode 3
+    def hb(m):  # QUADROTOR, ARDUPILOTMEGA, custom mode 3
+        return m.MAVLink_heartbeat_message(2, 3, 1, 3, 4, 3)
+
     msgs = [(t0, hb), (t0 + 0.1, lambda m: m.MAVLink_gps_raw_int_message(0, 1, 0, 0, 0, 65535, 65535, 65535, 65535, 0))]
     for k in range(20):  # 3D fix, moving north-east at 5 m/s, climbing 1 m/s
         lat = int(round((47.0 + 5.0 * k / 111_200 / math.sqrt(2)) * 1e7))
@@ -184,7 +186,9 @@ def test_log_errors(tmp_path):
     with pytest.raises(LogError) as ei:
         load_log(junk)
     assert str(junk) in str(ei.value) and "\n" not in str(ei.value)
-    hb = lambda m: m.MAVLink_heartbeat_message(1, 3, 0, 0, 4, 3)
+    def hb(m):
+        return m.MAVLink_heartbeat_message(1, 3, 0, 0, 4, 3)
+
     p = _tlog(tmp_path / "nopos.tlog", [(1.7e9, hb), (1.7e9 + 1, hb)])
     with pytest.raises(LogError, match="no GLOBAL_POSITION_INT or GPS_RAW_INT"):
         load_log(p)
@@ -199,8 +203,13 @@ import random  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 
-from analysis.logs import (LogFenceDistanceError, LogIntegrityError, SanityLimits,  # noqa: E402
-                           check_near_fence, log_fence_distance_m)
+from analysis.logs import (  # noqa: E402
+    LogFenceDistanceError,
+    LogIntegrityError,
+    SanityLimits,
+    check_near_fence,
+    log_fence_distance_m,
+)
 
 REPO = Path(__file__).parents[1]
 VTOL, FOAMY = "uavlogviewer_vtol.tlog", "mavproxy_cmac-foamy-fence.txt"

@@ -2,8 +2,6 @@
 
 import math
 
-import pytest
-
 from geofence.config import parse_geofence
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind

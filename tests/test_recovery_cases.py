@@ -20,7 +20,6 @@ WGS-84 at the site) and flown in closed loop with the unit's own sensors:
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np

@@ -15,6 +15,11 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from geofence.config import SeedPDGains
+from geofence.guidance import SeedPDRecovery, StraightRoute
+from geofence.interface import Envelope, PlatformKind, VehicleState
+from scenarios.pilots.breach_attempts import BreachAttemptsPilot, draw_speeds
+from scenarios.schema import BreachAttemptsConfig, load_scenario, parse_scenario
 from scenarios.seed_reproduction import (
     PREDICTIVE_SCENARIO,
     REACTIVE_SCENARIO,
@@ -27,11 +32,6 @@ from scenarios.seed_reproduction import (
     pearson_r,
     ramp_setpoints,
 )
-from geofence.config import SeedPDGains
-from geofence.guidance import SeedPDRecovery, StraightRoute
-from geofence.interface import Envelope, PlatformKind, VehicleState
-from scenarios.pilots.breach_attempts import BreachAttemptsPilot, draw_speeds
-from scenarios.schema import BreachAttemptsConfig, load_scenario, parse_scenario
 
 ENV = Envelope(PlatformKind.MULTIROTOR, 13.0, 22.6, 0.0, math.radians(20), math.radians(20), math.radians(90), 1.0, 0.8, 3.5, 3.0, 0.25)
 

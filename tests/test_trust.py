@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from scenarios.batch import discover, plan, run_batch
+from scenarios.batch import discover, plan
 from scenarios.errors import ConfigError
 from scenarios.schema import parse_scenario
 from scenarios.sweep import expand, scenario_hash

@@ -6,8 +6,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from aircraft.sensors import SensorConfig, SensorSuite
 from aircraft.profile import load_profile
+from aircraft.sensors import SensorConfig, SensorSuite
 from geofence.dynamics import airspeed_for_drag_mps, drag_accel_mps2, drag_coefficients
 from geofence.estimator import GeofenceEstimator
 from geofence.geodesy import LocalFrame

@@ -74,8 +74,8 @@ def _building(rng: np.random.Generator, size_m: tuple[float, float]) -> tuple[np
     lo, hi = size_m
     rot = rng.uniform(0.0, math.pi)
     if rng.uniform() < 0.7:  # rotated rectangle
-        w, l = rng.uniform(lo, hi, 2)
-        pts = np.array([[-w, -l], [w, -l], [w, l], [-w, l]]) * 0.5
+        w, length = rng.uniform(lo, hi, 2)
+        pts = np.array([[-w, -length], [w, -length], [w, length], [-w, length]]) * 0.5
     else:  # hexagon, lo..hi across corners
         rc = 0.5 * rng.uniform(lo, hi)
         a = np.arange(6) * math.pi / 3.0

@@ -22,17 +22,16 @@ import math
 
 from geofence.control_laws import (
     G_MPS2,
+    VelocityController,
     airspeed_to_stick,
     altitude_to_climb_rate,
+    approach_velocity,
     bank_stick_for_course,
     climb_rate_to_stick,
     orbit_course_rad,
-    VelocityController,
-    approach_velocity,
     yaw_stick_for_heading,
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
-
 
 
 class MultirotorNavigator:
