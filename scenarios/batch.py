@@ -27,7 +27,6 @@
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import signal
@@ -36,13 +35,13 @@ import time
 import traceback
 from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import yaml
 
 from scenarios.errors import ConfigError
-from scenarios.sweep import FlightSpec, expand
+from scenarios.sweep import FlightSpec, expand, with_referenced_files
 
 SUMMARY = "summary.json"
 
@@ -95,33 +94,6 @@ def plan(files: Iterable[Path]) -> list[FlightSpec]:
     return specs
 
 
-def with_referenced_files(specs: Iterable[FlightSpec], base_dir: Path) -> list[FlightSpec]:
-    """The specs, each ``scenario_hash`` also covering the bytes of the files its scenario references.
-
-    A ``geofence.fence.file`` (relative to ``base_dir``, the scenario file's folder) is part of the
-    flight: editing it must re-fly a resumed batch, though the scenario document did not change.
-    A file that cannot be read hashes as missing (the flight then fails with the schema's message).
-    """
-    from scenarios.schema import referenced_files
-
-    out = []
-    for spec in specs:
-        try:
-            files = referenced_files(spec.document, base_dir) if spec.document is not None else []
-        except ValueError:  # a malformed file: key; the schema reports it when the flight is parsed
-            files = []
-        if not files:
-            out.append(spec)
-            continue
-        digests = {}
-        for p in files:
-            try:
-                digests[str(p)] = hashlib.sha256(p.read_bytes()).hexdigest()
-            except OSError:
-                digests[str(p)] = "missing"
-        payload = json.dumps({"scenario_hash": spec.scenario_hash, "files": sorted(digests.values())})
-        out.append(replace(spec, scenario_hash=hashlib.sha256(payload.encode("utf-8")).hexdigest()))
-    return out
 
 
 def check_unique_names(specs: Iterable[FlightSpec]) -> None:

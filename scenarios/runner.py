@@ -321,10 +321,11 @@ def _hash_of_source(scenario: Scenario) -> str | None:
         return None
     from scenarios.errors import ConfigError
     from scenarios.schema import read_document
-    from scenarios.sweep import expand
+    from scenarios.sweep import expand, with_referenced_files
 
     try:
-        specs = expand(read_document(scenario.source), str(scenario.source), Path(scenario.source).stem)
+        source = Path(scenario.source)
+        specs = with_referenced_files(expand(read_document(source), str(source), source.stem), source.parent)
     except ConfigError:
         return None
     return specs[0].scenario_hash if len(specs) == 1 else None

@@ -40,8 +40,10 @@ import itertools
 import json
 import math
 import re
-from dataclasses import dataclass
+from collections.abc import Iterable
+from dataclasses import dataclass, replace
 from functools import lru_cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -251,3 +253,32 @@ def _fmt(value: Any) -> str:
     if isinstance(value, float):
         return f"{value:g}" if math.isfinite(value) else str(value)
     return re.sub(r"[^A-Za-z0-9_.+-]", "_", str(value))
+
+
+def with_referenced_files(specs: Iterable[FlightSpec], base_dir: Path) -> list[FlightSpec]:
+    """The specs, each ``scenario_hash`` also covering the bytes of the files its scenario references.
+
+    A ``geofence.fence.file`` (relative to ``base_dir``, the scenario file's folder) is part of the
+    flight: editing it must re-fly a resumed batch, though the scenario document did not change.
+    A file that cannot be read hashes as missing (the flight then fails with the schema's message).
+    """
+    from scenarios.schema import referenced_files
+
+    out = []
+    for spec in specs:
+        try:
+            files = referenced_files(spec.document, base_dir) if spec.document is not None else []
+        except ValueError:  # a malformed file: key; the schema reports it when the flight is parsed
+            files = []
+        if not files:
+            out.append(spec)
+            continue
+        digests = {}
+        for p in files:
+            try:
+                digests[str(p)] = hashlib.sha256(p.read_bytes()).hexdigest()
+            except OSError:
+                digests[str(p)] = "missing"
+        payload = json.dumps({"scenario_hash": spec.scenario_hash, "files": sorted(digests.values())})
+        out.append(replace(spec, scenario_hash=hashlib.sha256(payload.encode("utf-8")).hexdigest()))
+    return out

@@ -517,3 +517,22 @@ def test_cli_import_fence_geojson(tmp_path):
     assert res.returncode == 2 and res.stderr.strip().splitlines() == [
         f"error: {bad}: features[1]: no role: give properties.geofence (keep_in, keep_out, return_point, rally) "
         f"or an ED-269 properties.restriction"]
+
+
+def test_run_and_batch_give_a_scenario_with_a_fence_file_the_same_hash(tmp_path):
+    """`geofence-testbed run` (the runner's hash) and `batch` both cover the referenced fence file's bytes."""
+    import shutil
+
+    from scenarios.batch import plan
+    from scenarios.runner import _hash_of_source
+    from scenarios.schema import load_scenario
+
+    src = Path(__file__).parents[1] / "scenarios" / "airspace"
+    shutil.copy(src / "airspace_rectangle_fence_multicopter_wind.yaml", tmp_path / "s.yaml")
+    shutil.copy(src / "rectangle.geojson", tmp_path / "rectangle.geojson")
+    h_run = _hash_of_source(load_scenario(tmp_path / "s.yaml"))
+    assert h_run is not None and h_run == plan([tmp_path / "s.yaml"])[0].scenario_hash
+    doc = json.loads((tmp_path / "rectangle.geojson").read_text())
+    doc.setdefault("properties", {})["note"] = "edited"
+    (tmp_path / "rectangle.geojson").write_text(json.dumps(doc))
+    assert _hash_of_source(load_scenario(tmp_path / "s.yaml")) != h_run
