@@ -23,8 +23,10 @@ from pathlib import Path
 
 from aircraft.factory import build_platform
 from aircraft.sensors import SensorSuite
+from geofence.config import GeofenceConfig
 from geofence.geodesy import LocalFrame
 from geofence.interface import StickCommand, VehicleState
+from geofence.unit import GeofenceUnit
 from wind import SteadyWind
 from wind.config import parse_wind, wind_from_config
 from wind.dryden import DrydenTurbulence
@@ -60,16 +62,15 @@ def main() -> None:
     units = {}
     for nv in (4, 1000):
         fence = fence_scale.star_fence(nv, 0)
-        unit_states = fence_scale._states(
-            fence_scale.GeofenceUnit(fence_scale.GeofenceConfig(fence=fence, wind_prior_enu=fence_scale.WIND_EN),
-                                     fence.to_local(fence_scale.FRAME),
-                                     platform.envelope), True, args.calls)
+        unit_states = fence_scale.moving_states(
+            GeofenceUnit(GeofenceConfig(fence=fence, wind_prior_enu=fence_scale.WIND_EN),
+                         fence.to_local(fence_scale.FRAME), platform.envelope), True, args.calls)
         units[nv] = (fence, unit_states)
 
     def unit_fn(nv):
         fence, states = units[nv]
-        unit = fence_scale.GeofenceUnit(fence_scale.GeofenceConfig(fence=fence, wind_prior_enu=fence_scale.WIND_EN),
-                                        fence.to_local(fence_scale.FRAME), platform.envelope)
+        unit = GeofenceUnit(GeofenceConfig(fence=fence, wind_prior_enu=fence_scale.WIND_EN),
+                            fence.to_local(fence_scale.FRAME), platform.envelope)
         pilot = StickCommand()
         def step(k):
             unit.update(states[k].t_s, states[k], pilot, fence_scale.DT_S, fence_scale.WIND_EN, True, 1.0, 1.0)

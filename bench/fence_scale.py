@@ -77,7 +77,7 @@ def _boundary(a: float) -> tuple[float, float]:
     return r * math.cos(a), r * math.sin(a)
 
 
-def _states(unit: GeofenceUnit, near: bool, n: int) -> list[VehicleState]:
+def moving_states(unit: GeofenceUnit, near: bool, n: int) -> list[VehicleState]:
     """States along the boundary (or at the centre), advancing at cruise speed per 40 Hz step."""
     env = unit.env
     v = env.cruise_speed_mps
@@ -129,7 +129,7 @@ def time_updates(fence: Fence, platform: str, near: bool, index: bool, calls: in
     local = fence.to_local(FRAME, index=index)
     env = load_profile(platform).envelope
     unit = GeofenceUnit(GeofenceConfig(fence=fence, wind_prior_enu=WIND_EN), local, env)
-    states = _states(unit, near, calls)
+    states = moving_states(unit, near, calls)
     pilot = StickCommand()
     update = unit.update
     for s in states[:5]:  # warm-up: density scaling, first cell
@@ -157,7 +157,12 @@ def main() -> None:
         print(f"figure: {args.out}")
         return
     if args.sizes:
-        sizes = [tuple(int(x) for x in item.split("x")) for item in args.sizes.split(",")]
+        try:
+            sizes = [tuple(int(x) for x in item.split("x", 1)) for item in args.sizes.split(",")]
+        except ValueError:
+            ap.error(f"--sizes: expected VERTICESxKEEPOUTS[,...] such as 100x0,10000x500, got {args.sizes!r}")
+        if any(len(s) != 2 or s[0] < 3 or s[1] < 0 for s in sizes):
+            ap.error(f"--sizes: each size needs at least 3 vertices and 0 or more keep-outs, got {args.sizes!r}")
     elif args.quick:
         sizes = [(4, 0), (100, 0), (1000, 0), (10000, 500)]
     else:

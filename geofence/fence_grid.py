@@ -97,7 +97,6 @@ class FenceGrid:
         c = np.array(list(circles), dtype=float).reshape(-1, 3)
         self._ce, self._cn, self._cr = (c[:, k].copy() for k in range(3))
         self._keep_in = keep_in
-        self._ki_min_dist_h = None
         self._keep_outs = tuple(keep_outs)
         kb = np.array([k.bbox for k in keep_outs], dtype=float).reshape(-1, 4)
         self._ko_bbox = kb
@@ -106,14 +105,17 @@ class FenceGrid:
         self._rows = _RowStrips(keep_in)
 
     # ---- cells
+    def _segment_distances(self, x: float, y: float, which) -> np.ndarray:
+        """Distance from (x, y) to the edges selected by ``which`` (a slice or index array), vectorised."""
+        dx, dy = self._dx[which], self._dy[which]
+        px, py = x - self._ax[which], y - self._ay[which]
+        t = np.clip((px * dx + py * dy) * self._il2[which], 0.0, 1.0)
+        qx, qy = px - t * dx, py - t * dy
+        return np.sqrt(qx * qx + qy * qy)
+
     def _distances_from(self, x: float, y: float) -> np.ndarray:
         """``d`` of every element from (x, y), vectorised, in element order."""
-        px = x - self._ax
-        py = y - self._ay
-        t = np.clip((px * self._dx + py * self._dy) * self._il2, 0.0, 1.0)
-        qx = px - t * self._dx
-        qy = py - t * self._dy
-        d_seg = np.sqrt(qx * qx + qy * qy)
+        d_seg = self._segment_distances(x, y, slice(None))
         d_circ = np.hypot(self._ce - x, self._cn - y) - self._cr
         return np.concatenate([d_seg, d_circ])
 
@@ -153,10 +155,7 @@ class FenceGrid:
         (``d`` with the scalar walk's arithmetic: vectorised for edges, math.hypot for circles)."""
         ids = rest[: int(np.searchsorted(rest_lb, limit, side="right"))]
         seg = ids[ids < len(self._ax)]
-        px, py = e - self._ax[seg], n - self._ay[seg]
-        t = np.clip((px * self._dx[seg] + py * self._dy[seg]) * self._il2[seg], 0.0, 1.0)
-        qx, qy = px - t * self._dx[seg], py - t * self._dy[seg]
-        d_seg = np.sqrt(qx * qx + qy * qy)
+        d_seg = self._segment_distances(e, n, seg)
         circ = ids[ids >= len(self._ax)]
         recs = self._recs
         d_circ = np.array([math.hypot(recs[i][1] - e, recs[i][2] - n) - recs[i][3] for i in circ.tolist()], dtype=float)
