@@ -75,7 +75,7 @@ def _mirror_with_systems(name: str, extra_systems: list[Path], root: Path) -> No
 
 
 @contextlib.contextmanager
-def _quiet_native_output():
+def quiet_native_output():
     """Silence JSBSim's C++ banner and load-time warnings (it writes to fds 1 and 2 directly).
 
     Set ``GFT_JSBSIM_VERBOSE=1`` to see them.
@@ -140,7 +140,7 @@ class JSBSimModel:
         _LIVE_ROOTS.add(self._root)
         try:
             _mirror_with_systems(name, list(extra_systems or []), self._root)
-            with _quiet_native_output():
+            with quiet_native_output():
                 fdm = jsbsim.FGFDMExec(str(self._root))
                 fdm.set_debug_level(0)
                 fdm.set_engine_path(str(JSBSIM_ROOT / "engine"))
@@ -238,10 +238,15 @@ class JSBSimModel:
         s("ic/phi-deg", 0.0)
         s("ic/theta-deg", 0.0)
         s("ic/vt-kts", airspeed_mps / KT_TO_MPS)
-        with _quiet_native_output():
+        with quiet_native_output():
             ok = self.fdm.run_ic()
         if not ok:
             raise RuntimeError(f"JSBSim run_ic failed for {self.name}")
+
+    def clear_state(self) -> None:
+        """Reset every model state (rotor speeds, flight-controller filters and integrators) to the initial conditions."""
+        with quiet_native_output():
+            self.fdm.reset_to_initial_conditions(0)
 
     def step(self, n_frames: int = 1) -> None:
         """Advance ``n_frames`` JSBSim frames (``n_frames * dt_s`` seconds)."""

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from aircraft.jsbsim_model import _quiet_native_output
 from aircraft.profile import PlatformProfile
 from aircraft.stick_platform import StickPlatform
 from geofence.geodesy import LocalFrame
@@ -96,8 +95,7 @@ class MulticopterPlatform(StickPlatform):
         if self._started:
             # Clear every model's state (rotor speeds, FC filters and integrators) so
             # that a reset is independent of the previous run.
-            with _quiet_native_output():
-                m.fdm.reset_to_initial_conditions(0)
+            m.clear_state()
         self._started = True
         self._write_parameters()
         self.command(StickCommand())

@@ -181,13 +181,14 @@ def comparison_table(rows: Sequence[Mapping]) -> str:
 
 
 # --------------------------------------------------------------------------- figures
-def _save(fig, out_base: Path) -> list[Path]:
+def save_figure(fig, out_base: Path, dpi: int = 110) -> list[Path]:
+    """Write ``fig`` as ``out_base``.png and .svg (creating the folder), close it, return the paths."""
     out_base = Path(out_base)
     out_base.parent.mkdir(parents=True, exist_ok=True)
     written = []
     for suffix in (".png", ".svg"):
         path = out_base.with_suffix(suffix)
-        fig.savefig(path, dpi=110)
+        fig.savefig(path, dpi=dpi)
         written.append(path)
     plt.close(fig)
     return written
@@ -282,7 +283,7 @@ def plot_breach_distribution(rows: Sequence[Mapping], out_base: Path) -> list[Pa
         if handles:
             ax.legend(loc="best" if ax is ax_hist else "lower right", fontsize="small", framealpha=0.9)
     fig.suptitle(f"Breach distribution across the batch ({_counts_note(rows)})")
-    return _save(fig, out_base)
+    return save_figure(fig, out_base)
 
 
 def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Path]:
@@ -399,4 +400,4 @@ def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Pa
         ]
         ax_key.legend(handles=keys, loc="center", ncol=2, frameon=False, fontsize="small", title="key")
     fig.suptitle(f"Platform comparison by wind level ({_counts_note(rows)})")
-    return _save(fig, out_base)
+    return save_figure(fig, out_base)

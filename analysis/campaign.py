@@ -2,7 +2,7 @@
 
 Input: a batch folder's ``results.csv`` (:func:`analysis.report.read_results_csv`)
 and the campaign's ``campaign.json`` manifest (written by
-:mod:`scenarios.campaign`); output: numbers, ``campaign_report.md`` and two
+:mod:`scenarios.spec.campaign`); output: numbers, ``campaign_report.md`` and two
 figures. Nothing here flies.
 
 Flights are ``<case_id>__<variant>`` (variant ``predictive``, ``reactive`` or
@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 from scipy.stats import beta, chi2
 
-from analysis.batch_plots import num, truthy
+from analysis.batch_plots import num, save_figure, truthy
 from analysis.report import RESULTS_CSV, read_results_csv
 from analysis.scoring import score_flight
 from geofence.fence import parse_fence
@@ -381,7 +381,6 @@ def plot_excursions(rows: Sequence[Mapping], out_base: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from analysis.batch_plots import _save
 
     ok = [r for r in rows if not is_error(r)]
     families = sorted({str(r.get("family")) for r in ok})
@@ -412,7 +411,7 @@ def plot_excursions(rows: Sequence[Mapping], out_base: Path) -> list[Path]:
     ax.legend(uniq.values(), uniq.keys(), loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
     ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
-    return _save(fig, out_base)
+    return save_figure(fig, out_base)
 
 
 def plot_breach_bounds(rows: Sequence[Mapping], out_base: Path) -> list[Path]:
@@ -422,7 +421,6 @@ def plot_breach_bounds(rows: Sequence[Mapping], out_base: Path) -> list[Path]:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from analysis.batch_plots import _save
 
     stats = {s.key: s for s in grouped(rows, ("platform", "variant"))}
     platforms = sorted({k[0] for k in stats})
@@ -454,7 +452,7 @@ def plot_breach_bounds(rows: Sequence[Mapping], out_base: Path) -> list[Path]:
     ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False, fontsize=8)
     ax.grid(axis="y", alpha=0.3)
     fig.tight_layout()
-    return _save(fig, out_base)
+    return save_figure(fig, out_base)
 
 
 # --------------------------------------------------------------------------- report

@@ -1,6 +1,6 @@
 """Read a real flight log (MAVLink telemetry ``.tlog`` or ArduPilot DataFlash ``.bin``) into trajectory columns.
 
-The columns match :mod:`scenarios.recorder` where the log has the data, so
+The columns match :mod:`scenarios.flight.recorder` where the log has the data, so
 :func:`analysis.scoring.score_flight` works on them unchanged:
 
 ``time_s``

@@ -1,6 +1,6 @@
 """Figures of the seed-flight reproduction, in the style of the seed paper's figures.
 
-From :class:`scenarios.seed_reproduction.SeedAnalysis` objects (recorded arrays,
+From :class:`scenarios.app.seed_reproduction.SeedAnalysis` objects (recorded arrays,
 unit transitions, the attempt schedule): headless Agg, PNG + SVG.
 
 * :func:`plot_xy_tracks`: x–y track near the corner of the fence, pilot vs
@@ -26,6 +26,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from analysis.batch_plots import save_figure  # noqa: E402
 from geofence.unit import Mode  # noqa: E402
 
 PILOT_COLOUR = "tab:blue"
@@ -37,13 +38,7 @@ AXIS_COLOUR = {"x": "tab:purple", "y": "tab:green", "ceiling": "tab:brown"}
 
 
 def _save(fig, out_dir: Path, stem: str) -> list[Path]:
-    out = []
-    for suffix in (".png", ".svg"):
-        path = Path(out_dir) / f"{stem}{suffix}"
-        fig.savefig(path, dpi=120)
-        out.append(path)
-    plt.close(fig)
-    return out
+    return save_figure(fig, Path(out_dir) / stem, dpi=120)
 
 
 def _split_by_mode(t, y, mode):

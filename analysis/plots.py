@@ -1,7 +1,7 @@
 """Figures of recorded flights (matplotlib, headless Agg backend, PNG and SVG).
 
 Works on recorded arrays only (``trajectory.csv`` columns, see
-:mod:`scenarios.recorder`), so the same plots serve simulations and logs.
+:mod:`scenarios.flight.recorder`), so the same plots serve simulations and logs.
 
 With a fence, :func:`plot_flight` draws what the geofence unit computed along
 the flight:
@@ -396,7 +396,7 @@ def _margin_panels(fig, grid, ax_alt, traj, fence) -> list:
 
 
 def plot_result(result, folder: Path) -> list[Path]:
-    """``flight.png``/``.svg`` of a flown :class:`~scenarios.runner.FlightResult` into ``folder``."""
+    """``flight.png``/``.svg`` of a flown :class:`~scenarios.flight.runner.FlightResult` into ``folder``."""
     rec = result.recorder
     traj = {name: rec.column(name) for name in rec.columns}
     sc = result.scenario

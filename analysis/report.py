@@ -1,7 +1,7 @@
 """Batch results: collect per-flight summaries, write/read ``results.csv``, write ``report.md``.
 
 A batch folder holds one sub-folder per flight with its ``summary.json``
-(see :mod:`scenarios.runner` and :mod:`scenarios.batch`). Here:
+(see :mod:`scenarios.flight.runner` and :mod:`scenarios.app.batch`). Here:
 
 * :func:`collect_results` reads every ``<out>/*/summary.json`` into one flat
   row per flight (``mode_transitions`` becomes its count ``n_transitions``;

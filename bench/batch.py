@@ -15,7 +15,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from scenarios.batch import discover, plan, run_batch
+from scenarios.app.batch import discover, plan, run_batch
 
 SUITE = Path(__file__).resolve().parents[1] / "scenarios" / "ci"
 

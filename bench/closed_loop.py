@@ -5,7 +5,7 @@ For each platform it measures, interleaved in one run (repeats, median):
 * ``bare``: the same JSBSim model (with its flight-controller system) stepped
   by ``fdm.run()`` in a tight Python loop, no guidance, no wind, no recording;
 * ``shipped``: the model as it ships, without our flight controller (reference);
-* ``closed``: the full closed loop of ``scenarios.runner.fly`` (pilot,
+* ``closed``: the full closed loop of ``scenarios.flight.runner.fly`` (pilot,
   wind field, recorder, outer loop at the scenario's control rate);
 * ``geofence``: the same with the geofence unit in the loop (an adversarial
   pilot against a fence, so the override and its guidance run too).
@@ -25,8 +25,8 @@ from pathlib import Path
 from aircraft.factory import build_platform
 from aircraft.jsbsim_model import JSBSimModel
 from geofence.geodesy import LocalFrame
-from scenarios.runner import fly
-from scenarios.schema import load_scenario
+from scenarios.flight.runner import fly
+from scenarios.spec.schema import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = {

@@ -30,7 +30,7 @@ Example (every key but ``fence`` optional)::
 All messages are one line: ``<where>.<field>: <problem>``.
 
 Fence files (``fence: {file: ...}``): a relative path is resolved against ``base_dir`` (the scenario
-file's folder, see :func:`scenarios.schema.parse_scenario`); against the working directory only when
+file's folder, see :func:`scenarios.spec.schema.parse_scenario`); against the working directory only when
 no ``base_dir`` is known. Inline ``ceiling_m``, ``floor_m`` and ``altitude_reference`` win over the
 file's values (GeoJSON properties); ``floor_gaps`` are added (no format carries them); an inline
 ``recovery_point`` replaces the file's return point as the recovery point. A ceiling is required:

@@ -210,7 +210,7 @@ def is_simple(vertices) -> bool:
 
 
 # ------------------------------------------------------------ point queries (one-shot)
-def _segment_dist2(x: float, y: float, ax: float, ay: float, bx: float, by: float) -> float:
+def segment_dist2(x: float, y: float, ax: float, ay: float, bx: float, by: float) -> float:
     dx, dy = bx - ax, by - ay
     px, py = x - ax, y - ay
     l2 = dx * dx + dy * dy
@@ -245,7 +245,7 @@ def point_location(x: float, y: float, vertices, tol: float = BOUNDARY_TOL_M) ->
     for i in range(n):
         ax, ay = float(v[i, 0]), float(v[i, 1])
         bx, by = float(v[(i + 1) % n, 0]), float(v[(i + 1) % n, 1])
-        d2 = _segment_dist2(x, y, ax, ay, bx, by)
+        d2 = segment_dist2(x, y, ax, ay, bx, by)
         if d2 < best:
             best = d2
         if (ay > y) != (by > y):

@@ -24,8 +24,8 @@ from geofence.importers import (
     load_fence_file,
 )
 from scenarios.airspace.generate import bounding_rectangle, generate_park, write_geojson
-from scenarios.errors import ConfigError
-from scenarios.schema import load_scenario, parse_scenario
+from scenarios.spec.errors import ConfigError
+from scenarios.spec.schema import load_scenario, parse_scenario
 
 ROOT = Path(__file__).parents[1]
 AIRSPACE = ROOT / "scenarios" / "airspace"
@@ -460,7 +460,7 @@ def test_any_fence_format_can_be_referenced(site):
 
 
 def test_batch_hash_covers_the_referenced_fence_file(site):
-    from scenarios.batch import plan
+    from scenarios.app.batch import plan
 
     path = write(site / "flights", scenario_text("{file: ../fences/park.geojson}"), "s.yaml")
     fence = site / "fences" / "park.geojson"
@@ -472,7 +472,7 @@ def test_batch_hash_covers_the_referenced_fence_file(site):
     fence.unlink()
     assert plan([path])[0].scenario_hash not in (h1, h2)
     # a scenario without a fence file keeps the plain document hash
-    from scenarios.sweep import expand
+    from scenarios.spec.sweep import expand
 
     inline = write(site / "flights", scenario_text(json.dumps({"keep_in": [list(v) for v in SQUARE_LL], "ceiling_m": 50})), "i.yaml")
     assert plan([inline])[0].scenario_hash == expand(yaml.safe_load(inline.read_text()), str(inline), "i")[0].scenario_hash
@@ -485,7 +485,7 @@ def test_shipped_airspace_scenarios_validate():
     """Loaded and validated only (not flown): the CLI's validate accepts all four."""
     assert [p.name for p in SHIPPED] == ["airspace_large_fence_fixedwing_wind.yaml", "airspace_large_fence_multicopter_wind.yaml",
                                          "airspace_rectangle_fence_fixedwing_wind.yaml", "airspace_rectangle_fence_multicopter_wind.yaml"]
-    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "validate", *map(str, SHIPPED)],
+    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "validate", *map(str, SHIPPED)],
                          capture_output=True, text=True, timeout=600, cwd="/")
     assert res.returncode == 0, res.stderr
     assert res.stdout.count("ok: ") == 4 and not res.stderr
@@ -503,17 +503,17 @@ def test_shipped_airspace_scenarios_validate():
 def test_cli_import_fence_geojson(tmp_path):
     p = write(tmp_path, collection(keep_in(holes=[INNER_LL]), feature({"restriction": "PROHIBITED"}, "Polygon", [ring(OTHER_LL)]),
                                    ceiling_m=55))
-    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "import-fence", str(p)], capture_output=True, text=True, timeout=120)
+    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "import-fence", str(p)], capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
     block = yaml.safe_load(res.stdout)["geofence"]["fence"]
     assert block["keep_in"] == [list(v) for v in SQUARE_LL]  # back in the scenario's [lat, lon] order
     assert block["keep_out_polygons"] == [[list(v) for v in INNER_LL], [list(v) for v in OTHER_LL]]
     assert block["ceiling_m"] == 55 and res.stderr == ""
-    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "import-fence", str(p), "--ceiling", "30"],
+    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "import-fence", str(p), "--ceiling", "30"],
                          capture_output=True, text=True, timeout=120)
     assert yaml.safe_load(res.stdout)["geofence"]["fence"]["ceiling_m"] == 30
     bad = write(tmp_path, collection(keep_in(), feature({}, "Polygon", [ring(INNER_LL)])), "bad.geojson")
-    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "import-fence", str(bad)], capture_output=True, text=True, timeout=120)
+    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "import-fence", str(bad)], capture_output=True, text=True, timeout=120)
     assert res.returncode == 2 and res.stderr.strip().splitlines() == [
         f"error: {bad}: features[1]: no role: give properties.geofence (keep_in, keep_out, return_point, rally) "
         f"or an ED-269 properties.restriction"]
@@ -523,16 +523,16 @@ def test_run_and_batch_give_a_scenario_with_a_fence_file_the_same_hash(tmp_path)
     """`geofence-testbed run` (the runner's hash) and `batch` both cover the referenced fence file's bytes."""
     import shutil
 
-    from scenarios.batch import plan
-    from scenarios.runner import _hash_of_source
-    from scenarios.schema import load_scenario
+    from scenarios.app.batch import plan
+    from scenarios.flight.runner import hash_of_source
+    from scenarios.spec.schema import load_scenario
 
     src = Path(__file__).parents[1] / "scenarios" / "airspace"
     shutil.copy(src / "airspace_rectangle_fence_multicopter_wind.yaml", tmp_path / "s.yaml")
     shutil.copy(src / "rectangle.geojson", tmp_path / "rectangle.geojson")
-    h_run = _hash_of_source(load_scenario(tmp_path / "s.yaml"))
+    h_run = hash_of_source(load_scenario(tmp_path / "s.yaml"))
     assert h_run is not None and h_run == plan([tmp_path / "s.yaml"])[0].scenario_hash
     doc = json.loads((tmp_path / "rectangle.geojson").read_text())
     doc.setdefault("properties", {})["note"] = "edited"
     (tmp_path / "rectangle.geojson").write_text(json.dumps(doc))
-    assert _hash_of_source(load_scenario(tmp_path / "s.yaml")) != h_run
+    assert hash_of_source(load_scenario(tmp_path / "s.yaml")) != h_run

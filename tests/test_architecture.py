@@ -38,6 +38,56 @@ def test_package_does_not_import(package, forbidden):
     assert offenders == {}
 
 
+def imported_dotted(path: Path) -> set[str]:
+    """Every absolute module name ``path`` imports, dotted in full (``scenarios.flight.runner``)."""
+    tree = ast.parse(path.read_text())
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names.add(node.module)
+            names.update(f"{node.module}.{alias.name}" for alias in node.names)
+    return names
+
+
+# Inside scenarios/, bottom up: spec (scenario data) -> flight (the simulated flight) -> app (CLI, batch, experiments).
+SCENARIO_LAYER_FORBIDDEN = [
+    ("scenarios/spec", ("scenarios.flight", "scenarios.app")),
+    ("scenarios/flight", ("scenarios.app",)),
+]
+
+
+@pytest.mark.parametrize("folder, forbidden", SCENARIO_LAYER_FORBIDDEN)
+def test_scenario_layers_import_one_way(folder, forbidden):
+    offenders = {}
+    for p in (ROOT / folder).rglob("*.py"):
+        bad = sorted(m for m in imported_dotted(p) if m.startswith(forbidden))
+        if bad:
+            offenders[str(p.relative_to(ROOT))] = bad
+    assert offenders == {}
+
+
+def test_scenarios_has_no_flat_modules_left():
+    """Every module of scenarios/ lives in one of its three layers (the airspace generator is a data script)."""
+    flat = sorted(p.name for p in (ROOT / "scenarios").glob("*.py") if p.name != "__init__.py")
+    assert flat == []
+
+
+def test_no_private_names_imported_across_modules():
+    """``from pkg.mod import _private`` nowhere: a module's private names stay its own (tests included)."""
+    offenders = []
+    for p in ROOT.rglob("*.py"):
+        if {".git", "build"} & set(p.parts) or "egg-info" in str(p):
+            continue
+        for node in ast.walk(ast.parse(p.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 and node.module != "__future__":
+                private = [a.name for a in node.names if a.name.startswith("_")]
+                if private:
+                    offenders.append(f"{p.relative_to(ROOT)}: from {node.module} import {', '.join(private)}")
+    assert offenders == []
+
+
 def test_only_the_model_loader_imports_jsbsim():
     users = sorted(str(p.relative_to(ROOT)) for p in ROOT.rglob("*.py") if "tests" not in p.parts and "bench" not in p.parts and "jsbsim" in imported_modules(p))
     assert users == ["aircraft/jsbsim_model.py"]

@@ -10,9 +10,9 @@ from pathlib import Path
 import pytest
 import yaml
 
-from scenarios.batch import discover, plan, run_batch
-from scenarios.errors import ConfigError
-from scenarios.sweep import expand
+from scenarios.app.batch import discover, plan, run_batch
+from scenarios.spec.errors import ConfigError
+from scenarios.spec.sweep import expand
 
 ROOT = Path(__file__).parents[1]
 CI_SUITE = ROOT / "scenarios" / "ci"
@@ -73,7 +73,7 @@ def test_failed_scenarios_are_recorded_and_the_batch_goes_on(tmp_path):
 def test_ci_suite_batch_on_two_jobs_writes_every_result_and_no_breach(tmp_path):
     out = tmp_path / "ci"
     res = subprocess.run(
-        [sys.executable, "-m", "scenarios.cli", "batch", str(CI_SUITE), "--out", str(out), "--jobs", "2", "--quiet"],
+        [sys.executable, "-m", "scenarios.app.cli", "batch", str(CI_SUITE), "--out", str(out), "--jobs", "2", "--quiet"],
         capture_output=True, text=True, timeout=600,
     )
     assert res.returncode == 0, res.stdout + res.stderr
@@ -102,7 +102,7 @@ def test_interrupted_batch_keeps_finished_flights_and_resumes_without_refling(tm
     sweep["sweep"] = {"grid": {"pilot.segments.0.course_deg": [0, 90, 180, 270], "wind.speed_mps": [0, 2, 4, 6, 8]}}
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(sweep))
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "scenarios.cli", "batch", str(tmp_path / "s.yaml"), "--out", str(out), "--jobs", "2", "--quiet", "--no-flight-plots"]
+    cmd = [sys.executable, "-m", "scenarios.app.cli", "batch", str(tmp_path / "s.yaml"), "--out", str(out), "--jobs", "2", "--quiet", "--no-flight-plots"]
     # a background job inherits an ignored SIGINT; give the batch the default, as in a terminal
     proc = subprocess.Popen(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,

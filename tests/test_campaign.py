@@ -43,7 +43,7 @@ from analysis.campaign import (
 )
 from geofence.boundary_shift import worst_case_lateral_shift_m
 from geofence.geodesy import LocalFrame
-from scenarios.campaign import (
+from scenarios.spec.campaign import (
     MISSION_INSET_ROOMS,
     CampaignError,
     CaseFamily,
@@ -53,7 +53,7 @@ from scenarios.campaign import (
     platform_room_m,
     wind_limit_mps,
 )
-from scenarios.schema import load_scenario
+from scenarios.spec.schema import load_scenario
 
 ROOT = Path(__file__).parents[1]
 CI_SLICE = ROOT / "scenarios" / "campaign_ci"
@@ -305,7 +305,7 @@ def test_unprotected_twin_is_scored_from_its_trajectory(tmp_path):
 @pytest.mark.closed_loop
 def test_ci_slice_has_no_predictive_breach(tmp_path):
     from analysis.report import collect_results, read_results_csv, write_results_csv
-    from scenarios.batch import discover, plan, run_batch
+    from scenarios.app.batch import discover, plan, run_batch
 
     t0 = time.perf_counter()
     specs = plan(discover([CI_SLICE]))

@@ -28,8 +28,8 @@ import numpy as np
 
 from geofence.boundary_shift import vertical_arrest_distance_m, worst_case_lateral_shift_m
 from geofence.geodesy import LocalFrame
-from scenarios.batch import discover, plan
-from scenarios.schema import parse_scenario, read_document
+from scenarios.app.batch import discover, plan
+from scenarios.spec.schema import parse_scenario, read_document
 
 ROOT = Path(__file__).parents[1]
 CI_SUITE = ROOT / "scenarios" / "ci"
@@ -122,7 +122,7 @@ def test_ci_courses_point_at_every_edge_with_enough_run():
 
 def assert_ci_suite_approaches(out: Path) -> dict[str, dict[str, float]]:
     """Check the flown CI suite in ``out`` (see the module docstring); returns the closest approaches per flight."""
-    from scenarios.recorder import read_trajectory_csv
+    from scenarios.flight.recorder import read_trajectory_csv
 
     folders = sorted(p.parent for p in Path(out).glob("*/trajectory.csv"))
     assert folders, f"{out}: no flights"

@@ -9,7 +9,7 @@ FRAME = LocalFrame(47.3, 8.5, 450.0)
 
 
 def run_cli(*args):
-    return subprocess.run([sys.executable, "-m", "scenarios.cli", *args], capture_output=True, text=True, timeout=300)
+    return subprocess.run([sys.executable, "-m", "scenarios.app.cli", *args], capture_output=True, text=True, timeout=300)
 
 
 def mission_scenario(tmp_path, last_e_m):

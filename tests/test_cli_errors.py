@@ -12,7 +12,7 @@ GOOD = Path(__file__).parents[1] / "scenarios" / "multicopter_survey_calm.yaml"
 
 
 def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "scenarios.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=120)
+    return subprocess.run([sys.executable, "-m", "scenarios.app.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=120)
 
 
 def write(tmp_path, text, name="s.yaml"):

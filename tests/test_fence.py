@@ -11,7 +11,7 @@ from geographiclib.geodesic import Geodesic
 
 from geofence.fence import FenceError, KeepOutCircle, LocalFence, parse_fence
 from geofence.geodesy import LocalFrame, geodesic_destination, geodesic_distance_m
-from geofence.polygon import _segment_dist2
+from geofence.polygon import segment_dist2
 
 BOX = [[47.3975, 8.5450], [47.3990, 8.5450], [47.3990, 8.5475], [47.3975, 8.5475]]
 GOOD = {
@@ -233,7 +233,7 @@ def test_projection_error_bound_10km(lat0):
         for t in np.linspace(0.0, 1.0, 41):
             p = line.Position(line.s13 * t)
             e = frame.to_enu(p["lat2"], p["lon2"], 0.0)[:2]
-            dev = max(dev, math.sqrt(_segment_dist2(*e, *ea, *eb)))
+            dev = max(dev, math.sqrt(segment_dist2(*e, *ea, *eb)))
     assert dev < 2.0e-3
 
 

@@ -216,7 +216,7 @@ VTOL, FOAMY = "uavlogviewer_vtol.tlog", "mavproxy_cmac-foamy-fence.txt"
 
 
 def score_cli(log, fence, *extra):
-    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "score-log", str(log), "--fence", str(fence),
+    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "score-log", str(log), "--fence", str(fence),
                           "--ceiling", "100", "--json", *extra], capture_output=True, text=True, cwd=REPO, timeout=300)
     return res
 
@@ -437,7 +437,7 @@ def test_text_output_prints_each_warning_once(tmp_path):
     data = real(VTOL).read_bytes()
     cut = tmp_path / "cut.tlog"
     cut.write_bytes(data[:len(data) - 5])
-    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "score-log", str(cut), "--fence",
+    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "score-log", str(cut), "--fence",
                           str(real("qgc_ce_geofence_home_base.plan")), "--max-fence-distance-km", "20000"],
                          capture_output=True, text=True, cwd=REPO, timeout=300)
     assert res.returncode == 0, res.stderr

@@ -267,7 +267,7 @@ def test_point_location_vectorised_equals_scalar(points, x, y):
     n = len(v)
     for i in range(n):
         ax, ay, bx, by = float(v[i, 0]), float(v[i, 1]), float(v[(i + 1) % n, 0]), float(v[(i + 1) % n, 1])
-        best = min(best, P._segment_dist2(x, y, ax, ay, bx, by))
+        best = min(best, P.segment_dist2(x, y, ax, ay, bx, by))
         if (ay > y) != (by > y) and x < ax + (y - ay) * (bx - ax) / (by - ay):
             inside = not inside
     expected = 0 if best <= P.BOUNDARY_TOL_M ** 2 else (1 if inside else -1)

@@ -26,8 +26,8 @@ import numpy as np
 import pytest
 
 from geofence.geodesy import LocalFrame
-from scenarios.runner import fly
-from scenarios.schema import load_scenario, parse_scenario
+from scenarios.flight.runner import fly
+from scenarios.spec.schema import load_scenario, parse_scenario
 
 pytestmark = pytest.mark.closed_loop
 

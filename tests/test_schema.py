@@ -7,8 +7,8 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from scenarios.errors import ConfigError
-from scenarios.schema import load_scenario, parse_scenario
+from scenarios.spec.errors import ConfigError
+from scenarios.spec.schema import load_scenario, parse_scenario
 
 SHIPPED = sorted((Path(__file__).parents[1] / "scenarios").rglob("*.yaml"))
 
@@ -34,7 +34,7 @@ def with_(**changes):
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.name)
 def test_shipped_scenarios_are_valid(path):
     """Every shipped file (sweeps expanded) validates into scenarios."""
-    from scenarios.batch import plan
+    from scenarios.app.batch import plan
 
     specs = plan([path])
     assert specs and not [s.error for s in specs if s.error]

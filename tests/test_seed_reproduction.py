@@ -18,9 +18,7 @@ from hypothesis import strategies as st
 from geofence.config import SeedPDGains
 from geofence.guidance import SeedPDRecovery, StraightRoute
 from geofence.interface import Envelope, PlatformKind, VehicleState
-from scenarios.pilots.breach_attempts import BreachAttemptsPilot, draw_speeds
-from scenarios.schema import BreachAttemptsConfig, load_scenario, parse_scenario
-from scenarios.seed_reproduction import (
+from scenarios.app.seed_reproduction import (
     PREDICTIVE_SCENARIO,
     REACTIVE_SCENARIO,
     Boundaries,
@@ -32,6 +30,8 @@ from scenarios.seed_reproduction import (
     pearson_r,
     ramp_setpoints,
 )
+from scenarios.flight.pilots.breach_attempts import BreachAttemptsPilot, draw_speeds
+from scenarios.spec.schema import BreachAttemptsConfig, load_scenario, parse_scenario
 
 ENV = Envelope(PlatformKind.MULTIROTOR, 13.0, 22.6, 0.0, math.radians(20), math.radians(20), math.radians(90), 1.0, 0.8, 3.5, 3.0, 0.25)
 
@@ -149,7 +149,7 @@ def _short(path, attempts=4, directions=("west", "north")):
 
 
 def _fly(scenario):
-    import scenarios.runner as runner
+    import scenarios.flight.runner as runner
 
     result = runner.fly(scenario)
     return result, result.pilot

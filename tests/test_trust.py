@@ -19,10 +19,10 @@ from pathlib import Path
 import pytest
 import yaml
 
-from scenarios.batch import discover, plan
-from scenarios.errors import ConfigError
-from scenarios.schema import parse_scenario
-from scenarios.sweep import expand, scenario_hash
+from scenarios.app.batch import discover, plan
+from scenarios.spec.errors import ConfigError
+from scenarios.spec.schema import parse_scenario
+from scenarios.spec.sweep import expand, scenario_hash
 
 ROOT = Path(__file__).parents[1]
 EDGES = ROOT / "scenarios" / "ci" / "multicopter_edges.yaml"
@@ -52,7 +52,7 @@ def write(path: Path, doc: dict) -> Path:
 
 
 def cli(*args, env=None, timeout=120):
-    return subprocess.run([sys.executable, "-m", "scenarios.cli", *map(str, args)], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "scenarios.app.cli", *map(str, args)], capture_output=True, text=True,
                           cwd=ROOT, env=env, timeout=timeout)
 
 
@@ -82,7 +82,7 @@ def test_scenario_hash_is_the_resolved_document_and_the_version(monkeypatch):
     h = scenario_hash(doc)
     assert h == scenario_hash(copy.deepcopy(doc)) and len(h) == 64
     assert scenario_hash(dict(doc, duration_s=4)) != h
-    import scenarios.sweep as sweep
+    import scenarios.spec.sweep as sweep
 
     monkeypatch.setattr(sweep, "project_version", lambda: "999.0")
     assert scenario_hash(doc) != h, "a new version must re-fly"
@@ -128,8 +128,8 @@ def test_same_named_flights_are_refused_up_front_naming_both_files(tmp_path):
 
 def test_a_run_replaces_its_folder_whole_and_says_why_it_did_not_complete(tmp_path):
     """--no-plot leaves no stale flight.png; a stale file of an earlier flight goes; the reason is recorded."""
-    from scenarios.runner import run_scenario
-    from scenarios.schema import load_scenario
+    from scenarios.flight.runner import run_scenario
+    from scenarios.spec.schema import load_scenario
 
     doc = yaml.safe_load(SURVEY.read_text())
     doc["duration_s"] = 2.0  # the survey cannot finish in 2 s
@@ -179,7 +179,7 @@ def test_ctrl_c_and_sigterm_leave_no_temporary_folders(tmp_path):
                       (signal.SIGTERM, ("batch", src, "--jobs", "2", "--quiet", "--no-report", "--no-flight-plots"))):
         out = tmp_path / f"out_{sig.name}"
         # own process group; a background job inherits an ignored SIGINT, so give the CLI the default, as in a terminal
-        proc = subprocess.Popen([sys.executable, "-m", "scenarios.cli", *map(str, args), "--out", str(out)], cwd=ROOT, env=env,
+        proc = subprocess.Popen([sys.executable, "-m", "scenarios.app.cli", *map(str, args), "--out", str(out)], cwd=ROOT, env=env,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
                                 preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
         deadline = time.monotonic() + 60
@@ -332,7 +332,7 @@ def test_a_sweep_with_a_bad_dotted_path_fails_up_front(tmp_path):
 
 # --------------------------------------------------------------------------- smaller fixes
 def test_version_and_import_fence_output(tmp_path):
-    from scenarios.sweep import project_version
+    from scenarios.spec.sweep import project_version
 
     res = cli("--version")
     assert res.returncode == 0 and res.stdout.strip() == f"geofence-testbed {project_version()}"

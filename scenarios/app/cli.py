@@ -35,7 +35,7 @@ EXIT_BAD_INPUT = 2
 EXIT_FLIGHT_FAILED = 1
 EXIT_INTERRUPTED = 130
 
-SHIPPED_SCENARIOS = Path(__file__).parent
+SHIPPED_SCENARIOS = Path(__file__).parents[1]
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
@@ -43,7 +43,7 @@ def _user_errors() -> tuple[type[BaseException], ...]:
     from aircraft.profile import ProfileError
     from analysis.logs import LogError
     from geofence.fence import FenceError
-    from scenarios.errors import ConfigError
+    from scenarios.spec.errors import ConfigError
 
     return (ConfigError, ProfileError, UnknownAircraftError, FenceError, LogError)
 
@@ -232,7 +232,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.command == "compare":
             return _cmd_compare(args)
         if args.command == "seed-reproduction":
-            from scenarios.seed_reproduction import run as seed_run
+            from scenarios.app.seed_reproduction import run as seed_run
 
             check_output_dir(args.out, "DIR")
             print(f"wrote {seed_run(args.out, fly_flights=not args.no_fly)}")
@@ -272,8 +272,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def _cmd_check(args) -> int:
     """The pre-flight mission check of each scenario (exit 1 if any mission would be overridden)."""
-    from scenarios.preflight import describe_findings, preflight_findings
-    from scenarios.schema import load_scenario
+    from scenarios.spec.preflight import describe_findings, preflight_findings
+    from scenarios.spec.schema import load_scenario
 
     scenarios = [load_scenario(p) for p in args.scenarios]  # every file validated before anything is checked
     overridden = 0
@@ -286,7 +286,7 @@ def _cmd_check(args) -> int:
 
 def _cmd_campaign(args) -> int:
     if args.campaign_command == "generate":
-        from scenarios.campaign import generate_campaign
+        from scenarios.spec.campaign import generate_campaign
 
         if args.cases < 1:
             print(f"error: --cases: must be >= 1, got {args.cases}", file=sys.stderr)
@@ -321,9 +321,9 @@ def _cmd_campaign(args) -> int:
 
 def _cmd_validate(args) -> int:
     """Every file is checked (sweeps expanded, each flight validated); one line per file; exit 2 if any failed."""
-    from scenarios.batch import check_unique_names
-    from scenarios.schema import parse_scenario, read_document
-    from scenarios.sweep import expand
+    from scenarios.app.batch import check_unique_names
+    from scenarios.spec.schema import parse_scenario, read_document
+    from scenarios.spec.sweep import expand
 
     failed = 0
     for path in args.scenarios:
@@ -369,10 +369,10 @@ PROGRESS_LABELS = {"mission": "mission", "scripted": "segments", "breach_attempt
 
 
 def _cmd_run(args) -> int:
-    from scenarios.batch import check_unique_names
-    from scenarios.runner import run_scenario
-    from scenarios.schema import load_scenario, read_document
-    from scenarios.sweep import expand
+    from scenarios.app.batch import check_unique_names
+    from scenarios.flight.runner import run_scenario
+    from scenarios.spec.schema import load_scenario, read_document
+    from scenarios.spec.sweep import expand
 
     scenarios = [load_scenario(p) for p in args.scenarios]  # validate everything before flying anything
     specs = [expand(read_document(p), str(p), p.stem)[0] for p in args.scenarios]
@@ -404,7 +404,7 @@ def _cmd_run(args) -> int:
 
 def check_output_dir(path: Path, option: str = "--out") -> None:
     """Refuse, before anything is flown, an output folder that is a file or cannot be created or written."""
-    from scenarios.errors import ConfigError
+    from scenarios.spec.errors import ConfigError
 
     path = Path(path)
     if path.exists() and not path.is_dir():
@@ -443,16 +443,16 @@ def _sigterm_interrupts() -> None:
 
 
 def _version() -> str:
-    from scenarios.sweep import project_version
+    from scenarios.spec.sweep import project_version
 
     return project_version()
 
 
 def _cmd_batch(args) -> int:
-    from scenarios.batch import discover, plan, resume_state, run_batch
+    from scenarios.app.batch import discover, plan, resume_state, run_batch
 
     if args.jobs is not None and args.jobs < 1:
-        from scenarios.errors import ConfigError
+        from scenarios.spec.errors import ConfigError
 
         raise ConfigError(f"--jobs: must be >= 1, got {args.jobs}")
     specs = plan(discover(args.paths))  # refuses duplicate names and bad sweeps up front
@@ -489,9 +489,9 @@ def _write_batch_outputs(out_dir: Path, report: bool) -> None:
 
 
 def _cmd_plot(args) -> int:
-    from scenarios.errors import ConfigError
-    from scenarios.recorder import read_trajectory_csv
-    from scenarios.schema import parse_scenario, read_document
+    from scenarios.flight.recorder import read_trajectory_csv
+    from scenarios.spec.errors import ConfigError
+    from scenarios.spec.schema import parse_scenario, read_document
 
     folders = sorted(p.parent for p in Path(args.out).glob("*/trajectory.csv"))
     if not folders and not (Path(args.out) / "trajectory.csv").is_file():
@@ -522,7 +522,7 @@ def _cmd_plot(args) -> int:
 def _cmd_compare(args) -> int:
     from analysis.batch_plots import comparison_table, plot_platform_comparison
     from analysis.report import collect_results
-    from scenarios.errors import ConfigError
+    from scenarios.spec.errors import ConfigError
 
     rows = collect_results(args.out)
     if not rows:
@@ -565,7 +565,7 @@ def _cmd_import_fence(args) -> int:
     import yaml
 
     from geofence.importers import fence_to_yaml_block, load_fence_file
-    from scenarios.errors import ConfigError
+    from scenarios.spec.errors import ConfigError
 
     out = args.output
     if out is not None:

@@ -18,7 +18,7 @@ import math
 from geofence.dynamics import envelope_at_density, isa_density_ratio
 from geofence.geodesy import LocalFrame
 from geofence.preflight import PlannedWaypoint, PreflightFinding, check_route
-from scenarios.schema import Scenario
+from scenarios.spec.schema import Scenario
 
 BUFFER_M = 2.0
 """A mission passes when its activation margin stays above this everywhere (m): tracking errors, estimator noise."""

@@ -15,11 +15,11 @@ reports, per axis,
 * the **Pearson correlation** of peak excursion with that velocity (the seed
   observation: overshoot grows with the speed at activation).
 
-Entry points: :func:`analyse_flight` (a :class:`~scenarios.runner.FlightResult`),
+Entry points: :func:`analyse_flight` (a :class:`~scenarios.flight.runner.FlightResult`),
 :func:`analyse_folder` (a written ``trajectory.csv`` + ``summary.json``;
 attempts from ``attempts.json`` if present, else rebuilt from the
 ``mission_item`` column and the pilot's seed), :func:`compare_reactive_predictive`
-(markdown table), and ``python -m scenarios.seed_reproduction OUT_DIR [--no-fly]``
+(markdown table), and ``python -m scenarios.app.seed_reproduction OUT_DIR [--no-fly]``
 which flies both scenarios into ``OUT_DIR`` (or reads them), writes
 ``OUT_DIR/seed_reproduction.md`` and the figures of :mod:`analysis.paper_plots`.
 Works on recorded arrays only; no JSBSim import unless it flies.
@@ -37,7 +37,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 REACTIVE_SCENARIO = REPO / "scenarios" / "paper" / "indoor_quad.yaml"
 PREDICTIVE_SCENARIO = REPO / "scenarios" / "paper" / "indoor_quad_predictive.yaml"
 
@@ -98,7 +98,7 @@ def attempts_from_items(traj: Mapping[str, np.ndarray], breach_config) -> list[d
     Window of attempt k: the rows with ``mission_item == k`` (attempt 0 includes
     the take-off). Direction and speed follow from the config as the pilot drew them.
     """
-    from scenarios.pilots.breach_attempts import draw_speeds
+    from scenarios.flight.pilots.breach_attempts import draw_speeds
 
     items = np.asarray(traj["mission_item"], float)
     t = np.asarray(traj["time_s"], float)
@@ -255,8 +255,8 @@ def _analysis(name, scenario_geofence, traj, transitions, attempts, boundaries) 
 
 
 def analyse_flight(result) -> SeedAnalysis:
-    """Analyse a :class:`~scenarios.runner.FlightResult` of a breach-attempts flight behind a geofence."""
-    from scenarios.recorder import COLUMNS
+    """Analyse a :class:`~scenarios.flight.runner.FlightResult` of a breach-attempts flight behind a geofence."""
+    from scenarios.flight.recorder import COLUMNS
 
     traj = {c: result.recorder.column(c) for c in COLUMNS}
     fence = result.fence
@@ -278,8 +278,8 @@ def _add_setpoints(an: SeedAnalysis, scenario, fence) -> None:
 def analyse_folder(folder: Path, scenario_path: Path) -> SeedAnalysis:
     """Analyse a written flight (``trajectory.csv`` + ``summary.json``, optional ``attempts.json``)."""
     from geofence.geodesy import LocalFrame
-    from scenarios.recorder import read_trajectory_csv
-    from scenarios.schema import load_scenario
+    from scenarios.flight.recorder import read_trajectory_csv
+    from scenarios.spec.schema import load_scenario
 
     folder = Path(folder)
     scenario = load_scenario(scenario_path)
@@ -370,9 +370,9 @@ def report_markdown(reactive: SeedAnalysis, predictive: SeedAnalysis, figures: S
 # --------------------------------------------------------------------------- flying + CLI
 def fly_seed_scenario(path: Path, out_dir: Path | None = None):
     """Fly a seed scenario (keeping the pilot's attempt log); write it under ``out_dir`` if given. Returns the FlightResult."""
-    import scenarios.runner as runner
-    from scenarios.runner import write_result
-    from scenarios.schema import load_scenario
+    import scenarios.flight.runner as runner
+    from scenarios.flight.runner import write_result
+    from scenarios.spec.schema import load_scenario
 
     result = runner.fly(load_scenario(path))
     if out_dir is not None:
@@ -392,11 +392,11 @@ def run(out_dir: Path, fly_flights: bool = True, reactive_path: Path = REACTIVE_
         if fly_flights:
             analyses.append(analyse_flight(fly_seed_scenario(path, out_dir)))
         else:
-            from scenarios.schema import load_scenario
+            from scenarios.spec.schema import load_scenario
 
             name = load_scenario(path).name
             if not (out_dir / name / "trajectory.csv").is_file():
-                from scenarios.errors import ConfigError
+                from scenarios.spec.errors import ConfigError
 
                 raise ConfigError(f"{out_dir}: --no-fly: no flight {name!r} to re-analyse here (no {name}/trajectory.csv); "
                                   f"run without --no-fly to fly it first")
@@ -411,7 +411,7 @@ def run(out_dir: Path, fly_flights: bool = True, reactive_path: Path = REACTIVE_
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m scenarios.seed_reproduction", description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(prog="python -m scenarios.app.seed_reproduction", description=__doc__.splitlines()[0])
     p.add_argument("out_dir", type=Path, help="where the flights, seed_reproduction.md and the figures go")
     p.add_argument("--no-fly", action="store_true", help="read the flights already written in OUT_DIR instead of flying them")
     args = p.parse_args(argv)

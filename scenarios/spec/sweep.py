@@ -48,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from scenarios.errors import ConfigError, integer, reject_unknown_keys, require_mapping
+from scenarios.spec.errors import ConfigError, integer, reject_unknown_keys, require_mapping
 
 DISTRIBUTIONS = ("uniform", "normal", "choice", "integers")
 
@@ -233,7 +233,7 @@ def _check_path(doc: dict, path: str, value: Any, label: str, where: str) -> Non
         return  # the path exists in the base scenario
     trial = copy.deepcopy(doc)
     _set_path(trial, path, value, f"{where}: sweep")  # a bad list index or scalar parent raises here
-    from scenarios.schema import parse_scenario
+    from scenarios.spec.schema import parse_scenario
 
     try:
         parse_scenario(trial, where=where)
@@ -262,7 +262,7 @@ def with_referenced_files(specs: Iterable[FlightSpec], base_dir: Path) -> list[F
     flight: editing it must re-fly a resumed batch, though the scenario document did not change.
     A file that cannot be read hashes as missing (the flight then fails with the schema's message).
     """
-    from scenarios.schema import referenced_files
+    from scenarios.spec.schema import referenced_files
 
     out = []
     for spec in specs:

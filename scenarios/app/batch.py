@@ -9,7 +9,7 @@
   ``trajectory.csv``, figures, ``summary.json``), so a folder is either the
   complete result of one flight or absent. Its ``summary.json`` holds the
   flight's ``scenario_hash`` (sha256 of the resolved scenario and the version,
-  :func:`scenarios.sweep.scenario_hash`, and of the bytes of a fence file it references,
+  :func:`scenarios.spec.sweep.scenario_hash`, and of the bytes of a fence file it references,
   :func:`with_referenced_files`): re-running skips only flights whose
   stored hash matches, and flies an edited scenario again. A crash or Ctrl-C
   keeps finished flights. A flight that fails (bad configuration, divergence,
@@ -40,8 +40,8 @@ from pathlib import Path
 
 import yaml
 
-from scenarios.errors import ConfigError
-from scenarios.sweep import FlightSpec, expand, with_referenced_files
+from scenarios.spec.errors import ConfigError
+from scenarios.spec.sweep import FlightSpec, expand, with_referenced_files
 
 SUMMARY = "summary.json"
 
@@ -80,7 +80,7 @@ def plan(files: Iterable[Path]) -> list[FlightSpec]:
     cannot be expanded (bad structure, a dotted path that points nowhere) and two flights with the
     same name are refused up front with a :class:`ConfigError`.
     """
-    from scenarios.schema import read_document
+    from scenarios.spec.schema import read_document
 
     specs: list[FlightSpec] = []
     for path in files:
@@ -148,8 +148,8 @@ def is_done(out_dir: Path, spec: FlightSpec) -> bool:
 
 def fly_spec(spec: FlightSpec, out_dir: str, flight_plots: bool = False) -> dict:
     """Fly one spec and write its folder; never raises (failures are written as a failed summary)."""
-    from scenarios.runner import fly, replace_folder, write_result
-    from scenarios.schema import parse_scenario
+    from scenarios.flight.runner import fly, replace_folder, write_result
+    from scenarios.spec.schema import parse_scenario
 
     final = Path(out_dir) / spec.flight_id
     t0 = time.perf_counter()
@@ -194,7 +194,7 @@ def remove_stale_staging(out_dir: Path) -> None:
     """Remove temporary flight folders (``.<flight>.*.tmp``) a killed run left behind."""
     import shutil
 
-    from scenarios.runner import STAGING_SUFFIX
+    from scenarios.flight.runner import STAGING_SUFFIX
 
     for p in Path(out_dir).glob(f".*{STAGING_SUFFIX}"):
         if p.is_dir():

@@ -1,8 +1,8 @@
 """Pilots: what feeds outer-loop sticks to the aircraft (and, later, through the geofence).
 
-* :class:`~scenarios.pilots.mission.MissionAutopilot`: GPS waypoint autopilot.
-* :class:`~scenarios.pilots.scripted.ScriptedPilot`: adversarial stick scripts.
-* :class:`~scenarios.pilots.breach_attempts.BreachAttemptsPilot`: repeated gentle
+* :class:`~scenarios.flight.pilots.mission.MissionAutopilot`: GPS waypoint autopilot.
+* :class:`~scenarios.flight.pilots.scripted.ScriptedPilot`: adversarial stick scripts.
+* :class:`~scenarios.flight.pilots.breach_attempts.BreachAttemptsPilot`: repeated gentle
   breach attempts (the seed flights' indoor pilot).
 
 Both answer ``command(state) -> StickCommand`` and report progress as
@@ -15,7 +15,7 @@ from typing import Protocol
 
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, StickCommand, VehicleState
-from scenarios.schema import Scenario
+from scenarios.spec.schema import Scenario
 
 
 class Pilot(Protocol):
@@ -32,13 +32,13 @@ class Pilot(Protocol):
 
 def build_pilot(scenario: Scenario, frame: LocalFrame, env: Envelope, start: VehicleState, dt_s: float) -> Pilot:
     """The pilot a scenario asks for, ready to fly from ``start``."""
-    from scenarios.pilots.mission import MissionAutopilot
-    from scenarios.pilots.scripted import ScriptedPilot
+    from scenarios.flight.pilots.mission import MissionAutopilot
+    from scenarios.flight.pilots.scripted import ScriptedPilot
 
     if scenario.pilot.kind == "scripted":
         return ScriptedPilot(scenario.pilot.segments, env, start, dt_s)
     if scenario.pilot.kind == "breach_attempts":
-        from scenarios.pilots.breach_attempts import BreachAttemptsPilot
+        from scenarios.flight.pilots.breach_attempts import BreachAttemptsPilot
 
         return BreachAttemptsPilot(scenario.pilot.breach, env, start, dt_s)
     return MissionAutopilot(scenario.mission, frame, env, start, dt_s)

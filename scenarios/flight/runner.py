@@ -31,10 +31,10 @@ from analysis.scoring import score_flight
 from geofence.fence import LocalFence
 from geofence.geodesy import LocalFrame
 from geofence.unit import GeofenceUnit, Mode
-from scenarios.pilots import Pilot, build_pilot
-from scenarios.preflight import findings_summary, preflight_findings
-from scenarios.recorder import Recorder
-from scenarios.schema import Scenario
+from scenarios.flight.pilots import Pilot, build_pilot
+from scenarios.flight.recorder import Recorder
+from scenarios.spec.preflight import findings_summary, preflight_findings
+from scenarios.spec.schema import Scenario
 from wind.config import wind_from_config
 from wind.field import CalmWind
 
@@ -236,7 +236,7 @@ def write_result(
     temporary folder beside it, which is then swapped in: nothing of an earlier
     flight of the same name (a stale ``flight.png``, ``attempts.json``) survives,
     and a reader never sees a half-written folder. The summary gains
-    ``scenario_hash`` (the flight's identity, see :func:`scenarios.sweep.scenario_hash`;
+    ``scenario_hash`` (the flight's identity, see :func:`scenarios.spec.sweep.scenario_hash`;
     computed from ``scenario.source`` when not given), ``incomplete_reason`` and
     ``warnings`` (inconsistencies the scenario allowed).
     """
@@ -289,7 +289,7 @@ def finalize_summary(result: FlightResult, scenario_hash: str | None = None) -> 
     s = result.summary
     sc = result.scenario
     if scenario_hash is None and "scenario_hash" not in s:
-        scenario_hash = _hash_of_source(sc)
+        scenario_hash = hash_of_source(sc)
     if scenario_hash is not None:
         s["scenario_hash"] = scenario_hash
     s["incomplete_reason"] = incomplete_reason(s, sc)
@@ -315,13 +315,13 @@ def incomplete_reason(summary: dict[str, Any], scenario: Scenario) -> str | None
     return reason
 
 
-def _hash_of_source(scenario: Scenario) -> str | None:
+def hash_of_source(scenario: Scenario) -> str | None:
     """The identity of a scenario loaded from a (non-sweep) file, or None."""
     if scenario.source is None or not Path(scenario.source).is_file():
         return None
-    from scenarios.errors import ConfigError
-    from scenarios.schema import read_document
-    from scenarios.sweep import expand, with_referenced_files
+    from scenarios.spec.errors import ConfigError
+    from scenarios.spec.schema import read_document
+    from scenarios.spec.sweep import expand, with_referenced_files
 
     try:
         source = Path(scenario.source)

@@ -7,7 +7,7 @@ weather (``wind``), how long (``duration_s``) and, optionally, the
 edge; everything downstream is SI. See ``README.md`` for a full example, and
 ``scenarios/*.yaml`` for shipped ones.
 
-Every problem is reported as a :class:`~scenarios.errors.ConfigError` whose
+Every problem is reported as a :class:`~scenarios.spec.errors.ConfigError` whose
 message is one line: ``<file>: <field>: <problem>``.
 
 Besides each value's own range, a scenario must make sense as a whole
@@ -34,7 +34,7 @@ from geofence.boundary_shift import check_shift_feasible
 from geofence.config import GeofenceConfig, GeofenceConfigError, fence_file_path, parse_geofence
 from geofence.fence import FenceError
 from geofence.geodesy import LocalFrame
-from scenarios.errors import (
+from scenarios.spec.errors import (
     ConfigError,
     integer,
     latitude,
@@ -219,7 +219,7 @@ def scenario_base_dir(where: str, source: Path | str | None = None, base_dir: Pa
 def referenced_files(document: Any, base_dir: Path | str | None) -> list[Path]:
     """The files a scenario document reads besides itself (its ``geofence.fence.file``), resolved; [] if none.
 
-    For content hashes (:func:`scenarios.batch.plan`): editing such a file changes the flight.
+    For content hashes (:func:`scenarios.app.batch.plan`): editing such a file changes the flight.
     """
     geofence = document.get("geofence") if isinstance(document, dict) else None
     fence = geofence.get("fence") if isinstance(geofence, dict) else None

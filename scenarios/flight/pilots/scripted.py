@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 
 from geofence.interface import Envelope, StickCommand, VehicleState
-from scenarios.pilots.nav_laws import FixedWingNavigator, MultirotorNavigator
-from scenarios.schema import ScriptSegment
+from scenarios.flight.pilots.nav_laws import FixedWingNavigator, MultirotorNavigator
+from scenarios.spec.schema import ScriptSegment
 
 _CLIMB_STICK = {"hold": 0.0, "max": 1.0, "descend": -1.0}
 

@@ -17,10 +17,10 @@ toward the ceiling. This pilot does the same, reproducibly:
 4. **return** to the home hover, **rest** ``rest_s``, next attempt.
 
 It sees only the vehicle state (never the geofence mode) and flies with the
-mission autopilot's :class:`~scenarios.pilots.nav_laws.MultirotorNavigator`.
+mission autopilot's :class:`~scenarios.flight.pilots.nav_laws.MultirotorNavigator`.
 ``attempt_log`` holds, per attempt, its index, direction, drawn speed and the
 start/end times of its phases (s, flight time) for the analysis
-(:mod:`scenarios.seed_reproduction`).
+(:mod:`scenarios.app.seed_reproduction`).
 """
 
 from __future__ import annotations
@@ -30,8 +30,8 @@ import math
 import numpy as np
 
 from geofence.interface import Envelope, StickCommand, VehicleState
-from scenarios.pilots.nav_laws import MultirotorNavigator
-from scenarios.schema import BreachAttemptsConfig
+from scenarios.flight.pilots.nav_laws import MultirotorNavigator
+from scenarios.spec.schema import BreachAttemptsConfig
 
 DIRECTION_UNIT = {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}
 
