@@ -23,6 +23,7 @@ import shutil
 import sys
 import tempfile
 import xml.etree.ElementTree as ET
+from collections.abc import Callable
 from pathlib import Path
 
 import jsbsim
@@ -130,9 +131,13 @@ class JSBSimModel:
     exception, at interpreter exit, or by :func:`remove_temporary_folders` in
     a batch worker's SIGTERM handler), so none is left behind. :meth:`close`
     (or ``with JSBSimModel(...) as m:``) releases the JSBSim instance.
+
+    ``on_mirrored(root)``, a named hook, is called once the mirror folder is
+    written and before JSBSim reads it (tests use it to interrupt a load).
     """
 
-    def __init__(self, name: str, dt_s: float = 1.0 / 120.0, extra_systems: list[Path] | None = None):
+    def __init__(self, name: str, dt_s: float = 1.0 / 120.0, extra_systems: list[Path] | None = None,
+                 on_mirrored: Callable[[Path], None] | None = None):
         self.name = name
         self.dt_s = dt_s
         self.closed = False
@@ -140,6 +145,8 @@ class JSBSimModel:
         _LIVE_ROOTS.add(self._root)
         try:
             _mirror_with_systems(name, list(extra_systems or []), self._root)
+            if on_mirrored is not None:
+                on_mirrored(self._root)
             with quiet_native_output():
                 fdm = jsbsim.FGFDMExec(str(self._root))
                 fdm.set_debug_level(0)

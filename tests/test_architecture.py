@@ -91,3 +91,32 @@ def test_no_private_names_imported_across_modules():
 def test_only_the_model_loader_imports_jsbsim():
     users = sorted(str(p.relative_to(ROOT)) for p in ROOT.rglob("*.py") if "tests" not in p.parts and "bench" not in p.parts and "jsbsim" in imported_modules(p))
     assert users == ["aircraft/jsbsim_model.py"]
+
+
+PROJECT_PACKAGES = ("aircraft", "analysis", "geofence", "scenarios", "wind")
+
+
+def test_no_project_code_is_monkeypatched():
+    """Tests reach project code through named hooks and parameters, never ``monkeypatch.setattr`` / ``mock.patch``."""
+    offenders = []
+    for p in sorted((ROOT / "tests").rglob("*.py")) + sorted((ROOT / "bench").rglob("*.py")):
+        tree = ast.parse(p.read_text())
+        project_names = set()
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                project_names.update((a.asname or a.name.split(".")[0]) for a in node.names if a.name.startswith(PROJECT_PACKAGES))
+            elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith(PROJECT_PACKAGES):
+                project_names.update(a.asname or a.name for a in node.names)
+        for node in ast.walk(tree):
+            if not (isinstance(node, ast.Call) and node.args):
+                continue
+            f = node.func
+            name = f.attr if isinstance(f, ast.Attribute) else (f.id if isinstance(f, ast.Name) else "")
+            if name not in {"setattr", "patch", "object", "setitem", "delattr"}:
+                continue
+            target = node.args[0]
+            hit = (isinstance(target, ast.Name) and target.id in project_names) or (
+                isinstance(target, ast.Constant) and isinstance(target.value, str) and target.value.startswith(PROJECT_PACKAGES))
+            if hit and name != "setattr" or (hit and isinstance(f, ast.Attribute)):
+                offenders.append(f"{p.relative_to(ROOT)}:{node.lineno}")
+    assert offenders == []

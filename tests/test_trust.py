@@ -77,15 +77,15 @@ def jsbsim_folders(tmp: Path) -> list[Path]:
 
 
 # --------------------------------------------------------------------------- stale results
-def test_scenario_hash_is_the_resolved_document_and_the_version(monkeypatch):
+def test_scenario_hash_is_the_resolved_document_and_the_version():
     doc = short_scripted("h")
     h = scenario_hash(doc)
     assert h == scenario_hash(copy.deepcopy(doc)) and len(h) == 64
     assert scenario_hash(dict(doc, duration_s=4)) != h
-    import scenarios.spec.sweep as sweep
+    from scenarios.spec.sweep import project_version
 
-    monkeypatch.setattr(sweep, "project_version", lambda: "999.0")
-    assert scenario_hash(doc) != h, "a new version must re-fly"
+    assert scenario_hash(doc, version=project_version()) == h
+    assert scenario_hash(doc, version="999.0") != h, "a new version must re-fly"
     # a file without a name and a file naming itself by its stem are the same flight
     nameless = dict(doc)
     nameless.pop("name")
@@ -165,9 +165,8 @@ def test_temporary_model_folders_go_when_loaded_closed_or_interrupted(tmp_path, 
     def ctrl_c(*_args):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(jm, "_mirror_with_systems", ctrl_c)
     with pytest.raises(KeyboardInterrupt):
-        jm.JSBSimModel("F450")
+        jm.JSBSimModel("F450", on_mirrored=ctrl_c)
     assert not jsbsim_folders(tmp_path) and not jm._LIVE_ROOTS
 
 

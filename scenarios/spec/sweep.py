@@ -81,10 +81,13 @@ def project_version() -> str:
         return "unknown"
 
 
-def scenario_hash(document: dict) -> str:
-    """A flight's identity: sha256 of the canonical JSON of its resolved document, its shipped profile(s) and the version."""
+def scenario_hash(document: dict, *, version: str | None = None) -> str:
+    """A flight's identity: sha256 of the canonical JSON of its resolved document, its shipped profile(s) and the version.
+
+    ``version`` defaults to :func:`project_version` (the installed package's).
+    """
     doc = dict(document)
-    payload = {"scenario": doc, "version": project_version(), "profiles": _profile_texts(doc)}
+    payload = {"scenario": doc, "version": project_version() if version is None else version, "profiles": _profile_texts(doc)}
     return _sha256(payload)
 
 
