@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -37,7 +38,7 @@ WIND_BINS = ((0.0, 3.0, "calm"), (3.0, 7.0, "moderate"), (7.0, math.inf, "strong
 """``(low, high, label)`` in m/s, low inclusive: used when there are many distinct wind speeds."""
 
 PALETTE = ("tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:pink", "tab:olive", "tab:cyan")
-FENCE_STYLE = {"color": "black", "lw": 1.6, "ls": "-"}
+FENCE_STYLE: dict[str, Any] = {"color": "black", "lw": 1.6, "ls": "-"}
 
 
 # --------------------------------------------------------------------------- row helpers
@@ -297,6 +298,7 @@ def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Pa
     recovery time (OVERRIDE to hand-back, s). Wind level on x, one
     bar/column per platform, every bar labelled with its platform, one key.
     """
+    from matplotlib.artist import Artist
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -391,7 +393,8 @@ def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Pa
         ax.grid(alpha=0.3, axis="y")
         ax.set_axisbelow(True)
     if platforms:
-        keys = [Patch(color=colour[p], label=p) for p in platforms] + [
+        keys: list[Artist] = [Patch(color=colour[p], label=p) for p in platforms]
+        keys += [
             Line2D([], [], marker="o", ls="none", color="grey", alpha=0.6, label="one flight"),
             Line2D([], [], color="grey", lw=3, label="mean"),
             Line2D([], [], marker="v", ls="none", color="grey", markeredgecolor="black", ms=8, label="max"),

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import matplotlib
 
@@ -35,6 +35,12 @@ SETPOINT_COLOUR = "black"
 FENCE_COLOUR = "black"
 MEAN_COLOUR = "tab:orange"
 AXIS_COLOUR = {"x": "tab:purple", "y": "tab:green", "ceiling": "tab:brown"}
+
+
+def _layout_rect(fig, rect: tuple[float, float, float, float]) -> None:
+    """Keep the constrained layout inside ``rect`` (figure fraction), leaving room for a figure legend."""
+    engine: Any = fig.get_layout_engine()
+    engine.set(rect=rect)
 
 
 def _save(fig, out_dir: Path, stem: str) -> list[Path]:
@@ -102,7 +108,7 @@ def plot_xy_tracks(analyses: Sequence, out_dir: Path, stem: str = "seed_xy_track
         _xy_axis(ax, an, lim)
     handles, labels = axes[0][0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=3, fontsize="small", frameon=False, bbox_to_anchor=(0.5, -0.0))
-    fig.get_layout_engine().set(rect=(0, 0.07, 1, 0.93))
+    _layout_rect(fig, (0, 0.07, 1, 0.93))
     fig.suptitle(f"Seed flight tests reproduced: x–y track, {len(analyses[0].rows)} breach attempts (west, north, up)")
     return _save(fig, out_dir, stem)
 
@@ -140,7 +146,7 @@ def plot_time_histories(an, out_dir: Path, stem: str | None = None) -> list[Path
     _history_axes(axes, an, legend=False)
     handles, labels = axes[0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=4, fontsize="small", frameon=False)
-    fig.get_layout_engine().set(rect=(0, 0.04, 1, 0.96))
+    _layout_rect(fig, (0, 0.04, 1, 0.96))
     t = an.traj["time_s"]
     for r in an.rows:  # attempt starts, labelled by direction
         for ax in axes:
@@ -190,7 +196,7 @@ def plot_single_attempts(analyses: Sequence, out_dir: Path, stem: str = "seed_si
             ax.grid(alpha=0.3)
     handles, labels = axes[0][0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=4, fontsize="small", frameon=False)
-    fig.get_layout_engine().set(rect=(0, 0.05, 1, 0.95))
+    _layout_rect(fig, (0, 0.05, 1, 0.95))
     fig.suptitle("The fastest attempt on each axis: reactive (top) vs predictive (bottom)")
     return _save(fig, out_dir, stem)
 

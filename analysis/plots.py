@@ -23,12 +23,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.artist import Artist  # noqa: E402
 from matplotlib.collections import LineCollection  # noqa: E402
 from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
@@ -44,7 +46,7 @@ MODE_STYLE = {  # geofence mode -> (label, colour); MONITOR is not shaded on the
     Mode.TERMINATE: ("terminating", "black"),
 }
 PHASE_ALPHA = 0.15
-LEGEND_OUTSIDE = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "fontsize": "small", "borderaxespad": 0.0}
+LEGEND_OUTSIDE: dict[str, Any] = {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0), "fontsize": "small", "borderaxespad": 0.0}
 MARGIN_CMAP = "RdYlGn"
 NOT_COMPUTED_COLOUR = "0.72"
 BOUNDARY_COLOURS = ("tab:orange", "darkorange", "gold", "peru")
@@ -101,13 +103,13 @@ def _shade_phases(ax, traj, gps_fail_at_s: float | None, gps_outages: Sequence[t
             ax.axvspan(t[a], t1, color=colour, alpha=PHASE_ALPHA if mode is not Mode.TERMINATE else 0.25, lw=0, zorder=0)
     if gps_fail_at_s is not None and np.isfinite(gps_fail_at_s):
         ax.axvline(gps_fail_at_s, color="black", ls=":", lw=1.6, zorder=5)
-    for a, b in gps_outages:
-        ax.axvspan(a, b, facecolor="none", edgecolor="0.3", hatch="//", lw=0, zorder=0)
+    for t0, t1 in gps_outages:
+        ax.axvspan(t0, t1, facecolor="none", edgecolor="0.3", hatch="//", lw=0, zorder=0)
 
 
 def _phase_handles(traj, gps_fail_at_s, gps_outages) -> list:
     m = _modes(traj)
-    handles = []
+    handles: list[Artist] = []
     for mode, (label, colour) in MODE_STYLE.items():
         if mode is not Mode.MONITOR and (m == mode).any():
             handles.append(Patch(color=colour, alpha=PHASE_ALPHA * 2, label=f"{mode.name}: {label}"))
@@ -329,14 +331,14 @@ def plot_flight(
     ax_spd.set_ylabel("speed (m/s)")
     if has_fence:
         time_axes += _margin_panels(fig, grid, ax_alt, traj, fence)
-    for a in time_axes:
+    for tax in time_axes:
         if has_fence:
-            _shade_phases(a, traj, gps_fail_at_s, gps_outages)
-        a.grid(alpha=0.3)
-        if a.get_legend_handles_labels()[0]:
-            a.legend(**LEGEND_OUTSIDE)
-        if a is not time_axes[-1]:
-            a.tick_params(labelbottom=False)
+            _shade_phases(tax, traj, gps_fail_at_s, gps_outages)
+        tax.grid(alpha=0.3)
+        if tax.get_legend_handles_labels()[0]:
+            tax.legend(**LEGEND_OUTSIDE)
+        if tax is not time_axes[-1]:
+            tax.tick_params(labelbottom=False)
     time_axes[-1].set_xlabel("time (s)")
     time_axes[-1].set_xlim(t[0], t[-1])
     if has_fence:

@@ -316,6 +316,8 @@ class GeofenceEstimator:
             return
         dt = t_m - self._t_d
         ex, nx = self._east, self._north
+        if ex is None or nx is None:  # not reached: the first fix initialised both axes above
+            return
         ex.predict(dt, self._qj, self._qp_h)
         nx.predict(dt, self._qj, self._qp_h)
         self._t_d = t_m
@@ -348,7 +350,7 @@ class GeofenceEstimator:
         self.position_valid = (now - self._last_fix_arrival_s) <= self.config.timeout_s
         ex, nx = self._east, self._north
         roll, pitch, yaw = self._att
-        if ex is None:
+        if ex is None or nx is None:
             self.sigma_h_m = self.sigma_v_m = math.inf
             self.state = VehicleState(t_s=now, roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw)
             return self.state
@@ -395,9 +397,10 @@ class GeofenceEstimator:
     @property
     def accel_en_mps2(self) -> tuple[float, float]:
         """Estimated horizontal acceleration (east, north) at the fusion horizon, m/s^2."""
-        if self._east is None:
+        ex, nx = self._east, self._north
+        if ex is None or nx is None:
             return (0.0, 0.0)
-        return (self._east.a, self._north.a)
+        return (ex.a, nx.a)
 
     # -- internals -----------------------------------------------------------------
     def _init(self, e: float, n: float, u: float, fix: GpsFix, t_m: float, lag: float) -> None:

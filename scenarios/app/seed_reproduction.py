@@ -159,14 +159,14 @@ def attempt_rows(
     return rows
 
 
-def pearson_r(x: Sequence[float], y: Sequence[float]) -> float:
+def pearson_r(x: Sequence[float] | np.ndarray, y: Sequence[float] | np.ndarray) -> float:
     """Pearson correlation of the finite pairs (NaN with fewer than 3 or no spread)."""
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    ok = np.isfinite(x) & np.isfinite(y)
-    x, y = x[ok], y[ok]
-    if len(x) < 3 or np.std(x) == 0 or np.std(y) == 0:
+    xa, ya = np.asarray(x, float), np.asarray(y, float)
+    ok = np.isfinite(xa) & np.isfinite(ya)
+    xa, ya = xa[ok], ya[ok]
+    if len(xa) < 3 or np.std(xa) == 0 or np.std(ya) == 0:
         return math.nan
-    return float(np.corrcoef(x, y)[0, 1])
+    return float(np.corrcoef(xa, ya)[0, 1])
 
 
 def axis_statistics(rows: Sequence[Mapping]) -> dict[str, dict]:
@@ -224,7 +224,7 @@ def ramp_setpoints(
     t = np.asarray(traj["time_s"], float)
     mode = np.asarray(traj["geofence_mode"], float)
     out = {k: np.full(len(t), np.nan) for k in ("east_m", "north_m", "height_m")}
-    law = SeedPDRecovery(None, SeedPDGains(), ramp_s)  # type: ignore[arg-type]  (setpoint needs no envelope)
+    law = SeedPDRecovery(None, SeedPDGains(), ramp_s)  # type: ignore[arg-type]  # the setpoint needs no envelope
     starts = activation_times(transitions)
     for j, ta in enumerate(starts):
         i0 = int(np.clip(np.searchsorted(t, ta - 1e-6), 0, len(t) - 1))
@@ -286,6 +286,7 @@ def analyse_folder(folder: Path, scenario_path: Path) -> SeedAnalysis:
     traj = read_trajectory_csv(folder / "trajectory.csv")
     summary = json.loads((folder / "summary.json").read_text())
     st = scenario.start
+    assert scenario.geofence is not None, f"{scenario_path}: the seed reproduction needs a geofence block"
     fence = scenario.geofence.fence.to_local(LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m))
     log = folder / "attempts.json"
     attempts = json.loads(log.read_text()) if log.is_file() else attempts_from_items(traj, scenario.pilot.breach)

@@ -142,4 +142,4 @@ class Recorder:
 def read_trajectory_csv(path: Path) -> dict[str, np.ndarray]:
     """Read a trajectory CSV back into named columns."""
     data = np.genfromtxt(path, delimiter=",", names=True)
-    return {name: np.asarray(data[name], dtype=float) for name in data.dtype.names}
+    return {name: np.asarray(data[name], dtype=float) for name in data.dtype.names or ()}
