@@ -1,24 +1,56 @@
-"""Print the package-level import matrix of this checkout: python docs/import_table.py (from the repository root).
+"""Print the layer-level import matrix of this checkout: python docs/import_table.py (from the repository root).
 
-A cell counts the files of the row package that import the column package; the architecture test
-(tests/test_architecture.py) fails on any import above the diagonal of the layer order.
+Rows and columns are the layers, bottom up: the packages, with scenarios/ split into its three
+subpackages (spec, flight, app). A cell counts the files of the row layer that import the column
+layer; a number above the diagonal would be an upward import. The architecture test
+(tests/test_architecture.py) fails on any.
 """
+
 import ast
 from collections import defaultdict
 from pathlib import Path
 
-PKG = ["geofence", "wind", "aircraft", "analysis", "scenarios"]
-m = defaultdict(set)
-for p in PKG:
-    for f in Path(p).rglob("*.py"):
+LAYERS = ["geofence", "wind", "aircraft", "analysis", "scenarios.spec", "scenarios.flight", "scenarios.app"]
+
+
+def layer_of(module: str) -> str | None:
+    """The layer a dotted module name belongs to (the longest matching prefix), or None if not ours."""
+    best = None
+    for layer in LAYERS:
+        if module == layer or module.startswith(layer + "."):
+            best = layer if best is None or len(layer) > len(best) else best
+    return best
+
+
+def main() -> None:
+    m: dict[tuple[str, str], set[str]] = defaultdict(set)
+    for f in sorted(Path(".").rglob("*.py")):
+        parts = f.with_suffix("").parts
+        if not parts or parts[0] not in {"geofence", "wind", "aircraft", "analysis", "scenarios"}:
+            continue
+        own = layer_of(".".join(parts))
+        if own is None:  # scenarios/__init__.py and the data scripts beside the YAML files
+            continue
         for node in ast.walk(ast.parse(f.read_text())):
-            mods = [a.name for a in node.names] if isinstance(node, ast.Import) else (
-                [node.module] if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 else [])
+            if isinstance(node, ast.Import):
+                mods = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                mods = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+            else:
+                continue
             for mod in mods:
-                top = mod.split(".")[0]
-                if top in PKG and top != p:
-                    m[(p, top)].add(str(f))
-print("| imports → | " + " | ".join(PKG) + " |")
-print("|---|" + "---|" * len(PKG))
-for p in PKG:
-    print(f"| **{p}** | " + " | ".join(str(len(m[(p, q)])) if m[(p, q)] else "·" for q in PKG) + " |")
+                target = layer_of(mod)
+                if target is not None and target != own:
+                    m[(own, target)].add(str(f))
+    print("| imports → | " + " | ".join(LAYERS) + " |")
+    print("|---|" + "---|" * len(LAYERS))
+    for i, p in enumerate(LAYERS):
+        cells = []
+        for j, q in enumerate(LAYERS):
+            n = len(m[(p, q)])
+            cells.append("·" if n == 0 else (f"**{n} ↑**" if j > i else str(n)))
+        print(f"| **{p}** | " + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main()
