@@ -115,7 +115,11 @@ _F450_CLASS = "F450-class quad, 30 deg tilt, with rotor drag (issue 10; shared/R
 _DJI_MINI = "DJI Mini 2 spec (249 g): 16 m/s S mode, 5 m/s ascent, 3.5 m/s descent, Level-5 wind 10.7 m/s"
 _J3 = "Piper J-3C-65 Cub: cruise 75 mph, max 87 mph, stall 38 mph, climb 450 ft/min"
 _C172 = "Cessna 172R: cruise 122 kt at 8000 ft, max 124 kt SL, stall 51 kt clean, climb 720 ft/min, glide ~9:1 at 65-68 KIAS"
-_TERN = "Tern.xml design calculation (stall 9.3 m/s, cruise 16 m/s, L/D ~9.5); own model, not a product"
+_TERN = "Tern.xml design calculation (stall 9.3 m/s, cruise 16 m/s); own model, not a product"
+FTLB_TO_NM = 1.3558179483314004
+"""foot-pound-force to newton metre (exact: 0.3048 m x 4.4482216152605 N)."""
+_SERVO = "hobby servo rated 0.08-0.12 s per 60 deg (e.g. Hitec HS-65MG 0.11 s at 4.8 V): 500-750 deg/s, slower under load"
+_MOTOR = "3536-class 1000 kV outrunner, 45 A continuous: torque <= Kt I = 9.55e-3 N m/A x 45 A = 0.43 N m"
 _TURN = "level coordinated turn R = V^2/(g tan phi) at the measured V and bank, +-10 %"
 
 REFERENCES: dict[str, dict[str, Reference]] = {
@@ -158,8 +162,11 @@ REFERENCES: dict[str, dict[str, Reference]] = {
     "Tern": {
         "cruise airspeed": Reference(14.0, 18.0, _TERN),
         "min airspeed, idle throttle stick": Reference(9.3, 15.0, _TERN + " (>= stall, < 1.6 Vs)"),
-        "best glide ratio, power off": Reference(9.5, 13.0, "Tern.xml polar CD = 0.035 + 0.042 CL^2: (L/D)max 13.0 "
-                                                 "at CL 0.91; ~9.5 at cruise (header)"),
+        "best glide ratio, power off": Reference(8.0, 11.2, "foam trainer with fixed gear: polar CD = 0.047 + 0.042 CL^2 "
+                                                 "(Aerosonde C_Dp 0.043, Beard & McLain App. E, plus gear) gives (L/D)max "
+                                                 "11.2 as an upper bound"),
+        "aileron rate, full roll reversals (max)": Reference(400.0, 750.0, _SERVO),
+        "propeller torque, full throttle from idle (max)": Reference(0.30, 0.44, _MOTOR),
     },
 }
 
@@ -169,7 +176,8 @@ PLATFORM_NOTES: dict[str, str] = {
     "Micro250": "Our 249 g micro quad (aircraft/models/Micro250), sized from the DJI Mini 2 specification; "
                 "40 deg tilt limit assumed.",
     "F450": "JSBSim's wheel F450 as shipped (no rotor drag), flown against the same F450-class bands for contrast.",
-    "Tern": "Our 2.5 kg electric trainer (aircraft/models/Tern); its references are its own design figures.",
+    "Tern": "Our 2.5 kg electric trainer (aircraft/models/Tern): bands from its design figures, hobby-servo and motor "
+            "ratings, and a glide bound from the Aerosonde's parasitic drag plus fixed gear.",
     "J3Cub": "JSBSim's wheel J3Cub; speeds are the FC's commanded limits (profile), compared with the J-3C-65's.",
     "c172x": "JSBSim's wheel Cessna 172; speeds are the FC's commanded limits (profile), compared with the 172R's.",
 }
@@ -492,6 +500,13 @@ def _measure_fixed_wing(p: Platform, m: Measurement) -> None:
     t90 = _time_to(run, s0.t_s, lambda s: s.airspeed_mps <= target)
     decel = 0.9 * (s0.airspeed_mps - v_min) / t90 if t90 > 0 else math.nan
     m.add("speed reduction from cruise, mean decel to 90 %", decel, "m/s^2")
+    # from idle, full throttle: the largest propeller torque (a current-limited motor caps it)
+    model = p.model  # type: ignore[attr-defined]
+    torque_nm = 0.0
+    for _ in range(int(round(3.0 / f.dt_s))):
+        f.fly(StickCommand(throttle=1.0), f.dt_s)
+        torque_nm = max(torque_nm, abs(model.get("propulsion/engine/propeller-torque-ftlb")) * FTLB_TO_NM)
+    m.add("propeller torque, full throttle from idle (max)", torque_nm, "N m")
 
     f.start(h0)
     run = f.fly(StickCommand(roll=1.0), 20.0)
@@ -509,6 +524,17 @@ def _measure_fixed_wing(p: Platform, m: Measurement) -> None:
     # the turn-radius band is physics at the measured speed and bank, not a product figure
     m.references["turn radius at max bank"] = Reference(0.9 * r_theory, 1.1 * r_theory, _TURN)
 
+    # bank reversals every 0.5 s, frame by frame: the fastest aileron motion (servo rate limit)
+    f.start(h0)
+    prev, rate_max = model.get("fcs/left-aileron-pos-rad"), 0.0
+    for k in range(int(round(3.0 / p.dt_s))):
+        p.command(StickCommand(roll=1.0 if (k * p.dt_s) % 1.0 < 0.5 else -1.0))
+        p.step(1)
+        a = model.get("fcs/left-aileron-pos-rad")
+        rate_max, prev = max(rate_max, abs(a - prev) / p.dt_s), a
+    f.sim_time_s += 3.0
+    m.add("aileron rate, full roll reversals (max)", math.degrees(rate_max), "deg/s")
+
     vert = {}
     for name, stick in (("climb", 1.0), ("descent", -1.0)):
         f.start(h0)
@@ -523,7 +549,6 @@ def _measure_fixed_wing(p: Platform, m: Measurement) -> None:
     # power-off glide: the FC's throttle forced to 0 (speed loop off, trim far below 0 so the
     # frozen speed integrator cannot lift it), a sweep of descent commands
     best = (math.nan, math.nan, math.nan)
-    model = p.model  # type: ignore[attr-defined]
     throttle_max = rpm_max = 0.0
     for stick in (-0.2, -0.35, -0.5, -0.7, -1.0):
         f.start(h0)
