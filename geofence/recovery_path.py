@@ -334,7 +334,8 @@ class RecoveryPlanner:
         self.graph_edge_count = sum(len(x) for x in self._adj) // 2
 
     # ------------------------------------------------------------------ construction
-    def _corner_nodes(self) -> list[Point]:
+    def _corner_nodes(self) -> list[tuple[float, float, float, float, float, float]]:
+        """Corner nodes ``(east, north, n1e, n1n, n2e, n2n)``: the point and its normal cone (n1 -> n2)."""
         cp = self.clearance_m + NODE_INFLATION_M
         out: list[tuple[float, float, float, float, float, float]] = []
 
@@ -646,9 +647,9 @@ class RecoveryPlanner:
         """
         s = (float(start_en[0]), float(start_en[1]))
         goal = (float(goal_en[0]), float(goal_en[1]))
-        g = goal
-        if self.fence.lateral_margin_m(g[0], g[1]) < self._thr:
-            g = self._push_into_free(g[0], g[1])
+        g: Point | None = goal
+        if self.fence.lateral_margin_m(goal[0], goal[1]) < self._thr:
+            g = self._push_into_free(goal[0], goal[1])
             if g is None:
                 if not self.nodes:
                     g = None
