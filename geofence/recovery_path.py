@@ -75,7 +75,16 @@ Build: ``O(V^2 E)`` for ``V`` nodes and ``E`` edges + circles, vectorized and
 with failed pairs dropped after each edge chunk (pairs blocked early cost
 little); the safe points cost a 64 x 64 grid of margins. Query:
 ``O(V E)`` vectorized tests to connect the start and goal, then Dijkstra
-``O(G log V)`` over ``G`` graph edges. Per-step :meth:`RecoveryPath.lookahead_point`
+``O(G log V)`` over ``G`` graph edges.
+
+From :data:`LAZY_MIN_NODES` nodes on (airspace-scale fences: a 10,000-vertex
+park has some 12,000), the ``V^2`` pairs are neither stored nor tested at
+build: a node's graph edges are found when a search first expands it (the
+same tangency filter and exact test, one row of pairs), and the searches stop
+early: :meth:`RecoveryPlanner.plan` is A* toward the goal (Euclidean
+heuristic, admissible and consistent: the route is still the shortest over
+the same graph) and the safe-point searches stop at the first safe point
+settled. Same graph, same routes; only the work done differs. Per-step :meth:`RecoveryPath.lookahead_point`
 is plain Python: a projection over the path's segments and one or two exact
 chord tests (bounding-box filtered loops over the edges).
 """
@@ -113,6 +122,9 @@ GRID_CELLS: int = 64
 """Safe-point search grid: cells along the keep-in's longer bounding-box side."""
 
 MAX_SAFE_POINTS: int = 12
+
+LAZY_MIN_NODES: int = 1500
+"""From this many graph nodes on, the graph is built lazily (see the module docstring's Complexity)."""
 
 Point = tuple[float, float]
 
@@ -284,10 +296,11 @@ class RecoveryPlanner:
     Built once per fence and clearance (the visibility graph and the safe
     points are precomputed); :meth:`plan`, :meth:`nearest_safe_point` and
     :meth:`safe_point_with_radius` answer at activation time. See the module
-    docstring for the guarantee.
+    docstring for the guarantee. ``lazy``: build the graph lazily (``None``:
+    from :data:`LAZY_MIN_NODES` nodes on); the routes are the same either way.
     """
 
-    def __init__(self, fence: "LocalFence", clearance_m: float) -> None:
+    def __init__(self, fence: "LocalFence", clearance_m: float, *, lazy: bool | None = None) -> None:
         c = float(clearance_m)
         if not (c > 0.0 and math.isfinite(c)):
             raise ValueError(f"clearance_m must be finite and > 0, got {clearance_m!r}")
@@ -319,19 +332,42 @@ class RecoveryPlanner:
         cones = np.array([p[2:] for p in corner] + [(0.0, 0.0, 0.0, 0.0)] * len(self._safe), dtype=float)
         self._cones = cones.reshape(-1, 4)
         self._is_corner = np.arange(len(nodes)) < len(corner)
-        self._adj: list[list[tuple[int, float]]] = [[] for _ in nodes]
         nn = len(nodes)
-        if nn >= 2:
+        self._lazy = nn >= LAZY_MIN_NODES if lazy is None else bool(lazy)
+        self._adj: list[list[tuple[int, float]] | None] = [None if self._lazy else [] for _ in nodes]
+        if nn >= 2 and not self._lazy:
             ii, jj = np.triu_indices(nn, k=1)
             d = self._nodes[jj] - self._nodes[ii]
             keep = self._tangent(ii, d) & self._tangent(jj, -d)
             ii, jj = ii[keep], jj[keep]
             ok = self._clear_batch(self._nodes[ii], self._nodes[jj], self._thr)
+            adj: list[list[tuple[int, float]]] = [[] for _ in nodes]
             for i, j in zip(ii[ok].tolist(), jj[ok].tolist()):
                 w = math.hypot(nodes[i][0] - nodes[j][0], nodes[i][1] - nodes[j][1])
-                self._adj[i].append((j, w))
-                self._adj[j].append((i, w))
-        self.graph_edge_count = sum(len(x) for x in self._adj) // 2
+                adj[i].append((j, w))
+                adj[j].append((i, w))
+            self._adj = list(adj)
+
+    @property
+    def graph_edge_count(self) -> int:
+        """Graph edges found so far: all of them, or for a lazy graph those of the nodes expanded."""
+        found = sum(len(x) for x in self._adj if x is not None)
+        return found // 2 if not self._lazy else found
+
+    def _neighbours(self, i: int) -> list[tuple[int, float]]:
+        """Node ``i``'s graph edges ``(j, length)``: precomputed, or for a lazy graph found on first use."""
+        row = self._adj[i]
+        if row is None:
+            d = self._nodes - self._nodes[i]
+            idx = np.arange(len(self.nodes))
+            keep = (idx != i) & self._tangent(np.full(len(idx), i), d) & self._tangent(idx, -d)
+            jj = idx[keep]
+            ok = self._clear_batch(np.broadcast_to(self._nodes[i], (len(jj), 2)), self._nodes[jj], self._thr)
+            jj = jj[ok]
+            w = np.hypot(d[jj, 0], d[jj, 1])
+            row = list(zip(jj.tolist(), w.tolist()))
+            self._adj[i] = row
+        return row
 
     # ------------------------------------------------------------------ construction
     def _corner_nodes(self) -> list[tuple[float, float, float, float, float, float]]:
@@ -570,8 +606,16 @@ class RecoveryPlanner:
             x, y = x - dx * step, y - dy * step
         return (x, y) if f.lateral_margin_m(x, y) >= self._thr else None
 
-    def _search(self, s: Point):
-        """Dijkstra from s with the first-leg rule. Returns a context dict (``None``: no first leg)."""
+    def _search(self, s: Point, goal: Point | None = None, goal_nodes: dict[int, float] | None = None,
+                targets: set[int] | None = None):
+        """Dijkstra from s with the first-leg rule. Returns a context dict (``None``: no first leg).
+
+        For a lazy graph the search stops early: with ``goal`` and ``goal_nodes``
+        (node -> straight length to the goal, the nodes that see it) it is A*
+        and stops once no open node can improve the best route to the goal; with
+        ``targets`` it stops when the first target is settled. An eager graph is
+        searched in full (every reachable node gets its distance).
+        """
         f = self.fence
         m_s = f.lateral_margin_m(s[0], s[1])
         nodes = self.nodes
@@ -584,6 +628,8 @@ class RecoveryPlanner:
             if x is not None:
                 extra.append(x)
         allpts = nodes + extra
+        if goal is not None and goal_nodes is not None and extra and self._clear_one(extra[0], goal, self._thr):
+            goal_nodes = {**goal_nodes, nn: math.hypot(extra[0][0] - goal[0], extra[0][1] - goal[1])}
         # first legs
         if in_free or m_s - EPS_M > 0.0:
             thr = self._thr if in_free else m_s - EPS_M
@@ -604,15 +650,32 @@ class RecoveryPlanner:
             d = math.hypot(allpts[i][0] - s[0], allpts[i][1] - s[1])
             dist[i] = d
             heap.append((d, i))
-        heapq.heapify(heap)
-        adj = self._adj
+        lazy = self._lazy
+        if lazy and goal is not None:  # A*: keys are distance + straight line to the goal (consistent)
+            gx, gy = goal
+
+            def h(k: int) -> float:
+                return math.hypot(allpts[k][0] - gx, allpts[k][1] - gy)
+        else:
+            def h(k: int) -> float:
+                return 0.0
+        open_ = [(d + h(i), d, i) for d, i in heap]
+        heapq.heapify(open_)
         extra_adj = None
-        while heap:
-            d, i = heapq.heappop(heap)
+        best_goal = math.inf
+        while open_:
+            key, d, i = heapq.heappop(open_)
             if d > dist[i]:
                 continue
+            if lazy:
+                if goal_nodes is not None and key >= best_goal:
+                    break  # no open node can shorten the best route found to the goal
+                if targets is not None and i in targets:
+                    break  # the nearest target (by route) is settled
+                if goal_nodes is not None and i in goal_nodes:
+                    best_goal = min(best_goal, d + goal_nodes[i])
             if i < nn:
-                nbrs = adj[i]
+                nbrs = self._neighbours(i)
             else:
                 if extra_adj is None:
                     extra_adj = [(j, math.hypot(nodes[j][0] - extra[0][0], nodes[j][1] - extra[0][1]))
@@ -623,7 +686,7 @@ class RecoveryPlanner:
                 if nd < dist[j]:
                     dist[j] = nd
                     pred[j] = i
-                    heapq.heappush(heap, (nd, j))
+                    heapq.heappush(open_, (nd + h(j), nd, j))
         return {"s": (float(s[0]), float(s[1])), "m_s": m_s, "in_free": in_free, "floor": floor,
                 "pts": allpts, "dist": dist, "pred": pred, "first": set(first)}
 
@@ -669,7 +732,12 @@ class RecoveryPlanner:
                 direct = self._certified(s, g, m_s)
             if direct:
                 return RecoveryPath(self, [s, g], goal, True, floor)
-        ctx = self._search(s)
+        if self._lazy and g is not None:
+            gx, gy = g
+            goal_nodes = {i: math.hypot(self.nodes[i][0] - gx, self.nodes[i][1] - gy) for i in self._visible_from(g, self._thr)}
+            ctx = self._search(s, goal=g, goal_nodes=goal_nodes)
+        else:
+            ctx = self._search(s)
         if not ctx["first"]:
             if in_free:
                 return RecoveryPath(self, [s], goal, False, floor)
@@ -752,7 +820,7 @@ class RecoveryPlanner:
         if not want:
             return None
         s = (float(start_en[0]), float(start_en[1]))
-        ctx = self._search(s)
+        ctx = self._search(s, targets={k for k, _ in want} if self._lazy else None)
         dist = ctx["dist"]
         # a direct first leg to a safe point counts too (the graph search already includes it)
         best = min(want, key=lambda kv: dist[kv[0]])

@@ -370,3 +370,29 @@ def test_random_fences_graph_edges_and_safe_points(lf, c, data):
         sp, path = got
         assert lf.lateral_margin_m(*sp.en) >= R + c - 1e-9
         check_path(pl, path, s, eroded)
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(fences(), st.floats(3.0, 30.0), st.data())
+def test_lazy_graph_gives_the_eager_graphs_routes(lf, c, data):
+    """The airspace-scale lazy graph (A* / first-target stops) finds routes as short as the full graph's."""
+    eager, _ = _planner(lf, c)
+    lazy = RecoveryPlanner(lf, c, lazy=True)
+    assert lazy.nodes == eager.nodes and lazy.graph_edge_count <= eager.graph_edge_count
+    x0, y0, x1, y1 = lf.keep_in.bbox
+    for _ in range(3):
+        s = (data.draw(st.floats(x0, x1)), data.draw(st.floats(y0, y1)))
+        g = (data.draw(st.floats(x0, x1)), data.draw(st.floats(y0, y1)))
+        a, b = eager.plan(s, g), lazy.plan(s, g)
+        assert (a is None) == (b is None)
+        if a is not None and b is not None:
+            assert a.reached_goal == b.reached_goal
+            if a.reached_goal:
+                assert b.length_m == pytest.approx(a.length_m, rel=1e-9, abs=1e-6)
+                assert b.points[-1] == a.points[-1]
+        for radius in (None, data.draw(st.floats(1.0, 100.0))):
+            sa = eager.nearest_safe_point(s) if radius is None else eager.safe_point_with_radius(s, radius)
+            sb = lazy.nearest_safe_point(s) if radius is None else lazy.safe_point_with_radius(s, radius)
+            assert (sa is None) == (sb is None)
+            if sa is not None and sb is not None:
+                assert sb[1].length_m == pytest.approx(sa[1].length_m, rel=1e-9, abs=1e-6)
