@@ -123,6 +123,9 @@ GRID_CELLS: int = 64
 
 MAX_SAFE_POINTS: int = 12
 
+BBOX_PREFILTER_EDGES: int = 256
+"""From this many boundary edges on, the scalar segment test filters edges by bounding box in numpy first."""
+
 LAZY_MIN_NODES: int = 1500
 """From this many graph nodes on, the graph is built lazily (see the module docstring's Complexity)."""
 
@@ -315,6 +318,7 @@ class RecoveryPlanner:
         self._edges = tuple(
             (float(ax), float(ay), float(bx), float(by), min(ax, bx), max(ax, bx), min(ay, by), max(ay, by))
             for (ax, ay), (bx, by) in zip(a.tolist(), b.tolist()))
+        self._ebox = np.array([e[4:] for e in self._edges], dtype=float).reshape(-1, 4)  # xmin, xmax, ymin, ymax
         circ = fence.keep_out_circles
         self._circles = tuple((float(x), float(y), float(r)) for x, y, r in circ)
         self._cc = np.array([(x, y) for x, y, _ in circ], dtype=float).reshape(-1, 2)
@@ -362,7 +366,7 @@ class RecoveryPlanner:
             idx = np.arange(len(self.nodes))
             keep = (idx != i) & self._tangent(np.full(len(idx), i), d) & self._tangent(idx, -d)
             jj = idx[keep]
-            ok = self._clear_batch(np.broadcast_to(self._nodes[i], (len(jj), 2)), self._nodes[jj], self._thr)
+            ok = self._fan_clear(self._nodes[i], self._nodes[jj], self._thr)
             jj = jj[ok]
             w = np.hypot(d[jj, 0], d[jj, 1])
             row = list(zip(jj.tolist(), w.tolist()))
@@ -480,7 +484,12 @@ class RecoveryPlanner:
         t2 = thr * thr
         xmin, xmax = min(ax, bx) - thr, max(ax, bx) + thr
         ymin, ymax = min(ay, by) - thr, max(ay, by) + thr
-        for cx, cy, dx, dy, exmin, exmax, eymin, eymax in self._edges:
+        edges = self._edges
+        if len(edges) > BBOX_PREFILTER_EDGES:  # large fences: the bounding-box test vectorized first
+            b = self._ebox
+            hit = np.flatnonzero((b[:, 1] >= xmin) & (b[:, 0] <= xmax) & (b[:, 3] >= ymin) & (b[:, 2] <= ymax))
+            edges = tuple(edges[k] for k in hit.tolist())
+        for cx, cy, dx, dy, exmin, exmax, eymin, eymax in edges:
             if exmax < xmin or exmin > xmax or eymax < ymin or eymin > ymax:
                 continue
             if _cross_properly(ax, ay, bx, by, cx, cy, dx, dy):
@@ -497,12 +506,18 @@ class RecoveryPlanner:
         return True
 
     def _clear_batch(self, p: np.ndarray, q: np.ndarray, thr: float, block: int = 8192,
-                     chunk: int = 48) -> np.ndarray:
-        """Vectorized :meth:`_clear_one` for (M, 2) arrays of endpoints; returns (M,) bool."""
+                     chunk: int = 48, edge_order: np.ndarray | None = None) -> np.ndarray:
+        """Vectorized :meth:`_clear_one` for (M, 2) arrays of endpoints; returns (M,) bool.
+
+        ``edge_order``: the boundary edges to test, in that order (default: all,
+        in a fixed shuffled order); the caller guarantees that the others can
+        neither cross nor come within ``thr`` of any of the segments.
+        """
         m = len(p)
         out = np.zeros(m, dtype=bool)
         t2 = thr * thr
-        ea, eb = self._ea[self._perm], self._eb[self._perm]
+        order = self._perm if edge_order is None else edge_order
+        ea, eb = self._ea[order], self._eb[order]
         for s in range(0, m, block):
             idx = np.arange(s, min(m, s + block))
             # circles first (cheap, few)
@@ -524,6 +539,23 @@ class RecoveryPlanner:
             out[idx] = True
         return out
 
+    def _fan_clear(self, origin: np.ndarray, q: np.ndarray, thr: float) -> np.ndarray:
+        """:meth:`_clear_batch` for the segments from one ``origin`` to each row of ``q`` (exact).
+
+        Every point of a segment lies within its length ``L`` of the origin, so
+        an edge farther than ``max L + thr`` from the origin can neither cross
+        one nor come within ``thr``: those edges are dropped, and the rest are
+        tested nearest first (near edges block most directions of a fan, so
+        blocked segments leave after the first chunk).
+        """
+        if len(q) == 0:
+            return np.zeros(0, dtype=bool)
+        reach = float(np.sqrt(((q - origin) ** 2).sum(axis=1).max())) + thr
+        d2 = _pt_seg_d2_np(origin, self._ea, self._eb)
+        near = np.flatnonzero(d2 <= reach * reach)
+        order = near[np.argsort(d2[near], kind="stable")]
+        return self._clear_batch(np.broadcast_to(origin, q.shape), q, thr, edge_order=order)
+
     def _visible_from(self, p: Point, thr: float, dist: list[float] | None = None) -> list[int]:
         """Graph nodes joined to p by a segment keeping ``margin >= thr`` (exact; ``margin(p) >= thr > 0``).
 
@@ -539,7 +571,7 @@ class RecoveryPlanner:
         if dist is not None:
             keep &= np.isfinite(np.asarray(dist[:len(self.nodes)]))
         idx = np.nonzero(keep)[0]
-        ok = self._clear_batch(np.broadcast_to(pa, (len(idx), 2)), self._nodes[idx], thr)
+        ok = self._fan_clear(pa, self._nodes[idx], thr)
         return idx[ok].tolist()
 
     def _certified(self, p: Point, q: Point, t: float, tol: float = BREACHED_TOL_M,
