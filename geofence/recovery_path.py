@@ -337,6 +337,7 @@ class RecoveryPlanner:
         self._cones = cones.reshape(-1, 4)
         self._is_corner = np.arange(len(nodes)) < len(corner)
         nn = len(nodes)
+        self._visible_cache: dict[tuple[float, float, float], tuple[int, ...]] = {}
         self._lazy = nn >= LAZY_MIN_NODES if lazy is None else bool(lazy)
         self._adj: list[list[tuple[int, float]] | None] = [None if self._lazy else [] for _ in nodes]
         if nn >= 2 and not self._lazy:
@@ -566,13 +567,21 @@ class RecoveryPlanner:
         """
         if not self.nodes:
             return []
+        key = (float(p[0]), float(p[1]), float(thr))
+        if dist is None and key in self._visible_cache:  # the goal (recovery point) is the same at every override
+            return list(self._visible_cache[key])
         pa = np.asarray(p, dtype=float)
         keep = np.ones(len(self.nodes), dtype=bool)
         if dist is not None:
             keep &= np.isfinite(np.asarray(dist[:len(self.nodes)]))
         idx = np.nonzero(keep)[0]
         ok = self._fan_clear(pa, self._nodes[idx], thr)
-        return idx[ok].tolist()
+        out = idx[ok].tolist()
+        if dist is None:
+            if len(self._visible_cache) >= 16:
+                self._visible_cache.pop(next(iter(self._visible_cache)))
+            self._visible_cache[key] = tuple(out)
+        return out
 
     def _certified(self, p: Point, q: Point, t: float, tol: float = BREACHED_TOL_M,
                    max_evals: int = 4000) -> bool:
@@ -777,7 +786,7 @@ class RecoveryPlanner:
         dist, pts = ctx["dist"], ctx["pts"]
         best_i, best_d = -1, math.inf
         if g is not None:
-            vis = [i for i in self._visible_from(g, self._thr, dist) if dist[i] < math.inf]
+            vis = [i for i in self._visible_from(g, self._thr) if dist[i] < math.inf]
             if len(pts) > len(self.nodes) and dist[-1] < math.inf and self._clear_one(pts[-1], g, self._thr):
                 vis.append(len(pts) - 1)
             for i in vis:
