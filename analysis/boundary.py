@@ -5,7 +5,7 @@ draw it for one speed and one steady wind (by default the platform's cruise
 speed; :mod:`analysis.plots` passes the speed and wind recorded at each
 activation): every boundary is moved toward the allowed side by the room the
 platform needs when it approaches that boundary head-on at that speed in that
-wind (so the downwind edges move further):
+wind (:func:`geofence.rooms.head_on_room_m`, so the downwind edges move further):
 
 * keep-in edges move inward;
 * keep-out polygons grow outward (each edge by the room for a head-on
@@ -25,22 +25,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from geofence.boundary_shift import fixed_wing_room_m, multicopter_stopping_distance_m
-from geofence.dynamics import drag_coefficients, wind_push_mps2
 from geofence.fence import LocalFence
 from geofence.interface import Envelope
-
-
-def room_m(env: Envelope, speed_mps: float, wind_toward_mps: float, wind_speed_mps: float) -> float:
-    """Room (m) to stop or turn back in a head-on approach at ``speed_mps``.
-
-    ``speed_mps``: airspeed for a fixed-wing, ground speed for a multirotor;
-    ``wind_toward_mps``: the wind component toward the boundary (+ tailwind).
-    """
-    if env.is_multirotor:
-        push = wind_push_mps2(*drag_coefficients(env), wind_speed_mps, float(wind_toward_mps))
-        return multicopter_stopping_distance_m(speed_mps, env.reaction_time_s, env.braking_decel_mps2, speed_mps, push)
-    return fixed_wing_room_m(speed_mps, env.max_bank_rad, 0.0, float(wind_toward_mps), env.reaction_time_s)
+from geofence.rooms import head_on_room_m
 
 
 def _speed(env: Envelope, speed_mps: float | None) -> float:
@@ -53,7 +40,7 @@ def edge_shifts_m(fence: LocalFence, env: Envelope, wind_en: tuple[float, float]
     w_n = normals @ np.asarray(wind_en, dtype=float)
     wind_speed = float(np.hypot(*wind_en))
     v = _speed(env, speed_mps)
-    return np.asarray([room_m(env, v, float(wn), wind_speed) for wn in w_n])
+    return np.asarray([head_on_room_m(env, v, float(wn), wind_speed) for wn in w_n])
 
 
 def _segment_distances(poly, pts: np.ndarray) -> np.ndarray:
@@ -92,7 +79,7 @@ def activation_field(
 
     for poly in fence.keep_out_polygons:
         # approaching from outside: the aircraft moves along the inward normal, so the tailwind is -(n . w)
-        sh = np.asarray([room_m(env, v, float(-wn), wind_speed) for wn in poly.outward_normals @ wind])
+        sh = np.asarray([head_on_room_m(env, v, float(-wn), wind_speed) for wn in poly.outward_normals @ wind])
         d = _segment_distances(poly, pts)
         f = (d - sh[None, :]).min(axis=1)
         field = np.minimum(field, np.where(poly.contains_array(pts), -d.min(axis=1), f))
@@ -100,7 +87,7 @@ def activation_field(
     if fence.keep_out_circles:
         # room as a function of the tailwind component, interpolated (it is smooth and monotone in it)
         w_grid = np.linspace(-wind_speed, wind_speed, 41) if wind_speed > 0 else np.zeros(1)
-        r_grid = np.asarray([room_m(env, v, float(w), wind_speed) for w in w_grid])
+        r_grid = np.asarray([head_on_room_m(env, v, float(w), wind_speed) for w in w_grid])
         for ce, cn, r in fence.keep_out_circles:
             rel = np.asarray([ce, cn]) - pts
             dc = np.linalg.norm(rel, axis=1)

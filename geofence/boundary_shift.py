@@ -4,102 +4,57 @@ Pure functions on floats. The fence is shifted inward, edge by edge, by the
 room the vehicle needs to turn back (fixed-wing) or stop (multirotor) plus an
 estimate-uncertainty margin; vertically by the room to arrest a climb or a
 descent. The geofence acts when the *activation margin* (distance to an edge
-minus the room needed against that edge) reaches zero.
+minus the room needed against that edge) reaches zero. This module assembles
+the margins; the room formulas themselves (turn, trochoid excursion, reaction
+travel, braking, arrest, their upper bounds and the head-on room) live in
+:mod:`geofence.rooms`, whose docstring derives them, and are re-exported here.
 
 Conventions: ENU metres and m/s; angles in rad. For an edge, ``n`` is the unit
 normal pointing *towards the breach* (outward across a keep-in edge, into a
 keep-out); a velocity or wind component along ``n`` is positive when it
 carries the vehicle towards the breach ("closing", "tailwind").
-``g = 9.80665 m/s²``.
 
-Fixed-wing: coordinated turn and the trochoid
----------------------------------------------
-Coordinated turn at airspeed ``V`` and bank ``phi``: radius
-``R = V²/(g·tan phi)``, rate ``omega = g·tan phi / V``, course reversal in
-``t = pi/omega``. Let ``psi`` be the air-relative heading measured
-counter-clockwise from ``n`` (``psi0 = 0``: flying straight at the edge) and
-``w = W·n`` the wind component towards the edge. Turning in direction ``s``
-(+1 left/counter-clockwise, -1 right) by angle ``theta = omega·t``, the
-ground track is the trochoid
-
-    p(t) = s·R·(sin(psi0 + s·theta) - sin psi0, -(cos(psi0 + s·theta) - cos psi0))  (normal, tangent)
-           + W·t,
-
-so the excursion along the normal is
-
-    x(theta) = s·R·[sin(psi0 + s·theta) - sin psi0] + w·theta/omega.
-
-``dx/dtheta = (V·cos psi + w)/omega`` vanishes at ``cos psi = -w/V``; the
-vehicle stops closing on the edge at ``psi* = arccos(-w/V)`` (in [0, pi]).
-Turning the better way (away from the normal, ``a = |psi0| <= psi*``) the room
-needed **along the normal** is
-
-    x_max = R·(sin psi* - sin a) + w·(psi* - a)/omega.                      (1)
-
-Known cases of (1): a head-on calm-air approach (``a = 0, w = 0``) needs
-``x_max = R`` -- the track's extreme point is one radius ahead of the turn
-entry, while the *lateral* displacement after the 180 deg reversal is ``2R``
-(that is along the edge, not towards it). A parallel calm-air approach
-(``a = pi/2``) needs 0. Head-on with wind ``u = w/V`` gives
-``R·(sqrt(1-u²) + u·arccos(-u))``, whose derivative in ``u`` is
-``arccos(-u) > 0``: the room grows monotonically with tailwind, from 0 at a
-headwind equal to the airspeed to ``pi·R`` as the tailwind approaches the
-airspeed; a tailwind ``w >= V`` can never be turned against (infinite room).
-
+Fixed-wing: the manoeuvre scored
+--------------------------------
 :func:`activation_margins` uses the maneuver the override flies: keep the
-current state for the reaction time (``max(v_ground·n, 0)·t_react``), then
-turn at the bank limit in direction ``s`` until the air heading is the
-wind-corrected heading towards the recovery point (a course reversal,
-``Delta = pi``, within 1 m of it), then fly straight. For each
-edge it takes the exact maximum of ``x(theta)`` over that turn
-(``theta in [0, Delta_s]``: end points and the interior maxima at
-``psi = s·psi* (mod 2 pi)``) and chooses the direction ``s`` with the larger
-worst-edge activation margin (both directions are scored against *all* edges,
-so convex corners and narrow corridors are handled). Assumed: constant
-airspeed -- the larger of the current one and cruise, since the override flies at
-cruise and a slow aircraft's turn widens as it speeds up (campaign case acute-0013,
-a Cessna 172 caught at 45 m/s: 58 m outside with the current airspeed) -- and wind, instant roll-in (fold roll-in into ``reaction_time_s``),
-and a straight leg from roll-out to the recovery point inside the fence (true
-when the fence is star-shaped about it, e.g. convex). Consequences: the
-margin steps down when the vehicle overflies the recovery point (it then
-needs a reversal instead of no turn), and at the recovery point heading
-straight at an edge a reversal needs ``2R`` sideways -- if that exceeds the
-room, the activation margin is negative at the recovery point itself, which
-is what :func:`check_shift_feasible` reports for the whole fence.
+current state for the reaction time (the pilot's current turn goes on:
+:func:`~geofence.rooms.reaction_arc_m`), then turn at the bank limit in
+direction ``s`` until the air heading is the wind-corrected heading towards
+the recovery point (a course reversal, ``Delta = pi``, within 1 m of it), then
+fly straight. For each edge it takes the exact maximum of the trochoid
+excursion ``x(theta)`` over that turn
+(:func:`~geofence.rooms.trochoid_excursion_m`) and chooses the direction ``s``
+with the larger worst-edge activation margin (both directions are scored
+against *all* edges, so convex corners and narrow corridors are handled).
+Assumed: constant airspeed -- the larger of the current one and cruise, since
+the override flies at cruise and a slow aircraft's turn widens as it speeds up
+(campaign case acute-0013, a Cessna 172 caught at 45 m/s: 58 m outside with the
+current airspeed) -- and wind, instant roll-in (fold roll-in into
+``reaction_time_s``), and a straight leg from roll-out to the recovery point
+inside the fence (true when the fence is star-shaped about it, e.g. convex).
+Consequences: the margin steps down when the vehicle overflies the recovery
+point (it then needs a reversal instead of no turn), and at the recovery point
+heading straight at an edge a reversal needs ``2R`` sideways -- if that
+exceeds the room, the activation margin is negative at the recovery point
+itself, which is what :func:`check_shift_feasible` reports for the whole fence.
 
-Multirotor: braking
--------------------
-Stopping straight along the velocity: ``d = v·t_react + v²/(2·a_eff)``; its
-projection on an edge normal is ``v_n·t_react + v_n·v/(2·a_eff)`` (``v_n`` =
-ground velocity along ``n``; head-on this is the closed form exactly; it is
-what :func:`multicopter_stopping_distance_m` returns).
-:func:`activation_margins` adds the worst-case pilot: until the override
-acts (``t_react`` plus the control-step ``latency_s``) the vehicle may keep
-accelerating toward the edge at the tilt limit ``g·tan(tilt_max)`` (while
-below max airspeed) plus the wind's push ``a_w`` (below),
-``a_p = g·tan(tilt_max) + a_w``, so ``d = v_n·t + a_p·t²/2 + v_n1·v1/(2·a_eff)`` with
-``v1 = v + a_p·t``; and while a climb is being arrested (``v_up/a_z``
-seconds) the collective cut lowers the braking deceleration to
-``a_eff·(1 - a_z/g)``. Both were measured to matter in closed loop (an F450
-at full tilt and full climb overshot by 1.3 m without them, 0 with).
-Wind: the platform's drag law ``a_drag(v) = k1·v + k2·v²``
-(:mod:`geofence.dynamics`, from the envelope; rotor drag makes it mostly
-linear). While braking, the drag from the wind at zero ground speed,
-``a_w = (k1 + k2·|W|)·max(W·n, 0)``, is taken as pushing towards the edge
-throughout: ``a_eff = a_brake - a_w``. This is conservative (a vehicle still
-moving towards the edge faster than the wind feels drag that *helps* it
-brake); no credit is taken for wind blowing away from the edge; ``a_eff <= 0``
-(cannot hold against the wind) gives infinite room.
+Multirotor: the manoeuvre scored
+--------------------------------
+The worst-case pilot (:func:`~geofence.rooms.multirotor_room_m`): until the
+override acts (``t_react`` plus the control-step ``latency_s``) the vehicle may
+keep accelerating toward the edge at the tilt limit (while below max
+airspeed) plus the wind's push, then brakes at the braking deceleration net of
+the push, weakened while a climb is being arrested
+(:func:`~geofence.rooms.braking_room_m`). Both the pilot's acceleration and
+the climb arrest were measured to matter in closed loop (an F450 at full tilt
+and full climb overshot by 1.3 m without them, 0 with).
 
 Turbulence and gusts: ``wind_extra_mps`` (k·σ of the turbulence plus a gust
 allowance, chosen by the caller) is added to the wind component towards every
 edge and to the wind speed, for the whole manoeuvre, on both platform kinds.
 
-Vertical
---------
-Arrest distance ``d = v_z·t_react + v_z²/(2·a_z)`` for a climb towards the
-ceiling (``v_z = v_up > 0``) and a descent towards the floor
-(``v_z = -v_up > 0``); 0 when moving away.
+Vertical: the arrest distance (:func:`~geofence.rooms.vertical_arrest_distance_m`)
+for a climb towards the ceiling and a descent towards the floor.
 
 Uncertainty
 -----------
@@ -117,167 +72,39 @@ from typing import NamedTuple, Sequence
 from .dynamics import drag_coefficients, wind_push_mps2
 from .fence import FEATURE_KEEP_OUT_CIRCLE, FenceError, LocalFence
 from .interface import Envelope, PlatformKind, VehicleState
+from .rooms import (
+    G_MPS2,
+    TWO_PI,
+    climb_arrest_phase,
+    course_reversal_time_s,
+    fixed_wing_room_bound_m,
+    fixed_wing_room_from_velocity_m,
+    fixed_wing_room_m,
+    multicopter_stopping_distance_m,
+    multirotor_room_m,
+    reaction_arc_m,
+    tilt_accel_mps2,
+    trochoid_excursion_m,
+    turn_constants,
+    turn_excursion_m,
+    turn_radius_m,
+    turn_rate_radps,
+    vertical_arrest_distance_m,
+    worst_case_lateral_shift_m,
+)
 
-G_MPS2: float = 9.80665
-TWO_PI = 2.0 * math.pi
-
-
-# --------------------------------------------------------------------------- fixed-wing
-def turn_radius_m(airspeed_mps: float, bank_rad: float, g: float = G_MPS2) -> float:
-    """Coordinated-turn radius R = V²/(g·tan phi) in m."""
-    return airspeed_mps * airspeed_mps / (g * math.tan(bank_rad))
-
-
-def turn_rate_radps(airspeed_mps: float, bank_rad: float, g: float = G_MPS2) -> float:
-    """Coordinated-turn rate omega = g·tan phi / V in rad/s."""
-    return g * math.tan(bank_rad) / airspeed_mps
-
-
-def course_reversal_time_s(airspeed_mps: float, bank_rad: float, g: float = G_MPS2) -> float:
-    """Time for a 180 deg course reversal, pi/omega, in s."""
-    return math.pi / turn_rate_radps(airspeed_mps, bank_rad, g)
-
-
-def _wrap_pi(a: float) -> float:
-    return (a + math.pi) % TWO_PI - math.pi
-
-
-def _excursion(radius: float, inv_omega: float, v: float, w: float, psi0: float, s: float,
-               delta: float | None) -> float:
-    """max over theta in [0, delta] of x(theta) (see the module docstring), >= 0.
-
-    ``delta=None``: turn until no longer closing (the trochoid apex), 0 if not closing at start.
-    """
-    if delta is None:
-        if v * math.cos(psi0) + w <= 0.0:
-            return 0.0
-        if w >= v:
-            return math.inf
-        ps = math.acos(-w / v)
-        theta = (ps - s * psi0) % TWO_PI
-        return max(0.0, s * radius * (math.sin(psi0 + s * theta) - math.sin(psi0)) + w * theta * inv_omega)
-    best = s * radius * (math.sin(psi0 + s * delta) - math.sin(psi0)) + w * delta * inv_omega
-    if -v < w < v:
-        ps = math.acos(-w / v)
-        theta = (ps - s * psi0) % TWO_PI
-        while theta <= delta:
-            x = s * radius * (math.sin(psi0 + s * theta) - math.sin(psi0)) + w * theta * inv_omega
-            if x > best:
-                best = x
-            theta += TWO_PI
-    return best if best > 0.0 else 0.0
+__all__ = [
+    # the assembly (this module)
+    "ShiftFeasibility", "ShiftResult", "activation_margins", "activation_margins_for_state", "check_shift_feasible",
+    "uncertainty_margin_m",
+    # re-exported from geofence.rooms, for existing callers
+    "G_MPS2", "course_reversal_time_s", "fixed_wing_room_from_velocity_m", "fixed_wing_room_m",
+    "multicopter_stopping_distance_m", "turn_excursion_m", "turn_radius_m", "turn_rate_radps",
+    "vertical_arrest_distance_m", "worst_case_lateral_shift_m",
+]
 
 
-def turn_excursion_m(airspeed_mps: float, bank_rad: float, psi0_rad: float, wind_normal_mps: float = 0.0,
-                     turn_sign: int = 0, turn_angle_rad: float | None = None, g: float = G_MPS2) -> float:
-    """Room along an edge normal used by a max-bank turn (no reaction distance), in m.
-
-    ``psi0_rad``: air-relative heading counter-clockwise from the edge's
-    breach-pointing normal (0 = head-on). ``wind_normal_mps``: wind component
-    towards the edge (+ tailwind). ``turn_sign``: +1 left, -1 right, 0 = the
-    better of the two. ``turn_angle_rad``: turn exactly this much (max of the
-    excursion over the turn); ``None`` = turn until no longer closing on the
-    edge, giving closed form (1) of the module docstring. ``inf`` if the
-    tailwind is >= the airspeed while closing.
-    """
-    v = airspeed_mps
-    r = turn_radius_m(v, bank_rad, g)
-    inv_omega = 1.0 / turn_rate_radps(v, bank_rad, g)
-    psi0 = _wrap_pi(psi0_rad)
-    if turn_sign:
-        return _excursion(r, inv_omega, v, wind_normal_mps, psi0, 1.0 if turn_sign > 0 else -1.0, turn_angle_rad)
-    return min(_excursion(r, inv_omega, v, wind_normal_mps, psi0, 1.0, turn_angle_rad),
-               _excursion(r, inv_omega, v, wind_normal_mps, psi0, -1.0, turn_angle_rad))
-
-
-def fixed_wing_room_m(airspeed_mps: float, bank_rad: float, psi0_rad: float, wind_normal_mps: float,
-                      reaction_time_s: float, g: float = G_MPS2) -> float:
-    """Room along the normal to turn back from an edge: reaction distance + closed form (1), in m.
-
-    Reaction distance: the ground-velocity component towards the edge,
-    ``max(V·cos psi0 + w, 0)``, times the reaction time. Head-on in calm air
-    this is ``V·t_react + V²/(g·tan phi)``.
-    """
-    closing = airspeed_mps * math.cos(psi0_rad) + wind_normal_mps
-    react = closing * reaction_time_s if closing > 0.0 else 0.0
-    return react + turn_excursion_m(airspeed_mps, bank_rad, psi0_rad, wind_normal_mps, 0, None, g)
-
-
-def fixed_wing_room_from_velocity_m(v_ground_normal: float, v_ground_tangent: float, wind_normal: float,
-                                    wind_tangent: float, bank_rad: float, reaction_time_s: float,
-                                    g: float = G_MPS2) -> float:
-    """:func:`fixed_wing_room_m` from ground velocity and wind split along (normal, tangent) of the edge."""
-    van, vat = v_ground_normal - wind_normal, v_ground_tangent - wind_tangent
-    v = math.hypot(van, vat)
-    if v == 0.0:
-        return 0.0
-    return fixed_wing_room_m(v, bank_rad, math.atan2(vat, van), wind_normal, reaction_time_s, g)
-
-
-# --------------------------------------------------------------------------- multirotor
-def multicopter_stopping_distance_m(v_normal_mps: float, reaction_time_s: float, braking_decel_mps2: float,
-                                    speed_mps: float | None = None, wind_push_mps2: float = 0.0) -> float:
-    """Room along an edge normal to stop: ``v_n·t_react + v_n·v/(2·(a_brake - a_w))``, in m.
-
-    ``speed_mps`` (default ``|v_n|``) is the full ground speed (the vehicle
-    brakes along its velocity); ``wind_push_mps2`` from
-    :func:`geofence.dynamics.wind_push_mps2`.
-    0 when not closing; ``inf`` when the wind push is >= the braking deceleration.
-    """
-    if v_normal_mps <= 0.0:
-        return 0.0
-    v = abs(v_normal_mps) if speed_mps is None else max(speed_mps, v_normal_mps)
-    a = braking_decel_mps2 - wind_push_mps2
-    if a <= 0.0:
-        return math.inf
-    return v_normal_mps * reaction_time_s + v_normal_mps * v / (2.0 * a)
-
-
-def _reaction_arc_m(v_air: float, psi0: float, rot: float, omega: float, t: float, nx: float, ny: float, w_n: float) -> float:
-    """Displacement along the normal (nx, ny) while the current turn goes on for ``t`` s (>= 0).
-
-    Air heading ``psi0`` (ENU, counter-clockwise from east) rotates by ``-rot``
-    (``omega`` + = clockwise); the wind adds ``w_n·t``.
-    """
-    theta = math.atan2(ny, nx)
-    if abs(rot) < 1e-6:
-        along = v_air * t * math.cos(psi0 - theta)
-    else:
-        along = (v_air / omega) * (math.sin(psi0 - theta) - math.sin(psi0 - rot - theta))
-    d = along + w_n * t
-    return d if d > 0.0 else 0.0
-
-
-def _braking_room_m(v_n: float, v: float, a: float, climb_arrest: tuple[float, float]) -> float:
-    """Room along the normal to stop from ground speed ``v`` (normal part ``v_n``) at deceleration ``a``.
-
-    ``climb_arrest = (t_arrest_s, loss)``: for the first ``t_arrest_s`` the
-    collective is cut to arrest a climb, so the deceleration is only
-    ``a·(1 - loss)`` (thrust, and so its horizontal part, drops by the vertical
-    deceleration over g). ``inf`` when ``a <= 0``.
-    """
-    if a <= 0.0:
-        return math.inf
-    t1, loss = climb_arrest
-    a1 = a * (1.0 - loss)
-    if t1 > 0.0 and a1 > 0.0:
-        t1 = min(t1, v / a1)
-        d1 = v * t1 - 0.5 * a1 * t1 * t1
-        v2 = v - a1 * t1
-        return (v_n / v) * (d1 + v2 * v2 / (2.0 * a)) if v > 0.0 else 0.0
-    return v_n * v / (2.0 * a)
-
-
-# --------------------------------------------------------------------------- vertical and uncertainty
-def vertical_arrest_distance_m(v_toward_mps: float, reaction_time_s: float, accel_mps2: float) -> float:
-    """``v·t_react + v²/(2·a_z)`` for a climb towards the ceiling / descent towards the floor; 0 if moving away."""
-    if v_toward_mps <= 0.0:
-        return 0.0
-    if accel_mps2 <= 0.0:
-        return math.inf
-    return v_toward_mps * reaction_time_s + v_toward_mps * v_toward_mps / (2.0 * accel_mps2)
-
-
+# --------------------------------------------------------------------------- uncertainty
 def uncertainty_margin_m(cov: Sequence[Sequence[float]] | None, k_sigma: float = 3.0) -> tuple[float, float]:
     """``(horizontal, vertical)`` margins ``k·sigma`` from a 2x2 (E, N) or 3x3 (E, N, U) position covariance.
 
@@ -397,14 +224,12 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
         else:
             psi_abs = 0.0
         v_turn = max(v_air, envelope.cruise_speed_mps, envelope.min_speed_mps, 1e-3)  # the override flies at cruise
-        tanb = g * math.tan(envelope.max_bank_rad)
-        radius = v_turn * v_turn / tanb
-        inv_omega = v_turn / tanb
+        radius, inv_omega = turn_constants(v_turn, envelope.max_bank_rad, g)
         # reaction phase: the pilot's current turn goes on, and rolling out of the
         # current bank costs up to another roll time before the recovery turn starts
         bank_now = max(-envelope.max_bank_rad, min(envelope.max_bank_rad, bank_rad))
         t_fw = t_r + envelope.reaction_time_s * (abs(bank_now) / envelope.max_bank_rad if envelope.max_bank_rad > 0 else 0.0)
-        omega_now = g * math.tan(bank_now) / v_turn  # + = right turn = clockwise
+        omega_now = turn_rate_radps(v_turn, bank_now, g)  # + = right turn = clockwise
         rot = max(-math.pi, min(math.pi, omega_now * t_fw))
         psi_react0 = psi_abs
         psi_abs = psi_abs - rot
@@ -421,28 +246,26 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
                 cand = psi_d - math.asin(wc / v_turn)
                 if v_turn * math.cos(cand - psi_d) + (de * wind_e + dn * wind_n) / dd > 0.0:
                     psi_f = cand
-            directions = ((1.0, (psi_f - psi_abs) % TWO_PI), (-1.0, (psi_abs - psi_f) % TWO_PI))
+            directions: tuple[tuple[float, float], ...] = ((1.0, (psi_f - psi_abs) % TWO_PI), (-1.0, (psi_abs - psi_f) % TWO_PI))
         else:
             # at the recovery point the direction to it is undefined: a course reversal
             directions = ((1.0, math.pi), (-1.0, math.pi))
         # no edge farther than min_d + bound can bind (bound >= any room, turns <= 2 pi)
-        bound = 2.0 * radius + wspeed * TWO_PI * inv_omega + (speed + wspeed) * t_fw + hu
+        bound = fixed_wing_room_bound_m(radius, inv_omega, speed, wspeed, t_fw) + hu
     else:
-        a_tilt = g * math.tan(envelope.max_bank_rad)
+        a_tilt = tilt_accel_mps2(envelope.max_bank_rad, g)
         k1, k2 = drag_coefficients(envelope)
         v_air_mc = math.hypot(ve - wind_e, vn - wind_n)
         a_brake = envelope.braking_decel_mps2
         # arresting a climb lowers the collective, and with it the horizontal braking force
-        climb_arrest = (vu / envelope.vertical_accel_mps2, envelope.vertical_accel_mps2 / g) \
-            if vu > 0.0 and envelope.vertical_accel_mps2 > 0.0 else (0.0, 0.0)
+        climb_arrest = climb_arrest_phase(vu, envelope.vertical_accel_mps2, g)
         directions = ((0.0, 0.0),)
         # no edge farther than min_d + bound can bind: bound >= the room against any edge (the largest
         # closing speed, push and pilot acceleration, the weakest braking; the room grows with each)
         push_max = wind_push_mps2(k1, k2, wspeed, wspeed)
         a_p_max = a_tilt + push_max
-        v1_max = speed + (a_p_max * t_r if a_p_max > 0.0 else 0.0)
-        brake = _braking_room_m(v1_max, v1_max, a_brake - push_max, climb_arrest) if v1_max > 0.0 else 0.0
-        bound = (speed * t_r + 0.5 * max(a_p_max, 0.0) * t_r * t_r + brake + hu) * (1.0 + 1e-9) + 1e-6
+        room_max = multirotor_room_m(speed, speed, t_r, max(a_p_max, 0.0), a_brake - push_max, climb_arrest)
+        bound = (room_max + hu) * (1.0 + 1e-9) + 1e-6
     grid = fence.grid()
     if grid is not None and bound < math.inf:
         dists, min_d = grid.near(e, n, bound)
@@ -466,22 +289,16 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
             v_n = ve * nx + vn * ny
             w_n = wind_e * nx + wind_n * ny + extra
             if fixed_wing:
-                base = _reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n) + hu
+                base = reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n) + hu
                 # air heading relative to the normal: angle from n to (ca, sa)
                 psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
             else:
                 # worst case: the pilot keeps accelerating at the tilt limit toward the
                 # edge (while below max airspeed), helped by the wind's push, until the
                 # override acts (t_r); then the vehicle brakes against that push
-                base = v_n * t_r if v_n > 0.0 else 0.0
                 push = wind_push_mps2(k1, k2, wspeed, w_n)
                 a_p = (a_tilt if v_air_mc < envelope.max_speed_mps else 0.0) + push
-                v_n1 = v_n + a_p * t_r
-                if v_n1 > 0.0:
-                    base = (v_n * t_r if v_n > 0.0 else 0.0) + 0.5 * a_p * t_r * t_r
-                    v1 = speed + a_p * t_r
-                    base += _braking_room_m(v_n1, v1 if v1 > v_n1 else v_n1, a_brake - push, climb_arrest)
-                base += hu
+                base = multirotor_room_m(v_n, speed, t_r, a_p, a_brake - push, climb_arrest) + hu
                 psi0 = 0.0
             near.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0))
         best = None
@@ -489,7 +306,7 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
             worst = math.inf
             wk = None
             for d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 in near:
-                room = base + _excursion(radius, inv_omega, v_turn, w_n, psi0, s, delta) if fixed_wing else base
+                room = base + trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta) if fixed_wing else base
                 act = d - room
                 if act < worst:
                     worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)
@@ -563,25 +380,6 @@ class ShiftFeasibility:
     ceiling_shift_m: float
     floor_shift_m: float
     vertical_room_m: float
-
-
-def worst_case_lateral_shift_m(envelope: Envelope, wind_speed_mps: float, h_uncertainty_m: float = 0.0,
-                               g: float = G_MPS2) -> float:
-    """Largest lateral shift over speeds and approach angles: head-on with the wind as a tailwind.
-
-    ``wind_speed_mps`` is the design wind (mean plus any turbulence and gust allowance).
-    """
-    w = abs(wind_speed_mps)
-    t_r = envelope.reaction_time_s
-    if envelope.kind is PlatformKind.FIXED_WING:
-        speeds = [v for v in (envelope.min_speed_mps, envelope.cruise_speed_mps, envelope.max_speed_mps) if v > w]
-        if not speeds:
-            return math.inf
-        return max(fixed_wing_room_m(v, envelope.max_bank_rad, 0.0, w, t_r, g) for v in speeds) + h_uncertainty_m
-    k1, k2 = drag_coefficients(envelope)
-    push = wind_push_mps2(k1, k2, w, w)
-    v = envelope.max_speed_mps
-    return multicopter_stopping_distance_m(v, t_r, envelope.braking_decel_mps2, v, push) + h_uncertainty_m
 
 
 def check_shift_feasible(fence: LocalFence, envelope: Envelope, wind_speed_mps: float, *,

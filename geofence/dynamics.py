@@ -1,4 +1,8 @@
-"""The point-mass dynamics the unit assumes for a platform: the one home of the drag law.
+"""The point-mass dynamics the unit assumes for a platform: the one home of the drag law and of gravity.
+
+``G_MPS2 = 9.80665 m/s²`` (standard gravity) is defined here and imported by
+every other module that needs g (the room formulas in :mod:`geofence.rooms`,
+the wind estimator, the control laws, dead reckoning).
 
 A multirotor's horizontal air drag per unit mass at airspeed ``v`` (m/s) is
 
@@ -26,6 +30,7 @@ from dataclasses import replace
 from geofence.interface import Envelope
 
 G_MPS2: float = 9.80665
+"""Standard gravity, m/s²."""
 
 
 def drag_coefficients(env: Envelope) -> tuple[float, float]:
@@ -93,9 +98,9 @@ def envelope_at_density(env: Envelope, density_ratio: float) -> Envelope:
     s = min(density_ratio, 1.0)
     if s >= 1.0:
         return env
-    common = {"max_climb_rate_mps": env.max_climb_rate_mps * s, "vertical_accel_mps2": env.vertical_accel_mps2 * s}
+    env = replace(env, max_climb_rate_mps=env.max_climb_rate_mps * s, vertical_accel_mps2=env.vertical_accel_mps2 * s)
     if env.is_multirotor:
-        return replace(env, drag_quadratic_per_m=env.drag_quadratic_per_m * s, **common)
+        return replace(env, drag_quadratic_per_m=env.drag_quadratic_per_m * s)
     f = 1.0 / math.sqrt(s)
     return replace(env, cruise_speed_mps=env.cruise_speed_mps * f, max_speed_mps=env.max_speed_mps * f,
-                   min_speed_mps=env.min_speed_mps * f, **common)
+                   min_speed_mps=env.min_speed_mps * f)

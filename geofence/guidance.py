@@ -34,7 +34,6 @@ from __future__ import annotations
 import math
 from typing import Protocol
 
-from geofence.boundary_shift import turn_radius_m
 from geofence.config import SeedPDGains
 from geofence.control_laws import (
     VelocityController,
@@ -50,6 +49,7 @@ from geofence.control_laws import (
     yaw_stick_for_heading,
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
+from geofence.rooms import turn_radius_m
 
 ALTITUDE_GAIN_PER_S = 1.0
 FIXED_WING_ALTITUDE_GAIN_PER_S = 0.35

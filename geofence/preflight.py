@@ -37,9 +37,10 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Sequence
 
-from geofence.boundary_shift import activation_margins, turn_radius_m
+from geofence.boundary_shift import activation_margins
 from geofence.fence import LocalFence
 from geofence.interface import Envelope
+from geofence.rooms import envelope_turn_radius_m
 
 HEADING_STEP_RAD = math.radians(10.0)
 
@@ -144,10 +145,6 @@ def _leg_samples(env, a: PlannedWaypoint, b: PlannedWaypoint, speed: float, wind
     return out
 
 
-def _turn_radius(env: Envelope, speed: float) -> float:
-    return turn_radius_m(speed, max(env.max_bank_rad, 0.05))
-
-
 def _turn_samples(env, prev: PlannedWaypoint, wp: PlannedWaypoint, nxt: PlannedWaypoint, speed: float, wind_en) -> list[_Sample]:
     """The fixed-wing's turn onto the next leg, starting at ``wp`` tangent to the incoming leg."""
     c_in = math.atan2(wp.north_m - prev.north_m, wp.east_m - prev.east_m)
@@ -155,7 +152,7 @@ def _turn_samples(env, prev: PlannedWaypoint, wp: PlannedWaypoint, nxt: PlannedW
     delta = (c_out - c_in + math.pi) % (2.0 * math.pi) - math.pi  # + = left (counter-clockwise)
     if abs(delta) < HEADING_STEP_RAD:
         return []
-    r = _turn_radius(env, speed)
+    r = envelope_turn_radius_m(env, speed)
     s = 1.0 if delta > 0.0 else -1.0
     # centre of the turn: r to the left (s = +1) or right of the incoming track
     cx, cy = wp.east_m - s * r * math.sin(c_in), wp.north_m + s * r * math.cos(c_in)
@@ -170,7 +167,7 @@ def _turn_samples(env, prev: PlannedWaypoint, wp: PlannedWaypoint, nxt: PlannedW
 
 
 def _loiter_samples(env, wp: PlannedWaypoint, speed: float, wind_en) -> list[_Sample]:
-    r = max(wp.loiter_radius_m, 1.5 * _turn_radius(env, speed))
+    r = max(wp.loiter_radius_m, 1.5 * envelope_turn_radius_m(env, speed))
     out = []
     k = int(round(2.0 * math.pi / HEADING_STEP_RAD))
     for i in range(k):

@@ -40,11 +40,11 @@ import math
 from dataclasses import dataclass
 from enum import IntEnum
 
-from geofence.boundary_shift import ShiftResult, activation_margins, turn_radius_m
+from geofence.boundary_shift import ShiftResult, activation_margins
 from geofence.config import GeofenceConfig, TurbulenceSource
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
-from geofence.dynamics import G_MPS2, drag_coefficients, envelope_at_density, isa_density_ratio, wind_push_mps2
+from geofence.dynamics import envelope_at_density, isa_density_ratio
 from geofence.fence import LocalFence
 from geofence.guidance import (
     FixedWingRecovery,
@@ -56,6 +56,7 @@ from geofence.guidance import (
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
 from geofence.recovery_path import RecoveryPlanner
+from geofence.rooms import envelope_turn_radius_m, room_upper_bounds_fast_m, vertical_arrest_distance_m
 
 RECOVERED_HOLD_S = 1.0
 WIND_BEYOND_AUTHORITY_PERSIST_S = 3.0
@@ -136,6 +137,7 @@ class GeofenceUnit:
         """The guidance laws and dead reckoning for envelope ``env``."""
         self.env = env
         config = self.config
+        self.recovery: SeedPDRecovery | MultirotorVelocityRecovery | FixedWingRecovery
         if env.is_multirotor:
             if config.multirotor_law == "seed_pd":
                 self.recovery = SeedPDRecovery(env, config.seed_pd, config.ramp_s)
@@ -143,7 +145,7 @@ class GeofenceUnit:
                 self.recovery = MultirotorVelocityRecovery(env, config.recovery_speed_mps, self.wind_enu)
         else:
             self.recovery = FixedWingRecovery(env, self.wind_enu)
-        turn_r = turn_radius_m(env.cruise_speed_mps, max(env.max_bank_rad, 0.05))
+        turn_r = envelope_turn_radius_m(env)
         self.landing = LandingGuidance(env, spiral_radius_m=max(1.2 * turn_r, 10.0), wind_enu=self.wind_enu)
         self.dead_reckoning = DeadReckoning(env)
 
@@ -177,34 +179,24 @@ class GeofenceUnit:
         """Cheap pre-check: no edge, ceiling or floor is within the largest room this state could need.
 
         An upper bound of the lateral room that :func:`activation_margins`
-        can return for this state (the larger of max speed and the current
-        speed, the strongest turn or braking, the wind with its allowance, two
-        roll times) and of the vertical arrest distance; when the plain margins
-        exceed both, the full per-edge computation cannot trigger and is skipped.
+        can return for this state and of the vertical arrest distance
+        (:func:`geofence.rooms.room_upper_bounds_m`, in its fast form: the larger of max speed and
+        the current speed, the strongest turn or braking, the wind with its
+        allowance, two roll times); when the plain margins exceed both, the full
+        per-edge computation cannot trigger and is skipped.
         """
         env = self.env
         k = self.config.uncertainty_k_sigma
         extra = self.config.extra_margin_m
-        w = math.hypot(self.wind_enu[0], self.wind_enu[1]) + self.wind_allowance_mps
-        g = G_MPS2
+        we, wn = self.wind_enu
+        w = math.hypot(we, wn) + self.wind_allowance_mps
         t = 2.0 * env.reaction_time_s + self._latency_s
-        if env.is_multirotor:
-            v = max(env.max_speed_mps, s.ground_speed_mps)
-            k1, k2 = drag_coefficients(env)
-            push = wind_push_mps2(k1, k2, w, w)
-            a_p = g * math.tan(env.max_bank_rad) + push
-            a = (env.braking_decel_mps2 - push) * max(1.0 - env.vertical_accel_mps2 / g, 0.05)
-            if a <= 0.0:
-                return False
-            v1 = v + a_p * t
-            room = v * t + 0.5 * a_p * t * t + v1 * v1 / (2.0 * a)
-        else:
-            v = max(env.max_speed_mps, math.hypot(s.v_east_mps - self.wind_enu[0], s.v_north_mps - self.wind_enu[1]))
-            tanb = g * math.tan(env.max_bank_rad)
-            room = 2.0 * v * v / tanb + w * 2.0 * math.pi * v / tanb + (v + w) * t
+        room, vroom = room_upper_bounds_fast_m(env, s.ground_speed_mps, math.hypot(s.v_east_mps - we, s.v_north_mps - wn),
+                                          s.v_up_mps, w, t)
+        if room == math.inf:
+            return False
         room += k * sigma_h_m + extra
-        vz = max(env.max_climb_rate_mps, env.max_descent_rate_mps, abs(s.v_up_mps))
-        vroom = vz * t + vz * vz / (2.0 * env.vertical_accel_mps2) + k * sigma_v_m + extra
+        vroom += k * sigma_v_m + extra
         fence = self.fence
         if fence.ceiling_m - h <= vroom or not fence.lateral_margin_exceeds(s.east_m, s.north_m, room):
             return False
@@ -260,7 +252,7 @@ class GeofenceUnit:
         env = self.env
         u = self.config.uncertainty_k_sigma * self._sigma_v_m + self.config.extra_margin_m + self._vertical_handback_m
         # the altitude hold approaches the goal at about 1 m/s per m: allow one arrest from 1 m/s
-        settle = 1.0 * env.reaction_time_s + 1.0 / (2.0 * max(env.vertical_accel_mps2, 0.1)) + 0.5
+        settle = vertical_arrest_distance_m(1.0, env.reaction_time_s, max(env.vertical_accel_mps2, 0.1)) + 0.5
         band_lo, band_hi = lo + u + settle, hi - u - settle
         if band_lo <= band_hi:
             return clip(h, band_lo, band_hi)
@@ -296,7 +288,7 @@ class GeofenceUnit:
             return found[1] if found is not None else fence.recovery_en
         we, wn = self.wind_enu
         v = max(self.env.max_speed_mps, 1.0)
-        best, best_time = None, math.inf
+        best, best_time = fence.recovery_en, math.inf
         for gap in fence.floor_gaps:
             ge, gn, _ = gap.inradius()
             d = math.hypot(ge - s.east_m, gn - s.north_m)
@@ -325,7 +317,7 @@ class GeofenceUnit:
         if env.is_multirotor:
             c = ROUTE_CLEARANCE_MULTIROTOR_M + hu
         else:
-            c = turn_radius_m(env.cruise_speed_mps, max(env.max_bank_rad, 0.05)) + hu
+            c = envelope_turn_radius_m(env) + hu
         return tuple(float(math.ceil(x)) for x in (c, 0.5 * c, 0.25 * c))
 
     def _route(self, s: VehicleState, goal_en: tuple[float, float]) -> Route:
@@ -351,7 +343,7 @@ class GeofenceUnit:
         """The route and the goal of an override: the recovery point, or (fixed-wing) the nearest point
         on the way where its recovery orbit fits."""
         goal = self.fence.recovery_en
-        if not self.env.is_multirotor:
+        if isinstance(self.recovery, FixedWingRecovery):
             orbit_r = self.recovery.orbit_radius_m
             if self.fence.lateral_margin_m(*goal) < orbit_r + self._route_clearances()[0]:
                 found = self._point_with_room(s, orbit_r)
@@ -396,7 +388,8 @@ class GeofenceUnit:
 
     def _start_override(self, t_s: float, s: VehicleState, h: float, r: ShiftResult, reason: str) -> None:
         route, _ = self._recovery_goal(s)
-        hold = self.fence.floor_m + VERTICAL_CLEARANCE_M if self._below_floor_in_gap(s, h) else None
+        floor = self.fence.floor_m
+        hold = floor + VERTICAL_CLEARANCE_M if floor is not None and self._below_floor_in_gap(s, h) else None
         goal_h = self._goal_height(max(h, hold) if hold is not None else h)
         self.recovery.start(s, route, goal_h, h, t_s, r.turn_sign, r.turn_angle_rad, hold)
         self._override_period_start_s = t_s

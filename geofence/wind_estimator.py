@@ -83,10 +83,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from geofence.dynamics import airspeed_for_drag_mps, drag_coefficients, isa_density_ratio
+from geofence.dynamics import G_MPS2, airspeed_for_drag_mps, drag_coefficients, isa_density_ratio
 from geofence.interface import Envelope, VehicleState
-
-G_MPS2 = 9.80665
 
 
 @dataclass(frozen=True)
