@@ -29,7 +29,7 @@ from pathlib import Path
 from aircraft.jsbsim_model import FT_TO_M, M_TO_FT, OWN_SYSTEMS
 from aircraft.profile import PlatformProfile
 from aircraft.stick_platform import StickPlatform
-from geofence.dynamics import isa_density_ratio
+from geofence.dynamics import G_MPS2, isa_density_ratio
 from geofence.geodesy import LocalFrame, geodetic_to_ecef
 from geofence.interface import PlatformKind, StickCommand
 
@@ -139,7 +139,7 @@ class FixedWingPlatform(StickPlatform):
         set_roll_stick = self._stick_setters[0]
         chunk = max(1, int(round(0.1 / self.dt_s)))
         # bank ~ V * heading error / (g * 1.2 s): closes the heading error with a ~1.2 s time constant
-        k_stick_per_deg = math.radians(1.0) * v0 / (9.80665 * 1.2 * max(env.max_bank_rad, 0.1))
+        k_stick_per_deg = math.radians(1.0) * v0 / (G_MPS2 * 1.2 * max(env.max_bank_rad, 0.1))
         for _ in range(int(round(SETTLE_S / (chunk * self.dt_s)))):
             err_deg = (heading_deg - math.degrees(m.get("attitude/psi-rad")) + 180.0) % 360.0 - 180.0
             set_roll_stick(max(-0.5, min(0.5, k_stick_per_deg * err_deg)))

@@ -38,11 +38,11 @@ from dataclasses import dataclass, field
 from aircraft.factory import build_platform
 from aircraft.platform import Platform
 from aircraft.profile import PlatformProfile, load_profile
-from geofence.dynamics import drag_accel_mps2, drag_coefficients
+from geofence.dynamics import G_MPS2, drag_accel_mps2, drag_coefficients
 from geofence.geodesy import LocalFrame
 from geofence.interface import PlatformKind, StickCommand, VehicleState
+from geofence.rooms import turn_radius_m
 
-G_MPS2 = 9.80665
 OUTER_HZ = 40.0
 LAT0_DEG, LON0_DEG, GROUND_ALT_M = 47.0, 8.0, 400.0
 FRAME = LocalFrame(LAT0_DEG, LON0_DEG, GROUND_ALT_M)
@@ -516,7 +516,7 @@ def _measure_fixed_wing(p: Platform, m: Measurement) -> None:
     rate_deg_s = _unwrapped_rate_deg_s(tail)
     v_turn = _mean(s.ground_speed_mps for s in tail)
     radius = v_turn / math.radians(abs(rate_deg_s))
-    r_theory = v_turn**2 / (G_MPS2 * math.tan(math.radians(bank_deg)))
+    r_theory = turn_radius_m(v_turn, math.radians(bank_deg))
     m.add("bank, full roll stick (steady)", bank_deg, "deg")
     m.add("roll step, time to 90 % of max bank", t90, "s")
     m.add("turn rate at max bank", rate_deg_s, "deg/s")
