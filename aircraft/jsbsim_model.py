@@ -30,6 +30,7 @@ import jsbsim
 
 from geofence.geodesy import LocalFrame
 from geofence.interface import VehicleState
+from geofence.validation import ConfigError
 
 FT_TO_M = 0.3048
 M_TO_FT = 1.0 / FT_TO_M
@@ -40,7 +41,7 @@ OWN_MODELS = Path(__file__).parent / "models"
 OWN_SYSTEMS = Path(__file__).parent / "systems"
 
 
-class UnknownAircraftError(ValueError):
+class UnknownAircraftError(ConfigError):
     """No JSBSim model of that name ships in the wheel or in ``aircraft/models``."""
 
 

@@ -36,6 +36,7 @@ from typing import Any
 import yaml
 
 from geofence.interface import Envelope, PlatformKind
+from geofence.validation import ConfigError, number, reject_unknown_keys
 
 PROFILES_DIR = Path(__file__).parent / "profiles"
 
@@ -58,7 +59,7 @@ _OPTIONAL_ENVELOPE_FIELDS = {"drag_linear_per_s": 0.0, "drag_quadratic_per_m": 0
 """Envelope keys a profile may leave out (see :class:`geofence.interface.Envelope`)."""
 
 
-class ProfileError(ValueError):
+class ProfileError(ConfigError):
     """A profile file is missing or malformed."""
 
 
@@ -90,11 +91,18 @@ def parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
     An inline profile may name ``base: <model>`` to start from a shipped
     profile and override only some envelope values or gains.
     """
+    try:
+        return _parse_profile(raw, model, where)
+    except ProfileError:
+        raise
+    except ConfigError as exc:  # a kit reader's message, as the profile's error type
+        raise ProfileError(str(exc)) from None
+
+
+def _parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
     if not isinstance(raw, Mapping):
         raise ProfileError(f"{where}: expected a mapping with kind, envelope and gains")
-    unknown = sorted(set(map(str, raw)) - {"model", "kind", "frame_rate_hz", "envelope", "gains", "base"})
-    if unknown:
-        raise ProfileError(f"{where}: unknown key {unknown[0]!r} (allowed: base, envelope, frame_rate_hz, gains, kind, model)")
+    reject_unknown_keys(raw, ("model", "kind", "frame_rate_hz", "envelope", "gains", "base"), where)
     base = load_profile(str(raw["base"])) if raw.get("base") is not None else None
     kind_raw = raw.get("kind", base.kind.value if base else None)
     try:
@@ -104,17 +112,12 @@ def parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
     env_raw = raw.get("envelope") or {}
     if not isinstance(env_raw, Mapping):
         raise ProfileError(f"{where}.envelope: expected a mapping")
-    bad = sorted(set(map(str, env_raw)) - set(_ENVELOPE_FIELDS))
-    if bad:
-        raise ProfileError(f"{where}.envelope: unknown key {bad[0]!r} (allowed: {', '.join(_ENVELOPE_FIELDS)})")
+    reject_unknown_keys(env_raw, _ENVELOPE_FIELDS, f"{where}.envelope")
     values = {}
     for key, scale in _ENVELOPE_FIELDS.items():
         field_name = key.replace("_deg_s", "_radps").replace("_deg", "_rad")
         if key in env_raw:
-            x = env_raw[key]
-            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) or x < 0:
-                raise ProfileError(f"{where}.envelope.{key}: must be a finite number >= 0, got {x!r}")
-            values[field_name] = float(x) * scale
+            values[field_name] = number(env_raw[key], f"{where}.envelope.{key}", minimum=0.0) * scale
         elif base is not None:
             values[field_name] = getattr(base.envelope, field_name)
         elif key in _OPTIONAL_ENVELOPE_FIELDS:
@@ -126,12 +129,9 @@ def parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
     if not isinstance(gains_raw, Mapping):
         raise ProfileError(f"{where}.gains: expected a mapping of property: value")
     for k, v in gains_raw.items():
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-            raise ProfileError(f"{where}.gains.{k}: must be a finite number, got {v!r}")
-        gains[str(k)] = float(v)
-    rate = raw.get("frame_rate_hz", base.frame_rate_hz if base else 120.0)
-    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not 30.0 <= rate <= 1000.0:
-        raise ProfileError(f"{where}.frame_rate_hz: must be a number in [30, 1000], got {rate!r}")
+        gains[str(k)] = number(v, f"{where}.gains.{k}")
+    rate = number(raw.get("frame_rate_hz", base.frame_rate_hz if base else 120.0), f"{where}.frame_rate_hz",
+                  minimum=30.0, maximum=1000.0)
     return PlatformProfile(
         model=str(raw.get("model", model)),
         kind=kind,

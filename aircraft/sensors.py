@@ -53,10 +53,8 @@ handed out as plain floats, so a step costs a few microseconds.
 
 from __future__ import annotations
 
-import difflib
 import math
 from collections import deque
-from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -66,6 +64,7 @@ from geofence.dynamics import isa_density_ratio
 from geofence.geodesy import WGS84_A_M, WGS84_F
 from geofence.interface import VehicleState
 from geofence.measurements import AirData, AttitudeSample, GpsFix
+from geofence.validation import ConfigError, integer, kind, number, reject_unknown_keys, require_mapping
 
 _E2 = WGS84_F * (2.0 - WGS84_F)
 _NAN = float("nan")
@@ -346,33 +345,6 @@ _FLOAT_FIELDS = {
 SENSOR_KEYS: tuple[str, ...] = tuple(f.name for f in fields(SensorConfig))
 
 
-def _kind(value: Any) -> str:
-    if value is None:
-        return "nothing"
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, str):
-        return "a string"
-    if isinstance(value, Mapping):
-        return "a mapping"
-    if isinstance(value, (list, tuple)):
-        return "a list"
-    return type(value).__name__
-
-
-def _number(value: Any, where: str, minimum: float, positive: bool) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{where}: expected a number, got {_kind(value)} {value!r}")
-    x = float(value)
-    if not math.isfinite(x):
-        raise ValueError(f"{where}: must be a finite number, got {value!r}")
-    if positive and not x > 0.0:
-        raise ValueError(f"{where}: must be > 0, got {value!r}")
-    if x < minimum:
-        raise ValueError(f"{where}: must be >= {minimum:g}, got {value!r}")
-    return x
-
-
 def parse_sensors(raw: Any, where: str = "sensors") -> SensorConfig:
     """Validate an optional ``sensors:`` YAML block into a :class:`SensorConfig` (None -> defaults).
 
@@ -386,39 +358,33 @@ def parse_sensors(raw: Any, where: str = "sensors") -> SensorConfig:
           ahrs_yaw_deg: 3
           seed: 11                     # optional; else the scenario seed
 
-    Errors are one-line ``ValueError`` s: ``<where>.<field>: <problem>``; unknown keys are rejected.
+    Errors are one-line :class:`~geofence.validation.ConfigError` s: ``<where>.<field>: <problem>``; unknown keys are rejected.
     """
     if raw is None:
         return SensorConfig()
-    if not isinstance(raw, Mapping):
-        raise ValueError(f"{where}: expected a mapping (key: value), got {_kind(raw)}")
+    require_mapping(raw, where)
+    reject_unknown_keys(raw, SENSOR_KEYS, where)
     out: dict[str, Any] = {}
     for key, value in raw.items():
         w = f"{where}.{key}"
-        if key not in SENSOR_KEYS:
-            close = difflib.get_close_matches(str(key), SENSOR_KEYS, n=1)
-            hint = f"did you mean {close[0]!r}? " if close else ""
-            raise ValueError(f"{w}: unknown key ({hint}allowed: {', '.join(SENSOR_KEYS)})")
         if key == "seed":
-            if value is not None and (isinstance(value, bool) or not isinstance(value, int) or value < 0):
-                raise ValueError(f"{w}: expected an integer >= 0, got {_kind(value)} {value!r}")
-            out[key] = value
+            out[key] = None if value is None else integer(value, w, minimum=0)
         elif key == "gps_outages":
             if not isinstance(value, (list, tuple)):
-                raise ValueError(f"{w}: expected a list of [start_s, end_s] pairs, got {_kind(value)}")
+                raise ConfigError(f"{w}: expected a list of [start_s, end_s] pairs, got {kind(value)}")
             windows = []
             for i, pair in enumerate(value):
                 if not isinstance(pair, (list, tuple)) or len(pair) != 2:
-                    raise ValueError(f"{w}[{i}]: expected a [start_s, end_s] pair, got {_kind(pair)} {pair!r}")
-                a = _number(pair[0], f"{w}[{i}]", 0.0, False)
-                b = _number(pair[1], f"{w}[{i}]", 0.0, False)
+                    raise ConfigError(f"{w}[{i}]: expected a [start_s, end_s] pair, got {kind(pair)} {pair!r}")
+                a = number(pair[0], f"{w}[{i}]", minimum=0.0)
+                b = number(pair[1], f"{w}[{i}]", minimum=0.0)
                 if not b > a:
-                    raise ValueError(f"{w}[{i}]: end_s must be > start_s, got [{pair[0]!r}, {pair[1]!r}]")
+                    raise ConfigError(f"{w}[{i}]: end_s must be > start_s, got [{pair[0]!r}, {pair[1]!r}]")
                 windows.append((a, b))
             out[key] = tuple(windows)
         elif key == "gps_fail_at_s" and value is None:
             out[key] = None
         else:
             minimum, positive = _FLOAT_FIELDS[key]
-            out[key] = _number(value, w, minimum, positive)
+            out[key] = number(value, w, minimum=minimum, strictly_positive=positive)
     return SensorConfig(**out)

@@ -79,6 +79,7 @@ from pathlib import Path
 import numpy as np
 
 from geofence.geodesy import LocalFrame
+from geofence.validation import ConfigError
 
 TRAJECTORY_COLUMNS = (
     "time_s", "unix_time_s", "lat_deg", "lon_deg", "alt_m", "agl_m", "east_m", "north_m", "up_m",
@@ -86,7 +87,7 @@ TRAJECTORY_COLUMNS = (
 )
 
 
-class LogError(ValueError):
+class LogError(ConfigError):
     """A log that cannot be read or holds no usable position: one line naming the file."""
 
 

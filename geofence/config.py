@@ -43,19 +43,48 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass, field
-from enum import Enum
+from dataclasses import MISSING, dataclass, field
+from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
-from geofence.fence import ALTITUDE_REFERENCES, Fence, FenceError, parse_fence
+from geofence.fence import AltitudeReference, Fence, FenceError, parse_fence
 from geofence.importers import load_fence_file
-
-TRIGGERS = ("predictive", "reactive")
-MULTIROTOR_LAWS = ("velocity", "seed_pd")
+from geofence.validation import ConfigError, enum_value, integer, number, reject_unknown_keys, require_mapping
 
 
-class TurbulenceSource(str, Enum):
+class Trigger(StrEnum):
+    """When the unit overrides the pilot."""
+
+    PREDICTIVE = "predictive"
+    """On the activation boundary: the fence shifted inward by the room the aircraft needs to turn or stop."""
+    REACTIVE = "reactive"
+    """On the fence line itself (the seed work's baseline)."""
+
+
+class MultirotorLaw(StrEnum):
+    """The multirotor override's control law."""
+
+    VELOCITY = "velocity"
+    """Brake, then fly back along the recovery route with a velocity loop (the default)."""
+    SEED_PD = "seed_pd"
+    """The seed work's decoupled PD law on position error with a linear set-point ramp (:class:`SeedPDGains`)."""
+
+
+class StateSource(StrEnum):
+    """Where the unit's state estimate comes from."""
+
+    ESTIMATE = "estimate"
+    """The unit's own sensors and Kalman filter (the default)."""
+    TRUTH = "truth"
+    """A perfect position source (indoor motion capture)."""
+
+
+TRIGGERS = tuple(t.value for t in Trigger)
+MULTIROTOR_LAWS = tuple(m.value for m in MultirotorLaw)
+
+
+class TurbulenceSource(StrEnum):
     """Which turbulence intensity the activation margin allows for."""
 
     FORECAST = "forecast"
@@ -66,7 +95,7 @@ class TurbulenceSource(str, Enum):
     16 to 5 of 50 (Micro250)."""
 
 
-class GeofenceConfigError(ValueError):
+class GeofenceConfigError(ConfigError):
     """A bad ``geofence:`` block; the message is one line naming the field."""
 
 
@@ -93,21 +122,20 @@ class SeedPDGains:
 @dataclass(frozen=True)
 class GeofenceConfig:
     fence: Fence
-    trigger: str = "predictive"
+    trigger: Trigger = Trigger.PREDICTIVE
     min_override_s: float = 2.0
     handback_margin_m: float = 5.0
     recovery_radius_m: float = 10.0
     uncertainty_k_sigma: float = 2.0
     extra_margin_m: float = 0.0
-    multirotor_law: str = "velocity"
+    multirotor_law: MultirotorLaw = MultirotorLaw.VELOCITY
     seed_pd: SeedPDGains = field(default_factory=SeedPDGains)
     ramp_s: float = 3.0
     recovery_speed_mps: float | None = None
     max_reactivations: int = 3
     wind_prior_enu: tuple[float, float] = (0.0, 0.0)
     """Forecast wind (east, north m/s, toward) used until the estimate converges."""
-    state_source: str = "estimate"
-    """``estimate``: the unit's own sensors and filter; ``truth``: a perfect position source (motion capture)."""
+    state_source: StateSource = StateSource.ESTIMATE
     turbulence_sigma_mps: float = 0.0
     """Forecast turbulence intensity (1-sigma of the horizontal gust velocity, m/s)."""
     gust_mps: float = 0.0
@@ -134,97 +162,89 @@ FENCE_FILE_KEYS = ("file", "ceiling_m", "floor_m", "floor_gaps", "recovery_point
 """The keys of a ``fence:`` block that references a fence file."""
 
 
+def _default(name: str) -> Any:
+    """The default of a :class:`GeofenceConfig` field (each default is written once, in the dataclass)."""
+    f = GeofenceConfig.__dataclass_fields__[name]
+    return f.default_factory() if f.default is MISSING else f.default  # type: ignore[misc]
+
+
 def parse_geofence(raw: Any, where: str = "geofence", base_dir: str | Path | None = None) -> GeofenceConfig:
     """Validate a ``geofence:`` mapping into a :class:`GeofenceConfig`.
 
     ``base_dir``: the folder a relative ``fence: {file: ...}`` is resolved against (the scenario file's).
+    Every value is read with :mod:`geofence.validation`; a missing key takes the dataclass field's default.
     """
     if not isinstance(raw, Mapping):
         raise GeofenceConfigError(f"{where}: expected a mapping with at least a fence: block")
-    unknown = sorted(str(k) for k in raw if k not in _KEYS)
-    if unknown:
-        raise GeofenceConfigError(f"{where}: unknown key {unknown[0]!r} (allowed: {', '.join(sorted(_KEYS))})")
+    try:
+        return _parse_geofence(raw, where, base_dir)
+    except GeofenceConfigError:
+        raise
+    except ConfigError as exc:  # one domain type for the geofence block (FenceError, kit readers)
+        raise GeofenceConfigError(str(exc)) from None
+
+
+def _parse_geofence(raw: Mapping, where: str, base_dir: str | Path | None) -> GeofenceConfig:
+    reject_unknown_keys(raw, _KEYS, where)
     if "fence" not in raw:
         raise GeofenceConfigError(f"{where}.fence: missing (required)")
     fence_file, fence_warnings = None, ()
-    try:
-        if isinstance(raw["fence"], Mapping) and "file" in raw["fence"]:
-            fence, fence_file, fence_warnings = _fence_from_file(raw["fence"], f"{where}.fence", base_dir)
-        else:
-            fence = parse_fence(raw["fence"], f"{where}.fence")
-    except FenceError as exc:
-        raise GeofenceConfigError(str(exc)) from None
+    if isinstance(raw["fence"], Mapping) and "file" in raw["fence"]:
+        fence, fence_file, fence_warnings = _fence_from_file(raw["fence"], f"{where}.fence", base_dir)
+    else:
+        fence = parse_fence(raw["fence"], f"{where}.fence")
 
-    def num(key: str, default: float, lo: float = 0.0, hi: float = math.inf) -> float:
-        x = raw.get(key, default)
-        if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) or not lo <= x <= hi:
-            raise GeofenceConfigError(f"{where}.{key}: must be a number in [{lo:g}, {hi:g}], got {x!r}")
-        return float(x)
-
-    def choice(key: str, default: str, options: tuple[str, ...]) -> str:
-        x = raw.get(key, default)
-        if x not in options:
-            raise GeofenceConfigError(f"{where}.{key}: {x!r} is not one of {', '.join(options)}")
-        return x
+    def num(key: str, lo: float = 0.0, hi: float = math.inf) -> float:
+        return number(raw.get(key, _default(key)), f"{where}.{key}", minimum=lo, maximum=hi)
 
     gains = SeedPDGains()
     if raw.get("seed_pd") is not None:
-        g = raw["seed_pd"]
-        if not isinstance(g, Mapping):
-            raise GeofenceConfigError(f"{where}.seed_pd: expected a mapping of gains")
-        allowed = set(SeedPDGains.__dataclass_fields__)
-        values = {}
-        for k, v in g.items():
-            if k not in allowed:
-                raise GeofenceConfigError(f"{where}.seed_pd: unknown key {k!r} (allowed: {', '.join(sorted(allowed))})")
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise GeofenceConfigError(f"{where}.seed_pd.{k}: must be a number >= 0, got {v!r}")
-            values[k] = float(v)
-        gains = SeedPDGains(**values)
+        g = require_mapping(raw["seed_pd"], f"{where}.seed_pd")
+        reject_unknown_keys(g, SeedPDGains.__dataclass_fields__, f"{where}.seed_pd")
+        gains = SeedPDGains(**{k: number(v, f"{where}.seed_pd.{k}", minimum=0.0) for k, v in g.items()})
 
-    prior = (0.0, 0.0)
-    turb = gust = 0.0
+    prior = _default("wind_prior_enu")
+    turb, gust = _default("turbulence_sigma_mps"), _default("gust_mps")
     if raw.get("wind_prior") is not None:
-        w = raw["wind_prior"]
-        allowed = ("speed_mps", "from_deg", "turbulence_sigma_mps", "gust_mps")
-        if not isinstance(w, Mapping) or set(w) - set(allowed):
-            raise GeofenceConfigError(f"{where}.wind_prior: expected a mapping with keys from {', '.join(allowed)}")
-        values = {k: w.get(k, 0.0) for k in allowed}
-        for k, v in values.items():
-            nonneg = k != "from_deg"
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or (nonneg and v < 0):
-                raise GeofenceConfigError(f"{where}.wind_prior.{k}: must be a finite number{' >= 0' if nonneg else ''}, got {v!r}")
-        speed, to = values["speed_mps"], math.radians(values["from_deg"] + 180.0)
+        w = require_mapping(raw["wind_prior"], f"{where}.wind_prior")
+        reject_unknown_keys(w, _WIND_PRIOR_KEYS, f"{where}.wind_prior")
+        speed = number(w.get("speed_mps", 0.0), f"{where}.wind_prior.speed_mps", minimum=0.0)
+        from_deg = number(w.get("from_deg", 0.0), f"{where}.wind_prior.from_deg")
+        turb = number(w.get("turbulence_sigma_mps", turb), f"{where}.wind_prior.turbulence_sigma_mps", minimum=0.0)
+        gust = number(w.get("gust_mps", gust), f"{where}.wind_prior.gust_mps", minimum=0.0)
+        to = math.radians(from_deg + 180.0)
         prior = (speed * math.sin(to), speed * math.cos(to))
-        turb, gust = float(values["turbulence_sigma_mps"]), float(values["gust_mps"])
 
-    speed = raw.get("recovery_speed_mps")
-    max_react = raw.get("max_reactivations", 3)
-    if isinstance(max_react, bool) or not isinstance(max_react, int) or max_react < 0:
-        raise GeofenceConfigError(f"{where}.max_reactivations: must be an integer >= 0, got {max_react!r}")
+    speed_key = raw.get("recovery_speed_mps")
     return GeofenceConfig(
         fence=fence,
-        trigger=choice("trigger", "predictive", TRIGGERS),
-        min_override_s=num("min_override_s", 2.0, 0.0, 60.0),
-        handback_margin_m=num("handback_margin_m", 5.0, 0.0, 1000.0),
-        recovery_radius_m=num("recovery_radius_m", 10.0, 0.1, 10000.0),
-        uncertainty_k_sigma=num("uncertainty_k_sigma", 2.0, 0.0, 10.0),
-        extra_margin_m=num("extra_margin_m", 0.0, 0.0, 1000.0),
-        multirotor_law=choice("multirotor_law", "velocity", MULTIROTOR_LAWS),
+        trigger=enum_value(raw.get("trigger", _default("trigger")), f"{where}.trigger", Trigger),
+        min_override_s=num("min_override_s", 0.0, 60.0),
+        handback_margin_m=num("handback_margin_m", 0.0, 1000.0),
+        recovery_radius_m=num("recovery_radius_m", 0.1, 10000.0),
+        uncertainty_k_sigma=num("uncertainty_k_sigma", 0.0, 10.0),
+        extra_margin_m=num("extra_margin_m", 0.0, 1000.0),
+        multirotor_law=enum_value(raw.get("multirotor_law", _default("multirotor_law")), f"{where}.multirotor_law",
+                                  MultirotorLaw),
         seed_pd=gains,
-        ramp_s=num("ramp_s", 3.0, 0.0, 60.0),
-        recovery_speed_mps=None if speed is None else num("recovery_speed_mps", 0.0, 0.1, 100.0),
-        max_reactivations=max_react,
+        ramp_s=num("ramp_s", 0.0, 60.0),
+        recovery_speed_mps=None if speed_key is None else num("recovery_speed_mps", 0.1, 100.0),
+        max_reactivations=integer(raw.get("max_reactivations", _default("max_reactivations")),
+                                  f"{where}.max_reactivations", minimum=0),
         wind_prior_enu=prior,
-        state_source=choice("state_source", "estimate", ("estimate", "truth")),
+        state_source=enum_value(raw.get("state_source", _default("state_source")), f"{where}.state_source", StateSource),
         turbulence_sigma_mps=turb,
         gust_mps=gust,
-        turbulence_k_sigma=num("turbulence_k_sigma", 1.5, 0.0, 10.0),
-        vertical_handback_m=num("vertical_handback_m", 2.0, 0.0, 100.0),
-        turbulence_source=TurbulenceSource(choice("turbulence_source", "estimate", tuple(t.value for t in TurbulenceSource))),
+        turbulence_k_sigma=num("turbulence_k_sigma", 0.0, 10.0),
+        vertical_handback_m=num("vertical_handback_m", 0.0, 100.0),
+        turbulence_source=enum_value(raw.get("turbulence_source", _default("turbulence_source")),
+                                     f"{where}.turbulence_source", TurbulenceSource),
         fence_file=fence_file,
         fence_warnings=tuple(fence_warnings),
     )
+
+
+_WIND_PRIOR_KEYS = ("speed_mps", "from_deg", "turbulence_sigma_mps", "gust_mps")
 
 
 def fence_file_path(file: Any, where: str, base_dir: str | Path | None) -> Path:
@@ -255,8 +275,8 @@ def _fence_from_file(block: Mapping, where: str, base_dir: str | Path | None) ->
         if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)):
             raise GeofenceConfigError(f"{where}.{key}: must be a number, got {v!r}")
     ref = block.get("altitude_reference")
-    if ref is not None and (not isinstance(ref, str) or ref.lower() not in ALTITUDE_REFERENCES):
-        raise GeofenceConfigError(f"{where}.altitude_reference: must be 'agl' or 'amsl', got {ref!r}")
+    if ref is not None:
+        ref = enum_value(ref.lower() if isinstance(ref, str) else ref, f"{where}.altitude_reference", AltitudeReference)
     gaps = block.get("floor_gaps")
     if gaps is not None and (isinstance(gaps, (str, Mapping)) or not isinstance(gaps, (list, tuple))):
         raise GeofenceConfigError(f"{where}.floor_gaps: must be a list of polygons, got {type(gaps).__name__}")

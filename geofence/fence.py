@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any, Mapping, Sequence
 
 import numpy as np
@@ -75,13 +76,23 @@ from .polygon import (
     self_intersections,
     signed_area,
 )
+from .validation import ConfigError, enum_value, number, reject_unknown_keys
 
 
-class FenceError(ValueError):
+class FenceError(ConfigError):
     """An invalid fence: one line, naming the field and the problem."""
 
 
-ALTITUDE_REFERENCES = ("agl", "amsl")
+class AltitudeReference(StrEnum):
+    """What the fence's heights (ceiling, floor, recovery altitude) are measured from."""
+
+    AGL = "agl"
+    """Above the ground under the vehicle (the scenario's flat ground at the start's ground altitude)."""
+    AMSL = "amsl"
+    """Above mean sea level (the WGS-84 height the platforms report)."""
+
+
+ALTITUDE_REFERENCES = tuple(r.value for r in AltitudeReference)
 
 LatLon = tuple[float, float]
 PolygonLL = tuple[LatLon, ...]
@@ -111,7 +122,7 @@ class Fence:
     keep_in: PolygonLL
     ceiling_m: float
     floor_m: float | None = None
-    altitude_reference: str = "agl"
+    altitude_reference: AltitudeReference = AltitudeReference.AGL
     floor_gaps: tuple[PolygonLL, ...] = ()
     keep_out_polygons: tuple[PolygonLL, ...] = ()
     keep_out_circles: tuple[KeepOutCircle, ...] = ()
@@ -121,9 +132,11 @@ class Fence:
     def __post_init__(self) -> None:
         set_ = object.__setattr__
         ref = self.altitude_reference
-        if not isinstance(ref, str) or ref.lower() not in ALTITUDE_REFERENCES:
-            raise FenceError(f"altitude_reference: must be 'agl' or 'amsl', got {ref!r}")
-        set_(self, "altitude_reference", ref.lower())
+        try:
+            set_(self, "altitude_reference",
+                 enum_value(ref.lower() if isinstance(ref, str) else ref, "altitude_reference", AltitudeReference))
+        except ConfigError as exc:
+            raise FenceError(str(exc)) from None
         ceiling = _number(self.ceiling_m, "ceiling_m")
         set_(self, "ceiling_m", ceiling)
         if self.floor_m is not None:
@@ -230,12 +243,11 @@ class Fence:
 
 # --------------------------------------------------------------------------- validation helpers
 def _number(x: Any, name: str) -> float:
-    if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
-        raise FenceError(f"{name}: must be a number, got {x!r}")
-    v = float(x)
-    if not math.isfinite(v):
-        raise FenceError(f"{name}: must be finite, got {v}")
-    return v
+    """A finite number (numpy scalars too), as a :class:`FenceError`."""
+    try:
+        return number(x.item() if isinstance(x, np.generic) else x, name)
+    except ConfigError as exc:
+        raise FenceError(str(exc)) from None
 
 
 def _seq(x: Any, name: str) -> Sequence:
@@ -304,10 +316,7 @@ def parse_fence(mapping: Any, where: str = "") -> Fence:
     try:
         if not isinstance(mapping, Mapping):
             raise FenceError(f"fence: must be a mapping, got {type(mapping).__name__}")
-        unknown = [k for k in mapping if k not in _FENCE_KEYS]
-        if unknown:
-            raise FenceError(f"fence: unknown key(s) {', '.join(repr(k) for k in unknown)} "
-                             f"(allowed: {', '.join(_FENCE_KEYS)})")
+        reject_unknown_keys(mapping, _FENCE_KEYS, "fence")
         for req in ("keep_in", "ceiling_m"):
             if req not in mapping or mapping[req] is None:
                 raise FenceError(f"{req}: required")
@@ -316,9 +325,7 @@ def parse_fence(mapping: Any, where: str = "") -> Fence:
             name = f"keep_out_circles[{i}]"
             if not isinstance(c, Mapping):
                 raise FenceError(f"{name}: must be a mapping {{center: [lat, lon], radius_m: r}}, got {c!r}")
-            unk = [k for k in c if k not in _CIRCLE_KEYS]
-            if unk:
-                raise FenceError(f"{name}: unknown key(s) {', '.join(repr(k) for k in unk)} (allowed: center, radius_m)")
+            reject_unknown_keys(c, _CIRCLE_KEYS, name)
             for req in _CIRCLE_KEYS:
                 if req not in c:
                     raise FenceError(f"{name}.{req}: required")
@@ -335,7 +342,7 @@ def parse_fence(mapping: Any, where: str = "") -> Fence:
             keep_out_circles=tuple(circles),
             recovery_point=mapping.get("recovery_point"),
         )
-    except FenceError as exc:
+    except ConfigError as exc:  # FenceError, or a kit reader's
         raise FenceError(f"{pre}{exc}") from None
 
 

@@ -445,7 +445,7 @@ def fence_to_yaml_block(imported: ImportedFence | Fence) -> dict:
     block: dict[str, Any] = {"keep_in": [[lat, lon] for lat, lon in f.keep_in], "ceiling_m": f.ceiling_m}
     if f.floor_m is not None:
         block["floor_m"] = f.floor_m
-    block["altitude_reference"] = f.altitude_reference
+    block["altitude_reference"] = f.altitude_reference.value
     if f.floor_gaps:
         block["floor_gaps"] = [[[lat, lon] for lat, lon in g] for g in f.floor_gaps]
     if f.keep_out_polygons:

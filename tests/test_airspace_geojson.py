@@ -23,8 +23,8 @@ from geofence.importers import (
     fence_to_yaml_block,
     load_fence_file,
 )
+from geofence.validation import ConfigError
 from scenarios.airspace.generate import bounding_rectangle, generate_park, write_geojson
-from scenarios.spec.errors import ConfigError
 from scenarios.spec.schema import load_scenario, parse_scenario
 
 ROOT = Path(__file__).parents[1]

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 import yaml
 
+from geofence.validation import ConfigError
 from scenarios.app.batch import discover, plan, run_batch
-from scenarios.spec.errors import ConfigError
 from scenarios.spec.sweep import expand
 
 ROOT = Path(__file__).parents[1]
@@ -40,7 +40,7 @@ def test_grid_and_monte_carlo_expand_reproducibly():
         ({"grid": {"wind.speed_mps": []}}, "non-empty list"),
         ({"monte_carlo": {"draws": {"seed": {"gaussian": [0, 1]}}}}, "exactly one of"),
         ({"grid": {"pilot.segments.7.course_deg": [0]}}, "no such place"),
-        ({"repeat": 3}, "unknown key 'repeat'"),
+        ({"repeat": 3}, "repeat: unknown key"),
     ],
 )
 def test_bad_sweeps_name_the_field(sweep, problem):

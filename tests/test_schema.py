@@ -7,7 +7,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from scenarios.spec.errors import ConfigError
+from geofence.validation import ConfigError
 from scenarios.spec.schema import load_scenario, parse_scenario
 
 SHIPPED = sorted((Path(__file__).parents[1] / "scenarios").rglob("*.yaml"))
@@ -61,7 +61,7 @@ def test_base_document_parses():
         (with_(aircraft="Concorde"), "aircraft", "without a shipped profile; add a profile: block"),
         (with_(aircraft="c172p", profile={"base": "c172x", "envelope": {"max_bank_deg": -5}}), "profile.envelope.max_bank_deg", ">= 0"),
         (with_(aircraft="c172p", profile={"kind": "glider"}), "profile.kind", "multirotor or fixed_wing"),
-        (with_(colour="red"), "(top level)", "unknown key 'colour'"),
+        (with_(colour="red"), "bad.yaml: colour", "colour: unknown key (allowed: "),
         (with_(mission__items=[{"type": "hover"}]), "mission.items[0].type", "not one of"),
         (with_(mission__items=[{"type": "waypoint", "lat_deg": 1}]), "mission.items[0].lon_deg", "missing"),
         (with_(mission__items=[{"type": "land"}, {"type": "takeoff", "agl_m": 3}]), "mission.items[0]", "last"),

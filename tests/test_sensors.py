@@ -139,7 +139,7 @@ def test_parse_sensors():
         ({"gps_latency_s": "0.2"}, "x: sensors.gps_latency_s: expected a number"),
         ({"gps_outages": [[5, 2]]}, "x: sensors.gps_outages[0]: end_s must be > start_s"),
         ({"gps_outages": 3}, "x: sensors.gps_outages: expected a list"),
-        ({"seed": -1}, "x: sensors.seed: expected an integer >= 0"),
+        ({"seed": -1}, "x: sensors.seed: must be >= 0"),
         ([1, 2], "x: sensors: expected a mapping"),
     ]
     for raw, msg in bad:

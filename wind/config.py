@@ -18,7 +18,7 @@ The ``wind:`` block of a scenario::
          spread_deg: 30}                #   optional: from_deg (default steady), vertical_mps: [lo, hi]
       seed: 7                           # optional; else the scenario seed is used
 
-:func:`parse_wind` validates such a mapping; every error is a ``ValueError``
+:func:`parse_wind` validates such a mapping; every error is a :class:`~geofence.validation.ConfigError`
 with one line ``<where>.<field>: <problem>`` (``where`` names the block, e.g.
 ``"scenarios/x.yaml: wind"``). Unknown keys are errors (typo protection).
 
@@ -30,14 +30,21 @@ plain ``default_rng(seed)`` that other parts of a scenario may use.
 
 from __future__ import annotations
 
-import difflib
-import math
-from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from geofence.validation import (
+    ConfigError,
+    direction_deg,
+    integer,
+    kind,
+    number,
+    number_range,
+    reject_unknown_keys,
+    require_mapping,
+)
 from wind.dryden import SEVERITY_W20_MPS, DrydenTurbulence
 from wind.field import CalmWind, CompositeWind, WindField
 from wind.gust import Gust, GustTrain
@@ -66,7 +73,7 @@ class ProfileConfig:
             return LogLawProfile(self.roughness_length_m, self.reference_height_m)
         if self.law == "uniform":
             return UniformProfile()
-        raise ValueError(f"unknown profile law {self.law!r} (known: {', '.join(PROFILE_LAWS)})")
+        raise ConfigError(f"unknown profile law {self.law!r} (known: {', '.join(PROFILE_LAWS)})")
 
 
 @dataclass(frozen=True)
@@ -198,85 +205,7 @@ def wind_from_config(cfg: WindConfig | None, seed: int | None = None) -> WindFie
     return CompositeWind(components)
 
 
-# --------------------------------------------------------------------------- validation
-
-
-def _kind(value: Any) -> str:
-    if value is None:
-        return "nothing"
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, str):
-        return "a string"
-    if isinstance(value, Mapping):
-        return "a mapping"
-    if isinstance(value, (list, tuple)):
-        return "a list"
-    return type(value).__name__
-
-
-def _mapping(value: Any, where: str) -> Mapping:
-    if not isinstance(value, Mapping):
-        raise ValueError(f"{where}: expected a mapping (key: value), got {_kind(value)}")
-    return value
-
-
-def _check_keys(m: Mapping, allowed: tuple[str, ...], where: str) -> None:
-    for key in m:
-        if key not in allowed:
-            close = difflib.get_close_matches(str(key), allowed, n=1)
-            hint = f"did you mean {close[0]!r}? " if close else ""
-            raise ValueError(f"{where}.{key}: unknown key ({hint}allowed: {', '.join(allowed)})")
-
-
-def _num(
-    value: Any,
-    where: str,
-    *,
-    minimum: float | None = None,
-    maximum: float | None = None,
-    positive: bool = False,
-    allow_inf: bool = False,
-) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{where}: expected a number, got {_kind(value)} {value!r}")
-    x = float(value)
-    if math.isnan(x) or (math.isinf(x) and not (allow_inf and x > 0)):
-        raise ValueError(f"{where}: must be a finite number, got {value!r}")
-    if positive and not x > 0.0:
-        raise ValueError(f"{where}: must be > 0, got {value!r}")
-    if minimum is not None and x < minimum:
-        raise ValueError(f"{where}: must be >= {minimum:g}, got {value!r}")
-    if maximum is not None and x > maximum:
-        raise ValueError(f"{where}: must be <= {maximum:g}, got {value!r}")
-    return x
-
-
-def _int(value: Any, where: str, *, minimum: int = 0) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise ValueError(f"{where}: expected an integer, got {_kind(value)} {value!r}")
-    if value < minimum:
-        raise ValueError(f"{where}: must be >= {minimum}, got {value!r}")
-    return value
-
-
-def _range(value: Any, where: str, *, minimum: float | None = None, positive: bool = False) -> tuple[float, float]:
-    """A number (fixed value) or a [low, high] pair."""
-    if isinstance(value, (list, tuple)):
-        if len(value) != 2:
-            raise ValueError(f"{where}: expected a number or a [low, high] pair, got a list of {len(value)}")
-        lo = _num(value[0], f"{where}[0]", minimum=minimum, positive=positive)
-        hi = _num(value[1], f"{where}[1]", minimum=minimum, positive=positive)
-        if hi < lo:
-            raise ValueError(f"{where}: low must be <= high, got [{value[0]!r}, {value[1]!r}]")
-        return (lo, hi)
-    x = _num(value, where, minimum=minimum, positive=positive)
-    return (x, x)
-
-
-def _direction(value: Any, where: str) -> float:
-    return _num(value, where, minimum=0.0, maximum=360.0) % 360.0
-
+# --------------------------------------------------------------------------- validation (geofence.validation)
 
 _WIND_KEYS = ("speed_mps", "from_deg", "profile", "turbulence", "gusts", "random_gusts", "seed")
 _PROFILE_KEYS = {
@@ -298,14 +227,14 @@ def parse_wind(mapping: Any, where: str = "wind") -> WindConfig:
     """
     if mapping is None:
         return WindConfig()
-    m = _mapping(mapping, where)
-    _check_keys(m, _WIND_KEYS, where)
+    m = require_mapping(mapping, where)
+    reject_unknown_keys(m, _WIND_KEYS, where)
 
-    speed = _num(m.get("speed_mps", 0.0), f"{where}.speed_mps", minimum=0.0)
+    speed = number(m.get("speed_mps", 0.0), f"{where}.speed_mps", minimum=0.0)
     if "from_deg" in m:
-        from_deg = _direction(m["from_deg"], f"{where}.from_deg")
+        from_deg = direction_deg(m["from_deg"], f"{where}.from_deg")
     elif speed > 0.0:
-        raise ValueError(f"{where}.from_deg: missing (required when speed_mps > 0)")
+        raise ConfigError(f"{where}.from_deg: missing (required when speed_mps > 0)")
     else:
         from_deg = 0.0
 
@@ -316,91 +245,91 @@ def parse_wind(mapping: Any, where: str = "wind") -> WindConfig:
     if m.get("gusts") is not None:
         raw = m["gusts"]
         if not isinstance(raw, (list, tuple)):
-            raise ValueError(f"{where}.gusts: expected a list of gusts, got {_kind(raw)}")
+            raise ConfigError(f"{where}.gusts: expected a list of gusts, got {kind(raw)}")
         gusts = tuple(_parse_gust(g, f"{where}.gusts[{i}]") for i, g in enumerate(raw))
 
     random_gusts = None
     if m.get("random_gusts") is not None:
         random_gusts = _parse_random_gusts(m["random_gusts"], f"{where}.random_gusts")
 
-    seed = _int(m["seed"], f"{where}.seed") if m.get("seed") is not None else None
+    seed = integer(m["seed"], f"{where}.seed", minimum=0) if m.get("seed") is not None else None
     return WindConfig(speed, from_deg, profile, turbulence, gusts, random_gusts, seed)
 
 
 def _parse_profile(raw: Any, where: str) -> ProfileConfig:
-    m = _mapping(raw, where)
+    m = require_mapping(raw, where)
     if "law" not in m:
-        raise ValueError(f"{where}.law: missing (one of {', '.join(PROFILE_LAWS)})")
+        raise ConfigError(f"{where}.law: missing (one of {', '.join(PROFILE_LAWS)})")
     law = m["law"]
     if law not in PROFILE_LAWS:
-        raise ValueError(f"{where}.law: must be one of {', '.join(PROFILE_LAWS)}, got {law!r}")
+        raise ConfigError(f"{where}.law: must be one of {', '.join(PROFILE_LAWS)}, got {law!r}")
     for key in m:
         if key not in _PROFILE_KEYS[law]:
             if any(key in keys for keys in _PROFILE_KEYS.values()):
-                raise ValueError(f"{where}.{key}: not used by law {law!r} (allowed: {', '.join(_PROFILE_KEYS[law])})")
-    _check_keys(m, _PROFILE_KEYS[law], where)
+                raise ConfigError(f"{where}.{key}: not used by law {law!r} (allowed: {', '.join(_PROFILE_KEYS[law])})")
+    reject_unknown_keys(m, _PROFILE_KEYS[law], where)
     defaults = ProfileConfig()
-    zref = _num(m.get("reference_height_m", defaults.reference_height_m), f"{where}.reference_height_m", positive=True)
+    zref = number(m.get("reference_height_m", defaults.reference_height_m), f"{where}.reference_height_m", strictly_positive=True)
     exponent = defaults.exponent
     z0 = defaults.roughness_length_m
     if law == "power":
-        exponent = _num(m.get("exponent", defaults.exponent), f"{where}.exponent", positive=True, maximum=1.0)
+        exponent = number(m.get("exponent", defaults.exponent), f"{where}.exponent", strictly_positive=True, maximum=1.0)
     if law == "log":
-        z0 = _num(m.get("roughness_length_m", defaults.roughness_length_m), f"{where}.roughness_length_m", positive=True)
+        z0 = number(m.get("roughness_length_m", defaults.roughness_length_m), f"{where}.roughness_length_m", strictly_positive=True)
         if not zref > z0:
-            raise ValueError(f"{where}.reference_height_m: must be > roughness_length_m ({z0:g}), got {zref:g}")
+            raise ConfigError(f"{where}.reference_height_m: must be > roughness_length_m ({z0:g}), got {zref:g}")
     return ProfileConfig(law, exponent, zref, z0)
 
 
 def _parse_turbulence(raw: Any, where: str) -> TurbulenceConfig:
-    m = _mapping(raw, where)
-    _check_keys(m, _TURBULENCE_KEYS, where)
+    m = require_mapping(raw, where)
+    reject_unknown_keys(m, _TURBULENCE_KEYS, where)
     has_sev, has_w20 = m.get("severity") is not None, m.get("w20_mps") is not None
     if has_sev == has_w20:
-        raise ValueError(f"{where}: give exactly one of severity ({', '.join(SEVERITIES)}) or w20_mps")
+        raise ConfigError(f"{where}: give exactly one of severity ({', '.join(SEVERITIES)}) or w20_mps")
     if has_sev:
         sev = m["severity"]
         if not isinstance(sev, str) or sev.lower() not in SEVERITIES:
-            raise ValueError(f"{where}.severity: must be one of {', '.join(SEVERITIES)}, got {sev!r}")
+            raise ConfigError(f"{where}.severity: must be one of {', '.join(SEVERITIES)}, got {sev!r}")
         return TurbulenceConfig(severity=sev.lower())
-    return TurbulenceConfig(w20_mps=_num(m["w20_mps"], f"{where}.w20_mps", minimum=0.0))
+    return TurbulenceConfig(w20_mps=number(m["w20_mps"], f"{where}.w20_mps", minimum=0.0))
 
 
 def _parse_gust(raw: Any, where: str) -> GustConfig:
-    m = _mapping(raw, where)
-    _check_keys(m, _GUST_KEYS, where)
+    m = require_mapping(raw, where)
+    reject_unknown_keys(m, _GUST_KEYS, where)
     for key in ("onset_s", "amplitude_mps", "length_m"):
         if key not in m:
-            raise ValueError(f"{where}.{key}: missing (required)")
+            raise ConfigError(f"{where}.{key}: missing (required)")
     pen = m.get("penetration_speed_mps")
     return GustConfig(
-        onset_s=_num(m["onset_s"], f"{where}.onset_s", minimum=0.0),
-        amplitude_mps=_num(m["amplitude_mps"], f"{where}.amplitude_mps", minimum=0.0),
-        length_m=_num(m["length_m"], f"{where}.length_m", positive=True),
-        from_deg=_direction(m["from_deg"], f"{where}.from_deg") if m.get("from_deg") is not None else None,
-        vertical_mps=_num(m.get("vertical_mps", 0.0), f"{where}.vertical_mps"),
-        hold_m=_num(m.get("hold_m", 0.0), f"{where}.hold_m", minimum=0.0, allow_inf=True),
-        penetration_speed_mps=None if pen is None else _num(pen, f"{where}.penetration_speed_mps", positive=True),
+        onset_s=number(m["onset_s"], f"{where}.onset_s", minimum=0.0),
+        amplitude_mps=number(m["amplitude_mps"], f"{where}.amplitude_mps", minimum=0.0),
+        length_m=number(m["length_m"], f"{where}.length_m", strictly_positive=True),
+        from_deg=direction_deg(m["from_deg"], f"{where}.from_deg") if m.get("from_deg") is not None else None,
+        vertical_mps=number(m.get("vertical_mps", 0.0), f"{where}.vertical_mps"),
+        hold_m=number(m.get("hold_m", 0.0), f"{where}.hold_m", minimum=0.0, allow_inf=True),
+        penetration_speed_mps=None if pen is None else number(pen, f"{where}.penetration_speed_mps", strictly_positive=True),
     )
 
 
 def _parse_random_gusts(raw: Any, where: str) -> RandomGustsConfig:
-    m = _mapping(raw, where)
-    _check_keys(m, _RANDOM_GUST_KEYS, where)
+    m = require_mapping(raw, where)
+    reject_unknown_keys(m, _RANDOM_GUST_KEYS, where)
     for key in ("count", "start_s", "end_s", "amplitude_mps", "length_m"):
         if key not in m:
-            raise ValueError(f"{where}.{key}: missing (required)")
-    start = _num(m["start_s"], f"{where}.start_s", minimum=0.0)
-    end = _num(m["end_s"], f"{where}.end_s", minimum=0.0)
+            raise ConfigError(f"{where}.{key}: missing (required)")
+    start = number(m["start_s"], f"{where}.start_s", minimum=0.0)
+    end = number(m["end_s"], f"{where}.end_s", minimum=0.0)
     if end < start:
-        raise ValueError(f"{where}.end_s: must be >= start_s ({start:g}), got {m['end_s']!r}")
+        raise ConfigError(f"{where}.end_s: must be >= start_s ({start:g}), got {m['end_s']!r}")
     return RandomGustsConfig(
-        count=_int(m["count"], f"{where}.count"),
+        count=integer(m["count"], f"{where}.count", minimum=0),
         start_s=start,
         end_s=end,
-        amplitude_mps=_range(m["amplitude_mps"], f"{where}.amplitude_mps", minimum=0.0),
-        length_m=_range(m["length_m"], f"{where}.length_m", positive=True),
-        from_deg=_direction(m["from_deg"], f"{where}.from_deg") if m.get("from_deg") is not None else None,
-        spread_deg=_num(m.get("spread_deg", 0.0), f"{where}.spread_deg", minimum=0.0, maximum=180.0),
-        vertical_mps=_range(m.get("vertical_mps", 0.0), f"{where}.vertical_mps"),
+        amplitude_mps=number_range(m["amplitude_mps"], f"{where}.amplitude_mps", minimum=0.0),
+        length_m=number_range(m["length_m"], f"{where}.length_m", strictly_positive=True),
+        from_deg=direction_deg(m["from_deg"], f"{where}.from_deg") if m.get("from_deg") is not None else None,
+        spread_deg=number(m.get("spread_deg", 0.0), f"{where}.spread_deg", minimum=0.0, maximum=180.0),
+        vertical_mps=number_range(m.get("vertical_mps", 0.0), f"{where}.vertical_mps"),
     )

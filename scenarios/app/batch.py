@@ -40,7 +40,7 @@ from pathlib import Path
 
 import yaml
 
-from scenarios.spec.errors import ConfigError
+from geofence.validation import ConfigError
 from scenarios.spec.sweep import FlightSpec, expand, with_referenced_files
 
 SUMMARY = "summary.json"

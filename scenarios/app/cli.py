@@ -39,13 +39,10 @@ SHIPPED_SCENARIOS = Path(__file__).parents[1]
 
 
 def _user_errors() -> tuple[type[BaseException], ...]:
-    from aircraft.jsbsim_model import UnknownAircraftError
-    from aircraft.profile import ProfileError
-    from analysis.logs import LogError
-    from geofence.fence import FenceError
-    from scenarios.spec.errors import ConfigError
+    """Bad user input: every parser's error type subclasses :class:`geofence.validation.ConfigError`."""
+    from geofence.validation import ConfigError
 
-    return (ConfigError, ProfileError, UnknownAircraftError, FenceError, LogError)
+    return (ConfigError,)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -404,7 +401,7 @@ def _cmd_run(args) -> int:
 
 def check_output_dir(path: Path, option: str = "--out") -> None:
     """Refuse, before anything is flown, an output folder that is a file or cannot be created or written."""
-    from scenarios.spec.errors import ConfigError
+    from geofence.validation import ConfigError
 
     path = Path(path)
     if path.exists() and not path.is_dir():
@@ -452,7 +449,7 @@ def _cmd_batch(args) -> int:
     from scenarios.app.batch import discover, plan, resume_state, run_batch
 
     if args.jobs is not None and args.jobs < 1:
-        from scenarios.spec.errors import ConfigError
+        from geofence.validation import ConfigError
 
         raise ConfigError(f"--jobs: must be >= 1, got {args.jobs}")
     specs = plan(discover(args.paths))  # refuses duplicate names and bad sweeps up front
@@ -489,8 +486,8 @@ def _write_batch_outputs(out_dir: Path, report: bool) -> None:
 
 
 def _cmd_plot(args) -> int:
+    from geofence.validation import ConfigError
     from scenarios.flight.recorder import read_trajectory_csv
-    from scenarios.spec.errors import ConfigError
     from scenarios.spec.schema import parse_scenario, read_document
 
     folders = sorted(p.parent for p in Path(args.out).glob("*/trajectory.csv"))
@@ -522,7 +519,7 @@ def _cmd_plot(args) -> int:
 def _cmd_compare(args) -> int:
     from analysis.batch_plots import comparison_table, plot_platform_comparison
     from analysis.report import collect_results
-    from scenarios.spec.errors import ConfigError
+    from geofence.validation import ConfigError
 
     rows = collect_results(args.out)
     if not rows:
@@ -565,7 +562,7 @@ def _cmd_import_fence(args) -> int:
     import yaml
 
     from geofence.importers import fence_to_yaml_block, load_fence_file
-    from scenarios.spec.errors import ConfigError
+    from geofence.validation import ConfigError
 
     out = args.output
     if out is not None:

@@ -397,7 +397,7 @@ def run(out_dir: Path, fly_flights: bool = True, reactive_path: Path = REACTIVE_
 
             name = load_scenario(path).name
             if not (out_dir / name / "trajectory.csv").is_file():
-                from scenarios.spec.errors import ConfigError
+                from geofence.validation import ConfigError
 
                 raise ConfigError(f"{out_dir}: --no-fly: no flight {name!r} to re-analyse here (no {name}/trajectory.csv); "
                                   f"run without --no-fly to fly it first")

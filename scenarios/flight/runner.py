@@ -319,7 +319,7 @@ def hash_of_source(scenario: Scenario) -> str | None:
     """The identity of a scenario loaded from a (non-sweep) file, or None."""
     if scenario.source is None or not Path(scenario.source).is_file():
         return None
-    from scenarios.spec.errors import ConfigError
+    from geofence.validation import ConfigError
     from scenarios.spec.schema import read_document
     from scenarios.spec.sweep import expand, with_referenced_files
 

@@ -903,7 +903,7 @@ def _assemble(index: int, family: CaseFamily, attack: Attack, ctx: CaseContext, 
 
 # --------------------------------------------------------------------------- the campaign
 def _validate(text: str, where: str) -> None:
-    from scenarios.spec.errors import ConfigError
+    from geofence.validation import ConfigError
     from scenarios.spec.schema import parse_scenario
 
     try:

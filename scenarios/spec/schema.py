@@ -7,7 +7,7 @@ weather (``wind``), how long (``duration_s``) and, optionally, the
 edge; everything downstream is SI. See ``README.md`` for a full example, and
 ``scenarios/*.yaml`` for shipped ones.
 
-Every problem is reported as a :class:`~scenarios.spec.errors.ConfigError` whose
+Every problem is reported as a :class:`~geofence.validation.ConfigError` whose
 message is one line: ``<file>: <field>: <problem>``.
 
 Besides each value's own range, a scenario must make sense as a whole
@@ -34,7 +34,7 @@ from geofence.boundary_shift import check_shift_feasible
 from geofence.config import GeofenceConfig, GeofenceConfigError, fence_file_path, parse_geofence
 from geofence.fence import FenceError
 from geofence.geodesy import LocalFrame
-from scenarios.spec.errors import (
+from geofence.validation import (
     ConfigError,
     integer,
     latitude,

@@ -48,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from scenarios.spec.errors import ConfigError, integer, reject_unknown_keys, require_mapping
+from geofence.validation import ConfigError, integer, reject_unknown_keys, require_mapping
 
 DISTRIBUTIONS = ("uniform", "normal", "choice", "integers")
 
@@ -242,8 +242,8 @@ def _check_path(doc: dict, path: str, value: Any, label: str, where: str) -> Non
         parse_scenario(trial, where=where)
     except ConfigError as exc:
         msg = str(exc)
-        for created in parts[missing_from:]:  # the modules word it "unknown key 'x'" or "x: unknown key"
-            if f"unknown key {created!r}" in msg or f"{created}: unknown key" in msg:
+        for created in parts[missing_from:]:  # geofence.validation words it "<path>.x: unknown key"
+            if f"{created}: unknown key" in msg:
                 problem = msg[len(where) + 2:] if msg.startswith(f"{where}: ") else msg
                 raise ConfigError(f"{label}: no such field in a scenario ({problem})") from None
 
