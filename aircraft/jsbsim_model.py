@@ -212,8 +212,8 @@ class JSBSimModel:
         _remove_root(self._root)
         self._nodes.clear()
         self._truth_nodes = self._truth_getters = self._wind_nodes = ()
-        self._pm = None
-        self.fdm = None
+        self._pm = None  # type: ignore[assignment]  # closed: nothing may use the instance any more
+        self.fdm = None  # type: ignore[assignment]
 
     def __enter__(self) -> "JSBSimModel":
         return self
@@ -273,7 +273,10 @@ class JSBSimModel:
         """Current truth state (SI, ENU about the reset frame)."""
         t, lat, lon, h, agl, ve, vn, vd, phi, theta, psi, vt, wow = [get() for get in self._truth_getters]
         h_m = h * FT_TO_M
-        e, n, u = self.frame.to_enu(lat, lon, h_m)
+        frame = self.frame
+        if frame is None:
+            raise RuntimeError(f"{self.name}: truth() before reset() placed the aircraft")
+        e, n, u = frame.to_enu(lat, lon, h_m)
         agl_m = agl * FT_TO_M
         if math.isnan(h_m) or math.isnan(e):
             raise FloatingPointError(f"JSBSim state of {self.name} diverged (NaN) at t={t:.2f} s")

@@ -317,10 +317,10 @@ def excursion_comparison(rows: Sequence[Mapping], by: str = "family") -> list[di
                 return math.nan
             return float(f(p) / f(q))
 
-        by_case = {}
+        by_case: dict[str, dict[str, float]] = {}
         for r in sel:
             if r.get("variant") in ("predictive", "reactive"):
-                by_case.setdefault(r.get("case_id"), {})[r.get("variant")] = num(r.get("max_excursion_m"))
+                by_case.setdefault(str(r.get("case_id")), {})[str(r.get("variant"))] = num(r.get("max_excursion_m"))
         diffs = [d["predictive"] - d["reactive"] for d in by_case.values()
                  if len(d) == 2 and math.isfinite(d["predictive"]) and math.isfinite(d["reactive"])]
         out.append({by: k, "stats": stats, "mean_depth_ratio": ratio(np.mean), "max_depth_ratio": ratio(np.max),

@@ -283,7 +283,8 @@ def _read_tlog(p: Path, name: str, frame: LocalFrame | None, limits: SanityLimit
         modes = np.array([r[9] for r in rows], dtype=str)
         lat, lon, alt = a[:, 1] * 1e-7, a[:, 2] * 1e-7, a[:, 3] * 1e-3
         ok = _valid(lat, lon)
-        cols = {"msg_index": a[:, 0].astype(int), "lat_deg": lat, "lon_deg": lon, "alt_m": alt, "agl_m": a[:, 4] * 1e-3,
+        cols: dict[str, np.ndarray | None] = {"msg_index": a[:, 0].astype(int), "lat_deg": lat, "lon_deg": lon, "alt_m": alt,
+                                              "agl_m": a[:, 4] * 1e-3,
                 "v_east_mps": a[:, 6] * 0.01, "v_north_mps": a[:, 5] * 0.01, "v_up_mps": -a[:, 7] * 0.01,
                 "vehicle_time_s": a[:, 8]}
         source, agl_source = "GLOBAL_POSITION_INT", "GLOBAL_POSITION_INT.relative_alt"
@@ -379,7 +380,8 @@ def _read_dataflash(p: Path, name: str, frame: LocalFrame | None, limits: Sanity
         source, agl_source = "POS", "POS.RelHomeAlt"
     else:
         raise LogError(f"{name}: no GPS or POS messages")
-    vtype = {1: "FIXED_WING", 2: "QUADROTOR", 10: "GROUND_ROVER", 12: "SUBMARINE"}.get(getattr(m, "mav_type", None), "UNKNOWN")
+    vtype = {1: "FIXED_WING", 2: "QUADROTOR", 10: "GROUND_ROVER", 12: "SUBMARINE"}.get(int(getattr(m, "mav_type", -1) or -1),
+                                                                                      "UNKNOWN")
     if firmware:
         for prefix, vt in (("ArduPlane", "FIXED_WING"), ("ArduCopter", "QUADROTOR"), ("ArduRover", "GROUND_ROVER"),
                            ("ArduSub", "SUBMARINE")):

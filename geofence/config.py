@@ -165,7 +165,7 @@ FENCE_FILE_KEYS = ("file", "ceiling_m", "floor_m", "floor_gaps", "recovery_point
 def _default(name: str) -> Any:
     """The default of a :class:`GeofenceConfig` field (each default is written once, in the dataclass)."""
     f = GeofenceConfig.__dataclass_fields__[name]
-    return f.default_factory() if f.default is MISSING else f.default  # type: ignore[misc]
+    return f.default_factory() if f.default is MISSING else f.default  # type: ignore[operator]
 
 
 def parse_geofence(raw: Any, where: str = "geofence", base_dir: str | Path | None = None) -> GeofenceConfig:
@@ -188,7 +188,8 @@ def _parse_geofence(raw: Mapping, where: str, base_dir: str | Path | None) -> Ge
     reject_unknown_keys(raw, _KEYS, where)
     if "fence" not in raw:
         raise GeofenceConfigError(f"{where}.fence: missing (required)")
-    fence_file, fence_warnings = None, ()
+    fence_file: str | None = None
+    fence_warnings: list[str] | tuple[str, ...] = ()
     if isinstance(raw["fence"], Mapping) and "file" in raw["fence"]:
         fence, fence_file, fence_warnings = _fence_from_file(raw["fence"], f"{where}.fence", base_dir)
     else:
@@ -287,7 +288,7 @@ def _fence_from_file(block: Mapping, where: str, base_dir: str | Path | None) ->
     except FenceError as exc:
         msg = str(exc)
         rest = msg[len(str(path)) + 2:] if msg.startswith(f"{path}: ") else msg
-        field = re.match(r"[a-z_]*", rest).group(0)
+        field = re.match(r"[a-z_]*", rest).group(0)  # type: ignore[union-attr]  # [a-z_]* matches every string
         if field in block and field != "file":  # the inline value is the problem (e.g. a floor gap outside the keep-in)
             raise GeofenceConfigError(f"{where}.{rest}") from None
         raise GeofenceConfigError(f"{where}.file: {msg}") from None

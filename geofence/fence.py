@@ -388,7 +388,7 @@ class LocalFence:
         ``False``: always the full scan, the reference the index is tested against)."""
         self.fence = fence
         self.frame = frame
-        self._grid = None
+        self._grid: FenceGrid | None = None
         h0 = frame.h0_m
 
         def proj(poly: PolygonLL) -> PolygonIndex:
@@ -405,9 +405,10 @@ class LocalFence:
         self._no_keepouts = not self.keep_out_polygons and not self.keep_out_circles
         n_elements = self.keep_in.n + sum(k.n for k in self.keep_out_polygons) + len(self.keep_out_circles)
         self._use_index = index if index is not None else n_elements >= SMALL_FENCE_ELEMENTS
-        self._inradius = None
-        self._danger_edges = None
-        self._gap_edges = None
+        self._inradius: tuple[float, float, float] | None = None
+        self._danger_edges: tuple | None = None
+        self._gap_edges: tuple | None = None
+        self.recovery_height_m: float | None
         rp = fence.recovery_point
         if rp is not None:
             self.recovery_en = frame.to_enu(rp[0], rp[1], h0)[:2]

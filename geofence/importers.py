@@ -106,11 +106,11 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
-from .fence import Fence, FenceError, KeepOutCircle, PolygonLL
+from .fence import AltitudeReference, Fence, FenceError, KeepOutCircle, PolygonLL
 from .geodesy import LocalFrame, ecef_to_geodetic, geodesic_destination, geodetic_to_ecef
 from .polygon import PolygonIndex, polygons_intersect
 
@@ -313,22 +313,22 @@ def load_fence_file(
             warnings.append(f"{labels[i]} lies entirely outside the keep-in area: dropped (it constrains nothing)")
     keep_out_circles, circles_en = [], []
     for i, c in enumerate(raw.exc_circles):
-        e, n = frame.to_enu(c.center_lat_deg, c.center_lon_deg, 0.0)[:2]
-        if ki.signed_distance(e, n) <= -c.radius_m:
+        c_e, c_n = frame.to_enu(c.center_lat_deg, c.center_lon_deg, 0.0)[:2]
+        if ki.signed_distance(c_e, c_n) <= -c.radius_m:
             warnings.append(f"exclusion circle {i} lies entirely outside the keep-in area: dropped (it constrains nothing)")
         else:
             keep_out_circles.append(c)
-            circles_en.append((e, n, c.radius_m))
+            circles_en.append((c_e, c_n, c.radius_m))
 
     rp_from_file = False
     if recovery_point is None and raw.return_point is not None and return_point_as_recovery:
         lat, lon = raw.return_point[0], raw.return_point[1]
-        e, n = frame.to_enu(lat, lon, 0.0)[:2]
-        m = ki.signed_distance(e, n)
+        r_e, r_n = frame.to_enu(lat, lon, 0.0)[:2]
+        m = ki.signed_distance(r_e, r_n)
         for k in kept_en:
-            m = min(m, -PolygonIndex(k).signed_distance(e, n))
+            m = min(m, -PolygonIndex(k).signed_distance(r_e, r_n))
         for ce, cn, r in circles_en:
-            m = min(m, math.hypot(e - ce, n - cn) - r)
+            m = min(m, math.hypot(r_e - ce, r_n - cn) - r)
         if m > 0.0:
             recovery_point, rp_from_file = (lat, lon), True
         else:
@@ -336,7 +336,9 @@ def load_fence_file(
                             f"(margin {m:.1f} m): not used as the recovery point")
 
     def build(rp: tuple | None) -> Fence:
-        return Fence(keep_in=keep_in, ceiling_m=ceiling_m, floor_m=floor_m, altitude_reference=altitude_reference,
+        # a string: Fence normalises it to the enum and refuses anything else (a FenceError)
+        return Fence(keep_in=keep_in, ceiling_m=ceiling_m, floor_m=floor_m,
+                     altitude_reference=cast(AltitudeReference, altitude_reference),
                      floor_gaps=tuple(floor_gaps), keep_out_polygons=tuple(keep_out_polys),
                      keep_out_circles=tuple(keep_out_circles), recovery_point=rp)
 
@@ -344,7 +346,7 @@ def load_fence_file(
         try:
             fence = build(recovery_point)
         except FenceError as exc:
-            if not (rp_from_file and str(exc).startswith("recovery_point:")):
+            if not (rp_from_file and recovery_point is not None and str(exc).startswith("recovery_point:")):
                 raise
             warnings.append(f"return point ({recovery_point[0]:.7f}, {recovery_point[1]:.7f}): {exc}: "
                             f"not used as the recovery point")
@@ -635,7 +637,7 @@ def _parse_plan(text: str, name: str, doc: Any = None) -> _Raw:
     mission = doc.get("mission")
     hp = mission.get("plannedHomePosition") if isinstance(mission, dict) else None
     if isinstance(hp, list) and len(hp) >= 2 and not (hp[0] == 0 and hp[1] == 0):  # QGC writes 0, 0 when unset
-        h = _json_point(mission["plannedHomePosition"], name, "mission.plannedHomePosition", 3)
+        h = _json_point(hp, name, "mission.plannedHomePosition", 3)
         raw.home = (h[0], h[1], h[2])
     return raw
 
@@ -737,7 +739,7 @@ def _parse_wpl110(text: str, name: str) -> _Raw:
 # ---- old MAVProxy fence / rally text
 def _parse_mavproxy_fence(text: str, name: str) -> _Raw:
     raw = _Raw("mavproxy_fence")
-    pts: list[tuple[float, float]] = []
+    pts: list[tuple[float, float] | None] = []
     for lineno, line in enumerate(text.splitlines(), 1):
         s = line.strip()
         if not s or s.startswith("#"):
@@ -821,7 +823,7 @@ def _parse_geojson(doc: Any, name: str, *, max_vertices: int = MAX_FENCE_VERTICE
     for _, f in items:
         g = f.get("geometry") if isinstance(f, dict) else None
         c = g.get("coordinates") if isinstance(g, dict) else None
-        if not isinstance(c, list):
+        if not isinstance(g, dict) or not isinstance(c, list):
             continue
         polys = [c] if g.get("type") == "Polygon" else (c if g.get("type") == "MultiPolygon" else [])
         for poly in polys:

@@ -246,7 +246,7 @@ class GeofenceUnit:
         middle of the band when that is empty. An explicit recovery height wins.
         """
         rp = self.fence.fence.recovery_point
-        if rp is not None and len(rp) == 3:  # an explicit recovery set-point height
+        if rp is not None and len(rp) == 3 and self.fence.recovery_height_m is not None:  # an explicit set-point height
             return self.fence.recovery_height_m
         lo, hi = self._height_limits
         env = self.env

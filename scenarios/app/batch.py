@@ -161,7 +161,7 @@ def fly_spec(spec: FlightSpec, out_dir: str, flight_plots: bool = False) -> dict
         result.summary["flight"] = spec.flight_id
         result.summary["source"] = spec.source
         write_result(
-            result, out_dir, folder_name=spec.flight_id, scenario_text=yaml.safe_dump(spec.document, sort_keys=False),
+            result, Path(out_dir), folder_name=spec.flight_id, scenario_text=yaml.safe_dump(spec.document, sort_keys=False),
             plot=flight_plots, scenario_hash=spec.scenario_hash,
         )
         return result.summary

@@ -388,7 +388,7 @@ def _cmd_run(args) -> int:
                 bar.close()
         s = result.summary
         status = "completed" if s["completed"] else "NOT completed"
-        label = PROGRESS_LABELS.get(s.get("pilot"), "progress")
+        label = PROGRESS_LABELS.get(str(s.get("pilot")), "progress")
         print(
             f"{sc.name}: {status}, {label} {s['mission_progress']}, {s['sim_time_s']:.1f} s simulated "
             f"in {s['wall_time_s']:.1f} s -> {args.out / sc.name}"

@@ -24,12 +24,14 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any, Callable, NamedTuple
 
 from aircraft.factory import build_platform
 from analysis.scoring import score_flight
+from geofence.config import GeofenceConfig, StateSource
 from geofence.fence import LocalFence
 from geofence.geodesy import LocalFrame
+from geofence.interface import Envelope, VehicleState
 from geofence.unit import GeofenceUnit, Mode
 from scenarios.flight.pilots import Pilot, build_pilot
 from scenarios.flight.recorder import Recorder
@@ -78,9 +80,13 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     truth = platform.truth()
     t0 = truth.t_s
     pilot = build_pilot(scenario, frame, env, truth, dt_s)
-    fence = scenario.geofence.fence.to_local(frame) if scenario.geofence else None
-    unit = GeofenceUnit(scenario.geofence, fence, env) if scenario.geofence else None
-    own = _GeofenceSensing(scenario, frame, env) if unit is not None else None
+    fence: LocalFence | None = None
+    unit: GeofenceUnit | None = None
+    own: _GeofenceSensing | None = None
+    if scenario.geofence is not None:
+        fence = scenario.geofence.fence.to_local(frame)
+        unit = GeofenceUnit(scenario.geofence, fence, env)
+        own = _GeofenceSensing(scenario, scenario.geofence, frame, env)
 
     error = None
     finished_at = None
@@ -97,13 +103,14 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
             w = wind.sample(truth.t_s, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)
             platform.set_wind_enu(*w)
             cmd_in = pilot.command(truth)
-            if unit is not None:
-                est, wind_en, valid, sigma_h, sigma_v = own.sense(truth, dt_s)
-                cmd = unit.update(truth.t_s, est, cmd_in, dt_s, wind_en=wind_en, position_valid=valid, sigma_h_m=sigma_h,
-                                  sigma_v_m=sigma_v, estimate_age_s=own.data_age_s,
+            if unit is not None and own is not None:
+                seen = own.sense(truth, dt_s)
+                cmd = unit.update(truth.t_s, seen.estimate, cmd_in, dt_s, wind_en=seen.wind_en, position_valid=seen.position_valid,
+                                  sigma_h_m=seen.sigma_h_m, sigma_v_m=seen.sigma_v_m, estimate_age_s=own.data_age_s,
                                   turbulence_sigma_mps=own.turbulence_sigma_mps)
                 mode = unit.mode
-                recorder.append(truth, w, cmd_in, cmd, int(mode), pilot.items_reached, unit.estimate, wind_en, unit.activation_margin_m)
+                recorder.append(truth, w, cmd_in, cmd, int(mode), pilot.items_reached, unit.estimate, seen.wind_en,
+                                unit.activation_margin_m)
             else:
                 cmd = cmd_in
                 recorder.append(truth, w, cmd_in, cmd, int(mode), pilot.items_reached)
@@ -129,7 +136,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     # a flight is complete when it ran to its end: the mission finished, a script ran its
     # duration, or the geofence ended it by landing in a floor gap / terminating there
     completed = error is None and (pilot.finished or geofence_ended if mission else True)
-    summary = {
+    summary: dict[str, Any] = {
         "scenario": scenario.name,
         "aircraft": scenario.aircraft,
         "platform_kind": env.kind.value,
@@ -153,7 +160,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         "max_ground_speed_mps": round(float(recorder.column("ground_speed_mps").max()), 2) if recorder.n else 0.0,
         "error": error,
     }
-    if unit is not None:
+    if unit is not None and fence is not None:
         summary["preflight"] = findings_summary(preflight_findings(scenario))
         traj = {
             name: recorder.column(name)
@@ -167,6 +174,17 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                         fence=fence)
 
 
+class Sensed(NamedTuple):
+    """What the geofence unit's own sensing gives it for one step."""
+
+    estimate: VehicleState
+    wind_en: tuple[float, float]
+    """Wind estimate (east, north), m/s, toward."""
+    position_valid: bool
+    sigma_h_m: float
+    sigma_v_m: float
+
+
 class _GeofenceSensing:
     """The geofence unit's own view of the flight: sensors -> state estimator -> wind estimator.
 
@@ -174,13 +192,12 @@ class _GeofenceSensing:
     true state and the true steady wind instead.
     """
 
-    def __init__(self, scenario: Scenario, frame: LocalFrame, env):
+    def __init__(self, scenario: Scenario, cfg: GeofenceConfig, frame: LocalFrame, env: Envelope):
         from aircraft.sensors import SensorSuite
         from geofence.estimator import EstimatorConfig, GeofenceEstimator
         from geofence.wind_estimator import WindEstimator, WindEstimatorConfig
 
-        cfg = scenario.geofence
-        self.truth_source = cfg.state_source == "truth"
+        self.truth_source = cfg.state_source is StateSource.TRUTH
         sc = scenario.sensors
         self.sensors = SensorSuite(sc, has_pitot=not env.is_multirotor, seed=scenario.seed)
         self.estimator = GeofenceEstimator(
@@ -207,17 +224,17 @@ class _GeofenceSensing:
         """Age of the position data behind the estimate (0 for a perfect, immediate source)."""
         return 0.0 if self.truth_source else self.estimator.data_age_s
 
-    def sense(self, truth, dt_s: float):
-        """(estimate, wind estimate (E, N) m/s, position valid, sigma_h m, sigma_v m) for this step."""
+    def sense(self, truth: VehicleState, dt_s: float) -> Sensed:
+        """The unit's estimate, wind estimate, position validity and sigmas for this step."""
         if self.truth_source:
             we, wn = (self._truth_wind.mean(truth.agl_m)[:2]) if self._truth_wind is not None else (0.0, 0.0)
-            return truth, (we, wn), True, 0.0, 0.0
+            return Sensed(truth, (we, wn), True, 0.0, 0.0)
         fix, air, att = self.sensors.sample(truth)
         est = self.estimator.step(dt_s, fix, air, att)
         est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
         valid = self.estimator.position_valid
         wind_en = self.wind.update(est, air.airspeed_mps, dt_s, valid)
-        return est, wind_en, valid, self.estimator.sigma_h_m, self.estimator.sigma_v_m
+        return Sensed(est, wind_en, valid, self.estimator.sigma_h_m, self.estimator.sigma_v_m)
 
 
 def write_result(

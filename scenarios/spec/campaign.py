@@ -197,7 +197,7 @@ def _scaled(unit: Sequence[Sequence[float]], inradius_m: float, rng: np.random.G
     return _rot(p, rng.uniform(0.0, 2.0 * math.pi))
 
 
-def _course_deg(vec: Sequence[float]) -> float:
+def _course_deg(vec: Sequence[float] | np.ndarray) -> float:
     return math.degrees(math.atan2(vec[0], vec[1])) % 360.0
 
 
@@ -366,23 +366,24 @@ def _plan_lateral(rng: np.random.Generator, ctx: CaseContext, local: LocalFence,
         course, target = _course_deg(vec), p
     else:
         p, normal, _ = _edge_targets(local, rng)
-        course, target = _course_deg(normal) + rng.uniform(-5.0, 5.0), p
+        course, target = _course_deg(normal) + float(rng.uniform(-5.0, 5.0)), p
     if attack is Attack.REPEATED:
         e, n, _ = local.inradius()
         start = np.array([e, n])
-        v = _approach_speed(ctx, speed)
-        segs, t = [], 0.0
+        v_run = _approach_speed(ctx, speed)
+        segs: list[dict[str, Any]] = []
+        t_total = 0.0
         for _ in range(int(rng.integers(3, 6))):
             p, normal, _ = _edge_targets(local, rng)
             c = _course_deg(p - start)
-            push = float(np.hypot(*(p - start))) / v * rng.uniform(0.9, 1.4)
-            back = rng.uniform(3.0, 8.0)
+            push = float(np.hypot(*(p - start))) / v_run * float(rng.uniform(0.9, 1.4))
+            back = float(rng.uniform(3.0, 8.0))
             segs += [{"duration_s": _r(push, 1), "course_deg": _r(c, 1), "speed": speed, "climb": "hold"},
                      {"duration_s": _r(back, 1), "course_deg": _r((c + 180.0) % 360.0, 1), "speed": "cruise", "climb": "hold"}]
-            t += push + back
+            t_total += push + back
         first = segs[0]["course_deg"]
         approach = segs[0]["duration_s"]
-        return Plan(start, first, agl_m, segs, approach, _r(min(t + 10.0, ctx.max_duration_s), 1))
+        return Plan(start, first, agl_m, segs, approach, _r(min(t_total + 10.0, ctx.max_duration_s), 1))
     course = course % 360.0
     start, approach = _run_up(rng, ctx, local, np.asarray(target, float), course, speed)
     duration = _duration(ctx, approach, rng)
@@ -672,7 +673,8 @@ def family_floor_gaps(rng: np.random.Generator, ctx: CaseContext):
     else:
         floor = rng.uniform(30.0, 60.0)
         ceiling = floor + rng.uniform(100.0, 250.0)
-    gaps = [_box_poly(*(_rot(np.array([[rng.uniform(-0.3, 0.3) * r, rng.uniform(-0.3, 0.3) * r]]), angle)[0]), gap_half, angle)]
+    g0 = _rot(np.array([[rng.uniform(-0.3, 0.3) * r, rng.uniform(-0.3, 0.3) * r]]), angle)[0]
+    gaps = [_box_poly(float(g0[0]), float(g0[1]), gap_half, angle)]
     if rng.random() < 0.5:  # a second gap near a corner
         c = _rot(np.array([[0.6 * a * r * rng.choice([-1, 1]), 0.6 * r * rng.choice([-1, 1])]]), angle)[0]
         half2 = min(gap_half, 0.3 * r)

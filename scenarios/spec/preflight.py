@@ -30,8 +30,10 @@ def planned_route(scenario: Scenario, frame: LocalFrame) -> list[PlannedWaypoint
     e0, n0 = 0.0, 0.0
     h = st.agl_m
     out = [PlannedWaypoint(e0, n0, h, "start")]
+    if scenario.mission is None:
+        return out
     for i, item in enumerate(scenario.mission.items):
-        if item.lat_deg is not None:
+        if item.lat_deg is not None and item.lon_deg is not None:
             e, n, _ = frame.to_enu(item.lat_deg, item.lon_deg, frame.h0_m)
         else:
             e, n = out[-1].east_m, out[-1].north_m

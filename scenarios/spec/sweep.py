@@ -130,7 +130,7 @@ def expand(document: dict, where: str, default_name: str) -> list[FlightSpec]:
     if grid_points and grid_points[0]:
         for path, value in grid_points[0]:
             _check_path(doc, path, value, f"{where}: sweep.grid.{path}", where)
-    specs = []
+    specs: list[FlightSpec] = []
     for point in grid_points:
         suffix = "".join(f"__{_short(k)}={_fmt(v)}" for k, v in point)
         draws = _draws(mc, f"{where}: sweep.monte_carlo", len(specs), doc, where) if mc is not None else [()]

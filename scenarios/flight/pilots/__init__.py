@@ -40,5 +40,7 @@ def build_pilot(scenario: Scenario, frame: LocalFrame, env: Envelope, start: Veh
     if scenario.pilot.kind == "breach_attempts":
         from scenarios.flight.pilots.breach_attempts import BreachAttemptsPilot
 
+        assert scenario.pilot.breach is not None, "the schema gives a breach_attempts pilot its settings"
         return BreachAttemptsPilot(scenario.pilot.breach, env, start, dt_s)
+    assert scenario.mission is not None, "the schema requires a mission for the mission pilot"
     return MissionAutopilot(scenario.mission, frame, env, start, dt_s)

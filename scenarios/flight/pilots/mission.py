@@ -92,6 +92,14 @@ class MissionAutopilot:
         return tgt
 
     # -- the per-step command ----------------------------------------------
+    def _mc(self) -> MultirotorNavigator:
+        assert self.mc is not None, "multirotor navigation on a fixed-wing"
+        return self.mc
+
+    def _fw(self) -> FixedWingNavigator:
+        assert self.fw is not None, "fixed-wing navigation on a multirotor"
+        return self.fw
+
     def command(self, s: VehicleState) -> StickCommand:
         if self.finished:
             return self._after_mission(s)
@@ -104,13 +112,13 @@ class MissionAutopilot:
             return StickCommand(throttle=-1.0)
         last = self.targets[-1]
         if self.multirotor:
-            return self.mc.sticks_to_point(s, last.east_m, last.north_m, last.up_m, self.speed_mps, self._hold_yaw_rad, self.dt_s)
-        radius = max(last.radius_m, 1.5 * self.fw.min_turn_radius_m())
-        course, _ = self.fw.course_on_orbit(s, last.east_m, last.north_m, radius)
-        return self.fw.sticks(s, course, last.up_m, self.speed_mps)
+            return self._mc().sticks_to_point(s, last.east_m, last.north_m, last.up_m, self.speed_mps, self._hold_yaw_rad, self.dt_s)
+        radius = max(last.radius_m, 1.5 * self._fw().min_turn_radius_m())
+        course, _ = self._fw().course_on_orbit(s, last.east_m, last.north_m, radius)
+        return self._fw().sticks(s, course, last.up_m, self.speed_mps)
 
     def _fly_multirotor(self, s: VehicleState, tgt: _Target) -> StickCommand:
-        mc = self.mc
+        mc = self._mc()
         if tgt.kind == "takeoff":
             if s.up_m >= tgt.up_m - 1.0:
                 self._advance(s)
@@ -138,7 +146,7 @@ class MissionAutopilot:
         return mc.sticks_to_point(s, tgt.east_m, tgt.north_m, tgt.up_m, self.speed_mps, self._hold_yaw_rad, self.dt_s)
 
     def _fly_fixed_wing(self, s: VehicleState, tgt: _Target) -> StickCommand:
-        fw = self.fw
+        fw = self._fw()
         if tgt.kind == "takeoff":  # climb out straight ahead on the start heading
             if s.up_m >= tgt.up_m - 3.0:
                 self._advance(s)
@@ -162,7 +170,7 @@ class MissionAutopilot:
 
     def _fixed_wing_landing(self, s: VehicleState, tgt: _Target) -> StickCommand:
         """Straight-in approach to the land point on a 5 deg glide path, slowest airspeed, then flare."""
-        fw = self.fw
+        fw = self._fw()
         e0, n0 = self._leg_start
         course, along, length = fw.course_on_line(s, e0, n0, tgt.east_m, tgt.north_m)
         to_go = max(length - along, 0.0)

@@ -52,6 +52,7 @@ class ScriptedPilot:
             self._hold_yaw_rad = s.yaw_rad
         if seg.sticks is not None:
             return StickCommand(*seg.sticks)
+        assert seg.course_deg is not None  # the schema: a segment has sticks or a course
         course = math.radians(seg.course_deg)
         env = self.env
         speed = {"max": env.max_speed_mps, "cruise": env.cruise_speed_mps, "min": env.min_speed_mps}[seg.speed]
@@ -62,6 +63,7 @@ class ScriptedPilot:
             return self.mc.sticks_for_velocity(
                 s, speed * math.sin(course), speed * math.cos(course), vz, self._hold_yaw_rad, self.dt_s
             )
+        assert self.fw is not None  # not a multirotor
         cmd = self.fw.sticks(s, course, self._hold_up_m, speed)
         if seg.climb != "hold":
             cmd = StickCommand(cmd.roll, _CLIMB_STICK[seg.climb], cmd.yaw, cmd.throttle)
