@@ -137,8 +137,13 @@ class JSBSimModel:
     written and before JSBSim reads it (tests use it to interrupt a load).
     """
 
-    def __init__(self, name: str, dt_s: float = 1.0 / 120.0, extra_systems: list[Path] | None = None,
-                 on_mirrored: Callable[[Path], None] | None = None):
+    def __init__(
+        self,
+        name: str,
+        dt_s: float = 1.0 / 120.0,
+        extra_systems: list[Path] | None = None,
+        on_mirrored: Callable[[Path], None] | None = None,
+    ):
         self.name = name
         self.dt_s = dt_s
         self.closed = False
@@ -186,7 +191,9 @@ class JSBSimModel:
             )
         )
         self._truth_getters = tuple(nd.get_double_value for nd in self._truth_nodes)
-        self._wind_nodes = tuple(n(p) for p in ("atmosphere/wind-east-fps", "atmosphere/wind-north-fps", "atmosphere/wind-down-fps"))
+        self._wind_nodes = tuple(
+            n(p) for p in ("atmosphere/wind-east-fps", "atmosphere/wind-north-fps", "atmosphere/wind-down-fps")
+        )
 
     # -- property access ---------------------------------------------------
     def node(self, prop: str):

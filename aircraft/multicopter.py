@@ -34,8 +34,14 @@ from geofence.interface import StickCommand
 FC_SYSTEM_XML = Path(__file__).parent / "systems" / "multicopter_fc.xml"
 
 _ESC_PROPS = (
-    "fcs/cmdFR_ext_nd", "fcs/cmdAL_ext_nd", "fcs/cmdFL_ext_nd", "fcs/cmdAR_ext_nd",
-    "fcs/cmdEscFR_nd", "fcs/cmdEscAL_nd", "fcs/cmdEscFL_nd", "fcs/cmdEscAR_nd",
+    "fcs/cmdFR_ext_nd",
+    "fcs/cmdAL_ext_nd",
+    "fcs/cmdFL_ext_nd",
+    "fcs/cmdAR_ext_nd",
+    "fcs/cmdEscFR_nd",
+    "fcs/cmdEscAL_nd",
+    "fcs/cmdEscFL_nd",
+    "fcs/cmdEscAR_nd",
 )
 _THROTTLE_POS_PROPS = tuple(f"fcs/throttle-pos-norm[{i}]" for i in range(4))
 _SPIN_UP_S = 0.5

@@ -130,8 +130,9 @@ def _parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
         raise ProfileError(f"{where}.gains: expected a mapping of property: value")
     for k, v in gains_raw.items():
         gains[str(k)] = number(v, f"{where}.gains.{k}")
-    rate = number(raw.get("frame_rate_hz", base.frame_rate_hz if base else 120.0), f"{where}.frame_rate_hz",
-                  minimum=30.0, maximum=1000.0)
+    rate = number(
+        raw.get("frame_rate_hz", base.frame_rate_hz if base else 120.0), f"{where}.frame_rate_hz", minimum=30.0, maximum=1000.0
+    )
     return PlatformProfile(
         model=str(raw.get("model", model)),
         kind=kind,

@@ -287,9 +287,16 @@ class SensorSuite:
         lat_deg = truth.lat_deg + math.degrees(dn / (m_rad + h))
         lon_deg = truth.lon_deg + math.degrees(de / ((n_rad + h) * math.cos(lat)))
         return GpsFix(
-            t, lat_deg, lon_deg, h + du,
-            truth.v_east_mps + nve, truth.v_north_mps + nvn, truth.v_up_mps + nvu,
-            self._h_acc, self._v_acc, True,
+            t,
+            lat_deg,
+            lon_deg,
+            h + du,
+            truth.v_east_mps + nve,
+            truth.v_north_mps + nvn,
+            truth.v_up_mps + nvu,
+            self._h_acc,
+            self._v_acc,
+            True,
         )
 
     # -- introspection (tests, logs) ---------------------------------------------

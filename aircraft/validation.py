@@ -162,9 +162,13 @@ REFERENCES: dict[str, dict[str, Reference]] = {
     "Tern": {
         "cruise airspeed": Reference(14.0, 18.0, _TERN),
         "min airspeed, idle throttle stick": Reference(9.3, 15.0, _TERN + " (>= stall, < 1.6 Vs)"),
-        "best glide ratio, power off": Reference(8.0, 11.2, "foam trainer with fixed gear: polar CD = 0.047 + 0.042 CL^2 "
-                                                 "(Aerosonde C_Dp 0.043, Beard & McLain App. E, plus gear) gives (L/D)max "
-                                                 "11.2 as an upper bound"),
+        "best glide ratio, power off": Reference(
+            8.0,
+            11.2,
+            "foam trainer with fixed gear: polar CD = 0.047 + 0.042 CL^2 "
+            "(Aerosonde C_Dp 0.043, Beard & McLain App. E, plus gear) gives (L/D)max "
+            "11.2 as an upper bound",
+        ),
         "aileron rate, full roll reversals (max)": Reference(400.0, 750.0, _SERVO),
         "propeller torque, full throttle from idle (max)": Reference(0.30, 0.44, _MOTOR),
     },
@@ -174,10 +178,10 @@ REFERENCES: dict[str, dict[str, Reference]] = {
 PLATFORM_NOTES: dict[str, str] = {
     "F450RD": "Our F450-class quad (aircraft/models/F450RD): JSBSim's F450 plus rotor drag, ESC lag and four-leg gear.",
     "Micro250": "Our 249 g micro quad (aircraft/models/Micro250), sized from the DJI Mini 2 specification; "
-                "40 deg tilt limit assumed.",
+    "40 deg tilt limit assumed.",
     "F450": "JSBSim's wheel F450 as shipped (no rotor drag), flown against the same F450-class bands for contrast.",
     "Tern": "Our 2.5 kg electric trainer (aircraft/models/Tern): bands from its design figures, hobby-servo and motor "
-            "ratings, and a glide bound from the Aerosonde's parasitic drag plus fixed gear.",
+    "ratings, and a glide bound from the Aerosonde's parasitic drag plus fixed gear.",
     "J3Cub": "JSBSim's wheel J3Cub; speeds are the FC's commanded limits (profile), compared with the J-3C-65's.",
     "c172x": "JSBSim's wheel Cessna 172; speeds are the FC's commanded limits (profile), compared with the 172R's.",
 }
@@ -198,8 +202,7 @@ class _Flyer:
         self.p.reset(FRAME, LAT0_DEG, LON0_DEG, agl_m, heading_deg, 0.0)
         return self.p.truth()
 
-    def fly(self, cmd: StickCommand, seconds: float,
-            until: Callable[[VehicleState], bool] | None = None) -> list[VehicleState]:
+    def fly(self, cmd: StickCommand, seconds: float, until: Callable[[VehicleState], bool] | None = None) -> list[VehicleState]:
         states = []
         for _ in range(max(1, int(round(seconds / self.dt_s)))):
             self.p.command(cmd)
@@ -211,8 +214,9 @@ class _Flyer:
         self.sim_time_s += len(states) * self.dt_s
         return states
 
-    def fly_steady(self, cmd: StickCommand, signal: Callable[[VehicleState], float], max_s: float,
-                   tol_per_s: float, min_s: float = 4.0) -> list[VehicleState]:
+    def fly_steady(
+        self, cmd: StickCommand, signal: Callable[[VehicleState], float], max_s: float, tol_per_s: float, min_s: float = 4.0
+    ) -> list[VehicleState]:
         """Hold ``cmd`` until ``signal`` changes by less than ``tol_per_s`` over the last 2 s (or ``max_s``)."""
         states: list[VehicleState] = []
         window = int(round(2.0 / self.dt_s))
@@ -230,7 +234,7 @@ def _mean(xs: Iterable[float]) -> float:
 
 
 def _tail(states: Sequence[VehicleState], seconds: float, dt_s: float) -> Sequence[VehicleState]:
-    return states[-max(1, int(round(seconds / dt_s))):]
+    return states[-max(1, int(round(seconds / dt_s))) :]
 
 
 def _time_to(states: Sequence[VehicleState], t0_s: float, pred: Callable[[VehicleState], bool]) -> float:
@@ -288,8 +292,7 @@ def _tilt_deg(s: VehicleState) -> float:
     return math.degrees(max(abs(s.roll_rad), abs(s.pitch_rad)))
 
 
-def land_and_sit_in_wind(platform: Platform, wind_mps: float, sit_s: float = 30.0,
-                         start_agl_m: float = 5.0) -> LandingResult:
+def land_and_sit_in_wind(platform: Platform, wind_mps: float, sit_s: float = 30.0, start_agl_m: float = 5.0) -> LandingResult:
     """Hold station in a steady wind (toward east), land, then sit ``sit_s`` with the motors idle.
 
     The descent is at full stick down to :data:`FINAL_APPROACH_AGL_M`, then at
@@ -332,8 +335,15 @@ def land_and_sit_in_wind(platform: Platform, wind_mps: float, sit_s: float = 30.
         return LandingResult(wind_mps, math.nan, math.nan, math.nan, math.nan, math.nan, True)
     if touchdown is None or settled is None:
         return LandingResult(wind_mps, math.nan, math.nan, math.nan, math.nan, math.nan, False)
-    return LandingResult(wind_mps, td_descent, td_tilt, max_tilt, _tilt_deg(s),
-                         math.hypot(s.east_m - settled.east_m, s.north_m - settled.north_m), False)
+    return LandingResult(
+        wind_mps,
+        td_descent,
+        td_tilt,
+        max_tilt,
+        _tilt_deg(s),
+        math.hypot(s.east_m - settled.east_m, s.north_m - settled.north_m),
+        False,
+    )
 
 
 def _measure_multirotor(p: Platform, m: Measurement) -> None:
@@ -379,8 +389,7 @@ def _measure_multirotor(p: Platform, m: Measurement) -> None:
             t_stop = brake[-1].t_s - tail[-1].t_s
             d_stop = brake[-1].north_m - tail[-1].north_m
             vs = [tail[-1].v_north_mps] + [s.v_north_mps for s in brake]
-            t_react = next(((i + 1) * f.dt_s for i in range(len(vs) - 1)
-                            if (vs[i] - vs[i + 1]) / f.dt_s >= 1.0), math.nan)
+            t_react = next(((i + 1) * f.dt_s for i in range(len(vs) - 1) if (vs[i] - vs[i + 1]) / f.dt_s >= 1.0), math.nan)
             m.add("cruise speed (1/2 pitch stick)", cruise_mps, "m/s")
             m.add("stop distance from cruise", d_stop, "m")
             m.add("stop time from cruise", t_stop, "s")
@@ -416,8 +425,12 @@ def _measure_multirotor(p: Platform, m: Measurement) -> None:
     s0 = p.truth()
     run = f.fly(StickCommand(), WIND_PICKUP_MAX_S, until=lambda s: s.v_east_mps >= 0.63 * WIND_STEP_MPS)
     pickup = run[-1].t_s - s0.t_s if run[-1].v_east_mps >= 0.63 * WIND_STEP_MPS else math.nan
-    m.add("wind pick-up time to 63 % (5 m/s step)", pickup, "s",
-          "" if math.isfinite(pickup) else f"not reached in {WIND_PICKUP_MAX_S:.0f} s")
+    m.add(
+        "wind pick-up time to 63 % (5 m/s step)",
+        pickup,
+        "s",
+        "" if math.isfinite(pickup) else f"not reached in {WIND_PICKUP_MAX_S:.0f} s",
+    )
 
     # climb / descent and their arrest on release
     vert = {}
@@ -478,6 +491,7 @@ def _unwrapped_rate_deg_s(states: Sequence[VehicleState]) -> float:
 def _measure_fixed_wing(p: Platform, m: Measurement) -> None:
     f = _Flyer(p)
     h0 = START_AGL_M[PlatformKind.FIXED_WING]
+
     def as_(s: VehicleState) -> float:
         return s.airspeed_mps
 
@@ -552,8 +566,13 @@ def _measure_fixed_wing(p: Platform, m: Measurement) -> None:
     throttle_max = rpm_max = 0.0
     for stick in (-0.2, -0.35, -0.5, -0.7, -1.0):
         f.start(h0)
-        for prop, value in (("fc/speed-kp", 0.0), ("fc/speed-ki", 0.0), ("fc/climb-throttle-ff", 0.0),
-                            ("fc/throttle-trim", -10.0), ("fcs/mixture-cmd-norm", 0.0)):
+        for prop, value in (
+            ("fc/speed-kp", 0.0),
+            ("fc/speed-ki", 0.0),
+            ("fc/climb-throttle-ff", 0.0),
+            ("fc/throttle-trim", -10.0),
+            ("fcs/mixture-cmd-norm", 0.0),
+        ):
             model.set(prop, value)  # mixture 0 stops a piston engine (the propeller windmills)
         run = f.fly(StickCommand(pitch=stick), 45.0)
         throttle_max = max(throttle_max, model.get("fcs/throttle-cmd-norm"))
@@ -565,8 +584,12 @@ def _measure_fixed_wing(p: Platform, m: Measurement) -> None:
         energy_drop = (a.up_m - b.up_m) + (a.airspeed_mps**2 - b.airspeed_mps**2) / (2.0 * G_MPS2)
         if energy_drop > 0.1 and not (dist / energy_drop <= best[0]):
             best = (dist / energy_drop, b.airspeed_mps, -b.v_up_mps)
-    m.add("best glide ratio, power off", best[0], "-",
-          f"at {best[1]:.1f} m/s, sink {best[2]:.2f} m/s; throttle {throttle_max:.2f}, engine {rpm_max:.0f} rpm")
+    m.add(
+        "best glide ratio, power off",
+        best[0],
+        "-",
+        f"at {best[1]:.1f} m/s, sink {best[2]:.2f} m/s; throttle {throttle_max:.2f}, engine {rpm_max:.0f} rpm",
+    )
     p.reset(FRAME, LAT0_DEG, LON0_DEG, h0, 0.0, 0.0)  # restores the profile's throttle gains
 
     m.envelope = {
@@ -609,8 +632,9 @@ def rows_for(m: Measurement) -> list[ValidationRow]:
     return rows
 
 
-def validate_models(models: Sequence[str],
-                    progress: Callable[[str], None] | None = None) -> tuple[list[ValidationRow], dict[str, Measurement]]:
+def validate_models(
+    models: Sequence[str], progress: Callable[[str], None] | None = None
+) -> tuple[list[ValidationRow], dict[str, Measurement]]:
     """Fly every model in ``models`` (profile names) and return ``(rows, measurements by model)``.
 
     ``progress`` (e.g. ``print``) gets one line per model as it finishes.
@@ -625,8 +649,10 @@ def validate_models(models: Sequence[str],
         rows += rows_for(m)
         if progress:
             bad = sum(1 for r in rows_for(m) if r.in_band is False)
-            progress(f"  {name}: {len(m.values)} quantities, {m.sim_time_s:.0f} s simulated in "
-                     f"{m.wall_time_s:.1f} s wall, {bad} outside their published band")
+            progress(
+                f"  {name}: {len(m.values)} quantities, {m.sim_time_s:.0f} s simulated in "
+                f"{m.wall_time_s:.1f} s wall, {bad} outside their published band"
+            )
     return rows, measured
 
 
@@ -652,9 +678,14 @@ TOLERANCES: dict[str, tuple[float, float]] = {
 CONSERVATIVE_SIDE: dict[str, int] = {
     # +1: declaring more than measured makes the geofence's margins larger (safe side);
     # -1: declaring less does; keys not listed have no safe side.
-    "max_speed_mps": +1, "max_bank_deg": +1, "max_pitch_deg": +1, "max_climb_rate_mps": +1,
-    "max_descent_rate_mps": +1, "reaction_time_s": +1,
-    "braking_decel_mps2": -1, "vertical_accel_mps2": -1,
+    "max_speed_mps": +1,
+    "max_bank_deg": +1,
+    "max_pitch_deg": +1,
+    "max_climb_rate_mps": +1,
+    "max_descent_rate_mps": +1,
+    "reaction_time_s": +1,
+    "braking_decel_mps2": -1,
+    "vertical_accel_mps2": -1,
 }
 
 
@@ -673,9 +704,10 @@ class ProfileMismatch:
         return side != 0 and math.isfinite(self.measured) and side * (self.declared - self.measured) > 0
 
     def __str__(self) -> str:
-        return (f"{self.platform}: envelope.{self.key} declares {self.declared:g}, measured "
-                f"{self.measured:.3g} (tolerance {self.tolerance:.3g})"
-                + (" - on the conservative side" if self.conservative else ""))
+        return (
+            f"{self.platform}: envelope.{self.key} declares {self.declared:g}, measured "
+            f"{self.measured:.3g} (tolerance {self.tolerance:.3g})" + (" - on the conservative side" if self.conservative else "")
+        )
 
 
 def declared_envelope(profile: PlatformProfile) -> dict[str, float]:
@@ -689,8 +721,7 @@ def declared_envelope(profile: PlatformProfile) -> dict[str, float]:
     return out
 
 
-def check_profile(m: Measurement, profile: PlatformProfile | None = None,
-                  tolerance_scale: float = 1.0) -> list[ProfileMismatch]:
+def check_profile(m: Measurement, profile: PlatformProfile | None = None, tolerance_scale: float = 1.0) -> list[ProfileMismatch]:
     """Envelope figures of ``profile`` (default: the shipped one) that differ from the measured ones.
 
     The tolerance per figure is ``max(rel·|measured|, floor)`` from :data:`TOLERANCES`, times ``tolerance_scale``.
@@ -717,11 +748,15 @@ def _fmt(x: float) -> str:
 
 def render_markdown(rows: Sequence[ValidationRow], measured: dict[str, Measurement] | None = None) -> str:
     """The rows as a markdown document: one table per platform, then the envelope each implies."""
-    lines = ["# Model validation", "",
-             "Generated by `python3 bench/validate_models.py` (`aircraft.validation`): every platform flown through",
-             "its standard manoeuvres in the sim (calm air, 40 Hz stick commands, air start at 30 m AGL for",
-             "multirotors and 300 m AGL for fixed-wings, 400 m AMSL), compared with published bands.",
-             "In band: ✓ inside, ✗ outside, blank where no published figure applies.", ""]
+    lines = [
+        "# Model validation",
+        "",
+        "Generated by `python3 bench/validate_models.py` (`aircraft.validation`): every platform flown through",
+        "its standard manoeuvres in the sim (calm air, 40 Hz stick commands, air start at 30 m AGL for",
+        "multirotors and 300 m AGL for fixed-wings, 400 m AMSL), compared with published bands.",
+        "In band: ✓ inside, ✗ outside, blank where no published figure applies.",
+        "",
+    ]
     by_platform: dict[str, list[ValidationRow]] = {}
     for r in rows:
         by_platform.setdefault(r.platform, []).append(r)
@@ -729,8 +764,10 @@ def render_markdown(rows: Sequence[ValidationRow], measured: dict[str, Measureme
         lines += [f"## {name}", ""]
         if name in PLATFORM_NOTES:
             lines += [PLATFORM_NOTES[name], ""]
-        lines += ["| quantity | measured | unit | reference band | ratio | in band | source / note |",
-                  "|---|---|---|---|---|---|---|"]
+        lines += [
+            "| quantity | measured | unit | reference band | ratio | in band | source / note |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for r in prow:
             band = f"{_fmt(r.reference.low)} – {_fmt(r.reference.high)}" if r.reference else ""
             flag = {True: "✓", False: "✗", None: ""}[r.in_band]
@@ -741,8 +778,12 @@ def render_markdown(rows: Sequence[ValidationRow], measured: dict[str, Measureme
         m = (measured or {}).get(name)
         if m is not None:
             env = ", ".join(f"`{k}: {_fmt(v)}`" for k, v in m.envelope.items())
-            lines += [f"Envelope implied by the measurement: {env}.", "",
-                      f"{m.sim_time_s:.0f} s simulated in {m.wall_time_s:.1f} s wall.", ""]
+            lines += [
+                f"Envelope implied by the measurement: {env}.",
+                "",
+                f"{m.sim_time_s:.0f} s simulated in {m.wall_time_s:.1f} s wall.",
+                "",
+            ]
     return "\n".join(lines)
 
 
@@ -764,10 +805,14 @@ def envelope_yaml(m: Measurement) -> str:
     return "\n".join(lines)
 
 
-def run_validation(models: Sequence[str] | None = None, out: str | None = "docs/validation.md",
-                   check_profiles: bool = False, tolerance_scale: float = 1.0,
-                   allow_conservative: bool = False,
-                   progress: Callable[[str], None] | None = print) -> int:
+def run_validation(
+    models: Sequence[str] | None = None,
+    out: str | None = "docs/validation.md",
+    check_profiles: bool = False,
+    tolerance_scale: float = 1.0,
+    allow_conservative: bool = False,
+    progress: Callable[[str], None] | None = print,
+) -> int:
     """Fly ``models`` (default: every profile), write the markdown table to ``out``, optionally check profiles.
 
     Returns a process exit code: 0, or 1 when ``check_profiles`` finds an

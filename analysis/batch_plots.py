@@ -90,6 +90,7 @@ def wind_levels(rows: Sequence[Mapping]) -> tuple[list[str], Callable[[Mapping],
             s = num(r.get("wind_speed_mps"))
             return f"{round(s, 3):g} m/s" if math.isfinite(s) else "unknown wind"
     else:
+
         def bin_label(lo: float, hi: float, lab: str) -> str:
             return f"{lab} ({lo:g}–{hi:g} m/s)" if math.isfinite(hi) else f"{lab} (≥ {lo:g} m/s)"
 
@@ -101,6 +102,7 @@ def wind_levels(rows: Sequence[Mapping]) -> tuple[list[str], Callable[[Mapping],
                 if b[0] <= s < b[1]:
                     return bin_label(*b)
             return "unknown wind"
+
     if has_unknown:
         labels.append("unknown wind")
     return labels, level
@@ -135,21 +137,23 @@ def comparison_stats(rows: Sequence[Mapping]) -> list[dict]:
             ok = [r for r in group if not is_failed(r)]
             scored = [r for r in ok if is_scored(r)]
             exc = np.array([num(r.get("max_excursion_m")) for r in scored])
-            out.append({
-                "platform": p,
-                "wind": w,
-                "flights": len(group),
-                "failed": len(group) - len(ok),
-                "scored": len(scored),
-                "breaches": int(np.count_nonzero(exc > 0.0)),
-                "keep_out_breaches": sum(truthy(r.get("breached_keep_out")) for r in scored),
-                "landed_outside_gap": sum(truthy(r.get("landed_outside_gap")) for r in scored),
-                "mean_peak_excursion_m": _mean(exc),
-                "max_peak_excursion_m": float(exc.max()) if len(exc) else math.nan,
-                "mean_activations": _mean([num(r.get("activations")) for r in scored]),
-                "mean_time_to_handback_s": _mean([num(r.get("time_to_handback_s")) for r in scored]),
-                "mean_time_to_peak_excursion_s": _mean([num(r.get("time_to_peak_excursion_s")) for r in scored]),
-            })
+            out.append(
+                {
+                    "platform": p,
+                    "wind": w,
+                    "flights": len(group),
+                    "failed": len(group) - len(ok),
+                    "scored": len(scored),
+                    "breaches": int(np.count_nonzero(exc > 0.0)),
+                    "keep_out_breaches": sum(truthy(r.get("breached_keep_out")) for r in scored),
+                    "landed_outside_gap": sum(truthy(r.get("landed_outside_gap")) for r in scored),
+                    "mean_peak_excursion_m": _mean(exc),
+                    "max_peak_excursion_m": float(exc.max()) if len(exc) else math.nan,
+                    "mean_activations": _mean([num(r.get("activations")) for r in scored]),
+                    "mean_time_to_handback_s": _mean([num(r.get("time_to_handback_s")) for r in scored]),
+                    "mean_time_to_peak_excursion_s": _mean([num(r.get("time_to_peak_excursion_s")) for r in scored]),
+                }
+            )
     return out
 
 
@@ -165,9 +169,11 @@ def _fmt(v: float, digits: int = 2) -> str:
 
 def comparison_table(rows: Sequence[Mapping]) -> str:
     """The platform comparison as a markdown table (one line per platform and wind level)."""
-    head = ("| platform | wind | flights | failed | breaches | keep-out breaches | landed outside gap "
-            "| mean peak excursion (m) | max peak excursion (m) | mean activations | mean recovery time (s) "
-            "| mean time to peak (s) |")
+    head = (
+        "| platform | wind | flights | failed | breaches | keep-out breaches | landed outside gap "
+        "| mean peak excursion (m) | max peak excursion (m) | mean activations | mean recovery time (s) "
+        "| mean time to peak (s) |"
+    )
     sep = "|" + "|".join(["---", "---"] + ["---:"] * 10) + "|"
     lines = [head, sep]
     for s in comparison_stats(rows):
@@ -175,7 +181,8 @@ def comparison_table(rows: Sequence[Mapping]) -> str:
             f"| {s['platform']} | {s['wind']} | {s['flights']} | {s['failed']} | {s['breaches']}/{s['scored']} "
             f"| {s['keep_out_breaches']} | {s['landed_outside_gap']} | {_fmt(s['mean_peak_excursion_m'])} "
             f"| {_fmt(s['max_peak_excursion_m'])} | {_fmt(s['mean_activations'], 1)} "
-            f"| {_fmt(s['mean_time_to_handback_s'])} | {_fmt(s['mean_time_to_peak_excursion_s'])} |")
+            f"| {_fmt(s['mean_time_to_handback_s'])} | {_fmt(s['mean_time_to_peak_excursion_s'])} |"
+        )
     if len(lines) == 2:
         lines.append("| (no flights) |" + " |" * 11)
     return "\n".join(lines) + "\n"
@@ -235,8 +242,16 @@ def plot_breach_distribution(rows: Sequence[Mapping], out_base: Path) -> list[Pa
         width = (hi - lo) / float(np.clip(np.sqrt(len(exc_all)) * 2, 8, 40))
         bins = np.arange(math.floor(lo / width) - 1, math.ceil(hi / width) + 2) * width  # 0 is a bin edge
         data = [np.array([num(r["max_excursion_m"]) for r in by[p]]) for p in platforms]
-        ax_hist.hist(data, bins=bins, color=[colour[p] for p in platforms], label=platforms,
-                     alpha=0.85, histtype="barstacked", edgecolor="white", linewidth=0.5)
+        ax_hist.hist(
+            data,
+            bins=bins,
+            color=[colour[p] for p in platforms],
+            label=platforms,
+            alpha=0.85,
+            histtype="barstacked",
+            edgecolor="white",
+            linewidth=0.5,
+        )
         for p, d in zip(platforms, data):
             _ecdf(ax_ecdf, d, color=colour[p], lw=2, label=f"{p} (n={len(d)})")
     else:
@@ -335,8 +350,16 @@ def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Pa
                 ax.scatter(xs[j] + jitter, vals, s=14, color=colour[p], alpha=0.55, edgecolors="none", zorder=3)
                 ax.hlines(vals.mean(), xs[j] - 0.42 * width, xs[j] + 0.42 * width, color=colour[p], lw=3, zorder=4)
                 ax.plot(xs[j], vals.max(), marker="v", ms=9, color=colour[p], markeredgecolor="black", ls="none", zorder=5)
-                ax.annotate(p.split(" (")[0], (xs[j], vals.max()), xytext=(0, 7), textcoords="offset points",
-                            ha="center", va="bottom", fontsize="x-small", color=colour[p])
+                ax.annotate(
+                    p.split(" (")[0],
+                    (xs[j], vals.max()),
+                    xytext=(0, 7),
+                    textcoords="offset points",
+                    ha="center",
+                    va="bottom",
+                    fontsize="x-small",
+                    color=colour[p],
+                )
         ax.axhline(0.0, **FENCE_STYLE)
         if not any_data:
             _no_data(ax, f"no {axis} excursions recorded")
@@ -347,8 +370,9 @@ def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Pa
         ax.set_ylim(lo, hi)
         what = "edge or keep-out" if axis == "lateral" else "ceiling or floor"
         ax.set_ylabel(f"peak {axis} excursion (m)")
-        ax.set_title(f"peak {axis} excursion beyond the {what}\n(< 0: closest approach, stayed inside by that much)",
-                     fontsize="medium")
+        ax.set_title(
+            f"peak {axis} excursion beyond the {what}\n(< 0: closest approach, stayed inside by that much)", fontsize="medium"
+        )
 
     def bars(ax, key: str, fmt: str, label_total: bool = False) -> None:
         for i, p in enumerate(platforms):
@@ -361,8 +385,15 @@ def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Pa
                 if label_total:
                     text += f"/{table[(p, w)]['scored']}"
                 text = f"{p.split(' (')[0]}\n{text}"
-                ax.annotate(text, (rect.get_x() + rect.get_width() / 2, max(rect.get_height(), 0.0)),
-                            xytext=(0, 2), textcoords="offset points", ha="center", va="bottom", fontsize="small")
+                ax.annotate(
+                    text,
+                    (rect.get_x() + rect.get_width() / 2, max(rect.get_height(), 0.0)),
+                    xytext=(0, 2),
+                    textcoords="offset points",
+                    ha="center",
+                    va="bottom",
+                    fontsize="small",
+                )
         ax.set_ylim(0, max(ax.get_ylim()[1], 1e-9) * 1.18)
 
     if not stats:
@@ -372,8 +403,17 @@ def plot_platform_comparison(rows: Sequence[Mapping], out_base: Path) -> list[Pa
         bars(ax_b, "breaches", "{:.0f}", label_total=True)
         ax_b.set_ylim(0, max([s["breaches"] for s in stats] + [1]) * 1.25)
         if not any(s["breaches"] for s in stats):
-            ax_b.text(0.5, 0.55, f"no breaches in {sum(s['scored'] for s in stats)} scored flights", transform=ax_b.transAxes,
-                      ha="center", va="center", color="tab:green", fontsize="large", fontweight="bold")
+            ax_b.text(
+                0.5,
+                0.55,
+                f"no breaches in {sum(s['scored'] for s in stats)} scored flights",
+                transform=ax_b.transAxes,
+                ha="center",
+                va="center",
+                color="tab:green",
+                fontsize="large",
+                fontweight="bold",
+            )
         ax_b.set_ylabel("flights with a breach")
         ax_b.set_title("breaches (peak excursion > 0 m; labels: breaches/scored)", fontsize="medium")
 

@@ -61,8 +61,17 @@ FIGURES = {
     "campaign_excursion": "Peak excursion per family: predictive vs reactive (vs unprotected)",
     "campaign_breach_bounds": "Breach rate and its 95 % upper bound per platform",
 }
-_TRAJ_COLUMNS = ("time_s", "east_m", "north_m", "agl_m", "alt_m", "v_east_mps", "v_north_mps", "ground_speed_mps",
-                 "geofence_mode")
+_TRAJ_COLUMNS = (
+    "time_s",
+    "east_m",
+    "north_m",
+    "agl_m",
+    "alt_m",
+    "v_east_mps",
+    "v_north_mps",
+    "ground_speed_mps",
+    "geofence_mode",
+)
 
 
 # --------------------------------------------------------------------------- statistics
@@ -142,9 +151,16 @@ def campaign_rows(rows: Iterable[Mapping], manifest: Mapping, batch_dir: str | P
         if case is None or variant not in VARIANTS:
             continue
         row = dict(r)
-        row.update(case_id=case_id, variant=variant, family=case["family"], attack=case["attack"],
-                   platform=case["platform"], platform_kind=case.get("platform_kind", row.get("platform_kind")),
-                   case_pilot=case.get("pilot"), gps_fault=bool(case.get("gps_fault")))
+        row.update(
+            case_id=case_id,
+            variant=variant,
+            family=case["family"],
+            attack=case["attack"],
+            platform=case["platform"],
+            platform_kind=case.get("platform_kind", row.get("platform_kind")),
+            case_pilot=case.get("pilot"),
+            gps_fault=bool(case.get("gps_fault")),
+        )
         if variant == "unprotected" and batch_dir is not None and not math.isfinite(num(row.get("max_excursion_m"))):
             row.update(score_unprotected(batch_dir, row, case))
         out.append(row)
@@ -321,10 +337,21 @@ def excursion_comparison(rows: Sequence[Mapping], by: str = "family") -> list[di
         for r in sel:
             if r.get("variant") in ("predictive", "reactive"):
                 by_case.setdefault(str(r.get("case_id")), {})[str(r.get("variant"))] = num(r.get("max_excursion_m"))
-        diffs = [d["predictive"] - d["reactive"] for d in by_case.values()
-                 if len(d) == 2 and math.isfinite(d["predictive"]) and math.isfinite(d["reactive"])]
-        out.append({by: k, "stats": stats, "mean_depth_ratio": ratio(np.mean), "max_depth_ratio": ratio(np.max),
-                    "paired_mean_m": float(np.mean(diffs)) if diffs else math.nan, "paired_n": len(diffs)})
+        diffs = [
+            d["predictive"] - d["reactive"]
+            for d in by_case.values()
+            if len(d) == 2 and math.isfinite(d["predictive"]) and math.isfinite(d["reactive"])
+        ]
+        out.append(
+            {
+                by: k,
+                "stats": stats,
+                "mean_depth_ratio": ratio(np.mean),
+                "max_depth_ratio": ratio(np.max),
+                "paired_mean_m": float(np.mean(diffs)) if diffs else math.nan,
+                "paired_n": len(diffs),
+            }
+        )
     return out
 
 
@@ -365,12 +392,22 @@ def offending_flights(rows: Sequence[Mapping], variant: str = "predictive") -> l
 
 def describe_flight(r: Mapping) -> str:
     o = flight_outcome(r)
-    what = [w for w, f in (("keep-in", o.keep_in_breach), ("keep-out", o.keep_out_entry),
-                           ("vertical", o.vertical_breach), ("out-of-gap landing", o.out_of_gap_landing)) if f]
-    return (f"{r.get('flight')}: {', '.join(what) or 'clean'}; lateral excursion {num(r.get('max_lateral_excursion_m')):+.2f} m, "
-            f"vertical {num(r.get('max_vertical_excursion_m')):+.2f} m, {r.get('platform')} {r.get('family')}/{r.get('attack')}, "
-            f"wind {num(r.get('wind_speed_mps')):.1f} m/s{', GPS fault' if truthy(r.get('gps_fault')) else ''}, "
-            f"activations {r.get('activations')}, final mode {r.get('final_mode')}")
+    what = [
+        w
+        for w, f in (
+            ("keep-in", o.keep_in_breach),
+            ("keep-out", o.keep_out_entry),
+            ("vertical", o.vertical_breach),
+            ("out-of-gap landing", o.out_of_gap_landing),
+        )
+        if f
+    ]
+    return (
+        f"{r.get('flight')}: {', '.join(what) or 'clean'}; lateral excursion {num(r.get('max_lateral_excursion_m')):+.2f} m, "
+        f"vertical {num(r.get('max_vertical_excursion_m')):+.2f} m, {r.get('platform')} {r.get('family')}/{r.get('attack')}, "
+        f"wind {num(r.get('wind_speed_mps')):.1f} m/s{', GPS fault' if truthy(r.get('gps_fault')) else ''}, "
+        f"activations {r.get('activations')}, final mode {r.get('final_mode')}"
+    )
 
 
 # --------------------------------------------------------------------------- figures
@@ -380,7 +417,6 @@ def plot_excursions(rows: Sequence[Mapping], out_base: Path) -> list[Path]:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
 
     ok = [r for r in rows if not is_error(r)]
     families = sorted({str(r.get("family")) for r in ok})
@@ -395,8 +431,15 @@ def plot_excursions(rows: Sequence[Mapping], out_base: Path) -> list[Path]:
             if not len(y):
                 continue
             x = i + offsets[v] + rng.uniform(-0.07, 0.07, len(y))
-            ax.scatter(x, y, s=16, color=colours[v], alpha=0.75, edgecolors="none",
-                       label=v if i == 0 or not any(h.get_label() == v for h in ax.collections) else None)
+            ax.scatter(
+                x,
+                y,
+                s=16,
+                color=colours[v],
+                alpha=0.75,
+                edgecolors="none",
+                label=v if i == 0 or not any(h.get_label() == v for h in ax.collections) else None,
+            )
             ax.hlines(np.median(y), i + offsets[v] - 0.1, i + offsets[v] + 0.1, color=colours[v], lw=2)
     ax.axhline(0.0, color="red", lw=1.0, ls="--")
     ax.text(1.0, 0.0, " fence", color="red", va="bottom", ha="right", transform=ax.get_yaxis_transform())
@@ -420,7 +463,6 @@ def plot_breach_bounds(rows: Sequence[Mapping], out_base: Path) -> list[Path]:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
 
     stats = {s.key: s for s in grouped(rows, ("platform", "variant"))}
     platforms = sorted({k[0] for k in stats})
@@ -465,13 +507,17 @@ def _rate(s: GroupStats) -> str:
 
 
 def _stats_table(stats: Sequence[GroupStats], names: Sequence[str]) -> list[str]:
-    lines = ["| " + " | ".join(names) + " | flights | errors | incomplete | keep-in | keep-out | vertical | out-of-gap "
-             "| breaches/scored (rate, 95 % UB) | sim h | per h (95 % UB) |",
-             "|" + "---|" * len(names) + "---:|---:|---:|---:|---:|---:|---:|---|---:|---|"]
+    lines = [
+        "| " + " | ".join(names) + " | flights | errors | incomplete | keep-in | keep-out | vertical | out-of-gap "
+        "| breaches/scored (rate, 95 % UB) | sim h | per h (95 % UB) |",
+        "|" + "---|" * len(names) + "---:|---:|---:|---:|---:|---:|---:|---|---:|---|",
+    ]
     for s in stats:
-        lines.append("| " + " | ".join(s.key) + f" | {s.flights} | {s.errors} | {s.incomplete} | {s.keep_in_breaches} "
-                     f"| {s.keep_out_entries} | {s.vertical_breaches} | {s.out_of_gap_landings} | {_rate(s)} "
-                     f"| {s.hours:.3f} | {_f(s.per_hour, 1)} ({_f(s.per_hour_upper, 1)}) |")
+        lines.append(
+            "| " + " | ".join(s.key) + f" | {s.flights} | {s.errors} | {s.incomplete} | {s.keep_in_breaches} "
+            f"| {s.keep_out_entries} | {s.vertical_breaches} | {s.out_of_gap_landings} | {_rate(s)} "
+            f"| {s.hours:.3f} | {_f(s.per_hour, 1)} ({_f(s.per_hour_upper, 1)}) |"
+        )
     return lines
 
 
@@ -480,9 +526,11 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
     rows = list(rows)
     lines = ["# Geofence efficacy campaign", ""]
     if manifest is not None:
-        lines.append(f"Campaign seed {manifest.get('seed')}: {manifest.get('n_cases')} cases "
-                     f"({manifest.get('skipped_cases', 0)} skipped: no platform fitted) x {len(VARIANTS)} variants; "
-                     f"{len(rows)} flights in the results.")
+        lines.append(
+            f"Campaign seed {manifest.get('seed')}: {manifest.get('n_cases')} cases "
+            f"({manifest.get('skipped_cases', 0)} skipped: no platform fitted) x {len(VARIANTS)} variants; "
+            f"{len(rows)} flights in the results."
+        )
         lines.append("")
     lines += [
         "Definitions: a **keep-in breach** is a lateral excursion > "
@@ -491,52 +539,79 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
         "**breach** is any of keep-in, keep-out entry, vertical, or landing outside a gap. Rates are over scored "
         "flights without an error; the upper bounds are one-sided exact 95 % (Clopper-Pearson for the rate, "
         "Poisson for breaches per simulated flight hour). The unprotected twin is scored from its trajectory "
-        "against its case's fence.", ""]
+        "against its case's fence.",
+        "",
+    ]
     lines += ["## Per variant", ""] + _stats_table(grouped(rows, ("variant",)), ["variant"]) + [""]
-    lines += ["## Per variant and platform", ""] + _stats_table(grouped(rows, ("variant", "platform")), ["variant", "platform"]) + [""]
+    lines += (
+        ["## Per variant and platform", ""] + _stats_table(grouped(rows, ("variant", "platform")), ["variant", "platform"]) + [""]
+    )
     lines += ["## Per variant and family", ""] + _stats_table(grouped(rows, ("variant", "family")), ["variant", "family"]) + [""]
-    lines += ["## Per variant, platform and family", ""] + _stats_table(
-        grouped(rows, ("variant", "platform", "family")), ["variant", "platform", "family"]) + [""]
+    lines += (
+        ["## Per variant, platform and family", ""]
+        + _stats_table(grouped(rows, ("variant", "platform", "family")), ["variant", "platform", "family"])
+        + [""]
+    )
 
-    lines += ["## Peak excursion: predictive vs reactive", "",
-              "Peak excursion `max_excursion_m` (m beyond the fence; < 0: closest approach inside). Ratios compare "
-              "the depth beyond the fence, max(excursion, 0), predictive / reactive (n/a when the reactive fence "
-              "was never crossed). Paired: mean over cases of predictive - reactive.", "",
-              "| family | variant | n | mean (m) | p95 (m) | max (m) | depth ratio mean / max | paired mean (m), n |",
-              "|---|---|---:|---:|---:|---:|---|---|"]
+    lines += [
+        "## Peak excursion: predictive vs reactive",
+        "",
+        "Peak excursion `max_excursion_m` (m beyond the fence; < 0: closest approach inside). Ratios compare "
+        "the depth beyond the fence, max(excursion, 0), predictive / reactive (n/a when the reactive fence "
+        "was never crossed). Paired: mean over cases of predictive - reactive.",
+        "",
+        "| family | variant | n | mean (m) | p95 (m) | max (m) | depth ratio mean / max | paired mean (m), n |",
+        "|---|---|---:|---:|---:|---:|---|---|",
+    ]
     for c in excursion_comparison(rows):
         for v in VARIANTS:
             s = c["stats"][v]
             if not s.n:
                 continue
-            extra = (f"{_f(c['mean_depth_ratio'], 3)} / {_f(c['max_depth_ratio'], 3)} | {_f(c['paired_mean_m'])}, {c['paired_n']}"
-                     if v == "predictive" else " | ")
+            extra = (
+                f"{_f(c['mean_depth_ratio'], 3)} / {_f(c['max_depth_ratio'], 3)} | {_f(c['paired_mean_m'])}, {c['paired_n']}"
+                if v == "predictive"
+                else " | "
+            )
             lines.append(f"| {c['family']} | {v} | {s.n} | {_f(s.mean_m)} | {_f(s.p95_m)} | {_f(s.max_m)} | {extra} |")
     lines.append("")
 
-    lines += ["## Unprotected twins", "",
-              "Cases whose unprotected twin breached, and what the protected flight of the same case did.", "",
-              "| variant | twin breached | ... and held | ... and breached too | twin clean but protected breached |",
-              "|---|---:|---:|---:|---:|"]
+    lines += [
+        "## Unprotected twins",
+        "",
+        "Cases whose unprotected twin breached, and what the protected flight of the same case did.",
+        "",
+        "| variant | twin breached | ... and held | ... and breached too | twin clean but protected breached |",
+        "|---|---:|---:|---:|---:|",
+    ]
     for v, c in unprotected_vs_protected(rows).items():
-        lines.append(f"| {v} | {c['twin_breached']} | {c['twin_breached_and_held']} | {c['twin_breached_and_breached']} "
-                     f"| {c['twin_clean_but_breached']} |")
+        lines.append(
+            f"| {v} | {c['twin_breached']} | {c['twin_breached_and_held']} | {c['twin_breached_and_breached']} "
+            f"| {c['twin_clean_but_breached']} |"
+        )
     lines.append("")
 
-    lines += ["## Normal missions", "",
-              "Missions keep every waypoint and leg 3 turn/stop rooms inside every boundary. A **nuisance override** "
-              "is a mission flight with activations > 0; **stalled** a mission that did not finish with activations "
-              "> 0 and no error; errors are counted apart. **Passed the check**: missions the pre-flight check "
-              "(`geofence-testbed check`) passed; the check promises that these are never overridden.", "",
-              "| variant | missions | nuisance overrides | stalled by the geofence | errors | passed the check | "
-              "... and overridden anyway |", "|---|---:|---:|---:|---:|---:|---:|"]
+    lines += [
+        "## Normal missions",
+        "",
+        "Missions keep every waypoint and leg 3 turn/stop rooms inside every boundary. A **nuisance override** "
+        "is a mission flight with activations > 0; **stalled** a mission that did not finish with activations "
+        "> 0 and no error; errors are counted apart. **Passed the check**: missions the pre-flight check "
+        "(`geofence-testbed check`) passed; the check promises that these are never overridden.",
+        "",
+        "| variant | missions | nuisance overrides | stalled by the geofence | errors | passed the check | "
+        "... and overridden anyway |",
+        "|---|---:|---:|---:|---:|---:|---:|",
+    ]
     for v in VARIANTS:
         sel = [r for r in rows if r.get("variant") == v and is_mission(r)]
         if not sel:
             continue
         s = group_stats(sel)
-        lines.append(f"| {v} | {s.missions} | {s.nuisance_missions} | {s.stalled_missions} | {s.errors} | "
-                     f"{s.checked_missions} | {s.checked_nuisance} |")
+        lines.append(
+            f"| {v} | {s.missions} | {s.nuisance_missions} | {s.stalled_missions} | {s.errors} | "
+            f"{s.checked_missions} | {s.checked_nuisance} |"
+        )
     lines.append("")
 
     lines += ["## Offending flights", ""]
@@ -544,7 +619,9 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
         bad = offending_flights(rows, v)
         lines.append(f"**{v}** ({len(bad)}: keep-in breach, keep-out entry or out-of-gap landing):")
         lines.append("")
-        lines += [f"- {describe_flight(r)}" for r in sorted(bad, key=lambda r: -num(r.get('max_lateral_excursion_m')))] or ["- none"]
+        lines += [f"- {describe_flight(r)}" for r in sorted(bad, key=lambda r: -num(r.get("max_lateral_excursion_m")))] or [
+            "- none"
+        ]
         lines.append("")
     errs = [r for r in rows if is_error(r)]
     lines += [f"## Errors ({len(errs)})", ""]

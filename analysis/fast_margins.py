@@ -66,9 +66,19 @@ class _Edges:
         with np.errstate(divide="ignore", invalid="ignore"):
             dxdy = np.where(d[:, 1] != 0.0, d[:, 0] / d[:, 1], 0.0)
         self.rows = tuple(
-            (float(a[i, 0]), float(a[i, 1]), float(b[i, 1]), float(d[i, 0]), float(d[i, 1]), float(il2[i]),
-             float(dxdy[i]), float(min(a[i, 1], b[i, 1])), float(max(a[i, 1], b[i, 1])))
-            for i in range(len(a)))
+            (
+                float(a[i, 0]),
+                float(a[i, 1]),
+                float(b[i, 1]),
+                float(d[i, 0]),
+                float(d[i, 1]),
+                float(il2[i]),
+                float(dxdy[i]),
+                float(min(a[i, 1], b[i, 1])),
+                float(max(a[i, 1], b[i, 1])),
+            )
+            for i in range(len(a))
+        )
 
 
 _EDGE_CACHE: dict[int, tuple[PolygonIndex, _Edges]] = {}
@@ -101,7 +111,7 @@ def _signed_distance_chunk(edges: _Edges, x: np.ndarray, y: np.ndarray, out: np.
         np.subtract(y, ay, out=py)
         # crossing number (ray towards +x): the edge straddles y and the crossing lies right of x
         if dy != 0.0:
-            np.less(y, yhi, out=s1)       # y < max(ay, by)
+            np.less(y, yhi, out=s1)  # y < max(ay, by)
             np.greater_equal(y, ylo, out=s2)  # y >= min(ay, by)
             np.logical_and(s1, s2, out=s1)
             np.multiply(py, dxdy, out=tmp)
@@ -140,7 +150,7 @@ def _run_chunks(fn, n: int, threads: int | None) -> None:
         return
     # one contiguous block of chunks per task keeps the per-task overhead small
     per = max(1, -(-len(spans) // (threads * 4)))
-    blocks = [spans[i:i + per] for i in range(0, len(spans), per)]
+    blocks = [spans[i : i + per] for i in range(0, len(spans), per)]
 
     def work(block):
         for s, e in block:

@@ -82,8 +82,20 @@ from geofence.geodesy import LocalFrame
 from geofence.validation import ConfigError
 
 TRAJECTORY_COLUMNS = (
-    "time_s", "unix_time_s", "lat_deg", "lon_deg", "alt_m", "agl_m", "east_m", "north_m", "up_m",
-    "v_east_mps", "v_north_mps", "v_up_mps", "ground_speed_mps", "mode",
+    "time_s",
+    "unix_time_s",
+    "lat_deg",
+    "lon_deg",
+    "alt_m",
+    "agl_m",
+    "east_m",
+    "north_m",
+    "up_m",
+    "v_east_mps",
+    "v_north_mps",
+    "v_up_mps",
+    "ground_speed_mps",
+    "mode",
 )
 
 
@@ -103,13 +115,13 @@ class LogFenceDistanceError(LogError):
 class SanityLimits:
     """Bounds of the sanity checks; a log beyond a ``max_*_fraction`` is refused."""
 
-    max_speed_mps: float = 150.0          # faster than any small aircraft: a position glitch
-    max_bad_fraction: float = 0.05        # CRC failures / skipped chunks per decoded message
+    max_speed_mps: float = 150.0  # faster than any small aircraft: a position glitch
+    max_bad_fraction: float = 0.05  # CRC failures / skipped chunks per decoded message
     max_time_fault_fraction: float = 0.05  # messages with an implausible or out-of-order time
-    max_dropped_fraction: float = 0.2     # position samples dropped for time faults or glitches
-    future_slack_s: float = 2 * 86400.0   # a wall-clock time this far past "now" is absurd
-    max_boot_time_s: float = 1.0e7        # a time-since-boot axis beyond this (115 days) is absurd
-    time_tolerance_s: float = 0.5         # a step back this small is jitter, not a fault
+    max_dropped_fraction: float = 0.2  # position samples dropped for time faults or glitches
+    future_slack_s: float = 2 * 86400.0  # a wall-clock time this far past "now" is absurd
+    max_boot_time_s: float = 1.0e7  # a time-since-boot axis beyond this (115 days) is absurd
+    time_tolerance_s: float = 0.5  # a step back this small is jitter, not a fault
 
 
 EPOCH_2000_S = 946684800.0
@@ -120,39 +132,39 @@ class LogInfo:
     """What a log is: for a report next to its scores."""
 
     path: str
-    log_format: str                 # "tlog" or "dataflash"
-    vehicle_type: str               # e.g. "FIXED_WING", "QUADROTOR" ("UNKNOWN" if not stated)
-    autopilot: str                  # e.g. "ARDUPILOTMEGA", or the firmware string of a .bin
-    position_source: str            # message type the trajectory came from
-    agl_source: str                 # where agl_m came from
-    n_positions: int                # samples kept
-    n_skipped: int                  # position messages skipped (no fix, zero coordinates, repeated time)
-    start_unix_s: float             # first message
-    end_unix_s: float               # last message
-    duration_s: float               # end - start
+    log_format: str  # "tlog" or "dataflash"
+    vehicle_type: str  # e.g. "FIXED_WING", "QUADROTOR" ("UNKNOWN" if not stated)
+    autopilot: str  # e.g. "ARDUPILOTMEGA", or the firmware string of a .bin
+    position_source: str  # message type the trajectory came from
+    agl_source: str  # where agl_m came from
+    n_positions: int  # samples kept
+    n_skipped: int  # position messages skipped (no fix, zero coordinates, repeated time)
+    start_unix_s: float  # first message
+    end_unix_s: float  # last message
+    duration_s: float  # end - start
     position_span_s: tuple[float, float]  # (first, last) kept sample, in time_s
     message_counts: dict[str, int] = field(default_factory=dict)
-    modes: tuple[str, ...] = ()     # the mode sequence over the kept samples (consecutive repeats merged)
-    simulated: bool = False         # a SITL log (SIMSTATE/SIM messages present)
+    modes: tuple[str, ...] = ()  # the mode sequence over the kept samples (consecutive repeats merged)
+    simulated: bool = False  # a SITL log (SIMSTATE/SIM messages present)
     frame: LocalFrame | None = None  # the ENU frame of east/north/up
-    n_bad_crc: int = 0              # tlog messages failing their CRC; DataFlash corrupt chunks skipped
-    bad_bytes: int = 0              # bytes in those
-    n_time_faults: int = 0          # messages with an implausible or out-of-order time
+    n_bad_crc: int = 0  # tlog messages failing their CRC; DataFlash corrupt chunks skipped
+    bad_bytes: int = 0  # bytes in those
+    n_time_faults: int = 0  # messages with an implausible or out-of-order time
     n_position_time_faults: int = 0  # position samples among them (dropped)
-    n_glitches: int = 0             # position samples dropped as implausible jumps
-    dropped_s: float = 0.0          # seconds of the position time line the dropped samples fell in
-    truncated_bytes: int = 0        # bytes after the last complete message
+    n_glitches: int = 0  # position samples dropped as implausible jumps
+    dropped_s: float = 0.0  # seconds of the position time line the dropped samples fell in
+    truncated_bytes: int = 0  # bytes after the last complete message
     warnings: tuple[str, ...] = ()  # one line each; what was dropped or looks wrong
 
 
-def read_log(path: str | Path, frame: LocalFrame | None = None,
-             limits: SanityLimits | None = None) -> dict[str, np.ndarray]:
+def read_log(path: str | Path, frame: LocalFrame | None = None, limits: SanityLimits | None = None) -> dict[str, np.ndarray]:
     """Trajectory columns of a ``.tlog`` or DataFlash ``.bin`` (see the module docstring)."""
     return load_log(path, frame, limits)[0]
 
 
-def load_log(path: str | Path, frame: LocalFrame | None = None,
-             limits: SanityLimits | None = None) -> tuple[dict[str, np.ndarray], LogInfo]:
+def load_log(
+    path: str | Path, frame: LocalFrame | None = None, limits: SanityLimits | None = None
+) -> tuple[dict[str, np.ndarray], LogInfo]:
     """``(trajectory columns, LogInfo)`` of one log, read in one pass.
 
     Raises :class:`LogError` (one line naming the file) for a log that cannot
@@ -222,7 +234,7 @@ def _connection(p: Path, name: str):
 
 def _enum_name(mavutil, enum: str, value: int, prefix: str) -> str:
     e = mavutil.mavlink.enums.get(enum, {}).get(value)
-    return e.name[len(prefix):] if e is not None and e.name.startswith(prefix) else f"{value}"
+    return e.name[len(prefix) :] if e is not None and e.name.startswith(prefix) else f"{value}"
 
 
 def _messages(m, name: str, counts: collections.Counter):
@@ -231,8 +243,9 @@ def _messages(m, name: str, counts: collections.Counter):
         try:
             msg = m.recv_match()
         except Exception as exc:
-            raise LogError(f"{name}: decoding failed after {sum(counts.values())} messages "
-                           f"({type(exc).__name__}: {exc})") from None
+            raise LogError(
+                f"{name}: decoding failed after {sum(counts.values())} messages ({type(exc).__name__}: {exc})"
+            ) from None
         if msg is None:
             return
         counts[msg.get_type()] += 1
@@ -261,11 +274,13 @@ def _read_tlog(p: Path, name: str, frame: LocalFrame | None, limits: SanityLimit
         k = len(times)
         times.append(ts)
         if t == "GLOBAL_POSITION_INT":
-            gpi[msg.get_srcSystem()].append((k, msg.lat, msg.lon, msg.alt, msg.relative_alt, msg.vx, msg.vy, msg.vz,
-                                             msg.time_boot_ms * 1e-3, m.flightmode))
+            gpi[msg.get_srcSystem()].append(
+                (k, msg.lat, msg.lon, msg.alt, msg.relative_alt, msg.vx, msg.vy, msg.vz, msg.time_boot_ms * 1e-3, m.flightmode)
+            )
         elif t == "GPS_RAW_INT":
-            gps[msg.get_srcSystem()].append((k, msg.lat, msg.lon, msg.alt, msg.fix_type, msg.vel, msg.cog,
-                                             msg.time_usec * 1e-6, m.flightmode))
+            gps[msg.get_srcSystem()].append(
+                (k, msg.lat, msg.lon, msg.alt, msg.fix_type, msg.vel, msg.cog, msg.time_usec * 1e-6, m.flightmode)
+            )
         elif t == "HEARTBEAT" and msg.type != gcs and vehicle is None and msg.autopilot != mavutil.mavlink.MAV_AUTOPILOT_INVALID:
             vehicle = (msg.type, msg.autopilot)
         elif t in ("SIMSTATE", "SIM_STATE"):
@@ -273,9 +288,13 @@ def _read_tlog(p: Path, name: str, frame: LocalFrame | None, limits: SanityLimit
     if not times:
         extra = f"; {bad_bytes} bytes of unreadable data" if bad_bytes else ""
         raise LogError(f"{name}: no MAVLink messages (not a tlog?{extra})")
-    integrity = _Integrity(times=np.asarray(times, dtype=float), n_bad=bad, bad_bytes=bad_bytes,
-                           bad_what="message(s) failed their MAVLink CRC",
-                           truncated_bytes=max(0, p.stat().st_size - end_ofs))
+    integrity = _Integrity(
+        times=np.asarray(times, dtype=float),
+        n_bad=bad,
+        bad_bytes=bad_bytes,
+        bad_what="message(s) failed their MAVLink CRC",
+        truncated_bytes=max(0, p.stat().st_size - end_ofs),
+    )
     if gpi:
         sysid = max(gpi, key=lambda k: len(gpi[k]))
         rows = gpi[sysid]
@@ -283,10 +302,17 @@ def _read_tlog(p: Path, name: str, frame: LocalFrame | None, limits: SanityLimit
         modes = np.array([r[9] for r in rows], dtype=str)
         lat, lon, alt = a[:, 1] * 1e-7, a[:, 2] * 1e-7, a[:, 3] * 1e-3
         ok = _valid(lat, lon)
-        cols: dict[str, np.ndarray | None] = {"msg_index": a[:, 0].astype(int), "lat_deg": lat, "lon_deg": lon, "alt_m": alt,
-                                              "agl_m": a[:, 4] * 1e-3,
-                "v_east_mps": a[:, 6] * 0.01, "v_north_mps": a[:, 5] * 0.01, "v_up_mps": -a[:, 7] * 0.01,
-                "vehicle_time_s": a[:, 8]}
+        cols: dict[str, np.ndarray | None] = {
+            "msg_index": a[:, 0].astype(int),
+            "lat_deg": lat,
+            "lon_deg": lon,
+            "alt_m": alt,
+            "agl_m": a[:, 4] * 1e-3,
+            "v_east_mps": a[:, 6] * 0.01,
+            "v_north_mps": a[:, 5] * 0.01,
+            "v_up_mps": -a[:, 7] * 0.01,
+            "vehicle_time_s": a[:, 8],
+        }
         source, agl_source = "GLOBAL_POSITION_INT", "GLOBAL_POSITION_INT.relative_alt"
     elif gps:
         sysid = max(gps, key=lambda k: len(gps[k]))
@@ -297,9 +323,17 @@ def _read_tlog(p: Path, name: str, frame: LocalFrame | None, limits: SanityLimit
         ok = _valid(lat, lon) & (a[:, 4] >= 3)
         vel = np.where(a[:, 5] == 65535, np.nan, a[:, 5] * 0.01)
         cog = np.radians(np.where(a[:, 6] == 65535, np.nan, a[:, 6] * 0.01))
-        cols = {"msg_index": a[:, 0].astype(int), "lat_deg": lat, "lon_deg": lon, "alt_m": alt, "agl_m": None,
-                "v_east_mps": vel * np.sin(cog), "v_north_mps": vel * np.cos(cog), "v_up_mps": None,
-                "vehicle_time_s": a[:, 7]}
+        cols = {
+            "msg_index": a[:, 0].astype(int),
+            "lat_deg": lat,
+            "lon_deg": lon,
+            "alt_m": alt,
+            "agl_m": None,
+            "v_east_mps": vel * np.sin(cog),
+            "v_north_mps": vel * np.cos(cog),
+            "v_up_mps": None,
+            "vehicle_time_s": a[:, 7],
+        }
         source, agl_source = "GPS_RAW_INT", "alt_m minus the first sample's alt_m (no relative altitude in GPS_RAW_INT)"
     else:
         raise LogError(f"{name}: no GLOBAL_POSITION_INT or GPS_RAW_INT messages")
@@ -308,8 +342,9 @@ def _read_tlog(p: Path, name: str, frame: LocalFrame | None, limits: SanityLimit
         autopilot = _enum_name(mavutil, "MAV_AUTOPILOT", vehicle[1], "MAV_AUTOPILOT_")
     else:
         vtype, autopilot = "UNKNOWN", "UNKNOWN"
-    return _finish(name, "tlog", cols, modes, ok, frame, integrity, counts, vtype, autopilot, source,
-                   agl_source, simulated, limits)
+    return _finish(
+        name, "tlog", cols, modes, ok, frame, integrity, counts, vtype, autopilot, source, agl_source, simulated, limits
+    )
 
 
 # --------------------------------------------------------------------------- DataFlash
@@ -330,15 +365,31 @@ def _read_dataflash(p: Path, name: str, frame: LocalFrame | None, limits: Sanity
         if t == "GPS":
             if getattr(msg, "I", 0) != 0:  # keep the first GPS instance only
                 continue
-            gps_rows.append((k, msg.TimeUS, msg.Status, msg.Lat, msg.Lng, msg.Alt, msg.Spd, msg.GCrs,
-                             getattr(msg, "VZ", math.nan), m.flightmode))
+            gps_rows.append(
+                (
+                    k,
+                    msg.TimeUS,
+                    msg.Status,
+                    msg.Lat,
+                    msg.Lng,
+                    msg.Alt,
+                    msg.Spd,
+                    msg.GCrs,
+                    getattr(msg, "VZ", math.nan),
+                    m.flightmode,
+                )
+            )
         elif t == "POS":
-            pos_rows.append((k, msg.TimeUS, msg.Lat, msg.Lng, msg.Alt, getattr(msg, "RelHomeAlt", math.nan),
-                             m.flightmode))
+            pos_rows.append((k, msg.TimeUS, msg.Lat, msg.Lng, msg.Alt, getattr(msg, "RelHomeAlt", math.nan), m.flightmode))
         elif t == "VER" and firmware is None:
             firmware = getattr(msg, "FWS", None)
-        elif t == "MSG" and firmware is None and str(msg.Message).startswith(("ArduPlane", "ArduCopter", "ArduRover",
-                                                                              "ArduSub", "APM:", "Blimp", "AntennaTracker")):
+        elif (
+            t == "MSG"
+            and firmware is None
+            and str(msg.Message).startswith(
+                ("ArduPlane", "ArduCopter", "ArduRover", "ArduSub", "APM:", "Blimp", "AntennaTracker")
+            )
+        ):
             firmware = str(msg.Message)
         elif t in ("SIM", "SIM2", "SITL"):
             simulated = True
@@ -350,10 +401,14 @@ def _read_dataflash(p: Path, name: str, frame: LocalFrame | None, limits: Sanity
     tail = max(0, int(getattr(m, "data_len", 0)) - int(getattr(m, "offset", 0)))
     # block-based logs pad their last page (< 256 bytes) with anything but a message header
     data_map = getattr(m, "data_map", None)
-    tail_is_msg = tail >= 2 and data_map is not None and bytes(data_map[m.offset:m.offset + 2]) == b"\xa3\x95"
-    integrity = _Integrity(times=np.asarray(times, dtype=float), n_bad=len(skipped) + failed, bad_bytes=sum(skipped),
-                           bad_what="corrupt chunk(s) skipped by the DataFlash parser",
-                           truncated_bytes=tail if (tail_is_msg or tail >= 528) else 0)
+    tail_is_msg = tail >= 2 and data_map is not None and bytes(data_map[m.offset : m.offset + 2]) == b"\xa3\x95"
+    integrity = _Integrity(
+        times=np.asarray(times, dtype=float),
+        n_bad=len(skipped) + failed,
+        bad_bytes=sum(skipped),
+        bad_what="corrupt chunk(s) skipped by the DataFlash parser",
+        truncated_bytes=tail if (tail_is_msg or tail >= 528) else 0,
+    )
     pos = np.array([r[:6] for r in pos_rows], dtype=float).reshape(-1, 6)
     if gps_rows:
         a = np.array([r[:9] for r in gps_rows], dtype=float)
@@ -367,28 +422,64 @@ def _read_dataflash(p: Path, name: str, frame: LocalFrame | None, limits: Sanity
         if len(pv) >= 2:
             agl = np.interp(a[:, 1], pv[:, 1], pv[:, 5])
             agl_source = "POS.RelHomeAlt interpolated to the GPS samples"
-        cols = {"msg_index": a[:, 0].astype(int), "lat_deg": lat, "lon_deg": lon, "alt_m": alt, "agl_m": agl,
-                "v_east_mps": a[:, 6] * np.sin(crs), "v_north_mps": a[:, 6] * np.cos(crs), "v_up_mps": -a[:, 8],
-                "vehicle_time_s": a[:, 1] * 1e-6}
+        cols = {
+            "msg_index": a[:, 0].astype(int),
+            "lat_deg": lat,
+            "lon_deg": lon,
+            "alt_m": alt,
+            "agl_m": agl,
+            "v_east_mps": a[:, 6] * np.sin(crs),
+            "v_north_mps": a[:, 6] * np.cos(crs),
+            "v_up_mps": -a[:, 8],
+            "vehicle_time_s": a[:, 1] * 1e-6,
+        }
         source = "GPS"
     elif len(pos):
         modes = np.array([r[6] for r in pos_rows], dtype=str)
         lat, lon = pos[:, 2], pos[:, 3]
         ok = _valid(lat, lon)
-        cols = {"msg_index": pos[:, 0].astype(int), "lat_deg": lat, "lon_deg": lon, "alt_m": pos[:, 4], "agl_m": pos[:, 5],
-                "v_east_mps": None, "v_north_mps": None, "v_up_mps": None, "vehicle_time_s": pos[:, 1] * 1e-6}
+        cols = {
+            "msg_index": pos[:, 0].astype(int),
+            "lat_deg": lat,
+            "lon_deg": lon,
+            "alt_m": pos[:, 4],
+            "agl_m": pos[:, 5],
+            "v_east_mps": None,
+            "v_north_mps": None,
+            "v_up_mps": None,
+            "vehicle_time_s": pos[:, 1] * 1e-6,
+        }
         source, agl_source = "POS", "POS.RelHomeAlt"
     else:
         raise LogError(f"{name}: no GPS or POS messages")
-    vtype = {1: "FIXED_WING", 2: "QUADROTOR", 10: "GROUND_ROVER", 12: "SUBMARINE"}.get(int(getattr(m, "mav_type", -1) or -1),
-                                                                                      "UNKNOWN")
+    vtype = {1: "FIXED_WING", 2: "QUADROTOR", 10: "GROUND_ROVER", 12: "SUBMARINE"}.get(
+        int(getattr(m, "mav_type", -1) or -1), "UNKNOWN"
+    )
     if firmware:
-        for prefix, vt in (("ArduPlane", "FIXED_WING"), ("ArduCopter", "QUADROTOR"), ("ArduRover", "GROUND_ROVER"),
-                           ("ArduSub", "SUBMARINE")):
+        for prefix, vt in (
+            ("ArduPlane", "FIXED_WING"),
+            ("ArduCopter", "QUADROTOR"),
+            ("ArduRover", "GROUND_ROVER"),
+            ("ArduSub", "SUBMARINE"),
+        ):
             if firmware.startswith(prefix) and vtype == "UNKNOWN":
                 vtype = vt
-    return _finish(name, "dataflash", cols, modes, ok, frame, integrity, counts, vtype,
-                   firmware or "ARDUPILOTMEGA", source, agl_source, simulated, limits)
+    return _finish(
+        name,
+        "dataflash",
+        cols,
+        modes,
+        ok,
+        frame,
+        integrity,
+        counts,
+        vtype,
+        firmware or "ARDUPILOTMEGA",
+        source,
+        agl_source,
+        simulated,
+        limits,
+    )
 
 
 # --------------------------------------------------------------------------- common
@@ -396,16 +487,15 @@ def _read_dataflash(p: Path, name: str, frame: LocalFrame | None, limits: Sanity
 class _Integrity:
     """What a reader learned about the byte stream, for the sanity checks in :func:`_finish`."""
 
-    times: np.ndarray               # the time of every decoded message, in file order
-    n_bad: int                      # CRC failures (tlog) / corrupt chunks skipped (DataFlash)
+    times: np.ndarray  # the time of every decoded message, in file order
+    n_bad: int  # CRC failures (tlog) / corrupt chunks skipped (DataFlash)
     bad_bytes: int
     bad_what: str
     truncated_bytes: int
 
 
 def _valid(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
-    return (np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90.0) & (np.abs(lon) <= 180.0)
-            & ~((lat == 0.0) & (lon == 0.0)))
+    return np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) <= 90.0) & (np.abs(lon) <= 180.0) & ~((lat == 0.0) & (lon == 0.0))
 
 
 def _longest_nondecreasing(t: np.ndarray, tol: float = 0.0) -> np.ndarray:
@@ -453,8 +543,15 @@ def _time_ok(times: np.ndarray, limits: SanityLimits) -> tuple[np.ndarray, str]:
     return ok, axis
 
 
-def _glitch_mask(lat: np.ndarray, lon: np.ndarray, alt: np.ndarray, t: np.ndarray, max_speed_mps: float,
-                 t_vehicle: np.ndarray | None = None, slack_m: float = 10.0) -> np.ndarray:
+def _glitch_mask(
+    lat: np.ndarray,
+    lon: np.ndarray,
+    alt: np.ndarray,
+    t: np.ndarray,
+    max_speed_mps: float,
+    t_vehicle: np.ndarray | None = None,
+    slack_m: float = 10.0,
+) -> np.ndarray:
     """Mask of fixes reachable from the last accepted one at ``max_speed_mps`` (horizontal and vertical).
 
     The time between two fixes is the larger of the log's time step and the vehicle clock's (a tlog's
@@ -490,14 +587,30 @@ def _plural(n: int, word: str) -> str:
     return f"{n} {word}" + ("" if n == 1 else "s")
 
 
-def _finish(name, fmt, cols, modes, ok, frame, integrity: _Integrity, counts, vtype, autopilot, source, agl_source,
-            simulated, limits: SanityLimits):
+def _finish(
+    name,
+    fmt,
+    cols,
+    modes,
+    ok,
+    frame,
+    integrity: _Integrity,
+    counts,
+    vtype,
+    autopilot,
+    source,
+    agl_source,
+    simulated,
+    limits: SanityLimits,
+):
     times = integrity.times
     n_msgs = len(times)
     warnings: list[str] = []
     if integrity.truncated_bytes:
-        warnings.append(f"the log ends in a truncated message ({integrity.truncated_bytes} bytes after the last "
-                        f"complete message; the file was cut short?)")
+        warnings.append(
+            f"the log ends in a truncated message ({integrity.truncated_bytes} bytes after the last "
+            f"complete message; the file was cut short?)"
+        )
     # CRC failures
     n_bad = integrity.n_bad
     if n_bad:
@@ -505,7 +618,8 @@ def _finish(name, fmt, cols, modes, ok, frame, integrity: _Integrity, counts, vt
         if frac > limits.max_bad_fraction:
             raise LogIntegrityError(
                 f"{name}: refused: {n_bad} {integrity.bad_what} ({integrity.bad_bytes} bytes) against {n_msgs} good "
-                f"messages ({100 * frac:.1f}% > {100 * limits.max_bad_fraction:g}%): the file is corrupt")
+                f"messages ({100 * frac:.1f}% > {100 * limits.max_bad_fraction:g}%): the file is corrupt"
+            )
         warnings.append(f"{n_bad} {integrity.bad_what} ({integrity.bad_bytes} bytes), not used")
     # time: plausible and in order
     time_ok, axis = _time_ok(times, limits)
@@ -517,7 +631,8 @@ def _finish(name, fmt, cols, modes, ok, frame, integrity: _Integrity, counts, vt
     if n_time_faults / n_msgs > limits.max_time_fault_fraction:
         raise LogIntegrityError(
             f"{name}: refused: {n_time_faults} of {n_msgs} messages have an implausible or out-of-order "
-            f"{axis} time ({100 * n_time_faults / n_msgs:.1f}% > {100 * limits.max_time_fault_fraction:g}%)")
+            f"{axis} time ({100 * n_time_faults / n_msgs:.1f}% > {100 * limits.max_time_fault_fraction:g}%)"
+        )
     good_t = times[time_ok]
     first_t, last_t = float(good_t.min()), float(good_t.max())
 
@@ -530,8 +645,7 @@ def _finish(name, fmt, cols, modes, ok, frame, integrity: _Integrity, counts, vt
         t = unix_all[idx]
         idx = idx[np.concatenate([[True], t[1:] > np.maximum.accumulate(t)[:-1]])]
     lat_all, lon_all, alt_all = cols["lat_deg"], cols["lon_deg"], cols["alt_m"]
-    g = _glitch_mask(lat_all[idx], lon_all[idx], alt_all[idx], unix_all[idx], limits.max_speed_mps,
-                     cols["vehicle_time_s"][idx])
+    g = _glitch_mask(lat_all[idx], lon_all[idx], alt_all[idx], unix_all[idx], limits.max_speed_mps, cols["vehicle_time_s"][idx])
     glitched = idx[~g]
     idx = idx[g]
     n_pos_time_faults, n_glitches = int(time_faulty.sum()), len(glitched)
@@ -549,7 +663,8 @@ def _finish(name, fmt, cols, modes, ok, frame, integrity: _Integrity, counts, vt
             raise LogIntegrityError(
                 f"{name}: refused: {n_dropped} of {n_valid} {source} fixes are time faults ({n_pos_time_faults}) "
                 f"or position glitches ({n_glitches}) ({100 * n_dropped / n_valid:.0f}% > "
-                f"{100 * limits.max_dropped_fraction:g}%)")
+                f"{100 * limits.max_dropped_fraction:g}%)"
+            )
         # seconds of the kept time line with dropped samples in them (+ a median interval per sample at either end)
         tk = unix_all[idx]
         cf = np.concatenate([[0], np.cumsum(faulty)])
@@ -562,10 +677,15 @@ def _finish(name, fmt, cols, modes, ok, frame, integrity: _Integrity, counts, vt
         if n_pos_time_faults:
             parts.append(f"{_plural(n_pos_time_faults, 'time fault')}")
         if n_glitches:
-            parts.append(f"{_plural(n_glitches, 'position glitch')} (faster than {limits.max_speed_mps:g} m/s)"
-                         .replace("glitchs", "glitches"))
-        warnings.append(f"scored over the clean part only: dropped {n_dropped} of {n_valid} {source} fixes "
-                        f"({', '.join(parts)}), {dropped_s:.1f} s of the {tk[-1] - tk[0]:.1f} s track")
+            parts.append(
+                f"{_plural(n_glitches, 'position glitch')} (faster than {limits.max_speed_mps:g} m/s)".replace(
+                    "glitchs", "glitches"
+                )
+            )
+        warnings.append(
+            f"scored over the clean part only: dropped {n_dropped} of {n_valid} {source} fixes "
+            f"({', '.join(parts)}), {dropped_s:.1f} s of the {tk[-1] - tk[0]:.1f} s track"
+        )
     if n_time_faults > n_pos_time_faults:
         warnings.append(f"{n_time_faults} message(s) with an implausible or out-of-order {axis} time ignored")
 
@@ -591,13 +711,30 @@ def _finish(name, fmt, cols, modes, ok, frame, integrity: _Integrity, counts, vt
     changes = np.flatnonzero(mode[1:] != mode[:-1]) + 1
     sequence = tuple(str(x) for x in mode[np.concatenate([[0], changes])])
     info = LogInfo(
-        path=name, log_format=fmt, vehicle_type=vtype, autopilot=autopilot, position_source=source,
-        agl_source=agl_source, n_positions=len(idx), n_skipped=n_in - len(idx) - n_dropped,
-        start_unix_s=first_t, end_unix_s=last_t, duration_s=last_t - first_t,
-        position_span_s=(float(tt[0]), float(tt[-1])), message_counts=dict(counts), modes=sequence,
-        simulated=simulated, frame=frame, n_bad_crc=n_bad, bad_bytes=integrity.bad_bytes,
-        n_time_faults=n_time_faults, n_position_time_faults=n_pos_time_faults, n_glitches=n_glitches,
-        dropped_s=dropped_s, truncated_bytes=integrity.truncated_bytes, warnings=tuple(warnings),
+        path=name,
+        log_format=fmt,
+        vehicle_type=vtype,
+        autopilot=autopilot,
+        position_source=source,
+        agl_source=agl_source,
+        n_positions=len(idx),
+        n_skipped=n_in - len(idx) - n_dropped,
+        start_unix_s=first_t,
+        end_unix_s=last_t,
+        duration_s=last_t - first_t,
+        position_span_s=(float(tt[0]), float(tt[-1])),
+        message_counts=dict(counts),
+        modes=sequence,
+        simulated=simulated,
+        frame=frame,
+        n_bad_crc=n_bad,
+        bad_bytes=integrity.bad_bytes,
+        n_time_faults=n_time_faults,
+        n_position_time_faults=n_pos_time_faults,
+        n_glitches=n_glitches,
+        dropped_s=dropped_s,
+        truncated_bytes=integrity.truncated_bytes,
+        warnings=tuple(warnings),
     )
     return out, info
 
@@ -636,7 +773,8 @@ def check_near_fence(traj: dict[str, np.ndarray], fence, max_distance_m: float =
         far = f"{d / 1000:,.0f} km" if d >= 10_000 else f"{d / 1000:,.1f} km"
         raise LogFenceDistanceError(
             f"{name}: log and fence are {far} apart (median log position to the nearest fence vertex; "
-            f"bound {max_distance_m / 1000:g} km): wrong fence?")
+            f"bound {max_distance_m / 1000:g} km): wrong fence?"
+        )
     return d
 
 
@@ -649,10 +787,12 @@ def _gradient(x: np.ndarray, t: np.ndarray) -> np.ndarray:
 def describe(info: LogInfo) -> str:
     """A short multi-line summary of a :class:`LogInfo` (for a CLI report)."""
     top = ", ".join(f"{k} {v}" for k, v in sorted(info.message_counts.items(), key=lambda kv: -kv[1])[:6])
-    return "\n".join([
-        f"{info.path}: {info.log_format}, {info.vehicle_type} ({info.autopilot}){', SITL' if info.simulated else ''}",
-        f"  duration {info.duration_s:.1f} s; {sum(info.message_counts.values())} messages ({top}, ...)",
-        f"  {info.n_positions} positions from {info.position_source} ({info.n_skipped} skipped), "
-        f"t = {info.position_span_s[0]:.1f}..{info.position_span_s[1]:.1f} s; agl from {info.agl_source}",
-        f"  modes: {' -> '.join(info.modes) if info.modes else 'none'}",
-    ])
+    return "\n".join(
+        [
+            f"{info.path}: {info.log_format}, {info.vehicle_type} ({info.autopilot}){', SITL' if info.simulated else ''}",
+            f"  duration {info.duration_s:.1f} s; {sum(info.message_counts.values())} messages ({top}, ...)",
+            f"  {info.n_positions} positions from {info.position_source} ({info.n_skipped} skipped), "
+            f"t = {info.position_span_s[0]:.1f}..{info.position_span_s[1]:.1f} s; agl from {info.agl_source}",
+            f"  modes: {' -> '.join(info.modes) if info.modes else 'none'}",
+        ]
+    )

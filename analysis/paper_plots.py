@@ -76,13 +76,28 @@ def _xy_axis(ax, an, lim) -> None:
     if math.isfinite(sx["mean_m"]):
         xm = b.west_m - sx["mean_m"]
         ax.axvline(xm, color=MEAN_COLOUR, ls="--", lw=1.6, label="average peak excursion per axis")
-        ax.annotate(f"x: {sx['mean_m']:+.2f} ± {sx['sd_m']:.2f} m", (xm, y0 + 0.04 * (y1 - y0)), xytext=(4, 0), textcoords="offset points",
-                    fontsize="small", color=MEAN_COLOUR, rotation=90, va="bottom")
+        ax.annotate(
+            f"x: {sx['mean_m']:+.2f} ± {sx['sd_m']:.2f} m",
+            (xm, y0 + 0.04 * (y1 - y0)),
+            xytext=(4, 0),
+            textcoords="offset points",
+            fontsize="small",
+            color=MEAN_COLOUR,
+            rotation=90,
+            va="bottom",
+        )
     if math.isfinite(sy["mean_m"]):
         ym = b.north_m + sy["mean_m"]
         ax.axhline(ym, color=MEAN_COLOUR, ls="--", lw=1.6)
-        ax.annotate(f"y: {sy['mean_m']:+.2f} ± {sy['sd_m']:.2f} m", (x1 - 0.02 * (x1 - x0), ym), xytext=(0, 4), textcoords="offset points",
-                    fontsize="small", color=MEAN_COLOUR, ha="right")
+        ax.annotate(
+            f"y: {sy['mean_m']:+.2f} ± {sy['sd_m']:.2f} m",
+            (x1 - 0.02 * (x1 - x0), ym),
+            xytext=(0, 4),
+            textcoords="offset points",
+            fontsize="small",
+            color=MEAN_COLOUR,
+            ha="right",
+        )
     ax.plot(0.0, 0.0, marker="^", color="tab:green", ms=10, ls="none", label="launch / recovery point")
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
@@ -114,7 +129,11 @@ def plot_xy_tracks(analyses: Sequence, out_dir: Path, stem: str = "seed_xy_track
 
 
 # --------------------------------------------------------------------------- time histories
-_HIST = (("x", "east_m", "east_m", "x (m)"), ("y", "north_m", "north_m", "y (m)"), ("ceiling", "agl_m", "height_m", "height AGL (m)"))
+_HIST = (
+    ("x", "east_m", "east_m", "x (m)"),
+    ("y", "north_m", "north_m", "y (m)"),
+    ("ceiling", "agl_m", "height_m", "height AGL (m)"),
+)
 
 
 def _boundary(an, axis) -> float:
@@ -151,8 +170,15 @@ def plot_time_histories(an, out_dir: Path, stem: str | None = None) -> list[Path
     for r in an.rows:  # attempt starts, labelled by direction
         for ax in axes:
             ax.axvline(r["t_start_s"], color="0.6", lw=0.6, ls=":")
-        axes[0].annotate(r["direction"][0].upper(), (r["t_start_s"], 1.0), xycoords=("data", "axes fraction"), fontsize="x-small",
-                         ha="left", va="bottom", color="0.35")
+        axes[0].annotate(
+            r["direction"][0].upper(),
+            (r["t_start_s"], 1.0),
+            xycoords=("data", "axes fraction"),
+            fontsize="x-small",
+            ha="left",
+            va="bottom",
+            color="0.35",
+        )
     axes[-1].set_xlabel("time (s)   [dotted: attempt starts, W = west, N = north, U = up]")
     axes[-1].set_xlim(t[0], t[-1])
     fig.suptitle(f"{an.name}: per-axis time histories — {_title(an).replace(chr(10), ', ')}")
@@ -164,7 +190,9 @@ def _fastest_attempt(an, axis):
     return max(rows, key=lambda r: r["speed_cmd_mps"]) if rows else None
 
 
-def plot_single_attempts(analyses: Sequence, out_dir: Path, stem: str = "seed_single_attempts", span_s: float = 9.0) -> list[Path]:
+def plot_single_attempts(
+    analyses: Sequence, out_dir: Path, stem: str = "seed_single_attempts", span_s: float = 9.0
+) -> list[Path]:
     """The fastest attempt on each axis, zoomed (columns), one row per run: the axis's coordinate against time."""
     fig, axes = plt.subplots(len(analyses), 3, figsize=(14, 3.4 * len(analyses) + 0.6), constrained_layout=True, squeeze=False)
     for i, an in enumerate(analyses):
@@ -204,7 +232,9 @@ def plot_single_attempts(analyses: Sequence, out_dir: Path, stem: str = "seed_si
 # --------------------------------------------------------------------------- overshoot vs velocity
 def plot_overshoot_vs_velocity(analyses: Sequence, out_dir: Path, stem: str = "seed_overshoot_vs_velocity") -> list[Path]:
     """Peak excursion per attempt against velocity toward the boundary at activation, per axis; one panel per run."""
-    fig, axes = plt.subplots(1, len(analyses), figsize=(6.2 * len(analyses), 4.8), constrained_layout=True, sharey=True, squeeze=False)
+    fig, axes = plt.subplots(
+        1, len(analyses), figsize=(6.2 * len(analyses), 4.8), constrained_layout=True, sharey=True, squeeze=False
+    )
     for ax, an in zip(axes[0], analyses):
         for axis in ("x", "y", "ceiling"):
             rows = [r for r in an.rows if r["axis"] == axis]

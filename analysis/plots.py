@@ -142,14 +142,17 @@ def _draw_fence(ax, fence) -> None:
     outline(fence.keep_in, color="black", lw=2, label="keep-in fence", zorder=2)
     n_ko = 0
     for k in fence.keep_out_polygons:
-        ax.fill(k.vertices[:, 0], k.vertices[:, 1], color="tab:red", alpha=0.25, label="keep-out" if n_ko == 0 else None, zorder=1)
+        ax.fill(
+            k.vertices[:, 0], k.vertices[:, 1], color="tab:red", alpha=0.25, label="keep-out" if n_ko == 0 else None, zorder=1
+        )
         n_ko += 1
     for ce, cn, r in fence.keep_out_circles:
         ax.add_patch(plt.Circle((ce, cn), r, color="tab:red", alpha=0.25, label="keep-out" if n_ko == 0 else None, zorder=1))
         n_ko += 1
     for i, g in enumerate(fence.floor_gaps):
-        ax.fill(g.vertices[:, 0], g.vertices[:, 1], color="tab:green", alpha=0.25,
-                label="floor gap" if i == 0 else None, zorder=1)
+        ax.fill(
+            g.vertices[:, 0], g.vertices[:, 1], color="tab:green", alpha=0.25, label="floor gap" if i == 0 else None, zorder=1
+        )
 
 
 def _activation_boundaries(ax, traj, fence, envelope, act_idx: np.ndarray) -> None:
@@ -164,8 +167,10 @@ def _activation_boundaries(ax, traj, fence, envelope, act_idx: np.ndarray) -> No
     chosen, seen = [], set()
     for i in act_idx:
         v = float(traj[speed_col][i])
-        w = (float(we[i]) if we is not None and np.isfinite(we[i]) else 0.0,
-             float(wn[i]) if wn is not None and np.isfinite(wn[i]) else 0.0)
+        w = (
+            float(we[i]) if we is not None and np.isfinite(we[i]) else 0.0,
+            float(wn[i]) if wn is not None and np.isfinite(wn[i]) else 0.0,
+        )
         key = (round(v / 2.0), round(w[0] / 2.0), round(w[1] / 2.0))  # within 2 m/s: the same picture
         if key in seen:
             continue
@@ -180,8 +185,10 @@ def _activation_boundaries(ax, traj, fence, envelope, act_idx: np.ndarray) -> No
         colour = BOUNDARY_COLOURS[j % len(BOUNDARY_COLOURS)]
         ls = ("--", "-.", ":")[j % 3]
         ax.contour(E, N, field, levels=[0.0], colors=colour, linestyles=ls, linewidths=1.5, zorder=2)
-        label = (f"activation boundary (head-on) at t = {traj['time_s'][i]:.1f} s\n({what} {v:.0f} m/s, "
-                 f"unit's wind estimate {np.hypot(*w):.0f} m/s)")
+        label = (
+            f"activation boundary (head-on) at t = {traj['time_s'][i]:.1f} s\n({what} {v:.0f} m/s, "
+            f"unit's wind estimate {np.hypot(*w):.0f} m/s)"
+        )
         ax.plot([], [], color=colour, ls=ls, lw=1.5, label=label)
     if n_act > len(chosen):
         ax.plot([], [], ls="none", label=f"(+{n_act - len(chosen)} activations at a similar\nspeed and wind: same boundary)")
@@ -200,8 +207,14 @@ def _track_by_margin(ax, fig, traj) -> None:
         vals = seg_val[finite]
         vmax = max(float(np.percentile(vals, 98)), 1.0)
         vmin = min(float(vals.min()), -0.05 * vmax)
-        lc = LineCollection(segs[finite], array=np.clip(vals, vmin, vmax), cmap=MARGIN_CMAP,
-                            norm=TwoSlopeNorm(vmin=vmin, vcenter=0.0, vmax=vmax), linewidths=2.2, zorder=4)
+        lc = LineCollection(
+            segs[finite],
+            array=np.clip(vals, vmin, vmax),
+            cmap=MARGIN_CMAP,
+            norm=TwoSlopeNorm(vmin=vmin, vcenter=0.0, vmax=vmax),
+            linewidths=2.2,
+            zorder=4,
+        )
         ax.add_collection(lc)
         cb = fig.colorbar(lc, ax=ax, shrink=0.45, fraction=0.04, pad=0.01, location="right")
         cb.set_label("unit's activation margin (m); 0 = activates")
@@ -253,7 +266,7 @@ def plot_flight(
             _track_by_margin(ax, fig, traj)
             over = _modes(traj) == Mode.OVERRIDE
             for a, b in _runs(over):
-                ax.plot(e[a:b + 1], n[a:b + 1], color="tab:red", lw=6, alpha=0.25, solid_capstyle="round", zorder=2)
+                ax.plot(e[a : b + 1], n[a : b + 1], color="tab:red", lw=6, alpha=0.25, solid_capstyle="round", zorder=2)
             if over.any():
                 ax.plot([], [], color="tab:red", lw=6, alpha=0.25, label="geofence override (under the track)")
         else:
@@ -268,27 +281,67 @@ def plot_flight(
         for k, (we_, wn_) in enumerate(wp):
             if acceptance_radius_m:
                 ax.add_patch(plt.Circle((we_, wn_), acceptance_radius_m, fill=False, ec="0.3", lw=0.9, ls="--", zorder=2))
-            ax.annotate(f"{k + 1}", (we_, wn_), xytext=(5, 5), textcoords="offset points", fontsize="small", color="0.2", zorder=6)
-        ax.plot(wp[:, 0], wp[:, 1], marker="D", color="0.3", ms=5, ls="none", zorder=5,
-                label="mission waypoints" + (f" (acceptance circle {acceptance_radius_m:g} m)" if acceptance_radius_m else ""))
+            ax.annotate(
+                f"{k + 1}", (we_, wn_), xytext=(5, 5), textcoords="offset points", fontsize="small", color="0.2", zorder=6
+            )
+        ax.plot(
+            wp[:, 0],
+            wp[:, 1],
+            marker="D",
+            color="0.3",
+            ms=5,
+            ls="none",
+            zorder=5,
+            label="mission waypoints" + (f" (acceptance circle {acceptance_radius_m:g} m)" if acceptance_radius_m else ""),
+        )
     ax.plot(e[0], n[0], marker="^", color="tab:green", mec="black", ms=9, ls="none", label="start", zorder=7)
     ax.plot(e[-1], n[-1], marker="s", color="tab:red", mec="black", ms=8, ls="none", label="end", zorder=7)
     if len(act_idx):
-        ax.plot(e[act_idx], n[act_idx], marker="X", color="tab:red", mec="black", ms=9, ls="none", zorder=8,
-                label=f"activation: margin reached 0 ({len(act_idx)})")
+        ax.plot(
+            e[act_idx],
+            n[act_idx],
+            marker="X",
+            color="tab:red",
+            mec="black",
+            ms=9,
+            ls="none",
+            zorder=8,
+            label=f"activation: margin reached 0 ({len(act_idx)})",
+        )
     if len(hand_idx):
-        ax.plot(e[hand_idx], n[hand_idx], marker="o", color="tab:cyan", mec="black", ms=6, ls="none", zorder=8,
-                label=f"hand-back to the pilot ({len(hand_idx)})")
+        ax.plot(
+            e[hand_idx],
+            n[hand_idx],
+            marker="o",
+            color="tab:cyan",
+            mec="black",
+            ms=6,
+            ls="none",
+            zorder=8,
+            label=f"hand-back to the pilot ({len(hand_idx)})",
+        )
     if has_fence:
         re, rn = fence.recovery_en
         ax.plot(re, rn, marker="*", color="gold", mec="black", mew=1.2, ms=18, ls="none", zorder=10, label="recovery point")
-        ax.annotate("recovery point", (re, rn), xytext=(10, -14), textcoords="offset points", fontsize="small",
-                    fontweight="bold", zorder=10, bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.5", "alpha": 0.85})
+        ax.annotate(
+            "recovery point",
+            (re, rn),
+            xytext=(10, -14),
+            textcoords="offset points",
+            fontsize="small",
+            fontweight="bold",
+            zorder=10,
+            bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.5", "alpha": 0.85},
+        )
     if "wind_east_mps" in traj and np.nanmax(np.hypot(traj["wind_east_mps"], traj["wind_north_mps"])) > 0.1:
         we, wn = np.nanmean(traj["wind_east_mps"]), np.nanmean(traj["wind_north_mps"])
         ax.annotate(
-            "", xy=(0.95, 0.95), xytext=(0.95 - 0.07 * we / np.hypot(we, wn), 0.95 - 0.07 * wn / np.hypot(we, wn)),
-            xycoords="axes fraction", arrowprops={"arrowstyle": "-|>", "color": "tab:blue", "lw": 2}, zorder=10,
+            "",
+            xy=(0.95, 0.95),
+            xytext=(0.95 - 0.07 * we / np.hypot(we, wn), 0.95 - 0.07 * wn / np.hypot(we, wn)),
+            xycoords="axes fraction",
+            arrowprops={"arrowstyle": "-|>", "color": "tab:blue", "lw": 2},
+            zorder=10,
         )
         wind_title = f"\nmean wind {np.hypot(we, wn):.1f} m/s from {np.degrees(np.arctan2(-we, -wn)) % 360:.0f}° (arrow: toward)"
     xs = [e[np.isfinite(e)]] + ([fence.keep_in.vertices[:, 0]] if has_fence else [])
@@ -386,12 +439,27 @@ def _margin_panels(fig, grid, ax_alt, traj, fence) -> list:
 
     ax_a = fig.add_subplot(grid[4, 1], sharex=ax_alt)
     act = _activation_margin(traj)
-    ax_a.plot(t, act, color="tab:orange", lw=1.2, label="unit's activation margin\n(smaller of lateral, vertical;\nno line: not computed)")
+    ax_a.plot(
+        t,
+        act,
+        color="tab:orange",
+        lw=1.2,
+        label="unit's activation margin\n(smaller of lateral, vertical;\nno line: not computed)",
+    )
     ax_a.axhline(0.0, color="tab:red", lw=1.0)
     act_idx, _ = _events(traj)
     if len(act_idx):
-        ax_a.plot(t[act_idx], np.zeros(len(act_idx)), marker="X", color="tab:red", mec="black", ms=7, ls="none",
-                  label="activation", zorder=6)
+        ax_a.plot(
+            t[act_idx],
+            np.zeros(len(act_idx)),
+            marker="X",
+            color="tab:red",
+            mec="black",
+            ms=7,
+            ls="none",
+            label="activation",
+            zorder=6,
+        )
     _ylim_from(ax_a, act, include=[0.0])
     ax_a.set_ylabel("activation\nmargin (m)")
     return [ax_lat, ax_v, ax_a]
@@ -402,8 +470,14 @@ def plot_result(result, folder: Path) -> list[Path]:
     rec = result.recorder
     traj = {name: rec.column(name) for name in rec.columns}
     sc = result.scenario
-    return plot_flight(traj, Path(folder) / "flight", f"{sc.name} ({sc.aircraft})", fence=result.fence,
-                       envelope=sc.profile.envelope, **scenario_plot_kwargs(sc))
+    return plot_flight(
+        traj,
+        Path(folder) / "flight",
+        f"{sc.name} ({sc.aircraft})",
+        fence=result.fence,
+        envelope=sc.profile.envelope,
+        **scenario_plot_kwargs(sc),
+    )
 
 
 def scenario_plot_kwargs(sc) -> dict:
@@ -422,8 +496,11 @@ def scenario_plot_kwargs(sc) -> dict:
     if mission is not None:
         st = sc.start
         frame = LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m)
-        wps = [frame.to_enu(it.lat_deg, it.lon_deg, st.ground_alt_m)[:2] for it in mission.items
-               if it.lat_deg is not None and it.lon_deg is not None]
+        wps = [
+            frame.to_enu(it.lat_deg, it.lon_deg, st.ground_alt_m)[:2]
+            for it in mission.items
+            if it.lat_deg is not None and it.lon_deg is not None
+        ]
         if wps:
             kw["waypoints_en"] = wps
             kw["acceptance_radius_m"] = mission.acceptance_radius_m

@@ -45,12 +45,28 @@ FIGURES = {"breach_distribution": "Breach distribution", "platform_comparison": 
 IDENTITY_COLUMNS = ("flight", "scenario", "aircraft", "platform_kind", "wind_speed_mps", "seed")
 SCORE_COLUMNS = SCORE_KEYS + ("n_transitions", "final_mode")
 OTHER_COLUMNS = (
-    "completed", "error", "pilot", "wind_from_deg", "geofence", "mission_finished", "ended_by_geofence",
-    "mission_progress", "waypoints_reached", "waypoints_total", "sim_time_s", "wall_time_s", "control_rate_hz",
-    "jsbsim_frames", "jsbsim_frames_per_wall_s", "max_agl_m", "max_ground_speed_mps", "source",
+    "completed",
+    "error",
+    "pilot",
+    "wind_from_deg",
+    "geofence",
+    "mission_finished",
+    "ended_by_geofence",
+    "mission_progress",
+    "waypoints_reached",
+    "waypoints_total",
+    "sim_time_s",
+    "wall_time_s",
+    "control_rate_hz",
+    "jsbsim_frames",
+    "jsbsim_frames_per_wall_s",
+    "max_agl_m",
+    "max_ground_speed_mps",
+    "source",
 )
-STRING_COLUMNS = frozenset({"flight", "scenario", "aircraft", "platform_kind", "final_mode", "error", "pilot",
-                            "mission_progress", "source"})
+STRING_COLUMNS = frozenset(
+    {"flight", "scenario", "aircraft", "platform_kind", "final_mode", "error", "pilot", "mission_progress", "source"}
+)
 """Columns always read back as text (a flight called ``007`` stays ``"007"``)."""
 
 
@@ -97,8 +113,7 @@ def collect_results(out_dir: str | Path) -> list[dict]:
             if not isinstance(summary, Mapping):
                 raise ValueError(f"expected a JSON object, got {type(summary).__name__}")
         except (OSError, ValueError) as exc:
-            summary = {"flight": flight, "scenario": flight, "completed": False,
-                       "error": f"unreadable {SUMMARY}: {exc}"}
+            summary = {"flight": flight, "scenario": flight, "completed": False, "error": f"unreadable {SUMMARY}: {exc}"}
         rows.append(flatten_summary(summary, flight))
     return rows
 
@@ -201,16 +216,22 @@ def write_report(out_dir: str | Path, rows: Sequence[Mapping], title: str | None
     lines.append(
         f"**{c['flights']} flights**: {c['completed']} completed, **{c['failed']} failed**; "
         f"{c['scored']} scored against a fence: **{c['breaches']} breaches** (peak excursion > 0 m), "
-        f"{c['keep_out_breaches']} keep-out breaches, **{c['landed_outside_gap']} out-of-gap landings**.")
+        f"{c['keep_out_breaches']} keep-out breaches, **{c['landed_outside_gap']} out-of-gap landings**."
+    )
     lines.append("")
     lines.append(f"Per-flight numbers: [`{RESULTS_CSV}`]({RESULTS_CSV}) (one row per flight).")
     lines.append("")
-    lines += ["## Platform comparison", "",
-              "Breaches are counted over the scored flights (`breaches/scored`). Peak excursion: metres beyond "
-              "the fence, lateral or vertical (< 0: the closest approach stayed inside by that much). Recovery "
-              "time: OVERRIDE entry to hand-back (RECOVERED/MONITOR), mean per flight then over flights. Time "
-              "to peak: first activation to the smallest margin after it.", "",
-              comparison_table(rows).rstrip("\n"), ""]
+    lines += [
+        "## Platform comparison",
+        "",
+        "Breaches are counted over the scored flights (`breaches/scored`). Peak excursion: metres beyond "
+        "the fence, lateral or vertical (< 0: the closest approach stayed inside by that much). Recovery "
+        "time: OVERRIDE entry to hand-back (RECOVERED/MONITOR), mean per flight then over flights. Time "
+        "to peak: first activation to the smallest margin after it.",
+        "",
+        comparison_table(rows).rstrip("\n"),
+        "",
+    ]
     lines += ["## Figures", ""]
     for stem, caption in FIGURES.items():
         lines.append(f"### {caption}")
@@ -220,16 +241,20 @@ def write_report(out_dir: str | Path, rows: Sequence[Mapping], title: str | None
         lines.append(f"[{stem}.png]({stem}.png) · [{stem}.svg]({stem}.svg)")
         lines.append("")
 
-    worst = sorted((r for r in rows if not is_failed(r) and is_scored(r)),
-                   key=lambda r: -num(r.get("max_excursion_m")))[:5]
+    worst = sorted((r for r in rows if not is_failed(r) and is_scored(r)), key=lambda r: -num(r.get("max_excursion_m")))[:5]
     if worst:
-        lines += ["## Largest peak excursions", "",
-                  "| flight | platform | wind (m/s) | peak excursion (m) | time outside (s) | activations |",
-                  "|---|---|---:|---:|---:|---:|"]
+        lines += [
+            "## Largest peak excursions",
+            "",
+            "| flight | platform | wind (m/s) | peak excursion (m) | time outside (s) | activations |",
+            "|---|---|---:|---:|---:|---:|",
+        ]
         for r in worst:
-            lines.append(f"| {_md(r.get('flight') or r.get('scenario'))} | {_md(platform_of(r))} "
-                         f"| {num(r.get('wind_speed_mps')):g} | {num(r.get('max_excursion_m')):.2f} "
-                         f"| {num(r.get('time_outside_s')):.2f} | {_md(r.get('activations'))} |")
+            lines.append(
+                f"| {_md(r.get('flight') or r.get('scenario'))} | {_md(platform_of(r))} "
+                f"| {num(r.get('wind_speed_mps')):g} | {num(r.get('max_excursion_m')):.2f} "
+                f"| {num(r.get('time_outside_s')):.2f} | {_md(r.get('activations'))} |"
+            )
         lines.append("")
 
     failed = [r for r in rows if is_failed(r)]

@@ -77,8 +77,7 @@ def _height(traj: Trajectory, fence: LocalFence) -> np.ndarray:
 def margins(traj: dict[str, np.ndarray], fence: LocalFence) -> dict[str, np.ndarray]:
     """Per-sample lateral, ceiling, floor and 3-D (``total``) margins, and ``keep_out`` (m, + inside)."""
     m = fence_margins(fence, traj["east_m"], traj["north_m"], _height(traj, fence))
-    return {"lateral": m["lateral"], "ceiling": m["ceiling"], "floor": m["floor"], "total": m["total"],
-            "keep_out": m["keep_out"]}
+    return {"lateral": m["lateral"], "ceiling": m["ceiling"], "floor": m["floor"], "total": m["total"], "keep_out": m["keep_out"]}
 
 
 def keep_out_margin(traj: dict[str, np.ndarray], fence: LocalFence) -> np.ndarray:
@@ -119,25 +118,41 @@ def score_many(
                 out[i] = _empty_scores()
         if not scored:
             continue
-        cat = {k: np.concatenate([np.asarray(trajs[i][k], dtype=float) if k in trajs[i]
-                                  else np.full(len(trajs[i]["time_s"]), np.nan) for i in scored])
-               for k in _COLUMNS if any(k in trajs[i] for i in scored)}
+        cat = {
+            k: np.concatenate(
+                [
+                    np.asarray(trajs[i][k], dtype=float) if k in trajs[i] else np.full(len(trajs[i]["time_s"]), np.nan)
+                    for i in scored
+                ]
+            )
+            for k in _COLUMNS
+            if any(k in trajs[i] for i in scored)
+        }
         lengths = np.array([len(trajs[i]["time_s"]) for i in scored])
         for i, sc in zip(scored, score_concatenated(cat, lengths, fence, threads=threads)):
             out[i] = sc
     return out  # type: ignore[return-value]
 
 
-_COLUMNS = ("time_s", "east_m", "north_m", "agl_m", "alt_m", "geofence_mode",
-            "v_east_mps", "v_north_mps", "ground_speed_mps")
+_COLUMNS = ("time_s", "east_m", "north_m", "agl_m", "alt_m", "geofence_mode", "v_east_mps", "v_north_mps", "ground_speed_mps")
 
 
 def _empty_scores() -> dict:
     nan = float("nan")
-    return {"max_excursion_m": 0.0, "max_lateral_excursion_m": 0.0, "max_vertical_excursion_m": 0.0,
-            "min_margin_m": 0.0, "time_outside_s": 0.0, "activations": 0, "breached_keep_out": False,
-            "landed_outside_gap": False, "time_to_peak_excursion_s": nan, "time_to_handback_s": nan,
-            "ground_speed_at_activation_mps": nan, "approach_angle_at_activation_deg": nan}
+    return {
+        "max_excursion_m": 0.0,
+        "max_lateral_excursion_m": 0.0,
+        "max_vertical_excursion_m": 0.0,
+        "min_margin_m": 0.0,
+        "time_outside_s": 0.0,
+        "activations": 0,
+        "breached_keep_out": False,
+        "landed_outside_gap": False,
+        "time_to_peak_excursion_s": nan,
+        "time_to_handback_s": nan,
+        "ground_speed_at_activation_mps": nan,
+        "approach_angle_at_activation_deg": nan,
+    }
 
 
 def _first_per_segment(idx: np.ndarray, starts: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -251,25 +266,28 @@ def score_concatenated(
 
     out = []
     for i in range(k):
-        out.append({
-            "max_excursion_m": float(-min_total[i]),
-            "max_lateral_excursion_m": float(-min_lateral[i]),
-            "max_vertical_excursion_m": float(-min_vertical[i]),
-            "min_margin_m": float(min_total[i]),
-            "time_outside_s": float(time_outside[i]),
-            "activations": int(activations[i]),
-            "breached_keep_out": bool(min_keep_out[i] < 0.0),
-            "landed_outside_gap": bool(landed[i]),
-            "time_to_peak_excursion_s": float(to_peak[i]),
-            "time_to_handback_s": float(handback[i]),
-            "ground_speed_at_activation_mps": float(speed[i]),
-            "approach_angle_at_activation_deg": float(angle[i]),
-        })
+        out.append(
+            {
+                "max_excursion_m": float(-min_total[i]),
+                "max_lateral_excursion_m": float(-min_lateral[i]),
+                "max_vertical_excursion_m": float(-min_vertical[i]),
+                "min_margin_m": float(min_total[i]),
+                "time_outside_s": float(time_outside[i]),
+                "activations": int(activations[i]),
+                "breached_keep_out": bool(min_keep_out[i] < 0.0),
+                "landed_outside_gap": bool(landed[i]),
+                "time_to_peak_excursion_s": float(to_peak[i]),
+                "time_to_handback_s": float(handback[i]),
+                "ground_speed_at_activation_mps": float(speed[i]),
+                "approach_angle_at_activation_deg": float(angle[i]),
+            }
+        )
     return out
 
 
-def _velocity_at(traj: Trajectory, idx: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                 t: np.ndarray, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _velocity_at(
+    traj: Trajectory, idx: np.ndarray, lo: np.ndarray, hi: np.ndarray, t: np.ndarray, x: np.ndarray, y: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Ground velocity (east, north) at samples ``idx``: recorded, else central differences within [lo, hi)."""
     ve = np.full(len(idx), np.nan)
     vn = np.full(len(idx), np.nan)

@@ -34,8 +34,14 @@ from wind.dryden import DrydenTurbulence
 sys.path.insert(0, str(Path(__file__).parent))
 import fence_scale  # noqa: E402  (the fence family and the moving-vehicle states)
 
-WIND = {"speed_mps": 8, "from_deg": 270, "profile": {"law": "power", "exponent": 0.14, "reference_height_m": 10},
-        "turbulence": {"severity": "light"}, "gusts": [{"onset_s": 20, "amplitude_mps": 5, "length_m": 30}], "seed": 7}
+WIND = {
+    "speed_mps": 8,
+    "from_deg": 270,
+    "profile": {"law": "power", "exponent": 0.14, "reference_height_m": 10},
+    "turbulence": {"severity": "light"},
+    "gusts": [{"onset_s": 20, "amplitude_mps": 5, "length_m": 30}],
+    "seed": 7,
+}
 
 
 def per_call_us(fn, calls: int) -> float:
@@ -63,25 +69,34 @@ def main() -> None:
     for nv in (4, 1000):
         fence = fence_scale.star_fence(nv, 0)
         unit_states = fence_scale.moving_states(
-            GeofenceUnit(GeofenceConfig(fence=fence, wind_prior_enu=fence_scale.WIND_EN),
-                         fence.to_local(fence_scale.FRAME), platform.envelope), True, args.calls)
+            GeofenceUnit(
+                GeofenceConfig(fence=fence, wind_prior_enu=fence_scale.WIND_EN),
+                fence.to_local(fence_scale.FRAME),
+                platform.envelope,
+            ),
+            True,
+            args.calls,
+        )
         units[nv] = (fence, unit_states)
 
     def unit_fn(nv):
         fence, states = units[nv]
-        unit = GeofenceUnit(GeofenceConfig(fence=fence, wind_prior_enu=fence_scale.WIND_EN),
-                            fence.to_local(fence_scale.FRAME), platform.envelope)
+        unit = GeofenceUnit(
+            GeofenceConfig(fence=fence, wind_prior_enu=fence_scale.WIND_EN), fence.to_local(fence_scale.FRAME), platform.envelope
+        )
         pilot = StickCommand()
+
         def step(k):
             unit.update(states[k].t_s, states[k], pilot, fence_scale.DT_S, fence_scale.WIND_EN, True, 1.0, 1.0)
             assert unit.activations == 0, "the bench vehicle must stay outside the activation boundary"
+
         return step
 
     cases = {
-        "bare JSBSim frame (F450RD + FC)": lambda: (lambda k: run()),
-        "wind field (profile+Dryden+gust)": lambda: (lambda k: field.sample(k * 0.025, 0.0, 0.0, 30.0, 12.0)),
-        "Dryden turbulence alone": lambda: (lambda k: turb.sample(k * 0.025, 0.0, 0.0, 30.0, 12.0)),
-        "sensor suite sample": lambda: (lambda k: suite.sample(truth)),
+        "bare JSBSim frame (F450RD + FC)": lambda: lambda k: run(),
+        "wind field (profile+Dryden+gust)": lambda: lambda k: field.sample(k * 0.025, 0.0, 0.0, 30.0, 12.0),
+        "Dryden turbulence alone": lambda: lambda k: turb.sample(k * 0.025, 0.0, 0.0, 30.0, 12.0),
+        "sensor suite sample": lambda: lambda k: suite.sample(truth),
         "geofence update, 4 vertices": lambda: unit_fn(4),
         "geofence update, 1,000 vertices": lambda: unit_fn(1000),
     }

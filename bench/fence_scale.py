@@ -67,8 +67,9 @@ def star_fence(n_vertices: int, n_keepouts: int, seed: int = 1) -> Fence:
             if math.hypot(cx, cy) > 0.6 * RADIUS_M or math.hypot(cx, cy) < 100.0:
                 continue
             s, t = rng.uniform(10.0, 20.0), rng.uniform(0.0, math.pi / 2)
-            squares.append(tuple(ll(cx + s * math.cos(t + k * math.pi / 2), cy + s * math.sin(t + k * math.pi / 2))
-                                 for k in range(4)))
+            squares.append(
+                tuple(ll(cx + s * math.cos(t + k * math.pi / 2), cy + s * math.sin(t + k * math.pi / 2)) for k in range(4))
+            )
     return Fence(keep_in=tuple(keep_in), ceiling_m=120.0, keep_out_polygons=tuple(squares))
 
 
@@ -98,8 +99,18 @@ def moving_states(unit: GeofenceUnit, near: bool, n: int) -> list[VehicleState]:
             te, tn = -un, ue
             ve, vn = v * (0.94 * te + 0.33 * ue), v * (0.94 * tn + 0.33 * un)
             a += v * DT_S / r
-        out.append(VehicleState(t_s=k * DT_S, east_m=e, north_m=nn, alt_m=FRAME.h0_m + 40.0, agl_m=40.0,
-                                v_east_mps=ve, v_north_mps=vn, airspeed_mps=v))
+        out.append(
+            VehicleState(
+                t_s=k * DT_S,
+                east_m=e,
+                north_m=nn,
+                alt_m=FRAME.h0_m + 40.0,
+                agl_m=40.0,
+                v_east_mps=ve,
+                v_north_mps=vn,
+                airspeed_mps=v,
+            )
+        )
     return out
 
 
@@ -113,9 +124,15 @@ def _inset_for_positive_margin(unit: GeofenceUnit, a: float, v: float, steps: in
             r = math.hypot(be, bn)
             e, n = be * (r - inset) / r, bn * (r - inset) / r
             ue, un = be / r, bn / r
-            s = VehicleState(east_m=e, north_m=n, agl_m=40.0, alt_m=FRAME.h0_m + 40.0,
-                             v_east_mps=v * (-0.94 * un + 0.33 * ue), v_north_mps=v * (0.94 * ue + 0.33 * un),
-                             airspeed_mps=v)
+            s = VehicleState(
+                east_m=e,
+                north_m=n,
+                agl_m=40.0,
+                alt_m=FRAME.h0_m + 40.0,
+                v_east_mps=v * (-0.94 * un + 0.33 * ue),
+                v_north_mps=v * (0.94 * ue + 0.33 * un),
+                airspeed_mps=v,
+            )
             if unit._margins(s, 40.0, 1.0, 1.0, DT_S).activation_margin_m < 3.0:
                 ok = False
                 break
@@ -146,10 +163,20 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="fewer sizes and calls (a smoke run)")
     ap.add_argument("--repeats", type=int, default=3, help="interleaved repeats, median reported (default 3)")
     ap.add_argument("--out", type=Path, default=Path(__file__).with_name("fence_scale.png"), help="figure path")
-    ap.add_argument("--sizes", default=None, metavar="VxK,...",
-                    help="fence sizes to run, keep-in vertices x keep-outs (default: the full list)")
-    ap.add_argument("--plot-from", nargs="+", type=Path, default=None, metavar="TABLE",
-                    help="draw the figure from tables this script printed (no measuring)")
+    ap.add_argument(
+        "--sizes",
+        default=None,
+        metavar="VxK,...",
+        help="fence sizes to run, keep-in vertices x keep-outs (default: the full list)",
+    )
+    ap.add_argument(
+        "--plot-from",
+        nargs="+",
+        type=Path,
+        default=None,
+        metavar="TABLE",
+        help="draw the figure from tables this script printed (no measuring)",
+    )
     args = ap.parse_args()
     if args.plot_from:
         rows = [r for path in args.plot_from for r in _read_table(path)]
@@ -166,11 +193,23 @@ def main() -> None:
     elif args.quick:
         sizes = [(4, 0), (100, 0), (1000, 0), (10000, 500)]
     else:
-        sizes = [(4, 0), (10, 0), (100, 0), (1000, 0), (10000, 0), (100000, 0),
-                 (1000, 50), (1000, 500), (1000, 5000), (10000, 500)]
+        sizes = [
+            (4, 0),
+            (10, 0),
+            (100, 0),
+            (1000, 0),
+            (10000, 0),
+            (100000, 0),
+            (1000, 50),
+            (1000, 500),
+            (1000, 5000),
+            (10000, 500),
+        ]
     rows = []
-    print(f"{'vertices':>9s} {'keep-outs':>9s} {'build s':>8s}  "
-          + "  ".join(f"{p + ' ' + w:>15s} idx/scan µs" for p in PLATFORMS for w in ("near", "far")))
+    print(
+        f"{'vertices':>9s} {'keep-outs':>9s} {'build s':>8s}  "
+        + "  ".join(f"{p + ' ' + w:>15s} idx/scan µs" for p in PLATFORMS for w in ("near", "far"))
+    )
     for nv, nk in sizes:
         t0 = time.perf_counter()
         fence = star_fence(nv, nk)
@@ -193,8 +232,10 @@ def main() -> None:
                     res[index] = (statistics.median(r[0] for r in runs), max(r[1] for r in runs))
                 cells.append((platform, near, res[True][0], res[False][0], res[True][1] + res[False][1]))
         rows.append((nv, nk, build, cells))
-        print(f"{nv:9d} {nk:9d} {build:8.1f}  "
-              + "  ".join(f"{c[2]:12.1f} / {c[3]:9.1f}" + ("!" if c[4] else " ") for c in cells), flush=True)
+        print(
+            f"{nv:9d} {nk:9d} {build:8.1f}  " + "  ".join(f"{c[2]:12.1f} / {c[3]:9.1f}" + ("!" if c[4] else " ") for c in cells),
+            flush=True,
+        )
     print("(! = the unit activated during the run: the case measured an override, not monitoring;")
     print(" nan = not measured: the fixed-wing margin needs the recovery route planner, which does not scale there yet)")
     _plot(rows, args.out)
@@ -210,8 +251,10 @@ def _read_table(path: Path) -> list:
             continue
         nv, nk, build = int(parts[0]), int(parts[1]), float(parts[2])
         vals = [float(x) for x in parts[3:]]
-        cells = [(p, near, vals[2 * k], vals[2 * k + 1], 0)
-                 for k, (p, near) in enumerate((p, w) for p in PLATFORMS for w in (True, False))]
+        cells = [
+            (p, near, vals[2 * k], vals[2 * k + 1], 0)
+            for k, (p, near) in enumerate((p, w) for p in PLATFORMS for w in (True, False))
+        ]
         rows.append((nv, nk, build, cells))
     return rows
 
@@ -223,10 +266,16 @@ def _plot(rows, out: Path) -> None:
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
-    styles = {("F450RD", True): ("tab:blue", "o"), ("F450RD", False): ("tab:cyan", "s"),
-              ("Tern", True): ("tab:red", "o"), ("Tern", False): ("tab:orange", "s")}
-    for ax, sel, xlabel, xi in ((axes[0], lambda r: r[1] == 0, "keep-in vertices (no keep-outs)", 0),
-                                (axes[1], lambda r: r[0] == 1000, "keep-out polygons (1,000 keep-in vertices; 0 drawn at 1)", 1)):
+    styles = {
+        ("F450RD", True): ("tab:blue", "o"),
+        ("F450RD", False): ("tab:cyan", "s"),
+        ("Tern", True): ("tab:red", "o"),
+        ("Tern", False): ("tab:orange", "s"),
+    }
+    for ax, sel, xlabel, xi in (
+        (axes[0], lambda r: r[1] == 0, "keep-in vertices (no keep-outs)", 0),
+        (axes[1], lambda r: r[0] == 1000, "keep-out polygons (1,000 keep-in vertices; 0 drawn at 1)", 1),
+    ):
         part = [r for r in rows if sel(r)]
         if not part:
             continue
@@ -235,8 +284,7 @@ def _plot(rows, out: Path) -> None:
             colour, marker = styles[(platform, near)]
             label = f"{platform} {'near edge' if near else 'far'}"
             ax.plot(xs, [r[3][k][2] for r in part], color=colour, marker=marker, label=label + ", index")
-            ax.plot(xs, [r[3][k][3] for r in part], color=colour, marker=marker, ls=":", alpha=0.7,
-                    label=label + ", full scan")
+            ax.plot(xs, [r[3][k][3] for r in part], color=colour, marker=marker, ls=":", alpha=0.7, label=label + ", full scan")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(xlabel)
@@ -246,8 +294,15 @@ def _plot(rows, out: Path) -> None:
         if r[0] == 10000 and r[1] == 500:  # the target size, beside the keep-in-only line
             for k, (platform, near) in enumerate((p, w) for p in PLATFORMS for w in (True, False)):
                 if near and r[3][k][2] == r[3][k][2]:
-                    axes[0].plot([10000], [r[3][k][2]], marker="*", ms=13, ls="none",
-                                 color=styles[(platform, near)][0], label=f"{platform} near, + 500 keep-outs, index")
+                    axes[0].plot(
+                        [10000],
+                        [r[3][k][2]],
+                        marker="*",
+                        ms=13,
+                        ls="none",
+                        color=styles[(platform, near)][0],
+                        label=f"{platform} near, + 500 keep-outs, index",
+                    )
     axes[0].legend(fontsize=7, ncol=2)
     fig.suptitle("Geofence cost per update vs fence size (solid: indexed, dotted: full scan)")
     fig.savefig(out, dpi=110)

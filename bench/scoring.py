@@ -45,12 +45,17 @@ def _star(k: int, r: float, ce: float = 0.0, cn: float = 0.0) -> list[tuple[floa
 def fences():
     yield "6 vertices", Fence(keep_in=_star(6, 300.0), ceiling_m=60.0).to_local()
     yield "12 vertices", Fence(keep_in=_star(12, 300.0), ceiling_m=60.0).to_local()
-    yield "20 vertices + keep-outs + floor gap", Fence(
-        keep_in=_star(20, 300.0), ceiling_m=60.0, floor_m=5.0,
-        floor_gaps=[_star(6, 30.0, -80.0, -60.0)],
-        keep_out_polygons=[_star(5, 25.0, 90.0, 40.0)],
-        keep_out_circles=[KeepOutCircle(*_ll(-60.0, 120.0), 20.0)],
-    ).to_local()
+    yield (
+        "20 vertices + keep-outs + floor gap",
+        Fence(
+            keep_in=_star(20, 300.0),
+            ceiling_m=60.0,
+            floor_m=5.0,
+            floor_gaps=[_star(6, 30.0, -80.0, -60.0)],
+            keep_out_polygons=[_star(5, 25.0, 90.0, 40.0)],
+            keep_out_circles=[KeepOutCircle(*_ll(-60.0, 120.0), 20.0)],
+        ).to_local(),
+    )
 
 
 def flights(total: int, seed: int = 1) -> list[dict[str, np.ndarray]]:
@@ -64,9 +69,19 @@ def flights(total: int, seed: int = 1) -> list[dict[str, np.ndarray]]:
         ve, vn = np.gradient(e, t), np.gradient(n, t)
         mode = np.where(np.sin(t / 5.0 + i) > 0.8, 1.0, 0.0)
         mode[(mode == 0) & (np.roll(mode, 40) == 1)] = 2.0
-        out.append({"time_s": t, "east_m": e, "north_m": n, "agl_m": 30.0 + 28.0 * np.sin(t / 9.0),
-                    "alt_m": 600.0 + 30.0 * np.sin(t / 9.0), "v_east_mps": ve, "v_north_mps": vn,
-                    "ground_speed_mps": np.hypot(ve, vn), "geofence_mode": mode})
+        out.append(
+            {
+                "time_s": t,
+                "east_m": e,
+                "north_m": n,
+                "agl_m": 30.0 + 28.0 * np.sin(t / 9.0),
+                "alt_m": 600.0 + 30.0 * np.sin(t / 9.0),
+                "v_east_mps": ve,
+                "v_north_mps": vn,
+                "ground_speed_mps": np.hypot(ve, vn),
+                "geofence_mode": mode,
+            }
+        )
     return out
 
 
@@ -94,8 +109,9 @@ def main() -> None:
             many = best_rate(lambda: score_many(fl, fence, threads=args.threads), n, args.repeats)
             one = best_rate(lambda: [score_flight(f, fence) for f in fl], n, args.repeats)
             if size <= 1e6:
-                base = best_rate(lambda: [fence.margin_array(np.column_stack([f["east_m"], f["north_m"]]), f["agl_m"])
-                                          for f in fl], n, 1)
+                base = best_rate(
+                    lambda: [fence.margin_array(np.column_stack([f["east_m"], f["north_m"]]), f["agl_m"]) for f in fl], n, 1
+                )
                 base_s = f"{base:13.3g}"
             else:
                 base_s = f"{'-':>13s}"

@@ -22,23 +22,34 @@ from aircraft.validation import default_models, run_validation  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--models", nargs="+", metavar="MODEL",
-                    help=f"profile names to fly (default: all: {' '.join(default_models())})")
-    ap.add_argument("--out", default="docs/validation.md",
-                    help="markdown file to write (default: docs/validation.md); '' to skip")
-    ap.add_argument("--check-profiles", action="store_true",
-                    help="compare each profile's envelope with the measured one; exit 1 on a mismatch")
-    ap.add_argument("--allow-conservative", action="store_true",
-                    help="with --check-profiles: a figure off on the geofence's safe side (e.g. a smaller "
-                         "braking deceleration than measured) is reported but does not fail")
-    ap.add_argument("--tolerance-scale", type=float, default=1.0,
-                    help="multiply every envelope tolerance by this (default 1)")
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0], formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument(
+        "--models", nargs="+", metavar="MODEL", help=f"profile names to fly (default: all: {' '.join(default_models())})"
+    )
+    ap.add_argument(
+        "--out", default="docs/validation.md", help="markdown file to write (default: docs/validation.md); '' to skip"
+    )
+    ap.add_argument(
+        "--check-profiles",
+        action="store_true",
+        help="compare each profile's envelope with the measured one; exit 1 on a mismatch",
+    )
+    ap.add_argument(
+        "--allow-conservative",
+        action="store_true",
+        help="with --check-profiles: a figure off on the geofence's safe side (e.g. a smaller "
+        "braking deceleration than measured) is reported but does not fail",
+    )
+    ap.add_argument("--tolerance-scale", type=float, default=1.0, help="multiply every envelope tolerance by this (default 1)")
     args = ap.parse_args(argv)
-    return run_validation(args.models, out=args.out or None, check_profiles=args.check_profiles,
-                          tolerance_scale=args.tolerance_scale, allow_conservative=args.allow_conservative,
-                          progress=lambda s: print(s, flush=True))
+    return run_validation(
+        args.models,
+        out=args.out or None,
+        check_profiles=args.check_profiles,
+        tolerance_scale=args.tolerance_scale,
+        allow_conservative=args.allow_conservative,
+        progress=lambda s: print(s, flush=True),
+    )
 
 
 if __name__ == "__main__":

@@ -95,12 +95,23 @@ from .rooms import (
 
 __all__ = [
     # the assembly (this module)
-    "ShiftFeasibility", "ShiftResult", "activation_margins", "activation_margins_for_state", "check_shift_feasible",
+    "ShiftFeasibility",
+    "ShiftResult",
+    "activation_margins",
+    "activation_margins_for_state",
+    "check_shift_feasible",
     "uncertainty_margin_m",
     # re-exported from geofence.rooms, for existing callers
-    "G_MPS2", "course_reversal_time_s", "fixed_wing_room_from_velocity_m", "fixed_wing_room_m",
-    "multicopter_stopping_distance_m", "turn_excursion_m", "turn_radius_m", "turn_rate_radps",
-    "vertical_arrest_distance_m", "worst_case_lateral_shift_m",
+    "G_MPS2",
+    "course_reversal_time_s",
+    "fixed_wing_room_from_velocity_m",
+    "fixed_wing_room_m",
+    "multicopter_stopping_distance_m",
+    "turn_excursion_m",
+    "turn_radius_m",
+    "turn_rate_radps",
+    "vertical_arrest_distance_m",
+    "worst_case_lateral_shift_m",
 ]
 
 
@@ -180,11 +191,26 @@ def _edge_distances(edges: tuple, e: float, n: float) -> tuple[list, float]:
     return out, min_d
 
 
-def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: float, vn: float, vu: float,
-                       envelope: Envelope, wind_e: float = 0.0, wind_n: float = 0.0, *,
-                       h_uncertainty_m: float = 0.0, v_uncertainty_m: float = 0.0,
-                       latency_s: float = 0.0, bank_rad: float = 0.0, wind_extra_mps: float = 0.0,
-                       rollout_target_en: tuple[float, float] | None = None, g: float = G_MPS2) -> ShiftResult:
+def activation_margins(
+    fence: LocalFence,
+    e: float,
+    n: float,
+    h: float,
+    ve: float,
+    vn: float,
+    vu: float,
+    envelope: Envelope,
+    wind_e: float = 0.0,
+    wind_n: float = 0.0,
+    *,
+    h_uncertainty_m: float = 0.0,
+    v_uncertainty_m: float = 0.0,
+    latency_s: float = 0.0,
+    bank_rad: float = 0.0,
+    wind_extra_mps: float = 0.0,
+    rollout_target_en: tuple[float, float] | None = None,
+    g: float = G_MPS2,
+) -> ShiftResult:
     """Required shifts and activation margins for a state (see :class:`ShiftResult`).
 
     ``(e, n)`` ENU position and ``h`` height in the fence's altitude reference
@@ -354,20 +380,33 @@ def activation_margins(fence: LocalFence, e: float, n: float, h: float, ve: floa
         lateral_margin_m=lat_margin,
         lateral_shift_m=room,
         lateral_activation_m=lat_act,
-        feature=feat, feature_index=idx, edge=j, normal_e=nx, normal_n=ny,
-        edge_distance_m=d_edge, closing_speed_mps=v_n, time_to_breach_s=ttb,
-        turn_sign=int(s_best), turn_angle_rad=turn_angle,
-        ceiling_margin_m=c_m, ceiling_shift_m=c_s, floor_margin_m=f_m, floor_shift_m=f_s,
-        vertical_activation_m=v_act, vertical_time_to_breach_s=vttb,
+        feature=feat,
+        feature_index=idx,
+        edge=j,
+        normal_e=nx,
+        normal_n=ny,
+        edge_distance_m=d_edge,
+        closing_speed_mps=v_n,
+        time_to_breach_s=ttb,
+        turn_sign=int(s_best),
+        turn_angle_rad=turn_angle,
+        ceiling_margin_m=c_m,
+        ceiling_shift_m=c_s,
+        floor_margin_m=f_m,
+        floor_shift_m=f_s,
+        vertical_activation_m=v_act,
+        vertical_time_to_breach_s=vttb,
     )
 
 
-def activation_margins_for_state(fence: LocalFence, state: VehicleState, envelope: Envelope,
-                                 wind_e: float = 0.0, wind_n: float = 0.0, **kw) -> ShiftResult:
+def activation_margins_for_state(
+    fence: LocalFence, state: VehicleState, envelope: Envelope, wind_e: float = 0.0, wind_n: float = 0.0, **kw
+) -> ShiftResult:
     """:func:`activation_margins` for a :class:`VehicleState` (height: ``agl_m`` or ``alt_m`` per the fence)."""
     h = state.agl_m if fence.altitude_reference == "agl" else state.alt_m
-    return activation_margins(fence, state.east_m, state.north_m, h, state.v_east_mps, state.v_north_mps,
-                              state.v_up_mps, envelope, wind_e, wind_n, **kw)
+    return activation_margins(
+        fence, state.east_m, state.north_m, h, state.v_east_mps, state.v_north_mps, state.v_up_mps, envelope, wind_e, wind_n, **kw
+    )
 
 
 # --------------------------------------------------------------------------- feasibility
@@ -382,9 +421,15 @@ class ShiftFeasibility:
     vertical_room_m: float
 
 
-def check_shift_feasible(fence: LocalFence, envelope: Envelope, wind_speed_mps: float, *,
-                         h_uncertainty_m: float = 0.0, v_uncertainty_m: float = 0.0,
-                         g: float = G_MPS2) -> ShiftFeasibility:
+def check_shift_feasible(
+    fence: LocalFence,
+    envelope: Envelope,
+    wind_speed_mps: float,
+    *,
+    h_uncertainty_m: float = 0.0,
+    v_uncertainty_m: float = 0.0,
+    g: float = G_MPS2,
+) -> ShiftFeasibility:
     """Raise :class:`FenceError` if the shifted (activation) boundary vanishes for this platform and wind.
 
     Lateral: the worst-case shift (:func:`worst_case_lateral_shift_m`) must be
@@ -398,11 +443,16 @@ def check_shift_feasible(fence: LocalFence, envelope: Envelope, wind_speed_mps: 
     shift = worst_case_lateral_shift_m(envelope, w, h_uncertainty_m, g)
     r = fence.inradius()[2]
     if not shift < r:
-        why = "the wind is at least the airspeed" if envelope.kind is PlatformKind.FIXED_WING else \
-            "the wind push is at least the braking deceleration"
+        why = (
+            "the wind is at least the airspeed"
+            if envelope.kind is PlatformKind.FIXED_WING
+            else "the wind push is at least the braking deceleration"
+        )
         detail = f"{shift:.1f} m" if math.isfinite(shift) else f"infinite ({why})"
-        raise FenceError(f"shifted fence vanishes: worst-case lateral shift {detail} for {kind} at "
-                         f"{envelope.max_speed_mps:g} m/s in {w:g} m/s wind >= inradius {r:.1f} m of the allowed area")
+        raise FenceError(
+            f"shifted fence vanishes: worst-case lateral shift {detail} for {kind} at "
+            f"{envelope.max_speed_mps:g} m/s in {w:g} m/s wind >= inradius {r:.1f} m of the allowed area"
+        )
     t_r, az = envelope.reaction_time_s, envelope.vertical_accel_mps2
     cs = vertical_arrest_distance_m(abs(envelope.max_climb_rate_mps), t_r, az) + v_uncertainty_m
     fs = vertical_arrest_distance_m(abs(envelope.max_descent_rate_mps), t_r, az) + v_uncertainty_m
@@ -414,6 +464,8 @@ def check_shift_feasible(fence: LocalFence, envelope: Envelope, wind_speed_mps: 
     else:
         room, need, fs = math.inf, cs, 0.0
     if not need < room:
-        raise FenceError(f"shifted fence vanishes vertically: climb + descent arrest {need:.1f} m for {kind} "
-                         f">= {room:.1f} m between floor and ceiling")
+        raise FenceError(
+            f"shifted fence vanishes vertically: climb + descent arrest {need:.1f} m for {kind} "
+            f">= {room:.1f} m between floor and ceiling"
+        )
     return ShiftFeasibility(shift, r, cs, fs, room)

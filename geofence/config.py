@@ -152,9 +152,23 @@ class GeofenceConfig:
 
 
 _KEYS = {
-    "fence", "trigger", "min_override_s", "handback_margin_m", "recovery_radius_m", "uncertainty_k_sigma",
-    "extra_margin_m", "multirotor_law", "seed_pd", "ramp_s", "recovery_speed_mps", "max_reactivations", "wind_prior",
-    "state_source", "turbulence_k_sigma", "vertical_handback_m", "turbulence_source",
+    "fence",
+    "trigger",
+    "min_override_s",
+    "handback_margin_m",
+    "recovery_radius_m",
+    "uncertainty_k_sigma",
+    "extra_margin_m",
+    "multirotor_law",
+    "seed_pd",
+    "ramp_s",
+    "recovery_speed_mps",
+    "max_reactivations",
+    "wind_prior",
+    "state_source",
+    "turbulence_k_sigma",
+    "vertical_handback_m",
+    "turbulence_source",
 }
 
 
@@ -225,21 +239,24 @@ def _parse_geofence(raw: Mapping, where: str, base_dir: str | Path | None) -> Ge
         recovery_radius_m=num("recovery_radius_m", 0.1, 10000.0),
         uncertainty_k_sigma=num("uncertainty_k_sigma", 0.0, 10.0),
         extra_margin_m=num("extra_margin_m", 0.0, 1000.0),
-        multirotor_law=enum_value(raw.get("multirotor_law", _default("multirotor_law")), f"{where}.multirotor_law",
-                                  MultirotorLaw),
+        multirotor_law=enum_value(
+            raw.get("multirotor_law", _default("multirotor_law")), f"{where}.multirotor_law", MultirotorLaw
+        ),
         seed_pd=gains,
         ramp_s=num("ramp_s", 0.0, 60.0),
         recovery_speed_mps=None if speed_key is None else num("recovery_speed_mps", 0.1, 100.0),
-        max_reactivations=integer(raw.get("max_reactivations", _default("max_reactivations")),
-                                  f"{where}.max_reactivations", minimum=0),
+        max_reactivations=integer(
+            raw.get("max_reactivations", _default("max_reactivations")), f"{where}.max_reactivations", minimum=0
+        ),
         wind_prior_enu=prior,
         state_source=enum_value(raw.get("state_source", _default("state_source")), f"{where}.state_source", StateSource),
         turbulence_sigma_mps=turb,
         gust_mps=gust,
         turbulence_k_sigma=num("turbulence_k_sigma", 0.0, 10.0),
         vertical_handback_m=num("vertical_handback_m", 0.0, 100.0),
-        turbulence_source=enum_value(raw.get("turbulence_source", _default("turbulence_source")),
-                                     f"{where}.turbulence_source", TurbulenceSource),
+        turbulence_source=enum_value(
+            raw.get("turbulence_source", _default("turbulence_source")), f"{where}.turbulence_source", TurbulenceSource
+        ),
         fence_file=fence_file,
         fence_warnings=tuple(fence_warnings),
     )
@@ -263,8 +280,10 @@ def _fence_from_file(block: Mapping, where: str, base_dir: str | Path | None) ->
     unknown = [k for k in block if k not in FENCE_FILE_KEYS]
     if unknown:
         extra = " (keep_in comes from the file)" if "keep_in" in unknown else ""
-        raise GeofenceConfigError(f"{where}: unknown key(s) {', '.join(repr(k) for k in unknown)} with a fence file "
-                                  f"(allowed: {', '.join(FENCE_FILE_KEYS)}){extra}")
+        raise GeofenceConfigError(
+            f"{where}: unknown key(s) {', '.join(repr(k) for k in unknown)} with a fence file "
+            f"(allowed: {', '.join(FENCE_FILE_KEYS)}){extra}"
+        )
     path = fence_file_path(block["file"], where, base_dir)
     if not path.is_file():
         place = f" (relative to {base_dir})" if base_dir is not None and not Path(block["file"]).is_absolute() else ""
@@ -282,12 +301,17 @@ def _fence_from_file(block: Mapping, where: str, base_dir: str | Path | None) ->
     if gaps is not None and (isinstance(gaps, (str, Mapping)) or not isinstance(gaps, (list, tuple))):
         raise GeofenceConfigError(f"{where}.floor_gaps: must be a list of polygons, got {type(gaps).__name__}")
     try:
-        imported = load_fence_file(path, ceiling_m=block.get("ceiling_m"), floor_m=block.get("floor_m"),
-                                   altitude_reference=ref, floor_gaps=tuple(gaps or ()),
-                                   recovery_point=block.get("recovery_point"))
+        imported = load_fence_file(
+            path,
+            ceiling_m=block.get("ceiling_m"),
+            floor_m=block.get("floor_m"),
+            altitude_reference=ref,
+            floor_gaps=tuple(gaps or ()),
+            recovery_point=block.get("recovery_point"),
+        )
     except FenceError as exc:
         msg = str(exc)
-        rest = msg[len(str(path)) + 2:] if msg.startswith(f"{path}: ") else msg
+        rest = msg[len(str(path)) + 2 :] if msg.startswith(f"{path}: ") else msg
         field = re.match(r"[a-z_]*", rest).group(0)  # type: ignore[union-attr]  # [a-z_]* matches every string
         if field in block and field != "file":  # the inline value is the problem (e.g. a floor gap outside the keep-in)
             raise GeofenceConfigError(f"{where}.{rest}") from None

@@ -120,8 +120,9 @@ class VelocityController:
     saturates at g·tan(tilt_max) (anti-windup).
     """
 
-    def __init__(self, env: Envelope, gain_per_s: float = 1.6, integral_gain_per_s2: float = 0.35,
-                 wind_enu: list[float] | None = None):
+    def __init__(
+        self, env: Envelope, gain_per_s: float = 1.6, integral_gain_per_s2: float = 0.35, wind_enu: list[float] | None = None
+    ):
         self.env = env
         self.kv = gain_per_s
         self.ki = integral_gain_per_s2

@@ -102,5 +102,6 @@ def envelope_at_density(env: Envelope, density_ratio: float) -> Envelope:
     if env.is_multirotor:
         return replace(env, drag_quadratic_per_m=env.drag_quadratic_per_m * s)
     f = 1.0 / math.sqrt(s)
-    return replace(env, cruise_speed_mps=env.cruise_speed_mps * f, max_speed_mps=env.max_speed_mps * f,
-                   min_speed_mps=env.min_speed_mps * f)
+    return replace(
+        env, cruise_speed_mps=env.cruise_speed_mps * f, max_speed_mps=env.max_speed_mps * f, min_speed_mps=env.min_speed_mps * f
+    )

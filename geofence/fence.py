@@ -133,8 +133,11 @@ class Fence:
         set_ = object.__setattr__
         ref = self.altitude_reference
         try:
-            set_(self, "altitude_reference",
-                 enum_value(ref.lower() if isinstance(ref, str) else ref, "altitude_reference", AltitudeReference))
+            set_(
+                self,
+                "altitude_reference",
+                enum_value(ref.lower() if isinstance(ref, str) else ref, "altitude_reference", AltitudeReference),
+            )
         except ConfigError as exc:
             raise FenceError(str(exc)) from None
         ceiling = _number(self.ceiling_m, "ceiling_m")
@@ -149,9 +152,16 @@ class Fence:
 
         keep_in = _polygon(self.keep_in, "keep_in")
         set_(self, "keep_in", keep_in)
-        set_(self, "floor_gaps", tuple(_polygon(g, f"floor_gaps[{i}]") for i, g in enumerate(_seq(self.floor_gaps, "floor_gaps"))))
-        set_(self, "keep_out_polygons", tuple(
-            _polygon(p, f"keep_out_polygons[{i}]") for i, p in enumerate(_seq(self.keep_out_polygons, "keep_out_polygons"))))
+        set_(
+            self, "floor_gaps", tuple(_polygon(g, f"floor_gaps[{i}]") for i, g in enumerate(_seq(self.floor_gaps, "floor_gaps")))
+        )
+        set_(
+            self,
+            "keep_out_polygons",
+            tuple(
+                _polygon(p, f"keep_out_polygons[{i}]") for i, p in enumerate(_seq(self.keep_out_polygons, "keep_out_polygons"))
+            ),
+        )
         circles = []
         for i, c in enumerate(_seq(self.keep_out_circles, "keep_out_circles")):
             name = f"keep_out_circles[{i}]"
@@ -288,16 +298,24 @@ def _polygon(poly: Any, name: str) -> PolygonLL:
             raise FenceError(f"{name}: vertices {i} and {(i + 1) % k} are the same point (zero-length edge {i})")
         more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
         raise FenceError(
-            f"{name}: self-intersecting: edge {i} (vertex {i}->{(i + 1) % k}) meets "
-            f"edge {j} (vertex {j}->{(j + 1) % k}){more}")
+            f"{name}: self-intersecting: edge {i} (vertex {i}->{(i + 1) % k}) meets edge {j} (vertex {j}->{(j + 1) % k}){more}"
+        )
     if signed_area(en) == 0.0:
         raise FenceError(f"{name}: has zero area")
     return tuple(out)
 
 
 # --------------------------------------------------------------------------- YAML parser
-_FENCE_KEYS = ("keep_in", "ceiling_m", "floor_m", "altitude_reference", "floor_gaps",
-               "keep_out_polygons", "keep_out_circles", "recovery_point")
+_FENCE_KEYS = (
+    "keep_in",
+    "ceiling_m",
+    "floor_m",
+    "altitude_reference",
+    "floor_gaps",
+    "keep_out_polygons",
+    "keep_out_circles",
+    "recovery_point",
+)
 _CIRCLE_KEYS = ("center", "radius_m")
 
 
@@ -378,9 +396,25 @@ class LocalFence:
     altitude reference, not ENU up (see the module docstring).
     """
 
-    __slots__ = ("fence", "frame", "keep_in", "keep_out_polygons", "keep_out_circles", "floor_gaps",
-                 "ceiling_m", "floor_m", "altitude_reference", "recovery_en", "recovery_height_m",
-                 "_inradius", "_no_keepouts", "_danger_edges", "_gap_edges", "_grid", "_use_index")
+    __slots__ = (
+        "fence",
+        "frame",
+        "keep_in",
+        "keep_out_polygons",
+        "keep_out_circles",
+        "floor_gaps",
+        "ceiling_m",
+        "floor_m",
+        "altitude_reference",
+        "recovery_en",
+        "recovery_height_m",
+        "_inradius",
+        "_no_keepouts",
+        "_danger_edges",
+        "_gap_edges",
+        "_grid",
+        "_use_index",
+    )
 
     def __init__(self, fence: Fence, frame: LocalFrame, *, index: bool | None = None) -> None:
         """``index``: answer the per-step lateral queries from a :class:`~geofence.fence_grid.FenceGrid`
@@ -398,7 +432,8 @@ class LocalFence:
         self.keep_out_polygons = tuple(proj(p) for p in fence.keep_out_polygons)
         self.floor_gaps = tuple(proj(p) for p in fence.floor_gaps)
         self.keep_out_circles = tuple(
-            (*frame.to_enu(c.center_lat_deg, c.center_lon_deg, h0)[:2], c.radius_m) for c in fence.keep_out_circles)
+            (*frame.to_enu(c.center_lat_deg, c.center_lon_deg, h0)[:2], c.radius_m) for c in fence.keep_out_circles
+        )
         self.ceiling_m = fence.ceiling_m
         self.floor_m = fence.floor_m
         self.altitude_reference = fence.altitude_reference
@@ -433,8 +468,9 @@ class LocalFence:
     def grid(self) -> FenceGrid | None:
         """The candidate-set index of the lateral elements (built on first use), or None for a small fence."""
         if self._grid is None and self._use_index:
-            self._grid = FenceGrid(self.danger_edges(), self.keep_out_circles, FEATURE_KEEP_OUT_CIRCLE,
-                                   self.keep_in, self.keep_out_polygons)
+            self._grid = FenceGrid(
+                self.danger_edges(), self.keep_out_circles, FEATURE_KEEP_OUT_CIRCLE, self.keep_in, self.keep_out_polygons
+            )
         return self._grid
 
     # ---- scalar margins (per-step)
@@ -623,6 +659,5 @@ class LocalFence:
         """``(east, north, r)``: centre and radius of the largest circle inside the allowed area."""
         if self._inradius is None:
             size = max(self.keep_in.bbox[2] - self.keep_in.bbox[0], self.keep_in.bbox[3] - self.keep_in.bbox[1])
-            self._inradius = pole_of_inaccessibility(self.lateral_margin_m, self.keep_in.bbox,
-                                                     precision_m=max(0.01, 1e-4 * size))
+            self._inradius = pole_of_inaccessibility(self.lateral_margin_m, self.keep_in.bbox, precision_m=max(0.01, 1e-4 * size))
         return self._inradius

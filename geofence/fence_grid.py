@@ -78,9 +78,16 @@ class FenceGrid:
     circle; ``keep_in`` / ``keep_outs``: the polygons, for containment.
     """
 
-    def __init__(self, edges: Sequence[tuple], circles: Sequence[tuple[float, float, float]], circle_feature: str,
-                 keep_in: PolygonIndex, keep_outs: Sequence[PolygonIndex], cell_m: float = DEFAULT_CELL_M,
-                 prefix_items: int = PREFIX_ITEMS) -> None:
+    def __init__(
+        self,
+        edges: Sequence[tuple],
+        circles: Sequence[tuple[float, float, float]],
+        circle_feature: str,
+        keep_in: PolygonIndex,
+        keep_outs: Sequence[PolygonIndex],
+        cell_m: float = DEFAULT_CELL_M,
+        prefix_items: int = PREFIX_ITEMS,
+    ) -> None:
         self.cell_m = float(cell_m)
         self.prefix_items = int(prefix_items)
         self.half_diag_m = self.cell_m * math.sqrt(0.5)
@@ -88,8 +95,9 @@ class FenceGrid:
         s = len(edges)
         self.n_elements = s + len(circles)
         # per element: (id, a, b, c, d, inv_len2, nx, ny, feature, index, edge); inv_len2 < 0 marks a circle
-        recs = [(i, ax, ay, dx, dy, il2, nx, ny, feat, idx, j) for i, (ax, ay, dx, dy, il2, nx, ny, feat, idx, j)
-                in enumerate(edges)]
+        recs = [
+            (i, ax, ay, dx, dy, il2, nx, ny, feat, idx, j) for i, (ax, ay, dx, dy, il2, nx, ny, feat, idx, j) in enumerate(edges)
+        ]
         recs += [(s + k, ce, cn, r, 0.0, -1.0, 0.0, 0.0, circle_feature, k, -1) for k, (ce, cn, r) in enumerate(circles)]
         self._recs = recs
         e = np.array([[r[1], r[2], r[3], r[4], r[5]] for r in recs[:s]], dtype=float).reshape(-1, 5)
@@ -134,7 +142,7 @@ class FenceGrid:
         sel = sel[np.argsort(d[sel], kind="stable")]
         recs = self._recs
         cands = tuple((float(d[i]),) + recs[i] for i in sel[: self.prefix_items].tolist())
-        rest = sel[self.prefix_items:]
+        rest = sel[self.prefix_items :]
         rest_lb = d[rest]
         # keep-in: wholly inside (+1), wholly outside (-1) or crossed by its boundary (0)
         d_ki = float(d[: self._keep_in.n].min())  # the keep-in's edges come first

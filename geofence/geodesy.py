@@ -100,9 +100,9 @@ class LocalFrame:
         h = np.asarray(h_m, dtype=float)
         s, c = np.sin(lat), np.cos(lat)
         n = WGS84_A_M / np.sqrt(1.0 - _E2 * s * s)
-        ecef = np.stack(
-            [(n + h) * c * np.cos(lon), (n + h) * c * np.sin(lon), (n * (1.0 - _E2) + h) * s], axis=-1
-        ) - np.asarray(self._origin)
+        ecef = np.stack([(n + h) * c * np.cos(lon), (n + h) * c * np.sin(lon), (n * (1.0 - _E2) + h) * s], axis=-1) - np.asarray(
+            self._origin
+        )
         return ecef @ np.asarray(self._rot).T
 
     def to_geodetic_array(self, enu_m) -> np.ndarray:

@@ -107,8 +107,17 @@ class MultirotorVelocityRecovery:
         self._brake_until_s = 0.0
         self.braking = False
 
-    def start(self, s: VehicleState, route: Route, goal_h: float, h: float, t_s: float, turn_sign: int = 0,
-              turn_limit_rad: float = math.inf, hold_below_m: float | None = None) -> None:
+    def start(
+        self,
+        s: VehicleState,
+        route: Route,
+        goal_h: float,
+        h: float,
+        t_s: float,
+        turn_sign: int = 0,
+        turn_limit_rad: float = math.inf,
+        hold_below_m: float | None = None,
+    ) -> None:
         self.route = route
         self.goal_h = goal_h
         self.yaw_hold = s.yaw_rad
@@ -159,8 +168,17 @@ class SeedPDRecovery:
         self.t0 = 0.0
         self.yaw_hold = 0.0
 
-    def start(self, s: VehicleState, route: Route, goal_h: float, h: float, t_s: float, turn_sign: int = 0,
-              turn_limit_rad: float = math.inf, hold_below_m: float | None = None) -> None:
+    def start(
+        self,
+        s: VehicleState,
+        route: Route,
+        goal_h: float,
+        h: float,
+        t_s: float,
+        turn_sign: int = 0,
+        turn_limit_rad: float = math.inf,
+        hold_below_m: float | None = None,
+    ) -> None:
         """The published law ramps straight to the route's end (it has no notion of a path)."""
         self.start_point = (s.east_m, s.north_m, h)
         self.goal = (route.points[-1][0], route.points[-1][1], goal_h)
@@ -211,8 +229,17 @@ class FixedWingRecovery:
     def lookahead_m(self) -> float:
         return self.orbit_radius_m
 
-    def start(self, s: VehicleState, route: Route, goal_h: float, h: float, t_s: float, turn_sign: int = 0,
-              turn_limit_rad: float = math.inf, hold_below_m: float | None = None) -> None:
+    def start(
+        self,
+        s: VehicleState,
+        route: Route,
+        goal_h: float,
+        h: float,
+        t_s: float,
+        turn_sign: int = 0,
+        turn_limit_rad: float = math.inf,
+        hold_below_m: float | None = None,
+    ) -> None:
         self.route = route
         self.goal_h = goal_h
         target = route.lookahead_point(s.east_m, s.north_m, self.lookahead_m)
@@ -239,7 +266,10 @@ class FixedWingRecovery:
             self.turned_rad += abs(wrap_pi(s.yaw_rad - self._last_yaw))
             self._last_yaw = s.yaw_rad
             # roll out on the carrot's heading, or once the scored turn is used up (commit: no re-aiming past it)
-            if abs(wrap_pi(self._heading_to(s, target) - s.yaw_rad)) < ROLL_OUT_TOLERANCE_RAD or self.turned_rad >= self.turn_limit_rad:
+            if (
+                abs(wrap_pi(self._heading_to(s, target) - s.yaw_rad)) < ROLL_OUT_TOLERANCE_RAD
+                or self.turned_rad >= self.turn_limit_rad
+            ):
                 self.turning = False
             else:
                 # turn_sign +1 = left (counter-clockwise) = negative roll stick
@@ -265,8 +295,7 @@ class LandingGuidance:
         self.route: Route = StraightRoute(0.0, 0.0)
         self.turn_sign = 0
 
-    def start(self, point_e: float, point_n: float, cruise_h: float, route: Route | None = None,
-              turn_sign: int = 0) -> None:
+    def start(self, point_e: float, point_n: float, cruise_h: float, route: Route | None = None, turn_sign: int = 0) -> None:
         """Land at ``(point_e, point_n)``, flying ``route`` there (default: straight) at ``cruise_h``.
 
         ``turn_sign`` (fixed-wing; +1 left, -1 right): the direction of the first turn onto the route,
@@ -284,8 +313,7 @@ class LandingGuidance:
         pe, pn = self.point
         return math.hypot(pe - s.east_m, pn - s.north_m) < (2.0 if self.env.is_multirotor else 1.5 * self.spiral_radius_m)
 
-    def sticks(self, s: VehicleState, h: float, dt_s: float, descend: bool | None = None,
-               hurry: bool = False) -> StickCommand:
+    def sticks(self, s: VehicleState, h: float, dt_s: float, descend: bool | None = None, hurry: bool = False) -> StickCommand:
         """Sticks toward the landing point; descend when ``descend`` (default: when over the point).
 
         ``hurry`` (multirotor, position source lost): while ``descend`` allows it, descend at the full
@@ -328,5 +356,9 @@ class LandingGuidance:
         else:
             self.turn_sign = 0
             roll = bank_stick_for_course(s, course_cmd, env, COURSE_GAIN_PER_S)
-        climb = -env.max_descent_rate_mps if over else altitude_to_climb_rate(self.cruise_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S)
-        return StickCommand(roll=roll, pitch=climb_rate_to_stick(climb, env), yaw=0.0, throttle=airspeed_to_stick(env.min_speed_mps, env))
+        climb = (
+            -env.max_descent_rate_mps if over else altitude_to_climb_rate(self.cruise_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S)
+        )
+        return StickCommand(
+            roll=roll, pitch=climb_rate_to_stick(climb, env), yaw=0.0, throttle=airspeed_to_stick(env.min_speed_mps, env)
+        )

@@ -138,8 +138,17 @@ MAX_FENCE_POLYGONS = 20_000
 
 ED269_KEEP_OUT = ("PROHIBITED", "REQ_AUTHORISATION", "CONDITIONAL")
 """ED-269 ``restriction`` values read as keep-outs (``NO_RESTRICTION`` zones are ignored)."""
-GEOJSON_TYPES = ("FeatureCollection", "Feature", "Polygon", "MultiPolygon", "Point", "MultiPoint",
-                 "LineString", "MultiLineString", "GeometryCollection")
+GEOJSON_TYPES = (
+    "FeatureCollection",
+    "Feature",
+    "Polygon",
+    "MultiPolygon",
+    "Point",
+    "MultiPoint",
+    "LineString",
+    "MultiLineString",
+    "GeometryCollection",
+)
 
 
 @dataclass(frozen=True)
@@ -280,12 +289,16 @@ def load_fence_file(
         if len(raw.inc_polys) > 1:
             warnings.append(f"{len(raw.inc_polys) - 1} further inclusion polygon(s) ignored: the fence uses the first only")
         if raw.inc_circles:
-            warnings.append(f"{len(raw.inc_circles)} inclusion circle(s) ignored: the fence uses the first inclusion polygon only")
+            warnings.append(
+                f"{len(raw.inc_circles)} inclusion circle(s) ignored: the fence uses the first inclusion polygon only"
+            )
     else:
         c = raw.inc_circles[0]
         keep_in, n, sag = circle_to_polygon(c.center_lat_deg, c.center_lon_deg, c.radius_m, circle_tolerance_m)
         keep_in_label = "inclusion circle 0"
-        warnings.append(f"inclusion circle r={c.radius_m:g} m approximated by an inscribed {n}-gon (max gap {sag:.3f} m inside the circle)")
+        warnings.append(
+            f"inclusion circle r={c.radius_m:g} m approximated by an inscribed {n}-gon (max gap {sag:.3f} m inside the circle)"
+        )
         if len(raw.inc_circles) > 1:
             warnings.append(f"{len(raw.inc_circles) - 1} further inclusion circle(s) ignored: the fence uses the first only")
 
@@ -299,8 +312,11 @@ def load_fence_file(
         return frame.to_enu_array(lat, lon, np.zeros(len(poly)))[:, :2]
 
     ki = PolygonIndex(en(keep_in))
-    labels = raw.exc_labels if len(raw.exc_labels) == len(raw.exc_polys) else \
-        [f"exclusion polygon {i}" for i in range(len(raw.exc_polys))]
+    labels = (
+        raw.exc_labels
+        if len(raw.exc_labels) == len(raw.exc_polys)
+        else [f"exclusion polygon {i}" for i in range(len(raw.exc_polys))]
+    )
     exc_en = [en(p) for p in raw.exc_polys]
     first_inside = ki.contains_array(np.array([e[0] for e in exc_en])) if exc_en else np.zeros(0, dtype=bool)
     keep_out_polys, keep_out_labels, kept_en = [], [], []
@@ -332,15 +348,23 @@ def load_fence_file(
         if m > 0.0:
             recovery_point, rp_from_file = (lat, lon), True
         else:
-            warnings.append(f"return point ({lat:.7f}, {lon:.7f}) is not inside the allowed area "
-                            f"(margin {m:.1f} m): not used as the recovery point")
+            warnings.append(
+                f"return point ({lat:.7f}, {lon:.7f}) is not inside the allowed area "
+                f"(margin {m:.1f} m): not used as the recovery point"
+            )
 
     def build(rp: tuple | None) -> Fence:
         # a string: Fence normalises it to the enum and refuses anything else (a FenceError)
-        return Fence(keep_in=keep_in, ceiling_m=ceiling_m, floor_m=floor_m,
-                     altitude_reference=cast(AltitudeReference, altitude_reference),
-                     floor_gaps=tuple(floor_gaps), keep_out_polygons=tuple(keep_out_polys),
-                     keep_out_circles=tuple(keep_out_circles), recovery_point=rp)
+        return Fence(
+            keep_in=keep_in,
+            ceiling_m=ceiling_m,
+            floor_m=floor_m,
+            altitude_reference=cast(AltitudeReference, altitude_reference),
+            floor_gaps=tuple(floor_gaps),
+            keep_out_polygons=tuple(keep_out_polys),
+            keep_out_circles=tuple(keep_out_circles),
+            recovery_point=rp,
+        )
 
     try:
         try:
@@ -348,8 +372,9 @@ def load_fence_file(
         except FenceError as exc:
             if not (rp_from_file and recovery_point is not None and str(exc).startswith("recovery_point:")):
                 raise
-            warnings.append(f"return point ({recovery_point[0]:.7f}, {recovery_point[1]:.7f}): {exc}: "
-                            f"not used as the recovery point")
+            warnings.append(
+                f"return point ({recovery_point[0]:.7f}, {recovery_point[1]:.7f}): {exc}: not used as the recovery point"
+            )
             fence = build(None)
     except FenceError as exc:
         raise FenceError(f"{name}: {_relabel(str(exc), keep_in_label, keep_out_labels)}") from None
@@ -391,19 +416,22 @@ def _relabel(msg: str, keep_in_label: str, keep_out_labels: list[str]) -> str:
     """A :class:`Fence` message with its field (``keep_out_polygons[3]``, ``keep_in``) named as in the file."""
     m = _KEEP_OUT_FIELD.match(msg)
     if m and int(m.group(1)) < len(keep_out_labels):
-        return keep_out_labels[int(m.group(1))] + msg[m.end():]
+        return keep_out_labels[int(m.group(1))] + msg[m.end() :]
     if keep_in_label and re.match(r"^keep_in\b", msg):
-        return keep_in_label + msg[len("keep_in"):]
+        return keep_in_label + msg[len("keep_in") :]
     return msg
 
 
 def _check_size(name: str, n_vertices: int, n_polygons: int, max_vertices: int, max_polygons: int) -> None:
     if n_vertices > max_vertices:
-        raise FenceError(f"{name}: {n_vertices} polygon vertices exceed the limit of {max_vertices} "
-                         f"(max_vertices); simplify or split the fence")
+        raise FenceError(
+            f"{name}: {n_vertices} polygon vertices exceed the limit of {max_vertices} "
+            f"(max_vertices); simplify or split the fence"
+        )
     if n_polygons > max_polygons:
-        raise FenceError(f"{name}: {n_polygons} polygons exceed the limit of {max_polygons} "
-                         f"(max_polygons); merge or drop keep-outs")
+        raise FenceError(
+            f"{name}: {n_polygons} polygons exceed the limit of {max_polygons} (max_polygons); merge or drop keep-outs"
+        )
 
 
 def load_rally_file(path: str | Path) -> tuple[RallyPoint, ...]:
@@ -420,8 +448,9 @@ def detect_format(path: str | Path) -> str:
     return _detect(_read_text(Path(path)), str(path))
 
 
-def circle_to_polygon(lat_deg: float, lon_deg: float, radius_m: float,
-                      tolerance_m: float = DEFAULT_CIRCLE_TOLERANCE_M) -> tuple[PolygonLL, int, float]:
+def circle_to_polygon(
+    lat_deg: float, lon_deg: float, radius_m: float, tolerance_m: float = DEFAULT_CIRCLE_TOLERANCE_M
+) -> tuple[PolygonLL, int, float]:
     """An inscribed regular polygon of a geodesic circle: ``(vertices, n, max_gap_m)``.
 
     ``n`` is the smallest count in [16, 720] with chord sag ``r(1 - cos(pi/n)) <=
@@ -453,8 +482,9 @@ def fence_to_yaml_block(imported: ImportedFence | Fence) -> dict:
     if f.keep_out_polygons:
         block["keep_out_polygons"] = [[[lat, lon] for lat, lon in p] for p in f.keep_out_polygons]
     if f.keep_out_circles:
-        block["keep_out_circles"] = [{"center": [c.center_lat_deg, c.center_lon_deg], "radius_m": c.radius_m}
-                                     for c in f.keep_out_circles]
+        block["keep_out_circles"] = [
+            {"center": [c.center_lat_deg, c.center_lon_deg], "radius_m": c.radius_m} for c in f.keep_out_circles
+        ]
     if f.recovery_point is not None:
         block["recovery_point"] = list(f.recovery_point)
     return {"geofence": {"fence": block}}
@@ -505,8 +535,10 @@ def _sniff(text: str, name: str) -> tuple[str, Any]:
             return "mavproxy_rally", None
         if _LATLON_LINE.match(s):
             return "mavproxy_fence", None
-        raise FenceError(f"{name}: unrecognised fence file format (first line {s[:40]!r}); "
-                         f"expected .plan JSON, GeoJSON, 'QGC WPL 110', 'lat lon' lines or 'RALLY' lines")
+        raise FenceError(
+            f"{name}: unrecognised fence file format (first line {s[:40]!r}); "
+            f"expected .plan JSON, GeoJSON, 'QGC WPL 110', 'lat lon' lines or 'RALLY' lines"
+        )
     raise FenceError(f"{name}: empty file")
 
 
@@ -514,15 +546,17 @@ def _read_raw(path: Path) -> _Raw:
     return _raw_from_text(_read_text(path), str(path))
 
 
-def _raw_from_text(text: str, name: str, *, max_vertices: int = MAX_FENCE_VERTICES,
-                   max_polygons: int = MAX_FENCE_POLYGONS) -> _Raw:
+def _raw_from_text(
+    text: str, name: str, *, max_vertices: int = MAX_FENCE_VERTICES, max_polygons: int = MAX_FENCE_POLYGONS
+) -> _Raw:
     fmt, doc = _sniff(text, name)
     if fmt == "qgc_plan":
         return _parse_plan(text, name, doc)
     if fmt == "geojson":
         return _parse_geojson(doc, name, max_vertices=max_vertices, max_polygons=max_polygons)
-    return {"qgc_wpl_110": _parse_wpl110, "mavproxy_fence": _parse_mavproxy_fence,
-            "mavproxy_rally": _parse_mavproxy_rally}[fmt](text, name)
+    return {"qgc_wpl_110": _parse_wpl110, "mavproxy_fence": _parse_mavproxy_fence, "mavproxy_rally": _parse_mavproxy_rally}[fmt](
+        text, name
+    )
 
 
 def _float(tok: str, name: str, where: str, what: str) -> float:
@@ -643,9 +677,14 @@ def _parse_plan(text: str, name: str, doc: Any = None) -> _Raw:
 
 
 # ---- QGC WPL 110
-_WPL_NAMES = {5000: "FENCE_RETURN_POINT", 5001: "FENCE_POLYGON_VERTEX_INCLUSION",
-              5002: "FENCE_POLYGON_VERTEX_EXCLUSION", 5003: "FENCE_CIRCLE_INCLUSION",
-              5004: "FENCE_CIRCLE_EXCLUSION", 5100: "RALLY_POINT"}
+_WPL_NAMES = {
+    5000: "FENCE_RETURN_POINT",
+    5001: "FENCE_POLYGON_VERTEX_INCLUSION",
+    5002: "FENCE_POLYGON_VERTEX_EXCLUSION",
+    5003: "FENCE_CIRCLE_INCLUSION",
+    5004: "FENCE_CIRCLE_EXCLUSION",
+    5100: "RALLY_POINT",
+}
 
 
 def _parse_wpl110(text: str, name: str) -> _Raw:
@@ -663,8 +702,10 @@ def _parse_wpl110(text: str, name: str) -> _Raw:
         a = s.split()
         where = f"line {lineno}"
         if len(a) != 12:
-            raise FenceError(f"{name}: {where}: expected 12 fields "
-                             f"(seq current frame command p1 p2 p3 p4 lat lon alt autocontinue), got {len(a)}")
+            raise FenceError(
+                f"{name}: {where}: expected 12 fields "
+                f"(seq current frame command p1 p2 p3 p4 lat lon alt autocontinue), got {len(a)}"
+            )
         try:
             seq, frame, cmd = int(a[0]), int(a[2]), int(a[3])
         except ValueError:
@@ -682,8 +723,10 @@ def _parse_wpl110(text: str, name: str) -> _Raw:
             return
         cmd, count, ln, verts = group
         if len(verts) != count:
-            raise FenceError(f"{name}: line {ln}: vertex count mismatch: {_WPL_NAMES[cmd]} polygon declares "
-                             f"{count} vertices (param1) but has {len(verts)}")
+            raise FenceError(
+                f"{name}: line {ln}: vertex count mismatch: {_WPL_NAMES[cmd]} polygon declares "
+                f"{count} vertices (param1) but has {len(verts)}"
+            )
         poly = _close_polygon(verts, name, f"line {ln}")
         (raw.inc_polys if cmd == MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION else raw.exc_polys).append(poly)
         group = None
@@ -698,12 +741,15 @@ def _parse_wpl110(text: str, name: str) -> _Raw:
                 close_group()
             if group is None:
                 if count != int(count) or count < 3:
-                    raise FenceError(f"{name}: {where}: {_WPL_NAMES[cmd]} param1 (vertex count) must be an "
-                                     f"integer >= 3, got {count:g}")
+                    raise FenceError(
+                        f"{name}: {where}: {_WPL_NAMES[cmd]} param1 (vertex count) must be an integer >= 3, got {count:g}"
+                    )
                 group = [cmd, int(count), ln, []]
             elif count != group[1]:
-                raise FenceError(f"{name}: {where}: vertex count mismatch: param1 {count:g} differs from "
-                                 f"{group[1]} declared at line {group[2]}")
+                raise FenceError(
+                    f"{name}: {where}: vertex count mismatch: param1 {count:g} differs from "
+                    f"{group[1]} declared at line {group[2]}"
+                )
             group[3].append(latlon)
             continue
         close_group()
@@ -776,7 +822,9 @@ def _parse_mavproxy_rally(text: str, name: str) -> _Raw:
         if a[0].upper() != "RALLY":
             raise FenceError(f"{name}: {where}: expected 'RALLY lat lon alt break_alt land_dir flags'")
         if len(a) != 7:
-            raise FenceError(f"{name}: {where}: RALLY line needs 6 values (lat lon alt break_alt land_dir flags), got {len(a) - 1}")
+            raise FenceError(
+                f"{name}: {where}: RALLY line needs 6 values (lat lon alt break_alt land_dir flags), got {len(a) - 1}"
+            )
         v = [_float(t, name, where, f) for t, f in zip(a[1:], ("latitude", "longitude", "alt", "break_alt", "land_dir", "flags"))]
         lat, lon = _check_latlon(v[0], v[1], name, where)
         if v[5] != int(v[5]):
@@ -791,15 +839,20 @@ _ED269_RESTRICTIONS = (*ED269_KEEP_OUT, "NO_RESTRICTION")
 _WGS84_CRS = re.compile(r"(?:CRS:?84|EPSG:{1,2}4326)$")
 
 
-def _parse_geojson(doc: Any, name: str, *, max_vertices: int = MAX_FENCE_VERTICES,
-                   max_polygons: int = MAX_FENCE_POLYGONS) -> _Raw:
+def _parse_geojson(
+    doc: Any, name: str, *, max_vertices: int = MAX_FENCE_VERTICES, max_polygons: int = MAX_FENCE_POLYGONS
+) -> _Raw:
     raw = _Raw("geojson")
     crs = doc.get("crs")
     if crs is not None:
-        crs_name = crs.get("properties", {}).get("name") if isinstance(crs, dict) and isinstance(crs.get("properties"), dict) else None
+        crs_name = (
+            crs.get("properties", {}).get("name") if isinstance(crs, dict) and isinstance(crs.get("properties"), dict) else None
+        )
         if not isinstance(crs_name, str) or not _WGS84_CRS.search(crs_name):
-            raise FenceError(f"{name}: crs: {json.dumps(crs)[:80]} is not WGS-84 longitude/latitude; RFC 7946 GeoJSON "
-                             f"is always WGS-84 [lon, lat] (reproject the file, e.g. ogr2ogr -t_srs EPSG:4326)")
+            raise FenceError(
+                f"{name}: crs: {json.dumps(crs)[:80]} is not WGS-84 longitude/latitude; RFC 7946 GeoJSON "
+                f"is always WGS-84 [lon, lat] (reproject the file, e.g. ogr2ogr -t_srs EPSG:4326)"
+            )
     kind = doc["type"]
     top: Any = {}
     if kind == "FeatureCollection":
@@ -815,8 +868,10 @@ def _parse_geojson(doc: Any, name: str, *, max_vertices: int = MAX_FENCE_VERTICE
     elif kind in ("Polygon", "MultiPolygon"):
         items = [("geometry", {"type": "Feature", "properties": {"geofence": "keep_in"}, "geometry": doc})]
     else:
-        raise FenceError(f"{name}: a bare {kind} geometry is not a fence: expected a FeatureCollection, a Feature, "
-                         f"or a Polygon/MultiPolygon keep-in")
+        raise FenceError(
+            f"{name}: a bare {kind} geometry is not a fence: expected a FeatureCollection, a Feature, "
+            f"or a Polygon/MultiPolygon keep-in"
+        )
 
     # size limits first, from the list lengths alone (nothing converted yet)
     n_vertices = n_polygons = 0
@@ -859,8 +914,9 @@ def _parse_geojson(doc: Any, name: str, *, max_vertices: int = MAX_FENCE_VERTICE
                     raise FenceError(f"{name}: {label}: geometry.coordinates: must be a non-empty list of polygons")
                 parts = [(f" polygon {p}", c, f"geometry.coordinates[{p}]") for p, c in enumerate(coords)]
             else:
-                raise FenceError(f"{name}: {label}: a {role.replace('_', '-')} area must be a Polygon or MultiPolygon, "
-                                 f"got {gtype!r}")
+                raise FenceError(
+                    f"{name}: {label}: a {role.replace('_', '-')} area must be a Polygon or MultiPolygon, got {gtype!r}"
+                )
             for suffix, pc, where in parts:
                 rings = _gj_polygon(pc, name, f"{label}: {where}")
                 if role == "keep_in":
@@ -876,8 +932,10 @@ def _parse_geojson(doc: Any, name: str, *, max_vertices: int = MAX_FENCE_VERTICE
                     raw.exc_polys.append(rings[0])
                     raw.exc_labels.append(f"{label}{suffix}")
                     if len(rings) > 1:
-                        raw.warnings.append(f"{label}{suffix}: {len(rings) - 1} hole(s) of a keep-out ignored "
-                                            f"(the whole exterior ring is kept out)")
+                        raw.warnings.append(
+                            f"{label}{suffix}: {len(rings) - 1} hole(s) of a keep-out ignored "
+                            f"(the whole exterior ring is kept out)"
+                        )
         else:
             if gtype != "Point":
                 raise FenceError(f"{name}: {label}: a {role.replace('_', ' ')} must be a Point, got {gtype!r}")
@@ -891,8 +949,7 @@ def _parse_geojson(doc: Any, name: str, *, max_vertices: int = MAX_FENCE_VERTICE
                 else:
                     raw.return_point = (lat, lon) if alt is None else (lat, lon, alt)
             else:
-                raw.rally.append(RallyPoint(lat, lon, 0.0 if alt is None else alt,
-                                            "unknown" if alt is None else "relative"))
+                raw.rally.append(RallyPoint(lat, lon, 0.0 if alt is None else alt, "unknown" if alt is None else "relative"))
 
     # vertical limits: the collection's, then the keep-in feature's (which win)
     for where, props in (("properties", top), (f"{raw.inc_label}: properties", keep_in_props or {})):
@@ -932,10 +989,13 @@ def _gj_role(props: dict, name: str, label: str, raw: _Raw) -> str | None:
         if restriction == "NO_RESTRICTION":
             raw.warnings.append(f"{label}: ED-269 restriction NO_RESTRICTION: ignored (not a keep-out)")
             return None
-        raise FenceError(f"{name}: {label}: properties.restriction: {restriction!r} is not an ED-269 restriction "
-                         f"({', '.join(_ED269_RESTRICTIONS)})")
-    raise FenceError(f"{name}: {label}: no role: give properties.geofence ({', '.join(_GEOFENCE_ROLES)}) "
-                     f"or an ED-269 properties.restriction")
+        raise FenceError(
+            f"{name}: {label}: properties.restriction: {restriction!r} is not an ED-269 restriction "
+            f"({', '.join(_ED269_RESTRICTIONS)})"
+        )
+    raise FenceError(
+        f"{name}: {label}: no role: give properties.geofence ({', '.join(_GEOFENCE_ROLES)}) or an ED-269 properties.restriction"
+    )
 
 
 def _gj_polygon(coords: Any, name: str, where: str) -> list[PolygonLL]:
@@ -974,14 +1034,15 @@ def _gj_position(p: Any, name: str, where: str) -> tuple[float, float]:
 def summarize(imported: ImportedFence) -> str:
     """A short multi-line human-readable summary (for a CLI)."""
     f = imported.fence
-    lines = [f"{imported.source_path}: {imported.source_format}",
-             f"  keep-in: {len(f.keep_in)} vertices; ceiling {f.ceiling_m:g} m {f.altitude_reference.upper()}"
-             + (f", floor {f.floor_m:g} m" if f.floor_m is not None else ""),
-             f"  keep-outs: {len(f.keep_out_polygons)} polygon(s), {len(f.keep_out_circles)} circle(s)"]
+    lines = [
+        f"{imported.source_path}: {imported.source_format}",
+        f"  keep-in: {len(f.keep_in)} vertices; ceiling {f.ceiling_m:g} m {f.altitude_reference.upper()}"
+        + (f", floor {f.floor_m:g} m" if f.floor_m is not None else ""),
+        f"  keep-outs: {len(f.keep_out_polygons)} polygon(s), {len(f.keep_out_circles)} circle(s)",
+    ]
     if imported.return_point is not None:
         lines.append(f"  return point: {', '.join(f'{x:.7f}' for x in imported.return_point)}")
     if imported.rally_points:
         lines.append(f"  rally points: {len(imported.rally_points)}")
     lines += [f"  warning: {w}" for w in imported.warnings]
     return "\n".join(lines)
-

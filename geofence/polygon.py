@@ -119,8 +119,12 @@ def _on_segment_collinear(a: Point, b: Point, p: Point) -> bool:
 
 def segments_intersect(p1: Point, p2: Point, q1: Point, q2: Point) -> bool:
     """True if the closed segments p1-p2 and q1-q2 share at least one point (touching counts). Exact."""
-    if (max(p1[0], p2[0]) < min(q1[0], q2[0]) or max(q1[0], q2[0]) < min(p1[0], p2[0])
-            or max(p1[1], p2[1]) < min(q1[1], q2[1]) or max(q1[1], q2[1]) < min(p1[1], p2[1])):
+    if (
+        max(p1[0], p2[0]) < min(q1[0], q2[0])
+        or max(q1[0], q2[0]) < min(p1[0], p2[0])
+        or max(p1[1], p2[1]) < min(q1[1], q2[1])
+        or max(q1[1], q2[1]) < min(p1[1], p2[1])
+    ):
         return False
     o1, o2 = orient2d(p1, p2, q1), orient2d(p1, p2, q2)
     o3, o4 = orient2d(q1, q2, p1), orient2d(q1, q2, p2)
@@ -317,8 +321,7 @@ def polygons_intersect(a, b) -> bool:
         for c, d in sa:
             if segments_intersect(p, q, c, d):
                 return True
-    return (point_location(float(va[0, 0]), float(va[0, 1]), vb) >= 0
-            or point_location(float(vb[0, 0]), float(vb[0, 1]), va) >= 0)
+    return point_location(float(va[0, 0]), float(va[0, 1]), vb) >= 0 or point_location(float(vb[0, 0]), float(vb[0, 1]), va) >= 0
 
 
 # ------------------------------------------------------------ pole of inaccessibility
@@ -387,8 +390,20 @@ class PolygonIndex:
     a 16-vertex :meth:`signed_distance` costs a few microseconds.
     """
 
-    __slots__ = ("vertices", "starts", "ends", "directions", "lengths", "inward_normals",
-                 "outward_normals", "ccw", "area", "bbox", "_edges", "n")
+    __slots__ = (
+        "vertices",
+        "starts",
+        "ends",
+        "directions",
+        "lengths",
+        "inward_normals",
+        "outward_normals",
+        "ccw",
+        "area",
+        "bbox",
+        "_edges",
+        "n",
+    )
 
     def __init__(self, vertices) -> None:
         v = as_vertices(vertices)
@@ -527,7 +542,7 @@ class PolygonIndex:
             dxdy = np.where(d[:, 1] != 0.0, d[:, 0] / d[:, 1], 0.0)
         rows = max(1, chunk // max(1, self.n))
         for s in range(0, m, rows):
-            p = pts[s:s + rows]
+            p = pts[s : s + rows]
             px = p[:, 0:1] - a[None, :, 0]
             py = p[:, 1:2] - a[None, :, 1]
             t = np.clip((px * d[None, :, 0] + py * d[None, :, 1]) * il2[None, :], 0.0, 1.0)
@@ -535,12 +550,12 @@ class PolygonIndex:
             qy = py - t * d[None, :, 1]
             d2 = qx * qx + qy * qy
             k = np.argmin(d2, axis=1)
-            best[s:s + rows] = d2[np.arange(len(p)), k]
-            arg[s:s + rows] = k
+            best[s : s + rows] = d2[np.arange(len(p)), k]
+            arg[s : s + rows] = k
             yy = p[:, 1:2]
             straddle = (a[None, :, 1] > yy) != (b[None, :, 1] > yy)
             cross = straddle & (px < py * dxdy[None, :])
-            inside[s:s + rows] = (np.count_nonzero(cross, axis=1) % 2) == 1
+            inside[s : s + rows] = (np.count_nonzero(cross, axis=1) % 2) == 1
         return best, arg, inside
 
     def signed_distance_array(self, points) -> np.ndarray:

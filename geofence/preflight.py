@@ -179,9 +179,19 @@ def _loiter_samples(env, wp: PlannedWaypoint, speed: float, wind_en) -> list[_Sa
     return out
 
 
-def check_route(fence: LocalFence, env: Envelope, waypoints: Sequence[PlannedWaypoint], speed_mps: float, *,
-                wind_en: tuple[float, float] = (0.0, 0.0), wind_extra_mps: float = 0.0, h_uncertainty_m: float = 0.0,
-                v_uncertainty_m: float = 0.0, buffer_m: float = 0.0, step_m: float = 5.0) -> list[PreflightFinding]:
+def check_route(
+    fence: LocalFence,
+    env: Envelope,
+    waypoints: Sequence[PlannedWaypoint],
+    speed_mps: float,
+    *,
+    wind_en: tuple[float, float] = (0.0, 0.0),
+    wind_extra_mps: float = 0.0,
+    h_uncertainty_m: float = 0.0,
+    v_uncertainty_m: float = 0.0,
+    buffer_m: float = 0.0,
+    step_m: float = 5.0,
+) -> list[PreflightFinding]:
     """Every leg, turn and loiter of the route whose activation margin falls to ``buffer_m`` or below.
 
     ``speed_mps``: the planned speed (multirotor ground speed, fixed-wing
@@ -195,9 +205,21 @@ def check_route(fence: LocalFence, env: Envelope, waypoints: Sequence[PlannedWay
     def score(samples: list[_Sample], part: RoutePart, index: int, label: str) -> None:
         worst = None
         for p in samples:
-            r = activation_margins(fence, p.e, p.n, p.h, p.ve, p.vn, p.vu, env, wind_en[0], wind_en[1],
-                                   h_uncertainty_m=h_uncertainty_m, v_uncertainty_m=v_uncertainty_m,
-                                   wind_extra_mps=wind_extra_mps)
+            r = activation_margins(
+                fence,
+                p.e,
+                p.n,
+                p.h,
+                p.ve,
+                p.vn,
+                p.vu,
+                env,
+                wind_en[0],
+                wind_en[1],
+                h_uncertainty_m=h_uncertainty_m,
+                v_uncertainty_m=v_uncertainty_m,
+                wind_extra_mps=wind_extra_mps,
+            )
             if worst is None or r.activation_margin_m < worst[0].activation_margin_m:
                 worst = (r, p)
         if worst is None or worst[0].activation_margin_m > buffer_m:
@@ -206,8 +228,10 @@ def check_route(fence: LocalFence, env: Envelope, waypoints: Sequence[PlannedWay
         if r.lateral_activation_m <= r.vertical_activation_m:
             reason = f"{r.feature} edge {r.edge} needs {r.lateral_shift_m:.1f} m, has {r.edge_distance_m:.1f} m"
         else:
-            reason = (f"vertical: ceiling margin {r.ceiling_margin_m:.1f} m (needs {r.ceiling_shift_m:.1f}), "
-                      f"floor margin {r.floor_margin_m:.1f} m (needs {r.floor_shift_m:.1f})")
+            reason = (
+                f"vertical: ceiling margin {r.ceiling_margin_m:.1f} m (needs {r.ceiling_shift_m:.1f}), "
+                f"floor margin {r.floor_margin_m:.1f} m (needs {r.floor_shift_m:.1f})"
+            )
         findings.append(PreflightFinding(part, index, label, p.e, p.n, p.h, r.activation_margin_m, reason))
 
     wps = list(waypoints)

@@ -153,10 +153,14 @@ def segment_segment_distance(p1: Point, p2: Point, q1: Point, q2: Point) -> floa
     """Euclidean distance (m) between the closed segments p1-p2 and q1-q2 (0 if they meet)."""
     if _cross_properly(p1[0], p1[1], p2[0], p2[1], q1[0], q1[1], q2[0], q2[1]):
         return 0.0
-    return math.sqrt(min(_pt_seg_d2(p1[0], p1[1], q1[0], q1[1], q2[0], q2[1]),
-                         _pt_seg_d2(p2[0], p2[1], q1[0], q1[1], q2[0], q2[1]),
-                         _pt_seg_d2(q1[0], q1[1], p1[0], p1[1], p2[0], p2[1]),
-                         _pt_seg_d2(q2[0], q2[1], p1[0], p1[1], p2[0], p2[1])))
+    return math.sqrt(
+        min(
+            _pt_seg_d2(p1[0], p1[1], q1[0], q1[1], q2[0], q2[1]),
+            _pt_seg_d2(p2[0], p2[1], q1[0], q1[1], q2[0], q2[1]),
+            _pt_seg_d2(q1[0], q1[1], p1[0], p1[1], p2[0], p2[1]),
+            _pt_seg_d2(q2[0], q2[1], p1[0], p1[1], p2[0], p2[1]),
+        )
+    )
 
 
 def _cross_properly(ax, ay, bx, by, cx, cy, dx, dy) -> bool:
@@ -196,8 +200,9 @@ class RecoveryPath:
     projection so far; :meth:`lookahead_point` advances it, never backwards).
     """
 
-    def __init__(self, planner: "RecoveryPlanner", points: Sequence[Point], goal_en: Point,
-                 reached_goal: bool, first_leg_floor_m: float) -> None:
+    def __init__(
+        self, planner: "RecoveryPlanner", points: Sequence[Point], goal_en: Point, reached_goal: bool, first_leg_floor_m: float
+    ) -> None:
         self.planner = planner
         self.points = [(float(p[0]), float(p[1])) for p in points]
         cum = [0.0]
@@ -317,7 +322,8 @@ class RecoveryPlanner:
         self._ea, self._eb = a, b
         self._edges = tuple(
             (float(ax), float(ay), float(bx), float(by), min(ax, bx), max(ax, bx), min(ay, by), max(ay, by))
-            for (ax, ay), (bx, by) in zip(a.tolist(), b.tolist()))
+            for (ax, ay), (bx, by) in zip(a.tolist(), b.tolist())
+        )
         self._ebox = np.array([e[4:] for e in self._edges], dtype=float).reshape(-1, 4)  # xmin, xmax, ymin, ymax
         circ = fence.keep_out_circles
         self._circles = tuple((float(x), float(y), float(r)) for x, y, r in circ)
@@ -391,8 +397,9 @@ class RecoveryPlanner:
                 # the two normals, ordered counter-clockwise (cone from n1 to n2)
                 if sg < 0.0:
                     a1, a2 = a2, a1
-                out.append((vx + dist * math.cos(ang), vy + dist * math.sin(ang),
-                            math.cos(a1), math.sin(a1), math.cos(a2), math.sin(a2)))
+                out.append(
+                    (vx + dist * math.cos(ang), vy + dist * math.sin(ang), math.cos(a1), math.sin(a1), math.cos(a2), math.sin(a2))
+                )
 
         def polygon(p, free_side: float) -> None:
             # free_side=+1: free space is the polygon's interior (keep-in); -1: its exterior (keep-out)
@@ -440,7 +447,7 @@ class RecoveryPlanner:
         for di in (-1, 0, 1):
             for dj in (-1, 0, 1):
                 if di or dj:
-                    is_max &= m >= pad[1 + di:1 + di + m.shape[0], 1 + dj:1 + dj + m.shape[1]]
+                    is_max &= m >= pad[1 + di : 1 + di + m.shape[0], 1 + dj : 1 + dj + m.shape[1]]
         is_max &= m >= c
         cand = [(float(m[i, j]), float(gx[i, j]), float(gy[i, j])) for i, j in zip(*np.nonzero(is_max))]
         ex, ey, er = f.inradius()
@@ -453,8 +460,9 @@ class RecoveryPlanner:
             # same lobe as a kept point: the straight line between them keeps 70 % of the smaller clearance
             if any(self._clear_one((k.east_m, k.north_m), (x, y), 0.7 * r) for k in kept):
                 continue
-            px, py, pr = pole_of_inaccessibility(f.lateral_margin_m, (x - h, y - h, x + h, y + h),
-                                                 precision_m=max(0.01, 1e-3 * h), max_cells=400)
+            px, py, pr = pole_of_inaccessibility(
+                f.lateral_margin_m, (x - h, y - h, x + h, y + h), precision_m=max(0.01, 1e-3 * h), max_cells=400
+            )
             if pr < r:
                 px, py, pr = x, y, r
             kept.append(SafePoint(px, py, f.lateral_margin_m(px, py)))
@@ -472,8 +480,8 @@ class RecoveryPlanner:
         c = self._cones[idx]
         px, py = -d[:, 1], d[:, 0]  # a normal of the line
         tol = -1e-9 * np.hypot(px, py)
-        s1 = c[:, 0] * py - c[:, 1] * px      # cross(n1, m)
-        s2 = px * c[:, 3] - py * c[:, 2]      # cross(m, n2)
+        s1 = c[:, 0] * py - c[:, 1] * px  # cross(n1, m)
+        s2 = px * c[:, 3] - py * c[:, 2]  # cross(m, n2)
         in_cone = ((s1 >= tol) & (s2 >= tol)) | ((s1 <= -tol) & (s2 <= -tol))
         return in_cone | ~self._is_corner[idx]
 
@@ -495,8 +503,12 @@ class RecoveryPlanner:
                 continue
             if _cross_properly(ax, ay, bx, by, cx, cy, dx, dy):
                 return False
-            if (_pt_seg_d2(ax, ay, cx, cy, dx, dy) < t2 or _pt_seg_d2(bx, by, cx, cy, dx, dy) < t2
-                    or _pt_seg_d2(cx, cy, ax, ay, bx, by) < t2 or _pt_seg_d2(dx, dy, ax, ay, bx, by) < t2):
+            if (
+                _pt_seg_d2(ax, ay, cx, cy, dx, dy) < t2
+                or _pt_seg_d2(bx, by, cx, cy, dx, dy) < t2
+                or _pt_seg_d2(cx, cy, ax, ay, bx, by) < t2
+                or _pt_seg_d2(dx, dy, ax, ay, bx, by) < t2
+            ):
                 return False
         for cx, cy, r in self._circles:
             rr = r + thr
@@ -506,8 +518,9 @@ class RecoveryPlanner:
                 return False
         return True
 
-    def _clear_batch(self, p: np.ndarray, q: np.ndarray, thr: float, block: int = 8192,
-                     chunk: int = 48, edge_order: np.ndarray | None = None) -> np.ndarray:
+    def _clear_batch(
+        self, p: np.ndarray, q: np.ndarray, thr: float, block: int = 8192, chunk: int = 48, edge_order: np.ndarray | None = None
+    ) -> np.ndarray:
         """Vectorized :meth:`_clear_one` for (M, 2) arrays of endpoints; returns (M,) bool.
 
         ``edge_order``: the boundary edges to test, in that order (default: all,
@@ -530,7 +543,7 @@ class RecoveryPlanner:
                 if len(idx) == 0:
                     break
                 pa, pb = p[idx][:, None, :], q[idx][:, None, :]
-                ca, cb = ea[None, k:k + chunk, :], eb[None, k:k + chunk, :]
+                ca, cb = ea[None, k : k + chunk, :], eb[None, k : k + chunk, :]
                 bad = _cross_np(pa, pb, ca, cb)
                 bad |= _pt_seg_d2_np(pa, ca, cb) < t2
                 bad |= _pt_seg_d2_np(pb, ca, cb) < t2
@@ -573,7 +586,7 @@ class RecoveryPlanner:
         pa = np.asarray(p, dtype=float)
         keep = np.ones(len(self.nodes), dtype=bool)
         if dist is not None:
-            keep &= np.isfinite(np.asarray(dist[:len(self.nodes)]))
+            keep &= np.isfinite(np.asarray(dist[: len(self.nodes)]))
         idx = np.nonzero(keep)[0]
         ok = self._fan_clear(pa, self._nodes[idx], thr)
         out = idx[ok].tolist()
@@ -583,8 +596,7 @@ class RecoveryPlanner:
             self._visible_cache[key] = tuple(out)
         return out
 
-    def _certified(self, p: Point, q: Point, t: float, tol: float = BREACHED_TOL_M,
-                   max_evals: int = 4000) -> bool:
+    def _certified(self, p: Point, q: Point, t: float, tol: float = BREACHED_TOL_M, max_evals: int = 4000) -> bool:
         """Certified: ``margin >= t - tol`` all along p-q, by bisection with the 1-Lipschitz bound.
 
         ``True`` is a proof (each piece of length L has ``margin(mid) - L/2 >=
@@ -647,8 +659,9 @@ class RecoveryPlanner:
             x, y = x - dx * step, y - dy * step
         return (x, y) if f.lateral_margin_m(x, y) >= self._thr else None
 
-    def _search(self, s: Point, goal: Point | None = None, goal_nodes: dict[int, float] | None = None,
-                targets: set[int] | None = None):
+    def _search(
+        self, s: Point, goal: Point | None = None, goal_nodes: dict[int, float] | None = None, targets: set[int] | None = None
+    ):
         """Dijkstra from s with the first-leg rule. Returns a context dict (``None``: no first leg).
 
         For a lazy graph the search stops early: with ``goal`` and ``goal_nodes``
@@ -698,8 +711,10 @@ class RecoveryPlanner:
             def h(k: int) -> float:
                 return math.hypot(allpts[k][0] - gx, allpts[k][1] - gy)
         else:
+
             def h(k: int) -> float:
                 return 0.0
+
         open_ = [(d + h(i), d, i) for d, i in heap]
         heapq.heapify(open_)
         extra_adj = None
@@ -719,8 +734,10 @@ class RecoveryPlanner:
                 nbrs = self._neighbours(i)
             else:
                 if extra_adj is None:
-                    extra_adj = [(j, math.hypot(nodes[j][0] - extra[0][0], nodes[j][1] - extra[0][1]))
-                                 for j in self._visible_from(extra[0], self._thr)]
+                    extra_adj = [
+                        (j, math.hypot(nodes[j][0] - extra[0][0], nodes[j][1] - extra[0][1]))
+                        for j in self._visible_from(extra[0], self._thr)
+                    ]
                 nbrs = extra_adj
             for j, w in nbrs:
                 nd = d + w
@@ -728,8 +745,16 @@ class RecoveryPlanner:
                     dist[j] = nd
                     pred[j] = i
                     heapq.heappush(open_, (nd + h(j), nd, j))
-        return {"s": (float(s[0]), float(s[1])), "m_s": m_s, "in_free": in_free, "floor": floor,
-                "pts": allpts, "dist": dist, "pred": pred, "first": set(first)}
+        return {
+            "s": (float(s[0]), float(s[1])),
+            "m_s": m_s,
+            "in_free": in_free,
+            "floor": floor,
+            "pts": allpts,
+            "dist": dist,
+            "pred": pred,
+            "first": set(first),
+        }
 
     def _path_to(self, ctx, i: int, end: Point | None) -> list[Point]:
         chain = []

@@ -95,12 +95,29 @@ from .dynamics import G_MPS2, drag_coefficients, wind_push_mps2
 from .interface import Envelope, PlatformKind
 
 __all__ = [
-    "G_MPS2", "TWO_PI", "braking_room_m", "climb_arrest_phase", "course_reversal_time_s",
-    "envelope_turn_radius_m", "fixed_wing_room_bound_m", "fixed_wing_room_from_velocity_m",
-    "fixed_wing_room_m", "head_on_room_m", "multicopter_stopping_distance_m", "multirotor_room_m",
-    "reaction_arc_m", "room_upper_bounds_fast_m", "room_upper_bounds_m", "tilt_accel_mps2",
-    "trochoid_excursion_m", "turn_constants", "turn_excursion_m", "turn_radius_m", "turn_rate_radps",
-    "vertical_arrest_distance_m", "worst_case_lateral_shift_m",
+    "G_MPS2",
+    "TWO_PI",
+    "braking_room_m",
+    "climb_arrest_phase",
+    "course_reversal_time_s",
+    "envelope_turn_radius_m",
+    "fixed_wing_room_bound_m",
+    "fixed_wing_room_from_velocity_m",
+    "fixed_wing_room_m",
+    "head_on_room_m",
+    "multicopter_stopping_distance_m",
+    "multirotor_room_m",
+    "reaction_arc_m",
+    "room_upper_bounds_fast_m",
+    "room_upper_bounds_m",
+    "tilt_accel_mps2",
+    "trochoid_excursion_m",
+    "turn_constants",
+    "turn_excursion_m",
+    "turn_radius_m",
+    "turn_rate_radps",
+    "vertical_arrest_distance_m",
+    "worst_case_lateral_shift_m",
 ]
 
 TWO_PI = 2.0 * math.pi
@@ -145,8 +162,9 @@ def turn_constants(airspeed_mps: float, bank_rad: float, g: float = G_MPS2) -> t
     return airspeed_mps * airspeed_mps / tanb, airspeed_mps / tanb
 
 
-def trochoid_excursion_m(radius: float, inv_omega: float, v: float, w: float, psi0: float, s: float,
-                         delta: float | None) -> float:
+def trochoid_excursion_m(
+    radius: float, inv_omega: float, v: float, w: float, psi0: float, s: float, delta: float | None
+) -> float:
     """Largest excursion along the normal, ``max x(theta)`` over ``theta in [0, delta]``, of the trochoid, m (>= 0).
 
     ``x(theta) = s·R·[sin(psi0 + s·theta) - sin psi0] + w·theta/omega`` (module
@@ -178,8 +196,15 @@ def trochoid_excursion_m(radius: float, inv_omega: float, v: float, w: float, ps
     return best if best > 0.0 else 0.0
 
 
-def turn_excursion_m(airspeed_mps: float, bank_rad: float, psi0_rad: float, wind_normal_mps: float = 0.0,
-                     turn_sign: int = 0, turn_angle_rad: float | None = None, g: float = G_MPS2) -> float:
+def turn_excursion_m(
+    airspeed_mps: float,
+    bank_rad: float,
+    psi0_rad: float,
+    wind_normal_mps: float = 0.0,
+    turn_sign: int = 0,
+    turn_angle_rad: float | None = None,
+    g: float = G_MPS2,
+) -> float:
     """Room along an edge normal used by a max-bank turn (no reaction distance): ``max x(theta)``, in m.
 
     ``psi0_rad``: air-relative heading counter-clockwise from the edge's
@@ -196,8 +221,10 @@ def turn_excursion_m(airspeed_mps: float, bank_rad: float, psi0_rad: float, wind
     psi0 = wrap_pi(psi0_rad)
     if turn_sign:
         return trochoid_excursion_m(r, inv_omega, v, wind_normal_mps, psi0, 1.0 if turn_sign > 0 else -1.0, turn_angle_rad)
-    return min(trochoid_excursion_m(r, inv_omega, v, wind_normal_mps, psi0, 1.0, turn_angle_rad),
-               trochoid_excursion_m(r, inv_omega, v, wind_normal_mps, psi0, -1.0, turn_angle_rad))
+    return min(
+        trochoid_excursion_m(r, inv_omega, v, wind_normal_mps, psi0, 1.0, turn_angle_rad),
+        trochoid_excursion_m(r, inv_omega, v, wind_normal_mps, psi0, -1.0, turn_angle_rad),
+    )
 
 
 def reaction_arc_m(v_air: float, psi0: float, rot: float, omega: float, t: float, nx: float, ny: float, w_n: float) -> float:
@@ -218,8 +245,9 @@ def reaction_arc_m(v_air: float, psi0: float, rot: float, omega: float, t: float
     return d if d > 0.0 else 0.0
 
 
-def fixed_wing_room_m(airspeed_mps: float, bank_rad: float, psi0_rad: float, wind_normal_mps: float,
-                      reaction_time_s: float, g: float = G_MPS2) -> float:
+def fixed_wing_room_m(
+    airspeed_mps: float, bank_rad: float, psi0_rad: float, wind_normal_mps: float, reaction_time_s: float, g: float = G_MPS2
+) -> float:
     """Room along the normal to turn back from an edge: reaction distance + closed form (1), in m.
 
     Reaction distance: the ground-velocity component towards the edge,
@@ -231,9 +259,15 @@ def fixed_wing_room_m(airspeed_mps: float, bank_rad: float, psi0_rad: float, win
     return react + turn_excursion_m(airspeed_mps, bank_rad, psi0_rad, wind_normal_mps, 0, None, g)
 
 
-def fixed_wing_room_from_velocity_m(v_ground_normal: float, v_ground_tangent: float, wind_normal: float,
-                                    wind_tangent: float, bank_rad: float, reaction_time_s: float,
-                                    g: float = G_MPS2) -> float:
+def fixed_wing_room_from_velocity_m(
+    v_ground_normal: float,
+    v_ground_tangent: float,
+    wind_normal: float,
+    wind_tangent: float,
+    bank_rad: float,
+    reaction_time_s: float,
+    g: float = G_MPS2,
+) -> float:
     """:func:`fixed_wing_room_m` (m) from ground velocity and wind (m/s) split along (normal, tangent) of the edge."""
     van, vat = v_ground_normal - wind_normal, v_ground_tangent - wind_tangent
     v = math.hypot(van, vat)
@@ -292,8 +326,9 @@ def braking_room_m(v_n: float, v: float, a: float, climb_arrest: tuple[float, fl
     return v_n * v / (2.0 * a)
 
 
-def multirotor_room_m(v_n: float, speed_mps: float, t_s: float, a_pilot_mps2: float, a_brake_mps2: float,
-                      climb_arrest: tuple[float, float]) -> float:
+def multirotor_room_m(
+    v_n: float, speed_mps: float, t_s: float, a_pilot_mps2: float, a_brake_mps2: float, climb_arrest: tuple[float, float]
+) -> float:
     """Room along the normal for a worst-case pilot, then braking: ``v_n·t + a_p·t²/2 + braking``, in m.
 
     The pilot accelerates towards the edge at ``a_p`` (m/s², tilt limit plus
@@ -312,8 +347,13 @@ def multirotor_room_m(v_n: float, speed_mps: float, t_s: float, a_pilot_mps2: fl
     return base + braking_room_m(v_n1, v1 if v1 > v_n1 else v_n1, a_brake_mps2, climb_arrest)
 
 
-def multicopter_stopping_distance_m(v_normal_mps: float, reaction_time_s: float, braking_decel_mps2: float,
-                                    speed_mps: float | None = None, wind_push_mps2: float = 0.0) -> float:
+def multicopter_stopping_distance_m(
+    v_normal_mps: float,
+    reaction_time_s: float,
+    braking_decel_mps2: float,
+    speed_mps: float | None = None,
+    wind_push_mps2: float = 0.0,
+) -> float:
     """Room along an edge normal to stop: ``v_n·t_react + v_n·v/(2·(a_brake - a_w))``, in m (the reference form).
 
     ``speed_mps`` (default ``|v_n|``) is the full ground speed (the vehicle
@@ -344,8 +384,7 @@ def vertical_arrest_distance_m(v_toward_mps: float, reaction_time_s: float, acce
 
 
 # --------------------------------------------------------------------------- envelope-level rooms
-def head_on_room_m(env: Envelope, speed_mps: float, wind_toward_mps: float, wind_speed_mps: float,
-                   g: float = G_MPS2) -> float:
+def head_on_room_m(env: Envelope, speed_mps: float, wind_toward_mps: float, wind_speed_mps: float, g: float = G_MPS2) -> float:
     """Room (m) to stop or turn back in a head-on approach at ``speed_mps`` (what the analysis figures draw).
 
     ``speed_mps``: airspeed for a fixed-wing (:func:`fixed_wing_room_m` at
@@ -361,8 +400,9 @@ def head_on_room_m(env: Envelope, speed_mps: float, wind_toward_mps: float, wind
     return multicopter_stopping_distance_m(speed_mps, env.reaction_time_s, env.braking_decel_mps2, speed_mps, push)
 
 
-def worst_case_lateral_shift_m(envelope: Envelope, wind_speed_mps: float, h_uncertainty_m: float = 0.0,
-                               g: float = G_MPS2) -> float:
+def worst_case_lateral_shift_m(
+    envelope: Envelope, wind_speed_mps: float, h_uncertainty_m: float = 0.0, g: float = G_MPS2
+) -> float:
     """Largest lateral shift (m) over speeds and approach angles: :func:`head_on_room_m` with the wind as a tailwind.
 
     Fixed-wing: the largest over min, cruise and max speed (those above the
@@ -379,8 +419,15 @@ def worst_case_lateral_shift_m(envelope: Envelope, wind_speed_mps: float, h_unce
     return head_on_room_m(envelope, envelope.max_speed_mps, w, w, g) + h_uncertainty_m
 
 
-def room_upper_bounds_m(env: Envelope, ground_speed_mps: float, airspeed_mps: float, v_up_mps: float,
-                        wind_speed_mps: float, t_s: float, g: float = G_MPS2) -> tuple[float, float]:
+def room_upper_bounds_m(
+    env: Envelope,
+    ground_speed_mps: float,
+    airspeed_mps: float,
+    v_up_mps: float,
+    wind_speed_mps: float,
+    t_s: float,
+    g: float = G_MPS2,
+) -> tuple[float, float]:
     """``(lateral, vertical)`` upper bounds (m) of the room any edge, the ceiling or the floor can need (skip shortcut).
 
     Over every heading, for a reaction time of at most ``t_s`` s, with the wind
@@ -404,14 +451,22 @@ def room_upper_bounds_m(env: Envelope, ground_speed_mps: float, airspeed_mps: fl
         v = max(env.max_speed_mps, ground_speed_mps)
         push = wind_push_mps2(*drag_coefficients(env), w, w)
         a = (env.braking_decel_mps2 - push) * max(1.0 - env.vertical_accel_mps2 / g, 0.05)
-        lateral = multirotor_room_m(v, v, t_s, tilt_accel_mps2(env.max_bank_rad, g) + push, a, (0.0, 0.0)) \
-            if a > 0.0 else math.inf
+        lateral = (
+            multirotor_room_m(v, v, t_s, tilt_accel_mps2(env.max_bank_rad, g) + push, a, (0.0, 0.0)) if a > 0.0 else math.inf
+        )
     vz = max(env.max_climb_rate_mps, env.max_descent_rate_mps, abs(v_up_mps))
     return lateral, vertical_arrest_distance_m(vz, t_s, env.vertical_accel_mps2)
 
 
-def room_upper_bounds_fast_m(env: Envelope, ground_speed_mps: float, airspeed_mps: float, v_up_mps: float,
-                             wind_speed_mps: float, t_s: float, g: float = G_MPS2) -> tuple[float, float]:
+def room_upper_bounds_fast_m(
+    env: Envelope,
+    ground_speed_mps: float,
+    airspeed_mps: float,
+    v_up_mps: float,
+    wind_speed_mps: float,
+    t_s: float,
+    g: float = G_MPS2,
+) -> tuple[float, float]:
     """Fast form of :func:`room_upper_bounds_m` (the same bounds in m, inlined for the unit's per-step skip shortcut).
 
     Lateral: multirotor ``v·t + a_p·t²/2 + (v + a_p·t)²/(2a)`` with

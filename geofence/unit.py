@@ -191,8 +191,9 @@ class GeofenceUnit:
         we, wn = self.wind_enu
         w = math.hypot(we, wn) + self.wind_allowance_mps
         t = 2.0 * env.reaction_time_s + self._latency_s
-        room, vroom = room_upper_bounds_fast_m(env, s.ground_speed_mps, math.hypot(s.v_east_mps - we, s.v_north_mps - wn),
-                                          s.v_up_mps, w, t)
+        room, vroom = room_upper_bounds_fast_m(
+            env, s.ground_speed_mps, math.hypot(s.v_east_mps - we, s.v_north_mps - wn), s.v_up_mps, w, t
+        )
         if room == math.inf:
             return False
         room += k * sigma_h_m + extra
@@ -227,7 +228,9 @@ class GeofenceUnit:
 
     def _trigger_reason(self, r: ShiftResult) -> str:
         if self.config.trigger == "reactive":
-            which = min(("lateral", r.lateral_margin_m), ("ceiling", r.ceiling_margin_m), ("floor", r.floor_margin_m), key=lambda x: x[1])
+            which = min(
+                ("lateral", r.lateral_margin_m), ("ceiling", r.ceiling_margin_m), ("floor", r.floor_margin_m), key=lambda x: x[1]
+            )
             return f"{which[0]} margin {which[1]:.2f} m reached the fence line (reactive)"
         if r.lateral_activation_m <= r.vertical_activation_m:
             return (
@@ -488,13 +491,19 @@ class GeofenceUnit:
             if self._outside(r):
                 self.reactivations += 1
                 if self.reactivations > self.config.max_reactivations:
-                    self._start_landing(t_s, est, h, f"still outside after {self.reactivations} override periods: recovery failed")
+                    self._start_landing(
+                        t_s, est, h, f"still outside after {self.reactivations} override periods: recovery failed"
+                    )
                     return self._land(t_s, est, h, dt_s)
                 self._override_period_start_s = t_s
-                self.transitions.append(Transition(t_s, Mode.OVERRIDE, Mode.OVERRIDE, "still outside at the end of the override period: re-activated"))
+                self.transitions.append(
+                    Transition(t_s, Mode.OVERRIDE, Mode.OVERRIDE, "still outside at the end of the override period: re-activated")
+                )
             elif self._handback_ok(est, r, act):
                 self.reactivations = 0
-                self._switch(t_s, Mode.RECOVERED, f"recovered: activation margin {act:.1f} m, closing {r.closing_speed_mps:.1f} m/s")
+                self._switch(
+                    t_s, Mode.RECOVERED, f"recovered: activation margin {act:.1f} m, closing {r.closing_speed_mps:.1f} m/s"
+                )
                 return pilot
         return self.recovery.sticks(est, h, t_s, dt_s)
 

@@ -54,7 +54,7 @@ def require_mapping(value: Any, where: str) -> Mapping:
 def field_path(where: str, key: Any) -> str:
     """``<where>.<key>``; a ``where`` ending in :data:`TOP_LEVEL` names a document's top level, whose keys stand bare."""
     if where.endswith(TOP_LEVEL):
-        return f"{where[:-len(TOP_LEVEL)]}{key}"
+        return f"{where[: -len(TOP_LEVEL)]}{key}"
     return f"{where}.{key}"
 
 
@@ -104,8 +104,7 @@ def integer(value: Any, where: str, *, minimum: int | None = None) -> int:
     return value
 
 
-def number_range(value: Any, where: str, *, minimum: float | None = None,
-                 strictly_positive: bool = False) -> tuple[float, float]:
+def number_range(value: Any, where: str, *, minimum: float | None = None, strictly_positive: bool = False) -> tuple[float, float]:
     """A number (a fixed value, returned as ``(x, x)``) or a ``[low, high]`` pair with low <= high."""
     if isinstance(value, (list, tuple)):
         if len(value) != 2:

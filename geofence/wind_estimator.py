@@ -163,7 +163,9 @@ class WindEstimator:
         s = cfg.prior_sigma_mps * math.sqrt(cfg.prior_weight_s / (cfg.prior_weight_s + self.t_used_s))
         return max(s, floor)
 
-    def update(self, est: VehicleState, airspeed_mps: float | None, dt_s: float, position_valid: bool = True) -> tuple[float, float]:
+    def update(
+        self, est: VehicleState, airspeed_mps: float | None, dt_s: float, position_valid: bool = True
+    ) -> tuple[float, float]:
         cfg = self.config
         if not (dt_s > 0.0) or not math.isfinite(dt_s):
             return (self._we, self._wn)

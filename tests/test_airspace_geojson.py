@@ -87,14 +87,20 @@ def test_swapped_order_is_refused_where_it_cannot_be_a_place(tmp_path):
     pts = [[lat, lon] for lat, lon in canberra]
     doc = collection(feature({"geofence": "keep_in"}, "Polygon", [pts + [pts[0]]]))
     p = write(tmp_path, doc)
-    with pytest.raises(FenceError, match=r"features\[0\]: geometry.coordinates\[0\]\[0\]: latitude 149.164 deg is outside "
-                                         r"\[-90, 90\] \(GeoJSON positions are \[lon, lat\]\)"):
+    with pytest.raises(
+        FenceError,
+        match=r"features\[0\]: geometry.coordinates\[0\]\[0\]: latitude 149.164 deg is outside "
+        r"\[-90, 90\] \(GeoJSON positions are \[lon, lat\]\)",
+    ):
         load_fence_file(p)
 
 
 def test_keep_in_holes_become_keep_outs_and_keep_out_holes_are_ignored(tmp_path):
-    holed_keep_out = feature({"geofence": "keep_out"}, "Polygon",
-                             [ring(OTHER_LL), ring([(47.39822, 8.54668), (47.39822, 8.54672), (47.39826, 8.54672)])])
+    holed_keep_out = feature(
+        {"geofence": "keep_out"},
+        "Polygon",
+        [ring(OTHER_LL), ring([(47.39822, 8.54668), (47.39822, 8.54672), (47.39826, 8.54672)])],
+    )
     p = write(tmp_path, collection(keep_in(holes=[INNER_LL]), holed_keep_out, ceiling_m=50))
     imp = load_fence_file(p)
     assert imp.fence.keep_out_polygons == (tuple(INNER_LL), tuple(OTHER_LL))
@@ -130,11 +136,14 @@ def test_geofence_property_wins_over_restriction(tmp_path):
 
 
 def test_return_point_and_rally_points(tmp_path):
-    doc = collection(keep_in(), keep_out(),
-                     feature({"geofence": "return_point"}, "Point", [8.5470, 47.3988]),
-                     feature({"geofence": "rally", "alt_m": 30}, "Point", [8.5452, 47.3977, 512.0]),
-                     feature({"geofence": "return_point"}, "Point", [8.5453, 47.3977]),
-                     ceiling_m=50)
+    doc = collection(
+        keep_in(),
+        keep_out(),
+        feature({"geofence": "return_point"}, "Point", [8.5470, 47.3988]),
+        feature({"geofence": "rally", "alt_m": 30}, "Point", [8.5452, 47.3977, 512.0]),
+        feature({"geofence": "return_point"}, "Point", [8.5453, 47.3977]),
+        ceiling_m=50,
+    )
     imp = load_fence_file(write(tmp_path, doc))
     assert imp.return_point == (47.3988, 8.5470) and imp.fence.recovery_point == (47.3988, 8.5470)
     assert imp.rally_points[0].lat_deg == 47.3977 and imp.rally_points[0].lon_deg == 8.5452
@@ -187,46 +196,70 @@ def test_yaml_block_round_trip(tmp_path):
 # =========================================================================== errors
 SELF_X = [(47.3980, 8.5455), (47.3985, 8.5460), (47.3985, 8.5455), (47.3980, 8.5460)]  # a bow tie
 MALFORMED = [
-    (collection(keep_in(), feature({"height": 3}, "Polygon", [ring(INNER_LL)])),
-     "features[1]: no role: give properties.geofence"),
-    (collection(keep_in(), feature({"geofence": "keepout"}, "Polygon", [ring(INNER_LL)])),
-     "features[1]: properties.geofence: 'keepout' is not one of keep_in, keep_out, return_point, rally"),
-    (collection(keep_in(), feature({"restriction": "FORBIDDEN"}, "Polygon", [ring(INNER_LL)], id=7)),
-     "features[1] (id 7): properties.restriction: 'FORBIDDEN' is not an ED-269 restriction"),
-    (collection(feature({"geofence": "keep_in"}, "Polygon", [ring(SQUARE_LL)[:-1]])),
-     "features[0]: geometry.coordinates[0]: ring is not closed"),
-    (collection(feature({"geofence": "keep_in"}, "Polygon", [[[8.5, 47.3], [8.6, 47.3], [8.5, 47.3], [8.5, 47.3]]])),
-     "features[0]: geometry.coordinates[0]: ring needs at least 3 distinct vertices, got 2"),
-    (collection(feature({"geofence": "keep_in"}, "Polygon", [[[188.5, 47.3], [8.6, 47.3], [8.6, 47.4], [188.5, 47.3]]])),
-     "features[0]: geometry.coordinates[0][0]: longitude 188.5 deg is outside [-180, 180]"),
-    (collection(feature({"geofence": "keep_in"}, "Polygon", [[[8.5, "47.3"], [8.6, 47.3], [8.6, 47.4], [8.5, "47.3"]]])),
-     "features[0]: geometry.coordinates[0][0]: must be a number, got '47.3'"),
-    (collection(feature({"geofence": "keep_in"}, "Polygon", [[[8.5], [8.6, 47.3], [8.6, 47.4], [8.5]]])),
-     "features[0]: geometry.coordinates[0][0]: must be a position [lon, lat]"),
-    ('{"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {"geofence": "keep_in"}, '
-     '"geometry": {"type": "Polygon", "coordinates": [[[8.5, NaN], [8.6, 47.3], [8.6, 47.4], [8.5, NaN]]]}}]}',
-     "features[0]: geometry.coordinates[0][0]: must be a number, got nan"),
-    (collection(feature({"geofence": "keep_in"}, "Point", [8.5, 47.3])),
-     "features[0]: a keep-in area must be a Polygon or MultiPolygon, got 'Point'"),
-    (collection(keep_in(), feature({"geofence": "return_point"}, "Polygon", [ring(INNER_LL)])),
-     "features[1]: a return point must be a Point, got 'Polygon'"),
-    (collection(keep_in(), feature({"geofence": "keep_out"}, None, None) | {"geometry": None}),
-     "features[1]: geometry: must be a GeoJSON geometry object, got null"),
-    (collection(keep_in(), keep_out(SELF_X, name="bow tie")),
-     "features[1] (name 'bow tie'): self-intersecting: edge 0"),
+    (
+        collection(keep_in(), feature({"height": 3}, "Polygon", [ring(INNER_LL)])),
+        "features[1]: no role: give properties.geofence",
+    ),
+    (
+        collection(keep_in(), feature({"geofence": "keepout"}, "Polygon", [ring(INNER_LL)])),
+        "features[1]: properties.geofence: 'keepout' is not one of keep_in, keep_out, return_point, rally",
+    ),
+    (
+        collection(keep_in(), feature({"restriction": "FORBIDDEN"}, "Polygon", [ring(INNER_LL)], id=7)),
+        "features[1] (id 7): properties.restriction: 'FORBIDDEN' is not an ED-269 restriction",
+    ),
+    (
+        collection(feature({"geofence": "keep_in"}, "Polygon", [ring(SQUARE_LL)[:-1]])),
+        "features[0]: geometry.coordinates[0]: ring is not closed",
+    ),
+    (
+        collection(feature({"geofence": "keep_in"}, "Polygon", [[[8.5, 47.3], [8.6, 47.3], [8.5, 47.3], [8.5, 47.3]]])),
+        "features[0]: geometry.coordinates[0]: ring needs at least 3 distinct vertices, got 2",
+    ),
+    (
+        collection(feature({"geofence": "keep_in"}, "Polygon", [[[188.5, 47.3], [8.6, 47.3], [8.6, 47.4], [188.5, 47.3]]])),
+        "features[0]: geometry.coordinates[0][0]: longitude 188.5 deg is outside [-180, 180]",
+    ),
+    (
+        collection(feature({"geofence": "keep_in"}, "Polygon", [[[8.5, "47.3"], [8.6, 47.3], [8.6, 47.4], [8.5, "47.3"]]])),
+        "features[0]: geometry.coordinates[0][0]: must be a number, got '47.3'",
+    ),
+    (
+        collection(feature({"geofence": "keep_in"}, "Polygon", [[[8.5], [8.6, 47.3], [8.6, 47.4], [8.5]]])),
+        "features[0]: geometry.coordinates[0][0]: must be a position [lon, lat]",
+    ),
+    (
+        '{"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {"geofence": "keep_in"}, '
+        '"geometry": {"type": "Polygon", "coordinates": [[[8.5, NaN], [8.6, 47.3], [8.6, 47.4], [8.5, NaN]]]}}]}',
+        "features[0]: geometry.coordinates[0][0]: must be a number, got nan",
+    ),
+    (
+        collection(feature({"geofence": "keep_in"}, "Point", [8.5, 47.3])),
+        "features[0]: a keep-in area must be a Polygon or MultiPolygon, got 'Point'",
+    ),
+    (
+        collection(keep_in(), feature({"geofence": "return_point"}, "Polygon", [ring(INNER_LL)])),
+        "features[1]: a return point must be a Point, got 'Polygon'",
+    ),
+    (
+        collection(keep_in(), feature({"geofence": "keep_out"}, None, None) | {"geometry": None}),
+        "features[1]: geometry: must be a GeoJSON geometry object, got null",
+    ),
+    (collection(keep_in(), keep_out(SELF_X, name="bow tie")), "features[1] (name 'bow tie'): self-intersecting: edge 0"),
     (collection(keep_in(SELF_X)), "features[0]: self-intersecting"),
     (collection(keep_in(holes=[SELF_X])), "features[0] hole 1 (a keep-out): self-intersecting"),
     (collection(keep_out()), "no inclusion polygon or circle (only exclusions)"),
     (collection(), "no fence items"),
     (collection(keep_in(), 42), "features[1]: must be a Feature object, got 42"),
     (collection(keep_in()) | {"features": {"a": 1}}, "features: must be a list of Feature objects"),
-    (collection(keep_in()) | {"crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::3857"}}},
-     "crs: {"),
+    (collection(keep_in()) | {"crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::3857"}}}, "crs: {"),
     (collection(keep_in(), ceiling_m="high"), "properties.ceiling_m: must be a number, got 'high'"),
     (collection(keep_in(altitude_reference="msl")), "features[0]: properties.altitude_reference: must be 'agl' or 'amsl'"),
     ({"type": "LineString", "coordinates": [[8.5, 47.3], [8.6, 47.3]]}, "a bare LineString geometry is not a fence"),
-    (collection(keep_in(), feature({"geofence": "keep_out"}, "Polygon", "none")),
-     "features[1]: geometry.coordinates: must be a non-empty list of linear rings"),
+    (
+        collection(keep_in(), feature({"geofence": "keep_out"}, "Polygon", "none")),
+        "features[1]: geometry.coordinates: must be a non-empty list of linear rings",
+    ),
 ]
 
 
@@ -277,8 +310,12 @@ def star_fences(draw):
     squares = []
     for k, s in enumerate(sides):  # on a ring of radius 8 m: 8 m apart, so never overlapping
         ce, cn = 8.0 * math.cos(2 * math.pi * k / max(m, 1)), 8.0 * math.sin(2 * math.pi * k / max(m, 1))
-        squares.append([frame.to_geodetic(ce + dx * s, cn + dy * s, 0.0)[:2]
-                        for dx, dy in ((-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5))])
+        squares.append(
+            [
+                frame.to_geodetic(ce + dx * s, cn + dy * s, 0.0)[:2]
+                for dx, dy in ((-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5))
+            ]
+        )
     return keep_in_ll, squares
 
 
@@ -301,7 +338,9 @@ def test_round_trip_through_geojson(tmp_path, data):
 def _shapes(doc):
     from shapely.geometry import Polygon
 
-    frame = LocalFrame(*reversed(next(f for f in doc["features"] if f["geometry"]["type"] == "Point")["geometry"]["coordinates"]), 0.0)
+    frame = LocalFrame(
+        *reversed(next(f for f in doc["features"] if f["geometry"]["type"] == "Point")["geometry"]["coordinates"]), 0.0
+    )
 
     def en(r):
         return [frame.to_enu(lat, lon, 0.0)[:2] for lon, lat in r[:-1]]
@@ -363,17 +402,41 @@ def test_shipped_city_park_is_the_generators_output_and_loads(tmp_path):
     rect = load_fence_file(AIRSPACE / "rectangle.geojson").fence
     assert len(rect.keep_in) == 4 and rect.keep_out_polygons == () and rect.recovery_point == f.recovery_point
     assert json.loads((AIRSPACE / "rectangle.geojson").read_text()) == bounding_rectangle(
-        shipped, generator=f"{gen} --rectangle scenarios/airspace/rectangle.geojson")
+        shipped, generator=f"{gen} --rectangle scenarios/airspace/rectangle.geojson"
+    )
     # write_geojson writes what it is given
     assert json.loads(write_geojson(shipped, tmp_path / "p.geojson").read_text()) == shipped
 
 
 def test_generator_cli(tmp_path):
     out = tmp_path / "park.geojson"
-    res = subprocess.run([sys.executable, "-m", "scenarios.airspace.generate", "--seed", "3", "--radius-m", "400",
-                          "--vertices", "500", "--buildings", "20", "--meadow-radius-m", "60", "--avenue-width-m", "40",
-                          "-o", str(out), "--rectangle", str(tmp_path / "rect.geojson")],
-                         capture_output=True, text=True, timeout=120, cwd=ROOT)
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "scenarios.airspace.generate",
+            "--seed",
+            "3",
+            "--radius-m",
+            "400",
+            "--vertices",
+            "500",
+            "--buildings",
+            "20",
+            "--meadow-radius-m",
+            "60",
+            "--avenue-width-m",
+            "40",
+            "-o",
+            str(out),
+            "--rectangle",
+            str(tmp_path / "rect.geojson"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+    )
     assert res.returncode == 0, res.stderr
     doc = json.loads(out.read_text())
     assert len(doc["features"]) == 22 and "--seed 3 " in doc["properties"]["generator"]
@@ -410,7 +473,10 @@ def test_scenario_fence_file_is_relative_to_the_scenario(site):
     path = write(site / "flights", scenario_text("{file: ../fences/park.geojson}"), "s.yaml")
     sc = load_scenario(path)
     assert sc.geofence.fence.keep_in == tuple(SQUARE_LL) and sc.geofence.fence.keep_out_polygons == (tuple(INNER_LL),)
-    assert sc.geofence.fence.ceiling_m == 50 and Path(sc.geofence.fence_file).resolve() == (site / "fences" / "park.geojson").resolve()
+    assert (
+        sc.geofence.fence.ceiling_m == 50
+        and Path(sc.geofence.fence_file).resolve() == (site / "fences" / "park.geojson").resolve()
+    )
     doc = yaml.safe_load(path.read_text())
     # parse_scenario finds it too: from source, from base_dir, or from a `where` naming the file (batches)
     assert parse_scenario(doc, str(path)).geofence.fence == sc.geofence.fence
@@ -420,25 +486,38 @@ def test_scenario_fence_file_is_relative_to_the_scenario(site):
 
 def test_scenario_inline_keys_override_the_file(site):
     gap = [[47.3976, 8.5451], [47.3976, 8.5454], [47.3978, 8.5454], [47.3978, 8.5451]]
-    text = scenario_text(f"{{file: ../fences/park.geojson, ceiling_m: 40, floor_m: 3, floor_gaps: [{json.dumps(gap)}], "
-                         f"recovery_point: [47.3988, 8.5470], altitude_reference: agl}}")
+    text = scenario_text(
+        f"{{file: ../fences/park.geojson, ceiling_m: 40, floor_m: 3, floor_gaps: [{json.dumps(gap)}], "
+        f"recovery_point: [47.3988, 8.5470], altitude_reference: agl}}"
+    )
     sc = load_scenario(write(site / "flights", text, "s.yaml"))
     f = sc.geofence.fence
     assert (f.ceiling_m, f.floor_m, f.recovery_point) == (40, 3, (47.3988, 8.5470))
     assert f.floor_gaps == (tuple(map(tuple, gap)),)
 
 
-@pytest.mark.parametrize("fence, expect", [
-    ("{file: ../fences/nope.geojson}", "s.yaml: geofence.fence.file: no such file '../fences/nope.geojson' (relative to "),
-    ("{file: ../fences}", "s.yaml: geofence.fence.file: '../fences' is not a file (relative to "),
-    ("{file: 42}", "s.yaml: geofence.fence.file: must be a path to a fence file, got 42"),
-    ("{file: ../fences/park.geojson, keep_in: [[1, 2]]}", "s.yaml: geofence.fence: unknown key(s) 'keep_in' with a fence file"),
-    ("{file: ../fences/park.geojson, ceiling_m: high}", "s.yaml: geofence.fence.ceiling_m: must be a number, got 'high'"),
-    ("{file: ../fences/park.geojson, recovery_point: [47.39825, 8.54575]}",
-     "s.yaml: geofence.fence.recovery_point: not inside the allowed area"),
-    ("{file: ../fences/bad.geojson}", "s.yaml: geofence.fence.file: "),
-    ("{file: ../fences/no_ceiling.plan}", "s.yaml: geofence.fence.ceiling_m: required: the fence file '../fences/no_ceiling.plan' gives no ceiling"),
-])
+@pytest.mark.parametrize(
+    "fence, expect",
+    [
+        ("{file: ../fences/nope.geojson}", "s.yaml: geofence.fence.file: no such file '../fences/nope.geojson' (relative to "),
+        ("{file: ../fences}", "s.yaml: geofence.fence.file: '../fences' is not a file (relative to "),
+        ("{file: 42}", "s.yaml: geofence.fence.file: must be a path to a fence file, got 42"),
+        (
+            "{file: ../fences/park.geojson, keep_in: [[1, 2]]}",
+            "s.yaml: geofence.fence: unknown key(s) 'keep_in' with a fence file",
+        ),
+        ("{file: ../fences/park.geojson, ceiling_m: high}", "s.yaml: geofence.fence.ceiling_m: must be a number, got 'high'"),
+        (
+            "{file: ../fences/park.geojson, recovery_point: [47.39825, 8.54575]}",
+            "s.yaml: geofence.fence.recovery_point: not inside the allowed area",
+        ),
+        ("{file: ../fences/bad.geojson}", "s.yaml: geofence.fence.file: "),
+        (
+            "{file: ../fences/no_ceiling.plan}",
+            "s.yaml: geofence.fence.ceiling_m: required: the fence file '../fences/no_ceiling.plan' gives no ceiling",
+        ),
+    ],
+)
 def test_scenario_fence_file_errors_name_the_scenario_and_field(site, fence, expect):
     write(site / "fences", collection(keep_in(), keep_out(SELF_X, name="bow tie")), "bad.geojson")
     plan = {"fileType": "Plan", "geoFence": {"polygons": [{"inclusion": True, "polygon": [list(v) for v in SQUARE_LL]}]}}
@@ -474,7 +553,9 @@ def test_batch_hash_covers_the_referenced_fence_file(site):
     # a scenario without a fence file keeps the plain document hash
     from scenarios.spec.sweep import expand
 
-    inline = write(site / "flights", scenario_text(json.dumps({"keep_in": [list(v) for v in SQUARE_LL], "ceiling_m": 50})), "i.yaml")
+    inline = write(
+        site / "flights", scenario_text(json.dumps({"keep_in": [list(v) for v in SQUARE_LL], "ceiling_m": 50})), "i.yaml"
+    )
     assert plan([inline])[0].scenario_hash == expand(yaml.safe_load(inline.read_text()), str(inline), "i")[0].scenario_hash
 
 
@@ -483,10 +564,19 @@ SHIPPED = sorted(AIRSPACE.glob("airspace_*.yaml"))
 
 def test_shipped_airspace_scenarios_validate():
     """Loaded and validated only (not flown): the CLI's validate accepts all four."""
-    assert [p.name for p in SHIPPED] == ["airspace_large_fence_fixedwing_wind.yaml", "airspace_large_fence_multicopter_wind.yaml",
-                                         "airspace_rectangle_fence_fixedwing_wind.yaml", "airspace_rectangle_fence_multicopter_wind.yaml"]
-    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "validate", *map(str, SHIPPED)],
-                         capture_output=True, text=True, timeout=600, cwd="/")
+    assert [p.name for p in SHIPPED] == [
+        "airspace_large_fence_fixedwing_wind.yaml",
+        "airspace_large_fence_multicopter_wind.yaml",
+        "airspace_rectangle_fence_fixedwing_wind.yaml",
+        "airspace_rectangle_fence_multicopter_wind.yaml",
+    ]
+    res = subprocess.run(
+        [sys.executable, "-m", "scenarios.app.cli", "validate", *map(str, SHIPPED)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd="/",
+    )
     assert res.returncode == 0, res.stderr
     assert res.stdout.count("ok: ") == 4 and not res.stderr
     large = load_scenario(AIRSPACE / "airspace_large_fence_multicopter_wind.yaml")
@@ -501,22 +591,33 @@ def test_shipped_airspace_scenarios_validate():
 
 # =========================================================================== the CLI
 def test_cli_import_fence_geojson(tmp_path):
-    p = write(tmp_path, collection(keep_in(holes=[INNER_LL]), feature({"restriction": "PROHIBITED"}, "Polygon", [ring(OTHER_LL)]),
-                                   ceiling_m=55))
-    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "import-fence", str(p)], capture_output=True, text=True, timeout=120)
+    p = write(
+        tmp_path,
+        collection(keep_in(holes=[INNER_LL]), feature({"restriction": "PROHIBITED"}, "Polygon", [ring(OTHER_LL)]), ceiling_m=55),
+    )
+    res = subprocess.run(
+        [sys.executable, "-m", "scenarios.app.cli", "import-fence", str(p)], capture_output=True, text=True, timeout=120
+    )
     assert res.returncode == 0, res.stderr
     block = yaml.safe_load(res.stdout)["geofence"]["fence"]
     assert block["keep_in"] == [list(v) for v in SQUARE_LL]  # back in the scenario's [lat, lon] order
     assert block["keep_out_polygons"] == [[list(v) for v in INNER_LL], [list(v) for v in OTHER_LL]]
     assert block["ceiling_m"] == 55 and res.stderr == ""
-    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "import-fence", str(p), "--ceiling", "30"],
-                         capture_output=True, text=True, timeout=120)
+    res = subprocess.run(
+        [sys.executable, "-m", "scenarios.app.cli", "import-fence", str(p), "--ceiling", "30"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert yaml.safe_load(res.stdout)["geofence"]["fence"]["ceiling_m"] == 30
     bad = write(tmp_path, collection(keep_in(), feature({}, "Polygon", [ring(INNER_LL)])), "bad.geojson")
-    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "import-fence", str(bad)], capture_output=True, text=True, timeout=120)
+    res = subprocess.run(
+        [sys.executable, "-m", "scenarios.app.cli", "import-fence", str(bad)], capture_output=True, text=True, timeout=120
+    )
     assert res.returncode == 2 and res.stderr.strip().splitlines() == [
         f"error: {bad}: features[1]: no role: give properties.geofence (keep_in, keep_out, return_point, rally) "
-        f"or an ED-269 properties.restriction"]
+        f"or an ED-269 properties.restriction"
+    ]
 
 
 def test_run_and_batch_give_a_scenario_with_a_fence_file_the_same_hash(tmp_path):

@@ -33,7 +33,9 @@ LAYER_FORBIDDEN = [
 @pytest.mark.parametrize("package, forbidden", LAYER_FORBIDDEN)
 def test_package_does_not_import(package, forbidden):
     offenders = {
-        str(p.relative_to(ROOT)): sorted(imported_modules(p) & forbidden) for p in (ROOT / package).rglob("*.py") if imported_modules(p) & forbidden
+        str(p.relative_to(ROOT)): sorted(imported_modules(p) & forbidden)
+        for p in (ROOT / package).rglob("*.py")
+        if imported_modules(p) & forbidden
     }
     assert offenders == {}
 
@@ -97,7 +99,11 @@ def test_no_private_names_imported_across_modules():
 
 
 def test_only_the_model_loader_imports_jsbsim():
-    users = sorted(str(p.relative_to(ROOT)) for p in ROOT.rglob("*.py") if "tests" not in p.parts and "bench" not in p.parts and "jsbsim" in imported_modules(p))
+    users = sorted(
+        str(p.relative_to(ROOT))
+        for p in ROOT.rglob("*.py")
+        if "tests" not in p.parts and "bench" not in p.parts and "jsbsim" in imported_modules(p)
+    )
     assert users == ["aircraft/jsbsim_model.py"]
 
 
@@ -112,7 +118,9 @@ def test_no_project_code_is_monkeypatched():
         project_names = set()
         for node in ast.walk(tree):
             if isinstance(node, ast.Import):
-                project_names.update((a.asname or a.name.split(".")[0]) for a in node.names if a.name.startswith(PROJECT_PACKAGES))
+                project_names.update(
+                    (a.asname or a.name.split(".")[0]) for a in node.names if a.name.startswith(PROJECT_PACKAGES)
+                )
             elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith(PROJECT_PACKAGES):
                 project_names.update(a.asname or a.name for a in node.names)
         for node in ast.walk(tree):
@@ -124,7 +132,8 @@ def test_no_project_code_is_monkeypatched():
                 continue
             target = node.args[0]
             hit = (isinstance(target, ast.Name) and target.id in project_names) or (
-                isinstance(target, ast.Constant) and isinstance(target.value, str) and target.value.startswith(PROJECT_PACKAGES))
+                isinstance(target, ast.Constant) and isinstance(target.value, str) and target.value.startswith(PROJECT_PACKAGES)
+            )
             if hit and name != "setattr" or (hit and isinstance(f, ast.Attribute)):
                 offenders.append(f"{p.relative_to(ROOT)}:{node.lineno}")
     assert offenders == []

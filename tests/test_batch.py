@@ -24,7 +24,11 @@ def summaries(out: Path) -> dict[str, dict]:
 
 def test_grid_and_monte_carlo_expand_reproducibly():
     base = yaml.safe_load((CI_SUITE / "multicopter_edges.yaml").read_text())
-    base["sweep"]["monte_carlo"] = {"count": 3, "seed": 4, "draws": {"seed": {"integers": [0, 1000]}, "wind.from_deg": {"uniform": [0, 360]}}}
+    base["sweep"]["monte_carlo"] = {
+        "count": 3,
+        "seed": 4,
+        "draws": {"seed": {"integers": [0, 1000]}, "wind.from_deg": {"uniform": [0, 360]}},
+    }
     a = expand(base, "x.yaml", "x")
     b = expand(base, "x.yaml", "x")
     assert len(a) == 4 * 3 * 3
@@ -74,7 +78,9 @@ def test_ci_suite_batch_on_two_jobs_writes_every_result_and_no_breach(tmp_path):
     out = tmp_path / "ci"
     res = subprocess.run(
         [sys.executable, "-m", "scenarios.app.cli", "batch", str(CI_SUITE), "--out", str(out), "--jobs", "2", "--quiet"],
-        capture_output=True, text=True, timeout=600,
+        capture_output=True,
+        text=True,
+        timeout=600,
     )
     assert res.returncode == 0, res.stdout + res.stderr
     got = summaries(out)
@@ -102,10 +108,25 @@ def test_interrupted_batch_keeps_finished_flights_and_resumes_without_refling(tm
     sweep["sweep"] = {"grid": {"pilot.segments.0.course_deg": [0, 90, 180, 270], "wind.speed_mps": [0, 2, 4, 6, 8]}}
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(sweep))
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "scenarios.app.cli", "batch", str(tmp_path / "s.yaml"), "--out", str(out), "--jobs", "2", "--quiet", "--no-flight-plots"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "scenarios.app.cli",
+        "batch",
+        str(tmp_path / "s.yaml"),
+        "--out",
+        str(out),
+        "--jobs",
+        "2",
+        "--quiet",
+        "--no-flight-plots",
+    ]
     # a background job inherits an ignored SIGINT; give the batch the default, as in a terminal
     proc = subprocess.Popen(
-        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        cmd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     deadline = time.monotonic() + 300

@@ -31,12 +31,34 @@ from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, VehicleState
 
 BANK = math.radians(35.0)
-FW = Envelope(PlatformKind.FIXED_WING, cruise_speed_mps=18.0, max_speed_mps=25.0, min_speed_mps=12.0,
-              max_bank_rad=BANK, max_pitch_rad=0.3, max_yaw_rate_radps=1.0, max_climb_rate_mps=3.0,
-              max_descent_rate_mps=3.0, braking_decel_mps2=2.0, vertical_accel_mps2=3.0, reaction_time_s=0.2)
-MC = Envelope(PlatformKind.MULTIROTOR, cruise_speed_mps=5.0, max_speed_mps=12.0, min_speed_mps=0.0,
-              max_bank_rad=math.radians(30.0), max_pitch_rad=0.5, max_yaw_rate_radps=1.0, max_climb_rate_mps=3.0,
-              max_descent_rate_mps=2.0, braking_decel_mps2=5.0, vertical_accel_mps2=4.0, reaction_time_s=0.1)
+FW = Envelope(
+    PlatformKind.FIXED_WING,
+    cruise_speed_mps=18.0,
+    max_speed_mps=25.0,
+    min_speed_mps=12.0,
+    max_bank_rad=BANK,
+    max_pitch_rad=0.3,
+    max_yaw_rate_radps=1.0,
+    max_climb_rate_mps=3.0,
+    max_descent_rate_mps=3.0,
+    braking_decel_mps2=2.0,
+    vertical_accel_mps2=3.0,
+    reaction_time_s=0.2,
+)
+MC = Envelope(
+    PlatformKind.MULTIROTOR,
+    cruise_speed_mps=5.0,
+    max_speed_mps=12.0,
+    min_speed_mps=0.0,
+    max_bank_rad=math.radians(30.0),
+    max_pitch_rad=0.5,
+    max_yaw_rate_radps=1.0,
+    max_climb_rate_mps=3.0,
+    max_descent_rate_mps=2.0,
+    braking_decel_mps2=5.0,
+    vertical_accel_mps2=4.0,
+    reaction_time_s=0.1,
+)
 
 
 def square_fence(half_m: float, lat0: float = 47.4, lon0: float = 8.5, **kw):
@@ -105,13 +127,18 @@ def _integrate_excursion(v, bank, psi0, w, s, turn_angle=None, steps=20000):
     x = np.concatenate([[0.0], np.cumsum(0.5 * (xdot[1:] + xdot[:-1]) * np.diff(theta) / omega)])
     if stop_when_receding:
         k = np.argmax(xdot <= 0.0)
-        x = x[:k + 1]
+        x = x[: k + 1]
     return max(0.0, float(x.max()))
 
 
 @settings(max_examples=150, deadline=None)
-@given(st.floats(10.0, 40.0), st.floats(-math.pi, math.pi), st.floats(-0.95, 0.95), st.sampled_from([1, -1]),
-       st.one_of(st.none(), st.floats(0.0, 2 * math.pi)))
+@given(
+    st.floats(10.0, 40.0),
+    st.floats(-math.pi, math.pi),
+    st.floats(-0.95, 0.95),
+    st.sampled_from([1, -1]),
+    st.one_of(st.none(), st.floats(0.0, 2 * math.pi)),
+)
 def test_excursion_matches_numerical_trochoid(v, psi0, u, s, turn_angle):
     w = u * v
     closed = turn_excursion_m(v, BANK, psi0, w, turn_sign=s, turn_angle_rad=turn_angle)
@@ -218,8 +245,7 @@ def test_fixed_wing_activation_head_on_calm():
     tail = activation_margins(lf, e, 0.0, 50.0, v + 5.0, 0.0, 0.0, FW, 5.0, 0.0)
     head = activation_margins(lf, e, 0.0, 50.0, v - 5.0, 0.0, 0.0, FW, -5.0, 0.0)
     assert tail.lateral_activation_m < res.lateral_activation_m < head.lateral_activation_m
-    assert tail.lateral_shift_m == pytest.approx(
-        (v + 5.0) * FW.reaction_time_s + turn_excursion_m(v, BANK, 0.0, 5.0), rel=1e-6)
+    assert tail.lateral_shift_m == pytest.approx((v + 5.0) * FW.reaction_time_s + turn_excursion_m(v, BANK, 0.0, 5.0), rel=1e-6)
 
 
 def test_fixed_wing_turns_away_from_the_near_edge():

@@ -76,8 +76,9 @@ def test_generator_is_deterministic_and_seed_dependent(tmp_path):
     assert all(p.read_bytes() == q.read_bytes() for p, q in zip(a, b))
     assert (tmp_path / "a" / "campaign.json").read_bytes() == (tmp_path / "b" / "campaign.json").read_bytes()
     other = generate_cases(12, 6)
-    assert [c.documents[Variant.PREDICTIVE] for c in other] != [json.loads(json.dumps(c.documents[Variant.PREDICTIVE]))
-                                                                  for c in generate_cases(12, 5)]
+    assert [c.documents[Variant.PREDICTIVE] for c in other] != [
+        json.loads(json.dumps(c.documents[Variant.PREDICTIVE])) for c in generate_cases(12, 5)
+    ]
     # case i does not depend on how many cases are asked for
     assert generate_cases(3, 5)[2].documents == generate_cases(12, 5)[2].documents
 
@@ -91,8 +92,20 @@ def test_200_generated_cases_validate_and_cover_every_family_and_platform(campai
     assert {c["platform"] for c in cases} == set(manifest["platforms"])
     assert {"multirotor", "fixed_wing"} <= {c["platform_kind"] for c in cases}
     attacks = {c["attack"] for c in cases}
-    assert {"head_on", "shallow", "corner", "turning", "repeated", "climb", "descend", "mission",
-            "into_keep_out", "behind_keep_out", "gap_takeoff", "gap_descent_dash"} <= attacks
+    assert {
+        "head_on",
+        "shallow",
+        "corner",
+        "turning",
+        "repeated",
+        "climb",
+        "descend",
+        "mission",
+        "into_keep_out",
+        "behind_keep_out",
+        "gap_takeoff",
+        "gap_descent_dash",
+    } <= attacks
     assert any(c["gps_fault"] for c in cases)
     lats = [c["site"]["lat_deg"] for c in cases]
     assert min(lats) < -60.0 and max(lats) > 60.0
@@ -179,8 +192,9 @@ def test_committed_ci_slice_is_the_generators_output(tmp_path):
     committed = sorted(p.name for p in CI_SLICE.iterdir())
     assert committed == sorted(p.name for p in tmp_path.iterdir())
     for name in committed:
-        assert (CI_SLICE / name).read_text() == (tmp_path / name).read_text(), \
+        assert (CI_SLICE / name).read_text() == (tmp_path / name).read_text(), (
             f"{name} differs: regenerate with generate_campaign(Path('scenarios/campaign_ci'), {CI_CASES}, {CI_SEED}, max_duration_s={CI_MAX_DURATION_S})"
+        )
     manifest = json.loads((CI_SLICE / "campaign.json").read_text())
     assert len(manifest["cases"]) == CI_CASES
     assert all(c["duration_s"] <= CI_MAX_DURATION_S for c in manifest["cases"])
@@ -211,18 +225,51 @@ def test_poisson_rate_bound_matches_known_values():
 
 
 def _row(flight, **kw):
-    base = {"flight": flight, "completed": True, "error": None, "sim_time_s": 60.0, "max_excursion_m": -5.0,
-            "max_lateral_excursion_m": -5.0, "max_vertical_excursion_m": -20.0, "breached_keep_out": False,
-            "landed_outside_gap": False, "activations": 1, "mission_finished": False}
+    base = {
+        "flight": flight,
+        "completed": True,
+        "error": None,
+        "sim_time_s": 60.0,
+        "max_excursion_m": -5.0,
+        "max_lateral_excursion_m": -5.0,
+        "max_vertical_excursion_m": -20.0,
+        "breached_keep_out": False,
+        "landed_outside_gap": False,
+        "activations": 1,
+        "mission_finished": False,
+    }
     base.update(kw)
     return base
 
 
-SYNTH_MANIFEST = {"cases": [
-    {"case_id": "box-0000", "family": "box", "attack": "head_on", "platform": "F450", "platform_kind": "multirotor", "pilot": "scripted"},
-    {"case_id": "star-0001", "family": "star", "attack": "mission", "platform": "Tern", "platform_kind": "fixed_wing", "pilot": "mission"},
-    {"case_id": "box-0002", "family": "box", "attack": "corner", "platform": "Tern", "platform_kind": "fixed_wing", "pilot": "scripted"},
-]}
+SYNTH_MANIFEST = {
+    "cases": [
+        {
+            "case_id": "box-0000",
+            "family": "box",
+            "attack": "head_on",
+            "platform": "F450",
+            "platform_kind": "multirotor",
+            "pilot": "scripted",
+        },
+        {
+            "case_id": "star-0001",
+            "family": "star",
+            "attack": "mission",
+            "platform": "Tern",
+            "platform_kind": "fixed_wing",
+            "pilot": "mission",
+        },
+        {
+            "case_id": "box-0002",
+            "family": "box",
+            "attack": "corner",
+            "platform": "Tern",
+            "platform_kind": "fixed_wing",
+            "pilot": "scripted",
+        },
+    ]
+}
 
 
 def synthetic_rows():
@@ -232,8 +279,14 @@ def synthetic_rows():
         _row("box-0000__unprotected", max_lateral_excursion_m=40.0, max_excursion_m=40.0, activations=0),
         _row("star-0001__predictive", activations=2, mission_finished=False),  # stalled by the geofence
         _row("star-0001__reactive", activations=0, mission_finished=True),
-        _row("star-0001__unprotected", completed=False, error="FloatingPointError: diverged", max_excursion_m=None,
-             max_lateral_excursion_m=None, max_vertical_excursion_m=None),
+        _row(
+            "star-0001__unprotected",
+            completed=False,
+            error="FloatingPointError: diverged",
+            max_excursion_m=None,
+            max_lateral_excursion_m=None,
+            max_vertical_excursion_m=None,
+        ),
         _row("box-0002__predictive", max_lateral_excursion_m=1e-6, max_excursion_m=1e-6, breached_keep_out=True),
         _row("box-0002__reactive", max_vertical_excursion_m=2.0, max_excursion_m=2.0, landed_outside_gap=True),
         _row("box-0002__unprotected", max_lateral_excursion_m=9.0, max_excursion_m=9.0, activations=0),
@@ -259,8 +312,12 @@ def test_counts_breaches_missions_and_errors_on_synthetic_rows():
     assert [r["flight"] for r in offending_flights(rows)] == ["box-0002__predictive"]
     assert "keep-in, keep-out" in describe_flight(offending_flights(rows)[0])
     cmp = unprotected_vs_protected(rows)
-    assert cmp["predictive"] == {"twin_breached": 2, "twin_breached_and_held": 1, "twin_breached_and_breached": 1,
-                                 "twin_clean_but_breached": 0}
+    assert cmp["predictive"] == {
+        "twin_breached": 2,
+        "twin_breached_and_held": 1,
+        "twin_breached_and_breached": 1,
+        "twin_clean_but_breached": 0,
+    }
     assert cmp["reactive"]["twin_breached_and_breached"] == 2
 
 
@@ -287,8 +344,14 @@ def test_unprotected_twin_is_scored_from_its_trajectory(tmp_path):
     east = np.linspace(e0, edge, len(t))
     folder = tmp_path / f"{case['case_id']}__unprotected"
     folder.mkdir()
-    cols = {"time_s": t, "east_m": east, "north_m": np.full_like(t, n0), "agl_m": np.full_like(t, 10.0),
-            "alt_m": np.full_like(t, 10.0 + case["start"]["ground_alt_m"]), "geofence_mode": np.zeros_like(t)}
+    cols = {
+        "time_s": t,
+        "east_m": east,
+        "north_m": np.full_like(t, n0),
+        "agl_m": np.full_like(t, 10.0),
+        "alt_m": np.full_like(t, 10.0 + case["start"]["ground_alt_m"]),
+        "geofence_mode": np.zeros_like(t),
+    }
     with open(folder / "trajectory.csv", "w") as fh:
         fh.write(",".join(cols) + "\n")
         for i in range(len(t)):
@@ -325,4 +388,3 @@ def test_ci_slice_has_no_predictive_breach(tmp_path):
     for r in bad:
         print("PREDICTIVE BREACH:", describe_flight(r))
     assert not bad, "predictive keep-in breach / keep-out entry / out-of-gap landing:\n" + "\n".join(map(describe_flight, bad))
-

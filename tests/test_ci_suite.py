@@ -71,7 +71,10 @@ def _vertical_room_m(sc, rate_mps: float) -> float:
     """Arrest distance at ``rate_mps`` plus k·sigma of the GPS vertical error (bias and white, root-sum-square)."""
     env = sc.profile.envelope
     sigma = math.hypot(sc.sensors.gps_v_bias_m, sc.sensors.gps_v_white_m)
-    return vertical_arrest_distance_m(rate_mps, env.reaction_time_s, env.vertical_accel_mps2) + sc.geofence.uncertainty_k_sigma * sigma
+    return (
+        vertical_arrest_distance_m(rate_mps, env.reaction_time_s, env.vertical_accel_mps2)
+        + sc.geofence.uncertainty_k_sigma * sigma
+    )
 
 
 def _ci_scenarios():
@@ -143,19 +146,28 @@ def assert_ci_suite_approaches(out: Path) -> dict[str, dict[str, float]]:
         closest = float(inside_by.min())
         room = worst_case_lateral_shift_m(env, wind)
         assert closest < 2.0 * room, (
-            f"{folder.name}: closest approach to edge {edge} is {closest:.0f} m, not within 2 x {room:.0f} m of activation room")
+            f"{folder.name}: closest approach to edge {edge} is {closest:.0f} m, not within 2 x {room:.0f} m of activation room"
+        )
         assert np.linalg.norm(b - a) > 0
         ceiling = float(np.min(fence.ceiling_m - tr["agl_m"]))
         floor = float(np.min(tr["agl_m"] - fence.floor_m)) if fence.floor_m is not None else math.inf
-        approaches[folder.name] = {"edge": edge, "lateral_m": closest, "lateral_bound_m": 2.0 * room,
-                                   "ceiling_m": ceiling, "floor_m": floor}
+        approaches[folder.name] = {
+            "edge": edge,
+            "lateral_m": closest,
+            "lateral_bound_m": 2.0 * room,
+            "ceiling_m": ceiling,
+            "floor_m": floor,
+        }
         key = (sc.aircraft, wind)
         vertical[key]["ceiling"] = min(vertical[key]["ceiling"], ceiling)
         vertical[key]["floor"] = min(vertical[key]["floor"], floor)
-        bounds[key] = {"ceiling": 2.0 * _vertical_room_m(sc, env.max_climb_rate_mps),
-                       "floor": 2.0 * _vertical_room_m(sc, env.max_descent_rate_mps)}
+        bounds[key] = {
+            "ceiling": 2.0 * _vertical_room_m(sc, env.max_climb_rate_mps),
+            "floor": 2.0 * _vertical_room_m(sc, env.max_descent_rate_mps),
+        }
     for key, v in vertical.items():
         for which in ("ceiling", "floor"):
             assert v[which] < bounds[key][which], (
-                f"{key}: closest approach to the {which} {v[which]:.1f} m, not within {bounds[key][which]:.1f} m")
+                f"{key}: closest approach to the {which} {v[which]:.1f} m, not within {bounds[key][which]:.1f} m"
+            )
     return approaches

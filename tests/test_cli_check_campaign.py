@@ -58,8 +58,12 @@ def test_campaign_generate_and_report_refuse_bad_folders(tmp_path):
     assert r.returncode == 2 and "'Spitfire'" in r.stderr and "Traceback" not in r.stderr
     r = run_cli("campaign", "generate", str(tmp_path / "tern"), "--cases", "2", "--platforms", "Tern")
     assert r.returncode == 0
-    assert {line.split(":", 1)[1].strip() for f in (tmp_path / "tern").glob("*.yaml")
-            for line in f.read_text().splitlines() if line.startswith("aircraft:")} == {"Tern"}
+    assert {
+        line.split(":", 1)[1].strip()
+        for f in (tmp_path / "tern").glob("*.yaml")
+        for line in f.read_text().splitlines()
+        if line.startswith("aircraft:")
+    } == {"Tern"}
 
 
 def test_validate_models_refuses_an_unknown_model_before_flying():

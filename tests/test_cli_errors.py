@@ -12,7 +12,9 @@ GOOD = Path(__file__).parents[1] / "scenarios" / "multicopter_survey_calm.yaml"
 
 
 def run_cli(*args, cwd=None):
-    return subprocess.run([sys.executable, "-m", "scenarios.app.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=120)
+    return subprocess.run(
+        [sys.executable, "-m", "scenarios.app.cli", *args], capture_output=True, text=True, cwd=cwd, timeout=120
+    )
 
 
 def write(tmp_path, text, name="s.yaml"):
@@ -35,7 +37,17 @@ def good_text(**replace):
         (lambda t: t / "missing.yaml", "no such scenario file"),
         (lambda t: write(t, "aircraft: [F450\n"), "malformed YAML at line"),
         (lambda t: write(t, good_text(**{"aircraft: F450": "aircraft: Wright_Flyer_3000"})), "aircraft: unknown aircraft"),
-        (lambda t: write(t, good_text(**{"lat_deg: -35.363262, lon_deg: 149.165237, ground_alt_m": "lat_deg: 123, lon_deg: 149.165237, ground_alt_m"})), "start.lat_deg: must be <= 90"),
+        (
+            lambda t: write(
+                t,
+                good_text(
+                    **{
+                        "lat_deg: -35.363262, lon_deg: 149.165237, ground_alt_m": "lat_deg: 123, lon_deg: 149.165237, ground_alt_m"
+                    }
+                ),
+            ),
+            "start.lat_deg: must be <= 90",
+        ),
         (lambda t: write(t, good_text(**{"duration_s: 240": "duration_s: -5"})), "duration_s: must be > 0"),
     ],
     ids=["missing-file", "bad-yaml", "unknown-aircraft", "latitude-123", "negative-duration"],
@@ -103,7 +115,7 @@ def test_score_log_scores_a_real_flight_against_a_real_fence_file():
         pytest.skip("shared/realworld is not beside the repo")
     res = run_cli("score-log", str(log), "--fence", str(fence), "--ceiling", "100")
     assert res.returncode == 0, res.stderr
-    scores = json.loads(res.stdout[res.stdout.index("{"):])
+    scores = json.loads(res.stdout[res.stdout.index("{") :])
     # the SITL quadplane stays below 100 m (its highest relative altitude is 63.4 m per PROVENANCE.md) ...
     assert scores["max_vertical_excursion_m"] == pytest.approx(63.4 - 100.0, abs=0.2)
     # ... but its CIRCLE segment takes it some 49 m outside the club's "foamy" fence

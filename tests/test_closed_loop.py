@@ -45,7 +45,10 @@ def test_multicopter_holds_hover_within_1m_for_30s_in_calm_air():
         "F450",
         40.0,
         start_extra={"agl_m": 10.0},
-        mission={"acceptance_radius_m": 1.0, "items": [{"type": "loiter", "lat_deg": lat, "lon_deg": lon, "agl_m": 10.0, "duration_s": 35.0}]},
+        mission={
+            "acceptance_radius_m": 1.0,
+            "items": [{"type": "loiter", "lat_deg": lat, "lon_deg": lon, "agl_m": 10.0, "duration_s": 35.0}],
+        },
     )
     res = fly(sc)
     t, e, n, u = track(res, "time_s", "east_m", "north_m", "up_m")
@@ -159,11 +162,14 @@ def test_fixed_wing_lands_on_a_straight_in_approach():
         "Tern",
         200.0,
         start_extra={"agl_m": 40.0, "heading_deg": 0.0},
-        mission={"acceptance_radius_m": 15.0, "items": [
-            {"type": "waypoint", "lat_deg": far_lat, "lon_deg": far_lon, "agl_m": 40.0},
-            {"type": "waypoint", "lat_deg": base_lat, "lon_deg": base_lon, "agl_m": 30.0},
-            {"type": "land", "lat_deg": SITE["lat_deg"], "lon_deg": SITE["lon_deg"]},
-        ]},
+        mission={
+            "acceptance_radius_m": 15.0,
+            "items": [
+                {"type": "waypoint", "lat_deg": far_lat, "lon_deg": far_lon, "agl_m": 40.0},
+                {"type": "waypoint", "lat_deg": base_lat, "lon_deg": base_lon, "agl_m": 30.0},
+                {"type": "land", "lat_deg": SITE["lat_deg"], "lon_deg": SITE["lon_deg"]},
+            ],
+        },
     )
     res = fly(sc)
     assert res.summary["completed"] and res.summary["mission_progress"] == "3/3", res.summary

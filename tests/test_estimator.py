@@ -34,8 +34,16 @@ def turning(t):
     v, r = 20.0, 60.0
     w = v / r
     th = w * t
-    return truth_at(t, r * math.sin(th), r * math.cos(th), 50.0 + 5.0 * math.sin(0.1 * t),
-                    v * math.cos(th), -v * math.sin(th), 0.5 * math.cos(0.1 * t), math.atan(v * w / G))
+    return truth_at(
+        t,
+        r * math.sin(th),
+        r * math.cos(th),
+        50.0 + 5.0 * math.sin(0.1 * t),
+        v * math.cos(th),
+        -v * math.sin(th),
+        0.5 * math.cos(0.1 * t),
+        math.atan(v * w / G),
+    )
 
 
 def fly(trajectory, seconds, sensors=None, est_cfg=None, seed=3, skip_s=5.0):
@@ -57,12 +65,24 @@ def fly(trajectory, seconds, sensors=None, est_cfg=None, seed=3, skip_s=5.0):
             last_fix = FRAME.to_enu(fix.lat_deg, fix.lon_deg, fix.alt_m)
         if t >= skip_s:
             be, bn, bu = suite.gps_bias_enu_m
-            rows.append((
-                s.east_m - tr.east_m, s.north_m - tr.north_m, s.up_m - tr.up_m,
-                s.v_east_mps - tr.v_east_mps, s.v_north_mps - tr.v_north_mps,
-                last_fix[0] - tr.east_m, last_fix[1] - tr.north_m,
-                be, bn, est.var_e_m2, est.var_n_m2, est.sigma_h_m, est.sigma_v_m, bu,
-            ))
+            rows.append(
+                (
+                    s.east_m - tr.east_m,
+                    s.north_m - tr.north_m,
+                    s.up_m - tr.up_m,
+                    s.v_east_mps - tr.v_east_mps,
+                    s.v_north_mps - tr.v_north_mps,
+                    last_fix[0] - tr.east_m,
+                    last_fix[1] - tr.north_m,
+                    be,
+                    bn,
+                    est.var_e_m2,
+                    est.var_n_m2,
+                    est.sigma_h_m,
+                    est.sigma_v_m,
+                    bu,
+                )
+            )
     return est, np.array(rows), cost / (k + 1) * 1e6
 
 
@@ -75,8 +95,10 @@ def test_accuracy_white_noise_only(trajectory):
     raw_rms = math.sqrt(2.0) * cfg.gps_h_white_m
     vel_rms = math.sqrt(np.mean(r[:, 3] ** 2 + r[:, 4] ** 2))
     up_rms = math.sqrt(np.mean(r[:, 2] ** 2))
-    print(f"{trajectory.__name__}: pos rms {pos_rms:.2f} m (raw white {raw_rms:.2f}), vel rms {vel_rms:.3f} m/s, "
-          f"up rms {up_rms:.2f} m, {us:.1f} us/step")
+    print(
+        f"{trajectory.__name__}: pos rms {pos_rms:.2f} m (raw white {raw_rms:.2f}), vel rms {vel_rms:.3f} m/s, "
+        f"up rms {up_rms:.2f} m, {us:.1f} us/step"
+    )
     assert pos_rms < 0.5 * raw_rms
     assert vel_rms < 0.5
     assert up_rms < 0.5 * cfg.gps_v_white_m
@@ -91,8 +113,10 @@ def test_accuracy_with_bias_and_latency(trajectory):
     pos_rms = math.sqrt(np.mean(r[:, 0] ** 2 + r[:, 1] ** 2))
     latest_fix_rms = math.sqrt(np.mean(r[:, 5] ** 2 + r[:, 6] ** 2))
     vs_receiver = math.sqrt(np.mean((r[:, 0] - r[:, 7]) ** 2 + (r[:, 1] - r[:, 8]) ** 2))
-    print(f"{trajectory.__name__}: pos rms {pos_rms:.2f}, latest raw fix rms {latest_fix_rms:.2f}, "
-          f"vs receiver track {vs_receiver:.2f}")
+    print(
+        f"{trajectory.__name__}: pos rms {pos_rms:.2f}, latest raw fix rms {latest_fix_rms:.2f}, "
+        f"vs receiver track {vs_receiver:.2f}"
+    )
     assert vs_receiver < 0.75 * math.sqrt(2.0) * 0.5  # below the raw white noise
     assert pos_rms < latest_fix_rms
     vel_rms = math.sqrt(np.mean(r[:, 3] ** 2 + r[:, 4] ** 2))
@@ -188,8 +212,18 @@ def step_inputs(draw):
     t_fix = draw(st.floats(-5.0, 5.0))
     fix = None
     if draw(st.booleans()):
-        fix = GpsFix(t_fix, draw(st.floats(46.9, 47.1)), draw(st.floats(7.9, 8.1)), draw(st.floats(-500, 5000)),
-                     draw(finite), draw(finite), draw(finite), 1.0, 2.0, draw(st.booleans()))
+        fix = GpsFix(
+            t_fix,
+            draw(st.floats(46.9, 47.1)),
+            draw(st.floats(7.9, 8.1)),
+            draw(st.floats(-500, 5000)),
+            draw(finite),
+            draw(finite),
+            draw(finite),
+            1.0,
+            2.0,
+            draw(st.booleans()),
+        )
     air = AirData(draw(st.floats(0, 100)), draw(st.one_of(st.none(), st.floats(0, 200))), draw(st.floats(-500, 5000)))
     att = AttitudeSample(0.0, draw(st.floats(-3.2, 3.2)), draw(st.floats(-1.6, 1.6)), draw(st.floats(0, 6.3)))
     return draw(st.floats(0.0, 1.0)), fix, air, att

@@ -60,7 +60,10 @@ def test_parse_good_fence():
 BAD = [
     (_with(keep_in=BOX[:2]), "keep_in: needs at least 3 vertices, got 2"),
     (_with(keep_in=BOX[:2] + [BOX[0]]), "keep_in: needs at least 3 vertices"),
-    (_with(keep_in=[BOX[0], BOX[2], BOX[1], BOX[3]]), "keep_in: self-intersecting: edge 0 (vertex 0->1) meets edge 2 (vertex 2->3)"),
+    (
+        _with(keep_in=[BOX[0], BOX[2], BOX[1], BOX[3]]),
+        "keep_in: self-intersecting: edge 0 (vertex 0->1) meets edge 2 (vertex 2->3)",
+    ),
     (_with(keep_in=[BOX[0], BOX[1], BOX[1], BOX[2]]), "keep_in: vertices 1 and 2 are the same point"),
     (_with(keep_in=[[95.0, 8.5], BOX[1], BOX[2]]), "keep_in[0]: latitude 95 deg is outside [-90, 90]"),
     (_with(keep_in=[BOX[0], [47.39, 181.0], BOX[2]]), "keep_in[1]: longitude 181 deg is outside [-180, 180]"),
@@ -74,16 +77,31 @@ BAD = [
     (_with(ceiling_m=float("nan")), "ceiling_m: must be a finite number, got nan"),
     (_with(ceiling_m="high"), "ceiling_m: expected a number, got a string 'high'"),
     (_with(ceiling_m=True), "ceiling_m: expected a number, got a boolean True"),
-    (_with(floor_m=_DEL, floor_gaps=_DEL, ceiling_m=-5, recovery_point=[47.3982, 8.5462]), "ceiling_m: -5 m AGL must be above the ground"),
+    (
+        _with(floor_m=_DEL, floor_gaps=_DEL, ceiling_m=-5, recovery_point=[47.3982, 8.5462]),
+        "ceiling_m: -5 m AGL must be above the ground",
+    ),
     (_with(altitude_reference="msl"), "altitude_reference: 'msl' is not one of agl, amsl"),
     (_with(colour="red"), "fence.colour: unknown key"),
-    (_with(floor_gaps=[[[47.3970, 8.5455], [47.3980, 8.5455], [47.3980, 8.5458]]]), "floor_gaps[0]: gap is not inside the keep_in area"),
+    (
+        _with(floor_gaps=[[[47.3970, 8.5455], [47.3980, 8.5455], [47.3980, 8.5458]]]),
+        "floor_gaps[0]: gap is not inside the keep_in area",
+    ),
     (_with(floor_gaps=[[[47.3978, 8.5455], [47.3980, 8.5455]]]), "floor_gaps[0]: needs at least 3 vertices, got 2"),
-    (_with(keep_out_polygons=[[[47.3, 8.5], [47.31, 8.5], [47.31, 8.51]]]), "keep_out_polygons[0]: lies entirely outside the keep_in area"),
-    (_with(keep_out_circles=[{"center": [47.3, 8.5470], "radius_m": 20}]), "keep_out_circles[0]: lies entirely outside the keep_in area"),
+    (
+        _with(keep_out_polygons=[[[47.3, 8.5], [47.31, 8.5], [47.31, 8.51]]]),
+        "keep_out_polygons[0]: lies entirely outside the keep_in area",
+    ),
+    (
+        _with(keep_out_circles=[{"center": [47.3, 8.5470], "radius_m": 20}]),
+        "keep_out_circles[0]: lies entirely outside the keep_in area",
+    ),
     (_with(keep_out_circles=[{"center": [47.3985, 8.5470], "radius_m": 0}]), "keep_out_circles[0].radius_m: must be > 0, got 0"),
     (_with(keep_out_circles=[{"center": [47.3985, 8.5470]}]), "keep_out_circles[0].radius_m: required"),
-    (_with(keep_out_circles=[{"center": [47.3985, 8.5470], "radius_m": 5, "r": 1}]), "keep_out_circles[0].r: unknown key (allowed: center, radius_m)"),
+    (
+        _with(keep_out_circles=[{"center": [47.3985, 8.5470], "radius_m": 5, "r": 1}]),
+        "keep_out_circles[0].r: unknown key (allowed: center, radius_m)",
+    ),
     (_with(keep_out_circles=[{"center": [47.3982, 8.5462], "radius_m": 500}]), "keep-outs cover the whole keep_in area"),
     (_with(recovery_point=[47.0, 8.5]), "recovery_point: not inside the allowed area"),
     (_with(recovery_point=[47.3985, 8.5470]), "recovery_point: not inside the allowed area"),

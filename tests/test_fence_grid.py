@@ -19,10 +19,25 @@ from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
-FW = Envelope(PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0,
-              0.6, 5.0, 1.1)
-MC = Envelope(PlatformKind.MULTIROTOR, 5.3, 10.3, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0,
-              6.0, 4.2, 0.15, drag_linear_per_s=0.435, drag_quadratic_per_m=0.011)
+FW = Envelope(
+    PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0, 0.6, 5.0, 1.1
+)
+MC = Envelope(
+    PlatformKind.MULTIROTOR,
+    5.3,
+    10.3,
+    0.0,
+    math.radians(30),
+    math.radians(30),
+    math.radians(90),
+    3.0,
+    2.0,
+    6.0,
+    4.2,
+    0.15,
+    drag_linear_per_s=0.435,
+    drag_quadratic_per_m=0.011,
+)
 
 
 def _ll(e, n):
@@ -49,12 +64,17 @@ def random_fence(seed: int, n_vertices: int, n_squares: int, n_circles: int) -> 
         placed.append((cx, cy, s))
         if len(squares) < n_squares:
             t = rng.uniform(0, math.pi)
-            squares.append(tuple(_ll(cx + s * math.cos(t + k * math.pi / 2), cy + s * math.sin(t + k * math.pi / 2))
-                                 for k in range(4)))
+            squares.append(
+                tuple(_ll(cx + s * math.cos(t + k * math.pi / 2), cy + s * math.sin(t + k * math.pi / 2)) for k in range(4))
+            )
         else:
             circles.append(KeepOutCircle(*_ll(cx, cy), s))
-    return Fence(keep_in=tuple(_ll(e, n) for e, n in keep_in), ceiling_m=120.0,
-                 keep_out_polygons=tuple(squares), keep_out_circles=tuple(circles))
+    return Fence(
+        keep_in=tuple(_ll(e, n) for e, n in keep_in),
+        ceiling_m=120.0,
+        keep_out_polygons=tuple(squares),
+        keep_out_circles=tuple(circles),
+    )
 
 
 def probe_points(local, rng: random.Random, count: int):
@@ -85,8 +105,7 @@ def probe_points(local, rng: random.Random, count: int):
 
 
 @settings(max_examples=12, deadline=None)
-@given(seed=st.integers(0, 10_000), n_vertices=st.integers(40, 600), n_squares=st.integers(0, 25),
-       n_circles=st.integers(0, 8))
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(40, 600), n_squares=st.integers(0, 25), n_circles=st.integers(0, 8))
 def test_index_equals_full_scan(seed, n_vertices, n_squares, n_circles):
     fence = random_fence(seed, n_vertices, n_squares, n_circles)
     indexed = fence.to_local(FRAME, index=True)
@@ -99,10 +118,24 @@ def test_index_equals_full_scan(seed, n_vertices, n_squares, n_circles):
             speed = rng.uniform(0.0, env.max_speed_mps * 1.2)
             course = rng.uniform(-math.pi, math.pi)
             w, wd = rng.uniform(0.0, 9.0), rng.uniform(-math.pi, math.pi)
-            args = (e, n, 30.0, speed * math.cos(course), speed * math.sin(course), rng.uniform(-3, 3), env,
-                    w * math.cos(wd), w * math.sin(wd))
-            kw = dict(h_uncertainty_m=rng.uniform(0, 6), v_uncertainty_m=1.0, latency_s=rng.uniform(0, 0.3),
-                      bank_rad=rng.uniform(-0.5, 0.5), wind_extra_mps=rng.uniform(0, 3))
+            args = (
+                e,
+                n,
+                30.0,
+                speed * math.cos(course),
+                speed * math.sin(course),
+                rng.uniform(-3, 3),
+                env,
+                w * math.cos(wd),
+                w * math.sin(wd),
+            )
+            kw = dict(
+                h_uncertainty_m=rng.uniform(0, 6),
+                v_uncertainty_m=1.0,
+                latency_s=rng.uniform(0, 0.3),
+                bank_rad=rng.uniform(-0.5, 0.5),
+                wind_extra_mps=rng.uniform(0, 3),
+            )
             a = activation_margins(indexed, *args, **kw)
             b = activation_margins(scan, *args, **kw)
             assert tuple(a) == tuple(b), (e, n, env.kind)
@@ -160,8 +193,14 @@ def test_candidates_past_the_tuple_prefix_give_the_same_answers(seed, n_vertices
 
     local = random_fence(seed, n_vertices, 8, 3).to_local(FRAME, index=True)
     full = local.grid()
-    short = FenceGrid(local.danger_edges(), local.keep_out_circles, FEATURE_KEEP_OUT_CIRCLE, local.keep_in,
-                      local.keep_out_polygons, prefix_items=prefix)
+    short = FenceGrid(
+        local.danger_edges(),
+        local.keep_out_circles,
+        FEATURE_KEEP_OUT_CIRCLE,
+        local.keep_in,
+        local.keep_out_polygons,
+        prefix_items=prefix,
+    )
     rng = random.Random(seed)
     for e, n in probe_points(local, rng, 100):
         assert short.nearest_distance(e, n) == full.nearest_distance(e, n)

@@ -145,6 +145,7 @@ def test_reaction_time_reaches_max_bank(plane):
 
 # -- Tern model sanity -------------------------------------------------------------
 
+
 def _tern_xml():
     return ET.parse(OWN_MODELS / "Tern" / "Tern.xml").getroot()
 

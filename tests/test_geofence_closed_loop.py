@@ -37,7 +37,10 @@ def adversarial(aircraft, course_deg, wind_mps, climb="hold", duration_s=60.0):
         "duration_s": duration_s,
         "seed": 5,
         "start": dict(SITE, agl_m=agl, heading_deg=course_deg),
-        "pilot": {"type": "scripted", "segments": [{"duration_s": duration_s, "course_deg": course_deg, "speed": "max", "climb": climb}]},
+        "pilot": {
+            "type": "scripted",
+            "segments": [{"duration_s": duration_s, "course_deg": course_deg, "speed": "max", "climb": climb}],
+        },
         "geofence": {"fence": {"keep_in": box(half), "ceiling_m": ceiling}},
     }
     if wind_mps:

@@ -10,7 +10,9 @@ from geofence.interface import Envelope, PlatformKind, StickCommand, VehicleStat
 from geofence.unit import GeofenceUnit, Mode
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
-MC = Envelope(PlatformKind.MULTIROTOR, 8.0, 15.0, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0, 5.6, 4.5, 0.25)
+MC = Envelope(
+    PlatformKind.MULTIROTOR, 8.0, 15.0, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0, 5.6, 4.5, 0.25
+)
 PILOT = StickCommand(roll=0.3, pitch=-0.8, yaw=0.0, throttle=0.2)
 DT = 0.025
 
@@ -28,7 +30,9 @@ def unit(trigger="predictive", **kw):
 
 
 def state(t, e, ve=0.0, agl=20.0, n=0.0, vn=0.0, vu=0.0):
-    return VehicleState(t_s=t, east_m=e, north_m=n, up_m=agl, agl_m=agl, alt_m=400 + agl, v_east_mps=ve, v_north_mps=vn, v_up_mps=vu)
+    return VehicleState(
+        t_s=t, east_m=e, north_m=n, up_m=agl, agl_m=agl, alt_m=400 + agl, v_east_mps=ve, v_north_mps=vn, v_up_mps=vu
+    )
 
 
 def test_passes_the_pilot_through_far_from_the_fence():
@@ -122,8 +126,9 @@ def test_lands_in_the_most_reachable_floor_gap():
 def test_envelope_is_scaled_to_the_air_density_at_a_high_site():
     from geofence.dynamics import envelope_at_density, isa_density_ratio
 
-    fw = Envelope(PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0,
-                  0.6, 5.0, 1.1)
+    fw = Envelope(
+        PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0, 0.6, 5.0, 1.1
+    )
     cfg = parse_geofence({"fence": box(2000.0)}, "test")
     u = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), fw)
     u.update(0.0, VehicleState(east_m=0.0, north_m=0.0, agl_m=100.0, alt_m=2780.0, v_north_mps=24.0), PILOT, DT)

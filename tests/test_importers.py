@@ -174,8 +174,12 @@ def test_springvalley_wpl_with_return_point():
 
 
 REAL_FENCES = [
-    "qgc_ce_geofence_home_base.plan", "qgc_ce_geofence_rd_134.plan", "px4_multicopter_mission_geofence_avoid.plan",
-    "pymavlink_fence-110.txt", "ardupilot_Dalby-OBC2016-fence.txt", "mavproxy_cmac-foamy-fence.txt",
+    "qgc_ce_geofence_home_base.plan",
+    "qgc_ce_geofence_rd_134.plan",
+    "px4_multicopter_mission_geofence_avoid.plan",
+    "pymavlink_fence-110.txt",
+    "ardupilot_Dalby-OBC2016-fence.txt",
+    "mavproxy_cmac-foamy-fence.txt",
     "mavproxy_springvalleybottom-foamy-fence.txt",
 ]
 
@@ -191,8 +195,12 @@ def test_yaml_block_round_trip(name):
 
 def test_agrees_with_pymavlink_loaders():
     """Our parser and pymavlink's mavwp loaders read the same items (pymavlink needs MAVLINK20, so a subprocess)."""
-    files = ["pymavlink_fence-110.txt", "mavproxy_springvalleybottom-foamy-fence.txt",
-             "ardupilot_Dalby-OBC2016-fence.txt", "mavproxy_cmac-foamy-fence.txt"]
+    files = [
+        "pymavlink_fence-110.txt",
+        "mavproxy_springvalleybottom-foamy-fence.txt",
+        "ardupilot_Dalby-OBC2016-fence.txt",
+        "mavproxy_cmac-foamy-fence.txt",
+    ]
     paths = [real(f) for f in files]
     rally_paths = [real("pymavlink_rally-110.txt"), real("mavproxy_cmac-foamy-rally.txt")]
     code = (
@@ -206,8 +214,9 @@ def test_agrees_with_pymavlink_loaders():
         "print(json.dumps(out))\n"
     )
     env = dict(os.environ, MAVLINK20="1")
-    res = subprocess.run([sys.executable, "-c", code, *map(str, paths + rally_paths)], env=env,
-                         capture_output=True, text=True, check=True)
+    res = subprocess.run(
+        [sys.executable, "-c", code, *map(str, paths + rally_paths)], env=env, capture_output=True, text=True, check=True
+    )
     theirs = json.loads(res.stdout)
     for p in paths:
         imp = load_fence_file(p)
@@ -219,8 +228,13 @@ def test_agrees_with_pymavlink_loaders():
         assert np.allclose(inc, imp.fence.keep_in, atol=1.5e-7, rtol=0)
         if ret:
             assert np.allclose(ret[0], imp.return_point[:2], atol=1.5e-7, rtol=0)
-        assert np.allclose(circ, [(c.center_lat_deg, c.center_lon_deg, c.radius_m) for c in imp.keep_out_circles],
-                           atol=1.5e-7, rtol=0) if circ else not imp.keep_out_circles
+        assert (
+            np.allclose(
+                circ, [(c.center_lat_deg, c.center_lon_deg, c.radius_m) for c in imp.keep_out_circles], atol=1.5e-7, rtol=0
+            )
+            if circ
+            else not imp.keep_out_circles
+        )
     for p in rally_paths:
         ours = [(r.lat_deg, r.lon_deg) for r in load_rally_file(p)]
         t = [(x * 1e-7, y * 1e-7) if isinstance(x, int) else (x, y) for x, y in theirs[str(p)]]
@@ -243,14 +257,18 @@ def _wpl(items) -> str:
 
 
 def _plan(polygons=(), circles=(), rally=(), home=None, version=2) -> str:
-    doc = {"fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
-           "geoFence": {"version": version,
-                        "polygons": [{"inclusion": inc, "polygon": [list(v) for v in poly], "version": 1}
-                                     for inc, poly in polygons],
-                        "circles": [{"inclusion": inc, "circle": {"center": list(c), "radius": r}, "version": 1}
-                                    for inc, c, r in circles]},
-           "rallyPoints": {"version": 2, "points": [list(p) for p in rally]},
-           "mission": {"version": 2, "items": [], "plannedHomePosition": list(home) if home else [0, 0, 0]}}
+    doc = {
+        "fileType": "Plan",
+        "version": 1,
+        "groundStation": "QGroundControl",
+        "geoFence": {
+            "version": version,
+            "polygons": [{"inclusion": inc, "polygon": [list(v) for v in poly], "version": 1} for inc, poly in polygons],
+            "circles": [{"inclusion": inc, "circle": {"center": list(c), "radius": r}, "version": 1} for inc, c, r in circles],
+        },
+        "rallyPoints": {"version": 2, "points": [list(p) for p in rally]},
+        "mission": {"version": 2, "items": [], "plannedHomePosition": list(home) if home else [0, 0, 0]},
+    }
     return json.dumps(doc, indent=4)
 
 
@@ -267,9 +285,16 @@ def _write(tmp_path: Path, name: str, text: str | bytes) -> Path:
 
 def test_plan_small(tmp_path):
     inner = [(47.3980, 8.5455), (47.3985, 8.5455), (47.3985, 8.5460)]
-    p = _write(tmp_path, "a.plan", _plan(polygons=[(True, SQUARE), (False, inner)],
-                                         circles=[(False, (47.3985, 8.5470), 20.0)],
-                                         rally=[(47.3982, 8.5462, 30.0)], home=(47.3976, 8.5451, 488.0)))
+    p = _write(
+        tmp_path,
+        "a.plan",
+        _plan(
+            polygons=[(True, SQUARE), (False, inner)],
+            circles=[(False, (47.3985, 8.5470), 20.0)],
+            rally=[(47.3982, 8.5462, 30.0)],
+            home=(47.3976, 8.5451, 488.0),
+        ),
+    )
     imp = load_fence_file(p, ceiling_m=80, floor_m=5)
     assert imp.fence.keep_in == tuple(SQUARE) and imp.fence.keep_out_polygons == (tuple(inner),)
     assert imp.fence.floor_m == 5 and imp.fence.ceiling_m == 80
@@ -279,8 +304,7 @@ def test_plan_small(tmp_path):
 
 def test_plan_several_inclusions_warn(tmp_path):
     other = [(47.3976, 8.5451), (47.3979, 8.5451), (47.3979, 8.5454)]
-    p = _write(tmp_path, "b.plan", _plan(polygons=[(True, SQUARE), (True, other)],
-                                         circles=[(True, (47.398, 8.546), 50.0)]))
+    p = _write(tmp_path, "b.plan", _plan(polygons=[(True, SQUARE), (True, other)], circles=[(True, (47.398, 8.546), 50.0)]))
     imp = load_fence_file(p)
     assert imp.fence.keep_in == tuple(SQUARE) and len(imp.keep_in_polygons) == 2
     assert any("1 further inclusion polygon" in w for w in imp.warnings)
@@ -354,10 +378,18 @@ MALFORMED = [
     ("bad.plan", "[1, 2]", "not a QGroundControl plan"),
     ("bad.plan", _plan(), "no fence items"),
     ("bad.plan", _plan(polygons=[(True, SQUARE[:2])]), "at least 3 vertices"),
-    ("bad.plan", _plan(polygons=[(True, SQUARE[:3] + [SQUARE[0]])[:3]]).replace('"inclusion": true', '"inclusion": 1'), "true or false"),
+    (
+        "bad.plan",
+        _plan(polygons=[(True, SQUARE[:3] + [SQUARE[0]])[:3]]).replace('"inclusion": true', '"inclusion": 1'),
+        "true or false",
+    ),
     ("bad.plan", _plan(polygons=[(False, SQUARE)]), "no inclusion"),
     ("bad.plan", _plan(polygons=[(True, SQUARE)], circles=[(False, (47.398, 8.546), -3.0)]), "radius"),
-    ("bad.plan", _plan(polygons=[(True, [(47.3975, 8.5450), (47.3990, 8.5475), (47.3990, 8.5450), (47.3975, 8.5475)])]), "self-intersecting"),
+    (
+        "bad.plan",
+        _plan(polygons=[(True, [(47.3975, 8.5450), (47.3990, 8.5475), (47.3990, 8.5450), (47.3975, 8.5475)])]),
+        "self-intersecting",
+    ),
     ("bad.plan", _plan(polygons=[(True, [(97.0, 8.5), (47.39, 8.5), (47.39, 8.6)])]), "latitude"),
     ("bad.txt", _wpl([(5001, 4, *v) for v in SQUARE[:3]]), "vertex count mismatch"),
     ("bad.txt", _wpl([(5001, 4, *v) for v in SQUARE[:3]] + [(5004, 20, 47.398, 8.546)]), "vertex count mismatch"),
@@ -424,10 +456,15 @@ def _fmt(x: float) -> str:
 
 WRITERS = {
     "plan": lambda verts, rp: _plan(polygons=[(True, verts)]).replace(
-        '"polygons"', f'"breachReturn": [{rp[0]!r}, {rp[1]!r}, 0], "polygons"'),
-    "wpl": lambda verts, rp: "QGC WPL 110\n" + "".join(
-        f"{i}\t0\t0\t{cmd}\t{p1}\t0\t0\t0\t{_fmt(lat)}\t{_fmt(lon)}\t0\t1\n"
-        for i, (cmd, p1, lat, lon) in enumerate([(5000, 0, *rp)] + [(5001, len(verts), *v) for v in verts])),
+        '"polygons"', f'"breachReturn": [{rp[0]!r}, {rp[1]!r}, 0], "polygons"'
+    ),
+    "wpl": lambda verts, rp: (
+        "QGC WPL 110\n"
+        + "".join(
+            f"{i}\t0\t0\t{cmd}\t{p1}\t0\t0\t0\t{_fmt(lat)}\t{_fmt(lon)}\t0\t1\n"
+            for i, (cmd, p1, lat, lon) in enumerate([(5000, 0, *rp)] + [(5001, len(verts), *v) for v in verts])
+        )
+    ),
     "mavproxy": lambda verts, rp: "".join(f"{_fmt(lat)}\t{_fmt(lon)}\n" for lat, lon in [rp, *verts, verts[0]]),
 }
 

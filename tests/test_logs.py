@@ -15,8 +15,21 @@ from geofence.fence import Fence
 from geofence.geodesy import LocalFrame
 
 REALWORLD = Path(__file__).parents[2] / "shared" / "realworld"
-COLUMNS = ("time_s", "lat_deg", "lon_deg", "alt_m", "agl_m", "east_m", "north_m", "up_m",
-           "v_east_mps", "v_north_mps", "v_up_mps", "ground_speed_mps", "mode")
+COLUMNS = (
+    "time_s",
+    "lat_deg",
+    "lon_deg",
+    "alt_m",
+    "agl_m",
+    "east_m",
+    "north_m",
+    "up_m",
+    "v_east_mps",
+    "v_north_mps",
+    "v_up_mps",
+    "ground_speed_mps",
+    "mode",
+)
 
 
 def real(name: str) -> Path:
@@ -158,14 +171,21 @@ def _tlog(path: Path, msgs) -> Path:
 
 def test_gps_raw_int_fallback(tmp_path):
     t0 = 1.7e9
+
     def hb(m):  # QUADROTOR, ARDUPILOTMEGA, custom mode 3
         return m.MAVLink_heartbeat_message(2, 3, 1, 3, 4, 3)
 
     msgs = [(t0, hb), (t0 + 0.1, lambda m: m.MAVLink_gps_raw_int_message(0, 1, 0, 0, 0, 65535, 65535, 65535, 65535, 0))]
     for k in range(20):  # 3D fix, moving north-east at 5 m/s, climbing 1 m/s
         lat = int(round((47.0 + 5.0 * k / 111_200 / math.sqrt(2)) * 1e7))
-        msgs.append((t0 + 1 + k, lambda m, lat=lat, k=k: m.MAVLink_gps_raw_int_message(
-            int(k * 1e6), 3, lat, 85000000, 500_000 + 1000 * k, 100, 100, 500, 4500, 9)))
+        msgs.append(
+            (
+                t0 + 1 + k,
+                lambda m, lat=lat, k=k: m.MAVLink_gps_raw_int_message(
+                    int(k * 1e6), 3, lat, 85000000, 500_000 + 1000 * k, 100, 100, 500, 4500, 9
+                ),
+            )
+        )
     p = _tlog(tmp_path / "synthetic.tlog", msgs)
     traj, info = load_log(p)
     assert info.position_source == "GPS_RAW_INT" and info.vehicle_type == "QUADROTOR"
@@ -186,6 +206,7 @@ def test_log_errors(tmp_path):
     with pytest.raises(LogError) as ei:
         load_log(junk)
     assert str(junk) in str(ei.value) and "\n" not in str(ei.value)
+
     def hb(m):
         return m.MAVLink_heartbeat_message(1, 3, 0, 0, 4, 3)
 
@@ -216,8 +237,25 @@ VTOL, FOAMY = "uavlogviewer_vtol.tlog", "mavproxy_cmac-foamy-fence.txt"
 
 
 def score_cli(log, fence, *extra):
-    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "score-log", str(log), "--fence", str(fence),
-                          "--ceiling", "100", "--json", *extra], capture_output=True, text=True, cwd=REPO, timeout=300)
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "scenarios.app.cli",
+            "score-log",
+            str(log),
+            "--fence",
+            str(fence),
+            "--ceiling",
+            "100",
+            "--json",
+            *extra,
+        ],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=300,
+    )
     return res
 
 
@@ -270,7 +308,7 @@ def test_corrupted_timestamp_no_longer_hides_the_excursion(tmp_path):
     bad = tmp_path / "ts.tlog"
     bad.write_bytes(data)
     # the log's time now holds absurd future timestamps (years past 2090) ...
-    assert max(struct.unpack(">Q", bytes(data[o:o + 8]))[0] * 1e-6 for o in gpi) > 4e9
+    assert max(struct.unpack(">Q", bytes(data[o : o + 8]))[0] * 1e-6 for o in gpi) > 4e9
     traj, info = load_log(bad)  # ... that is dropped as a time fault, and said so
     assert info.n_position_time_faults == 3 and info.n_positions == 804
     assert info.duration_s == pytest.approx(207.6, abs=0.1)
@@ -324,7 +362,7 @@ def test_crc_failures_are_counted(tmp_path):
 def test_truncated_log_warns(tmp_path):
     data = real(VTOL).read_bytes()
     cut = tmp_path / "cut.tlog"
-    cut.write_bytes(data[:len(data) // 2 + 17])  # mid-message
+    cut.write_bytes(data[: len(data) // 2 + 17])  # mid-message
     traj, info = load_log(cut)
     assert info.truncated_bytes > 0 and any("truncated" in w for w in info.warnings)
     res = score_cli(cut, real(FOAMY))
@@ -341,8 +379,14 @@ def _walk(t0, n=30, jumps=(), dt=1.0, times=None):
         lat = int(round((47.0 + 5.0 * k * dt / 111_195) * 1e7))
         lon = 85000000 + (int(5000 / 75_800 * 1e7) if k in jumps else 0)
         t = times[k] if times is not None else t0 + 1 + k * dt
-        msgs.append((t, lambda m, lat=lat, lon=lon, k=k: m.MAVLink_gps_raw_int_message(
-            int(k * dt * 1e6), 3, lat, lon, 500_000, 100, 100, 500, 0, 9)))
+        msgs.append(
+            (
+                t,
+                lambda m, lat=lat, lon=lon, k=k: m.MAVLink_gps_raw_int_message(
+                    int(k * dt * 1e6), 3, lat, lon, 500_000, 100, 100, 500, 0, 9
+                ),
+            )
+        )
     return msgs
 
 
@@ -436,15 +480,29 @@ def test_fence_far_from_the_log_is_flagged(tmp_path):
 def test_text_output_prints_each_warning_once(tmp_path):
     data = real(VTOL).read_bytes()
     cut = tmp_path / "cut.tlog"
-    cut.write_bytes(data[:len(data) - 5])
-    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "score-log", str(cut), "--fence",
-                          str(real("qgc_ce_geofence_home_base.plan")), "--max-fence-distance-km", "20000"],
-                         capture_output=True, text=True, cwd=REPO, timeout=300)
+    cut.write_bytes(data[: len(data) - 5])
+    res = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "scenarios.app.cli",
+            "score-log",
+            str(cut),
+            "--fence",
+            str(real("qgc_ce_geofence_home_base.plan")),
+            "--max-fence-distance-km",
+            "20000",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=REPO,
+        timeout=300,
+    )
     assert res.returncode == 0, res.stderr
     assert "warning:" not in res.stdout  # warnings go to stderr only ...
     lines = res.stderr.strip().splitlines()
     assert lines and all(x.startswith("warning: ") for x in lines) and len(lines) == len(set(lines))  # ... once each
-    json.loads(res.stdout[res.stdout.index("{"):])
+    json.loads(res.stdout[res.stdout.index("{") :])
 
 
 def test_corrupted_dataflash_bin_counts_skipped_chunks_quietly(tmp_path, capfd):

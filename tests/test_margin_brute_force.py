@@ -28,13 +28,35 @@ from geofence.interface import Envelope, PlatformKind
 
 FRAME = LocalFrame(10.0, 20.0, 0.0)
 HALF = 5000.0
-FENCE = parse_geofence({"fence": {
-    "keep_in": [list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in ((-HALF, -HALF), (HALF, -HALF), (HALF, HALF), (-HALF, HALF))],
-    "ceiling_m": 500.0}}).fence.to_local(FRAME)
-FW = Envelope(PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0,
-              0.6, 5.0, 1.1)
-MC = Envelope(PlatformKind.MULTIROTOR, 5.3, 10.3, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0,
-              6.0, 4.2, 0.15, drag_linear_per_s=0.435, drag_quadratic_per_m=0.011)
+FENCE = parse_geofence(
+    {
+        "fence": {
+            "keep_in": [
+                list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in ((-HALF, -HALF), (HALF, -HALF), (HALF, HALF), (-HALF, HALF))
+            ],
+            "ceiling_m": 500.0,
+        }
+    }
+).fence.to_local(FRAME)
+FW = Envelope(
+    PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0, 0.6, 5.0, 1.1
+)
+MC = Envelope(
+    PlatformKind.MULTIROTOR,
+    5.3,
+    10.3,
+    0.0,
+    math.radians(30),
+    math.radians(30),
+    math.radians(90),
+    3.0,
+    2.0,
+    6.0,
+    4.2,
+    0.15,
+    drag_linear_per_s=0.435,
+    drag_quadratic_per_m=0.011,
+)
 
 
 def simulate_fixed_wing(e, n, v_air, psi, we, wn, t_react, turn_sign, turn_angle, dt=0.002):
@@ -57,8 +79,9 @@ def simulate_fixed_wing(e, n, v_air, psi, we, wn, t_react, turn_sign, turn_angle
 @settings(max_examples=150, deadline=None)
 @given(
     v_air=st.floats(12.0, 24.0),
-    heading=st.floats(-1.3, 1.3),            # air heading relative to the east edge's normal (rad)
-    wind=st.floats(0.0, 9.0), wind_dir=st.floats(-math.pi, math.pi),
+    heading=st.floats(-1.3, 1.3),  # air heading relative to the east edge's normal (rad)
+    wind=st.floats(0.0, 9.0),
+    wind_dir=st.floats(-math.pi, math.pi),
     dist=st.floats(150.0, 600.0),
 )
 def test_fixed_wing_room_matches_the_integrated_turn(v_air, heading, wind, wind_dir, dist):

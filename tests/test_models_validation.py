@@ -178,13 +178,19 @@ def test_tern_servos_motor_and_glide_in_their_bands():
     """Servo rate limit (hobby servo), current-limited motor torque and a foam trainer's glide: all in band."""
     m = measure_platform("Tern")
     rows = {r.quantity: r for r in rows_for(m)}
-    for q in ("aileron rate, full roll reversals (max)", "propeller torque, full throttle from idle (max)",
-              "best glide ratio, power off", "cruise airspeed", "turn radius at max bank"):
+    for q in (
+        "aileron rate, full roll reversals (max)",
+        "propeller torque, full throttle from idle (max)",
+        "best glide ratio, power off",
+        "cruise airspeed",
+        "turn radius at max bank",
+    ):
         assert rows[q].in_band, (q, rows[q].value, rows[q].reference)
     assert check_profile(m) == []
 
 
 def test_bench_script_help():
-    out = subprocess.run([sys.executable, str(ROOT / "bench" / "validate_models.py"), "--help"],
-                         capture_output=True, text=True, timeout=60)
+    out = subprocess.run(
+        [sys.executable, str(ROOT / "bench" / "validate_models.py"), "--help"], capture_output=True, text=True, timeout=60
+    )
     assert out.returncode == 0 and "--check-profiles" in out.stdout and "--models" in out.stdout

@@ -256,8 +256,9 @@ def test_self_intersections_sweep_equals_all_pairs(points):
 
 
 @settings(max_examples=100, deadline=None)
-@given(st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50)), min_size=65, max_size=120),
-       st.floats(-60, 60), st.floats(-60, 60))
+@given(
+    st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50)), min_size=65, max_size=120), st.floats(-60, 60), st.floats(-60, 60)
+)
 def test_point_location_vectorised_equals_scalar(points, x, y):
     """Polygons above 64 vertices take the vectorised branch: the same answer as the per-edge loop."""
     import geofence.polygon as P
@@ -270,5 +271,5 @@ def test_point_location_vectorised_equals_scalar(points, x, y):
         best = min(best, P.segment_dist2(x, y, ax, ay, bx, by))
         if (ay > y) != (by > y) and x < ax + (y - ay) * (bx - ax) / (by - ay):
             inside = not inside
-    expected = 0 if best <= P.BOUNDARY_TOL_M ** 2 else (1 if inside else -1)
+    expected = 0 if best <= P.BOUNDARY_TOL_M**2 else (1 if inside else -1)
     assert point_location(x, y, points) == expected

@@ -8,10 +8,25 @@ from geofence.interface import Envelope, PlatformKind
 from geofence.preflight import PlannedWaypoint, RoutePart, check_route
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
-MC = Envelope(PlatformKind.MULTIROTOR, 5.3, 10.3, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0,
-              6.0, 4.2, 0.15, drag_linear_per_s=0.435, drag_quadratic_per_m=0.011)
-FW = Envelope(PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0,
-              0.6, 5.0, 1.1)
+MC = Envelope(
+    PlatformKind.MULTIROTOR,
+    5.3,
+    10.3,
+    0.0,
+    math.radians(30),
+    math.radians(30),
+    math.radians(90),
+    3.0,
+    2.0,
+    6.0,
+    4.2,
+    0.15,
+    drag_linear_per_s=0.435,
+    drag_quadratic_per_m=0.011,
+)
+FW = Envelope(
+    PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0, 0.6, 5.0, 1.1
+)
 
 
 def fence(half=300.0, ceiling=60.0, **extra):
@@ -21,8 +36,13 @@ def fence(half=300.0, ceiling=60.0, **extra):
 
 
 def square(half, h):
-    return [PlannedWaypoint(-half, -half, h, "A"), PlannedWaypoint(half, -half, h, "B"), PlannedWaypoint(half, half, h, "C"),
-            PlannedWaypoint(-half, half, h, "D"), PlannedWaypoint(-half, -half, h, "E")]
+    return [
+        PlannedWaypoint(-half, -half, h, "A"),
+        PlannedWaypoint(half, -half, h, "B"),
+        PlannedWaypoint(half, half, h, "C"),
+        PlannedWaypoint(-half, half, h, "D"),
+        PlannedWaypoint(-half, -half, h, "E"),
+    ]
 
 
 def test_a_comfortable_multirotor_survey_passes():

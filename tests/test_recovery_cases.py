@@ -44,8 +44,22 @@ def box(half_e, half_n=None, ce=0.0, cn=0.0):
     return [(ce - half_e, cn - half_n), (ce + half_e, cn - half_n), (ce + half_e, cn + half_n), (ce - half_e, cn + half_n)]
 
 
-def scenario(aircraft, start_en, agl, heading_deg, segments, fence, *, wind=None, duration_s=90.0, site=SITE, frame=FRAME,
-             sensors=None, mission=None, seed=3):
+def scenario(
+    aircraft,
+    start_en,
+    agl,
+    heading_deg,
+    segments,
+    fence,
+    *,
+    wind=None,
+    duration_s=90.0,
+    site=SITE,
+    frame=FRAME,
+    sensors=None,
+    mission=None,
+    seed=3,
+):
     lat, lon, _ = frame.to_geodetic(start_en[0], start_en[1], 0.0)
     doc = {
         "aircraft": aircraft,
@@ -73,7 +87,9 @@ def assert_held(res, what):
     assert s["error"] is None, s["error"]
     assert s["max_lateral_excursion_m"] <= 0.0, f"{what}: left the keep-in by {s['max_lateral_excursion_m']:.1f} m"
     assert not s["breached_keep_out"], f"{what}: entered a keep-out"
-    assert s["max_excursion_m"] <= 0.0, f"{what}: breached by {s['max_excursion_m']:.1f} m (vertical {s['max_vertical_excursion_m']:.1f} m)"
+    assert s["max_excursion_m"] <= 0.0, (
+        f"{what}: breached by {s['max_excursion_m']:.1f} m (vertical {s['max_vertical_excursion_m']:.1f} m)"
+    )
     assert not s["landed_outside_gap"], f"{what}: landed outside a gap"
 
 
@@ -82,18 +98,35 @@ def test_fixed_wing_in_a_u_fence_returns_around_the_notch():
     u = [(-600, -450), (600, -450), (600, 450), (200, 450), (200, -150), (-200, -150), (-200, 450), (-600, 450)]
     rp = list(FRAME.to_geodetic(400.0, 250.0, 0.0)[:2])
     fence = {"keep_in": ll(u), "ceiling_m": 150, "recovery_point": rp}
-    doc = scenario("Tern", (-400.0, -100.0), 60.0, 0.0, [{"duration_s": 120, "course_deg": 0, "speed": "max", "climb": "hold"}],
-                   fence, duration_s=120.0)
+    doc = scenario(
+        "Tern",
+        (-400.0, -100.0),
+        60.0,
+        0.0,
+        [{"duration_s": 120, "course_deg": 0, "speed": "max", "climb": "hold"}],
+        fence,
+        duration_s=120.0,
+    )
     res = fly_doc(doc, "u_fence")
     assert res.summary["activations"] >= 1
     assert_held(res, "U fence")
 
 
 def test_multirotor_returns_around_a_keep_out_in_the_way():
-    fence = {"keep_in": ll(box(150.0)), "ceiling_m": 60,
-             "keep_out_circles": [{"center": list(FRAME.to_geodetic(60.0, 0.0, 0.0)[:2]), "radius_m": 35.0}]}
-    doc = scenario("F450", (110.0, 0.0), 20.0, 90.0, [{"duration_s": 60, "course_deg": 90, "speed": "max", "climb": "hold"}],
-                   fence, duration_s=60.0)
+    fence = {
+        "keep_in": ll(box(150.0)),
+        "ceiling_m": 60,
+        "keep_out_circles": [{"center": list(FRAME.to_geodetic(60.0, 0.0, 0.0)[:2]), "radius_m": 35.0}],
+    }
+    doc = scenario(
+        "F450",
+        (110.0, 0.0),
+        20.0,
+        90.0,
+        [{"duration_s": 60, "course_deg": 90, "speed": "max", "climb": "hold"}],
+        fence,
+        duration_s=60.0,
+    )
     res = fly_doc(doc, "keep_out_in_the_way")
     assert res.summary["activations"] >= 1
     assert_held(res, "keep-out in the way")
@@ -101,8 +134,13 @@ def test_multirotor_returns_around_a_keep_out_in_the_way():
 
 def test_legal_descent_in_a_large_gap_is_stopped_at_the_gap_edge():
     fence = {"keep_in": ll(box(300.0)), "ceiling_m": 100, "floor_m": 30, "floor_gaps": [ll(box(100.0))]}
-    segs = [{"duration_s": 20, "sticks": {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": -1.0}},  # descend legally inside the gap to ~10 m
-            {"duration_s": 40, "course_deg": 90, "speed": "max", "climb": "hold"}]  # then dash at the gap's east edge
+    segs = [
+        {
+            "duration_s": 20,
+            "sticks": {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": -1.0},
+        },  # descend legally inside the gap to ~10 m
+        {"duration_s": 40, "course_deg": 90, "speed": "max", "climb": "hold"},
+    ]  # then dash at the gap's east edge
     doc = scenario("F450", (0.0, 0.0), 45.0, 90.0, segs, fence, duration_s=60.0)
     res = fly_doc(doc, "descent_in_gap")
     agl = res.recorder.column("agl_m")
@@ -113,8 +151,10 @@ def test_legal_descent_in_a_large_gap_is_stopped_at_the_gap_edge():
 
 def test_take_off_from_a_small_gap_climbs_inside_it():
     fence = {"keep_in": ll(box(200.0)), "ceiling_m": 80, "floor_m": 20, "floor_gaps": [ll(box(6.0))]}
-    segs = [{"duration_s": 15, "sticks": {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": 1.0}},
-            {"duration_s": 25, "course_deg": 45, "speed": "cruise", "climb": "hold"}]
+    segs = [
+        {"duration_s": 15, "sticks": {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": 1.0}},
+        {"duration_s": 25, "course_deg": 45, "speed": "cruise", "climb": "hold"},
+    ]
     doc = scenario("F450", (0.0, 0.0), 0.0, 0.0, segs, fence, duration_s=40.0)
     res = fly_doc(doc, "takeoff_small_gap")
     assert_held(res, "take-off from a small gap")
@@ -128,8 +168,15 @@ def test_take_off_from_a_small_gap_climbs_inside_it():
 def test_fixed_wing_activated_at_the_recovery_point_stays_inside(course_deg):
     # a fence barely larger than the Tern needs: the activation happens near the recovery point
     fence = {"keep_in": ll(box(330.0, 260.0)), "ceiling_m": 150}
-    doc = scenario("Tern", (0.0, 0.0), 60.0, course_deg,
-                   [{"duration_s": 90, "course_deg": course_deg, "speed": "max", "climb": "hold"}], fence, duration_s=90.0)
+    doc = scenario(
+        "Tern",
+        (0.0, 0.0),
+        60.0,
+        course_deg,
+        [{"duration_s": 90, "course_deg": course_deg, "speed": "max", "climb": "hold"}],
+        fence,
+        duration_s=90.0,
+    )
     res = fly_doc(doc, f"fw_at_rp_{course_deg:.0f}")
     assert_held(res, f"fixed-wing at the recovery point, course {course_deg}")
 
@@ -138,8 +185,17 @@ def test_high_site_fixed_wing_holds_and_never_touches_the_ground():
     site = {"lat_deg": -16.5, "lon_deg": -68.15, "ground_alt_m": 2780.0}
     frame = LocalFrame(site["lat_deg"], site["lon_deg"], site["ground_alt_m"])
     fence = {"keep_in": ll(box(330.0, 260.0), frame), "ceiling_m": 200}
-    doc = scenario("Tern", (0.0, -150.0), 80.0, 0.0, [{"duration_s": 90, "course_deg": 0, "speed": "max", "climb": "hold"}],
-                   fence, duration_s=90.0, site=site, frame=frame)
+    doc = scenario(
+        "Tern",
+        (0.0, -150.0),
+        80.0,
+        0.0,
+        [{"duration_s": 90, "course_deg": 0, "speed": "max", "climb": "hold"}],
+        fence,
+        duration_s=90.0,
+        site=site,
+        frame=frame,
+    )
     res = fly_doc(doc, "high_site")
     assert_held(res, "high site")
     assert res.recorder.column("agl_m").min() > 20.0
@@ -164,8 +220,16 @@ def test_multirotor_lands_in_a_gap_nearly_stopped_in_wind():
     # off the east edge, finds return impossible and lands in the downwind gap, nearly stopped over the ground
     fence = {"keep_in": ll(box(250.0)), "ceiling_m": 80, "floor_m": 20, "floor_gaps": [ll(box(40.0, 40.0, 190.0, 0.0))]}
     hover = {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": 0.0}
-    doc = scenario("F450RD", (-100.0, 0.0), 40.0, 0.0, [{"duration_s": 260, "sticks": hover}], fence,
-                   wind={"speed_mps": 9.5, "from_deg": 270.0}, duration_s=260.0)
+    doc = scenario(
+        "F450RD",
+        (-100.0, 0.0),
+        40.0,
+        0.0,
+        [{"duration_s": 260, "sticks": hover}],
+        fence,
+        wind={"speed_mps": 9.5, "from_deg": 270.0},
+        duration_s=260.0,
+    )
     doc["geofence"]["wind_prior"] = {"speed_mps": 9.5, "from_deg": 270.0}
     res = fly_doc(doc, "landing_in_wind")
     s = res.summary
@@ -174,7 +238,7 @@ def test_multirotor_lands_in_a_gap_nearly_stopped_in_wind():
     assert not s["landed_outside_gap"]
     gs, agl = res.recorder.column("ground_speed_mps"), res.recorder.column("agl_m")
     k = int(np.argmax(agl < 0.3))
-    assert k > 0 and gs[max(k - 8, 0):k + 1].max() < 1.0, f"touched down at {gs[k]:.1f} m/s"
+    assert k > 0 and gs[max(k - 8, 0) : k + 1].max() < 1.0, f"touched down at {gs[k]:.1f} m/s"
 
 
 def test_fixed_wing_losing_gps_near_the_boundary_turns_the_safe_way():
@@ -186,8 +250,16 @@ def test_fixed_wing_losing_gps_near_the_boundary_turns_the_safe_way():
 def test_multirotor_losing_gps_deep_inside_descends_at_its_full_rate():
     fence = {"keep_in": ll(box(300.0)), "ceiling_m": 120}
     hover = {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": 0.0}
-    doc = scenario("F450RD", (0.0, 0.0), 60.0, 0.0, [{"duration_s": 90, "sticks": hover}], fence,
-                   sensors={"gps_fail_at_s": 5.0}, duration_s=90.0)
+    doc = scenario(
+        "F450RD",
+        (0.0, 0.0),
+        60.0,
+        0.0,
+        [{"duration_s": 90, "sticks": hover}],
+        fence,
+        sensors={"gps_fail_at_s": 5.0},
+        duration_s=90.0,
+    )
     res = fly_doc(doc, "gps_loss_deep_inside")
     assert res.summary["ended_by_geofence"], res.summary["mode_transitions"]
     t, agl = res.recorder.column("time_s"), res.recorder.column("agl_m")

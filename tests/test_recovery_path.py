@@ -26,9 +26,12 @@ def _ll(p):
 
 def make_fence(keep_in, keep_out_polygons=(), keep_out_circles=()):
     """A LocalFence whose ENU vertices are the given metres (frame at lat/lon 0, 0)."""
-    f = Fence(keep_in=tuple(_ll(p) for p in keep_in), ceiling_m=100.0,
-              keep_out_polygons=tuple(tuple(_ll(p) for p in k) for k in keep_out_polygons),
-              keep_out_circles=tuple(KeepOutCircle(*_ll((x, y)), r) for x, y, r in keep_out_circles))
+    f = Fence(
+        keep_in=tuple(_ll(p) for p in keep_in),
+        ceiling_m=100.0,
+        keep_out_polygons=tuple(tuple(_ll(p) for p in k) for k in keep_out_polygons),
+        keep_out_circles=tuple(KeepOutCircle(*_ll((x, y)), r) for x, y, r in keep_out_circles),
+    )
     return f.to_local(FRAME)
 
 
@@ -162,8 +165,20 @@ def test_goal_behind_keep_out_circle():
 
 def test_corridor_between_two_areas():
     # two 200 m squares joined by a 60 m wide, 200 m long corridor
-    dumbbell = [(0, 0), (200, 0), (200, 70), (400, 70), (400, 0), (600, 0), (600, 200), (400, 200),
-                (400, 130), (200, 130), (200, 200), (0, 200)]
+    dumbbell = [
+        (0, 0),
+        (200, 0),
+        (200, 70),
+        (400, 70),
+        (400, 0),
+        (600, 0),
+        (600, 200),
+        (400, 200),
+        (400, 130),
+        (200, 130),
+        (200, 200),
+        (0, 200),
+    ]
     lf = make_fence(dumbbell)
     s, g = (50.0, 180.0), (550.0, 20.0)
     pl = RecoveryPlanner(lf, 20.0)  # 60 m > 2 x 20 m: passable
@@ -262,8 +277,10 @@ def star_keep_in(draw):
     n = draw(st.integers(5, 24))
     jit = draw(st.lists(st.floats(-0.45, 0.45), min_size=n, max_size=n))
     radii = draw(st.lists(st.floats(120.0, 800.0), min_size=n, max_size=n))
-    return [(r * math.cos(2 * math.pi * (k + j) / n), r * math.sin(2 * math.pi * (k + j) / n))
-            for k, (j, r) in enumerate(zip(jit, radii))]
+    return [
+        (r * math.cos(2 * math.pi * (k + j) / n), r * math.sin(2 * math.pi * (k + j) / n))
+        for k, (j, r) in enumerate(zip(jit, radii))
+    ]
 
 
 @st.composite
@@ -292,8 +309,7 @@ def fences(draw):
         cx, cy = draw(st.floats(x0, x1)), draw(st.floats(y0, y1))
         m = draw(st.integers(3, 7))
         rad = draw(st.lists(st.floats(8.0, 60.0), min_size=m, max_size=m))
-        kops.append([(cx + r * math.cos(2 * math.pi * i / m), cy + r * math.sin(2 * math.pi * i / m))
-                     for i, r in enumerate(rad)])
+        kops.append([(cx + r * math.cos(2 * math.pi * i / m), cy + r * math.sin(2 * math.pi * i / m)) for i, r in enumerate(rad)])
     for _ in range(draw(st.integers(0, 3))):
         kocs.append((draw(st.floats(x0, x1)), draw(st.floats(y0, y1)), draw(st.floats(5.0, 60.0))))
     try:

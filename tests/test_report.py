@@ -29,17 +29,37 @@ NAN = float("nan")
 
 def summary(flight: str, aircraft: str, kind: str, wind: float, excursion: float, **kw) -> dict:
     s = {
-        "scenario": flight.split("__")[0], "aircraft": aircraft, "platform_kind": kind, "pilot": "scripted",
-        "seed": 7, "wind_speed_mps": wind, "wind_from_deg": 270.0, "geofence": True, "completed": True,
-        "sim_time_s": 45.0, "wall_time_s": 0.4, "error": None,
-        "max_excursion_m": excursion, "max_lateral_excursion_m": excursion, "max_vertical_excursion_m": -3.5,
-        "min_margin_m": -excursion, "time_outside_s": max(0.0, excursion) * 0.5, "activations": 4,
-        "breached_keep_out": False, "landed_outside_gap": False, "time_to_peak_excursion_s": 2.25,
-        "time_to_handback_s": 3.5, "ground_speed_at_activation_mps": 12.0, "approach_angle_at_activation_deg": 10.0,
+        "scenario": flight.split("__")[0],
+        "aircraft": aircraft,
+        "platform_kind": kind,
+        "pilot": "scripted",
+        "seed": 7,
+        "wind_speed_mps": wind,
+        "wind_from_deg": 270.0,
+        "geofence": True,
+        "completed": True,
+        "sim_time_s": 45.0,
+        "wall_time_s": 0.4,
+        "error": None,
+        "max_excursion_m": excursion,
+        "max_lateral_excursion_m": excursion,
+        "max_vertical_excursion_m": -3.5,
+        "min_margin_m": -excursion,
+        "time_outside_s": max(0.0, excursion) * 0.5,
+        "activations": 4,
+        "breached_keep_out": False,
+        "landed_outside_gap": False,
+        "time_to_peak_excursion_s": 2.25,
+        "time_to_handback_s": 3.5,
+        "ground_speed_at_activation_mps": 12.0,
+        "approach_angle_at_activation_deg": 10.0,
         "final_mode": "MONITOR",
-        "mode_transitions": [{"t_s": 1.0, "from": "MONITOR", "to": "OVERRIDE", "reason": "lateral: x | y"},
-                             {"t_s": 4.5, "from": "OVERRIDE", "to": "RECOVERED", "reason": "recovered"}],
-        "flight": flight, "source": "scenarios/ci/x.yaml",
+        "mode_transitions": [
+            {"t_s": 1.0, "from": "MONITOR", "to": "OVERRIDE", "reason": "lateral: x | y"},
+            {"t_s": 4.5, "from": "OVERRIDE", "to": "RECOVERED", "reason": "recovered"},
+        ],
+        "flight": flight,
+        "source": "scenarios/ci/x.yaml",
     }
     s.update(kw)
     return s
@@ -52,8 +72,12 @@ def make_batch(out: Path) -> list[dict]:
         summary("mc__w8", "F450", "multirotor", 8.0, 3.5, landed_outside_gap=True, activations=6),
         summary("fw__w0", "Tern", "fixed_wing", 0.0, -4.0, time_to_handback_s=NAN, time_to_peak_excursion_s=NAN),
         summary("fw__w8", "Tern", "fixed_wing", 8.0, 0.5),
-        {"flight": "bad__cfg", "scenario": "bad__cfg", "completed": False,
-         "error": "bad configuration: x.yaml: wind.speed_mps: must be >= 0, got -3"},
+        {
+            "flight": "bad__cfg",
+            "scenario": "bad__cfg",
+            "completed": False,
+            "error": "bad configuration: x.yaml: wind.speed_mps: must be >= 0, got -3",
+        },
     ]
     for s in flights:
         folder = out / s["flight"]
@@ -61,8 +85,9 @@ def make_batch(out: Path) -> list[dict]:
         (folder / "summary.json").write_text(json.dumps(s, indent=2))  # NaN is written as NaN, as the runner does
     # a failed flight with only the minimal keys, and no 'flight' key (the folder name stands in)
     (out / "crashed").mkdir()
-    (out / "crashed" / "summary.json").write_text(json.dumps({"scenario": "crashed", "completed": False,
-                                                               "error": "FloatingPointError: overflow"}))
+    (out / "crashed" / "summary.json").write_text(
+        json.dumps({"scenario": "crashed", "completed": False, "error": "FloatingPointError: overflow"})
+    )
     # folders that are not finished flights are ignored
     (out / "in_progress").mkdir()
     (out / "in_progress" / "trajectory.csv").write_text("time_s\n")
@@ -135,8 +160,18 @@ def test_comparison_stats_numbers(tmp_path):
 
 
 def test_many_wind_speeds_are_binned():
-    rows = [{"aircraft": "F450", "platform_kind": "multirotor", "completed": True, "wind_speed_mps": w,
-             "max_excursion_m": w - 5.0, "activations": 1, "time_to_handback_s": 2.0} for w in (0, 1, 2.5, 4, 6, 9, 12)]
+    rows = [
+        {
+            "aircraft": "F450",
+            "platform_kind": "multirotor",
+            "completed": True,
+            "wind_speed_mps": w,
+            "max_excursion_m": w - 5.0,
+            "activations": 1,
+            "time_to_handback_s": 2.0,
+        }
+        for w in (0, 1, 2.5, 4, 6, 9, 12)
+    ]
     labels, level = wind_levels(rows)
     assert [lab.split()[0] for lab in labels] == ["calm", "moderate", "strong"]
     assert level(rows[0]).startswith("calm") and level(rows[-1]).startswith("strong")

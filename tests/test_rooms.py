@@ -61,11 +61,33 @@ def envelopes():
     """Random envelopes of both kinds (drag law identified or not; vertical acceleration up to above g)."""
     return st.builds(
         lambda kind, cruise, vmax_f, bank, climb, desc, brake, az, t_r, k1, k2: Envelope(
-            kind, cruise, cruise * vmax_f, 0.6 * cruise if kind is PlatformKind.FIXED_WING else 0.0, bank, 0.4, 1.0,
-            climb, desc, brake, az, t_r, drag_linear_per_s=k1, drag_quadratic_per_m=k2),
-        st.sampled_from(list(PlatformKind)), st.floats(3.0, 60.0), st.floats(1.0, 2.0), banks, st.floats(0.5, 8.0),
-        st.floats(0.5, 8.0), st.floats(1.0, 10.0), st.floats(0.5, 15.0), st.floats(0.0, 1.5),
-        st.sampled_from([0.0, 0.3, 0.6]), st.sampled_from([0.0, 0.01, 0.05]))
+            kind,
+            cruise,
+            cruise * vmax_f,
+            0.6 * cruise if kind is PlatformKind.FIXED_WING else 0.0,
+            bank,
+            0.4,
+            1.0,
+            climb,
+            desc,
+            brake,
+            az,
+            t_r,
+            drag_linear_per_s=k1,
+            drag_quadratic_per_m=k2,
+        ),
+        st.sampled_from(list(PlatformKind)),
+        st.floats(3.0, 60.0),
+        st.floats(1.0, 2.0),
+        banks,
+        st.floats(0.5, 8.0),
+        st.floats(0.5, 8.0),
+        st.floats(1.0, 10.0),
+        st.floats(0.5, 15.0),
+        st.floats(0.0, 1.5),
+        st.sampled_from([0.0, 0.3, 0.6]),
+        st.sampled_from([0.0, 0.01, 0.05]),
+    )
 
 
 # ------------------------------------------------------------------ one gravity
@@ -122,8 +144,18 @@ def test_reaction_arc_matches_its_integral(v, bank, psi0, bank_frac, t, normal_a
 
 
 @settings(max_examples=300, deadline=None)
-@given(speeds, banks, angles, st.floats(-1.0, 1.0), st.floats(0.0, 3.0), angles, st.floats(0.0, 15.0),
-       st.sampled_from([1.0, -1.0]), st.floats(0.0, TWO_PI), st.floats(0.3, 1.0))
+@given(
+    speeds,
+    banks,
+    angles,
+    st.floats(-1.0, 1.0),
+    st.floats(0.0, 3.0),
+    angles,
+    st.floats(0.0, 15.0),
+    st.sampled_from([1.0, -1.0]),
+    st.floats(0.0, TWO_PI),
+    st.floats(0.3, 1.0),
+)
 def test_fixed_wing_bound_bounds_every_turn(v, bank, psi0, bank_frac, t, normal_angle, wind, s, delta, v_frac):
     """``2R + |W|·2pi/omega + (v + |W|)·t`` >= reaction travel + excursion for any turn of up to 2 pi."""
     v_turn = v_frac * v
@@ -147,8 +179,15 @@ def test_multirotor_room_without_pilot_is_the_stopping_distance(v_n, speed, t_r,
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.floats(0.0, 30.0), st.floats(0.0, 1.0), st.floats(0.0, 2.0), st.floats(0.0, 8.0), st.floats(0.5, 10.0),
-       st.floats(0.0, 6.0), st.floats(0.5, 9.0))
+@given(
+    st.floats(0.0, 30.0),
+    st.floats(0.0, 1.0),
+    st.floats(0.0, 2.0),
+    st.floats(0.0, 8.0),
+    st.floats(0.5, 10.0),
+    st.floats(0.0, 6.0),
+    st.floats(0.5, 9.0),
+)
 def test_braking_with_a_climb_arrest_matches_its_integral(v, frac, t_r, a_p, a_brake, v_up, a_z):
     """:func:`multirotor_room_m` = the integrated manoeuvre: accelerate ``t_r``, brake at ``a·(1 - a_z/g)`` while
     the climb is arrested, then at ``a`` (head-on, ``v_n = v``)."""
@@ -174,8 +213,7 @@ def test_braking_room_edge_cases():
 
 # ------------------------------------------------------------------ the skip shortcut's bound
 @settings(max_examples=500, deadline=None)
-@given(envelopes(), st.floats(0.0, 80.0), st.floats(0.0, 80.0), st.floats(-10.0, 10.0), st.floats(0.0, 25.0),
-       st.floats(0.0, 3.0))
+@given(envelopes(), st.floats(0.0, 80.0), st.floats(0.0, 80.0), st.floats(-10.0, 10.0), st.floats(0.0, 25.0), st.floats(0.0, 3.0))
 def test_upper_bound_fast_form_matches_the_reference(env, gs, va, vu, w, t):
     fast = room_upper_bounds_fast_m(env, gs, va, vu, w, t)
     ref = room_upper_bounds_m(env, gs, va, vu, w, t)
@@ -183,8 +221,15 @@ def test_upper_bound_fast_form_matches_the_reference(env, gs, va, vu, w, t):
 
 
 @settings(max_examples=400, deadline=None)
-@given(envelopes(), st.floats(0.0, 1.0), st.floats(-1.0, 1.0), st.floats(-10.0, 10.0), st.floats(0.0, 15.0),
-       st.floats(0.0, 1.0), st.floats(0.0, 2.0))
+@given(
+    envelopes(),
+    st.floats(0.0, 1.0),
+    st.floats(-1.0, 1.0),
+    st.floats(-10.0, 10.0),
+    st.floats(0.0, 15.0),
+    st.floats(0.0, 1.0),
+    st.floats(0.0, 2.0),
+)
 def test_upper_bound_bounds_the_multirotor_room(env, speed_frac, normal_frac, vu, w, wn_frac, t):
     """The multirotor lateral bound >= the per-edge room for any closing speed, push, climb and shorter reaction."""
     if env.kind is not PlatformKind.MULTIROTOR:
@@ -193,8 +238,14 @@ def test_upper_bound_bounds_the_multirotor_room(env, speed_frac, normal_frac, vu
     lateral, vertical = room_upper_bounds_m(env, speed, speed, vu, w, t)
     k1, k2 = dynamics.drag_coefficients(env)
     push = dynamics.wind_push_mps2(k1, k2, w, wn_frac * w)
-    room = multirotor_room_m(normal_frac * speed, speed, 0.5 * t, tilt_accel_mps2(env.max_bank_rad) + push,
-                             env.braking_decel_mps2 - push, climb_arrest_phase(vu, env.vertical_accel_mps2))
+    room = multirotor_room_m(
+        normal_frac * speed,
+        speed,
+        0.5 * t,
+        tilt_accel_mps2(env.max_bank_rad) + push,
+        env.braking_decel_mps2 - push,
+        climb_arrest_phase(vu, env.vertical_accel_mps2),
+    )
     assert room <= lateral * (1 + 1e-12) + 1e-9
     assert vertical_arrest_distance_m(abs(vu), 0.5 * t, env.vertical_accel_mps2) <= vertical * (1 + 1e-12) + 1e-9
 

@@ -59,7 +59,11 @@ def test_base_document_parses():
         (with_(duration_s="long"), "duration_s", "expected a number"),
         (with_(aircraft="Wright_Flyer_3000"), "aircraft", "unknown aircraft 'Wright_Flyer_3000'"),
         (with_(aircraft="Concorde"), "aircraft", "without a shipped profile; add a profile: block"),
-        (with_(aircraft="c172p", profile={"base": "c172x", "envelope": {"max_bank_deg": -5}}), "profile.envelope.max_bank_deg", ">= 0"),
+        (
+            with_(aircraft="c172p", profile={"base": "c172x", "envelope": {"max_bank_deg": -5}}),
+            "profile.envelope.max_bank_deg",
+            ">= 0",
+        ),
         (with_(aircraft="c172p", profile={"kind": "glider"}), "profile.kind", "multirotor or fixed_wing"),
         (with_(colour="red"), "bad.yaml: colour", "colour: unknown key (allowed: "),
         (with_(mission__items=[{"type": "hover"}]), "mission.items[0].type", "not one of"),
@@ -67,7 +71,11 @@ def test_base_document_parses():
         (with_(mission__items=[{"type": "land"}, {"type": "takeoff", "agl_m": 3}]), "mission.items[0]", "last"),
         (with_(mission__acceptance_radius_m=0), "mission.acceptance_radius_m", "> 0"),
         (with_(pilot={"type": "scripted", "segments": [{"duration_s": 3}]}), "pilot.segments[0]", "exactly one of"),
-        (with_(pilot={"type": "scripted", "segments": [{"duration_s": 3, "sticks": {"roll": 2}}]}), "pilot.segments[0].sticks.roll", "<= 1"),
+        (
+            with_(pilot={"type": "scripted", "segments": [{"duration_s": 3, "sticks": {"roll": 2}}]}),
+            "pilot.segments[0].sticks.roll",
+            "<= 1",
+        ),
         (with_(wind={"speed_mps": -3}), "wind", "speed_mps"),
     ],
 )
@@ -116,7 +124,15 @@ def test_parser_never_crashes_on_arbitrary_documents(doc):
 
 
 @settings(max_examples=100)
-@given(st.fixed_dictionaries({}, optional={k: st.one_of(st.floats(), st.integers(), st.text(max_size=5), st.none()) for k in ("lat_deg", "lon_deg", "agl_m", "heading_deg", "airspeed_mps", "ground_alt_m")}))
+@given(
+    st.fixed_dictionaries(
+        {},
+        optional={
+            k: st.one_of(st.floats(), st.integers(), st.text(max_size=5), st.none())
+            for k in ("lat_deg", "lon_deg", "agl_m", "heading_deg", "airspeed_mps", "ground_alt_m")
+        },
+    )
+)
 def test_start_block_fuzz(start):
     doc = with_(start=start)
     try:

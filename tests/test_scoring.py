@@ -30,8 +30,12 @@ def box_fence(**kw):
 def track(e, n, agl, dt: float = 0.1, **extra) -> dict[str, np.ndarray]:
     e = np.asarray(e, dtype=float)
     t = np.arange(len(e)) * dt
-    out = {"time_s": t, "east_m": e, "north_m": np.broadcast_to(np.asarray(n, dtype=float), e.shape).copy(),
-           "agl_m": np.broadcast_to(np.asarray(agl, dtype=float), e.shape).copy()}
+    out = {
+        "time_s": t,
+        "east_m": e,
+        "north_m": np.broadcast_to(np.asarray(n, dtype=float), e.shape).copy(),
+        "agl_m": np.broadcast_to(np.asarray(agl, dtype=float), e.shape).copy(),
+    }
     out["alt_m"] = out["agl_m"] + 584.0
     out.update({k: np.asarray(v, dtype=float) for k, v in extra.items()})
     return out
@@ -148,8 +152,12 @@ def test_no_activation_gives_nan_and_override_at_start_counts():
     f = box_fence()
     tr = track(np.zeros(10), 0.0, 20.0, geofence_mode=np.zeros(10))
     sc = score_flight(tr, f)
-    for k in ("time_to_peak_excursion_s", "time_to_handback_s", "ground_speed_at_activation_mps",
-              "approach_angle_at_activation_deg"):
+    for k in (
+        "time_to_peak_excursion_s",
+        "time_to_handback_s",
+        "ground_speed_at_activation_mps",
+        "approach_angle_at_activation_deg",
+    ):
         assert math.isnan(sc[k])
     tr["geofence_mode"] = np.array([1, 1, 0, 0, 1, 1, 1, 1, 1, 1], dtype=float)
     sc = score_flight(tr, f)
@@ -183,7 +191,9 @@ def test_score_many_matches_score_flight_and_handles_several_fences():
 # --------------------------------------------------------------------------- properties
 IRREGULAR = Fence(
     keep_in=[ll(-200, -150), ll(50, -180), ll(220, -40), ll(120, 30), ll(200, 160), ll(-60, 120), ll(-10, 10)],
-    ceiling_m=60.0, floor_m=5.0, floor_gaps=[[ll(-40, -60), ll(0, -60), ll(0, -20), ll(-40, -20)]],
+    ceiling_m=60.0,
+    floor_m=5.0,
+    floor_gaps=[[ll(-40, -60), ll(0, -60), ll(0, -20), ll(-40, -20)]],
     keep_out_polygons=[[ll(60, -60), ll(100, -60), ll(80, -20)]],
     keep_out_circles=[KeepOutCircle(*ll(-100, -50), 15.0)],
 ).to_local()
@@ -210,8 +220,9 @@ def test_excursion_is_minus_min_margin_and_fast_margins_match_reference(points):
     m = margins(tr, IRREGULAR)
     np.testing.assert_allclose(m["total"], ref, rtol=0, atol=1e-9)
     np.testing.assert_allclose(m["lateral"], IRREGULAR.lateral_margin_array(pts), rtol=0, atol=1e-9)
-    np.testing.assert_allclose(signed_distance(IRREGULAR.keep_in, pts[:, 0], pts[:, 1]),
-                               IRREGULAR.keep_in.signed_distance_array(pts), rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        signed_distance(IRREGULAR.keep_in, pts[:, 0], pts[:, 1]), IRREGULAR.keep_in.signed_distance_array(pts), rtol=0, atol=1e-9
+    )
 
 
 @settings(max_examples=60, deadline=None)

@@ -33,7 +33,9 @@ from scenarios.app.seed_reproduction import (
 from scenarios.flight.pilots.breach_attempts import BreachAttemptsPilot, draw_speeds
 from scenarios.spec.schema import BreachAttemptsConfig, load_scenario, parse_scenario
 
-ENV = Envelope(PlatformKind.MULTIROTOR, 13.0, 22.6, 0.0, math.radians(20), math.radians(20), math.radians(90), 1.0, 0.8, 3.5, 3.0, 0.25)
+ENV = Envelope(
+    PlatformKind.MULTIROTOR, 13.0, 22.6, 0.0, math.radians(20), math.radians(20), math.radians(90), 1.0, 0.8, 3.5, 3.0, 0.25
+)
 
 
 # --------------------------------------------------------------------------- the ramp
@@ -58,13 +60,22 @@ def test_seed_pd_setpoint_ramps_linearly_over_ramp_s(start, goal, ramp_s, t0, fr
 def test_ramp_setpoints_recomputed_from_transitions():
     t = np.arange(0.0, 10.0, 0.025)
     mode = np.where((t >= 2.0) & (t < 7.0), 1, 0)
-    traj = {"time_s": t, "east_m": -0.75 - 0.1 * t, "north_m": np.zeros_like(t), "agl_m": np.full_like(t, 0.9), "geofence_mode": mode}
-    trans = [{"t_s": 2.0, "from": "MONITOR", "to": "OVERRIDE"}, {"t_s": 4.0, "from": "OVERRIDE", "to": "OVERRIDE"},
-             {"t_s": 7.0, "from": "OVERRIDE", "to": "RECOVERED"}]
+    traj = {
+        "time_s": t,
+        "east_m": -0.75 - 0.1 * t,
+        "north_m": np.zeros_like(t),
+        "agl_m": np.full_like(t, 0.9),
+        "geofence_mode": mode,
+    }
+    trans = [
+        {"t_s": 2.0, "from": "MONITOR", "to": "OVERRIDE"},
+        {"t_s": 4.0, "from": "OVERRIDE", "to": "OVERRIDE"},
+        {"t_s": 7.0, "from": "OVERRIDE", "to": "RECOVERED"},
+    ]
     sp = ramp_setpoints(traj, trans, (0.0, 0.0, 0.8), ramp_s=3.0)
     i2, i35, i5, i6 = (int(np.searchsorted(t, x - 1e-9)) for x in (2.0, 3.5, 5.0, 6.0))
     e_breach = -0.75 - 0.2
-    assert np.isnan(sp["east_m"][:i2]).all() and np.isnan(sp["east_m"][int(np.searchsorted(t, 7.0 - 1e-9)):]).all()
+    assert np.isnan(sp["east_m"][:i2]).all() and np.isnan(sp["east_m"][int(np.searchsorted(t, 7.0 - 1e-9)) :]).all()
     assert sp["east_m"][i2] == pytest.approx(e_breach)
     assert sp["east_m"][i35] == pytest.approx(0.5 * e_breach)  # halfway through the 3 s ramp; the re-activation keeps it
     assert sp["height_m"][i35] == pytest.approx(0.85)
@@ -93,7 +104,10 @@ def _synthetic(peaks_by_attempt, directions, v_act):
             h[sel] = 0.8 + (b.ceiling_m + p - 0.8) * bump
             vu[i_act] = v_act[k]
         attempts.append({"attempt": k, "direction": d, "speed_mps": v_act[k], "t_start_s": 10.0 * k})
-        trans += [{"t_s": float(t[i_act]), "from": "MONITOR", "to": "OVERRIDE"}, {"t_s": float(t[i_act]) + 2.0, "from": "OVERRIDE", "to": "OVERRIDE"}]
+        trans += [
+            {"t_s": float(t[i_act]), "from": "MONITOR", "to": "OVERRIDE"},
+            {"t_s": float(t[i_act]) + 2.0, "from": "OVERRIDE", "to": "OVERRIDE"},
+        ]
     traj = {"time_s": t, "east_m": e, "north_m": n, "agl_m": h, "v_east_mps": ve, "v_north_mps": vn, "v_up_mps": vu}
     return traj, trans, attempts, b
 

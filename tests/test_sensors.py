@@ -147,4 +147,3 @@ def test_parse_sensors():
             parse_sensors(raw, "x: sensors")
         assert str(exc.value).startswith(msg), str(exc.value)
         assert "\n" not in str(exc.value)
-

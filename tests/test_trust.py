@@ -40,8 +40,17 @@ def short_scripted(name: str, duration_s: float = 3.0) -> dict:
         "start": {"lat_deg": -35.363262, "lon_deg": 149.165237, "ground_alt_m": 584.0, "agl_m": 20, "heading_deg": 0},
         "pilot": {"type": "scripted", "segments": [{"duration_s": 600, "course_deg": 0, "speed": "max", "climb": "hold"}]},
         "wind": {"speed_mps": 0, "from_deg": 270},
-        "geofence": {"fence": {"keep_in": [[-35.3646139, 149.1635866], [-35.3646139, 149.1668874], [-35.3619101, 149.1668873],
-                                           [-35.3619101, 149.1635867]], "ceiling_m": 60}},
+        "geofence": {
+            "fence": {
+                "keep_in": [
+                    [-35.3646139, 149.1635866],
+                    [-35.3646139, 149.1668874],
+                    [-35.3619101, 149.1668873],
+                    [-35.3619101, 149.1635867],
+                ],
+                "ceiling_m": 60,
+            }
+        },
     }
 
 
@@ -52,8 +61,14 @@ def write(path: Path, doc: dict) -> Path:
 
 
 def cli(*args, env=None, timeout=120):
-    return subprocess.run([sys.executable, "-m", "scenarios.app.cli", *map(str, args)], capture_output=True, text=True,
-                          cwd=ROOT, env=env, timeout=timeout)
+    return subprocess.run(
+        [sys.executable, "-m", "scenarios.app.cli", *map(str, args)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        env=env,
+        timeout=timeout,
+    )
 
 
 def one_line_exit_2(res, *expected):
@@ -174,13 +189,22 @@ def test_ctrl_c_and_sigterm_leave_no_temporary_folders(tmp_path):
     """Ctrl-C on a run; SIGTERM to a whole batch (parent and workers, as a job killer sends it): exit 130, nothing left."""
     env, tmp = private_tmp(tmp_path)
     src = write(tmp_path / "long.yaml", short_scripted("long", duration_s=1200))
-    for sig, args in ((signal.SIGINT, ("run", src, "--quiet", "--no-plot")),
-                      (signal.SIGTERM, ("batch", src, "--jobs", "2", "--quiet", "--no-report", "--no-flight-plots"))):
+    for sig, args in (
+        (signal.SIGINT, ("run", src, "--quiet", "--no-plot")),
+        (signal.SIGTERM, ("batch", src, "--jobs", "2", "--quiet", "--no-report", "--no-flight-plots")),
+    ):
         out = tmp_path / f"out_{sig.name}"
         # own process group; a background job inherits an ignored SIGINT, so give the CLI the default, as in a terminal
-        proc = subprocess.Popen([sys.executable, "-m", "scenarios.app.cli", *map(str, args), "--out", str(out)], cwd=ROOT, env=env,
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-                                preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "scenarios.app.cli", *map(str, args), "--out", str(out)],
+            cwd=ROOT,
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            start_new_session=True,
+            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+        )
         deadline = time.monotonic() + 60
         while not (out.is_dir() or sig == signal.SIGINT) and time.monotonic() < deadline:
             time.sleep(0.05)  # the batch has planned and is starting its workers
@@ -248,8 +272,12 @@ def test_a_start_outside_the_keep_in_is_refused_unless_allowed():
 
 def test_mission_items_outside_the_fence_are_refused_unless_allowed():
     doc = yaml.safe_load(SURVEY.read_text())
-    doc["geofence"] = {"fence": {"keep_in": [[-35.3636, 149.1640], [-35.3636, 149.1665], [-35.3617, 149.1665], [-35.3617, 149.1640]],
-                                 "ceiling_m": 50}}
+    doc["geofence"] = {
+        "fence": {
+            "keep_in": [[-35.3636, 149.1640], [-35.3636, 149.1665], [-35.3617, 149.1665], [-35.3617, 149.1640]],
+            "ceiling_m": 50,
+        }
+    }
     assert parse_scenario(doc, "x.yaml").warnings == ()
     doc["mission"]["items"][3]["lon_deg"] = 149.1700  # ~300 m east of the fence
     with pytest.raises(ConfigError, match=r"x\.yaml: mission\.items\[3\]: this waypoint is \d+ m outside the keep-in"):
@@ -266,7 +294,9 @@ def test_a_wind_the_platform_cannot_fly_against_is_refused_unless_allowed(aircra
     doc = yaml.safe_load(SURVEY.read_text())
     doc["aircraft"] = aircraft
     doc["wind"] = {"speed_mps": 200, "from_deg": 270}
-    with pytest.raises(ConfigError, match=rf"x\.yaml: wind\.speed_mps: a mean wind of 200 m/s is at or above the {limit} of the {aircraft}"):
+    with pytest.raises(
+        ConfigError, match=rf"x\.yaml: wind\.speed_mps: a mean wind of 200 m/s is at or above the {limit} of the {aircraft}"
+    ):
         parse_scenario(doc, "x.yaml")
     assert parse_scenario(dict(doc, allow=["wind_above_platform_speed"]), "x.yaml").warnings
     doc["wind"]["speed_mps"] = 5
@@ -288,7 +318,9 @@ def test_nothing_within_reach_of_a_pole(where):
     with pytest.raises(ConfigError, match=rf"x\.yaml: {field.replace('.', '[.]').replace('[2]', '.2.')}: .* of the pole"):
         parse_scenario(doc, "x.yaml")
     with pytest.raises(ConfigError):  # not allowable
-        parse_scenario(dict(doc, allow=list(("start_outside_fence", "mission_outside_fence", "wind_above_platform_speed"))), "x.yaml")
+        parse_scenario(
+            dict(doc, allow=list(("start_outside_fence", "mission_outside_fence", "wind_above_platform_speed"))), "x.yaml"
+        )
 
 
 def test_allow_takes_only_known_names():
@@ -336,13 +368,32 @@ def test_version_and_import_fence_output(tmp_path):
     res = cli("--version")
     assert res.returncode == 0 and res.stdout.strip() == f"geofence-testbed {project_version()}"
     plan_file = tmp_path / "f.plan"
-    plan_file.write_text(json.dumps({
-        "fileType": "Plan", "version": 1,
-        "geoFence": {"version": 2, "circles": [], "polygons": [{"inclusion": True, "version": 1, "polygon": [
-            [-35.3636225, 149.1640268], [-35.3636225, 149.16644720000001], [-35.361729899999996, 149.1664472],
-            [-35.3617299, 149.1640268]]}]},
-        "mission": {"items": [], "plannedHomePosition": [-35.3632, 149.1652, 584]}, "rallyPoints": {"points": []},
-    }))
+    plan_file.write_text(
+        json.dumps(
+            {
+                "fileType": "Plan",
+                "version": 1,
+                "geoFence": {
+                    "version": 2,
+                    "circles": [],
+                    "polygons": [
+                        {
+                            "inclusion": True,
+                            "version": 1,
+                            "polygon": [
+                                [-35.3636225, 149.1640268],
+                                [-35.3636225, 149.16644720000001],
+                                [-35.361729899999996, 149.1664472],
+                                [-35.3617299, 149.1640268],
+                            ],
+                        }
+                    ],
+                },
+                "mission": {"items": [], "plannedHomePosition": [-35.3632, 149.1652, 584]},
+                "rallyPoints": {"points": []},
+            }
+        )
+    )
     target = tmp_path / "fence.yaml"
     res = cli("import-fence", plan_file, "--ceiling", "40", "-o", target)
     assert res.returncode == 0, res.stderr

@@ -20,12 +20,28 @@ from geofence.interface import Envelope, PlatformKind, VehicleState
 from geofence.unit import GeofenceUnit
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
-MC = Envelope(PlatformKind.MULTIROTOR, 6.0, 11.0, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0,
-              5.6, 4.5, 0.25, drag_linear_per_s=0.45, drag_quadratic_per_m=0.01)
-MC_OLD = Envelope(PlatformKind.MULTIROTOR, 15.0, 28.5, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0,
-                  5.6, 4.5, 0.25)
-FW = Envelope(PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0,
-              0.6, 5.0, 1.1)
+MC = Envelope(
+    PlatformKind.MULTIROTOR,
+    6.0,
+    11.0,
+    0.0,
+    math.radians(30),
+    math.radians(30),
+    math.radians(90),
+    3.0,
+    2.0,
+    5.6,
+    4.5,
+    0.25,
+    drag_linear_per_s=0.45,
+    drag_quadratic_per_m=0.01,
+)
+MC_OLD = Envelope(
+    PlatformKind.MULTIROTOR, 15.0, 28.5, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0, 5.6, 4.5, 0.25
+)
+FW = Envelope(
+    PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0, 0.6, 5.0, 1.1
+)
 
 
 def _ll(e, n):
@@ -38,7 +54,9 @@ def _unit(env, half, notch, floor, circle, turb, gust):
     if floor:
         fence["floor_m"] = 20.0
         g = 0.2 * half
-        fence["floor_gaps"] = [[_ll(-g, -g - 0.5 * half), _ll(g, -g - 0.5 * half), _ll(g, g - 0.5 * half), _ll(-g, g - 0.5 * half)]]
+        fence["floor_gaps"] = [
+            [_ll(-g, -g - 0.5 * half), _ll(g, -g - 0.5 * half), _ll(g, g - 0.5 * half), _ll(-g, g - 0.5 * half)]
+        ]
     if circle:
         fence["keep_out_circles"] = [{"center": _ll(0.5 * half, -0.5 * half), "radius_m": 0.1 * half}]
     cfg = parse_geofence({"fence": fence, "wind_prior": {"speed_mps": 0.0, "turbulence_sigma_mps": turb, "gust_mps": gust}})
@@ -50,7 +68,9 @@ UNITS = [
     _unit(env, half, notch * half, floor, circle, turb, gust)
     for env in (MC, MC_OLD, FW)
     for half, notch, floor, circle, turb, gust in (
-        (150.0, 0.0, False, False, 0.0, 0.0), (300.0, 0.6, True, True, 1.0, 3.0), (800.0, 0.3, True, False, 2.5, 0.0),
+        (150.0, 0.0, False, False, 0.0, 0.0),
+        (300.0, 0.6, True, True, 1.0, 3.0),
+        (800.0, 0.3, True, False, 2.5, 0.0),
         (2500.0, 0.7, False, True, 0.5, 5.0),
     )
 ]
@@ -59,19 +79,33 @@ UNITS = [
 @settings(max_examples=1500, deadline=None)
 @given(
     u=st.sampled_from(UNITS),
-    fe=st.floats(-1.0, 1.0), fn=st.floats(-1.0, 1.0), h=st.floats(0.0, 130.0),
-    speed_factor=st.floats(0.0, 1.6), course=st.floats(-math.pi, math.pi), vu=st.floats(-6.0, 6.0),
-    wind=st.floats(0.0, 12.0), wind_dir=st.floats(-math.pi, math.pi),
-    sigma_h=st.floats(0.0, 5.0), sigma_v=st.floats(0.0, 5.0), bank=st.floats(-0.7, 0.7),
+    fe=st.floats(-1.0, 1.0),
+    fn=st.floats(-1.0, 1.0),
+    h=st.floats(0.0, 130.0),
+    speed_factor=st.floats(0.0, 1.6),
+    course=st.floats(-math.pi, math.pi),
+    vu=st.floats(-6.0, 6.0),
+    wind=st.floats(0.0, 12.0),
+    wind_dir=st.floats(-math.pi, math.pi),
+    sigma_h=st.floats(0.0, 5.0),
+    sigma_v=st.floats(0.0, 5.0),
+    bank=st.floats(-0.7, 0.7),
 )
-def test_far_implies_a_positive_activation_margin(u, fe, fn, h, speed_factor, course, vu, wind, wind_dir, sigma_h, sigma_v,
-                                                  bank):
+def test_far_implies_a_positive_activation_margin(u, fe, fn, h, speed_factor, course, vu, wind, wind_dir, sigma_h, sigma_v, bank):
     env = u.env
     half = u.fence.keep_in.bbox[2]
     u.wind_enu[:] = [wind * math.cos(wind_dir), wind * math.sin(wind_dir)]
     v = speed_factor * env.max_speed_mps
-    s = VehicleState(east_m=fe * half, north_m=fn * half, agl_m=h, alt_m=400.0 + h, v_east_mps=v * math.cos(course),
-                     v_north_mps=v * math.sin(course), v_up_mps=vu, roll_rad=bank)
+    s = VehicleState(
+        east_m=fe * half,
+        north_m=fn * half,
+        agl_m=h,
+        alt_m=400.0 + h,
+        v_east_mps=v * math.cos(course),
+        v_north_mps=v * math.sin(course),
+        v_up_mps=vu,
+        roll_rad=bank,
+    )
     if u._far_from_everything(s, h, sigma_h, sigma_v, 0.025):
         r = u._margins(s, h, sigma_h, sigma_v, 0.025)
         assert r.activation_margin_m > 0.0, r

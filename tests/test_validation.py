@@ -42,18 +42,21 @@ def test_every_user_error_type_is_a_config_error():
         assert issubclass(t, ConfigError), t
 
 
-@given(st.floats(allow_nan=False, allow_infinity=False) | st.integers(-10**6, 10**6))
+@given(st.floats(allow_nan=False, allow_infinity=False) | st.integers(-(10**6), 10**6))
 def test_number_accepts_finite_numbers(x):
     assert number(x, "f.yaml: a") == float(x)
 
 
-@pytest.mark.parametrize("bad, problem", [
-    (True, "expected a number, got a boolean True"),
-    ("3", "expected a number, got a string '3'"),
-    (None, "expected a number, got nothing None"),
-    (math.nan, "must be a finite number"),
-    (math.inf, "must be a finite number"),
-])
+@pytest.mark.parametrize(
+    "bad, problem",
+    [
+        (True, "expected a number, got a boolean True"),
+        ("3", "expected a number, got a string '3'"),
+        (None, "expected a number, got nothing None"),
+        (math.nan, "must be a finite number"),
+        (math.inf, "must be a finite number"),
+    ],
+)
 def test_number_refuses_non_numbers_in_one_line(bad, problem):
     with pytest.raises(ConfigError) as exc:
         number(bad, "f.yaml: a.b")
@@ -88,7 +91,7 @@ def test_mapping_and_unknown_keys():
         require_mapping([1], "w")
     with pytest.raises(ConfigError) as exc:
         reject_unknown_keys({"speed_mp": 1}, ("speed_mps", "from_deg"), "f.yaml: wind")
-    assert one_line(exc, "f.yaml: wind.speed_mp") .endswith("unknown key (did you mean 'speed_mps'? allowed: from_deg, speed_mps)")
+    assert one_line(exc, "f.yaml: wind.speed_mp").endswith("unknown key (did you mean 'speed_mps'? allowed: from_deg, speed_mps)")
     with pytest.raises(ConfigError, match=r"^f.yaml: colour: unknown key"):
         reject_unknown_keys({"colour": 1}, ("name",), "f.yaml: (top level)")
 

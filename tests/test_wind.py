@@ -367,9 +367,7 @@ def test_gust_shape_bounded_and_symmetric(length, hold, x):
 
 
 def test_random_gust_train_reproducible_and_within_ranges():
-    kw = dict(
-        count=5, start_s=10.0, end_s=60.0, amplitude_mps=(2.0, 6.0), length_m=(10.0, 40.0), from_deg=270.0, spread_deg=30.0
-    )
+    kw = dict(count=5, start_s=10.0, end_s=60.0, amplitude_mps=(2.0, 6.0), length_m=(10.0, 40.0), from_deg=270.0, spread_deg=30.0)
     a, b, c = GustTrain.random(3, **kw), GustTrain.random(3, **kw), GustTrain.random(4, **kw)
     assert a.gusts == b.gusts and a.gusts != c.gusts
     for g in a.gusts:
@@ -524,4 +522,3 @@ def test_any_valid_config_builds_a_finite_field(speed, from_deg, law, severity, 
         assert all(math.isfinite(c) for c in s)
     m = field.mean(10.0)
     assert math.hypot(m[0], m[1]) == pytest.approx(speed, abs=1e-9)
-

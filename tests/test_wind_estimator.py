@@ -17,8 +17,9 @@ from geofence.wind_estimator import G_MPS2, WindEstimator, WindEstimatorConfig
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 DT = 0.025
 
-QUAD = Envelope(PlatformKind.MULTIROTOR, 15.0, 28.5, 0.0, math.radians(30), math.radians(30), math.radians(90),
-                3.0, 2.0, 5.6, 4.5, 0.25)
+QUAD = Envelope(
+    PlatformKind.MULTIROTOR, 15.0, 28.5, 0.0, math.radians(30), math.radians(30), math.radians(90), 3.0, 2.0, 5.6, 4.5, 0.25
+)
 
 
 def circling(wind_e, wind_n, va=20.0, radius=80.0):
@@ -126,8 +127,22 @@ def test_multirotor_uses_accelerating_flight_through_the_force_balance():
 
 
 def test_drag_law_comes_from_the_envelope_with_overrides():
-    rd = Envelope(PlatformKind.MULTIROTOR, 8.0, 10.3, 0.0, math.radians(30), math.radians(30), math.radians(90),
-                  3.0, 2.0, 5.6, 4.5, 0.25, drag_linear_per_s=0.435, drag_quadratic_per_m=0.011)
+    rd = Envelope(
+        PlatformKind.MULTIROTOR,
+        8.0,
+        10.3,
+        0.0,
+        math.radians(30),
+        math.radians(30),
+        math.radians(90),
+        3.0,
+        2.0,
+        5.6,
+        4.5,
+        0.25,
+        drag_linear_per_s=0.435,
+        drag_quadratic_per_m=0.011,
+    )
     assert WindEstimator(rd).drag_coefficients == drag_coefficients(rd) == (0.435, 0.011)
     assert WindEstimator(QUAD).drag_coefficients == pytest.approx(drag_coefficients(QUAD))
     assert WindEstimator(rd, WindEstimatorConfig(drag_c1_per_s=0.2)).drag_coefficients == (0.2, 0.011)
@@ -142,8 +157,7 @@ def test_drag_law_comes_from_the_envelope_with_overrides():
 # own sensors (GNSS, AHRS with their noise) and Kalman filter, like in flight. No JSBSim.
 
 
-def synthetic_multirotor(k1, k2, wind, v_cmd_fn, seconds, max_tilt_rad=math.radians(30), yaw=0.3, kv=1.5,
-                         tau_att=0.15, sub=4):
+def synthetic_multirotor(k1, k2, wind, v_cmd_fn, seconds, max_tilt_rad=math.radians(30), yaw=0.3, kv=1.5, tau_att=0.15, sub=4):
     """Truth states at DT; the vehicle starts in equilibrium at ``v_cmd_fn(0)``."""
     w_e, w_n = wind
 
@@ -168,8 +182,9 @@ def synthetic_multirotor(k1, k2, wind, v_cmd_fn, seconds, max_tilt_rad=math.radi
         roll = math.asin((te * cy - tn * sy) / norm)
         pitch = math.atan2(-(te * sy + tn * cy) / norm, 1.0 / norm)
         lat, lon, alt = FRAME.to_geodetic(e, n, 30.0)
-        out.append(VehicleState(t, lat, lon, alt, e, n, 30.0, 30.0, ve, vn, 0.0, roll, pitch, yaw,
-                                math.hypot(ve - w_e, vn - w_n)))
+        out.append(
+            VehicleState(t, lat, lon, alt, e, n, 30.0, 30.0, ve, vn, 0.0, roll, pitch, yaw, math.hypot(ve - w_e, vn - w_n))
+        )
         ce_v, cn_v = v_cmd_fn(t)
         for _ in range(sub):
             fe, fn = drag(ce_v, cn_v)
@@ -225,8 +240,9 @@ def test_multirotor_sign_right_while_accelerating_from_rest(name, direction):
     env = PLATFORMS[name]
     wind = (5.0, 0.0)
     v_max = 0.9 * env.max_speed_mps
-    states = synthetic_multirotor(*drag_coefficients(env), wind, lambda t: (0.0, 0.0) if t < 0.5 else (direction * v_max, 0.0),
-                                  12.0, env.max_bank_rad)
+    states = synthetic_multirotor(
+        *drag_coefficients(env), wind, lambda t: (0.0, 0.0) if t < 0.5 else (direction * v_max, 0.0), 12.0, env.max_bank_rad
+    )
     accel = [abs(states[k + 1].v_east_mps - states[k].v_east_mps) / DT for k in range(len(states) - 1)]
     assert max(accel) > 2.0  # it really accelerates
     hist = run(lambda t: states[round(t / DT)], 12.0, WindEstimator(env), False, 3)
@@ -238,8 +254,22 @@ def test_multirotor_sign_right_while_accelerating_from_rest(name, direction):
 
 @pytest.mark.parametrize("k1, k2", [(0.4, 0.0), (0.0, 0.02)])
 def test_multirotor_no_bias_for_purely_linear_or_quadratic_drag(k1, k2):
-    env = Envelope(PlatformKind.MULTIROTOR, 8.0, 12.0, 0.0, math.radians(35), math.radians(35), math.radians(90),
-                   3.0, 2.0, 5.6, 4.5, 0.25, drag_linear_per_s=k1, drag_quadratic_per_m=k2)
+    env = Envelope(
+        PlatformKind.MULTIROTOR,
+        8.0,
+        12.0,
+        0.0,
+        math.radians(35),
+        math.radians(35),
+        math.radians(90),
+        3.0,
+        2.0,
+        5.6,
+        4.5,
+        0.25,
+        drag_linear_per_s=k1,
+        drag_quadratic_per_m=k2,
+    )
     wind, v_cmd = (-4.0, 3.0), (3.0, 3.0)
     states = synthetic_multirotor(k1, k2, wind, lambda t: v_cmd, 60.0, env.max_bank_rad)
     sensors = SensorConfig(ahrs_roll_pitch_deg=0.0)  # the bias of the model, not of the AHRS
@@ -283,8 +313,15 @@ angle = st.floats(-math.pi, math.pi)
 
 
 @settings(max_examples=80, deadline=None)
-@given(st.lists(st.tuples(finite, finite, finite, angle, angle, st.floats(0, 7), st.one_of(st.none(), st.floats(0, 300)),
-                          st.floats(0.001, 1.0)), min_size=1, max_size=50))
+@given(
+    st.lists(
+        st.tuples(
+            finite, finite, finite, angle, angle, st.floats(0, 7), st.one_of(st.none(), st.floats(0, 300)), st.floats(0.001, 1.0)
+        ),
+        min_size=1,
+        max_size=50,
+    )
+)
 def test_wind_never_nan(seq):
     for env in (None, QUAD):
         we = WindEstimator(env)

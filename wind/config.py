@@ -275,7 +275,9 @@ def _parse_profile(raw: Any, where: str) -> ProfileConfig:
     if law == "power":
         exponent = number(m.get("exponent", defaults.exponent), f"{where}.exponent", strictly_positive=True, maximum=1.0)
     if law == "log":
-        z0 = number(m.get("roughness_length_m", defaults.roughness_length_m), f"{where}.roughness_length_m", strictly_positive=True)
+        z0 = number(
+            m.get("roughness_length_m", defaults.roughness_length_m), f"{where}.roughness_length_m", strictly_positive=True
+        )
         if not zref > z0:
             raise ConfigError(f"{where}.reference_height_m: must be > roughness_length_m ({z0:g}), got {zref:g}")
     return ProfileConfig(law, exponent, zref, z0)

@@ -134,8 +134,19 @@ class GustTrain:
     gusts add.
     """
 
-    __slots__ = ("gusts", "mean_wind", "min_speed_mps", "max_rise_time_s", "_mean_fn", "_t", "_out", "_x", "_dirs",
-                 "_floor", "_pos")
+    __slots__ = (
+        "gusts",
+        "mean_wind",
+        "min_speed_mps",
+        "max_rise_time_s",
+        "_mean_fn",
+        "_t",
+        "_out",
+        "_x",
+        "_dirs",
+        "_floor",
+        "_pos",
+    )
 
     def __init__(
         self,
@@ -256,4 +267,3 @@ class GustTrain:
 
     def __repr__(self) -> str:
         return f"GustTrain({list(self.gusts)!r})"
-

@@ -56,7 +56,7 @@ def park_boundary_en(rng: np.random.Generator, n_vertices: int, radius_m: float,
     if not 0.0 <= roughness < 0.9:
         raise ValueError(f"roughness must be in [0, 0.9), got {roughness}")
     k = np.arange(2, max(3, n_vertices // 20) + 1)
-    amp = k ** -1.3 * rng.uniform(0.5, 1.0, len(k))
+    amp = k**-1.3 * rng.uniform(0.5, 1.0, len(k))
     phase = rng.uniform(0.0, 2.0 * math.pi, len(k))
     # strictly increasing angles: a uniform grid jittered by at most a quarter step
     step = 2.0 * math.pi / n_vertices
@@ -113,9 +113,18 @@ def _boundary_radius(theta: np.ndarray, boundary: np.ndarray) -> np.ndarray:
     return (-p[:, 0] * dy + p[:, 1] * dx) / det
 
 
-def place_buildings(rng: np.random.Generator, boundary: np.ndarray, n: int, *, size_m: tuple[float, float] = (10.0, 40.0),
-                    clearance_m: float = 30.0, meadow_radius_m: float = 250.0, avenue_angles_rad: tuple[float, ...] = (),
-                    avenue_width_m: float = 120.0, max_tries: int = 400_000) -> list[np.ndarray]:
+def place_buildings(
+    rng: np.random.Generator,
+    boundary: np.ndarray,
+    n: int,
+    *,
+    size_m: tuple[float, float] = (10.0, 40.0),
+    clearance_m: float = 30.0,
+    meadow_radius_m: float = 250.0,
+    avenue_angles_rad: tuple[float, ...] = (),
+    avenue_width_m: float = 120.0,
+    max_tries: int = 400_000,
+) -> list[np.ndarray]:
     """``n`` building footprints (east/north m) inside ``boundary``, each at least ``clearance_m`` from the others and the boundary.
 
     Raises ValueError when ``max_tries`` candidates could not place ``n``.
@@ -129,8 +138,10 @@ def place_buildings(rng: np.random.Generator, boundary: np.ndarray, n: int, *, s
     batch = 256
     while len(out) < n:
         if tries >= max_tries:
-            raise ValueError(f"placed only {len(out)} of {n} buildings in {max_tries} tries: "
-                             f"use a larger radius, fewer buildings or a smaller clearance")
+            raise ValueError(
+                f"placed only {len(out)} of {n} buildings in {max_tries} tries: "
+                f"use a larger radius, fewer buildings or a smaller clearance"
+            )
         # candidates uniform in the disk; cheap filters first, exact boundary distance last
         rr = r_max * np.sqrt(rng.uniform(0.0, 1.0, batch))
         th = rng.uniform(0.0, 2.0 * math.pi, batch)
@@ -143,8 +154,10 @@ def place_buildings(rng: np.random.Generator, boundary: np.ndarray, n: int, *, s
             if c_r + rho + clearance_m > r_b or c_r < meadow_radius_m + rho:
                 continue
             e, nn = c_r * math.cos(c_th), c_r * math.sin(c_th)
-            if any(abs(e * math.sin(a) - nn * math.cos(a)) < 0.5 * avenue_width_m + rho and e * math.cos(a) + nn * math.sin(a) > 0.0
-                   for a in avenue_angles_rad):
+            if any(
+                abs(e * math.sin(a) - nn * math.cos(a)) < 0.5 * avenue_width_m + rho and e * math.cos(a) + nn * math.sin(a) > 0.0
+                for a in avenue_angles_rad
+            ):
                 continue
             gx, gy = int(math.floor(e / cell)), int(math.floor(nn / cell))
             clash = False
@@ -169,46 +182,77 @@ def place_buildings(rng: np.random.Generator, boundary: np.ndarray, n: int, *, s
     return out
 
 
-def generate_park(*, seed: int = 2026, center: tuple[float, float] = DEFAULT_CENTER, radius_m: float = 1600.0,
-                  n_vertices: int = 10_000, n_buildings: int = 500, clearance_m: float = 30.0,
-                  size_m: tuple[float, float] = (10.0, 40.0), meadow_radius_m: float = 250.0, avenues: int = 4,
-                  avenue_width_m: float = 120.0, roughness: float = 0.3, ceiling_m: float = 120.0,
-                  generator: str | None = None) -> dict:
+def generate_park(
+    *,
+    seed: int = 2026,
+    center: tuple[float, float] = DEFAULT_CENTER,
+    radius_m: float = 1600.0,
+    n_vertices: int = 10_000,
+    n_buildings: int = 500,
+    clearance_m: float = 30.0,
+    size_m: tuple[float, float] = (10.0, 40.0),
+    meadow_radius_m: float = 250.0,
+    avenues: int = 4,
+    avenue_width_m: float = 120.0,
+    roughness: float = 0.3,
+    ceiling_m: float = 120.0,
+    generator: str | None = None,
+) -> dict:
     """The park as a GeoJSON FeatureCollection (a dict ready for :func:`json.dump`); see the module docstring."""
     rng = np.random.default_rng(seed)
     boundary = park_boundary_en(rng, n_vertices, radius_m, roughness)
     if meadow_radius_m + clearance_m >= radius_m * (1.0 - roughness):
-        raise ValueError(f"--meadow-radius-m {meadow_radius_m:g} does not fit inside the park (radius {radius_m:g} m, "
-                         f"roughness {roughness:g})")
+        raise ValueError(
+            f"--meadow-radius-m {meadow_radius_m:g} does not fit inside the park (radius {radius_m:g} m, roughness {roughness:g})"
+        )
     offset = rng.uniform(0.0, 2.0 * math.pi)
     angles = tuple(offset + 2.0 * math.pi * k / avenues for k in range(avenues)) if avenues > 0 else ()
-    buildings = place_buildings(rng, boundary, n_buildings, size_m=size_m, clearance_m=clearance_m + ROUNDING_SLACK_M,
-                                meadow_radius_m=meadow_radius_m, avenue_angles_rad=angles, avenue_width_m=avenue_width_m)
+    buildings = place_buildings(
+        rng,
+        boundary,
+        n_buildings,
+        size_m=size_m,
+        clearance_m=clearance_m + ROUNDING_SLACK_M,
+        meadow_radius_m=meadow_radius_m,
+        avenue_angles_rad=angles,
+        avenue_width_m=avenue_width_m,
+    )
     frame = LocalFrame(center[0], center[1], 0.0)
 
     def ring(en: np.ndarray) -> list[list[float]]:
-        pts = [[round(lon, COORD_DECIMALS), round(lat, COORD_DECIMALS)]
-               for lat, lon, _ in (frame.to_geodetic(float(e), float(n), 0.0) for e, n in en)]
+        pts = [
+            [round(lon, COORD_DECIMALS), round(lat, COORD_DECIMALS)]
+            for lat, lon, _ in (frame.to_geodetic(float(e), float(n), 0.0) for e, n in en)
+        ]
         return pts + [pts[0]]  # RFC 7946: closed rings
 
     def feature(props: dict, geometry: dict) -> dict:
         return {"type": "Feature", "properties": props, "geometry": geometry}
 
     if generator is None:
-        generator = ("python -m scenarios.airspace.generate "
-                     f"--seed {seed} --center {center[0]:.10g} {center[1]:.10g} --radius-m {radius_m:g} --vertices {n_vertices} "
-                     f"--buildings {n_buildings} --clearance-m {clearance_m:g} --meadow-radius-m {meadow_radius_m:g} "
-                     f"--avenues {avenues} --avenue-width-m {avenue_width_m:g} --roughness {roughness:g} --ceiling-m {ceiling_m:g}")
+        generator = (
+            "python -m scenarios.airspace.generate "
+            f"--seed {seed} --center {center[0]:.10g} {center[1]:.10g} --radius-m {radius_m:g} --vertices {n_vertices} "
+            f"--buildings {n_buildings} --clearance-m {clearance_m:g} --meadow-radius-m {meadow_radius_m:g} "
+            f"--avenues {avenues} --avenue-width-m {avenue_width_m:g} --roughness {roughness:g} --ceiling-m {ceiling_m:g}"
+        )
+
     def ccw(en: np.ndarray) -> np.ndarray:  # RFC 7946 right-hand rule: exterior rings counter-clockwise (east/north)
         return en if _area(en) > 0.0 else en[::-1]
 
-    features = [feature({"geofence": "keep_in", "name": "park boundary"},
-                        {"type": "Polygon", "coordinates": [ring(ccw(boundary))]})]
+    features = [
+        feature({"geofence": "keep_in", "name": "park boundary"}, {"type": "Polygon", "coordinates": [ring(ccw(boundary))]})
+    ]
     for i, b in enumerate(buildings):
-        features.append(feature({"geofence": "keep_out", "name": f"building {i}"},
-                                {"type": "Polygon", "coordinates": [ring(ccw(b))]}))
-    features.append(feature({"geofence": "return_point", "name": "meadow"},
-                            {"type": "Point", "coordinates": [round(center[1], COORD_DECIMALS), round(center[0], COORD_DECIMALS)]}))
+        features.append(
+            feature({"geofence": "keep_out", "name": f"building {i}"}, {"type": "Polygon", "coordinates": [ring(ccw(b))]})
+        )
+    features.append(
+        feature(
+            {"geofence": "return_point", "name": "meadow"},
+            {"type": "Point", "coordinates": [round(center[1], COORD_DECIMALS), round(center[0], COORD_DECIMALS)]},
+        )
+    )
     return {
         "type": "FeatureCollection",
         "properties": {
@@ -234,8 +278,13 @@ def bounding_rectangle(park: dict, generator: str | None = None) -> dict:
     props["name"] = f"bounding rectangle of the {props.get('name', 'park')}"
     if generator is not None:
         props["generator"] = generator
-    features = [{"type": "Feature", "properties": {"geofence": "keep_in", "name": "rectangle"},
-                 "geometry": {"type": "Polygon", "coordinates": [[[w, s], [e, s], [e, n], [w, n], [w, s]]]}}]
+    features = [
+        {
+            "type": "Feature",
+            "properties": {"geofence": "keep_in", "name": "rectangle"},
+            "geometry": {"type": "Polygon", "coordinates": [[[w, s], [e, s], [e, n], [w, n], [w, s]]]},
+        }
+    ]
     features += [f for f in park["features"] if f["properties"].get("geofence") in ("return_point", "rally")]
     return {"type": "FeatureCollection", "properties": props, "features": features}
 
@@ -261,39 +310,74 @@ def write_geojson(doc: dict, path: str | Path) -> Path:
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="python -m scenarios.airspace.generate",
-        description=("Write a synthetic city park as an RFC 7946 GeoJSON airspace fence: a ragged star-shaped keep-in "
-                     "boundary with many vertices, many small building keep-outs with guaranteed clearances, a "
-                     "building-free meadow (with the return point) and avenues. Deterministic for a seed."),
+        description=(
+            "Write a synthetic city park as an RFC 7946 GeoJSON airspace fence: a ragged star-shaped keep-in "
+            "boundary with many vertices, many small building keep-outs with guaranteed clearances, a "
+            "building-free meadow (with the return point) and avenues. Deterministic for a seed."
+        ),
     )
-    p.add_argument("-o", "--output", type=Path, default=DEFAULT_OUT, metavar="FILE.geojson",
-                   help="where to write (default: scenarios/airspace/city_park.geojson beside this script)")
+    p.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        default=DEFAULT_OUT,
+        metavar="FILE.geojson",
+        help="where to write (default: scenarios/airspace/city_park.geojson beside this script)",
+    )
     p.add_argument("--seed", type=int, default=2026, help="random seed (default 2026)")
-    p.add_argument("--center", type=float, nargs=2, default=list(DEFAULT_CENTER), metavar=("LAT", "LON"),
-                   help="park centre, deg (default: %(default)s)")
+    p.add_argument(
+        "--center",
+        type=float,
+        nargs=2,
+        default=list(DEFAULT_CENTER),
+        metavar=("LAT", "LON"),
+        help="park centre, deg (default: %(default)s)",
+    )
     p.add_argument("--radius-m", type=float, default=1600.0, help="mean boundary radius, m (default 1600)")
     p.add_argument("--vertices", type=int, default=10_000, help="keep-in vertex count (default 10000)")
     p.add_argument("--buildings", type=int, default=500, help="number of building keep-outs (default 500)")
-    p.add_argument("--clearance-m", type=float, default=30.0,
-                   help="least free space between buildings, and between a building and the boundary, m (default 30)")
+    p.add_argument(
+        "--clearance-m",
+        type=float,
+        default=30.0,
+        help="least free space between buildings, and between a building and the boundary, m (default 30)",
+    )
     p.add_argument("--meadow-radius-m", type=float, default=250.0, help="building-free meadow around the centre, m (default 250)")
-    p.add_argument("--avenues", type=int, default=4, help="building-free radial avenues from the meadow to the boundary (default 4)")
+    p.add_argument(
+        "--avenues", type=int, default=4, help="building-free radial avenues from the meadow to the boundary (default 4)"
+    )
     p.add_argument("--avenue-width-m", type=float, default=120.0, help="avenue width, m (default 120)")
-    p.add_argument("--roughness", type=float, default=0.3,
-                   help="boundary radius varies within +/- this fraction of --radius-m (default 0.3)")
+    p.add_argument(
+        "--roughness", type=float, default=0.3, help="boundary radius varies within +/- this fraction of --radius-m (default 0.3)"
+    )
     p.add_argument("--ceiling-m", type=float, default=120.0, help="ceiling written into the file, m AGL (default 120)")
-    p.add_argument("--rectangle", type=Path, default=None, metavar="FILE.geojson",
-                   help="also write the park's 4-vertex twin here: its bounding rectangle, no keep-outs, the same "
-                        "ceiling and return point (for wall-time comparisons)")
+    p.add_argument(
+        "--rectangle",
+        type=Path,
+        default=None,
+        metavar="FILE.geojson",
+        help="also write the park's 4-vertex twin here: its bounding rectangle, no keep-outs, the same "
+        "ceiling and return point (for wall-time comparisons)",
+    )
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
-        doc = generate_park(seed=args.seed, center=tuple(args.center), radius_m=args.radius_m, n_vertices=args.vertices,
-                            n_buildings=args.buildings, clearance_m=args.clearance_m, meadow_radius_m=args.meadow_radius_m,
-                            avenues=args.avenues, avenue_width_m=args.avenue_width_m, roughness=args.roughness,
-                            ceiling_m=args.ceiling_m)
+        doc = generate_park(
+            seed=args.seed,
+            center=tuple(args.center),
+            radius_m=args.radius_m,
+            n_vertices=args.vertices,
+            n_buildings=args.buildings,
+            clearance_m=args.clearance_m,
+            meadow_radius_m=args.meadow_radius_m,
+            avenues=args.avenues,
+            avenue_width_m=args.avenue_width_m,
+            roughness=args.roughness,
+            ceiling_m=args.ceiling_m,
+        )
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

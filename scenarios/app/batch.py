@@ -94,8 +94,6 @@ def plan(files: Iterable[Path]) -> list[FlightSpec]:
     return specs
 
 
-
-
 def check_unique_names(specs: Iterable[FlightSpec]) -> None:
     """Two flights of one invocation must not write the same folder: refuse, naming both files."""
     seen: dict[str, str] = {}
@@ -103,7 +101,9 @@ def check_unique_names(specs: Iterable[FlightSpec]) -> None:
         if spec.flight_id in seen:
             first = seen[spec.flight_id]
             where = f"{spec.source} and {first}" if spec.source != first else spec.source
-            raise ConfigError(f"{spec.source}: name: flight {spec.flight_id!r} is defined twice ({where}); names must be unique in one run")
+            raise ConfigError(
+                f"{spec.source}: name: flight {spec.flight_id!r} is defined twice ({where}); names must be unique in one run"
+            )
         seen[spec.flight_id] = spec.source
 
 
@@ -161,8 +161,12 @@ def fly_spec(spec: FlightSpec, out_dir: str, flight_plots: bool = False) -> dict
         result.summary["flight"] = spec.flight_id
         result.summary["source"] = spec.source
         write_result(
-            result, Path(out_dir), folder_name=spec.flight_id, scenario_text=yaml.safe_dump(spec.document, sort_keys=False),
-            plot=flight_plots, scenario_hash=spec.scenario_hash,
+            result,
+            Path(out_dir),
+            folder_name=spec.flight_id,
+            scenario_text=yaml.safe_dump(spec.document, sort_keys=False),
+            plot=flight_plots,
+            scenario_hash=spec.scenario_hash,
         )
         return result.summary
     except Exception as exc:  # a failed flight is a result, not a crash of the batch
@@ -274,7 +278,9 @@ def _worker_sigterm(signum, frame) -> None:  # pragma: no cover - runs in a work
     os._exit(128 + signum)
 
 
-def _run_processes(todo: list[FlightSpec], out_dir: Path, jobs: int, finished: Callable[[dict], None], flight_plots: bool) -> None:
+def _run_processes(
+    todo: list[FlightSpec], out_dir: Path, jobs: int, finished: Callable[[dict], None], flight_plots: bool
+) -> None:
     """At most ``jobs`` flights in flight at a time, so an interrupt only waits for those."""
     pool = ProcessPoolExecutor(max_workers=jobs, initializer=_ignore_sigint)
     queue = iter(todo)

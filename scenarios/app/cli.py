@@ -89,16 +89,26 @@ def build_parser() -> argparse.ArgumentParser:
     batch.add_argument("paths", nargs="+", type=Path, metavar="PATH", help="scenario files or folders")
     batch.add_argument("--out", type=Path, default=Path("out"), metavar="DIR", help="output folder (default: ./out)")
     batch.add_argument("--jobs", type=int, default=None, metavar="N", help="parallel processes (default: all cores)")
-    batch.add_argument("--executor", choices=["process", "dask"], default="process", help="local processes (default) or a Dask cluster")
+    batch.add_argument(
+        "--executor", choices=["process", "dask"], default="process", help="local processes (default) or a Dask cluster"
+    )
     batch.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address, with --executor dask")
     batch.add_argument("--quiet", action="store_true", help="no progress bar")
     batch.add_argument("--no-report", action="store_true", help="skip report.md and its figures (results.csv is still written)")
     batch.add_argument("--no-flight-plots", action="store_true", help="skip each flight's flight.png/.svg (faster)")
 
-    plot = sub.add_parser("plot", help="regenerate figures from saved results", description="Regenerate each flight's flight.png/.svg and the batch figures in DIR from the saved trajectories and summaries, without re-flying.")
+    plot = sub.add_parser(
+        "plot",
+        help="regenerate figures from saved results",
+        description="Regenerate each flight's flight.png/.svg and the batch figures in DIR from the saved trajectories and summaries, without re-flying.",
+    )
     plot.add_argument("out", type=Path, metavar="DIR", help="a run or batch output folder")
 
-    compare = sub.add_parser("compare", help="platform comparison from saved results", description="Print the platform comparison table (per platform and wind level: breaches, peak excursion, activations, recovery time) of the flights in DIR and write DIR/platform_comparison.png/.svg.")
+    compare = sub.add_parser(
+        "compare",
+        help="platform comparison from saved results",
+        description="Print the platform comparison table (per platform and wind level: breaches, peak excursion, activations, recovery time) of the flights in DIR and write DIR/platform_comparison.png/.svg.",
+    )
     compare.add_argument("out", type=Path, metavar="DIR", help="a batch output folder")
 
     seed = sub.add_parser(
@@ -127,10 +137,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     score.add_argument("log", type=Path, metavar="LOG", help=".tlog or .bin flight log")
     score.add_argument("--fence", type=Path, required=True, metavar="FILE", help="fence file (.plan, WPL 110, MAVProxy, GeoJSON)")
-    score.add_argument("--ceiling", type=float, default=None, metavar="M", help="ceiling, m above home (default: the file's, else 120)")
+    score.add_argument(
+        "--ceiling", type=float, default=None, metavar="M", help="ceiling, m above home (default: the file's, else 120)"
+    )
     score.add_argument("--json", action="store_true", help="print only the scores, as one JSON object (warnings on stderr)")
-    score.add_argument("--max-fence-distance-km", type=float, default=50.0, metavar="KM",
-                       help="refuse a log whose median position is farther than this from the fence (default 50)")
+    score.add_argument(
+        "--max-fence-distance-km",
+        type=float,
+        default=50.0,
+        metavar="KM",
+        help="refuse a log whose median position is farther than this from the fence (default 50)",
+    )
 
     imp = sub.add_parser(
         "import-fence",
@@ -145,8 +162,21 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     imp.add_argument("fence_file", type=Path, metavar="FILE")
-    imp.add_argument("--ceiling", type=float, default=None, metavar="M", help="ceiling, m above home (wins over the file's; default: the file's, else 120)")
-    imp.add_argument("-o", "--output", type=Path, default=None, metavar="OUT.yaml", help="write here instead of stdout (coordinates rounded to 1e-7 deg)")
+    imp.add_argument(
+        "--ceiling",
+        type=float,
+        default=None,
+        metavar="M",
+        help="ceiling, m above home (wins over the file's; default: the file's, else 120)",
+    )
+    imp.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        default=None,
+        metavar="OUT.yaml",
+        help="write here instead of stdout (coordinates rounded to 1e-7 deg)",
+    )
     imp.add_argument("--force", action="store_true", help="overwrite OUT.yaml if it exists")
 
     val = sub.add_parser(
@@ -170,7 +200,9 @@ def build_parser() -> argparse.ArgumentParser:
             "Exit code 0 if every mission passes, 1 if one would be overridden, 2 on bad input."
         ),
     )
-    chk.add_argument("scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml", help="scenario file(s) with a mission and a geofence")
+    chk.add_argument(
+        "scenarios", nargs="+", type=Path, metavar="SCENARIO.yaml", help="scenario file(s) with a mission and a geofence"
+    )
 
     vm = sub.add_parser(
         "validate-models",
@@ -185,7 +217,9 @@ def build_parser() -> argparse.ArgumentParser:
     vm.add_argument("--models", nargs="+", default=None, metavar="MODEL", help="models to fly (default: every profile)")
     vm.add_argument("--out", default="docs/validation.md", metavar="FILE", help="markdown output (default docs/validation.md)")
     vm.add_argument("--check-profiles", action="store_true", help="exit 1 when a profile's envelope is not what was measured")
-    vm.add_argument("--allow-conservative", action="store_true", help="with --check-profiles: a figure off on the safe side only warns")
+    vm.add_argument(
+        "--allow-conservative", action="store_true", help="with --check-profiles: a figure off on the safe side only warns"
+    )
 
     camp = sub.add_parser(
         "campaign",
@@ -200,17 +234,40 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     camp_sub = camp.add_subparsers(dest="campaign_command", required=True, metavar="ACTION")
-    gen = camp_sub.add_parser("generate", help="write the campaign's scenario files", description="Write N cases x 3 variants of scenario YAML and campaign.json into DIR (reproducible from --seed).")
+    gen = camp_sub.add_parser(
+        "generate",
+        help="write the campaign's scenario files",
+        description="Write N cases x 3 variants of scenario YAML and campaign.json into DIR (reproducible from --seed).",
+    )
     gen.add_argument("out", type=Path, metavar="DIR", help="folder for the scenario files (must be new or empty)")
     gen.add_argument("--cases", type=int, default=1000, metavar="N", help="number of cases (default 1000; each is flown 3 times)")
     gen.add_argument("--seed", type=int, default=2026, help="campaign seed (default 2026)")
     gen.add_argument("--max-duration-s", type=float, default=180.0, metavar="S", help="longest flight, s (default 180)")
-    gen.add_argument("--platforms", default=None, metavar="A,B", help="comma-separated platform profiles to draw from (default: every shipped profile)")
-    rep = camp_sub.add_parser("report", help="write campaign_report.md from a flown campaign", description="Read RESULTS/results.csv (from batch) and the campaign's campaign.json; write RESULTS/campaign_report.md and its figures.")
+    gen.add_argument(
+        "--platforms",
+        default=None,
+        metavar="A,B",
+        help="comma-separated platform profiles to draw from (default: every shipped profile)",
+    )
+    rep = camp_sub.add_parser(
+        "report",
+        help="write campaign_report.md from a flown campaign",
+        description="Read RESULTS/results.csv (from batch) and the campaign's campaign.json; write RESULTS/campaign_report.md and its figures.",
+    )
     rep.add_argument("results", type=Path, metavar="RESULTS", help="the batch output folder")
-    rep.add_argument("--campaign", type=Path, required=True, metavar="DIR", help="the folder written by 'campaign generate' (holds campaign.json)")
+    rep.add_argument(
+        "--campaign",
+        type=Path,
+        required=True,
+        metavar="DIR",
+        help="the folder written by 'campaign generate' (holds campaign.json)",
+    )
 
-    sub.add_parser("list", help="list flyable aircraft and shipped scenarios", description="List aircraft that have a platform profile, and the example scenarios shipped with the testbed.")
+    sub.add_parser(
+        "list",
+        help="list flyable aircraft and shipped scenarios",
+        description="List aircraft that have a platform profile, and the example scenarios shipped with the testbed.",
+    )
     return parser
 
 
@@ -250,8 +307,9 @@ def main(argv: list[str] | None = None) -> int:
 
             for model in args.models or []:
                 load_profile(model)  # an unknown model is one line, exit 2, before anything flies
-            return run_validation(args.models, args.out, check_profiles=args.check_profiles,
-                                  allow_conservative=args.allow_conservative)
+            return run_validation(
+                args.models, args.out, check_profiles=args.check_profiles, allow_conservative=args.allow_conservative
+            )
         if args.command == "campaign":
             return _cmd_campaign(args)
     except _user_errors() as exc:
@@ -298,12 +356,17 @@ def _cmd_campaign(args) -> int:
             platforms = [p.strip() for p in args.platforms.split(",") if p.strip()]
             unknown = [p for p in platforms if p not in available_profiles()]
             if not platforms or unknown:
-                print(f"error: --platforms: unknown profile {unknown[0] if unknown else '(none given)'!r} "
-                      f"(shipped: {', '.join(available_profiles())})", file=sys.stderr)
+                print(
+                    f"error: --platforms: unknown profile {unknown[0] if unknown else '(none given)'!r} "
+                    f"(shipped: {', '.join(available_profiles())})",
+                    file=sys.stderr,
+                )
                 return EXIT_BAD_INPUT
         paths = generate_campaign(args.out, args.cases, args.seed, platforms=platforms, max_duration_s=args.max_duration_s)
-        print(f"wrote {len(paths)} scenario files and {args.out / 'campaign.json'}; fly them with: "
-              f"geofence-testbed batch {args.out} --out RESULTS")
+        print(
+            f"wrote {len(paths)} scenario files and {args.out / 'campaign.json'}; fly them with: "
+            f"geofence-testbed batch {args.out} --out RESULTS"
+        )
         return 0
     from analysis.campaign import write_campaign_report
 
@@ -342,7 +405,9 @@ def _cmd_validate(args) -> int:
         sc = scenarios[0]
         if sweep:
             aircraft = ", ".join(dict.fromkeys(x.aircraft for x in scenarios))
-            print(f"ok: {path}: sweep of {len(scenarios)} flights ({aircraft}, {sc.pilot.kind}, up to {max(x.duration_s for x in scenarios):g} s)")
+            print(
+                f"ok: {path}: sweep of {len(scenarios)} flights ({aircraft}, {sc.pilot.kind}, up to {max(x.duration_s for x in scenarios):g} s)"
+            )
         else:
             print(f"ok: {path}: {sc.name} ({sc.aircraft}, {sc.pilot.kind}, {sc.duration_s:g} s)")
     return EXIT_BAD_INPUT if failed else 0
@@ -381,8 +446,9 @@ def _cmd_run(args) -> int:
     for sc, spec in zip(scenarios, specs):
         bar = _progress(sc, quiet=args.quiet)
         try:
-            result = run_scenario(sc, args.out, on_step=bar.update if bar else None, plot=not args.no_plot,
-                                  scenario_hash=spec.scenario_hash)
+            result = run_scenario(
+                sc, args.out, on_step=bar.update if bar else None, plot=not args.no_plot, scenario_hash=spec.scenario_hash
+            )
         finally:
             if bar:
                 bar.close()
@@ -457,9 +523,16 @@ def _cmd_batch(args) -> int:
     if args.out.is_dir():
         changed = len(resume_state(specs, args.out).changed)
         if changed:
-            print(f"re-flying {changed} changed flight{'s' if changed != 1 else ''} (scenario or version differs from the stored result)")
+            print(
+                f"re-flying {changed} changed flight{'s' if changed != 1 else ''} (scenario or version differs from the stored result)"
+            )
     outcome = run_batch(
-        specs, args.out, jobs=args.jobs, executor=args.executor, scheduler=args.scheduler, progress=not args.quiet,
+        specs,
+        args.out,
+        jobs=args.jobs,
+        executor=args.executor,
+        scheduler=args.scheduler,
+        progress=not args.quiet,
         flight_plots=not args.no_flight_plots,
     )
     _write_batch_outputs(args.out, report=not args.no_report)
@@ -605,7 +678,14 @@ def _progress(sc, quiet: bool):
         return None
     from tqdm import tqdm
 
-    return tqdm(total=sc.duration_s, desc=sc.name, unit="sim s", leave=False, file=sys.stderr, bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} sim s [{elapsed}<{remaining}]")
+    return tqdm(
+        total=sc.duration_s,
+        desc=sc.name,
+        unit="sim s",
+        leave=False,
+        file=sys.stderr,
+        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} sim s [{elapsed}<{remaining}]",
+    )
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -89,7 +89,9 @@ def normalise_transitions(transitions: Iterable[Any]) -> list[dict]:
 
 def activation_times(transitions: Iterable[Any]) -> np.ndarray:
     """Times (s) at which an override started (MONITOR/RECOVERED -> OVERRIDE; re-activations excluded)."""
-    return np.array([t["t_s"] for t in normalise_transitions(transitions) if t["to"] == "OVERRIDE" and t["from"] != "OVERRIDE"], float)
+    return np.array(
+        [t["t_s"] for t in normalise_transitions(transitions) if t["to"] == "OVERRIDE" and t["from"] != "OVERRIDE"], float
+    )
 
 
 def attempts_from_items(traj: Mapping[str, np.ndarray], breach_config) -> list[dict]:
@@ -228,7 +230,9 @@ def ramp_setpoints(
     starts = activation_times(transitions)
     for j, ta in enumerate(starts):
         i0 = int(np.clip(np.searchsorted(t, ta - 1e-6), 0, len(t) - 1))
-        s = VehicleState(t_s=t[i0], east_m=float(traj["east_m"][i0]), north_m=float(traj["north_m"][i0]), agl_m=float(traj["agl_m"][i0]))
+        s = VehicleState(
+            t_s=t[i0], east_m=float(traj["east_m"][i0]), north_m=float(traj["north_m"][i0]), agl_m=float(traj["agl_m"][i0])
+        )
         law.start(s, StraightRoute(goal_enh[0], goal_enh[1]), goal_enh[2], s.agl_m, float(t[i0]))
         i = i0
         while i < len(t) and mode[i] == Mode.OVERRIDE:
@@ -290,7 +294,9 @@ def analyse_folder(folder: Path, scenario_path: Path) -> SeedAnalysis:
     fence = scenario.geofence.fence.to_local(LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m))
     log = folder / "attempts.json"
     attempts = json.loads(log.read_text()) if log.is_file() else attempts_from_items(traj, scenario.pilot.breach)
-    an = _analysis(summary["scenario"], scenario.geofence, traj, summary.get("mode_transitions", []), attempts, boundaries_from_fence(fence))
+    an = _analysis(
+        summary["scenario"], scenario.geofence, traj, summary.get("mode_transitions", []), attempts, boundaries_from_fence(fence)
+    )
     _add_setpoints(an, scenario, fence)
     return an
 
@@ -382,7 +388,9 @@ def fly_seed_scenario(path: Path, out_dir: Path | None = None):
     return result
 
 
-def run(out_dir: Path, fly_flights: bool = True, reactive_path: Path = REACTIVE_SCENARIO, predictive_path: Path = PREDICTIVE_SCENARIO) -> Path:
+def run(
+    out_dir: Path, fly_flights: bool = True, reactive_path: Path = REACTIVE_SCENARIO, predictive_path: Path = PREDICTIVE_SCENARIO
+) -> Path:
     """Fly (or read) both seed scenarios, write ``seed_reproduction.md`` and the figures into ``out_dir``; returns the report path."""
     from analysis.paper_plots import plot_all
 
@@ -399,8 +407,10 @@ def run(out_dir: Path, fly_flights: bool = True, reactive_path: Path = REACTIVE_
             if not (out_dir / name / "trajectory.csv").is_file():
                 from geofence.validation import ConfigError
 
-                raise ConfigError(f"{out_dir}: --no-fly: no flight {name!r} to re-analyse here (no {name}/trajectory.csv); "
-                                  f"run without --no-fly to fly it first")
+                raise ConfigError(
+                    f"{out_dir}: --no-fly: no flight {name!r} to re-analyse here (no {name}/trajectory.csv); "
+                    f"run without --no-fly to fly it first"
+                )
             analyses.append(analyse_folder(out_dir / name, path))
     reactive, predictive = analyses
     figures = plot_all(reactive, predictive, out_dir)

@@ -99,18 +99,30 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
             truth = platform.truth()
             truth.t_s -= t0
             if abs(truth.v_east_mps) + abs(truth.v_north_mps) + abs(truth.v_up_mps) > diverged_above_mps:
-                raise FloatingPointError(f"JSBSim state of {scenario.aircraft} diverged (speed beyond {diverged_above_mps:.0f} m/s) at t={truth.t_s:.2f} s")
+                raise FloatingPointError(
+                    f"JSBSim state of {scenario.aircraft} diverged (speed beyond {diverged_above_mps:.0f} m/s) at t={truth.t_s:.2f} s"
+                )
             w = wind.sample(truth.t_s, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)
             platform.set_wind_enu(*w)
             cmd_in = pilot.command(truth)
             if unit is not None and own is not None:
                 seen = own.sense(truth, dt_s)
-                cmd = unit.update(truth.t_s, seen.estimate, cmd_in, dt_s, wind_en=seen.wind_en, position_valid=seen.position_valid,
-                                  sigma_h_m=seen.sigma_h_m, sigma_v_m=seen.sigma_v_m, estimate_age_s=own.data_age_s,
-                                  turbulence_sigma_mps=own.turbulence_sigma_mps)
+                cmd = unit.update(
+                    truth.t_s,
+                    seen.estimate,
+                    cmd_in,
+                    dt_s,
+                    wind_en=seen.wind_en,
+                    position_valid=seen.position_valid,
+                    sigma_h_m=seen.sigma_h_m,
+                    sigma_v_m=seen.sigma_v_m,
+                    estimate_age_s=own.data_age_s,
+                    turbulence_sigma_mps=own.turbulence_sigma_mps,
+                )
                 mode = unit.mode
-                recorder.append(truth, w, cmd_in, cmd, int(mode), pilot.items_reached, unit.estimate, seen.wind_en,
-                                unit.activation_margin_m)
+                recorder.append(
+                    truth, w, cmd_in, cmd, int(mode), pilot.items_reached, unit.estimate, seen.wind_en, unit.activation_margin_m
+                )
             else:
                 cmd = cmd_in
                 recorder.append(truth, w, cmd_in, cmd, int(mode), pilot.items_reached)
@@ -164,14 +176,23 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         summary["preflight"] = findings_summary(preflight_findings(scenario))
         traj = {
             name: recorder.column(name)
-            for name in ("time_s", "east_m", "north_m", "agl_m", "alt_m", "v_east_mps", "v_north_mps", "ground_speed_mps", "geofence_mode")
+            for name in (
+                "time_s",
+                "east_m",
+                "north_m",
+                "agl_m",
+                "alt_m",
+                "v_east_mps",
+                "v_north_mps",
+                "ground_speed_mps",
+                "geofence_mode",
+            )
         }
         summary.update(score_flight(traj, fence))
         summary["activations"] = unit.activations
         summary["final_mode"] = unit.mode.name
         summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
-    return FlightResult(scenario=scenario, summary=summary, recorder=recorder, frame=frame, pilot=pilot, unit=unit,
-                        fence=fence)
+    return FlightResult(scenario=scenario, summary=summary, recorder=recorder, frame=frame, pilot=pilot, unit=unit, fence=fence)
 
 
 class Sensed(NamedTuple):
@@ -203,9 +224,15 @@ class _GeofenceSensing:
         self.estimator = GeofenceEstimator(
             frame,
             EstimatorConfig(
-                gps_h_white_m=sc.gps_h_white_m, gps_h_bias_m=sc.gps_h_bias_m, gps_v_white_m=sc.gps_v_white_m,
-                gps_v_bias_m=sc.gps_v_bias_m, gps_bias_tau_s=sc.gps_bias_tau_s, gps_vel_h_mps=sc.gps_vel_h_noise_mps,
-                gps_vel_v_mps=sc.gps_vel_v_noise_mps, baro_noise_m=sc.baro_noise_m, baro_drift_m=sc.baro_drift_m,
+                gps_h_white_m=sc.gps_h_white_m,
+                gps_h_bias_m=sc.gps_h_bias_m,
+                gps_v_white_m=sc.gps_v_white_m,
+                gps_v_bias_m=sc.gps_v_bias_m,
+                gps_bias_tau_s=sc.gps_bias_tau_s,
+                gps_vel_h_mps=sc.gps_vel_h_noise_mps,
+                gps_vel_v_mps=sc.gps_vel_v_noise_mps,
+                baro_noise_m=sc.baro_noise_m,
+                baro_drift_m=sc.baro_drift_m,
                 baro_drift_tau_s=sc.baro_drift_tau_s,
             ),
         )
@@ -323,8 +350,10 @@ def incomplete_reason(summary: dict[str, Any], scenario: Scenario) -> str | None
         return f"the simulation stopped: {summary['error']}"
     reason = "the flight did not run to its end"
     if scenario.pilot.kind == "mission" and not summary.get("mission_finished"):
-        reason = (f"the mission was not finished within duration_s = {scenario.duration_s:g} s "
-                  f"(reached {summary.get('mission_progress', '?')} mission items)")
+        reason = (
+            f"the mission was not finished within duration_s = {scenario.duration_s:g} s "
+            f"(reached {summary.get('mission_progress', '?')} mission items)"
+        )
     if summary.get("activations"):
         reason += f"; the geofence overrode the pilot {summary['activations']} time(s) (final mode {summary.get('final_mode')})"
     if scenario.warnings:
@@ -372,4 +401,3 @@ def run_scenario(
     text = Path(scenario.source).read_text() if scenario.source is not None and Path(scenario.source).is_file() else None
     write_result(result, out_dir, scenario_text=text, plot=plot, scenario_hash=scenario_hash)
     return result
-

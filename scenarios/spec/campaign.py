@@ -175,7 +175,7 @@ def platform_room_m(profile: PlatformProfile) -> float:
     if env.is_multirotor:
         v = env.max_speed_mps
         return v * env.reaction_time_s + v * v / (2.0 * env.braking_decel_mps2)
-    return env.cruise_speed_mps ** 2 / (G_MPS2 * math.tan(env.max_bank_rad))
+    return env.cruise_speed_mps**2 / (G_MPS2 * math.tan(env.max_bank_rad))
 
 
 def wind_limit_mps(profile: PlatformProfile) -> float:
@@ -243,7 +243,8 @@ class FenceDraft:
             m["keep_out_polygons"] = [_ll(frame, k) for k in self.keep_out_polygons]
         if self.keep_out_circles:
             m["keep_out_circles"] = [
-                {"center": _ll(frame, np.array([[e, n]]))[0], "radius_m": _r(r, 1)} for e, n, r in self.keep_out_circles]
+                {"center": _ll(frame, np.array([[e, n]]))[0], "radius_m": _r(r, 1)} for e, n, r in self.keep_out_circles
+            ]
         return m
 
     def local(self, frame: LocalFrame) -> LocalFence:
@@ -294,8 +295,9 @@ def _segment_ok(local: LocalFence, a: np.ndarray, b: np.ndarray, min_margin_m: f
     return True
 
 
-def _run_up(rng: np.random.Generator, ctx: CaseContext, local: LocalFence, target: np.ndarray, course_deg: float,
-            speed: str = "max") -> tuple[np.ndarray, float]:
+def _run_up(
+    rng: np.random.Generator, ctx: CaseContext, local: LocalFence, target: np.ndarray, course_deg: float, speed: str = "max"
+) -> tuple[np.ndarray, float]:
     """A start point behind ``target`` on ``course_deg`` with the path inside; (start, approach time s).
 
     Prefers a start beyond the activation distance (so the pilot, not the start, provokes the override)
@@ -343,8 +345,9 @@ def _edge_targets(local: LocalFence, rng: np.random.Generator) -> tuple[np.ndarr
     return p, ki.outward_normals[i], i
 
 
-def _plan_lateral(rng: np.random.Generator, ctx: CaseContext, local: LocalFence, attack: Attack, agl_m: float,
-                  corner: int | None = None) -> Plan:
+def _plan_lateral(
+    rng: np.random.Generator, ctx: CaseContext, local: LocalFence, attack: Attack, agl_m: float, corner: int | None = None
+) -> Plan:
     ki = local.keep_in
     speed = "max" if rng.random() < 0.7 else "cruise"
     if attack is Attack.CORNER:
@@ -378,8 +381,10 @@ def _plan_lateral(rng: np.random.Generator, ctx: CaseContext, local: LocalFence,
             c = _course_deg(p - start)
             push = float(np.hypot(*(p - start))) / v_run * float(rng.uniform(0.9, 1.4))
             back = float(rng.uniform(3.0, 8.0))
-            segs += [{"duration_s": _r(push, 1), "course_deg": _r(c, 1), "speed": speed, "climb": "hold"},
-                     {"duration_s": _r(back, 1), "course_deg": _r((c + 180.0) % 360.0, 1), "speed": "cruise", "climb": "hold"}]
+            segs += [
+                {"duration_s": _r(push, 1), "course_deg": _r(c, 1), "speed": speed, "climb": "hold"},
+                {"duration_s": _r(back, 1), "course_deg": _r((c + 180.0) % 360.0, 1), "speed": "cruise", "climb": "hold"},
+            ]
             t_total += push + back
         first = segs[0]["course_deg"]
         approach = segs[0]["duration_s"]
@@ -391,12 +396,18 @@ def _plan_lateral(rng: np.random.Generator, ctx: CaseContext, local: LocalFence,
         straight = _r(max(approach * rng.uniform(0.4, 0.8), 1.0), 1)
         side = 1.0 if rng.random() < 0.5 else -1.0
         if ctx.multirotor:
-            sticks = {"roll": _r(side * rng.uniform(0.2, 0.6)), "pitch": _r(-rng.uniform(0.5, 1.0)),
-                      "yaw": _r(side * rng.uniform(0.1, 0.4)), "throttle": 0.0}
+            sticks = {
+                "roll": _r(side * rng.uniform(0.2, 0.6)),
+                "pitch": _r(-rng.uniform(0.5, 1.0)),
+                "yaw": _r(side * rng.uniform(0.1, 0.4)),
+                "throttle": 0.0,
+            }
         else:
             sticks = {"roll": _r(side * rng.uniform(0.4, 1.0)), "pitch": 0.0, "yaw": 0.0, "throttle": 1.0}
-        segs = [{"duration_s": straight, "course_deg": _r(course, 1), "speed": speed, "climb": "hold"},
-                {"duration_s": _r(max(duration - straight, 1.0), 1), "sticks": sticks}]
+        segs = [
+            {"duration_s": straight, "course_deg": _r(course, 1), "speed": speed, "climb": "hold"},
+            {"duration_s": _r(max(duration - straight, 1.0), 1), "sticks": sticks},
+        ]
     else:
         segs = [{"duration_s": duration, "course_deg": _r(course, 1), "speed": speed, "climb": "hold"}]
     return Plan(start, course, agl_m, segs, approach, duration)
@@ -410,8 +421,7 @@ def _is_convex_vertex(v: np.ndarray, j: int, ccw: bool) -> bool:
     return cross > 0.0 if ccw else cross < 0.0
 
 
-def _plan_mission(rng: np.random.Generator, ctx: CaseContext, local: LocalFence, frame: LocalFrame,
-                  agl_m: float) -> Plan | None:
+def _plan_mission(rng: np.random.Generator, ctx: CaseContext, local: LocalFence, frame: LocalFrame, agl_m: float) -> Plan | None:
     """Waypoints and legs at least :data:`MISSION_INSET_ROOMS` rooms inside every boundary (None: no room)."""
     inset = MISSION_INSET_ROOMS * ctx.room_m
     env = ctx.profile.envelope
@@ -463,8 +473,13 @@ def _heights(rng: np.random.Generator, ctx: CaseContext) -> tuple[float, float]:
     return ceiling, rng.uniform(60.0, ceiling - 40.0)
 
 
-def _lateral_case(rng: np.random.Generator, ctx: CaseContext, unit_shape: Sequence[Sequence[float]],
-                  attack: Attack | None = None, corner_angle: bool = False) -> tuple[FenceDraft, Plan, Attack]:
+def _lateral_case(
+    rng: np.random.Generator,
+    ctx: CaseContext,
+    unit_shape: Sequence[Sequence[float]],
+    attack: Attack | None = None,
+    corner_angle: bool = False,
+) -> tuple[FenceDraft, Plan, Attack]:
     attack = attack or _pick(rng, LATERAL_ATTACKS, (3, 2, 2, 2, 2, 2))
     r = ctx.target_inradius_m(rng) * (1.6 if attack is Attack.MISSION else 1.0)
     ceiling, agl = _heights(rng, ctx)
@@ -533,8 +548,9 @@ def family_corridor(rng: np.random.Generator, ctx: CaseContext):
     half_len = rng.uniform(0.5, 1.5) * r
     h = c / 2.0
     x0, x1 = half_len, half_len + 2.0 * r
-    poly = np.array([(-x1, -r), (-x0, -r), (-x0, -h), (x0, -h), (x0, -r), (x1, -r), (x1, r), (x0, r), (x0, h),
-                     (-x0, h), (-x0, r), (-x1, r)])
+    poly = np.array(
+        [(-x1, -r), (-x0, -r), (-x0, -h), (x0, -h), (x0, -r), (x1, -r), (x1, r), (x0, r), (x0, h), (-x0, h), (-x0, r), (-x1, r)]
+    )
     poly = _rot(poly, rng.uniform(0.0, 2.0 * math.pi))
     ceiling, agl = _heights(rng, ctx)
     draft = FenceDraft(poly, ceiling)
@@ -686,7 +702,9 @@ def family_floor_gaps(rng: np.random.Generator, ctx: CaseContext):
     local = draft.local(frame)
     gap_c = gaps[0].mean(axis=0)
     if attack is Attack.MISSION:
-        plan = _plan_mission(rng, ctx, local, frame, rng.uniform(floor + 0.3 * (ceiling - floor), floor + 0.7 * (ceiling - floor)))
+        plan = _plan_mission(
+            rng, ctx, local, frame, rng.uniform(floor + 0.3 * (ceiling - floor), floor + 0.7 * (ceiling - floor))
+        )
         if plan is not None:
             return draft, plan, attack
         attack = Attack.DESCEND
@@ -701,15 +719,20 @@ def family_floor_gaps(rng: np.random.Generator, ctx: CaseContext):
         low = rng.uniform(2.0, max(floor - 3.0, 3.0))
         down_s = (agl - low) / env.max_descent_rate_mps
         dash = _r(min(rng.uniform(15.0, 30.0), max(ctx.max_duration_s - down_s - 2.0, 5.0)), 1)
-        segs = [{"duration_s": _r(down_s, 1), "course_deg": _r(course, 1), "speed": "min", "climb": "descend"},
-                {"duration_s": dash, "course_deg": _r((course + rng.uniform(-60, 60)) % 360.0, 1), "speed": "max", "climb": "hold"}]
+        segs = [
+            {"duration_s": _r(down_s, 1), "course_deg": _r(course, 1), "speed": "min", "climb": "descend"},
+            {"duration_s": dash, "course_deg": _r((course + rng.uniform(-60, 60)) % 360.0, 1), "speed": "max", "climb": "hold"},
+        ]
         duration = _r(min(down_s + dash, ctx.max_duration_s), 1)
         return draft, Plan(gap_c, course, agl, segs, down_s, duration), attack
     # descend to the floor outside every gap
     agl = floor + rng.uniform(8.0, 30.0)
     for _ in range(50):
         p = _rot(np.array([[rng.uniform(-0.8, 0.8) * a * r, rng.uniform(-0.8, 0.8) * r]]), angle)[0]
-        if local.gap_distance_m(float(p[0]), float(p[1])) < -ctx.room_m and local.lateral_margin_m(float(p[0]), float(p[1])) > 0.5 * r:
+        if (
+            local.gap_distance_m(float(p[0]), float(p[1])) < -ctx.room_m
+            and local.lateral_margin_m(float(p[0]), float(p[1])) > 0.5 * r
+        ):
             break
     course = rng.uniform(0.0, 360.0)
     approach = (agl - floor) / env.max_descent_rate_mps
@@ -736,8 +759,12 @@ FAMILY_BUILDERS: dict[CaseFamily, Callable[[np.random.Generator, CaseContext], t
 def draw_site(rng: np.random.Generator) -> dict:
     continent, (la0, la1), (lo0, lo1) = SITES[int(rng.integers(len(SITES)))]
     ground = float(rng.uniform(0.0, MAX_GROUND_ALT_M)) if rng.random() < 0.5 else float(rng.uniform(0.0, 400.0))
-    return {"continent": continent, "lat_deg": round(float(rng.uniform(la0, la1)), 6),
-            "lon_deg": round(float(rng.uniform(lo0, lo1)), 6), "ground_alt_m": round(ground, 1)}
+    return {
+        "continent": continent,
+        "lat_deg": round(float(rng.uniform(la0, la1)), 6),
+        "lon_deg": round(float(rng.uniform(lo0, lo1)), 6),
+        "ground_alt_m": round(ground, 1),
+    }
 
 
 def draw_wind(rng: np.random.Generator, profile: PlatformProfile, approach_hint_s: float) -> tuple[dict, float]:
@@ -756,9 +783,14 @@ def draw_wind(rng: np.random.Generator, profile: PlatformProfile, approach_hint_
     gust = total - steady
     if n_gusts:
         wind["gusts"] = [
-            {"onset_s": _r(max(1.0, approach_hint_s + rng.uniform(-4.0, 1.0)), 1), "amplitude_mps": _r(gust * rng.uniform(0.7, 1.0)),
-             "length_m": _r(rng.uniform(20.0, 80.0), 1), "from_deg": _r((from_deg + rng.uniform(-30.0, 30.0)) % 360.0, 1)}
-            for _ in range(n_gusts)]
+            {
+                "onset_s": _r(max(1.0, approach_hint_s + rng.uniform(-4.0, 1.0)), 1),
+                "amplitude_mps": _r(gust * rng.uniform(0.7, 1.0)),
+                "length_m": _r(rng.uniform(20.0, 80.0), 1),
+                "from_deg": _r((from_deg + rng.uniform(-30.0, 30.0)) % 360.0, 1),
+            }
+            for _ in range(n_gusts)
+        ]
     design = steady + gust + 1.5 * TURBULENCE_SIGMA_MPS[severity]
     return wind, design
 
@@ -766,8 +798,11 @@ def draw_wind(rng: np.random.Generator, profile: PlatformProfile, approach_hint_
 def _gps_fault(rng: np.random.Generator) -> dict | None:
     if rng.random() >= GPS_FAULT_PROBABILITY:
         return None
-    return {"kind": "fail" if rng.random() < 0.5 else "outage", "at_fraction": round(float(rng.uniform(0.5, 1.0)), 3),
-            "length_s": round(float(rng.uniform(2.0, 8.0)), 2)}
+    return {
+        "kind": "fail" if rng.random() < 0.5 else "outage",
+        "at_fraction": round(float(rng.uniform(0.5, 1.0)), 3),
+        "length_s": round(float(rng.uniform(2.0, 8.0)), 2),
+    }
 
 
 # --------------------------------------------------------------------------- one case
@@ -782,8 +817,9 @@ class Case:
     manifest: dict
 
 
-def build_case(index: int, seed: int, family: CaseFamily, platforms: Sequence[str],
-               max_duration_s: float = DEFAULT_MAX_DURATION_S) -> Case | None:
+def build_case(
+    index: int, seed: int, family: CaseFamily, platforms: Sequence[str], max_duration_s: float = DEFAULT_MAX_DURATION_S
+) -> Case | None:
     """Case ``index`` of a campaign (reproducible from ``(seed, index)``); None when no platform fits."""
     rng = np.random.default_rng([int(seed), int(index)])
     site = draw_site(rng)
@@ -828,18 +864,44 @@ def legal_start(ctx: CaseContext, draft: FenceDraft, plan: Plan) -> bool:
     e, n = float(plan.start_en[0]), float(plan.start_en[1])
     sensors = SensorConfig()
     k = GeofenceConfig.uncertainty_k_sigma  # the unit's default k
-    r = activation_margins(local, e, n, plan.agl_m, ve, vn, 0.0, env, we, wn,
-                           h_uncertainty_m=k * sensors.gps_h_sigma_m, v_uncertainty_m=k * sensors.gps_v_sigma_m)
+    r = activation_margins(
+        local,
+        e,
+        n,
+        plan.agl_m,
+        ve,
+        vn,
+        0.0,
+        env,
+        we,
+        wn,
+        h_uncertainty_m=k * sensors.gps_h_sigma_m,
+        v_uncertainty_m=k * sensors.gps_v_sigma_m,
+    )
     return r.lateral_activation_m > 0.0
 
 
-def _assemble(index: int, family: CaseFamily, attack: Attack, ctx: CaseContext, draft: FenceDraft, plan: Plan,
-              wind: dict, case_seed: int, rng: np.random.Generator) -> Case:
+def _assemble(
+    index: int,
+    family: CaseFamily,
+    attack: Attack,
+    ctx: CaseContext,
+    draft: FenceDraft,
+    plan: Plan,
+    wind: dict,
+    case_seed: int,
+    rng: np.random.Generator,
+) -> Case:
     frame = ctx.frame
     case_id = f"{family.value}-{index:04d}"
     lat, lon = _ll(frame, np.asarray(plan.start_en, float))[0]
-    start = {"lat_deg": lat, "lon_deg": lon, "ground_alt_m": ctx.site["ground_alt_m"], "agl_m": _r(plan.agl_m, 1),
-             "heading_deg": _r(plan.heading_deg % 360.0, 1)}
+    start = {
+        "lat_deg": lat,
+        "lon_deg": lon,
+        "ground_alt_m": ctx.site["ground_alt_m"],
+        "agl_m": _r(plan.agl_m, 1),
+        "heading_deg": _r(plan.heading_deg % 360.0, 1),
+    }
     # gusts: re-time them at the planned approach (the wind was drawn before the plan existed)
     for g in wind.get("gusts", []):
         g["onset_s"] = _r(max(1.0, plan.approach_s + rng.uniform(-4.0, 1.0)), 1)
@@ -847,8 +909,8 @@ def _assemble(index: int, family: CaseFamily, attack: Attack, ctx: CaseContext, 
     doc: dict[str, Any] = {
         "name": case_id,
         "description": f"campaign case {case_id}: {family.value} fence, {attack.value} pilot, {ctx.platform} at "
-                       f"{ctx.site['continent']} ({ctx.site['lat_deg']:.3f}, {ctx.site['lon_deg']:.3f}, "
-                       f"{ctx.site['ground_alt_m']:.0f} m), wind {wind['speed_mps']:g} m/s from {wind['from_deg']:g} deg",
+        f"{ctx.site['continent']} ({ctx.site['lat_deg']:.3f}, {ctx.site['lon_deg']:.3f}, "
+        f"{ctx.site['ground_alt_m']:.0f} m), wind {wind['speed_mps']:g} m/s from {wind['from_deg']:g} deg",
         "aircraft": ctx.platform,
         "seed": case_seed,
         "duration_s": duration,
@@ -869,8 +931,10 @@ def _assemble(index: int, family: CaseFamily, attack: Attack, ctx: CaseContext, 
             doc["sensors"] = {"gps_outages": [[at, _r(at + ctx.gps_fault["length_s"], 1)]]}
         fault = doc["sensors"]
     fence = draft.mapping(frame)
-    forecast = {"speed_mps": _r(wind["speed_mps"] * rng.uniform(0.8, 1.2)),
-                "from_deg": _r((wind["from_deg"] + rng.uniform(-20.0, 20.0)) % 360.0, 1)}
+    forecast = {
+        "speed_mps": _r(wind["speed_mps"] * rng.uniform(0.8, 1.2)),
+        "from_deg": _r((wind["from_deg"] + rng.uniform(-20.0, 20.0)) % 360.0, 1),
+    }
     documents = {}
     for variant in Variant:
         d = dict(doc)
@@ -914,9 +978,14 @@ def _validate(text: str, where: str) -> None:
         raise CampaignError(f"generator bug: the schema rejects a generated scenario: {exc}") from None
 
 
-def generate_cases(n_cases: int, seed: int, *, platforms: Sequence[str] | None = None,
-                   families: Sequence[CaseFamily] | None = None,
-                   max_duration_s: float = DEFAULT_MAX_DURATION_S) -> list[Case]:
+def generate_cases(
+    n_cases: int,
+    seed: int,
+    *,
+    platforms: Sequence[str] | None = None,
+    families: Sequence[CaseFamily] | None = None,
+    max_duration_s: float = DEFAULT_MAX_DURATION_S,
+) -> list[Case]:
     """The cases of a campaign, in memory (see :func:`generate_campaign`)."""
     if n_cases < 0:
         raise CampaignError(f"n_cases: must be >= 0, got {n_cases}")
@@ -939,9 +1008,15 @@ def generate_cases(n_cases: int, seed: int, *, platforms: Sequence[str] | None =
     return cases
 
 
-def generate_campaign(out_dir: Path, n_cases: int, seed: int, *, platforms: Sequence[str] | None = None,
-                      families: Sequence[CaseFamily] | None = None,
-                      max_duration_s: float = DEFAULT_MAX_DURATION_S) -> list[Path]:
+def generate_campaign(
+    out_dir: Path,
+    n_cases: int,
+    seed: int,
+    *,
+    platforms: Sequence[str] | None = None,
+    families: Sequence[CaseFamily] | None = None,
+    max_duration_s: float = DEFAULT_MAX_DURATION_S,
+) -> list[Path]:
     """Write ``n_cases`` cases x 3 variants of scenario YAML and ``campaign.json`` into ``out_dir``.
 
     Families take turns (case ``i`` is ``families[i % len]``); everything else
@@ -958,8 +1033,10 @@ def generate_campaign(out_dir: Path, n_cases: int, seed: int, *, platforms: Sequ
     for case in cases:
         for variant, doc in case.documents.items():
             path = out_dir / case.manifest["files"][variant.value]
-            text = f"# generated by scenarios/spec/campaign.py (seed {seed}); {case.case_id} / {variant.value}\n" + \
-                yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=140)
+            text = (
+                f"# generated by scenarios/spec/campaign.py (seed {seed}); {case.case_id} / {variant.value}\n"
+                + yaml.safe_dump(doc, sort_keys=False, default_flow_style=None, width=140)
+            )
             _validate(text, str(path))
             path.write_text(text)
             written.append(path)

@@ -64,7 +64,10 @@ def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
     if fence.altitude_reference == "amsl":
         route = [PlannedWaypoint(w.east_m, w.north_m, w.height_m + st.ground_alt_m, w.label, w.loiter_radius_m) for w in route]
     return check_route(
-        fence, env, route, speed,
+        fence,
+        env,
+        route,
+        speed,
         wind_en=cfg.wind_prior_enu,
         wind_extra_mps=cfg.turbulence_k_sigma * cfg.turbulence_sigma_mps + cfg.gust_mps,
         h_uncertainty_m=k * sensors.gps_h_sigma_m + cfg.extra_margin_m,
@@ -91,10 +94,16 @@ def findings_summary(findings: list[PreflightFinding] | None) -> dict | None:
     return {
         "passed": not findings,
         "findings": [
-            {"part": f.part.value, "index": f.index, "label": f.label, "east_m": round(f.east_m, 1),
-             "north_m": round(f.north_m, 1), "height_m": round(f.height_m, 1),
-             "activation_margin_m": round(f.activation_margin_m, 2) if math.isfinite(f.activation_margin_m) else None,
-             "reason": f.reason}
+            {
+                "part": f.part.value,
+                "index": f.index,
+                "label": f.label,
+                "east_m": round(f.east_m, 1),
+                "north_m": round(f.north_m, 1),
+                "height_m": round(f.height_m, 1),
+                "activation_margin_m": round(f.activation_margin_m, 2) if math.isfinite(f.activation_margin_m) else None,
+                "reason": f.reason,
+            }
             for f in findings
         ],
     }

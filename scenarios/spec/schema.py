@@ -165,8 +165,22 @@ class Scenario:
 
 
 _TOP_KEYS = frozenset(
-    {"name", "description", "aircraft", "profile", "sensors", "start", "duration_s", "seed", "pilot", "mission", "wind", "control_rate_hz",
-     "geofence", "allow"}
+    {
+        "name",
+        "description",
+        "aircraft",
+        "profile",
+        "sensors",
+        "start",
+        "duration_s",
+        "seed",
+        "pilot",
+        "mission",
+        "wind",
+        "control_rate_hz",
+        "geofence",
+        "allow",
+    }
 )
 
 
@@ -228,8 +242,9 @@ def referenced_files(document: Any, base_dir: Path | str | None) -> list[Path]:
     return [fence_file_path(fence["file"], "geofence.fence", base_dir)]
 
 
-def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source: Path | None = None,
-                   base_dir: Path | str | None = None) -> Scenario:
+def parse_scenario(
+    raw: Any, where: str, default_name: str = "scenario", source: Path | None = None, base_dir: Path | str | None = None
+) -> Scenario:
     """Validate an already-parsed YAML document (see :func:`load_scenario`).
 
     ``base_dir``: where a relative ``geofence.fence.file`` is looked for (see :func:`scenario_base_dir`:
@@ -280,8 +295,9 @@ def parse_scenario(raw: Any, where: str, default_name: str = "scenario", source:
     _check_wind(wind, profile, aircraft, where, allow, warnings)
     geofence = None
     if raw.get("geofence") is not None:
-        geofence = _parse_geofence_block(raw["geofence"], f"{where}: geofence", start, profile, wind,
-                                         scenario_base_dir(where, source, base_dir))
+        geofence = _parse_geofence_block(
+            raw["geofence"], f"{where}: geofence", start, profile, wind, scenario_base_dir(where, source, base_dir)
+        )
         _check_inside_fence(geofence, start, mission if pilot.kind == "mission" else None, where, allow, warnings)
 
     return Scenario(
@@ -328,7 +344,9 @@ def _check_latitude(lat: float, where: str) -> None:
         )
 
 
-def _check_wind(wind: WindConfig | None, profile: PlatformProfile, aircraft: str, where: str, allow: frozenset[str], warnings: list[str]) -> None:
+def _check_wind(
+    wind: WindConfig | None, profile: PlatformProfile, aircraft: str, where: str, allow: frozenset[str], warnings: list[str]
+) -> None:
     """A mean wind at or above what the platform can fly against (multirotor: max speed; fixed-wing: cruise)."""
     if wind is None:
         return
@@ -338,12 +356,15 @@ def _check_wind(wind: WindConfig | None, profile: PlatformProfile, aircraft: str
         _inconsistent(
             f"{where}: wind.speed_mps: a mean wind of {wind.speed_mps:g} m/s is at or above the {what} of the {aircraft} "
             f"({limit:g} m/s): it cannot fly against it and would be blown away",
-            "wind_above_platform_speed", allow, warnings,
+            "wind_above_platform_speed",
+            allow,
+            warnings,
         )
 
 
-def _check_inside_fence(cfg: GeofenceConfig, start: StartConfig, mission: MissionConfig | None, where: str,
-                        allow: frozenset[str], warnings: list[str]) -> None:
+def _check_inside_fence(
+    cfg: GeofenceConfig, start: StartConfig, mission: MissionConfig | None, where: str, allow: frozenset[str], warnings: list[str]
+) -> None:
     """The start and the mission's items inside the geofence's allowed area (laterally, and below an AGL ceiling)."""
     local = cfg.fence.to_local(LocalFrame(start.lat_deg, start.lon_deg, start.ground_alt_m))
     agl_ceiling = local.ceiling_m if local.altitude_reference == "agl" else None
@@ -363,13 +384,22 @@ def _check_inside_fence(cfg: GeofenceConfig, start: StartConfig, mission: Missio
 
     problem = outside(start.lat_deg, start.lon_deg, start.agl_m)
     if problem:
-        _inconsistent(f"{where}: start: the start ({start.lat_deg:.6f}, {start.lon_deg:.6f}) is {problem} of the geofence",
-                      "start_outside_fence", allow, warnings)
+        _inconsistent(
+            f"{where}: start: the start ({start.lat_deg:.6f}, {start.lon_deg:.6f}) is {problem} of the geofence",
+            "start_outside_fence",
+            allow,
+            warnings,
+        )
     for i, item in enumerate(mission.items if mission is not None else ()):
         problem = outside(item.lat_deg, item.lon_deg, item.agl_m, item.radius_m if item.kind == "loiter" else 0.0)
         if problem:
-            _inconsistent(f"{where}: mission.items[{i}]: this {item.kind} is {problem} of the geofence: the mission cannot be "
-                          f"flown to the end", "mission_outside_fence", allow, warnings)
+            _inconsistent(
+                f"{where}: mission.items[{i}]: this {item.kind} is {problem} of the geofence: the mission cannot be "
+                f"flown to the end",
+                "mission_outside_fence",
+                allow,
+                warnings,
+            )
 
 
 def _parse_aircraft_profile(aircraft: str, inline: Any, where: str) -> PlatformProfile:
@@ -393,8 +423,9 @@ def _parse_aircraft_profile(aircraft: str, inline: Any, where: str) -> PlatformP
         raise ConfigError(str(exc)) from None
 
 
-def _parse_geofence_block(raw: Any, where: str, start: StartConfig, profile: PlatformProfile, wind: WindConfig | None,
-                          base_dir: Path | None = None) -> GeofenceConfig:
+def _parse_geofence_block(
+    raw: Any, where: str, start: StartConfig, profile: PlatformProfile, wind: WindConfig | None, base_dir: Path | None = None
+) -> GeofenceConfig:
     """Validate the geofence block, and check that its activation boundary exists for this platform and wind."""
     try:
         cfg = parse_geofence(raw, where, base_dir=base_dir)
@@ -464,7 +495,12 @@ def _parse_item(raw: Any, where: str) -> MissionItem:
     require_mapping(raw, where)
     kind = string(raw.get("type"), f"{where}.type", choices=list(MISSION_ITEM_TYPES))
     reject_unknown_keys(raw, _ITEM_KEYS[kind] | {"type"}, where)
-    needs = {"takeoff": ("agl_m",), "waypoint": ("lat_deg", "lon_deg", "agl_m"), "loiter": ("lat_deg", "lon_deg", "agl_m", "duration_s"), "land": ()}
+    needs = {
+        "takeoff": ("agl_m",),
+        "waypoint": ("lat_deg", "lon_deg", "agl_m"),
+        "loiter": ("lat_deg", "lon_deg", "agl_m", "duration_s"),
+        "land": (),
+    }
     for key in needs[kind]:
         if key not in raw:
             raise ConfigError(f"{where}.{key}: missing (required for a {kind} item)")
@@ -545,4 +581,3 @@ def _parse_segment(raw: Any, where: str) -> ScriptSegment:
         speed=string(raw.get("speed", "max"), f"{where}.speed", choices=list(SCRIPT_SPEEDS)),
         climb=string(raw.get("climb", "hold"), f"{where}.climb", choices=list(SCRIPT_CLIMBS)),
     )
-

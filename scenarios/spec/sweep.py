@@ -67,7 +67,11 @@ class FlightSpec:
 
     def __post_init__(self) -> None:
         if not self.scenario_hash:
-            h = scenario_hash(self.document) if self.document is not None else _sha256({"error": self.error, "version": project_version()})
+            h = (
+                scenario_hash(self.document)
+                if self.document is not None
+                else _sha256({"error": self.error, "version": project_version()})
+            )
             object.__setattr__(self, "scenario_hash", h)
 
 
@@ -172,7 +176,9 @@ def _draws(raw: Any, where: str, salt: int, base_doc: dict, file_where: str) -> 
         kind, args = next(iter(spec.items()))
         if not isinstance(args, list) or not args:
             raise ConfigError(f"{where}.draws.{key}.{kind}: expected a list of parameters")
-        if kind in ("uniform", "normal", "integers") and (len(args) != 2 or not all(isinstance(a, (int, float)) and not isinstance(a, bool) for a in args)):
+        if kind in ("uniform", "normal", "integers") and (
+            len(args) != 2 or not all(isinstance(a, (int, float)) and not isinstance(a, bool) for a in args)
+        ):
             raise ConfigError(f"{where}.draws.{key}.{kind}: expected [low, high] (uniform, integers) or [mean, sd] (normal)")
         samplers.append((str(key), kind, args))
     out = []
@@ -244,7 +250,7 @@ def _check_path(doc: dict, path: str, value: Any, label: str, where: str) -> Non
         msg = str(exc)
         for created in parts[missing_from:]:  # geofence.validation words it "<path>.x: unknown key"
             if f"{created}: unknown key" in msg:
-                problem = msg[len(where) + 2:] if msg.startswith(f"{where}: ") else msg
+                problem = msg[len(where) + 2 :] if msg.startswith(f"{where}: ") else msg
                 raise ConfigError(f"{label}: no such field in a scenario ({problem})") from None
 
 

@@ -150,7 +150,9 @@ class BreachAttemptsPilot:
             pulled_back = self._moved_with_push and v_along < -PULLED_BACK_MPS
             if travel >= self.config.push_m or pulled_back or in_phase >= self.config.push_m / speed + PUSH_SLACK_S:
                 self.attempt_log[-1]["t_push_end_s"] = round(t, 3)
-                self.attempt_log[-1]["push_end"] = "travel" if travel >= self.config.push_m else ("pulled back" if pulled_back else "timeout")
+                self.attempt_log[-1]["push_end"] = (
+                    "travel" if travel >= self.config.push_m else ("pulled back" if pulled_back else "timeout")
+                )
                 self._enter(self.RETURN, t)
                 return self._hold_home(s)
             return self._push_sticks(s, k, speed)

@@ -112,7 +112,9 @@ class MissionAutopilot:
             return StickCommand(throttle=-1.0)
         last = self.targets[-1]
         if self.multirotor:
-            return self._mc().sticks_to_point(s, last.east_m, last.north_m, last.up_m, self.speed_mps, self._hold_yaw_rad, self.dt_s)
+            return self._mc().sticks_to_point(
+                s, last.east_m, last.north_m, last.up_m, self.speed_mps, self._hold_yaw_rad, self.dt_s
+            )
         radius = max(last.radius_m, 1.5 * self._fw().min_turn_radius_m())
         course, _ = self._fw().course_on_orbit(s, last.east_m, last.north_m, radius)
         return self._fw().sticks(s, course, last.up_m, self.speed_mps)
@@ -131,7 +133,11 @@ class MissionAutopilot:
                 self.landed = True
                 self._advance(s)
                 return StickCommand(throttle=-1.0)
-            rate = LAND_FINAL_DESCENT_MPS if s.agl_m < LAND_SLOW_BELOW_AGL_M else min(LAND_DESCENT_MPS, self.env.max_descent_rate_mps)
+            rate = (
+                LAND_FINAL_DESCENT_MPS
+                if s.agl_m < LAND_SLOW_BELOW_AGL_M
+                else min(LAND_DESCENT_MPS, self.env.max_descent_rate_mps)
+            )
             ve, vn = mc.velocity_toward(s, tgt.east_m, tgt.north_m, self.speed_mps)
             return mc.sticks_for_velocity(s, ve, vn, -rate, self._hold_yaw_rad, self.dt_s)
         d = math.hypot(tgt.east_m - s.east_m, tgt.north_m - s.north_m)

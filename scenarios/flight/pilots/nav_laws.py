@@ -71,7 +71,14 @@ class MultirotorNavigator:
         )
 
     def sticks_to_point(
-        self, s: VehicleState, target_e: float, target_n: float, target_up: float, speed_mps: float, yaw_cmd_rad: float, dt_s: float
+        self,
+        s: VehicleState,
+        target_e: float,
+        target_n: float,
+        target_up: float,
+        speed_mps: float,
+        yaw_cmd_rad: float,
+        dt_s: float,
     ) -> StickCommand:
         ve, vn = self.velocity_toward(s, target_e, target_n, speed_mps)
         vz = altitude_to_climb_rate(target_up, s.up_m, self.env, self.kh)
@@ -121,7 +128,9 @@ class FixedWingNavigator:
         chi_q = math.atan2(qe, qn)
         return chi_q - self.chi_inf * (2.0 / math.pi) * math.atan(self.k_path * cross_right), along, length
 
-    def course_on_orbit(self, s: VehicleState, ce: float, cn: float, radius_m: float, clockwise: bool = True) -> tuple[float, float]:
+    def course_on_orbit(
+        self, s: VehicleState, ce: float, cn: float, radius_m: float, clockwise: bool = True
+    ) -> tuple[float, float]:
         """Vector-field course to converge onto a circle; returns (course rad, distance from center m)."""
         return orbit_course_rad(s.east_m, s.north_m, ce, cn, radius_m, self.k_orbit, clockwise)
 
