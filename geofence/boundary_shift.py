@@ -76,42 +76,24 @@ from .rooms import (
     G_MPS2,
     TWO_PI,
     climb_arrest_phase,
-    course_reversal_time_s,
     fixed_wing_room_bound_m,
-    fixed_wing_room_from_velocity_m,
-    fixed_wing_room_m,
-    multicopter_stopping_distance_m,
     multirotor_room_m,
     reaction_arc_m,
     tilt_accel_mps2,
     trochoid_excursion_m,
     turn_constants,
-    turn_excursion_m,
-    turn_radius_m,
     turn_rate_radps,
     vertical_arrest_distance_m,
     worst_case_lateral_shift_m,
 )
 
 __all__ = [
-    # the assembly (this module)
     "ShiftFeasibility",
     "ShiftResult",
     "activation_margins",
     "activation_margins_for_state",
     "check_shift_feasible",
     "uncertainty_margin_m",
-    # re-exported from geofence.rooms, for existing callers
-    "G_MPS2",
-    "course_reversal_time_s",
-    "fixed_wing_room_from_velocity_m",
-    "fixed_wing_room_m",
-    "multicopter_stopping_distance_m",
-    "turn_excursion_m",
-    "turn_radius_m",
-    "turn_rate_radps",
-    "vertical_arrest_distance_m",
-    "worst_case_lateral_shift_m",
 ]
 
 

@@ -62,7 +62,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any, Mapping, Sequence
+from typing import Any, Mapping, NamedTuple, Sequence
 
 import numpy as np
 
@@ -371,15 +371,37 @@ FEATURE_KEEP_OUT_CIRCLE = "keep_out_circle"
 FEATURE_FLOOR_GAP = "floor_gap"
 
 
-def _edge_items(p: PolygonIndex, feature: str, index: int, sign: float) -> tuple:
-    """``(ax, ay, dx, dy, inv_len2, nx, ny, feature, index, edge)`` per edge of ``p``; normal = sign · outward."""
+class DangerEdge(NamedTuple):
+    """One lateral boundary edge as the margins see it (ENU m), with the unit normal pointing *towards the breach*."""
+
+    ax: float
+    ay: float
+    """Start point."""
+    dx: float
+    dy: float
+    """Edge vector (end - start)."""
+    inv_len2: float
+    """1 / |d|^2 (0 for a zero-length edge)."""
+    nx: float
+    ny: float
+    """Unit normal towards the breach."""
+    feature: str
+    """FEATURE_KEEP_IN, FEATURE_KEEP_OUT_POLYGON or FEATURE_FLOOR_GAP."""
+    feature_index: int
+    """Which keep-out polygon or floor gap (0 for the keep-in)."""
+    edge: int
+    """The edge's index in its polygon."""
+
+
+def _edge_items(p: PolygonIndex, feature: str, index: int, sign: float) -> tuple[DangerEdge, ...]:
+    """A :class:`DangerEdge` per edge of ``p``; normal = sign · outward."""
     out = []
     for j in range(p.n):
         ax, ay = float(p.starts[j, 0]), float(p.starts[j, 1])
         dx, dy = float(p.ends[j, 0]) - ax, float(p.ends[j, 1]) - ay
         l2 = dx * dx + dy * dy
         nx, ny = sign * float(p.outward_normals[j, 0]), sign * float(p.outward_normals[j, 1])
-        out.append((ax, ay, dx, dy, 1.0 / l2 if l2 > 0.0 else 0.0, nx, ny, feature, index, j))
+        out.append(DangerEdge(ax, ay, dx, dy, 1.0 / l2 if l2 > 0.0 else 0.0, nx, ny, feature, index, j))
     return tuple(out)
 
 
@@ -441,8 +463,8 @@ class LocalFence:
         n_elements = self.keep_in.n + sum(k.n for k in self.keep_out_polygons) + len(self.keep_out_circles)
         self._use_index = index if index is not None else n_elements >= SMALL_FENCE_ELEMENTS
         self._inradius: tuple[float, float, float] | None = None
-        self._danger_edges: tuple | None = None
-        self._gap_edges: tuple | None = None
+        self._danger_edges: tuple[DangerEdge, ...] | None = None
+        self._gap_edges: tuple[tuple[DangerEdge, ...], ...] | None = None
         self.recovery_height_m: float | None
         rp = fence.recovery_point
         if rp is not None:
@@ -619,13 +641,12 @@ class LocalFence:
         m = np.minimum(self.lateral_margin_array(points), self.ceiling_m - h)
         return np.minimum(m, self.floor_margin_array(points, h))
 
-    def danger_edges(self) -> tuple:
-        """Every lateral boundary edge as a flat tuple, for per-edge analyses (cached).
+    def danger_edges(self) -> tuple[DangerEdge, ...]:
+        """Every lateral boundary edge as a :class:`DangerEdge`, for per-edge analyses (cached).
 
-        Items ``(ax, ay, dx, dy, inv_len2, nx, ny, feature, feature_index, edge)``:
-        start point, edge vector, 1/length², unit normal pointing *towards the
-        breach* (outward for keep-in edges, into the keep-out for keep-out
-        edges), and the edge's identity. Circles are in ``keep_out_circles``.
+        The keep-in's edges first, then each keep-out polygon's; the normal
+        points *towards the breach* (outward for keep-in edges, into the
+        keep-out for keep-out edges). Circles are in ``keep_out_circles``.
         """
         if self._danger_edges is None:
             out = list(_edge_items(self.keep_in, FEATURE_KEEP_IN, 0, 1.0))
@@ -634,7 +655,7 @@ class LocalFence:
             self._danger_edges = tuple(out)
         return self._danger_edges
 
-    def gap_edges(self, gap: int) -> tuple:
+    def gap_edges(self, gap: int) -> tuple[DangerEdge, ...]:
         """The edges of floor gap ``gap`` in the :meth:`danger_edges` item format (cached).
 
         The normal points *out of the gap*: below the floor, leaving the gap

@@ -9,11 +9,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geofence.boundary_shift import (
-    G_MPS2,
-    activation_margins,
-    activation_margins_for_state,
-    check_shift_feasible,
+from geofence.boundary_shift import activation_margins, activation_margins_for_state, check_shift_feasible, uncertainty_margin_m
+from geofence.dynamics import G_MPS2, drag_coefficients, wind_push_mps2
+from geofence.fence import FenceError, parse_fence
+from geofence.geodesy import LocalFrame
+from geofence.interface import Envelope, PlatformKind, VehicleState
+from geofence.rooms import (
     course_reversal_time_s,
     fixed_wing_room_from_velocity_m,
     fixed_wing_room_m,
@@ -21,14 +22,9 @@ from geofence.boundary_shift import (
     turn_excursion_m,
     turn_radius_m,
     turn_rate_radps,
-    uncertainty_margin_m,
     vertical_arrest_distance_m,
     worst_case_lateral_shift_m,
 )
-from geofence.dynamics import drag_coefficients, wind_push_mps2
-from geofence.fence import FenceError, parse_fence
-from geofence.geodesy import LocalFrame
-from geofence.interface import Envelope, PlatformKind, VehicleState
 
 BANK = math.radians(35.0)
 FW = Envelope(

@@ -41,8 +41,8 @@ from analysis.campaign import (
     unprotected_vs_protected,
     write_campaign_report,
 )
-from geofence.boundary_shift import worst_case_lateral_shift_m
 from geofence.geodesy import LocalFrame
+from geofence.rooms import worst_case_lateral_shift_m
 from scenarios.spec.campaign import (
     MISSION_INSET_ROOMS,
     CampaignError,

@@ -96,8 +96,12 @@ def test_one_gravity_constant():
     assert wind_estimator.G_MPS2 is dynamics.G_MPS2
     assert G_MPS2 is dynamics.G_MPS2
     assignment = re.compile(r"^\s*\w+(\s*:\s*\w+)?\s*=\s*9\.8", re.M)
-    defining = sorted(p.name for p in (ROOT / "geofence").glob("*.py") if assignment.search(p.read_text()))
-    assert defining == ["dynamics.py"]
+    packages = ("aircraft", "analysis", "geofence", "scenarios", "wind")
+    files = [p for pkg in packages for p in (ROOT / pkg).rglob("*.py")]
+    defining = sorted(str(p.relative_to(ROOT)) for p in files if assignment.search(p.read_text()))
+    assert defining == ["geofence/dynamics.py"]
+    literal = re.compile(r"[^\w.]9\.8\d*\s*\*|\*\s*9\.8|/\s*\(?9\.8")  # g written as a number in an expression
+    assert sorted(str(p.relative_to(ROOT)) for p in files if literal.search(p.read_text())) == []
 
 
 # ------------------------------------------------------------------ fixed-wing fast forms

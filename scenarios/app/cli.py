@@ -573,11 +573,9 @@ def _cmd_plot(args) -> int:
         fence = envelope = None
         if (folder / "scenario.yaml").is_file():
             sc = parse_scenario(read_document(folder / "scenario.yaml"), str(folder / "scenario.yaml"), folder.name)
-            from geofence.geodesy import LocalFrame
 
             if sc.geofence is not None:
-                st = sc.start
-                fence = sc.geofence.fence.to_local(LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m))
+                fence = sc.local_fence()
             envelope = sc.profile.envelope
         from analysis.plots import plot_flight
 

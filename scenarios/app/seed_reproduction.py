@@ -281,7 +281,6 @@ def _add_setpoints(an: SeedAnalysis, scenario, fence) -> None:
 
 def analyse_folder(folder: Path, scenario_path: Path) -> SeedAnalysis:
     """Analyse a written flight (``trajectory.csv`` + ``summary.json``, optional ``attempts.json``)."""
-    from geofence.geodesy import LocalFrame
     from scenarios.flight.recorder import read_trajectory_csv
     from scenarios.spec.schema import load_scenario
 
@@ -289,9 +288,8 @@ def analyse_folder(folder: Path, scenario_path: Path) -> SeedAnalysis:
     scenario = load_scenario(scenario_path)
     traj = read_trajectory_csv(folder / "trajectory.csv")
     summary = json.loads((folder / "summary.json").read_text())
-    st = scenario.start
     assert scenario.geofence is not None, f"{scenario_path}: the seed reproduction needs a geofence block"
-    fence = scenario.geofence.fence.to_local(LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m))
+    fence = scenario.local_fence()
     log = folder / "attempts.json"
     attempts = json.loads(log.read_text()) if log.is_file() else attempts_from_items(traj, scenario.pilot.breach)
     an = _analysis(

@@ -64,7 +64,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     """Fly ``scenario`` in closed loop and return the recorded flight (nothing is written)."""
     wall0 = time.perf_counter()
     st = scenario.start
-    frame = LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m)
+    frame = scenario.frame
     platform = build_platform(scenario.profile)
     env = platform.envelope
     wind = wind_from_config(scenario.wind, scenario.seed) if scenario.wind is not None else CalmWind()

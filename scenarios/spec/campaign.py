@@ -26,7 +26,7 @@ max-bank turn radius at cruise ``V^2/(g tan(bank))`` (fixed-wing) or its
 stopping distance from top speed ``v t_r + v^2/(2 a)`` (multirotor), and the
 allowed area's inradius is several times the larger of that room and the
 geofence's worst-case lateral shift in the case's design wind
-(:func:`geofence.boundary_shift.worst_case_lateral_shift_m`). A fence that
+(:func:`geofence.rooms.worst_case_lateral_shift_m`). A fence that
 would not fit (wider than :data:`MAX_FENCE_SPAN_M`, or an infinite shift)
 makes the case skip that platform and try the next one.
 
@@ -50,12 +50,13 @@ import yaml
 
 from aircraft.profile import PlatformProfile, available_profiles, load_profile
 from aircraft.sensors import SensorConfig
-from geofence.boundary_shift import G_MPS2, activation_margins, worst_case_lateral_shift_m
+from geofence.boundary_shift import activation_margins
 from geofence.config import GeofenceConfig
 from geofence.dynamics import envelope_at_density, isa_density_ratio
 from geofence.fence import LocalFence, parse_fence
 from geofence.geodesy import LocalFrame
 from geofence.polygon import PolygonIndex
+from geofence.rooms import multicopter_stopping_distance_m, turn_radius_m, worst_case_lateral_shift_m
 
 MANIFEST = "campaign.json"
 MAX_FENCE_SPAN_M = 9_000.0
@@ -173,9 +174,8 @@ def platform_room_m(profile: PlatformProfile) -> float:
     """One turn radius (fixed-wing, cruise at max bank) or one stop from top speed (multirotor), m."""
     env = profile.envelope
     if env.is_multirotor:
-        v = env.max_speed_mps
-        return v * env.reaction_time_s + v * v / (2.0 * env.braking_decel_mps2)
-    return env.cruise_speed_mps**2 / (G_MPS2 * math.tan(env.max_bank_rad))
+        return multicopter_stopping_distance_m(env.max_speed_mps, env.reaction_time_s, env.braking_decel_mps2)
+    return turn_radius_m(env.cruise_speed_mps, env.max_bank_rad)
 
 
 def wind_limit_mps(profile: PlatformProfile) -> float:

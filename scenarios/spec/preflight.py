@@ -53,7 +53,7 @@ def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
     if cfg is None or scenario.mission is None or scenario.pilot.kind != "mission":
         return None
     st = scenario.start
-    frame = LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m)
+    frame = scenario.frame
     fence = cfg.fence.to_local(frame)
     env = scenario.profile.envelope
     env = envelope_at_density(env, isa_density_ratio(st.ground_alt_m + max(st.agl_m, 0.0)))

@@ -32,7 +32,7 @@ from aircraft.profile import PlatformProfile, ProfileError, available_profiles, 
 from aircraft.sensors import SensorConfig, parse_sensors
 from geofence.boundary_shift import check_shift_feasible
 from geofence.config import GeofenceConfig, GeofenceConfigError, fence_file_path, parse_geofence
-from geofence.fence import FenceError
+from geofence.fence import FenceError, LocalFence
 from geofence.geodesy import LocalFrame
 from geofence.validation import (
     ConfigError,
@@ -66,6 +66,11 @@ class StartConfig:
     heading_deg: float = 0.0
     airspeed_mps: float = 0.0
     """Air-start airspeed (fixed-wing); 0 = the platform's cruise speed."""
+
+    @property
+    def frame(self) -> LocalFrame:
+        """The flight's local ENU frame: origin at the start point, on the ground."""
+        return LocalFrame(self.lat_deg, self.lon_deg, self.ground_alt_m)
 
 
 @dataclass(frozen=True)
@@ -162,6 +167,15 @@ class Scenario:
     """Inconsistencies the scenario asks for deliberately (see :data:`ALLOWABLE`)."""
     warnings: tuple[str, ...] = ()
     """One line each: the allowed inconsistencies this scenario actually has."""
+
+    @property
+    def frame(self) -> LocalFrame:
+        """The flight's local ENU frame (:attr:`StartConfig.frame`)."""
+        return self.start.frame
+
+    def local_fence(self) -> LocalFence | None:
+        """The geofence's fence in :attr:`frame` (None without a geofence)."""
+        return self.geofence.fence.to_local(self.frame) if self.geofence is not None else None
 
 
 _TOP_KEYS = frozenset(
@@ -366,7 +380,7 @@ def _check_inside_fence(
     cfg: GeofenceConfig, start: StartConfig, mission: MissionConfig | None, where: str, allow: frozenset[str], warnings: list[str]
 ) -> None:
     """The start and the mission's items inside the geofence's allowed area (laterally, and below an AGL ceiling)."""
-    local = cfg.fence.to_local(LocalFrame(start.lat_deg, start.lon_deg, start.ground_alt_m))
+    local = cfg.fence.to_local(start.frame)
     agl_ceiling = local.ceiling_m if local.altitude_reference == "agl" else None
 
     def outside(lat: float | None, lon: float | None, agl: float | None, radius: float = 0.0) -> str | None:
@@ -436,7 +450,7 @@ def _parse_geofence_block(
                     _check_latitude(lat, f"{where}.fence.{name}")
         for c in f.keep_out_circles:
             _check_latitude(c.center_lat_deg, f"{where}.fence.keep_out_circles")
-        frame = LocalFrame(start.lat_deg, start.lon_deg, start.ground_alt_m)
+        frame = start.frame
         wind_speed = wind.speed_mps if wind is not None else 0.0
         check_shift_feasible(cfg.fence.to_local(frame), profile.envelope, wind_speed)
     except FenceError as exc:
