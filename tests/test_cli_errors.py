@@ -137,3 +137,20 @@ def test_bad_fence_file_is_one_line_exit_2(tmp_path):
     bad.write_text("{not json")
     res = run_cli("import-fence", str(bad))
     assert res.returncode == 2 and len(res.stderr.strip().splitlines()) == 1 and "Traceback" not in res.stderr
+
+
+@pytest.mark.parametrize("name", ["analysis", "wind"])
+def test_a_package_shadowing_ours_is_refused_in_one_line(tmp_path, name):
+    """Another installed package named like one of ours (README: namespacing) is caught before any work."""
+    (tmp_path / "shadow" / name).mkdir(parents=True)
+    (tmp_path / "shadow" / name / "__init__.py").write_text("")
+    import os
+
+    env = dict(os.environ, PYTHONPATH=str(tmp_path / "shadow"))
+    r = subprocess.run(
+        [sys.executable, "-m", "scenarios.app.cli", "list"], capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120
+    )
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"the package {name!r}" in lines[0] and "shadows it" in lines[0], r.stderr
+    assert "Traceback" not in r.stderr and r.stdout == ""

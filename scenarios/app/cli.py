@@ -271,9 +271,44 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+OWN_PACKAGES: dict[str, str] = {
+    "aircraft": "aircraft.jsbsim_model",
+    "analysis": "analysis.scoring",
+    "geofence": "geofence.unit",
+    "scenarios": "scenarios.app.cli",
+    "wind": "wind.dryden",
+}
+"""Our five top-level packages, each with one module only ours has (see the README on namespacing)."""
+
+
+def shadowed_packages() -> list[str]:
+    """One line per top-level name that is not this distribution's (another installed package shadows it)."""
+    import importlib
+    import importlib.util
+
+    home = Path(__file__).resolve().parents[2]
+    problems = []
+    for name, marker in OWN_PACKAGES.items():
+        try:
+            pkg = importlib.import_module(name)
+            found = importlib.util.find_spec(marker) is not None
+        except ImportError:
+            pkg, found = None, False
+        where = Path(getattr(pkg, "__file__", None) or "?").resolve()
+        if not found or where.parents[1] != home:
+            problems.append(
+                f"the package {name!r} imported from {where} is not geofence-testbed's (expected under {home}): "
+                f"another installed package shadows it; use a virtual environment (see README)"
+            )
+    return problems
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    for line in shadowed_packages():
+        print(f"geofence-testbed: {line}", file=sys.stderr)
+        return 2
     if args.command in ("run", "batch", "seed-reproduction"):
         _sigterm_interrupts()
     try:
