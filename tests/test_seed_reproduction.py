@@ -31,7 +31,7 @@ from scenarios.app.seed_reproduction import (
     ramp_setpoints,
 )
 from scenarios.flight.pilots.breach_attempts import BreachAttemptsPilot, draw_speeds
-from scenarios.spec.schema import BreachAttemptsConfig, load_scenario, parse_scenario
+from scenarios.spec.schema import BreachAttemptsConfig, SpeedDraw, load_scenario, parse_scenario
 
 ENV = Envelope(
     PlatformKind.MULTIROTOR, 13.0, 22.6, 0.0, math.radians(20), math.radians(20), math.radians(90), 1.0, 0.8, 3.5, 3.0, 0.25
@@ -151,6 +151,19 @@ def test_pilot_speeds_reproducible_by_seed():
     assert [p.direction(k) for k in range(4)] == ["west", "north", "up", "west"]
     assert p.speed(2) == min(a[2], ENV.max_climb_rate_mps)
     assert p.items_total == 12 and p.items_reached == 0 and not p.finished
+
+
+def test_per_round_speeds_match_across_the_directions_of_a_round():
+    cfg = BreachAttemptsConfig(
+        attempts=8, directions=("west", "north", "up"), speed_mps=(0.2, 1.0), seed=3, speed_draw=SpeedDraw.PER_ROUND
+    )
+    a = draw_speeds(cfg)
+    assert len(a) == 8 and np.array_equal(a, draw_speeds(cfg))
+    assert a[0] == a[1] == a[2] and a[3] == a[4] == a[5] and a[6] == a[7]
+    assert len(set(a.tolist())) == 3 and a.min() >= 0.2 and a.max() <= 1.0
+    # per attempt (the default) is what it was: one draw per attempt
+    b = draw_speeds(BreachAttemptsConfig(attempts=8, speed_mps=(0.2, 1.0), seed=3))
+    assert np.array_equal(b, np.random.default_rng(3).uniform(0.2, 1.0, 8))
 
 
 # --------------------------------------------------------------------------- closed loop

@@ -22,6 +22,7 @@ local frame and the autopilot's geometry break down, so that is always refused.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
@@ -36,6 +37,7 @@ from geofence.fence import FenceError, LocalFence
 from geofence.geodesy import LocalFrame
 from geofence.validation import (
     ConfigError,
+    enum_value,
     integer,
     latitude,
     longitude,
@@ -118,6 +120,17 @@ BREACH_DIRECTIONS = ("north", "east", "south", "west", "up")
 
 
 @dataclass(frozen=True)
+class SpeedDraw(StrEnum):
+    """How the breach-attempts pilot draws its approach speeds (all up front, from its seed)."""
+
+    PER_ATTEMPT = "per_attempt"
+    """A speed per attempt (the seed flights)."""
+    PER_ROUND = "per_round"
+    """A speed per round of directions: every direction is pushed at the same speed in a round, so the
+    axes are compared at matched speeds (the x/y symmetry check of the seed reproduction)."""
+
+
+@dataclass(frozen=True)
 class BreachAttemptsConfig:
     """A pilot who pushes gently across the fence again and again (the seed flights' indoor pilot).
 
@@ -134,6 +147,7 @@ class BreachAttemptsConfig:
     rest_s: float = 3.0
     home_agl_m: float = 0.8
     seed: int = 0
+    speed_draw: SpeedDraw = SpeedDraw.PER_ATTEMPT
 
 
 @dataclass(frozen=True)
@@ -551,7 +565,9 @@ def _parse_pilot(raw: Any, where: str, has_mission: bool) -> PilotConfig:
 
 
 def _parse_breach(raw: Any, where: str) -> BreachAttemptsConfig:
-    reject_unknown_keys(raw, {"type", "attempts", "directions", "speed_mps", "push_m", "rest_s", "home_agl_m", "seed"}, where)
+    reject_unknown_keys(
+        raw, {"type", "attempts", "directions", "speed_mps", "push_m", "rest_s", "home_agl_m", "seed", "speed_draw"}, where
+    )
     d = BreachAttemptsConfig()
     directions = raw.get("directions", list(d.directions))
     if not isinstance(directions, list) or not directions:
@@ -571,6 +587,7 @@ def _parse_breach(raw: Any, where: str) -> BreachAttemptsConfig:
         rest_s=number(raw.get("rest_s", d.rest_s), f"{where}.rest_s", minimum=0.0),
         home_agl_m=number(raw.get("home_agl_m", d.home_agl_m), f"{where}.home_agl_m", strictly_positive=True),
         seed=integer(raw.get("seed", d.seed), f"{where}.seed", minimum=0),
+        speed_draw=enum_value(raw.get("speed_draw", d.speed_draw), f"{where}.speed_draw", SpeedDraw),
     )
 
 

@@ -31,7 +31,7 @@ import numpy as np
 
 from geofence.interface import Envelope, StickCommand, VehicleState
 from scenarios.flight.pilots.nav_laws import MultirotorNavigator
-from scenarios.spec.schema import BreachAttemptsConfig
+from scenarios.spec.schema import BreachAttemptsConfig, SpeedDraw
 
 DIRECTION_UNIT = {"north": (0.0, 1.0), "east": (1.0, 0.0), "south": (0.0, -1.0), "west": (-1.0, 0.0)}
 
@@ -49,9 +49,18 @@ PULLED_BACK_MPS = 0.03
 
 
 def draw_speeds(config: BreachAttemptsConfig) -> np.ndarray:
-    """The per-attempt approach speeds (m/s): uniform in ``speed_mps``, from ``default_rng(seed)``."""
+    """The per-attempt approach speeds (m/s): uniform in ``speed_mps``, from ``default_rng(seed)``.
+
+    ``speed_draw: per_round`` draws one speed per round of ``directions`` and gives it to every
+    attempt of that round.
+    """
     lo, hi = config.speed_mps
-    return np.random.default_rng(config.seed).uniform(lo, hi, config.attempts)
+    rng = np.random.default_rng(config.seed)
+    if config.speed_draw is SpeedDraw.PER_ROUND:
+        k = len(config.directions)
+        rounds = -(-config.attempts // k)
+        return np.repeat(rng.uniform(lo, hi, rounds), k)[: config.attempts]
+    return rng.uniform(lo, hi, config.attempts)
 
 
 class BreachAttemptsPilot:
