@@ -170,7 +170,7 @@ def test_per_round_speeds_match_across_the_directions_of_a_round():
 def _short(path, attempts=4, directions=("west", "north")):
     raw = yaml.safe_load(path.read_text())
     raw = copy.deepcopy(raw)
-    raw["pilot"].update(attempts=attempts, directions=list(directions), speed_mps=[0.25, 1.0], seed=7)
+    raw["pilot"].update(attempts=attempts, directions=list(directions), speed_mps=[0.25, 1.0], seed=7, speed_draw="per_attempt")
     raw["duration_s"] = 90
     return parse_scenario(raw, where=str(path), default_name=path.stem)
 
