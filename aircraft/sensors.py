@@ -61,6 +61,7 @@ from typing import Any
 import numpy as np
 
 from geofence.dynamics import isa_density_ratio
+from geofence.estimator import EstimatorConfig
 from geofence.geodesy import WGS84_A_M, WGS84_F
 from geofence.interface import VehicleState
 from geofence.measurements import AirData, AttitudeSample, GpsFix
@@ -77,6 +78,10 @@ _GPS_STREAM, _BARO_STREAM, _PITOT_STREAM, _AHRS_STREAM = range(4)
 @dataclass(frozen=True)
 class SensorConfig:
     """Noise and timing of the geofence unit's sensors (SI; see the module docstring for sources)."""
+
+    def estimator_config(self, **tuning: Any) -> EstimatorConfig:
+        """The estimator tuned to these sensors (:func:`estimator_config`)."""
+        return estimator_config(self, **tuning)
 
     gps_rate_hz: float = 5.0
     gps_latency_s: float = 0.2
@@ -350,6 +355,25 @@ _FLOAT_FIELDS = {
     "ahrs_tau_s": (0.0, False),
 }
 SENSOR_KEYS: tuple[str, ...] = tuple(f.name for f in fields(SensorConfig))
+
+ESTIMATOR_NOISE_FIELDS: dict[str, str] = {
+    "gps_h_white_m": "gps_h_white_m",
+    "gps_h_bias_m": "gps_h_bias_m",
+    "gps_v_white_m": "gps_v_white_m",
+    "gps_v_bias_m": "gps_v_bias_m",
+    "gps_bias_tau_s": "gps_bias_tau_s",
+    "gps_vel_h_noise_mps": "gps_vel_h_mps",
+    "gps_vel_v_noise_mps": "gps_vel_v_mps",
+    "baro_noise_m": "baro_noise_m",
+    "baro_drift_m": "baro_drift_m",
+    "baro_drift_tau_s": "baro_drift_tau_s",
+}
+"""The one map from the sensors' noise specification to the estimator's tuning (SensorConfig field -> EstimatorConfig field)."""
+
+
+def estimator_config(sensors: SensorConfig, **tuning: Any) -> EstimatorConfig:
+    """The unit's estimator tuned to these sensors: their GNSS and baro noise, plus any other ``tuning``."""
+    return EstimatorConfig(**{est: getattr(sensors, ours) for ours, est in ESTIMATOR_NOISE_FIELDS.items()}, **tuning)
 
 
 def parse_sensors(raw: Any, where: str = "sensors") -> SensorConfig:

@@ -147,3 +147,20 @@ def test_parse_sensors():
             parse_sensors(raw, "x: sensors")
         assert str(exc.value).startswith(msg), str(exc.value)
         assert "\n" not in str(exc.value)
+
+
+def test_the_estimator_is_tuned_to_the_sensors_through_one_map():
+    """One noise specification: SensorConfig -> EstimatorConfig in one place, and the two defaults agree."""
+    from dataclasses import fields as dc_fields
+    from dataclasses import replace as dc_replace
+
+    from aircraft.sensors import ESTIMATOR_NOISE_FIELDS, SensorConfig
+    from geofence.estimator import EstimatorConfig
+
+    assert SensorConfig().estimator_config() == EstimatorConfig()
+    noisy = dc_replace(SensorConfig(), **{k: 2.0 * getattr(SensorConfig(), k) + 0.1 for k in ESTIMATOR_NOISE_FIELDS})
+    est = noisy.estimator_config(timeout_s=2.0)
+    for ours, theirs in ESTIMATOR_NOISE_FIELDS.items():
+        assert getattr(est, theirs) == getattr(noisy, ours)
+    assert est.timeout_s == 2.0
+    assert set(ESTIMATOR_NOISE_FIELDS) <= {f.name for f in dc_fields(SensorConfig)}

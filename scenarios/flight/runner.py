@@ -215,7 +215,7 @@ class _GeofenceSensing:
 
     def __init__(self, scenario: Scenario, cfg: GeofenceConfig, frame: LocalFrame, env: Envelope):
         from aircraft.sensors import SensorSuite
-        from geofence.estimator import EstimatorConfig, GeofenceEstimator
+        from geofence.estimator import GeofenceEstimator
         from geofence.wind_estimator import WindEstimator, WindEstimatorConfig
 
         self.truth_source = cfg.state_source is StateSource.TRUTH
@@ -223,18 +223,7 @@ class _GeofenceSensing:
         self.sensors = SensorSuite(sc, has_pitot=not env.is_multirotor, seed=scenario.seed)
         self.estimator = GeofenceEstimator(
             frame,
-            EstimatorConfig(
-                gps_h_white_m=sc.gps_h_white_m,
-                gps_h_bias_m=sc.gps_h_bias_m,
-                gps_v_white_m=sc.gps_v_white_m,
-                gps_v_bias_m=sc.gps_v_bias_m,
-                gps_bias_tau_s=sc.gps_bias_tau_s,
-                gps_vel_h_mps=sc.gps_vel_h_noise_mps,
-                gps_vel_v_mps=sc.gps_vel_v_noise_mps,
-                baro_noise_m=sc.baro_noise_m,
-                baro_drift_m=sc.baro_drift_m,
-                baro_drift_tau_s=sc.baro_drift_tau_s,
-            ),
+            sc.estimator_config(),
         )
         self.wind = WindEstimator(env, WindEstimatorConfig(prior_enu=cfg.wind_prior_enu))
         self._truth_wind = None
