@@ -25,8 +25,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from geofence.fence import LocalFence
 from geofence.interface import Envelope
+from geofence.local_fence import LocalFence
 from geofence.rooms import head_on_room_m
 
 

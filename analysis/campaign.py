@@ -118,7 +118,7 @@ def read_trajectory_columns(path: str | Path, names: Sequence[str] = _TRAJ_COLUM
 
 
 def case_fence(case: Mapping):
-    """The :class:`~geofence.fence.LocalFence` of a manifest case, in the runner's frame (its start point)."""
+    """The :class:`~geofence.local_fence.LocalFence` of a manifest case, in the runner's frame (its start point)."""
     st = case["start"]
     frame = LocalFrame(float(st["lat_deg"]), float(st["lon_deg"]), float(st.get("ground_alt_m", 0.0)))
     return parse_fence(case["fence"], f"campaign case {case['case_id']}").to_local(frame)

@@ -171,7 +171,7 @@ def signed_distance(poly: PolygonIndex, x, y, threads: int | None = None) -> np.
 
 
 def fence_margins(fence, x, y, h, threads: int | None = None) -> dict[str, np.ndarray]:
-    """Per-sample margins of a :class:`~geofence.fence.LocalFence` (m, + safe), in one chunked pass.
+    """Per-sample margins of a :class:`~geofence.local_fence.LocalFence` (m, + safe), in one chunked pass.
 
     ``x, y``: east, north (m); ``h``: height in the fence's altitude reference.
     Returns ``lateral`` (keep-in and keep-outs), ``keep_out`` (distance outside

@@ -246,7 +246,7 @@ def plot_flight(
     """Ground track (ENU m) beside height, speed and margins vs time; writes ``out_path`` .png and .svg.
 
     Without a fence the track is coloured by time. With one (a
-    :class:`~geofence.fence.LocalFence`; ``envelope`` the platform's
+    :class:`~geofence.local_fence.LocalFence`; ``envelope`` the platform's
     :class:`~geofence.interface.Envelope`), see the module docstring.
     ``gps_fail_at_s`` (the scenario's ``sensors.gps_fail_at_s``) and
     ``gps_outages`` mark the GPS failure; ``waypoints_en`` (ENU m) and

@@ -3,7 +3,7 @@
 Input: named trajectory columns (as in ``trajectory.csv``: ``time_s``,
 ``east_m``, ``north_m``, ``agl_m`` or ``alt_m``, optional ``geofence_mode``,
 ``v_east_mps``, ``v_north_mps``, ``ground_speed_mps``) and a
-:class:`~geofence.fence.LocalFence` in the same ENU frame. Output: a flat dict
+:class:`~geofence.local_fence.LocalFence` in the same ENU frame. Output: a flat dict
 of scores, all in SI units:
 
 * ``max_excursion_m``: the farthest the vehicle got beyond the fence, lateral
@@ -44,7 +44,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from analysis.fast_margins import fence_margins
-from geofence.fence import LocalFence
+from geofence.local_fence import LocalFence
 
 MONITOR_MODE = 0
 OVERRIDE_MODE = 1

@@ -70,8 +70,9 @@ from dataclasses import dataclass
 from typing import NamedTuple, Sequence
 
 from .dynamics import drag_coefficients, wind_push_mps2
-from .fence import FEATURE_KEEP_OUT_CIRCLE, FenceError, LocalFence
+from .fence import FenceError
 from .interface import Envelope, PlatformKind, VehicleState
+from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 from .rooms import (
     G_MPS2,
     TWO_PI,

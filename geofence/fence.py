@@ -1,4 +1,4 @@
-"""The fence model: a WGS-84 fence (:class:`Fence`), its YAML parser and its local ENU form.
+"""The fence model: a WGS-84 fence (:class:`Fence`), its validation and its YAML parser.
 
 A :class:`Fence` is what a scenario or a ground station declares: an ordered
 keep-in polygon of WGS-84 lat/lon vertices (either orientation), optional
@@ -11,7 +11,7 @@ raises :class:`FenceError` with one line naming the field and the problem.
 
 :meth:`Fence.to_local` projects it into a :class:`~geofence.geodesy.LocalFrame`
 (by default one at the keep-in vertices' centre) and returns a
-:class:`LocalFence` with precomputed :class:`~geofence.polygon.PolygonIndex`
+:class:`~geofence.local_fence.LocalFence` (its own module) with precomputed :class:`~geofence.polygon.PolygonIndex`
 objects and fast scalar margins (plain Python floats, for the 40 Hz loop) plus
 vectorized ``*_array`` versions for analysis. For a fence of more than a few
 dozen elements the per-step lateral queries are answered from a
@@ -62,21 +62,21 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import Any, Mapping, NamedTuple, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
-from .fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame, ecef_to_geodetic, geodetic_to_ecef
 from .polygon import (
-    PolygonIndex,
-    pole_of_inaccessibility,
     polygon_covers_polygon,
     polygons_intersect,
     self_intersections,
     signed_area,
 )
 from .validation import ConfigError, enum_value, number, reject_unknown_keys
+
+if TYPE_CHECKING:
+    from .local_fence import LocalFence
 
 
 class FenceError(ConfigError):
@@ -227,9 +227,11 @@ class Fence:
         lat, lon = self.center()
         return LocalFrame(lat, lon, 0.0)
 
-    def to_local(self, frame: LocalFrame | None = None, *, index: bool | None = None) -> "LocalFence":
+    def to_local(self, frame: LocalFrame | None = None, *, index: bool | None = None) -> LocalFence:
         """This fence projected into ``frame`` (default: :meth:`default_frame`, cached); ``index``: see
         :class:`LocalFence`."""
+        from .local_fence import LocalFence  # the local form imports this module for its types only
+
         if frame is None and index is None:
             if not self._default_local:
                 self._default_local.append(LocalFence(self, self.default_frame()))
@@ -365,320 +367,3 @@ def parse_fence(mapping: Any, where: str = "") -> Fence:
 
 
 # --------------------------------------------------------------------------- local fence
-FEATURE_KEEP_IN = "keep_in"
-FEATURE_KEEP_OUT_POLYGON = "keep_out_polygon"
-FEATURE_KEEP_OUT_CIRCLE = "keep_out_circle"
-FEATURE_FLOOR_GAP = "floor_gap"
-
-
-class DangerEdge(NamedTuple):
-    """One lateral boundary edge as the margins see it (ENU m), with the unit normal pointing *towards the breach*."""
-
-    ax: float
-    ay: float
-    """Start point."""
-    dx: float
-    dy: float
-    """Edge vector (end - start)."""
-    inv_len2: float
-    """1 / |d|^2 (0 for a zero-length edge)."""
-    nx: float
-    ny: float
-    """Unit normal towards the breach."""
-    feature: str
-    """FEATURE_KEEP_IN, FEATURE_KEEP_OUT_POLYGON or FEATURE_FLOOR_GAP."""
-    feature_index: int
-    """Which keep-out polygon or floor gap (0 for the keep-in)."""
-    edge: int
-    """The edge's index in its polygon."""
-
-
-def _edge_items(p: PolygonIndex, feature: str, index: int, sign: float) -> tuple[DangerEdge, ...]:
-    """A :class:`DangerEdge` per edge of ``p``; normal = sign · outward."""
-    out = []
-    for j in range(p.n):
-        ax, ay = float(p.starts[j, 0]), float(p.starts[j, 1])
-        dx, dy = float(p.ends[j, 0]) - ax, float(p.ends[j, 1]) - ay
-        l2 = dx * dx + dy * dy
-        nx, ny = sign * float(p.outward_normals[j, 0]), sign * float(p.outward_normals[j, 1])
-        out.append(DangerEdge(ax, ay, dx, dy, 1.0 / l2 if l2 > 0.0 else 0.0, nx, ny, feature, index, j))
-    return tuple(out)
-
-
-class LocalFence:
-    """A :class:`Fence` projected into a :class:`LocalFrame` (ENU metres), with fast margins.
-
-    Attributes: ``fence``, ``frame``, ``keep_in`` (:class:`PolygonIndex`),
-    ``keep_out_polygons`` and ``floor_gaps`` (tuples of PolygonIndex),
-    ``keep_out_circles`` (tuple of ``(east_m, north_m, radius_m)``),
-    ``ceiling_m``, ``floor_m`` (``None`` = no floor), ``altitude_reference``,
-    ``recovery_en`` (east, north of the recovery point) and
-    ``recovery_height_m`` (``None`` if unknown, see
-    :meth:`Fence.resolved_recovery_point`). Heights ``h`` are in the fence's
-    altitude reference, not ENU up (see the module docstring).
-    """
-
-    __slots__ = (
-        "fence",
-        "frame",
-        "keep_in",
-        "keep_out_polygons",
-        "keep_out_circles",
-        "floor_gaps",
-        "ceiling_m",
-        "floor_m",
-        "altitude_reference",
-        "recovery_en",
-        "recovery_height_m",
-        "_inradius",
-        "_no_keepouts",
-        "_danger_edges",
-        "_gap_edges",
-        "_grid",
-        "_use_index",
-    )
-
-    def __init__(self, fence: Fence, frame: LocalFrame, *, index: bool | None = None) -> None:
-        """``index``: answer the per-step lateral queries from a :class:`~geofence.fence_grid.FenceGrid`
-        (``None``: when the fence has at least :data:`~geofence.fence_grid.SMALL_FENCE_ELEMENTS` elements;
-        ``False``: always the full scan, the reference the index is tested against)."""
-        self.fence = fence
-        self.frame = frame
-        self._grid: FenceGrid | None = None
-        h0 = frame.h0_m
-
-        def proj(poly: PolygonLL) -> PolygonIndex:
-            return PolygonIndex([frame.to_enu(lat, lon, h0)[:2] for lat, lon in poly])
-
-        self.keep_in = proj(fence.keep_in)
-        self.keep_out_polygons = tuple(proj(p) for p in fence.keep_out_polygons)
-        self.floor_gaps = tuple(proj(p) for p in fence.floor_gaps)
-        self.keep_out_circles = tuple(
-            (*frame.to_enu(c.center_lat_deg, c.center_lon_deg, h0)[:2], c.radius_m) for c in fence.keep_out_circles
-        )
-        self.ceiling_m = fence.ceiling_m
-        self.floor_m = fence.floor_m
-        self.altitude_reference = fence.altitude_reference
-        self._no_keepouts = not self.keep_out_polygons and not self.keep_out_circles
-        n_elements = self.keep_in.n + sum(k.n for k in self.keep_out_polygons) + len(self.keep_out_circles)
-        self._use_index = index if index is not None else n_elements >= SMALL_FENCE_ELEMENTS
-        self._inradius: tuple[float, float, float] | None = None
-        self._danger_edges: tuple[DangerEdge, ...] | None = None
-        self._gap_edges: tuple[tuple[DangerEdge, ...], ...] | None = None
-        self.recovery_height_m: float | None
-        rp = fence.recovery_point
-        if rp is not None:
-            self.recovery_en = frame.to_enu(rp[0], rp[1], h0)[:2]
-        else:
-            e, n, _ = self.inradius()
-            self.recovery_en = (e, n)
-        if rp is not None and len(rp) == 3:
-            self.recovery_height_m = rp[2]
-        elif fence.floor_m is not None:
-            self.recovery_height_m = 0.5 * (fence.floor_m + fence.ceiling_m)
-        elif fence.altitude_reference == "agl":
-            self.recovery_height_m = 0.5 * fence.ceiling_m
-        else:
-            self.recovery_height_m = None
-
-    # ---- projection helper
-    def horizontal_en(self, lat_deg: float, lon_deg: float) -> tuple[float, float]:
-        """East, north (m) of a lat/lon, projected at the frame's height (see the module docstring)."""
-        e, n, _ = self.frame.to_enu(lat_deg, lon_deg, self.frame.h0_m)
-        return e, n
-
-    def grid(self) -> FenceGrid | None:
-        """The candidate-set index of the lateral elements (built on first use), or None for a small fence."""
-        if self._grid is None and self._use_index:
-            self._grid = FenceGrid(
-                self.danger_edges(), self.keep_out_circles, FEATURE_KEEP_OUT_CIRCLE, self.keep_in, self.keep_out_polygons
-            )
-        return self._grid
-
-    # ---- scalar margins (per-step)
-    def lateral_margin_m(self, e: float, n: float) -> float:
-        """Lateral margin in m: + inside the allowed area, - breached (keep-in or a keep-out)."""
-        grid = self._grid if self._grid is not None else self.grid()
-        if grid is not None:
-            m = grid.clearly_allowed(e, n)
-            if m is not None:
-                return m
-        return self.lateral_margin_scan_m(e, n)
-
-    def lateral_margin_exceeds(self, e: float, n: float, m: float) -> bool:
-        """``lateral_margin_m(e, n) > m``, answered from the index's lower bound when it suffices (far from
-        every boundary), else exactly."""
-        grid = self._grid if self._grid is not None else self.grid()
-        if grid is not None:
-            lb = grid.margin_lower_bound(e, n)
-            if lb is not None and lb > m:
-                return True
-        return self.lateral_margin_m(e, n) > m
-
-    def lateral_margin_scan_m(self, e: float, n: float) -> float:
-        """:meth:`lateral_margin_m` by the full scan of every element (the reference; also the breached case)."""
-        m = self.keep_in.signed_distance(e, n)
-        if self._no_keepouts:
-            return m
-        for k in self.keep_out_polygons:
-            d = -k.signed_distance(e, n)
-            if d < m:
-                m = d
-        for ce, cn, r in self.keep_out_circles:
-            d = math.hypot(e - ce, n - cn) - r
-            if d < m:
-                m = d
-        return m
-
-    def lateral_nearest(self, e: float, n: float) -> tuple[float, str, int, int, float, float]:
-        """``(margin, feature, feature_index, edge, dx, dy)`` of the binding lateral constraint.
-
-        ``feature`` is ``"keep_in"``, ``"keep_out_polygon"`` or
-        ``"keep_out_circle"``; ``edge`` the polygon edge (``-1`` for a circle);
-        ``(dx, dy)`` the unit direction in which the margin decreases fastest
-        (towards the breach: outward across the keep-in edge, into a keep-out).
-        """
-        m, edge, dx, dy = self.keep_in.nearest(e, n)
-        best = (m, FEATURE_KEEP_IN, 0, edge, dx, dy)
-        for i, k in enumerate(self.keep_out_polygons):
-            sd, edge, ox, oy = k.nearest(e, n)
-            if -sd < best[0]:
-                best = (-sd, FEATURE_KEEP_OUT_POLYGON, i, edge, -ox, -oy)
-        for i, (ce, cn, r) in enumerate(self.keep_out_circles):
-            dist = math.hypot(ce - e, cn - n)
-            if dist - r < best[0]:
-                ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
-                best = (dist - r, FEATURE_KEEP_OUT_CIRCLE, i, -1, ux, uy)
-        return best
-
-    def vertical_margins_m(self, h: float) -> tuple[float, float]:
-        """``(ceiling_m - h, h - floor_m)``; the floor margin is ``+inf`` with no floor (gaps ignored)."""
-        return self.ceiling_m - h, (h - self.floor_m) if self.floor_m is not None else math.inf
-
-    def gap_distance_m(self, e: float, n: float) -> float:
-        """Largest floor-gap signed distance (+ inside a gap); ``-inf`` with no gaps."""
-        best = -math.inf
-        for g in self.floor_gaps:
-            d = g.signed_distance(e, n)
-            if d > best:
-                best = d
-        return best
-
-    def in_floor_gap(self, e: float, n: float) -> bool:
-        """True if (e, n) is inside or on the boundary of a floor gap."""
-        return self.gap_distance_m(e, n) >= 0.0
-
-    def landing_allowed(self, e: float, n: float) -> bool:
-        """Inside the allowed area and (no floor, or inside a floor gap)."""
-        if self.lateral_margin_m(e, n) < 0.0:
-            return False
-        return self.floor_m is None or self.in_floor_gap(e, n)
-
-    def floor_margin_m(self, e: float, n: float, h: float) -> float:
-        """Gap-aware floor margin: ``max(h - floor, gap_distance)``; ``+inf`` with no floor."""
-        if self.floor_m is None:
-            return math.inf
-        m = h - self.floor_m
-        if self.floor_gaps:
-            g = self.gap_distance_m(e, n)
-            if g > m:
-                m = g
-        return m
-
-    def margin_m(self, e: float, n: float, h: float) -> float:
-        """The 3-D margin: ``min(lateral, ceiling, gap-aware floor)`` in m (+ safe)."""
-        m = self.lateral_margin_m(e, n)
-        c = self.ceiling_m - h
-        if c < m:
-            m = c
-        if self.floor_m is not None:
-            f = self.floor_margin_m(e, n, h)
-            if f < m:
-                m = f
-        return m
-
-    # ---- vectorized (analysis)
-    def lateral_margin_array(self, points) -> np.ndarray:
-        """Vectorized :meth:`lateral_margin_m` for an (M, 2) array of (east, north)."""
-        pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        m = self.keep_in.signed_distance_array(pts)
-        for k in self.keep_out_polygons:
-            m = np.minimum(m, -k.signed_distance_array(pts))
-        for ce, cn, r in self.keep_out_circles:
-            m = np.minimum(m, np.hypot(pts[:, 0] - ce, pts[:, 1] - cn) - r)
-        return m
-
-    def gap_distance_array(self, points) -> np.ndarray:
-        pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        m = np.full(len(pts), -np.inf)
-        for g in self.floor_gaps:
-            m = np.maximum(m, g.signed_distance_array(pts))
-        return m
-
-    def in_floor_gap_array(self, points) -> np.ndarray:
-        """Vectorized :meth:`in_floor_gap`."""
-        return self.gap_distance_array(points) >= 0.0
-
-    def vertical_margins_array(self, h) -> tuple[np.ndarray, np.ndarray]:
-        """Vectorized :meth:`vertical_margins_m`."""
-        h = np.asarray(h, dtype=float)
-        floor = h - self.floor_m if self.floor_m is not None else np.full(h.shape, np.inf)
-        return self.ceiling_m - h, floor
-
-    def floor_margin_array(self, points, h) -> np.ndarray:
-        """Vectorized :meth:`floor_margin_m`."""
-        h = np.asarray(h, dtype=float)
-        if self.floor_m is None:
-            return np.full(h.shape, np.inf)
-        m = h - self.floor_m
-        if self.floor_gaps:
-            m = np.maximum(m, self.gap_distance_array(points))
-        return m
-
-    def margin_array(self, points, h) -> np.ndarray:
-        """Vectorized :meth:`margin_m`: ``points`` (M, 2) east/north, ``h`` (M,) heights."""
-        h = np.asarray(h, dtype=float)
-        m = np.minimum(self.lateral_margin_array(points), self.ceiling_m - h)
-        return np.minimum(m, self.floor_margin_array(points, h))
-
-    def danger_edges(self) -> tuple[DangerEdge, ...]:
-        """Every lateral boundary edge as a :class:`DangerEdge`, for per-edge analyses (cached).
-
-        The keep-in's edges first, then each keep-out polygon's; the normal
-        points *towards the breach* (outward for keep-in edges, into the
-        keep-out for keep-out edges). Circles are in ``keep_out_circles``.
-        """
-        if self._danger_edges is None:
-            out = list(_edge_items(self.keep_in, FEATURE_KEEP_IN, 0, 1.0))
-            for i, k in enumerate(self.keep_out_polygons):
-                out += _edge_items(k, FEATURE_KEEP_OUT_POLYGON, i, -1.0)
-            self._danger_edges = tuple(out)
-        return self._danger_edges
-
-    def gap_edges(self, gap: int) -> tuple[DangerEdge, ...]:
-        """The edges of floor gap ``gap`` in the :meth:`danger_edges` item format (cached).
-
-        The normal points *out of the gap*: below the floor, leaving the gap
-        sideways is the breach, so for a vehicle below the floor the gap's
-        edges are lateral boundaries like the keep-in's.
-        """
-        if self._gap_edges is None:
-            self._gap_edges = tuple(_edge_items(g, FEATURE_FLOOR_GAP, i, 1.0) for i, g in enumerate(self.floor_gaps))
-        return self._gap_edges[gap]
-
-    def best_gap(self, e: float, n: float) -> tuple[int, float]:
-        """``(index, signed distance)`` of the floor gap that (e, n) is deepest inside; ``(-1, -inf)`` with no gaps."""
-        best, best_d = -1, -math.inf
-        for i, g in enumerate(self.floor_gaps):
-            d = g.signed_distance(e, n)
-            if d > best_d:
-                best, best_d = i, d
-        return best, best_d
-
-    # ---- whole-fence properties
-    def inradius(self) -> tuple[float, float, float]:
-        """``(east, north, r)``: centre and radius of the largest circle inside the allowed area."""
-        if self._inradius is None:
-            size = max(self.keep_in.bbox[2] - self.keep_in.bbox[0], self.keep_in.bbox[3] - self.keep_in.bbox[1])
-            self._inradius = pole_of_inaccessibility(self.lateral_margin_m, self.keep_in.bbox, precision_m=max(0.01, 1e-4 * size))
-        return self._inradius

@@ -70,7 +70,7 @@ Item = tuple  # (d, nx, ny, feature, feature_index, edge): the ``dists`` format 
 
 
 class FenceGrid:
-    """The candidate-set index of one :class:`~geofence.fence.LocalFence` (see the module docstring).
+    """The candidate-set index of one :class:`~geofence.local_fence.LocalFence` (see the module docstring).
 
     ``edges``: the :meth:`LocalFence.danger_edges` items ``(ax, ay, dx, dy,
     inv_len2, nx, ny, feature, feature_index, edge)``; ``circles``: ``(east,

@@ -38,8 +38,8 @@ from enum import Enum
 from typing import Sequence
 
 from geofence.boundary_shift import activation_margins
-from geofence.fence import LocalFence
 from geofence.interface import Envelope
+from geofence.local_fence import LocalFence
 from geofence.rooms import envelope_turn_radius_m
 
 HEADING_STEP_RAD = math.radians(10.0)

@@ -5,7 +5,7 @@ fences (L, U, star shapes, corridors) and past keep-outs cuts across forbidden
 ground. :class:`RecoveryPlanner` replaces that straight line by the shortest
 route (up to the conservatism below) that keeps a lateral clearance ``c`` from
 every boundary. Pure planar math in local ENU metres on a
-:class:`~geofence.fence.LocalFence`; floor gaps and heights are not involved.
+:class:`~geofence.local_fence.LocalFence`; floor gaps and heights are not involved.
 
 Free space and admissibility
 ----------------------------
@@ -101,7 +101,7 @@ import numpy as np
 from .polygon import pole_of_inaccessibility
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .fence import LocalFence
+    from .local_fence import LocalFence
 
 EPS_M: float = 1e-9
 """Rounding slack (m) in the exact admissibility thresholds."""

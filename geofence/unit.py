@@ -45,7 +45,6 @@ from geofence.config import GeofenceConfig, TurbulenceSource
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
 from geofence.dynamics import envelope_at_density, isa_density_ratio
-from geofence.fence import LocalFence
 from geofence.guidance import (
     FixedWingRecovery,
     LandingGuidance,
@@ -55,6 +54,7 @@ from geofence.guidance import (
     StraightRoute,
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
+from geofence.local_fence import LocalFence
 from geofence.recovery_path import RecoveryPlanner
 from geofence.rooms import envelope_turn_radius_m, room_upper_bounds_fast_m, vertical_arrest_distance_m
 

@@ -188,8 +188,8 @@ def test_lower_bound_and_exceeds_agree_with_the_margin(seed, n_vertices, n_squar
 @given(seed=st.integers(0, 10_000), n_vertices=st.integers(48, 400), prefix=st.integers(1, 40))
 def test_candidates_past_the_tuple_prefix_give_the_same_answers(seed, n_vertices, prefix):
     """A cell keeps only its first candidates as tuples; the walk continues over the rest vectorised."""
-    from geofence.fence import FEATURE_KEEP_OUT_CIRCLE
     from geofence.fence_grid import FenceGrid
+    from geofence.local_fence import FEATURE_KEEP_OUT_CIRCLE
 
     local = random_fence(seed, n_vertices, 8, 3).to_local(FRAME, index=True)
     full = local.grid()

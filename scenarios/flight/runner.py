@@ -29,9 +29,9 @@ from typing import Any, Callable, NamedTuple
 from aircraft.factory import build_platform
 from analysis.scoring import score_flight
 from geofence.config import GeofenceConfig, StateSource
-from geofence.fence import LocalFence
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, VehicleState
+from geofence.local_fence import LocalFence
 from geofence.unit import GeofenceUnit, Mode
 from scenarios.flight.pilots import Pilot, build_pilot
 from scenarios.flight.recorder import Recorder

@@ -53,8 +53,9 @@ from aircraft.sensors import SensorConfig
 from geofence.boundary_shift import activation_margins
 from geofence.config import GeofenceConfig
 from geofence.dynamics import envelope_at_density, isa_density_ratio
-from geofence.fence import LocalFence, parse_fence
+from geofence.fence import parse_fence
 from geofence.geodesy import LocalFrame
+from geofence.local_fence import LocalFence
 from geofence.polygon import PolygonIndex
 from geofence.rooms import multicopter_stopping_distance_m, turn_radius_m, worst_case_lateral_shift_m
 

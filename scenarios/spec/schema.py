@@ -33,8 +33,9 @@ from aircraft.profile import PlatformProfile, ProfileError, available_profiles, 
 from aircraft.sensors import SensorConfig, parse_sensors
 from geofence.boundary_shift import check_shift_feasible
 from geofence.config import GeofenceConfig, GeofenceConfigError, fence_file_path, parse_geofence
-from geofence.fence import FenceError, LocalFence
+from geofence.fence import FenceError
 from geofence.geodesy import LocalFrame
+from geofence.local_fence import LocalFence
 from geofence.validation import (
     ConfigError,
     enum_value,
