@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 from collections.abc import Collection, Mapping
 from enum import Enum
 from typing import Any, TypeVar
@@ -51,11 +52,19 @@ def require_mapping(value: Any, where: str) -> Mapping:
     return value
 
 
+_PLAIN_KEY = re.compile(r"[A-Za-z0-9_\-\[\]]+")
+
+
 def field_path(where: str, key: Any) -> str:
-    """``<where>.<key>``; a ``where`` ending in :data:`TOP_LEVEL` names a document's top level, whose keys stand bare."""
+    """``<where>.<key>``; a ``where`` ending in :data:`TOP_LEVEL` names a document's top level, whose keys stand bare.
+
+    A key that is not a plain name (spaces, newlines, quotes, not a string) is quoted with ``repr``, so the
+    message stays one line whatever the file holds.
+    """
+    name = key if isinstance(key, str) and _PLAIN_KEY.fullmatch(key) else repr(key)
     if where.endswith(TOP_LEVEL):
-        return f"{where[: -len(TOP_LEVEL)]}{key}"
-    return f"{where}.{key}"
+        return f"{where[: -len(TOP_LEVEL)]}{name}"
+    return f"{where}.{name}"
 
 
 def reject_unknown_keys(mapping: Mapping, allowed: Collection[str], where: str) -> None:

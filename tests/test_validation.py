@@ -101,3 +101,14 @@ def test_enum_value_lists_the_members():
     assert enum_value(Colour.GREEN, "w", Colour) is Colour.GREEN
     with pytest.raises(ConfigError, match=r"^w: 'blue' is not one of red, green$"):
         enum_value("blue", "w", Colour)
+
+
+@given(st.text(max_size=12))
+def test_unknown_key_messages_stay_one_line_whatever_the_key(key):
+    """A key from the file (newlines, quotes, anything) cannot break the one-line message."""
+    if key == "name":
+        return
+    with pytest.raises(ConfigError) as exc:
+        reject_unknown_keys({key: 1}, ("name",), "f.yaml: (top level)")
+    msg = str(exc.value)
+    assert "\n" not in msg and "\r" not in msg and msg.startswith("f.yaml: ")
