@@ -160,3 +160,12 @@ def test_dask_executor_runs_the_same_batch_on_a_local_cluster(tmp_path):
     got = summaries(tmp_path / "out")
     assert sorted(got) == sorted(s.flight_id for s in specs)
     assert all(s["aircraft"] == "Tern" and s["completed"] for s in got.values())
+
+
+@pytest.mark.parametrize("key", ["wind.\nspeed_mps", "wind speed", 3])
+def test_a_sweep_key_that_is_not_a_dotted_path_is_refused_in_one_line(key):
+    doc = {"name": "s", "sweep": {"grid": {key: [1, 2]}}}
+    with pytest.raises(ConfigError) as exc:
+        expand(doc, "s.yaml", "s")
+    msg = str(exc.value)
+    assert "\n" not in msg and "is not a dotted field path" in msg and msg.startswith("s.yaml: sweep.grid")

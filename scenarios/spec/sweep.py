@@ -148,12 +148,23 @@ def expand(document: dict, where: str, default_name: str) -> list[FlightSpec]:
     return specs
 
 
+_DOTTED_PATH = re.compile(r"[A-Za-z0-9_\-]+(\.[A-Za-z0-9_\-]+)*")
+
+
+def _dotted_path(key: Any, where: str) -> str:
+    """A sweep key: a dotted field path such as ``wind.gusts.0.onset_s`` (quoted in the message otherwise)."""
+    if not isinstance(key, str) or not _DOTTED_PATH.fullmatch(key):
+        raise ConfigError(f"{where}: {key!r} is not a dotted field path (such as wind.speed_mps)")
+    return key
+
+
 def _grid(raw: Any, where: str) -> list[tuple[tuple[str, Any], ...]]:
     if raw is None:
         return [()]
     require_mapping(raw, where)
     keys, values = [], []
     for key, vals in raw.items():
+        _dotted_path(key, where)
         if not isinstance(vals, list) or not vals:
             raise ConfigError(f"{where}.{key}: expected a non-empty list of values")
         keys.append(str(key))
@@ -170,6 +181,7 @@ def _draws(raw: Any, where: str, salt: int, base_doc: dict, file_where: str) -> 
     rng = np.random.default_rng([seed, salt])
     samplers = []
     for key, spec in draws.items():
+        _dotted_path(key, f"{where}.draws")
         require_mapping(spec, f"{where}.draws.{key}")
         if len(spec) != 1 or next(iter(spec)) not in DISTRIBUTIONS:
             raise ConfigError(f"{where}.draws.{key}: give exactly one of {', '.join(DISTRIBUTIONS)}")
