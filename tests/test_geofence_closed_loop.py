@@ -111,3 +111,30 @@ def test_position_loss_over_a_floor_ends_with_a_termination_inside_the_floor_gap
     assert fence.in_floor_gap(e, n), f"ended at ({e:.0f}, {n:.0f}) m, outside the gap"
     assert not s["landed_outside_gap"]
     assert s["max_excursion_m"] <= 0.0  # never below the floor outside the gap, never outside the fence
+
+
+def test_a_gust_timed_from_the_first_activation_hits_during_the_override():
+    """``onset_after: first_activation``: the gust starts the given time after the unit first overrides, and the
+    fence holds through it (a gust at the worst moment, whenever that comes)."""
+    half, agl, ceiling = PLATFORMS["F450"]
+    doc = {
+        "aircraft": "F450",
+        "duration_s": 40.0,
+        "seed": 5,
+        "start": dict(SITE, agl_m=agl, heading_deg=90.0),
+        "pilot": {"type": "scripted", "segments": [{"duration_s": 40.0, "course_deg": 90.0, "speed": "max", "climb": "hold"}]},
+        "geofence": {"fence": {"keep_in": box(half), "ceiling_m": ceiling}},
+        "wind": {
+            "speed_mps": 3,
+            "from_deg": 270,
+            "gusts": [{"onset_s": 0.5, "onset_after": "first_activation", "amplitude_mps": 3, "length_m": 10, "from_deg": 270}],
+        },
+    }
+    res = fly(parse_scenario(doc, "gust-at-activation.yaml"))
+    t_act = res.summary["mode_transitions"][0]["t_s"]
+    t = res.recorder.column("time_s")
+    we = res.recorder.column("wind_east_mps")
+    assert t_act > 1.0
+    assert abs(we[t <= t_act + 0.5] - 3.0).max() < 1e-9  # steady wind only until 0.5 s after the first override
+    assert we[(t > t_act + 0.5) & (t < t_act + 10.0)].max() == pytest.approx(6.0, abs=0.05)  # then the 3 m/s gust
+    assert_fence_held(res)

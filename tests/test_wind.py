@@ -522,3 +522,35 @@ def test_any_valid_config_builds_a_finite_field(speed, from_deg, law, severity, 
         assert all(math.isfinite(c) for c in s)
     m = field.mean(10.0)
     assert math.hypot(m[0], m[1]) == pytest.approx(speed, abs=1e-9)
+
+
+def test_a_gust_timed_from_the_first_activation_waits_for_it_then_matches_a_timed_twin():
+    """``onset_after: first_activation``: nothing before the event; after it, the same gust as one timed from the start."""
+    from wind.config import GustOnset, parse_wind, wind_from_config
+    from wind.field import notify_first_activation
+
+    base = {"speed_mps": 6, "from_deg": 270}
+    gust = {"onset_s": 1.5, "amplitude_mps": 4, "length_m": 20}
+    evented = wind_from_config(parse_wind({**base, "gusts": [{**gust, "onset_after": "first_activation"}]}, "w"), seed=1)
+    t_act = 7.3
+    twin = wind_from_config(parse_wind({**base, "gusts": [{**gust, "onset_s": t_act + 1.5}]}, "w"), seed=1)
+    assert (
+        parse_wind({**base, "gusts": [{**gust, "onset_after": "first_activation"}]}, "w").gusts[0].onset_after
+        is GustOnset.FIRST_ACTIVATION
+    )
+    t, told, peak = 0.0, False, 0.0
+    while t < 30.0:
+        if t >= t_act and not told:
+            notify_first_activation(evented, t)
+            notify_first_activation(evented, t + 5.0)  # a later activation changes nothing
+            told = True
+        a = evented.sample(t, 0.1 * t, 0.0, 20.0, 0.0)
+        b = twin.sample(t, 0.1 * t, 0.0, 20.0, 0.0)
+        assert a == pytest.approx(b, abs=1e-12), t
+        if t < t_act + 1.5:
+            assert a == pytest.approx((6.0, 0.0, 0.0), abs=1e-12)  # the steady wind only
+        peak = max(peak, a[0] - 6.0)
+        t = round(t + 0.05, 10)
+    assert peak == pytest.approx(4.0, abs=0.05)
+    with pytest.raises(ValueError, match=r"w.gusts\[0\].onset_after: 'later' is not one of start, first_activation"):
+        parse_wind({**base, "gusts": [{**gust, "onset_after": "later"}]}, "w")

@@ -11,6 +11,9 @@ The ``wind:`` block of a scenario::
       turbulence: {severity: light}     # light | moderate | severe | none, or {w20_mps: 7.7}; optional
       gusts:                            # optional list of discrete 1-cos gusts
         - {onset_s: 20, amplitude_mps: 5, length_m: 30, from_deg: 270}
+        - {onset_s: 1.5, onset_after: first_activation, amplitude_mps: 4, length_m: 20}
+                                        # onset_after: start (default) | first_activation (1.5 s after the
+                                        # geofence first overrides the pilot: a gust at the worst moment)
         #   optional per gust: vertical_mps (signed, + up), hold_m (>= 0, .inf = rise and hold),
         #   penetration_speed_mps (fixed speed: time-based gust); from_deg defaults to the steady one
       random_gusts:                     # optional: gusts drawn from the seed
@@ -31,6 +34,7 @@ plain ``default_rng(seed)`` that other parts of a scenario may use.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -38,6 +42,7 @@ import numpy as np
 from geofence.validation import (
     ConfigError,
     direction_deg,
+    enum_value,
     integer,
     kind,
     number,
@@ -93,6 +98,16 @@ class TurbulenceConfig:
 
 
 @dataclass(frozen=True)
+class GustOnset(StrEnum):
+    """What a gust's ``onset_s`` counts from."""
+
+    START = "start"
+    """The start of the flight (the default)."""
+    FIRST_ACTIVATION = "first_activation"
+    """The geofence's first override of the pilot: a gust at the worst moment, whenever that comes."""
+
+
+@dataclass(frozen=True)
 class GustConfig:
     """One discrete gust; ``from_deg`` None means the steady wind's direction."""
 
@@ -103,6 +118,7 @@ class GustConfig:
     vertical_mps: float = 0.0
     hold_m: float = 0.0
     penetration_speed_mps: float | None = None
+    onset_after: GustOnset = GustOnset.START
 
 
 @dataclass(frozen=True)
@@ -170,8 +186,9 @@ def wind_from_config(cfg: WindConfig | None, seed: int | None = None) -> WindFie
                 mean_wind=steady,
             )
         )
-    gusts = [
-        Gust(
+
+    def gust(g: GustConfig) -> Gust:
+        return Gust(
             onset_s=g.onset_s,
             amplitude_mps=g.amplitude_mps,
             length_m=g.length_m,
@@ -180,8 +197,9 @@ def wind_from_config(cfg: WindConfig | None, seed: int | None = None) -> WindFie
             hold_m=g.hold_m,
             penetration_speed_mps=g.penetration_speed_mps,
         )
-        for g in cfg.gusts
-    ]
+
+    gusts = [gust(g) for g in cfg.gusts if g.onset_after is GustOnset.START]
+    after_activation = [gust(g) for g in cfg.gusts if g.onset_after is GustOnset.FIRST_ACTIVATION]
     rg = cfg.random_gusts
     if rg is not None and rg.count > 0:
         drawn = GustTrain.random(
@@ -196,8 +214,8 @@ def wind_from_config(cfg: WindConfig | None, seed: int | None = None) -> WindFie
             vertical_mps=rg.vertical_mps,
         )
         gusts.extend(drawn.gusts)
-    if gusts:
-        components.append(GustTrain(gusts, mean_wind=steady))
+    if gusts or after_activation:
+        components.append(GustTrain(gusts, mean_wind=steady, after_first_activation=after_activation))
     if not components:
         return CalmWind()
     if len(components) == 1:
@@ -214,7 +232,16 @@ _PROFILE_KEYS = {
     "log": ("law", "roughness_length_m", "reference_height_m"),
 }
 _TURBULENCE_KEYS = ("severity", "w20_mps")
-_GUST_KEYS = ("onset_s", "amplitude_mps", "length_m", "from_deg", "vertical_mps", "hold_m", "penetration_speed_mps")
+_GUST_KEYS = (
+    "onset_s",
+    "onset_after",
+    "amplitude_mps",
+    "length_m",
+    "from_deg",
+    "vertical_mps",
+    "hold_m",
+    "penetration_speed_mps",
+)
 _RANDOM_GUST_KEYS = ("count", "start_s", "end_s", "amplitude_mps", "length_m", "from_deg", "spread_deg", "vertical_mps")
 
 
@@ -312,6 +339,7 @@ def _parse_gust(raw: Any, where: str) -> GustConfig:
         vertical_mps=number(m.get("vertical_mps", 0.0), f"{where}.vertical_mps"),
         hold_m=number(m.get("hold_m", 0.0), f"{where}.hold_m", minimum=0.0, allow_inf=True),
         penetration_speed_mps=None if pen is None else number(pen, f"{where}.penetration_speed_mps", strictly_positive=True),
+        onset_after=enum_value(m.get("onset_after", GustOnset.START), f"{where}.onset_after", GustOnset),
     )
 
 

@@ -43,6 +43,18 @@ class WindField(Protocol):
     def mean(self, up_m: float) -> Vec3: ...
 
 
+def notify_first_activation(field: WindField, t_s: float) -> None:
+    """Tell ``field`` (and, for a :class:`CompositeWind`, its components) that the geofence first activated at ``t_s``.
+
+    Wind fields with events (a gust train's activation-timed gusts) expose ``first_activation(t_s)``; the others
+    ignore it. The simulated flight calls this once, the step the unit first overrides the pilot.
+    """
+    for part in getattr(field, "components", (field,)):
+        hook = getattr(part, "first_activation", None)
+        if hook is not None:
+            hook(t_s)
+
+
 def toward_unit(from_deg: float) -> tuple[float, float]:
     """(east, north) unit vector the air moves toward, for a wind from ``from_deg``."""
     r = math.radians(from_deg)

@@ -55,7 +55,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -146,6 +146,9 @@ class GustTrain:
         "_dirs",
         "_floor",
         "_pos",
+        "_timed",
+        "after_first_activation",
+        "_armed",
     )
 
     def __init__(
@@ -154,8 +157,12 @@ class GustTrain:
         mean_wind: WindField | None = None,
         min_speed_mps: float = 1.0,
         max_rise_time_s: float = MAX_RISE_TIME_S,
+        after_first_activation: Iterable[Gust] = (),
     ) -> None:
-        self.gusts: tuple[Gust, ...] = tuple(sorted(gusts, key=lambda g: g.onset_s))
+        self._timed: tuple[Gust, ...] = tuple(sorted(gusts, key=lambda g: g.onset_s))
+        self.after_first_activation: tuple[Gust, ...] = tuple(after_first_activation)
+        """Gusts whose ``onset_s`` counts from the geofence's first activation (see :meth:`first_activation`)."""
+        self.gusts: tuple[Gust, ...] = self._timed
         if not (math.isfinite(min_speed_mps) and min_speed_mps > 0.0):
             raise ValueError(f"gust min_speed_mps must be > 0, got {min_speed_mps!r}")
         if math.isnan(max_rise_time_s) or not max_rise_time_s > 0.0:
@@ -164,16 +171,35 @@ class GustTrain:
         self.min_speed_mps = float(min_speed_mps)
         self.max_rise_time_s = float(max_rise_time_s)
         self._mean_fn = mean_wind.mean if mean_wind is not None else None
-        self._dirs = tuple(toward_unit(g.from_deg) for g in self.gusts)
-        self._floor = tuple(max(self.min_speed_mps, g.length_m / self.max_rise_time_s) for g in self.gusts)
         self.reset()
 
+    def _schedule(self, gusts: tuple[Gust, ...], x: list[float]) -> None:
+        """Set the gusts in effect (sorted by onset) and their distances travelled so far."""
+        self.gusts = gusts
+        self._x = x
+        self._dirs = tuple(toward_unit(g.from_deg) for g in gusts)
+        self._floor = tuple(max(self.min_speed_mps, g.length_m / self.max_rise_time_s) for g in gusts)
+
     def reset(self) -> None:
-        """Back to the start: no distance travelled into any gust."""
+        """Back to the start: no distance travelled into any gust; the activation-timed gusts unarmed again."""
         self._t: float | None = None
         self._pos: tuple[float, float] | None = None
         self._out: Vec3 = (0.0, 0.0, 0.0)
-        self._x = [0.0] * len(self.gusts)
+        self._armed = False
+        self._schedule(self._timed, [0.0] * len(self._timed))
+
+    def first_activation(self, t_s: float) -> None:
+        """The geofence overrode the pilot for the first time at ``t_s``: schedule the activation-timed gusts.
+
+        Each starts ``onset_s`` after ``t_s``. Later calls do nothing (the first activation happens once).
+        """
+        if self._armed or not self.after_first_activation:
+            self._armed = True
+            return
+        self._armed = True
+        pairs = list(zip(self.gusts, self._x)) + [(replace(g, onset_s=t_s + g.onset_s), 0.0) for g in self.after_first_activation]
+        pairs.sort(key=lambda p: p[0].onset_s)
+        self._schedule(tuple(g for g, _ in pairs), [x for _, x in pairs])
 
     @classmethod
     def random(

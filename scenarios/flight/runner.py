@@ -38,7 +38,7 @@ from scenarios.flight.recorder import Recorder
 from scenarios.spec.preflight import findings_summary, preflight_findings
 from scenarios.spec.schema import Scenario
 from wind.config import wind_from_config
-from wind.field import CalmWind
+from wind.field import CalmWind, notify_first_activation
 
 TAIL_AFTER_FINISH_S = 2.0
 
@@ -89,6 +89,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         own = _GeofenceSensing(scenario, scenario.geofence, frame, env)
 
     error = None
+    wind_told = False
     finished_at = None
     mode = Mode.MONITOR
     step = 0
@@ -120,6 +121,9 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                     turbulence_sigma_mps=own.turbulence_sigma_mps,
                 )
                 mode = unit.mode
+                if unit.activations and not wind_told:
+                    notify_first_activation(wind, truth.t_s)  # gusts timed from the first override
+                    wind_told = True
                 recorder.append(
                     truth, w, cmd_in, cmd, int(mode), pilot.items_reached, unit.estimate, seen.wind_en, unit.activation_margin_m
                 )
