@@ -138,3 +138,43 @@ def test_a_gust_timed_from_the_first_activation_hits_during_the_override():
     assert abs(we[t <= t_act + 0.5] - 3.0).max() < 1e-9  # steady wind only until 0.5 s after the first override
     assert we[(t > t_act + 0.5) & (t < t_act + 10.0)].max() == pytest.approx(6.0, abs=0.05)  # then the 3 m/s gust
     assert_fence_held(res)
+
+
+def test_a_segment_can_end_on_handback_or_on_reaching_a_point():
+    """Event-triggered script: push east until the geofence hands back, then fly west until a point is reached,
+    then north. Each segment starts at its event, not at a time."""
+    half, agl, ceiling = PLATFORMS["F450"]
+    west_point = FRAME.to_geodetic(-60.0, 0.0, 0.0)[:2]
+    doc = {
+        "aircraft": "F450",
+        "duration_s": 60.0,
+        "seed": 5,
+        "start": dict(SITE, agl_m=agl, heading_deg=90.0),
+        "pilot": {
+            "type": "scripted",
+            "segments": [
+                {"duration_s": 50.0, "course_deg": 90.0, "speed": "max", "climb": "hold", "end_on": "handback"},
+                {
+                    "duration_s": 50.0,
+                    "course_deg": 270.0,
+                    "speed": "cruise",
+                    "climb": "hold",
+                    "end_on": "reach",
+                    "reach": {"lat_deg": west_point[0], "lon_deg": west_point[1], "radius_m": 10.0},
+                },
+                {"duration_s": 50.0, "course_deg": 0.0, "speed": "cruise", "climb": "hold"},
+            ],
+        },
+        "geofence": {"fence": {"keep_in": box(half), "ceiling_m": ceiling}},
+    }
+    res = fly(parse_scenario(doc, "events.yaml"))
+    t = res.recorder.column("time_s")
+    item = res.recorder.column("mission_item")
+    e = res.recorder.column("east_m")
+    handback = next(tr["t_s"] for tr in res.summary["mode_transitions"] if tr["to"] == "RECOVERED")
+    t2 = t[int((item >= 1).argmax())]
+    assert handback < t2 <= handback + 0.1  # the second segment starts the step after the hand-back
+    t3 = t[int((item >= 2).argmax())]
+    k3 = int((item >= 2).argmax())
+    assert t3 < 50.0 and abs(e[k3] - (-60.0)) <= 10.5  # the third starts on reaching the point, well before 50 s
+    assert_fence_held(res)

@@ -1,5 +1,6 @@
 """Scenario YAML validation: every bad input becomes one line naming file, field and problem."""
 
+import re
 from pathlib import Path
 
 import pytest
@@ -162,3 +163,23 @@ def test_a_fence_too_small_for_the_platform_says_so_with_the_numbers():
     msg = str(err.value)
     assert msg.startswith("small.yaml: geofence") and "vanishes" in msg and "inradius 30.0 m" in msg
     assert "\n" not in msg
+
+
+@pytest.mark.parametrize(
+    "segment, problem",
+    [
+        (
+            {"duration_s": 3, "course_deg": 0, "end_on": "later"},
+            "pilot.segments[0].end_on: 'later' is not one of handback, reach",
+        ),
+        ({"duration_s": 3, "course_deg": 0, "end_on": "reach"}, "pilot.segments[0].reach: missing"),
+        ({"duration_s": 3, "course_deg": 0, "end_on": "reach", "reach": {"lat_deg": 1, "lon_deg": 2}}, "reach.radius_m: missing"),
+        (
+            {"duration_s": 3, "course_deg": 0, "reach": {"lat_deg": 1, "lon_deg": 2, "radius_m": 5}},
+            "reach: only with end_on: reach",
+        ),
+    ],
+)
+def test_event_ended_segments_are_validated(segment, problem):
+    with pytest.raises(ConfigError, match=re.escape(problem)):
+        parse_scenario(with_(pilot={"type": "scripted", "segments": [segment]}), "bad.yaml")

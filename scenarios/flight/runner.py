@@ -121,6 +121,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                     turbulence_sigma_mps=own.turbulence_sigma_mps,
                 )
                 mode = unit.mode
+                pilot.notice_control(mode in (Mode.MONITOR, Mode.RECOVERED))  # the pilot feels the sticks come back
                 if unit.activations and not wind_told:
                     notify_first_activation(wind, truth.t_s)  # gusts timed from the first override
                     wind_told = True

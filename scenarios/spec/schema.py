@@ -102,8 +102,18 @@ class MissionConfig:
 
 
 @dataclass(frozen=True)
+class SegmentEnd(StrEnum):
+    """An event that ends a scripted segment before its ``duration_s`` (the next segment starts at once)."""
+
+    HANDBACK = "handback"
+    """The geofence hands control back to the pilot after overriding him during this segment."""
+    REACH = "reach"
+    """The vehicle comes within ``reach.radius_m`` (horizontal) of ``reach``'s point."""
+
+
+@dataclass(frozen=True)
 class ScriptSegment:
-    """One piece of a scripted (adversarial) pilot, held for ``duration_s``.
+    """One piece of a scripted (adversarial) pilot, held for ``duration_s`` or until its ``end_on`` event.
 
     Either raw ``sticks`` (roll, pitch, yaw, throttle in [-1, 1]) or a behaviour:
     steer ground ``course_deg`` at ``speed`` (cruise | max | min) while the
@@ -115,6 +125,9 @@ class ScriptSegment:
     course_deg: float | None = None
     speed: str = "max"
     climb: str = "hold"
+    end_on: SegmentEnd | None = None
+    reach: tuple[float, float, float] | None = None
+    """``(lat_deg, lon_deg, radius_m)`` for ``end_on: reach``."""
 
 
 BREACH_DIRECTIONS = ("north", "east", "south", "west", "up")
@@ -594,10 +607,27 @@ def _parse_breach(raw: Any, where: str) -> BreachAttemptsConfig:
 
 def _parse_segment(raw: Any, where: str) -> ScriptSegment:
     require_mapping(raw, where)
-    reject_unknown_keys(raw, {"duration_s", "sticks", "course_deg", "speed", "climb"}, where)
+    reject_unknown_keys(raw, {"duration_s", "sticks", "course_deg", "speed", "climb", "end_on", "reach"}, where)
     if "duration_s" not in raw:
         raise ConfigError(f"{where}.duration_s: missing (required)")
     duration = number(raw["duration_s"], f"{where}.duration_s", strictly_positive=True)
+    end_on = None if raw.get("end_on") is None else enum_value(raw["end_on"], f"{where}.end_on", SegmentEnd)
+    reach = None
+    if end_on is SegmentEnd.REACH:
+        if "reach" not in raw:
+            raise ConfigError(f"{where}.reach: missing (end_on: reach needs {{lat_deg, lon_deg, radius_m}})")
+        r = require_mapping(raw["reach"], f"{where}.reach")
+        reject_unknown_keys(r, {"lat_deg", "lon_deg", "radius_m"}, f"{where}.reach")
+        for key in ("lat_deg", "lon_deg", "radius_m"):
+            if key not in r:
+                raise ConfigError(f"{where}.reach.{key}: missing (required)")
+        reach = (
+            latitude(r["lat_deg"], f"{where}.reach.lat_deg"),
+            longitude(r["lon_deg"], f"{where}.reach.lon_deg"),
+            number(r["radius_m"], f"{where}.reach.radius_m", strictly_positive=True),
+        )
+    elif "reach" in raw:
+        raise ConfigError(f"{where}.reach: only with end_on: reach")
     if ("sticks" in raw) == ("course_deg" in raw):
         raise ConfigError(f"{where}: give exactly one of sticks or course_deg")
     if "sticks" in raw:
@@ -606,9 +636,11 @@ def _parse_segment(raw: Any, where: str) -> ScriptSegment:
         sticks = tuple(
             number(s.get(k, 0.0), f"{where}.sticks.{k}", minimum=-1.0, maximum=1.0) for k in ("roll", "pitch", "yaw", "throttle")
         )
-        return ScriptSegment(duration_s=duration, sticks=sticks)  # type: ignore[arg-type]
+        return ScriptSegment(duration_s=duration, sticks=sticks, end_on=end_on, reach=reach)  # type: ignore[arg-type]
     return ScriptSegment(
         duration_s=duration,
+        end_on=end_on,
+        reach=reach,
         course_deg=number(raw["course_deg"], f"{where}.course_deg", minimum=-360.0, maximum=360.0),
         speed=string(raw.get("speed", "max"), f"{where}.speed", choices=list(SCRIPT_SPEEDS)),
         climb=string(raw.get("climb", "hold"), f"{where}.climb", choices=list(SCRIPT_CLIMBS)),

@@ -29,6 +29,9 @@ class Pilot(Protocol):
 
     def command(self, state: VehicleState) -> StickCommand: ...
 
+    def notice_control(self, in_control: bool) -> None:
+        """Whether the pilot's sticks fly the aircraft this step (False while the geofence overrides them)."""
+
 
 def build_pilot(scenario: Scenario, frame: LocalFrame, env: Envelope, start: VehicleState, dt_s: float) -> Pilot:
     """The pilot a scenario asks for, ready to fly from ``start``."""
@@ -36,7 +39,7 @@ def build_pilot(scenario: Scenario, frame: LocalFrame, env: Envelope, start: Veh
     from scenarios.flight.pilots.scripted import ScriptedPilot
 
     if scenario.pilot.kind == "scripted":
-        return ScriptedPilot(scenario.pilot.segments, env, start, dt_s)
+        return ScriptedPilot(scenario.pilot.segments, env, start, dt_s, frame)
     if scenario.pilot.kind == "breach_attempts":
         from scenarios.flight.pilots.breach_attempts import BreachAttemptsPilot
 

@@ -138,6 +138,9 @@ class BreachAttemptsPilot:
         return (s.east_m - e0) * ue + (s.north_m - n0) * un, s.v_east_mps * ue + s.v_north_mps * un
 
     # -- the per-step entry point ----------------------------------------------
+    def notice_control(self, in_control: bool) -> None:
+        """Ignored: this pilot judges only from the vehicle's state (see the module docstring)."""
+
     def command(self, s: VehicleState) -> StickCommand:
         t = s.t_s
         in_phase = t - self.phase_since_s

@@ -100,6 +100,9 @@ class MissionAutopilot:
         assert self.fw is not None, "fixed-wing navigation on a multirotor"
         return self.fw
 
+    def notice_control(self, in_control: bool) -> None:
+        """Ignored: this pilot judges only from the vehicle's state (see the module docstring)."""
+
     def command(self, s: VehicleState) -> StickCommand:
         if self.finished:
             return self._after_mission(s)

@@ -10,19 +10,46 @@ from __future__ import annotations
 
 import math
 
+from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, StickCommand, VehicleState
 from scenarios.flight.pilots.nav_laws import FixedWingNavigator, MultirotorNavigator
-from scenarios.spec.schema import ScriptSegment
+from scenarios.spec.schema import ScriptSegment, SegmentEnd
 
 _CLIMB_STICK = {"hold": 0.0, "max": 1.0, "descend": -1.0}
 
 
 class ScriptedPilot:
-    def __init__(self, segments: tuple[ScriptSegment, ...], env: Envelope, start: VehicleState, dt_s: float):
+    """Flies its segments in order; a segment lasts ``duration_s`` or ends earlier on its ``end_on`` event.
+
+    ``handback``: the geofence overrode the pilot during the segment and has handed control back (the pilot
+    notices it through :meth:`notice_control`, as a pilot feels the sticks come back); ``reach``: the vehicle
+    is within the radius of a point. After an event the later segments keep their durations from that moment.
+    """
+
+    def __init__(
+        self,
+        segments: tuple[ScriptSegment, ...],
+        env: Envelope,
+        start: VehicleState,
+        dt_s: float,
+        frame: LocalFrame | None = None,
+    ):
         self.segments = segments
         self.env = env
         self.dt_s = dt_s
-        self.ends_s = list(_cumulative(s.duration_s for s in segments))
+        self._reach_en: list[tuple[float, float, float] | None] = []
+        for seg in segments:
+            if seg.reach is None:
+                self._reach_en.append(None)
+                continue
+            if frame is None:
+                raise ValueError("a segment with end_on: reach needs the flight's frame")
+            e, n, _ = frame.to_enu(seg.reach[0], seg.reach[1], frame.h0_m)
+            self._reach_en.append((e, n, seg.reach[2]))
+        self._index = 0
+        self._start_s = 0.0  # nominal start of the current segment (the sum of the earlier durations, or the event time)
+        self._in_control = True
+        self._overridden = False  # the geofence took the sticks during the current segment
         self.mc = MultirotorNavigator(env) if env.is_multirotor else None
         self.fw = None if env.is_multirotor else FixedWingNavigator(env)
         self._hold_up_m = start.up_m
@@ -38,14 +65,36 @@ class ScriptedPilot:
     def items_reached(self) -> int:
         return max(self._segment_index, 0)
 
-    def _segment_at(self, t_s: float) -> tuple[ScriptSegment, int]:
-        i = 0
-        while i < len(self.ends_s) - 1 and t_s >= self.ends_s[i]:
-            i += 1
-        return self.segments[i], i
+    def notice_control(self, in_control: bool) -> None:
+        """Whether the pilot's sticks fly the aircraft this step (False while the geofence overrides them)."""
+        if not in_control:
+            self._overridden = True
+        self._in_control = in_control
+
+    def _event(self, seg: ScriptSegment, i: int, s: VehicleState) -> bool:
+        if seg.end_on is SegmentEnd.HANDBACK:
+            return self._overridden and self._in_control
+        if seg.end_on is SegmentEnd.REACH:
+            reach = self._reach_en[i]
+            return reach is not None and math.hypot(s.east_m - reach[0], s.north_m - reach[1]) <= reach[2]
+        return False
+
+    def _segment_at(self, s: VehicleState) -> tuple[ScriptSegment, int]:
+        last = len(self.segments) - 1
+        while self._index < last:
+            seg = self.segments[self._index]
+            if s.t_s >= self._start_s + seg.duration_s:
+                self._start_s += seg.duration_s
+            elif self._event(seg, self._index, s):
+                self._start_s = s.t_s
+            else:
+                break
+            self._index += 1
+            self._overridden = False
+        return self.segments[self._index], self._index
 
     def command(self, s: VehicleState) -> StickCommand:
-        seg, i = self._segment_at(s.t_s)
+        seg, i = self._segment_at(s)
         if i != self._segment_index:
             self._segment_index = i
             self._hold_up_m = s.up_m
@@ -68,10 +117,3 @@ class ScriptedPilot:
         if seg.climb != "hold":
             cmd = StickCommand(cmd.roll, _CLIMB_STICK[seg.climb], cmd.yaw, cmd.throttle)
         return cmd
-
-
-def _cumulative(values):
-    total = 0.0
-    for v in values:
-        total += v
-        yield total
