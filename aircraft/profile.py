@@ -36,7 +36,7 @@ from typing import Any
 import yaml
 
 from geofence.interface import Envelope, PlatformKind
-from geofence.validation import ConfigError, number, reject_unknown_keys
+from geofence.validation import ConfigError, enum_value, field_default, number, reject_unknown_keys, require_mapping
 
 PROFILES_DIR = Path(__file__).parent / "profiles"
 
@@ -55,8 +55,8 @@ _ENVELOPE_FIELDS = {
     "drag_linear_per_s": 1.0,
     "drag_quadratic_per_m": 1.0,
 }
-_OPTIONAL_ENVELOPE_FIELDS = {"drag_linear_per_s": 0.0, "drag_quadratic_per_m": 0.0}
-"""Envelope keys a profile may leave out (see :class:`geofence.interface.Envelope`)."""
+_OPTIONAL_ENVELOPE_FIELDS = ("drag_linear_per_s", "drag_quadratic_per_m")
+"""Envelope keys a profile may leave out: they take the :class:`geofence.interface.Envelope` field's default."""
 
 
 class ProfileError(ConfigError):
@@ -104,14 +104,8 @@ def _parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
         raise ProfileError(f"{where}: expected a mapping with kind, envelope and gains")
     reject_unknown_keys(raw, ("model", "kind", "frame_rate_hz", "envelope", "gains", "base"), where)
     base = load_profile(str(raw["base"])) if raw.get("base") is not None else None
-    kind_raw = raw.get("kind", base.kind.value if base else None)
-    try:
-        kind = PlatformKind(kind_raw)
-    except ValueError:
-        raise ProfileError(f"{where}.kind: must be multirotor or fixed_wing, got {kind_raw!r}") from None
-    env_raw = raw.get("envelope") or {}
-    if not isinstance(env_raw, Mapping):
-        raise ProfileError(f"{where}.envelope: expected a mapping")
+    kind = enum_value(raw.get("kind", base.kind if base else None), f"{where}.kind", PlatformKind)
+    env_raw = require_mapping(raw.get("envelope") or {}, f"{where}.envelope")
     reject_unknown_keys(env_raw, _ENVELOPE_FIELDS, f"{where}.envelope")
     values = {}
     for key, scale in _ENVELOPE_FIELDS.items():
@@ -121,17 +115,18 @@ def _parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
         elif base is not None:
             values[field_name] = getattr(base.envelope, field_name)
         elif key in _OPTIONAL_ENVELOPE_FIELDS:
-            values[field_name] = _OPTIONAL_ENVELOPE_FIELDS[key]
+            values[field_name] = field_default(Envelope, field_name)
         else:
             raise ProfileError(f"{where}.envelope.{key}: missing (required)")
     gains = dict(base.gains) if base else {}
-    gains_raw = raw.get("gains") or {}
-    if not isinstance(gains_raw, Mapping):
-        raise ProfileError(f"{where}.gains: expected a mapping of property: value")
+    gains_raw = require_mapping(raw.get("gains") or {}, f"{where}.gains")
     for k, v in gains_raw.items():
         gains[str(k)] = number(v, f"{where}.gains.{k}")
     rate = number(
-        raw.get("frame_rate_hz", base.frame_rate_hz if base else 120.0), f"{where}.frame_rate_hz", minimum=30.0, maximum=1000.0
+        raw.get("frame_rate_hz", base.frame_rate_hz if base else field_default(PlatformProfile, "frame_rate_hz")),
+        f"{where}.frame_rate_hz",
+        minimum=30.0,
+        maximum=1000.0,
     )
     return PlatformProfile(
         model=str(raw.get("model", model)),

@@ -43,14 +43,22 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping
-from dataclasses import MISSING, dataclass, field
+from dataclasses import dataclass, field
 from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
 from geofence.fence import AltitudeReference, Fence, FenceError, parse_fence
 from geofence.importers import load_fence_file
-from geofence.validation import ConfigError, enum_value, integer, number, reject_unknown_keys, require_mapping
+from geofence.validation import (
+    ConfigError,
+    enum_value,
+    field_default,
+    integer,
+    number,
+    reject_unknown_keys,
+    require_mapping,
+)
 
 
 class Trigger(StrEnum):
@@ -178,8 +186,7 @@ FENCE_FILE_KEYS = ("file", "ceiling_m", "floor_m", "floor_gaps", "recovery_point
 
 def _default(name: str) -> Any:
     """The default of a :class:`GeofenceConfig` field (each default is written once, in the dataclass)."""
-    f = GeofenceConfig.__dataclass_fields__[name]
-    return f.default_factory() if f.default is MISSING else f.default  # type: ignore[operator]
+    return field_default(GeofenceConfig, name)
 
 
 def parse_geofence(raw: Any, where: str = "geofence", base_dir: str | Path | None = None) -> GeofenceConfig:
@@ -212,7 +219,7 @@ def _parse_geofence(raw: Mapping, where: str, base_dir: str | Path | None) -> Ge
     def num(key: str, lo: float = 0.0, hi: float = math.inf) -> float:
         return number(raw.get(key, _default(key)), f"{where}.{key}", minimum=lo, maximum=hi)
 
-    gains = SeedPDGains()
+    gains = _default("seed_pd")
     if raw.get("seed_pd") is not None:
         g = require_mapping(raw["seed_pd"], f"{where}.seed_pd")
         reject_unknown_keys(g, SeedPDGains.__dataclass_fields__, f"{where}.seed_pd")
@@ -291,9 +298,8 @@ def _fence_from_file(block: Mapping, where: str, base_dir: str | Path | None) ->
             raise GeofenceConfigError(f"{where}.file: {block['file']!r} is not a file{place}")
         raise GeofenceConfigError(f"{where}.file: no such file {block['file']!r}{place}")
     for key in ("ceiling_m", "floor_m"):
-        v = block.get(key)
-        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)):
-            raise GeofenceConfigError(f"{where}.{key}: must be a number, got {v!r}")
+        if block.get(key) is not None:
+            number(block[key], f"{where}.{key}")
     ref = block.get("altitude_reference")
     if ref is not None:
         ref = enum_value(ref.lower() if isinstance(ref, str) else ref, f"{where}.altitude_reference", AltitudeReference)

@@ -73,7 +73,7 @@ from .polygon import (
     self_intersections,
     signed_area,
 )
-from .validation import ConfigError, enum_value, number, reject_unknown_keys
+from .validation import ConfigError, enum_value, field_default, latitude, longitude, number, reject_unknown_keys
 
 if TYPE_CHECKING:
     from .local_fence import LocalFence
@@ -147,7 +147,7 @@ class Fence:
             set_(self, "floor_m", floor)
             if not ceiling > floor:
                 raise FenceError(f"ceiling_m: {ceiling:g} m must be above floor_m {floor:g} m")
-        elif self.altitude_reference == "agl" and not ceiling > 0.0:
+        elif self.altitude_reference is AltitudeReference.AGL and not ceiling > 0.0:
             raise FenceError(f"ceiling_m: {ceiling:g} m AGL must be above the ground (> 0)")
 
         keep_in = _polygon(self.keep_in, "keep_in")
@@ -205,9 +205,10 @@ class Fence:
                 raise FenceError(f"recovery_point: not inside the allowed area (lateral margin {m:.1f} m)")
             if len(self.recovery_point) == 3:
                 alt = self.recovery_point[2]
-                lo = self.floor_m if self.floor_m is not None else (0.0 if self.altitude_reference == "agl" else -math.inf)
+                agl = self.altitude_reference is AltitudeReference.AGL
+                lo = self.floor_m if self.floor_m is not None else (0.0 if agl else -math.inf)
                 if self.floor_m is not None and local.in_floor_gap(e, n):
-                    lo = -math.inf if self.altitude_reference == "amsl" else 0.0
+                    lo = 0.0 if agl else -math.inf
                 if not lo < alt < ceiling:
                     raise FenceError(f"recovery_point: altitude {alt:g} m is not between the floor and ceiling_m {ceiling:g} m")
 
@@ -254,12 +255,17 @@ class Fence:
 
 
 # --------------------------------------------------------------------------- validation helpers
-def _number(x: Any, name: str) -> float:
-    """A finite number (numpy scalars too), as a :class:`FenceError`."""
+def _as_fence_error(read: Any, x: Any, name: str) -> float:
+    """``read`` (a kit reader) applied to ``x`` (numpy scalars too), its error as a :class:`FenceError`."""
     try:
-        return number(x.item() if isinstance(x, np.generic) else x, name)
+        return read(x.item() if isinstance(x, np.generic) else x, name)
     except ConfigError as exc:
         raise FenceError(str(exc)) from None
+
+
+def _number(x: Any, name: str) -> float:
+    """A finite number (numpy scalars too), as a :class:`FenceError`."""
+    return _as_fence_error(number, x, name)
 
 
 def _seq(x: Any, name: str) -> Sequence:
@@ -273,13 +279,7 @@ def _seq(x: Any, name: str) -> Sequence:
 def _latlon(p: Any, name: str) -> LatLon:
     if isinstance(p, (str, bytes, Mapping)) or not isinstance(p, Sequence) or len(p) != 2:
         raise FenceError(f"{name}: must be [lat_deg, lon_deg], got {p!r}")
-    lat = _number(p[0], f"{name} latitude")
-    lon = _number(p[1], f"{name} longitude")
-    if not -90.0 <= lat <= 90.0:
-        raise FenceError(f"{name}: latitude {lat:g} deg is outside [-90, 90]")
-    if not -180.0 <= lon <= 180.0:
-        raise FenceError(f"{name}: longitude {lon:g} deg is outside [-180, 180]")
-    return lat, lon
+    return _as_fence_error(latitude, p[0], f"{name} latitude"), _as_fence_error(longitude, p[1], f"{name} longitude")
 
 
 def _polygon(poly: Any, name: str) -> PolygonLL:
@@ -356,7 +356,7 @@ def parse_fence(mapping: Any, where: str = "") -> Fence:
             keep_in=mapping["keep_in"],
             ceiling_m=mapping["ceiling_m"],
             floor_m=floor,
-            altitude_reference=mapping.get("altitude_reference", "agl"),
+            altitude_reference=mapping.get("altitude_reference", field_default(Fence, "altitude_reference")),
             floor_gaps=tuple(_seq(mapping.get("floor_gaps"), "floor_gaps")),
             keep_out_polygons=tuple(_seq(mapping.get("keep_out_polygons"), "keep_out_polygons")),
             keep_out_circles=tuple(circles),

@@ -113,6 +113,7 @@ import numpy as np
 from .fence import AltitudeReference, Fence, FenceError, KeepOutCircle, PolygonLL
 from .geodesy import LocalFrame, ecef_to_geodetic, geodesic_destination, geodetic_to_ecef
 from .polygon import PolygonIndex, polygons_intersect
+from .validation import ConfigError, enum_value, field_default, latitude, longitude, number
 
 DEFAULT_CEILING_M = 120.0
 """Ceiling used when the caller gives none (m, AGL)."""
@@ -223,7 +224,7 @@ class _Raw:
     """Name of the first inclusion polygon in messages (default ``keep_in``)."""
     ceiling_m: float | None = None
     floor_m: float | None = None
-    altitude_reference: str | None = None
+    altitude_reference: AltitudeReference | None = None
     n_vertices: int = 0
     n_polygons: int = 0
 
@@ -271,7 +272,7 @@ def load_fence_file(
         raise FenceError(f"{name}: no inclusion polygon or circle (only exclusions); a keep-in area is required")
     warnings = list(raw.warnings)
     if altitude_reference is None:
-        altitude_reference = raw.altitude_reference or "agl"
+        altitude_reference = raw.altitude_reference or field_default(Fence, "altitude_reference")
     if floor_m is None:
         floor_m = raw.floor_m
     ceiling_source = "argument"
@@ -559,21 +560,26 @@ def _raw_from_text(
     )
 
 
+def _kit(read: Any, value: Any, where: str, hint: str = "", **bounds: Any) -> Any:
+    """A :mod:`geofence.validation` reader, its message (``<where>: <problem>``, plus ``hint``) as a :class:`FenceError`."""
+    try:
+        return read(value, where, **bounds)
+    except ConfigError as exc:
+        raise FenceError(f"{exc}{hint}") from None
+
+
 def _float(tok: str, name: str, where: str, what: str) -> float:
+    """A number token of a text format (WPL, MAVProxy): ``what`` names the column."""
     try:
         v = float(tok)
     except ValueError:
         raise FenceError(f"{name}: {where}: {what} {tok!r} is not a number") from None
-    if not math.isfinite(v):
-        raise FenceError(f"{name}: {where}: {what} {tok!r} is not finite")
-    return v
+    return _kit(number, v, f"{name}: {where} {what}")
 
 
 def _check_latlon(lat: float, lon: float, name: str, where: str) -> tuple[float, float]:
-    if not -90.0 <= lat <= 90.0:
-        raise FenceError(f"{name}: {where}: latitude {lat:g} deg is outside [-90, 90]")
-    if not -180.0 <= lon <= 180.0:
-        raise FenceError(f"{name}: {where}: longitude {lon:g} deg is outside [-180, 180]")
+    lat = _kit(latitude, lat, f"{name}: {where} latitude")
+    lon = _kit(longitude, lon, f"{name}: {where} longitude")
     if lat == 0.0 and lon == 0.0:
         raise FenceError(f"{name}: {where}: position (0, 0) is unset")
     return lat, lon
@@ -589,9 +595,7 @@ def _close_polygon(pts: list, name: str, where: str) -> PolygonLL:
 
 # ---- QGroundControl .plan
 def _json_number(x: Any, name: str, where: str) -> float:
-    if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(float(x)):
-        raise FenceError(f"{name}: {where}: must be a number, got {x!r}")
-    return float(x)
+    return cast(float, _kit(number, x, f"{name}: {where}"))
 
 
 def _json_point(p: Any, name: str, where: str, n: int | tuple = 2) -> tuple[float, ...]:
@@ -958,9 +962,8 @@ def _parse_geojson(
                 setattr(raw, key, _json_number(props[key], name, f"{where}.{key}"))
         ref = props.get("altitude_reference")
         if ref is not None:
-            if not isinstance(ref, str) or ref.lower() not in ("agl", "amsl"):
-                raise FenceError(f"{name}: {where}.altitude_reference: must be 'agl' or 'amsl', got {ref!r}")
-            raw.altitude_reference = ref.lower()
+            ref = ref.lower() if isinstance(ref, str) else ref
+            raw.altitude_reference = _kit(enum_value, ref, f"{name}: {where}.altitude_reference", enum_type=AltitudeReference)
     return raw
 
 
@@ -1023,12 +1026,9 @@ def _gj_position(p: Any, name: str, where: str) -> tuple[float, float]:
     if not isinstance(p, list) or not 2 <= len(p) <= 3:
         raise FenceError(f"{name}: {where}: must be a position [lon, lat] or [lon, lat, height], got {json.dumps(p)[:60]}")
     vals = [_json_number(v, name, where) for v in p]
-    lon, lat = vals[0], vals[1]
-    if not -180.0 <= lon <= 180.0:
-        raise FenceError(f"{name}: {where}: longitude {lon:g} deg is outside [-180, 180] (GeoJSON positions are [lon, lat])")
-    if not -90.0 <= lat <= 90.0:
-        raise FenceError(f"{name}: {where}: latitude {lat:g} deg is outside [-90, 90] (GeoJSON positions are [lon, lat])")
-    return lat, lon
+    hint = " (GeoJSON positions are [lon, lat])"
+    lon = _kit(longitude, vals[0], f"{name}: {where} longitude", hint)
+    return _kit(latitude, vals[1], f"{name}: {where} latitude", hint), lon
 
 
 def summarize(imported: ImportedFence) -> str:

@@ -13,6 +13,7 @@ A leaf module: the standard library only, so that both bottom packages
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import math
 import re
@@ -28,7 +29,11 @@ TOP_LEVEL = "(top level)"
 
 
 class ConfigError(ValueError):
-    """Bad user input: the message names the file, the field and the problem on one line."""
+    """Bad user input (a scenario, fence, profile, sensor or log file, or a command-line value).
+
+    The message is one line, ``<file>: <field>: <problem>``, fit to print as it is: the CLI catches this type
+    (every parser's own error type subclasses it) and exits with code 2, without a traceback.
+    """
 
 
 def kind(value: Any) -> str:
@@ -164,3 +169,13 @@ def latitude(value: Any, where: str) -> float:
 
 def longitude(value: Any, where: str) -> float:
     return number(value, where, minimum=-180.0, maximum=180.0)
+
+
+def field_default(cls: type, name: str) -> Any:
+    """The default of dataclass ``cls``'s field ``name`` (its factory called), so a parser writes no default twice."""
+    f = cls.__dataclass_fields__[name]  # type: ignore[attr-defined]
+    if f.default is not dataclasses.MISSING:
+        return f.default
+    if f.default_factory is not dataclasses.MISSING:
+        return f.default_factory()
+    raise KeyError(f"{cls.__name__}.{name} has no default")

@@ -89,8 +89,8 @@ def test_swapped_order_is_refused_where_it_cannot_be_a_place(tmp_path):
     p = write(tmp_path, doc)
     with pytest.raises(
         FenceError,
-        match=r"features\[0\]: geometry.coordinates\[0\]\[0\]: latitude 149.164 deg is outside "
-        r"\[-90, 90\] \(GeoJSON positions are \[lon, lat\]\)",
+        match=r"features\[0\]: geometry.coordinates\[0\]\[0\] latitude: must be <= 90, got 149.164 "
+        r"\(GeoJSON positions are \[lon, lat\]\)",
     ):
         load_fence_file(p)
 
@@ -218,11 +218,11 @@ MALFORMED = [
     ),
     (
         collection(feature({"geofence": "keep_in"}, "Polygon", [[[188.5, 47.3], [8.6, 47.3], [8.6, 47.4], [188.5, 47.3]]])),
-        "features[0]: geometry.coordinates[0][0]: longitude 188.5 deg is outside [-180, 180]",
+        "features[0]: geometry.coordinates[0][0] longitude: must be <= 180, got 188.5 (GeoJSON positions are [lon, lat])",
     ),
     (
         collection(feature({"geofence": "keep_in"}, "Polygon", [[[8.5, "47.3"], [8.6, 47.3], [8.6, 47.4], [8.5, "47.3"]]])),
-        "features[0]: geometry.coordinates[0][0]: must be a number, got '47.3'",
+        "features[0]: geometry.coordinates[0][0]: expected a number, got a string '47.3'",
     ),
     (
         collection(feature({"geofence": "keep_in"}, "Polygon", [[[8.5], [8.6, 47.3], [8.6, 47.4], [8.5]]])),
@@ -231,7 +231,7 @@ MALFORMED = [
     (
         '{"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {"geofence": "keep_in"}, '
         '"geometry": {"type": "Polygon", "coordinates": [[[8.5, NaN], [8.6, 47.3], [8.6, 47.4], [8.5, NaN]]]}}]}',
-        "features[0]: geometry.coordinates[0][0]: must be a number, got nan",
+        "features[0]: geometry.coordinates[0][0]: must be a finite number, got nan",
     ),
     (
         collection(feature({"geofence": "keep_in"}, "Point", [8.5, 47.3])),
@@ -253,8 +253,8 @@ MALFORMED = [
     (collection(keep_in(), 42), "features[1]: must be a Feature object, got 42"),
     (collection(keep_in()) | {"features": {"a": 1}}, "features: must be a list of Feature objects"),
     (collection(keep_in()) | {"crs": {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::3857"}}}, "crs: {"),
-    (collection(keep_in(), ceiling_m="high"), "properties.ceiling_m: must be a number, got 'high'"),
-    (collection(keep_in(altitude_reference="msl")), "features[0]: properties.altitude_reference: must be 'agl' or 'amsl'"),
+    (collection(keep_in(), ceiling_m="high"), "properties.ceiling_m: expected a number, got a string 'high'"),
+    (collection(keep_in(altitude_reference="msl")), "features[0]: properties.altitude_reference: 'msl' is not one of agl, amsl"),
     ({"type": "LineString", "coordinates": [[8.5, 47.3], [8.6, 47.3]]}, "a bare LineString geometry is not a fence"),
     (
         collection(keep_in(), feature({"geofence": "keep_out"}, "Polygon", "none")),
@@ -506,7 +506,10 @@ def test_scenario_inline_keys_override_the_file(site):
             "{file: ../fences/park.geojson, keep_in: [[1, 2]]}",
             "s.yaml: geofence.fence: unknown key(s) 'keep_in' with a fence file",
         ),
-        ("{file: ../fences/park.geojson, ceiling_m: high}", "s.yaml: geofence.fence.ceiling_m: must be a number, got 'high'"),
+        (
+            "{file: ../fences/park.geojson, ceiling_m: high}",
+            "s.yaml: geofence.fence.ceiling_m: expected a number, got a string 'high'",
+        ),
         (
             "{file: ../fences/park.geojson, recovery_point: [47.39825, 8.54575]}",
             "s.yaml: geofence.fence.recovery_point: not inside the allowed area",

@@ -43,6 +43,7 @@ from analysis.campaign import (
 )
 from geofence.geodesy import LocalFrame
 from geofence.rooms import worst_case_lateral_shift_m
+from geofence.validation import ConfigError
 from scenarios.spec.campaign import (
     MISSION_INSET_ROOMS,
     CampaignError,
@@ -181,10 +182,13 @@ def test_acute_corners_and_stars_are_what_they_claim(campaign_200):
 
 
 def test_bad_arguments_are_rejected(tmp_path):
-    with pytest.raises(CampaignError, match="platforms"):
+    """Bad arguments are user input (ConfigError, exit 2 in the CLI); CampaignError is kept for generator bugs."""
+    with pytest.raises(ConfigError, match="platforms") as exc:
         generate_campaign(tmp_path, 2, 0, platforms=["NoSuchPlane"])
-    with pytest.raises(CampaignError, match="families"):
+    assert not isinstance(exc.value, CampaignError)
+    with pytest.raises(ConfigError, match="families"):
         generate_campaign(tmp_path, 2, 0, families=["box"])  # type: ignore[list-item]
+    assert not issubclass(CampaignError, ConfigError)
 
 
 def test_committed_ci_slice_is_the_generators_output(tmp_path):

@@ -65,7 +65,7 @@ def test_base_document_parses():
             "profile.envelope.max_bank_deg",
             ">= 0",
         ),
-        (with_(aircraft="c172p", profile={"kind": "glider"}), "profile.kind", "multirotor or fixed_wing"),
+        (with_(aircraft="c172p", profile={"kind": "glider"}), "profile.kind", "is not one of multirotor, fixed_wing"),
         (with_(colour="red"), "bad.yaml: colour", "colour: unknown key (allowed: "),
         (with_(mission__items=[{"type": "hover"}]), "mission.items[0].type", "not one of"),
         (with_(mission__items=[{"type": "waypoint", "lat_deg": 1}]), "mission.items[0].lon_deg", "missing"),

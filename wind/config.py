@@ -43,12 +43,14 @@ from geofence.validation import (
     ConfigError,
     direction_deg,
     enum_value,
+    field_default,
     integer,
     kind,
     number,
     number_range,
     reject_unknown_keys,
     require_mapping,
+    string,
 )
 from wind.dryden import SEVERITY_W20_MPS, DrydenTurbulence
 from wind.field import CalmWind, CompositeWind, WindField
@@ -97,7 +99,6 @@ class TurbulenceConfig:
         return SEVERITY_W20_MPS[self.severity]
 
 
-@dataclass(frozen=True)
 class GustOnset(StrEnum):
     """What a gust's ``onset_s`` counts from."""
 
@@ -257,13 +258,13 @@ def parse_wind(mapping: Any, where: str = "wind") -> WindConfig:
     m = require_mapping(mapping, where)
     reject_unknown_keys(m, _WIND_KEYS, where)
 
-    speed = number(m.get("speed_mps", 0.0), f"{where}.speed_mps", minimum=0.0)
+    speed = number(m.get("speed_mps", field_default(WindConfig, "speed_mps")), f"{where}.speed_mps", minimum=0.0)
     if "from_deg" in m:
         from_deg = direction_deg(m["from_deg"], f"{where}.from_deg")
     elif speed > 0.0:
         raise ConfigError(f"{where}.from_deg: missing (required when speed_mps > 0)")
     else:
-        from_deg = 0.0
+        from_deg = field_default(WindConfig, "from_deg")
 
     profile = _parse_profile(m["profile"], f"{where}.profile") if m.get("profile") is not None else None
     turbulence = _parse_turbulence(m["turbulence"], f"{where}.turbulence") if m.get("turbulence") is not None else None
@@ -287,9 +288,7 @@ def _parse_profile(raw: Any, where: str) -> ProfileConfig:
     m = require_mapping(raw, where)
     if "law" not in m:
         raise ConfigError(f"{where}.law: missing (one of {', '.join(PROFILE_LAWS)})")
-    law = m["law"]
-    if law not in PROFILE_LAWS:
-        raise ConfigError(f"{where}.law: must be one of {', '.join(PROFILE_LAWS)}, got {law!r}")
+    law = string(m["law"], f"{where}.law", choices=PROFILE_LAWS)
     for key in m:
         if key not in _PROFILE_KEYS[law]:
             if any(key in keys for keys in _PROFILE_KEYS.values()):
@@ -318,9 +317,9 @@ def _parse_turbulence(raw: Any, where: str) -> TurbulenceConfig:
         raise ConfigError(f"{where}: give exactly one of severity ({', '.join(SEVERITIES)}) or w20_mps")
     if has_sev:
         sev = m["severity"]
-        if not isinstance(sev, str) or sev.lower() not in SEVERITIES:
-            raise ConfigError(f"{where}.severity: must be one of {', '.join(SEVERITIES)}, got {sev!r}")
-        return TurbulenceConfig(severity=sev.lower())
+        return TurbulenceConfig(
+            severity=string(sev.lower() if isinstance(sev, str) else sev, f"{where}.severity", choices=SEVERITIES)
+        )
     return TurbulenceConfig(w20_mps=number(m["w20_mps"], f"{where}.w20_mps", minimum=0.0))
 
 
@@ -331,15 +330,19 @@ def _parse_gust(raw: Any, where: str) -> GustConfig:
         if key not in m:
             raise ConfigError(f"{where}.{key}: missing (required)")
     pen = m.get("penetration_speed_mps")
+
+    def default(key: str) -> Any:
+        return m.get(key, field_default(GustConfig, key))
+
     return GustConfig(
         onset_s=number(m["onset_s"], f"{where}.onset_s", minimum=0.0),
         amplitude_mps=number(m["amplitude_mps"], f"{where}.amplitude_mps", minimum=0.0),
         length_m=number(m["length_m"], f"{where}.length_m", strictly_positive=True),
         from_deg=direction_deg(m["from_deg"], f"{where}.from_deg") if m.get("from_deg") is not None else None,
-        vertical_mps=number(m.get("vertical_mps", 0.0), f"{where}.vertical_mps"),
-        hold_m=number(m.get("hold_m", 0.0), f"{where}.hold_m", minimum=0.0, allow_inf=True),
+        vertical_mps=number(default("vertical_mps"), f"{where}.vertical_mps"),
+        hold_m=number(default("hold_m"), f"{where}.hold_m", minimum=0.0, allow_inf=True),
         penetration_speed_mps=None if pen is None else number(pen, f"{where}.penetration_speed_mps", strictly_positive=True),
-        onset_after=enum_value(m.get("onset_after", GustOnset.START), f"{where}.onset_after", GustOnset),
+        onset_after=enum_value(default("onset_after"), f"{where}.onset_after", GustOnset),
     )
 
 
@@ -360,6 +363,10 @@ def _parse_random_gusts(raw: Any, where: str) -> RandomGustsConfig:
         amplitude_mps=number_range(m["amplitude_mps"], f"{where}.amplitude_mps", minimum=0.0),
         length_m=number_range(m["length_m"], f"{where}.length_m", strictly_positive=True),
         from_deg=direction_deg(m["from_deg"], f"{where}.from_deg") if m.get("from_deg") is not None else None,
-        spread_deg=number(m.get("spread_deg", 0.0), f"{where}.spread_deg", minimum=0.0, maximum=180.0),
-        vertical_mps=number_range(m.get("vertical_mps", 0.0), f"{where}.vertical_mps"),
+        spread_deg=number(
+            m.get("spread_deg", field_default(RandomGustsConfig, "spread_deg")), f"{where}.spread_deg", minimum=0.0, maximum=180.0
+        ),
+        vertical_mps=number_range(
+            m.get("vertical_mps", field_default(RandomGustsConfig, "vertical_mps")), f"{where}.vertical_mps"
+        ),
     )

@@ -58,6 +58,7 @@ from geofence.geodesy import LocalFrame
 from geofence.local_fence import LocalFence
 from geofence.polygon import PolygonIndex
 from geofence.rooms import multicopter_stopping_distance_m, turn_radius_m, worst_case_lateral_shift_m
+from geofence.validation import ConfigError
 
 MANIFEST = "campaign.json"
 MAX_FENCE_SPAN_M = 9_000.0
@@ -75,7 +76,11 @@ TURBULENCE_SIGMA_MPS = {"none": 0.0, "light": 0.8, "moderate": 1.6}
 
 
 class CampaignError(RuntimeError):
-    """The generator produced something the scenario schema rejects (a bug here), or bad arguments."""
+    """The generator produced something the scenario schema rejects: a bug here, not bad user input.
+
+    Bad arguments to :func:`generate_cases` / :func:`generate_campaign` are user input and raise
+    :class:`~geofence.validation.ConfigError` instead.
+    """
 
 
 class CaseFamily(Enum):
@@ -970,7 +975,6 @@ def _assemble(
 
 # --------------------------------------------------------------------------- the campaign
 def _validate(text: str, where: str) -> None:
-    from geofence.validation import ConfigError
     from scenarios.spec.schema import parse_scenario
 
     try:
@@ -989,17 +993,17 @@ def generate_cases(
 ) -> list[Case]:
     """The cases of a campaign, in memory (see :func:`generate_campaign`)."""
     if n_cases < 0:
-        raise CampaignError(f"n_cases: must be >= 0, got {n_cases}")
+        raise ConfigError(f"n_cases: must be >= 0, got {n_cases}")
     if not max_duration_s >= 20.0:
-        raise CampaignError(f"max_duration_s: must be >= 20 s, got {max_duration_s}")
+        raise ConfigError(f"max_duration_s: must be >= 20 s, got {max_duration_s}")
     known = available_profiles()
     platforms = list(platforms) if platforms is not None else known
     bad = [p for p in platforms if p not in known]
     if bad or not platforms:
-        raise CampaignError(f"platforms: unknown {bad} (known: {', '.join(known)})" if bad else "platforms: empty")
+        raise ConfigError(f"platforms: unknown {bad} (known: {', '.join(known)})" if bad else "platforms: empty")
     families = list(families) if families is not None else list(CaseFamily)
     if not families or not all(isinstance(f, CaseFamily) for f in families):
-        raise CampaignError(f"families: expected CaseFamily members, got {families!r}")
+        raise ConfigError(f"families: expected CaseFamily members, got {families!r}")
     cases = []
     for i in range(n_cases):
         family = families[i % len(families)]

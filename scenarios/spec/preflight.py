@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 
 from geofence.dynamics import envelope_at_density, isa_density_ratio
+from geofence.fence import AltitudeReference
 from geofence.geodesy import LocalFrame
 from geofence.preflight import PlannedWaypoint, PreflightFinding, check_route
 from scenarios.spec.schema import Scenario
@@ -61,7 +62,7 @@ def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
     k = cfg.uncertainty_k_sigma
     sensors = scenario.sensors
     route = planned_route(scenario, frame)
-    if fence.altitude_reference == "amsl":
+    if fence.altitude_reference is AltitudeReference.AMSL:
         route = [PlannedWaypoint(w.east_m, w.north_m, w.height_m + st.ground_alt_m, w.label, w.loiter_radius_m) for w in route]
     return check_route(
         fence,

@@ -29,16 +29,17 @@ from typing import Any
 import yaml
 
 from aircraft.jsbsim_model import UnknownAircraftError, model_folder
-from aircraft.profile import PlatformProfile, ProfileError, available_profiles, load_profile, parse_profile
+from aircraft.profile import PlatformProfile, available_profiles, load_profile, parse_profile
 from aircraft.sensors import SensorConfig, parse_sensors
 from geofence.boundary_shift import check_shift_feasible
-from geofence.config import GeofenceConfig, GeofenceConfigError, fence_file_path, parse_geofence
-from geofence.fence import FenceError
+from geofence.config import GeofenceConfig, fence_file_path, parse_geofence
+from geofence.fence import AltitudeReference, FenceError
 from geofence.geodesy import LocalFrame
 from geofence.local_fence import LocalFence
 from geofence.validation import (
     ConfigError,
     enum_value,
+    field_default,
     integer,
     latitude,
     longitude,
@@ -101,7 +102,6 @@ class MissionConfig:
         return len(self.items)
 
 
-@dataclass(frozen=True)
 class SegmentEnd(StrEnum):
     """An event that ends a scripted segment before its ``duration_s`` (the next segment starts at once)."""
 
@@ -133,7 +133,6 @@ class ScriptSegment:
 BREACH_DIRECTIONS = ("north", "east", "south", "west", "up")
 
 
-@dataclass(frozen=True)
 class SpeedDraw(StrEnum):
     """How the breach-attempts pilot draws its approach speeds (all up front, from its seed)."""
 
@@ -305,7 +304,12 @@ def parse_scenario(
 
     duration_s = number(raw["duration_s"], f"{where}: duration_s", strictly_positive=True, maximum=24 * 3600)
     seed = integer(raw.get("seed", 0), f"{where}: seed", minimum=0)
-    rate = number(raw.get("control_rate_hz", 40.0), f"{where}: control_rate_hz", minimum=1.0, maximum=120.0)
+    rate = number(
+        raw.get("control_rate_hz", field_default(Scenario, "control_rate_hz")),
+        f"{where}: control_rate_hz",
+        minimum=1.0,
+        maximum=120.0,
+    )
     name = string(raw.get("name", default_name), f"{where}: name")
     if any(c in name for c in "/\\") or name.startswith("."):
         raise ConfigError(f"{where}: name: {name!r} must be usable as a folder name (no slashes, no leading dot)")
@@ -319,19 +323,8 @@ def parse_scenario(
             _check_latitude(item.lat_deg, f"{where}: mission.items[{i}].lat_deg")
     pilot = _parse_pilot(raw.get("pilot"), f"{where}: pilot", has_mission=mission is not None)
 
-    wind = None
-    if raw.get("wind") is not None:
-        try:
-            wind = parse_wind(raw["wind"], f"{where}: wind")
-        except ConfigError:
-            raise
-        except ValueError as exc:
-            raise ConfigError(str(exc)) from None
-
-    try:
-        sensors = parse_sensors(raw["sensors"], f"{where}: sensors") if raw.get("sensors") is not None else SensorConfig()
-    except ValueError as exc:
-        raise ConfigError(str(exc)) from None
+    wind = parse_wind(raw["wind"], f"{where}: wind") if raw.get("wind") is not None else None
+    sensors = parse_sensors(raw.get("sensors"), f"{where}: sensors")
 
     warnings: list[str] = []
     _check_wind(wind, profile, aircraft, where, allow, warnings)
@@ -355,7 +348,7 @@ def parse_scenario(
         wind=wind,
         control_rate_hz=rate,
         geofence=geofence,
-        description=str(raw.get("description", "")),
+        description=str(raw.get("description", field_default(Scenario, "description"))),
         sensors=sensors,
         allow=allow,
         warnings=tuple(warnings),
@@ -409,7 +402,7 @@ def _check_inside_fence(
 ) -> None:
     """The start and the mission's items inside the geofence's allowed area (laterally, and below an AGL ceiling)."""
     local = cfg.fence.to_local(start.frame)
-    agl_ceiling = local.ceiling_m if local.altitude_reference == "agl" else None
+    agl_ceiling = local.ceiling_m if local.altitude_reference is AltitudeReference.AGL else None
 
     def outside(lat: float | None, lon: float | None, agl: float | None, radius: float = 0.0) -> str | None:
         if lat is not None and lon is not None:
@@ -452,17 +445,14 @@ def _parse_aircraft_profile(aircraft: str, inline: Any, where: str) -> PlatformP
         raise ConfigError(
             f"{where}: aircraft: unknown aircraft {aircraft!r} (flyable with a shipped profile: {', '.join(available_profiles())})"
         ) from None
-    try:
-        if inline is not None:
-            return parse_profile(inline, aircraft, f"{where}: profile")
-        if aircraft not in available_profiles():
-            raise ConfigError(
-                f"{where}: aircraft: {aircraft!r} is a JSBSim model without a shipped profile; add a profile: block "
-                f"(kind, envelope, gains; or base: <model>) or use one of {', '.join(available_profiles())}"
-            )
-        return load_profile(aircraft)
-    except ProfileError as exc:
-        raise ConfigError(str(exc)) from None
+    if inline is not None:
+        return parse_profile(inline, aircraft, f"{where}: profile")
+    if aircraft not in available_profiles():
+        raise ConfigError(
+            f"{where}: aircraft: {aircraft!r} is a JSBSim model without a shipped profile; add a profile: block "
+            f"(kind, envelope, gains; or base: <model>) or use one of {', '.join(available_profiles())}"
+        )
+    return load_profile(aircraft)
 
 
 def _parse_geofence_block(
@@ -481,11 +471,9 @@ def _parse_geofence_block(
         frame = start.frame
         wind_speed = wind.speed_mps if wind is not None else 0.0
         check_shift_feasible(cfg.fence.to_local(frame), profile.envelope, wind_speed)
-    except FenceError as exc:
+    except FenceError as exc:  # from the checks above, which name no block
         msg = str(exc)
-        raise ConfigError(msg if msg.startswith(where) else f"{where}.fence: {msg}") from None
-    except GeofenceConfigError as exc:
-        raise ConfigError(str(exc)) from None
+        raise FenceError(msg if msg.startswith(where) else f"{where}.fence: {msg}") from None
     return cfg
 
 
@@ -495,13 +483,17 @@ def _parse_start(raw: Any, where: str) -> StartConfig:
     for key in ("lat_deg", "lon_deg"):
         if key not in raw:
             raise ConfigError(f"{where}.{key}: missing (required)")
+
+    def num(key: str, lo: float, hi: float) -> float:
+        return number(raw.get(key, field_default(StartConfig, key)), f"{where}.{key}", minimum=lo, maximum=hi)
+
     return StartConfig(
         lat_deg=latitude(raw["lat_deg"], f"{where}.lat_deg"),
         lon_deg=longitude(raw["lon_deg"], f"{where}.lon_deg"),
-        ground_alt_m=number(raw.get("ground_alt_m", 0.0), f"{where}.ground_alt_m", minimum=-500.0, maximum=9000.0),
-        agl_m=number(raw.get("agl_m", 0.0), f"{where}.agl_m", minimum=0.0, maximum=5000.0),
-        heading_deg=number(raw.get("heading_deg", 0.0), f"{where}.heading_deg", minimum=-360.0, maximum=360.0),
-        airspeed_mps=number(raw.get("airspeed_mps", 0.0), f"{where}.airspeed_mps", minimum=0.0, maximum=100.0),
+        ground_alt_m=num("ground_alt_m", -500.0, 9000.0),
+        agl_m=num("agl_m", 0.0, 5000.0),
+        heading_deg=num("heading_deg", -360.0, 360.0),
+        airspeed_mps=num("airspeed_mps", 0.0, 100.0),
     )
 
 
@@ -520,7 +512,11 @@ def _parse_mission(raw: Any, where: str) -> MissionConfig:
     speed = raw.get("speed_mps")
     return MissionConfig(
         items=items,
-        acceptance_radius_m=number(raw.get("acceptance_radius_m", 5.0), f"{where}.acceptance_radius_m", strictly_positive=True),
+        acceptance_radius_m=number(
+            raw.get("acceptance_radius_m", field_default(MissionConfig, "acceptance_radius_m")),
+            f"{where}.acceptance_radius_m",
+            strictly_positive=True,
+        ),
         speed_mps=None if speed is None else number(speed, f"{where}.speed_mps", strictly_positive=True, maximum=100.0),
     )
 
@@ -553,8 +549,8 @@ def _parse_item(raw: Any, where: str) -> MissionItem:
         lat_deg=latitude(raw["lat_deg"], f"{where}.lat_deg") if "lat_deg" in raw else None,
         lon_deg=longitude(raw["lon_deg"], f"{where}.lon_deg") if "lon_deg" in raw else None,
         agl_m=number(raw["agl_m"], f"{where}.agl_m", minimum=0.0, maximum=5000.0) if "agl_m" in raw else None,
-        duration_s=number(raw.get("duration_s", 0.0), f"{where}.duration_s", minimum=0.0),
-        radius_m=number(raw.get("radius_m", 0.0), f"{where}.radius_m", minimum=0.0),
+        duration_s=number(raw.get("duration_s", field_default(MissionItem, "duration_s")), f"{where}.duration_s", minimum=0.0),
+        radius_m=number(raw.get("radius_m", field_default(MissionItem, "radius_m")), f"{where}.radius_m", minimum=0.0),
     )
 
 
@@ -642,6 +638,6 @@ def _parse_segment(raw: Any, where: str) -> ScriptSegment:
         end_on=end_on,
         reach=reach,
         course_deg=number(raw["course_deg"], f"{where}.course_deg", minimum=-360.0, maximum=360.0),
-        speed=string(raw.get("speed", "max"), f"{where}.speed", choices=list(SCRIPT_SPEEDS)),
-        climb=string(raw.get("climb", "hold"), f"{where}.climb", choices=list(SCRIPT_CLIMBS)),
+        speed=string(raw.get("speed", field_default(ScriptSegment, "speed")), f"{where}.speed", choices=SCRIPT_SPEEDS),
+        climb=string(raw.get("climb", field_default(ScriptSegment, "climb")), f"{where}.climb", choices=SCRIPT_CLIMBS),
     )

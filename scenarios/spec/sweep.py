@@ -48,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from geofence.validation import ConfigError, integer, reject_unknown_keys, require_mapping
+from geofence.validation import ConfigError, integer, number, reject_unknown_keys, require_mapping
 
 DISTRIBUTIONS = ("uniform", "normal", "choice", "integers")
 
@@ -188,10 +188,10 @@ def _draws(raw: Any, where: str, salt: int, base_doc: dict, file_where: str) -> 
         kind, args = next(iter(spec.items()))
         if not isinstance(args, list) or not args:
             raise ConfigError(f"{where}.draws.{key}.{kind}: expected a list of parameters")
-        if kind in ("uniform", "normal", "integers") and (
-            len(args) != 2 or not all(isinstance(a, (int, float)) and not isinstance(a, bool) for a in args)
-        ):
-            raise ConfigError(f"{where}.draws.{key}.{kind}: expected [low, high] (uniform, integers) or [mean, sd] (normal)")
+        if kind in ("uniform", "normal", "integers"):
+            if len(args) != 2:
+                raise ConfigError(f"{where}.draws.{key}.{kind}: expected [low, high] (uniform, integers) or [mean, sd] (normal)")
+            args = [number(a, f"{where}.draws.{key}.{kind}[{i}]") for i, a in enumerate(args)]
         samplers.append((str(key), kind, args))
     out = []
     for key, kind, args in samplers if salt == 0 else ():  # each path checked once, with a representative value
