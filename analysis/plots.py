@@ -27,6 +27,8 @@ from typing import Any
 
 import matplotlib
 
+from geofence.fence import AltitudeReference
+
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
@@ -368,7 +370,7 @@ def plot_flight(
     time_axes.append(ax_alt)
     ax_alt.plot(t, traj["agl_m"], color="tab:purple", label="height AGL")
     include = [0.0]
-    if has_fence and fence.altitude_reference == "agl":
+    if has_fence and fence.altitude_reference is AltitudeReference.AGL:
         ax_alt.axhline(fence.ceiling_m, color="black", lw=1.5, label="ceiling")
         include.append(fence.ceiling_m)
         if fence.floor_m is not None:

@@ -44,6 +44,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from analysis.fast_margins import fence_margins
+from geofence.fence import AltitudeReference
 from geofence.local_fence import LocalFence
 
 MONITOR_MODE = 0
@@ -71,7 +72,7 @@ Trajectory = Mapping[str, np.ndarray]
 
 
 def _height(traj: Trajectory, fence: LocalFence) -> np.ndarray:
-    return np.asarray(traj["agl_m"] if fence.altitude_reference == "agl" else traj["alt_m"], dtype=float)
+    return np.asarray(traj["agl_m"] if fence.altitude_reference is AltitudeReference.AGL else traj["alt_m"], dtype=float)
 
 
 def margins(traj: dict[str, np.ndarray], fence: LocalFence) -> dict[str, np.ndarray]:

@@ -70,7 +70,7 @@ from dataclasses import dataclass
 from typing import NamedTuple, Sequence
 
 from .dynamics import drag_coefficients, wind_push_mps2
-from .fence import FenceError
+from .fence import AltitudeReference, FenceError
 from .interface import Envelope, PlatformKind, VehicleState
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 from .rooms import (
@@ -386,7 +386,7 @@ def activation_margins_for_state(
     fence: LocalFence, state: VehicleState, envelope: Envelope, wind_e: float = 0.0, wind_n: float = 0.0, **kw
 ) -> ShiftResult:
     """:func:`activation_margins` for a :class:`VehicleState` (height: ``agl_m`` or ``alt_m`` per the fence)."""
-    h = state.agl_m if fence.altitude_reference == "agl" else state.alt_m
+    h = state.agl_m if fence.altitude_reference is AltitudeReference.AGL else state.alt_m
     return activation_margins(
         fence, state.east_m, state.north_m, h, state.v_east_mps, state.v_north_mps, state.v_up_mps, envelope, wind_e, wind_n, **kw
     )
@@ -442,7 +442,7 @@ def check_shift_feasible(
     if fence.floor_m is not None:
         room = fence.ceiling_m - fence.floor_m
         need = cs + fs
-    elif fence.altitude_reference == "agl":
+    elif fence.altitude_reference is AltitudeReference.AGL:
         room, need, fs = fence.ceiling_m, cs, 0.0
     else:
         room, need, fs = math.inf, cs, 0.0

@@ -158,6 +158,16 @@ class GeofenceConfig:
     fence_warnings: tuple[str, ...] = ()
     """The importer's warnings about the fence file (one line each)."""
 
+    def __post_init__(self) -> None:
+        # the option fields hold enum members even when built from strings, so the unit can compare with `is`
+        for name, enum_type in (
+            ("trigger", Trigger),
+            ("multirotor_law", MultirotorLaw),
+            ("state_source", StateSource),
+            ("turbulence_source", TurbulenceSource),
+        ):
+            object.__setattr__(self, name, enum_type(getattr(self, name)))
+
 
 _KEYS = {
     "fence",

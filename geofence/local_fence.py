@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from .fence import AltitudeReference
 from .fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame
 from .polygon import PolygonIndex, pole_of_inaccessibility
@@ -137,7 +138,7 @@ class LocalFence:
             self.recovery_height_m = rp[2]
         elif fence.floor_m is not None:
             self.recovery_height_m = 0.5 * (fence.floor_m + fence.ceiling_m)
-        elif fence.altitude_reference == "agl":
+        elif fence.altitude_reference is AltitudeReference.AGL:
             self.recovery_height_m = 0.5 * fence.ceiling_m
         else:
             self.recovery_height_m = None

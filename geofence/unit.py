@@ -41,10 +41,11 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 from geofence.boundary_shift import ShiftResult, activation_margins
-from geofence.config import GeofenceConfig, TurbulenceSource
+from geofence.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
 from geofence.dynamics import envelope_at_density, isa_density_ratio
+from geofence.fence import AltitudeReference
 from geofence.guidance import (
     FixedWingRecovery,
     LandingGuidance,
@@ -125,7 +126,11 @@ class GeofenceUnit:
         self.estimate: VehicleState | None = None
         """The state the unit acted on last (its estimate, or its dead reckoning)."""
         self._override_period_start_s = 0.0
-        lo = fence.floor_m if fence.floor_m is not None else (0.0 if fence.altitude_reference == "agl" else -math.inf)
+        lo = (
+            fence.floor_m
+            if fence.floor_m is not None
+            else (0.0 if fence.altitude_reference is AltitudeReference.AGL else -math.inf)
+        )
         self._height_limits = (lo, fence.ceiling_m)
         # the vertical hand-back hysteresis, at most a tenth of the vertical band (an indoor fence is 1 m high)
         self._vertical_handback_m = min(config.vertical_handback_m, 0.1 * (fence.ceiling_m - lo))
@@ -139,7 +144,7 @@ class GeofenceUnit:
         config = self.config
         self.recovery: SeedPDRecovery | MultirotorVelocityRecovery | FixedWingRecovery
         if env.is_multirotor:
-            if config.multirotor_law == "seed_pd":
+            if config.multirotor_law is MultirotorLaw.SEED_PD:
                 self.recovery = SeedPDRecovery(env, config.seed_pd, config.ramp_s)
             else:
                 self.recovery = MultirotorVelocityRecovery(env, config.recovery_speed_mps, self.wind_enu)
@@ -163,7 +168,7 @@ class GeofenceUnit:
         self._mode_since_s = t_s
 
     def height(self, s: VehicleState) -> float:
-        return s.agl_m if self.fence.altitude_reference == "agl" else s.alt_m
+        return s.agl_m if self.fence.altitude_reference is AltitudeReference.AGL else s.alt_m
 
     @property
     def wind_allowance_mps(self) -> float:
@@ -218,7 +223,7 @@ class GeofenceUnit:
         )  # fmt: skip
 
     def _activation(self, r: ShiftResult) -> float:
-        if self.config.trigger == "reactive":
+        if self.config.trigger is Trigger.REACTIVE:
             return min(r.lateral_margin_m, r.ceiling_margin_m, r.floor_margin_m) - self.config.extra_margin_m
         return r.activation_margin_m
 
@@ -227,7 +232,7 @@ class GeofenceUnit:
         return r.lateral_margin_m < 0.0 or r.ceiling_margin_m < 0.0 or r.floor_margin_m < 0.0
 
     def _trigger_reason(self, r: ShiftResult) -> str:
-        if self.config.trigger == "reactive":
+        if self.config.trigger is Trigger.REACTIVE:
             which = min(
                 ("lateral", r.lateral_margin_m), ("ceiling", r.ceiling_margin_m), ("floor", r.floor_margin_m), key=lambda x: x[1]
             )
@@ -461,7 +466,11 @@ class GeofenceUnit:
                 return self._land(t_s, est, h, dt_s)
 
         monitoring = mode is Mode.MONITOR or mode is Mode.RECOVERED
-        if monitoring and self.config.trigger == "predictive" and self._far_from_everything(est, h, sigma_h_m, sigma_v_m, dt_s):
+        if (
+            monitoring
+            and self.config.trigger is Trigger.PREDICTIVE
+            and self._far_from_everything(est, h, sigma_h_m, sigma_v_m, dt_s)
+        ):
             self.activation_margin_m = math.inf  # larger than any room: not computed in detail
             if mode is Mode.RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
                 self._switch(t_s, Mode.MONITOR, "hand-back complete")
@@ -511,7 +520,7 @@ class GeofenceUnit:
         re, rn = self.fence.recovery_en
         at_point = math.hypot(re - s.east_m, rn - s.north_m) <= self.config.recovery_radius_m
         # each axis against its own hysteresis: the vertical goal height leaves only the vertical one
-        if self.config.trigger == "predictive":
+        if self.config.trigger is Trigger.PREDICTIVE:
             vertical_ok = r.vertical_activation_m >= self._vertical_handback_m
             lateral = r.lateral_activation_m
         else:

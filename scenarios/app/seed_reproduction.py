@@ -37,6 +37,8 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
+from geofence.config import MultirotorLaw
+
 REPO = Path(__file__).resolve().parents[2]
 REACTIVE_SCENARIO = REPO / "scenarios" / "paper" / "indoor_quad.yaml"
 PREDICTIVE_SCENARIO = REPO / "scenarios" / "paper" / "indoor_quad_predictive.yaml"
@@ -274,7 +276,7 @@ def analyse_flight(result) -> SeedAnalysis:
 
 def _add_setpoints(an: SeedAnalysis, scenario, fence) -> None:
     gf = scenario.geofence
-    if gf is not None and gf.multirotor_law == "seed_pd":
+    if gf is not None and gf.multirotor_law is MultirotorLaw.SEED_PD:
         re, rn = fence.recovery_en
         an.setpoints = ramp_setpoints(an.traj, an.transitions, (re, rn, fence.recovery_height_m), gf.ramp_s)
 
