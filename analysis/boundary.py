@@ -18,7 +18,9 @@ The field is ``min(distance to the boundary - room)`` over every boundary,
 positive on the allowed side; its zero contour is the activation boundary
 (exact for concave polygons too). The unit's own boundary also includes its
 uncertainty margin and wind allowance, and the approach angle; this field is
-the head-on one without them.
+the head-on one without them. Every keep-out is drawn full-height, as the
+unit treats it (its own floor and ceiling, if any, play no part in the
+activation boundary; only the scoring uses them).
 """
 
 from __future__ import annotations

@@ -8,16 +8,25 @@ ufuncs over a chunk (no ``(M, N)`` temporaries, a dozen preallocated buffers
 per chunk), and the chunks are shared between threads (numpy releases the GIL
 inside its loops; chunks are large so that per-call overhead stays small).
 
+Keep-outs with their own floor or ceiling (``LocalFence.keep_out_*_extents``,
+:class:`~geofence.fence.VerticalExtent`) count here only inside their volume
+(:meth:`~geofence.fence.VerticalExtent.volume_margin_array`): this is the
+scoring's view of the airspace. The ``LocalFence`` margins are the unit's,
+which treats every keep-out as full-height, so the two agree exactly when
+every keep-out is full-height.
+
 Used by :mod:`analysis.scoring`; ``bench/scoring.py`` measures it.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from geofence.fence import VerticalExtent
 from geofence.polygon import BOUNDARY_TOL_M, PolygonIndex
 
 CHUNK = 65536
@@ -170,22 +179,31 @@ def signed_distance(poly: PolygonIndex, x, y, threads: int | None = None) -> np.
     return out
 
 
+def _extents(extents: Sequence[VerticalExtent]) -> list[VerticalExtent | None]:
+    """Each keep-out's extent, ``None`` for a full-height one (nothing to apply)."""
+    return [None if x.full_height else x for x in extents]
+
+
 def fence_margins(fence, x, y, h, threads: int | None = None) -> dict[str, np.ndarray]:
     """Per-sample margins of a :class:`~geofence.local_fence.LocalFence` (m, + safe), in one chunked pass.
 
     ``x, y``: east, north (m); ``h``: height in the fence's altitude reference.
     Returns ``lateral`` (keep-in and keep-outs), ``keep_out`` (distance outside
-    the nearest keep-out, ``+inf`` with none), ``ceiling``, ``floor`` (gap-aware,
-    ``+inf`` with no floor) and ``total`` (the 3-D margin). Identical to
-    ``fence.lateral_margin_array`` / ``floor_margin_array`` / ``margin_array``.
+    the nearest keep-out's volume, ``+inf`` with none), ``ceiling``, ``floor``
+    (gap-aware, ``+inf`` with no floor) and ``total`` (the 3-D margin).
+    A keep-out with a vertical extent enters ``keep_out`` (and so ``lateral``
+    and ``total``) as ``max(distance outside its footprint, h - its ceiling,
+    its floor - h)``: negative only inside its volume. With full-height
+    keep-outs only, identical to ``fence.lateral_margin_array`` /
+    ``floor_margin_array`` / ``margin_array``.
     """
     x = np.ascontiguousarray(x, dtype=float)
     y = np.ascontiguousarray(y, dtype=float)
     h = np.ascontiguousarray(h, dtype=float)
     n = len(x)
     keep_in = _edges(fence.keep_in)
-    keep_outs = [_edges(k) for k in fence.keep_out_polygons]
-    circles = list(fence.keep_out_circles)
+    keep_outs = [(_edges(k), x) for k, x in zip(fence.keep_out_polygons, _extents(fence.keep_out_polygon_extents))]
+    circles = list(zip(fence.keep_out_circles, _extents(fence.keep_out_circle_extents)))
     gaps = [_edges(g) for g in fence.floor_gaps] if fence.floor_m is not None else []
     ceiling_m, floor_m = float(fence.ceiling_m), fence.floor_m
     lateral = np.empty(n)
@@ -199,13 +217,17 @@ def fence_margins(fence, x, y, h, threads: int | None = None) -> dict[str, np.nd
         lat, ko, fl = lateral[s:e], keep_out[s:e], floor[s:e]
         tmp = np.empty(e - s)
         _signed_distance_chunk(keep_in, xs, ys, lat)
-        for k in keep_outs:
+        for k, extent in keep_outs:
             _signed_distance_chunk(k, xs, ys, tmp)
             np.negative(tmp, out=tmp)
+            if extent is not None:
+                extent.volume_margin_array(tmp, hs, out=tmp)
             np.minimum(ko, tmp, out=ko)
-        for ce, cn, r in circles:
+        for (ce, cn, r), extent in circles:
             np.hypot(xs - ce, ys - cn, out=tmp)
             np.subtract(tmp, r, out=tmp)
+            if extent is not None:
+                extent.volume_margin_array(tmp, hs, out=tmp)
             np.minimum(ko, tmp, out=ko)
         if keep_outs or circles:
             np.minimum(lat, ko, out=lat)

@@ -13,7 +13,12 @@ of scores, all in SI units:
 * ``time_outside_s``: total time with a negative margin (each sample counts
   for the interval to the next sample; the last sample counts 0 s);
 * ``activations``: entries into OVERRIDE (from the recorded mode column);
-* ``breached_keep_out``: any sample inside a keep-out zone;
+* ``breached_keep_out``: any sample inside a keep-out zone's volume: inside it
+  laterally *and* between its own floor and ceiling when it has them
+  (:class:`~geofence.fence.VerticalExtent`; passing over a building's roof or
+  under an airspace shelf is no entry). The same volumetric keep-out margin
+  enters the lateral and 3-D margins below, so such a pass is no excursion
+  either. (The geofence unit itself treats every keep-out as full-height.)
 * ``landed_outside_gap``: the flight ended on the ground (``agl_m`` < 0.5 m)
   where landing is not allowed (outside the fence, or below the floor outside
   every gap);
@@ -82,9 +87,14 @@ def margins(traj: dict[str, np.ndarray], fence: LocalFence) -> dict[str, np.ndar
 
 
 def keep_out_margin(traj: dict[str, np.ndarray], fence: LocalFence) -> np.ndarray:
-    """Per-sample distance outside the nearest keep-out zone (m, negative inside one; +inf with none)."""
+    """Per-sample distance outside the nearest keep-out zone's volume (m, negative inside one; +inf with none).
+
+    The height column (``agl_m`` or ``alt_m``, per the fence) is needed only when a keep-out has a floor or
+    ceiling of its own; with full-height keep-outs only, the distance is lateral.
+    """
     x = np.asarray(traj["east_m"], dtype=float)
-    return fence_margins(fence, x, traj["north_m"], np.zeros_like(x))["keep_out"]
+    h = _height(traj, fence) if fence.has_keep_out_extents else np.zeros_like(x)
+    return fence_margins(fence, x, traj["north_m"], h)["keep_out"]
 
 
 def score_flight(traj: dict[str, np.ndarray], fence: LocalFence) -> dict[str, float | int | bool]:

@@ -1,13 +1,26 @@
 """The fence model: a WGS-84 fence (:class:`Fence`), its validation and its YAML parser.
 
 A :class:`Fence` is what a scenario or a ground station declares: an ordered
-keep-in polygon of WGS-84 lat/lon vertices (either orientation), optional
-keep-out polygons and circles, a ceiling, an optional floor with floor gaps
-(where descent below the floor, landing or flight termination is allowed;
-with no floor, landing is allowed anywhere inside), the altitude reference
+keep-in polygon of WGS-84 lat/lon vertices (either orientation) or a keep-in
+circle (``keep_in_circle``, made into its inscribed polygon by
+:func:`circle_to_polygon`, the one home of that formula), optional keep-out
+polygons and circles, each with an optional :class:`VerticalExtent` (its own
+floor and ceiling), a ceiling, an optional floor with floor gaps (where
+descent below the floor, landing or flight termination is allowed; with no
+floor, landing is allowed anywhere inside), the altitude reference
 (``"agl"``: height above the home/ground; ``"amsl"``: altitude above mean sea
 level) and an optional recovery point. Construction validates everything and
 raises :class:`FenceError` with one line naming the field and the problem.
+
+Keep-out vertical extents
+-------------------------
+A keep-out may be bounded below and/or above (a building: ``ceiling_m``; an
+airspace shelf: ``floor_m``), in the fence's altitude reference. **The
+geofence unit treats every keep-out as full-height** (conservative: it never
+flies over or under one; lifting that is future work), so its margins and
+behaviour do not depend on the extents. The **scoring**
+(:mod:`analysis.scoring`) counts a keep-out entry only inside the keep-out's
+volume, with :meth:`VerticalExtent.volume_margin_array`.
 
 :meth:`Fence.to_local` projects it into a :class:`~geofence.geodesy.LocalFrame`
 (by default one at the keep-in vertices' centre) and returns a
@@ -62,11 +75,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import StrEnum
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, NamedTuple, Sequence
 
 import numpy as np
 
-from .geodesy import LocalFrame, ecef_to_geodetic, geodetic_to_ecef
+from .geodesy import LocalFrame, ecef_to_geodetic, geodesic_destination, geodesic_distance_m, geodetic_to_ecef
 from .polygon import (
     polygon_covers_polygon,
     polygons_intersect,
@@ -98,13 +111,84 @@ LatLon = tuple[float, float]
 PolygonLL = tuple[LatLon, ...]
 
 
+DEFAULT_CIRCLE_TOLERANCE_M = 0.1
+"""Largest allowed gap between a keep-in circle and its inscribed polygon (m)."""
+MIN_KEEP_IN_CIRCLE_RADIUS_M = 5.0
+"""The smallest keep-in circle radius (m): below it, there is no room for a fence."""
+MAX_KEEP_IN_CIRCLE_RADIUS_M = 10_000.0
+"""The largest inline keep-in circle radius (m): up to it, :func:`circle_to_polygon`'s 720 vertices meet
+:data:`DEFAULT_CIRCLE_TOLERANCE_M` (sag ``r(1 - cos(pi/720))`` = 0.095 m at 10 km)."""
+
+
+class VerticalExtent(NamedTuple):
+    """A keep-out's own floor and ceiling (m, in the fence's altitude reference); ``None`` = unbounded.
+
+    ``VerticalExtent()`` is a full-height keep-out (the default). The geofence unit treats every keep-out
+    as full-height (see the module docstring); the scoring uses :meth:`volume_margin_array`.
+    """
+
+    floor_m: float | None = None
+    ceiling_m: float | None = None
+
+    @property
+    def full_height(self) -> bool:
+        """True when neither bound is set."""
+        return self.floor_m is None and self.ceiling_m is None
+
+    def volume_margin_array(self, outside_m: np.ndarray, h: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """Distance outside the keep-out's volume (m, + outside, - inside), from the lateral one.
+
+        ``outside_m``: each sample's distance outside the keep-out's footprint (+ outside, - inside);
+        ``h``: its height. The result is ``max(outside_m, h - ceiling_m, floor_m - h)`` (an unbounded side
+        drops out): negative only inside laterally *and* strictly between the floor and the ceiling, and then
+        minus the smallest penetration along any axis; positive outside, where it is at most the Euclidean
+        distance to the volume (conservative, like the gap-aware floor margin). ``out`` may be ``outside_m``
+        itself (in place).
+        """
+        if out is None:
+            out = np.array(outside_m, dtype=float)
+        elif out is not outside_m:
+            np.copyto(out, outside_m)
+        h = np.asarray(h, dtype=float)
+        if self.ceiling_m is not None:
+            np.maximum(out, h - self.ceiling_m, out=out)
+        if self.floor_m is not None:
+            np.maximum(out, self.floor_m - h, out=out)
+        return out
+
+
+FULL_HEIGHT = VerticalExtent()
+"""A keep-out with no floor and no ceiling of its own."""
+
+
 @dataclass(frozen=True)
 class KeepOutCircle:
-    """A circular keep-out zone: centre (WGS-84 deg) and radius in m."""
+    """A circular keep-out zone: centre (WGS-84 deg), radius in m, and its :class:`VerticalExtent`."""
 
     center_lat_deg: float
     center_lon_deg: float
     radius_m: float
+    extent: VerticalExtent = FULL_HEIGHT
+
+
+def circle_to_polygon(
+    lat_deg: float, lon_deg: float, radius_m: float, tolerance_m: float = DEFAULT_CIRCLE_TOLERANCE_M
+) -> tuple[PolygonLL, int, float]:
+    """An inscribed regular polygon of a geodesic circle: ``(vertices, n, max_gap_m)``.
+
+    The vertices lie on the geodesic circle (azimuths ``360 k / n`` from the centre, at ``radius_m``), so
+    the polygon lies inside the circle: a conservative keep-in. ``n`` is the smallest count in [16, 720]
+    with chord sag ``r(1 - cos(pi/n)) <= tolerance_m``; ``max_gap_m`` is that sag (how far inside the
+    circle an edge's midpoint lies). The one home of this formula (the keep-in circle of a scenario and
+    the inclusion circle of a fence file).
+    """
+    if not radius_m > 0.0:
+        raise FenceError(f"circle radius must be > 0, got {radius_m:g}")
+    ratio = 1.0 - min(tolerance_m / radius_m, 1.0)
+    n = 16 if ratio <= math.cos(math.pi / 16) else math.ceil(math.pi / math.acos(ratio))
+    n = max(16, min(720, n))
+    verts = tuple(geodesic_destination(lat_deg, lon_deg, 360.0 * k / n, radius_m) for k in range(n))
+    return verts, n, radius_m * (1.0 - math.cos(math.pi / n))
 
 
 @dataclass(frozen=True)
@@ -117,6 +201,20 @@ class Fence:
     alt_m)`` with the altitude in ``altitude_reference``; when omitted
     :meth:`resolved_recovery_point` supplies the default (the pole of
     inaccessibility of the allowed area, at mid-height).
+
+    ``keep_in_circle``: ``(lat_deg, lon_deg, radius_m)`` of a circular keep-in,
+    kept so that messages and reports can name it; ``keep_in`` is then its
+    inscribed polygon (:func:`circle_to_polygon` at
+    :data:`DEFAULT_CIRCLE_TOLERANCE_M`): pass ``keep_in=()`` and it is filled in
+    (a ``keep_in`` given with it must be that polygon). The radius is
+    :data:`MIN_KEEP_IN_CIRCLE_RADIUS_M` to :data:`MAX_KEEP_IN_CIRCLE_RADIUS_M`.
+
+    ``keep_out_polygon_extents``: one :class:`VerticalExtent` per keep-out
+    polygon, in order (``()``: all full-height); a circle carries its own
+    (:attr:`KeepOutCircle.extent`). Each bound is finite, the floor below the
+    ceiling, the floor below the fence's ceiling and (AGL) the ceiling above
+    the ground. The unit treats every keep-out as full-height; only the
+    scoring uses the extents (see the module docstring).
     """
 
     keep_in: PolygonLL
@@ -127,6 +225,8 @@ class Fence:
     keep_out_polygons: tuple[PolygonLL, ...] = ()
     keep_out_circles: tuple[KeepOutCircle, ...] = ()
     recovery_point: tuple[float, ...] | None = None
+    keep_in_circle: tuple[float, float, float] | None = None
+    keep_out_polygon_extents: tuple[VerticalExtent, ...] = ()
     _default_local: list = field(default_factory=list, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -150,6 +250,14 @@ class Fence:
         elif self.altitude_reference is AltitudeReference.AGL and not ceiling > 0.0:
             raise FenceError(f"ceiling_m: {ceiling:g} m AGL must be above the ground (> 0)")
 
+        if self.keep_in_circle is not None:
+            circle = _keep_in_circle(self.keep_in_circle)
+            set_(self, "keep_in_circle", circle)
+            polygon = circle_to_polygon(*circle)[0]
+            if self.keep_in is None or len(self.keep_in) == 0:
+                set_(self, "keep_in", polygon)
+            elif _polygon(self.keep_in, "keep_in") != _polygon(polygon, "keep_in_circle"):
+                raise FenceError("keep_in_circle: keep_in is not this circle's polygon; give one of keep_in, keep_in_circle")
         keep_in = _polygon(self.keep_in, "keep_in")
         set_(self, "keep_in", keep_in)
         set_(
@@ -171,8 +279,19 @@ class Fence:
             r = _number(c.radius_m, f"{name}.radius_m")
             if not r > 0.0:
                 raise FenceError(f"{name}.radius_m: must be > 0, got {r:g}")
-            circles.append(KeepOutCircle(lat, lon, r))
+            circles.append(KeepOutCircle(lat, lon, r, self._extent(c.extent, name)))
         set_(self, "keep_out_circles", tuple(circles))
+        extents = _seq(self.keep_out_polygon_extents, "keep_out_polygon_extents")
+        n_polys = len(self.keep_out_polygons)
+        if not extents:
+            extents = (FULL_HEIGHT,) * n_polys
+        elif len(extents) != n_polys:
+            raise FenceError(f"keep_out_polygon_extents: {len(extents)} extents for {n_polys} keep_out_polygons (one each)")
+        set_(
+            self,
+            "keep_out_polygon_extents",
+            tuple(self._extent(x, f"keep_out_polygons[{i}]") for i, x in enumerate(extents)),
+        )
         if self.recovery_point is not None:
             rp = self.recovery_point
             if isinstance(rp, (str, bytes)) or not isinstance(rp, Sequence) or len(rp) not in (2, 3):
@@ -211,6 +330,22 @@ class Fence:
                     lo = 0.0 if agl else -math.inf
                 if not lo < alt < ceiling:
                     raise FenceError(f"recovery_point: altitude {alt:g} m is not between the floor and ceiling_m {ceiling:g} m")
+
+    def _extent(self, x: Any, name: str) -> VerticalExtent:
+        """``x`` (a :class:`VerticalExtent` or a ``(floor_m, ceiling_m)`` pair) validated against this fence."""
+        if isinstance(x, (str, bytes, Mapping)) or not isinstance(x, Sequence) or len(x) != 2:
+            raise FenceError(f"{name}: vertical extent must be (floor_m, ceiling_m), got {x!r}")
+        lo = None if x[0] is None else _number(x[0], f"{name}.floor_m")
+        hi = None if x[1] is None else _number(x[1], f"{name}.ceiling_m")
+        if lo is not None and hi is not None and not hi > lo:
+            raise FenceError(f"{name}.ceiling_m: {hi:g} m must be above its floor_m {lo:g} m")
+        if lo is not None and not lo < self.ceiling_m:
+            raise FenceError(
+                f"{name}.floor_m: {lo:g} m is at or above the fence's ceiling_m {self.ceiling_m:g} m (the keep-out constrains nothing)"
+            )
+        if hi is not None and self.altitude_reference is AltitudeReference.AGL and not hi > 0.0:
+            raise FenceError(f"{name}.ceiling_m: {hi:g} m AGL must be above the ground (> 0)")
+        return VerticalExtent(lo, hi)
 
     # ---- geometry
     def center(self) -> LatLon:
@@ -282,6 +417,23 @@ def _latlon(p: Any, name: str) -> LatLon:
     return _as_fence_error(latitude, p[0], f"{name} latitude"), _as_fence_error(longitude, p[1], f"{name} longitude")
 
 
+def _keep_in_circle(c: Any, name: str = "keep_in_circle") -> tuple[float, float, float]:
+    """``(lat, lon, radius_m)`` of a keep-in circle, validated (radius within the limits, no pole inside)."""
+    if isinstance(c, (str, bytes, Mapping)) or not isinstance(c, Sequence) or len(c) != 3:
+        raise FenceError(f"{name}: must be (lat_deg, lon_deg, radius_m), got {c!r}")
+    lat, lon = _latlon(c[:2], f"{name}.center")
+    r = _as_fence_error(number, c[2], f"{name}.radius_m")
+    if not MIN_KEEP_IN_CIRCLE_RADIUS_M <= r <= MAX_KEEP_IN_CIRCLE_RADIUS_M:
+        raise FenceError(
+            f"{name}.radius_m: must be {MIN_KEEP_IN_CIRCLE_RADIUS_M:g} to {MAX_KEEP_IN_CIRCLE_RADIUS_M:g} m, got {r:g} "
+            f"(a larger area: a keep_in polygon or a fence file)"
+        )
+    pole = geodesic_distance_m(lat, lon, math.copysign(90.0, lat), 0.0)
+    if r >= pole:
+        raise FenceError(f"{name}: a circle of {r:g} m at latitude {lat:g} contains the pole ({pole:.0f} m away)")
+    return lat, lon, r
+
+
 def _polygon(poly: Any, name: str) -> PolygonLL:
     pts = _seq(poly, name)
     out = [_latlon(p, f"{name}[{i}]") for i, p in enumerate(pts)]
@@ -310,6 +462,7 @@ def _polygon(poly: Any, name: str) -> PolygonLL:
 # --------------------------------------------------------------------------- YAML parser
 _FENCE_KEYS = (
     "keep_in",
+    "keep_in_circle",
     "ceiling_m",
     "floor_m",
     "altitude_reference",
@@ -319,17 +472,38 @@ _FENCE_KEYS = (
     "recovery_point",
 )
 _CIRCLE_KEYS = ("center", "radius_m")
+_EXTENT_KEYS = ("floor_m", "ceiling_m")
+_KEEP_OUT_POLYGON_KEYS = ("polygon", *_EXTENT_KEYS)
+
+
+def _circle_mapping(c: Any, name: str, optional: tuple[str, ...] = ()) -> tuple[float, float, Any]:
+    """``(lat, lon, radius)`` of a ``{center: [lat, lon], radius_m: r}`` mapping (the radius unchecked)."""
+    if not isinstance(c, Mapping):
+        raise FenceError(f"{name}: must be a mapping {{center: [lat, lon], radius_m: r}}, got {c!r}")
+    reject_unknown_keys(c, (*_CIRCLE_KEYS, *optional), name)
+    for req in _CIRCLE_KEYS:
+        if req not in c:
+            raise FenceError(f"{name}.{req}: required")
+    lat, lon = _latlon(c["center"], f"{name}.center")
+    return lat, lon, c["radius_m"]
 
 
 def parse_fence(mapping: Any, where: str = "") -> Fence:
     """Validate a YAML mapping (a scenario's ``geofence.fence`` block) into a :class:`Fence`.
 
-    Keys: ``keep_in`` (required, ``[[lat, lon], ...]``), ``ceiling_m``
+    Keys: ``keep_in`` (``[[lat, lon], ...]``) or ``keep_in_circle``
+    (``{center: [lat, lon], radius_m: r}``, made into its inscribed polygon by
+    :func:`circle_to_polygon`): exactly one of the two; ``ceiling_m``
     (required), ``floor_m``, ``altitude_reference`` (``agl`` default or
-    ``amsl``), ``floor_gaps`` (list of polygons), ``keep_out_polygons`` (list of
-    polygons), ``keep_out_circles`` (list of ``{center: [lat, lon], radius_m}``),
-    ``recovery_point`` (``[lat, lon]`` or ``[lat, lon, alt_m]``). Unknown keys
-    are rejected. Errors are :class:`FenceError` with one line
+    ``amsl``), ``floor_gaps`` (list of polygons), ``keep_out_polygons`` (list
+    of polygons, each a bare vertex list (full height) or ``{polygon: [...],
+    floor_m: f, ceiling_m: c}`` with optional bounds), ``keep_out_circles``
+    (list of ``{center: [lat, lon], radius_m, floor_m, ceiling_m}``, the bounds
+    optional), ``recovery_point`` (``[lat, lon]`` or ``[lat, lon, alt_m]``).
+    A keep-out's ``floor_m``/``ceiling_m`` are in the fence's altitude
+    reference; the unit treats every keep-out as full-height, the scoring
+    counts an entry only inside its volume (see the module docstring). Unknown
+    keys are rejected. Errors are :class:`FenceError` with one line
     ``"<where>: <field>: <problem>"``.
     """
     pre = f"{where}: " if where else ""
@@ -337,30 +511,48 @@ def parse_fence(mapping: Any, where: str = "") -> Fence:
         if not isinstance(mapping, Mapping):
             raise FenceError(f"fence: must be a mapping, got {type(mapping).__name__}")
         reject_unknown_keys(mapping, _FENCE_KEYS, "fence")
-        for req in ("keep_in", "ceiling_m"):
-            if req not in mapping or mapping[req] is None:
-                raise FenceError(f"{req}: required")
+        has_polygon, has_circle = mapping.get("keep_in") is not None, mapping.get("keep_in_circle") is not None
+        if has_polygon and has_circle:
+            raise FenceError("keep_in_circle: give keep_in (a polygon) or keep_in_circle, not both")
+        if not has_polygon and not has_circle:
+            raise FenceError(
+                "keep_in: required (a polygon [[lat, lon], ...], or keep_in_circle: {center: [lat, lon], radius_m: r})"
+            )
+        if mapping.get("ceiling_m") is None:
+            raise FenceError("ceiling_m: required")
+        keep_in_circle = None
+        if has_circle:
+            keep_in_circle = _circle_mapping(mapping["keep_in_circle"], "keep_in_circle")
         circles = []
         for i, c in enumerate(_seq(mapping.get("keep_out_circles"), "keep_out_circles")):
             name = f"keep_out_circles[{i}]"
-            if not isinstance(c, Mapping):
-                raise FenceError(f"{name}: must be a mapping {{center: [lat, lon], radius_m: r}}, got {c!r}")
-            reject_unknown_keys(c, _CIRCLE_KEYS, name)
-            for req in _CIRCLE_KEYS:
-                if req not in c:
-                    raise FenceError(f"{name}.{req}: required")
-            lat, lon = _latlon(c["center"], f"{name}.center")
-            circles.append(KeepOutCircle(lat, lon, _number(c["radius_m"], f"{name}.radius_m")))
+            lat, lon, r = _circle_mapping(c, name, _EXTENT_KEYS)
+            extent = VerticalExtent(c.get("floor_m"), c.get("ceiling_m"))
+            circles.append(KeepOutCircle(lat, lon, _number(r, f"{name}.radius_m"), extent))
+        polygons, extents = [], []
+        for i, k in enumerate(_seq(mapping.get("keep_out_polygons"), "keep_out_polygons")):
+            if isinstance(k, Mapping):
+                name = f"keep_out_polygons[{i}]"
+                reject_unknown_keys(k, _KEEP_OUT_POLYGON_KEYS, name)
+                if k.get("polygon") is None:
+                    raise FenceError(f"{name}.polygon: required (or give the vertex list itself for a full-height keep-out)")
+                polygons.append(_polygon(k["polygon"], f"{name}.polygon"))
+                extents.append(VerticalExtent(k.get("floor_m"), k.get("ceiling_m")))
+            else:
+                polygons.append(k)
+                extents.append(FULL_HEIGHT)
         floor = mapping.get("floor_m")
         return Fence(
-            keep_in=mapping["keep_in"],
+            keep_in=mapping["keep_in"] if has_polygon else (),
             ceiling_m=mapping["ceiling_m"],
             floor_m=floor,
             altitude_reference=mapping.get("altitude_reference", field_default(Fence, "altitude_reference")),
             floor_gaps=tuple(_seq(mapping.get("floor_gaps"), "floor_gaps")),
-            keep_out_polygons=tuple(_seq(mapping.get("keep_out_polygons"), "keep_out_polygons")),
+            keep_out_polygons=tuple(polygons),
             keep_out_circles=tuple(circles),
             recovery_point=mapping.get("recovery_point"),
+            keep_in_circle=keep_in_circle,
+            keep_out_polygon_extents=tuple(extents),
         )
     except ConfigError as exc:  # FenceError, or a kit reader's
         raise FenceError(f"{pre}{exc}") from None

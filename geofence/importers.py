@@ -37,9 +37,13 @@ Supported formats (detected from the content, not the file name):
     keep-outs (the testbed flies without authorisations, so every restricted
     zone is closed to it); a ``"NO_RESTRICTION"`` zone is ignored with a
     warning. ``geofence`` wins when both are given; a feature with neither is
-    an error naming it. Zone volumes (ED-269 ``upperLimit``/``lowerLimit``)
-    are not read: keep-outs are full-height columns. A bare geometry is the
-    keep-in. Rings must be closed (last position = first; the duplicate is
+    an error naming it. A keep-out feature's optional numeric properties
+    ``floor_m`` and ``ceiling_m`` (in the fence's altitude reference) give its
+    own :class:`~geofence.fence.VerticalExtent` (every part of a MultiPolygon
+    the same; holes of the keep-in are full-height); ED-269 zone volumes
+    (``upperLimit``/``lowerLimit``, with their own units and references) are
+    not read: without ``floor_m``/``ceiling_m`` a keep-out is a full-height
+    column. A bare geometry is the keep-in. Rings must be closed (last position = first; the duplicate is
     dropped) with >= 3 distinct vertices; either winding is accepted (RFC 7946
     asks writers, not readers, for the right-hand rule). Holes (interior rings)
     of the keep-in polygon become keep-out polygons; holes of keep-out polygons
@@ -75,8 +79,9 @@ Mapping to :class:`Fence`
   inclusion circles are *not* intersected in (``Fence`` holds one keep-in);
   they are listed in ``warnings``. If the file has no inclusion polygon but an
   inclusion circle, the first circle becomes the keep-in as an inscribed
-  regular polygon (vertices on the geodesic circle, so the approximation lies
-  inside the circle and is conservative); its vertex count is the smallest
+  regular polygon (:func:`geofence.fence.circle_to_polygon`: vertices on the
+  geodesic circle, so the approximation lies inside the circle and is
+  conservative); its vertex count is the smallest
   (>= 16, <= 720) whose chord sag ``r(1 - cos(pi/N))`` is <= ``circle_tolerance_m``
   (0.1 m default), and both are stated in ``warnings``.
 * keep-outs: exclusion polygons and exclusion circles. One that lies entirely
@@ -110,16 +115,23 @@ from typing import Any, cast
 
 import numpy as np
 
-from .fence import AltitudeReference, Fence, FenceError, KeepOutCircle, PolygonLL
-from .geodesy import LocalFrame, ecef_to_geodetic, geodesic_destination, geodetic_to_ecef
+from .fence import (
+    DEFAULT_CIRCLE_TOLERANCE_M,
+    FULL_HEIGHT,
+    AltitudeReference,
+    Fence,
+    FenceError,
+    KeepOutCircle,
+    PolygonLL,
+    VerticalExtent,
+    circle_to_polygon,
+)
+from .geodesy import LocalFrame, ecef_to_geodetic, geodetic_to_ecef
 from .polygon import PolygonIndex, polygons_intersect
 from .validation import ConfigError, enum_value, field_default, latitude, longitude, number
 
 DEFAULT_CEILING_M = 120.0
 """Ceiling used when the caller gives none (m, AGL)."""
-
-DEFAULT_CIRCLE_TOLERANCE_M = 0.1
-"""Largest allowed gap between an inclusion circle and its inscribed polygon (m)."""
 
 MAV_CMD_NAV_FENCE_RETURN_POINT = 5000
 MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION = 5001
@@ -220,6 +232,8 @@ class _Raw:
     warnings: list = field(default_factory=list)
     exc_labels: list = field(default_factory=list)
     """Names of ``exc_polys`` in messages (default ``exclusion polygon <i>``)."""
+    exc_extents: list = field(default_factory=list)
+    """A :class:`VerticalExtent` per ``exc_polys`` (GeoJSON only; empty: all full-height)."""
     inc_label: str = ""
     """Name of the first inclusion polygon in messages (default ``keep_in``)."""
     ceiling_m: float | None = None
@@ -318,12 +332,14 @@ def load_fence_file(
         if len(raw.exc_labels) == len(raw.exc_polys)
         else [f"exclusion polygon {i}" for i in range(len(raw.exc_polys))]
     )
+    extents = raw.exc_extents if len(raw.exc_extents) == len(raw.exc_polys) else [FULL_HEIGHT] * len(raw.exc_polys)
     exc_en = [en(p) for p in raw.exc_polys]
     first_inside = ki.contains_array(np.array([e[0] for e in exc_en])) if exc_en else np.zeros(0, dtype=bool)
-    keep_out_polys, keep_out_labels, kept_en = [], [], []
+    keep_out_polys, keep_out_extents, keep_out_labels, kept_en = [], [], [], []
     for i, p in enumerate(raw.exc_polys):
         if first_inside[i] or polygons_intersect(ki.vertices, exc_en[i]):
             keep_out_polys.append(p)
+            keep_out_extents.append(extents[i])
             keep_out_labels.append(labels[i])
             kept_en.append(exc_en[i])
         else:
@@ -365,6 +381,7 @@ def load_fence_file(
             keep_out_polygons=tuple(keep_out_polys),
             keep_out_circles=tuple(keep_out_circles),
             recovery_point=rp,
+            keep_out_polygon_extents=tuple(keep_out_extents),
         )
 
     try:
@@ -449,24 +466,6 @@ def detect_format(path: str | Path) -> str:
     return _detect(_read_text(Path(path)), str(path))
 
 
-def circle_to_polygon(
-    lat_deg: float, lon_deg: float, radius_m: float, tolerance_m: float = DEFAULT_CIRCLE_TOLERANCE_M
-) -> tuple[PolygonLL, int, float]:
-    """An inscribed regular polygon of a geodesic circle: ``(vertices, n, max_gap_m)``.
-
-    ``n`` is the smallest count in [16, 720] with chord sag ``r(1 - cos(pi/n)) <=
-    tolerance_m``; ``max_gap_m`` is that sag (how far inside the circle an edge's
-    midpoint lies).
-    """
-    if not radius_m > 0.0:
-        raise FenceError(f"circle radius must be > 0, got {radius_m:g}")
-    ratio = 1.0 - min(tolerance_m / radius_m, 1.0)
-    n = 16 if ratio <= math.cos(math.pi / 16) else math.ceil(math.pi / math.acos(ratio))
-    n = max(16, min(720, n))
-    verts = tuple(geodesic_destination(lat_deg, lon_deg, 360.0 * k / n, radius_m) for k in range(n))
-    return verts, n, radius_m * (1.0 - math.cos(math.pi / n))
-
-
 def fence_to_yaml_block(imported: ImportedFence | Fence) -> dict:
     """A ``{"geofence": {"fence": {...}}}`` mapping for a scenario file (``parse_fence`` reads it back).
 
@@ -474,21 +473,40 @@ def fence_to_yaml_block(imported: ImportedFence | Fence) -> dict:
     (if any) to ``["geofence"]`` yourself.
     """
     f = imported.fence if isinstance(imported, ImportedFence) else imported
-    block: dict[str, Any] = {"keep_in": [[lat, lon] for lat, lon in f.keep_in], "ceiling_m": f.ceiling_m}
+    block: dict[str, Any] = {}
+    if f.keep_in_circle is not None:
+        lat, lon, r = f.keep_in_circle
+        block["keep_in_circle"] = {"center": [lat, lon], "radius_m": r}
+    else:
+        block["keep_in"] = [[lat, lon] for lat, lon in f.keep_in]
+    block["ceiling_m"] = f.ceiling_m
     if f.floor_m is not None:
         block["floor_m"] = f.floor_m
     block["altitude_reference"] = f.altitude_reference.value
     if f.floor_gaps:
         block["floor_gaps"] = [[[lat, lon] for lat, lon in g] for g in f.floor_gaps]
     if f.keep_out_polygons:
-        block["keep_out_polygons"] = [[[lat, lon] for lat, lon in p] for p in f.keep_out_polygons]
+        block["keep_out_polygons"] = [
+            _with_extent({"polygon": vertices}, x) if not x.full_height else vertices
+            for vertices, x in zip(([[lat, lon] for lat, lon in p] for p in f.keep_out_polygons), f.keep_out_polygon_extents)
+        ]
     if f.keep_out_circles:
         block["keep_out_circles"] = [
-            {"center": [c.center_lat_deg, c.center_lon_deg], "radius_m": c.radius_m} for c in f.keep_out_circles
+            _with_extent({"center": [c.center_lat_deg, c.center_lon_deg], "radius_m": c.radius_m}, c.extent)
+            for c in f.keep_out_circles
         ]
     if f.recovery_point is not None:
         block["recovery_point"] = list(f.recovery_point)
     return {"geofence": {"fence": block}}
+
+
+def _with_extent(item: dict[str, Any], extent: VerticalExtent) -> dict[str, Any]:
+    """``item`` with the keep-out's ``floor_m``/``ceiling_m`` keys (those that are set)."""
+    if extent.floor_m is not None:
+        item["floor_m"] = extent.floor_m
+    if extent.ceiling_m is not None:
+        item["ceiling_m"] = extent.ceiling_m
+    return item
 
 
 # --------------------------------------------------------------------------- reading
@@ -932,9 +950,11 @@ def _parse_geojson(
                     for h, hole in enumerate(rings[1:], 1):
                         raw.exc_polys.append(hole)
                         raw.exc_labels.append(f"{label}{suffix} hole {h} (a keep-out)")
+                        raw.exc_extents.append(FULL_HEIGHT)
                 else:
                     raw.exc_polys.append(rings[0])
                     raw.exc_labels.append(f"{label}{suffix}")
+                    raw.exc_extents.append(_gj_extent(props, name, label))
                     if len(rings) > 1:
                         raw.warnings.append(
                             f"{label}{suffix}: {len(rings) - 1} hole(s) of a keep-out ignored "
@@ -965,6 +985,15 @@ def _parse_geojson(
             ref = ref.lower() if isinstance(ref, str) else ref
             raw.altitude_reference = _kit(enum_value, ref, f"{name}: {where}.altitude_reference", enum_type=AltitudeReference)
     return raw
+
+
+def _gj_extent(props: dict, name: str, label: str) -> VerticalExtent:
+    """A keep-out feature's own ``floor_m``/``ceiling_m`` properties (numbers; the :class:`Fence` checks the rest)."""
+    lo, hi = (
+        None if props.get(key) is None else _json_number(props[key], name, f"{label}: properties.{key}")
+        for key in ("floor_m", "ceiling_m")
+    )
+    return VerticalExtent(lo, hi)
 
 
 def _gj_label(base: str, f: Any) -> str:

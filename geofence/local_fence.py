@@ -9,6 +9,12 @@ more than a few dozen elements the per-step lateral queries are answered from a
 same answers as the full scan, which stays as ``lateral_margin_scan_m``). The
 margins, heights and the projection error bound are documented in
 :mod:`geofence.fence`; the per-edge view the margins iterate is :class:`DangerEdge`.
+
+Every margin here is the geofence unit's, and treats each keep-out as
+full-height. The keep-outs' own floors and ceilings
+(:class:`~geofence.fence.VerticalExtent`) are carried along as
+``keep_out_polygon_extents`` and ``keep_out_circle_extents`` for analysis: the
+scoring counts a keep-out entry only inside the keep-out's volume.
 """
 
 from __future__ import annotations
@@ -18,7 +24,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from .fence import AltitudeReference
+from .fence import AltitudeReference, VerticalExtent
 from .fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame
 from .polygon import PolygonIndex, pole_of_inaccessibility
@@ -73,7 +79,10 @@ class LocalFence:
     Attributes: ``fence``, ``frame``, ``keep_in`` (:class:`PolygonIndex`),
     ``keep_out_polygons`` and ``floor_gaps`` (tuples of PolygonIndex),
     ``keep_out_circles`` (tuple of ``(east_m, north_m, radius_m)``),
-    ``ceiling_m``, ``floor_m`` (``None`` = no floor), ``altitude_reference``,
+    ``keep_out_polygon_extents`` and ``keep_out_circle_extents`` (one
+    :class:`~geofence.fence.VerticalExtent` per keep-out, in the same order;
+    not used by any margin here: the unit treats every keep-out as
+    full-height), ``has_keep_out_extents`` (any of them bounded), ``ceiling_m``, ``floor_m`` (``None`` = no floor), ``altitude_reference``,
     ``recovery_en`` (east, north of the recovery point) and
     ``recovery_height_m`` (``None`` if unknown, see
     :meth:`Fence.resolved_recovery_point`). Heights ``h`` are in the fence's
@@ -86,6 +95,9 @@ class LocalFence:
         "keep_in",
         "keep_out_polygons",
         "keep_out_circles",
+        "keep_out_polygon_extents",
+        "keep_out_circle_extents",
+        "has_keep_out_extents",
         "floor_gaps",
         "ceiling_m",
         "floor_m",
@@ -117,6 +129,11 @@ class LocalFence:
         self.floor_gaps = tuple(proj(p) for p in fence.floor_gaps)
         self.keep_out_circles = tuple(
             (*frame.to_enu(c.center_lat_deg, c.center_lon_deg, h0)[:2], c.radius_m) for c in fence.keep_out_circles
+        )
+        self.keep_out_polygon_extents: tuple[VerticalExtent, ...] = fence.keep_out_polygon_extents
+        self.keep_out_circle_extents: tuple[VerticalExtent, ...] = tuple(c.extent for c in fence.keep_out_circles)
+        self.has_keep_out_extents = not all(
+            x.full_height for x in (*self.keep_out_polygon_extents, *self.keep_out_circle_extents)
         )
         self.ceiling_m = fence.ceiling_m
         self.floor_m = fence.floor_m

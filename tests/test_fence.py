@@ -101,7 +101,7 @@ BAD = [
     (_with(keep_out_circles=[{"center": [47.3985, 8.5470]}]), "keep_out_circles[0].radius_m: required"),
     (
         _with(keep_out_circles=[{"center": [47.3985, 8.5470], "radius_m": 5, "r": 1}]),
-        "keep_out_circles[0].r: unknown key (allowed: center, radius_m)",
+        "keep_out_circles[0].r: unknown key (allowed: ceiling_m, center, floor_m, radius_m)",
     ),
     (_with(keep_out_circles=[{"center": [47.3982, 8.5462], "radius_m": 500}]), "keep-outs cover the whole keep_in area"),
     (_with(recovery_point=[47.0, 8.5]), "recovery_point: not inside the allowed area"),
