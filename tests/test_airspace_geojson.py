@@ -25,7 +25,7 @@ from geofence.importers import (
 )
 from geofence.validation import ConfigError
 from scenarios.airspace.generate import bounding_rectangle, generate_park, write_geojson
-from scenarios.spec.schema import load_scenario, parse_scenario
+from scenarios.spec.schema import PilotKind, load_scenario, parse_scenario
 
 ROOT = Path(__file__).parents[1]
 AIRSPACE = ROOT / "scenarios" / "airspace"
@@ -589,7 +589,7 @@ def test_shipped_airspace_scenarios_validate():
     assert len(twin.geofence.fence.keep_in) == 4 and twin.mission == large.mission and twin.wind == large.wind
     fw = load_scenario(AIRSPACE / "airspace_large_fence_fixedwing_wind.yaml")
     fw_twin = load_scenario(AIRSPACE / "airspace_rectangle_fence_fixedwing_wind.yaml")
-    assert fw.aircraft == "Tern" and fw.mission == fw_twin.mission and fw.pilot.kind == "mission"
+    assert fw.aircraft == "Tern" and fw.mission == fw_twin.mission and fw.pilot.kind is PilotKind.MISSION
 
 
 # =========================================================================== the CLI

@@ -12,7 +12,7 @@ import pytest
 
 from geofence.geodesy import LocalFrame, geodesic_destination
 from scenarios.flight.runner import fly
-from scenarios.spec.schema import parse_scenario
+from scenarios.spec.schema import PilotKind, parse_scenario
 
 pytestmark = pytest.mark.closed_loop
 
@@ -150,7 +150,7 @@ def test_every_shipped_example_flies_to_completion(path):
     res = fly(load_scenario(path))
     assert res.summary["completed"], res.summary
     assert res.summary["error"] is None
-    if res.scenario.pilot.kind == "mission" and not res.summary.get("ended_by_geofence"):
+    if res.scenario.pilot.kind is PilotKind.MISSION and not res.summary.get("ended_by_geofence"):
         assert res.summary["waypoints_reached"] == res.summary["waypoints_total"]
 
 

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from geofence.validation import ConfigError
-from scenarios.spec.schema import load_scenario, parse_scenario
+from scenarios.spec.schema import PilotKind, load_scenario, parse_scenario
 
 SHIPPED = sorted((Path(__file__).parents[1] / "scenarios").rglob("*.yaml"))
 
@@ -48,7 +48,7 @@ def test_shipped_scenarios_are_valid(path):
 
 def test_base_document_parses():
     sc = parse_scenario(BASE, "x.yaml")
-    assert sc.aircraft == "F450" and sc.pilot.kind == "mission" and len(sc.mission.items) == 2
+    assert sc.aircraft == "F450" and sc.pilot.kind is PilotKind.MISSION and len(sc.mission.items) == 2
 
 
 @pytest.mark.parametrize(

@@ -36,7 +36,7 @@ from geofence.unit import GeofenceUnit, Mode
 from scenarios.flight.pilots import Pilot, build_pilot
 from scenarios.flight.recorder import Recorder
 from scenarios.spec.preflight import findings_summary, preflight_findings
-from scenarios.spec.schema import Scenario
+from scenarios.spec.schema import PilotKind, Scenario
 from wind.config import wind_from_config
 from wind.field import CalmWind, notify_first_activation
 
@@ -148,7 +148,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
 
     wall = time.perf_counter() - wall0
     frames = step * frames_per_step
-    mission = scenario.pilot.kind == "mission"
+    mission = scenario.pilot.kind is PilotKind.MISSION
     geofence_ended = unit is not None and unit.mode >= Mode.LAND_IN_GAP and finished_at is not None
     # a flight is complete when it ran to its end: the mission finished, a script ran its
     # duration, or the geofence ended it by landing in a floor gap / terminating there
@@ -343,7 +343,7 @@ def incomplete_reason(summary: dict[str, Any], scenario: Scenario) -> str | None
     if summary.get("error"):
         return f"the simulation stopped: {summary['error']}"
     reason = "the flight did not run to its end"
-    if scenario.pilot.kind == "mission" and not summary.get("mission_finished"):
+    if scenario.pilot.kind is PilotKind.MISSION and not summary.get("mission_finished"):
         reason = (
             f"the mission was not finished within duration_s = {scenario.duration_s:g} s "
             f"(reached {summary.get('mission_progress', '?')} mission items)"

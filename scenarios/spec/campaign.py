@@ -59,6 +59,7 @@ from geofence.local_fence import LocalFence
 from geofence.polygon import PolygonIndex
 from geofence.rooms import multicopter_stopping_distance_m, turn_radius_m, worst_case_lateral_shift_m
 from geofence.validation import ConfigError
+from scenarios.spec.schema import PilotKind
 
 MANIFEST = "campaign.json"
 MAX_FENCE_SPAN_M = 9_000.0
@@ -953,7 +954,7 @@ def _assemble(
         "case_id": case_id,
         "family": family.value,
         "attack": attack.value,
-        "pilot": "mission" if plan.mission is not None else "scripted",
+        "pilot": (PilotKind.MISSION if plan.mission is not None else PilotKind.SCRIPTED).value,
         "platform": ctx.platform,
         "platform_kind": ctx.profile.kind.value,
         "seed": case_seed,

@@ -21,8 +21,9 @@ local frame and the autopilot's geometry break down, so that is always refused.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from enum import StrEnum
+from enum import IntEnum, StrEnum
 from pathlib import Path
 from typing import Any
 
@@ -35,6 +36,7 @@ from geofence.boundary_shift import check_shift_feasible
 from geofence.config import GeofenceConfig, fence_file_path, parse_geofence
 from geofence.fence import AltitudeReference, FenceError
 from geofence.geodesy import LocalFrame
+from geofence.interface import PlatformKind
 from geofence.local_fence import LocalFence
 from geofence.validation import (
     ConfigError,
@@ -130,7 +132,99 @@ class ScriptSegment:
     """``(lat_deg, lon_deg, radius_m)`` for ``end_on: reach``."""
 
 
-BREACH_DIRECTIONS = ("north", "east", "south", "west", "up")
+class VerticalSense(IntEnum):
+    """Which way a breach attempt pushes in height: a vertical push (toward the floor or the ceiling), or level."""
+
+    DOWN = -1
+    LEVEL = 0
+    UP = 1
+
+
+class BreachDirection(str):
+    """One direction of the breach-attempts pilot: a horizontal bearing, ``up`` or ``down``.
+
+    A direction *is* its readable label (a ``str``: ``west``, ``up``, ``down``, ``bearing 20``), so the
+    attempt log, its JSON and the seed analysis read it as they read the names; what it means is typed:
+    :attr:`bearing_rad` (clockwise from north, in [0, 2 pi); None for a vertical push) and
+    :attr:`vertical` (:class:`VerticalSense`). Build one with :meth:`of`: a name of
+    :data:`BREACH_DIRECTION_NAMES` or a bearing in degrees (any value, normalised to [0, 360)).
+    """
+
+    __slots__ = ("_bearing_rad", "_vertical", "_unit_en")
+
+    _bearing_rad: float | None
+    _vertical: VerticalSense
+    _unit_en: tuple[float, float]
+
+    def __new__(cls, label: str, bearing_rad: float | None, vertical: VerticalSense) -> BreachDirection:
+        self = super().__new__(cls, label)
+        if (bearing_rad is None) == (vertical is VerticalSense.LEVEL):
+            raise ValueError("a breach direction is a bearing (level) or vertical (no bearing)")
+        self._bearing_rad = bearing_rad
+        self._vertical = VerticalSense(vertical)
+        if bearing_rad is None:
+            self._unit_en = (0.0, 0.0)
+        else:  # cardinal bearings exactly on the axes (sin/cos rounding noise snapped to 0)
+            e, n = math.sin(bearing_rad), math.cos(bearing_rad)
+            self._unit_en = (0.0 if abs(e) < 1e-12 else e, 0.0 if abs(n) < 1e-12 else n)
+        return self
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (BreachDirection, (str(self), self._bearing_rad, self._vertical))
+
+    @classmethod
+    def of(cls, value: BreachDirection | str | float) -> BreachDirection:
+        """A direction from a name (``north``, ``east``, ``south``, ``west``, ``up``, ``down``) or a bearing in degrees.
+
+        Raises ``ValueError`` for anything else (the schema reports that as a :class:`ConfigError`).
+        """
+        if isinstance(value, BreachDirection):
+            return value
+        if isinstance(value, str):
+            if value not in BREACH_DIRECTION_NAMES:
+                raise ValueError(f"{value!r} is not one of {', '.join(BREACH_DIRECTION_NAMES)} or a bearing in degrees")
+            return _NAMED_DIRECTIONS[value]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise ValueError(f"expected a direction name or a bearing in degrees, got {value!r}")
+        bearing_deg = float(value) % 360.0
+        if bearing_deg >= 360.0:  # a tiny negative bearing rounds up to 360
+            bearing_deg = 0.0
+        return cls(f"bearing {bearing_deg:g}", math.radians(bearing_deg), VerticalSense.LEVEL)
+
+    @property
+    def bearing_rad(self) -> float | None:
+        """The horizontal push's bearing, rad clockwise from north in [0, 2 pi); None for ``up``/``down``."""
+        return self._bearing_rad
+
+    @property
+    def vertical(self) -> VerticalSense:
+        return self._vertical
+
+    @property
+    def is_vertical(self) -> bool:
+        return self._vertical is not VerticalSense.LEVEL
+
+    @property
+    def unit_en(self) -> tuple[float, float]:
+        """The horizontal push's unit vector (east, north); (0, 0) for a vertical push."""
+        return self._unit_en
+
+    @property
+    def unit_enu(self) -> tuple[float, float, float]:
+        """The push's unit vector (east, north, up): along the bearing, or straight up or down."""
+        return (*self._unit_en, float(self._vertical))
+
+
+BREACH_DIRECTION_NAMES = ("north", "east", "south", "west", "up", "down")
+"""The named breach directions; any other direction is a bearing in degrees (a YAML number)."""
+_NAMED_DIRECTIONS = {
+    **{
+        name: BreachDirection(name, math.radians(deg), VerticalSense.LEVEL)
+        for name, deg in (("north", 0.0), ("east", 90.0), ("south", 180.0), ("west", 270.0))
+    },
+    "up": BreachDirection("up", None, VerticalSense.UP),
+    "down": BreachDirection("down", None, VerticalSense.DOWN),
+}
 
 
 class SpeedDraw(StrEnum):
@@ -145,16 +239,22 @@ class SpeedDraw(StrEnum):
 
 @dataclass(frozen=True)
 class BreachAttemptsConfig:
-    """A pilot who pushes gently across the fence again and again (the seed flights' indoor pilot).
+    """A pilot who pushes across the fence again and again (the seed flights' indoor pilot; fixed-wings too).
 
-    Each attempt starts from a hover ``home_agl_m`` above the start point, flies
-    toward ``directions[k % len]`` (a compass direction, or ``up`` toward the
-    ceiling) at a speed drawn uniformly from ``speed_mps`` = [low, high],
-    keeps pushing for ``push_m`` of travel, returns home and rests ``rest_s``.
+    Each attempt starts from home ``home_agl_m`` above the start point (a hover for a multirotor, an orbit
+    for a fixed-wing), flies toward ``directions[k % len]`` (a :class:`BreachDirection`: a compass name or a
+    bearing, or ``up``/``down`` toward the ceiling or the floor) at a speed drawn uniformly from
+    ``speed_mps`` = [low, high], keeps pushing for ``push_m`` of travel, returns home and rests ``rest_s``.
+    The defaults are the indoor quad's; :func:`breach_defaults` gives a fixed-wing's. Directions given as
+    names or numbers (in Python) become :class:`BreachDirection` values.
     """
 
     attempts: int = 10
-    directions: tuple[str, ...] = ("west", "north", "up")
+    directions: tuple[BreachDirection, ...] = (
+        _NAMED_DIRECTIONS["west"],
+        _NAMED_DIRECTIONS["north"],
+        _NAMED_DIRECTIONS["up"],
+    )
     speed_mps: tuple[float, float] = (0.3, 1.0)
     push_m: float = 1.5
     rest_s: float = 3.0
@@ -162,11 +262,52 @@ class BreachAttemptsConfig:
     seed: int = 0
     speed_draw: SpeedDraw = SpeedDraw.PER_ATTEMPT
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "directions", tuple(BreachDirection.of(d) for d in self.directions))
+
+    def direction(self, k: int) -> BreachDirection:
+        """The direction of attempt ``k`` (the list repeats)."""
+        return self.directions[k % len(self.directions)]
+
+
+FIXED_WING_PUSH_M = 400.0
+"""A fixed-wing breach attempt's default push (m): far enough to reach a fence a few hundred metres away."""
+FIXED_WING_REST_S = 10.0
+FIXED_WING_HOME_AGL_M = 60.0
+"""A fixed-wing's default home height (m AGL) when it starts on the ground (in the air: its start height)."""
+
+
+def breach_defaults(profile: PlatformProfile, start: StartConfig) -> BreachAttemptsConfig:
+    """The breach-attempts settings a scenario leaves out: the indoor quad's, or for a fixed-wing its own.
+
+    Fixed-wing: speeds [cruise, max] of the envelope, a push of :data:`FIXED_WING_PUSH_M`, a rest of
+    :data:`FIXED_WING_REST_S`, home at the start height (an air start) or :data:`FIXED_WING_HOME_AGL_M`.
+    """
+    if profile.envelope.is_multirotor:
+        return BreachAttemptsConfig()
+    env = profile.envelope
+    return BreachAttemptsConfig(
+        speed_mps=(env.cruise_speed_mps, env.max_speed_mps),
+        push_m=FIXED_WING_PUSH_M,
+        rest_s=FIXED_WING_REST_S,
+        home_agl_m=start.agl_m if start.agl_m > 0.0 else FIXED_WING_HOME_AGL_M,
+    )
+
+
+class PilotKind(StrEnum):
+    """Who flies: the GPS mission autopilot, a stick script, or the breach-attempts pilot."""
+
+    MISSION = "mission"
+    """The GPS autopilot flying the scenario's ``mission``."""
+    SCRIPTED = "scripted"
+    """Timed segments of sticks or blunt behaviours (``segments``)."""
+    BREACH_ATTEMPTS = "breach_attempts"
+    """Repeated pushes across the fence (``breach``)."""
+
 
 @dataclass(frozen=True)
 class PilotConfig:
-    kind: str
-    """``mission`` (GPS autopilot flying ``mission``), ``scripted`` or ``breach_attempts``."""
+    kind: PilotKind
     segments: tuple[ScriptSegment, ...] = ()
     breach: BreachAttemptsConfig | None = None
 
@@ -321,7 +462,7 @@ def parse_scenario(
     for i, item in enumerate(mission.items if mission is not None else ()):
         if item.lat_deg is not None:
             _check_latitude(item.lat_deg, f"{where}: mission.items[{i}].lat_deg")
-    pilot = _parse_pilot(raw.get("pilot"), f"{where}: pilot", has_mission=mission is not None)
+    pilot = _parse_pilot(raw.get("pilot"), f"{where}: pilot", mission is not None, profile, start)
 
     wind = parse_wind(raw["wind"], f"{where}: wind") if raw.get("wind") is not None else None
     sensors = parse_sensors(raw.get("sensors"), f"{where}: sensors")
@@ -333,7 +474,7 @@ def parse_scenario(
         geofence = _parse_geofence_block(
             raw["geofence"], f"{where}: geofence", start, profile, wind, scenario_base_dir(where, source, base_dir)
         )
-        _check_inside_fence(geofence, start, mission if pilot.kind == "mission" else None, where, allow, warnings)
+        _check_inside_fence(geofence, start, mission if pilot.kind is PilotKind.MISSION else None, where, allow, warnings)
 
     return Scenario(
         name=name,
@@ -554,44 +695,62 @@ def _parse_item(raw: Any, where: str) -> MissionItem:
     )
 
 
-def _parse_pilot(raw: Any, where: str, has_mission: bool) -> PilotConfig:
+def _parse_pilot(raw: Any, where: str, has_mission: bool, profile: PlatformProfile, start: StartConfig) -> PilotConfig:
     if raw is None:
         if not has_mission:
             raise ConfigError(f"{where}: missing: give a mission or a pilot script")
-        return PilotConfig(kind="mission")
+        return PilotConfig(kind=PilotKind.MISSION)
     require_mapping(raw, where)
-    kind = string(raw.get("type", "mission"), f"{where}.type", choices=["mission", "scripted", "breach_attempts"])
-    if kind == "breach_attempts":
-        return PilotConfig(kind=kind, breach=_parse_breach(raw, where))
+    kind = enum_value(raw.get("type", PilotKind.MISSION), f"{where}.type", PilotKind)
+    if kind is PilotKind.BREACH_ATTEMPTS:
+        return PilotConfig(
+            kind=kind, breach=_parse_breach(raw, where, breach_defaults(profile, start), BREACH_SPEED_LIMIT_MPS[profile.kind])
+        )
     reject_unknown_keys(raw, {"type", "segments"}, where)
-    if kind == "mission":
+    if kind is PilotKind.MISSION:
         if not has_mission:
             raise ConfigError(f"{where}.type: 'mission' needs a mission: block")
-        return PilotConfig(kind="mission")
+        return PilotConfig(kind=kind)
     segs = raw.get("segments")
     if not isinstance(segs, list) or not segs:
         raise ConfigError(f"{where}.segments: expected a non-empty list of script segments")
-    return PilotConfig(kind="scripted", segments=tuple(_parse_segment(s, f"{where}.segments[{i}]") for i, s in enumerate(segs)))
+    return PilotConfig(kind=kind, segments=tuple(_parse_segment(s, f"{where}.segments[{i}]") for i, s in enumerate(segs)))
 
 
-def _parse_breach(raw: Any, where: str) -> BreachAttemptsConfig:
+BREACH_SPEED_LIMIT_MPS = {PlatformKind.MULTIROTOR: 30.0, PlatformKind.FIXED_WING: 100.0}
+"""The largest ``speed_mps`` a scenario may give (m/s), per platform kind (a fixed-wing pilot clips its
+airspeed to the envelope; a vertical push is capped at the climb or descent rate)."""
+
+
+def _parse_breach(raw: Any, where: str, d: BreachAttemptsConfig, speed_limit_mps: float) -> BreachAttemptsConfig:
+    """The ``breach_attempts`` pilot's settings; ``d``: the platform's defaults (:func:`breach_defaults`)."""
     reject_unknown_keys(
         raw, {"type", "attempts", "directions", "speed_mps", "push_m", "rest_s", "home_agl_m", "seed", "speed_draw"}, where
     )
-    d = BreachAttemptsConfig()
     directions = raw.get("directions", list(d.directions))
     if not isinstance(directions, list) or not directions:
-        raise ConfigError(f"{where}.directions: expected a non-empty list of {', '.join(BREACH_DIRECTIONS)}")
+        raise ConfigError(
+            f"{where}.directions: expected a non-empty list of {', '.join(BREACH_DIRECTION_NAMES)} or bearings in degrees"
+        )
+    parsed = []
     for i, x in enumerate(directions):
-        string(x, f"{where}.directions[{i}]", choices=list(BREACH_DIRECTIONS))
+        at = f"{where}.directions[{i}]"
+        if isinstance(x, (int, float)) and not isinstance(x, bool):
+            number(x, at)  # a finite number (any bearing; normalised to [0, 360))
+        elif not isinstance(x, str):
+            raise ConfigError(f"{at}: expected one of {', '.join(BREACH_DIRECTION_NAMES)} or a bearing in degrees, got {x!r}")
+        try:
+            parsed.append(BreachDirection.of(x))
+        except ValueError as exc:
+            raise ConfigError(f"{at}: {exc}") from None
     speeds = raw.get("speed_mps", list(d.speed_mps))
     if not isinstance(speeds, list) or len(speeds) != 2:
         raise ConfigError(f"{where}.speed_mps: expected [low, high] in m/s")
-    lo = number(speeds[0], f"{where}.speed_mps[0]", strictly_positive=True, maximum=30.0)
-    hi = number(speeds[1], f"{where}.speed_mps[1]", minimum=lo, maximum=30.0)
+    lo = number(speeds[0], f"{where}.speed_mps[0]", strictly_positive=True, maximum=speed_limit_mps)
+    hi = number(speeds[1], f"{where}.speed_mps[1]", minimum=lo, maximum=speed_limit_mps)
     return BreachAttemptsConfig(
         attempts=integer(raw.get("attempts", d.attempts), f"{where}.attempts", minimum=1),
-        directions=tuple(directions),
+        directions=tuple(parsed),
         speed_mps=(lo, hi),
         push_m=number(raw.get("push_m", d.push_m), f"{where}.push_m", strictly_positive=True),
         rest_s=number(raw.get("rest_s", d.rest_s), f"{where}.rest_s", minimum=0.0),

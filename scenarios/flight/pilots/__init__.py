@@ -3,9 +3,11 @@
 * :class:`~scenarios.flight.pilots.mission.MissionAutopilot`: GPS waypoint autopilot.
 * :class:`~scenarios.flight.pilots.scripted.ScriptedPilot`: adversarial stick scripts.
 * :class:`~scenarios.flight.pilots.breach_attempts.BreachAttemptsPilot`: repeated gentle
-  breach attempts (the seed flights' indoor pilot).
+  breach attempts (the seed flights' indoor pilot), and for a fixed-wing
+  :class:`~scenarios.flight.pilots.breach_attempts_fixedwing.FixedWingBreachAttemptsPilot`
+  (the same attempts from an orbit).
 
-Both answer ``command(state) -> StickCommand`` and report progress as
+All answer ``command(state) -> StickCommand`` and report progress as
 ``items_reached`` / ``items_total`` and ``finished``.
 """
 
@@ -15,7 +17,7 @@ from typing import Protocol
 
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, StickCommand, VehicleState
-from scenarios.spec.schema import Scenario
+from scenarios.spec.schema import PilotKind, Scenario
 
 
 class Pilot(Protocol):
@@ -38,12 +40,16 @@ def build_pilot(scenario: Scenario, frame: LocalFrame, env: Envelope, start: Veh
     from scenarios.flight.pilots.mission import MissionAutopilot
     from scenarios.flight.pilots.scripted import ScriptedPilot
 
-    if scenario.pilot.kind == "scripted":
+    if scenario.pilot.kind is PilotKind.SCRIPTED:
         return ScriptedPilot(scenario.pilot.segments, env, start, dt_s, frame)
-    if scenario.pilot.kind == "breach_attempts":
+    if scenario.pilot.kind is PilotKind.BREACH_ATTEMPTS:
+        assert scenario.pilot.breach is not None, "the schema gives a breach_attempts pilot its settings"
+        if not env.is_multirotor:
+            from scenarios.flight.pilots.breach_attempts_fixedwing import FixedWingBreachAttemptsPilot
+
+            return FixedWingBreachAttemptsPilot(scenario.pilot.breach, env, start, dt_s)
         from scenarios.flight.pilots.breach_attempts import BreachAttemptsPilot
 
-        assert scenario.pilot.breach is not None, "the schema gives a breach_attempts pilot its settings"
         return BreachAttemptsPilot(scenario.pilot.breach, env, start, dt_s)
     assert scenario.mission is not None, "the schema requires a mission for the mission pilot"
     return MissionAutopilot(scenario.mission, frame, env, start, dt_s)
