@@ -20,6 +20,9 @@ what the unit assumed before the drag law was part of the envelope.
 Everything in the unit that needs the drag (the wind push in the activation
 margin, the wind estimator's tilt-to-airspeed inversion, the skip shortcut)
 calls these functions.
+
+It is also the home of the one rule on the platform's authority over the wind
+(:func:`return_not_assured`), shared by the unit in flight and the pre-flight check.
 """
 
 from __future__ import annotations
@@ -31,6 +34,32 @@ from geofence.interface import Envelope
 
 G_MPS2: float = 9.80665
 """Standard gravity, m/s²."""
+
+RETURN_IMPOSSIBLE_WIND_FRACTION = 0.9
+"""Return cannot be assured once the sustained wind reaches this fraction of the platform's max speed."""
+SUSTAINED_TURBULENCE_SIGMAS = 1.0
+"""How many turbulence sigmas the sustained wind of a return allows for (see :func:`return_not_assured`)."""
+
+
+def return_not_assured(mean_wind_mps: float, turbulence_sigma_mps: float, env: Envelope) -> str | None:
+    """Why the platform cannot be sure to fly back against the wind, or None.
+
+    The wind it must fly against for as long as a return takes is the mean wind plus one turbulence
+    sigma (:data:`SUSTAINED_TURBULENCE_SIGMAS`): Dryden turbulence near the ground stays above its
+    mean for tens of seconds (its time scale ``L_u / V`` is about 15 s at 20 m in 8 m/s), and averaged
+    over a return of about that length its spread is still most of a sigma -- less than the ``k·σ``
+    peak that the room of a margin allows for over the few seconds of a turn or a stop. Return cannot
+    be assured when that sustained wind reaches :data:`RETURN_IMPOSSIBLE_WIND_FRACTION` of the max
+    speed. A discrete gust is not part of it: it passes in seconds, and the room of every margin
+    allows for it.
+    """
+    allowance = SUSTAINED_TURBULENCE_SIGMAS * max(turbulence_sigma_mps, 0.0)
+    if mean_wind_mps + allowance < RETURN_IMPOSSIBLE_WIND_FRACTION * env.max_speed_mps:
+        return None
+    what = f"wind {mean_wind_mps:.1f} m/s"
+    if allowance > 0.0:
+        what += f" + sustained turbulence {allowance:.1f} m/s"
+    return f"return impossible: {what} >= {RETURN_IMPOSSIBLE_WIND_FRACTION:.0%} of max speed {env.max_speed_mps:.1f} m/s"
 
 
 def drag_coefficients(env: Envelope) -> tuple[float, float]:

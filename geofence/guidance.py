@@ -58,6 +58,11 @@ ROLL_OUT_TOLERANCE_RAD = math.radians(15.0)
 LEVEL_TOUCHDOWN_BELOW_M = 1.5
 TOUCHDOWN_MAX_GROUND_SPEED_MPS = 0.7
 HURRIED_SLOW_BELOW_M = 5.0
+SLOW_DESCENT_BELOW_M = 3.0
+"""A multirotor landing descends at its full rate down to this height AGL, then at touchdown speed
+(as ArduPilot's LAND mode: LAND_SPEED_HIGH down to LAND_ALT_LOW, then LAND_SPEED)."""
+TOUCHDOWN_DESCENT_MPS = 1.0
+"""A multirotor's descent rate for the last metres (m/s)."""
 """A hurried landing (position source lost) descends at the full rate down to this height, then levels off
 (wind-balance tilt) and touches down at 1 m/s."""
 """A multirotor descends to land only while slower than this over the ground (a moving touchdown tips over)."""
@@ -309,6 +314,16 @@ class LandingGuidance:
         if self.velocity:
             self.velocity.reset()
 
+    def time_to_touchdown_s(self, agl_m: float, ground_speed_mps: float = 0.0) -> float:
+        """How long a multirotor's descent from ``agl_m`` over the point takes (s): the full rate down to
+        :data:`SLOW_DESCENT_BELOW_M`, touchdown speed below it (the full rate while moving faster than
+        :data:`TOUCHDOWN_MAX_GROUND_SPEED_MPS`)."""
+        env = self.env
+        moving = ground_speed_mps > TOUCHDOWN_MAX_GROUND_SPEED_MPS
+        slow = env.max_descent_rate_mps if moving else min(TOUCHDOWN_DESCENT_MPS, env.max_descent_rate_mps)
+        high = max(agl_m - SLOW_DESCENT_BELOW_M, 0.0)
+        return high / max(env.max_descent_rate_mps, 1e-3) + (max(agl_m, 0.0) - high) / max(slow, 1e-3)
+
     def over_point(self, s: VehicleState) -> bool:
         pe, pn = self.point
         return math.hypot(pe - s.east_m, pn - s.north_m) < (2.0 if self.env.is_multirotor else 1.5 * self.spiral_radius_m)
@@ -328,20 +343,24 @@ class LandingGuidance:
             ve, vn = approach_velocity(s.east_m, s.north_m, ce, cn, 0.5 * env.cruise_speed_mps, 0.8, 0.5 * env.braking_decel_mps2)
             roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve, vn, s.yaw_rad, dt_s)
             if hurry and over:
-                if h > HURRIED_SLOW_BELOW_M:
+                if s.agl_m > HURRIED_SLOW_BELOW_M:
                     climb = -env.max_descent_rate_mps
                 else:
                     roll, pitch = self.velocity.wind_balance_sticks(s.yaw_rad)
                     climb = -min(1.0, env.max_descent_rate_mps)
                 return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=climb_rate_to_stick(climb, env))
-            if over and h < LEVEL_TOUCHDOWN_BELOW_M:
+            if over and s.agl_m < LEVEL_TOUCHDOWN_BELOW_M and s.ground_speed_mps <= TOUCHDOWN_MAX_GROUND_SPEED_MPS:
                 # touch down without manoeuvring (a tilted, moving gear tips over), but keep the steady
-                # tilt into the wind: levelled in a strong wind, the vehicle is blown away near the ground
+                # tilt into the wind: levelled in a strong wind, the vehicle is blown away near the ground.
+                # Still moving (a gust the mean-wind tilt does not balance), it keeps flying to the point.
                 roll, pitch = self.velocity.wind_balance_sticks(s.yaw_rad)
-            if over and s.ground_speed_mps <= TOUCHDOWN_MAX_GROUND_SPEED_MPS:
-                climb = -min(1.0, env.max_descent_rate_mps)
-            elif over:  # over the point but still moving: hold the height until stopped over it
-                climb = 0.0
+            if over and s.agl_m > SLOW_DESCENT_BELOW_M:
+                # high over the point: down at the full rate, moving or not (in a strong or gusty wind the
+                # vehicle never stops over the point, and every second in the air drifts it)
+                climb = -env.max_descent_rate_mps
+            elif over:  # the last metres at touchdown speed, unless a wind it cannot beat is carrying it away
+                moving = s.ground_speed_mps > TOUCHDOWN_MAX_GROUND_SPEED_MPS
+                climb = -(env.max_descent_rate_mps if moving else min(TOUCHDOWN_DESCENT_MPS, env.max_descent_rate_mps))
             else:
                 climb = altitude_to_climb_rate(self.cruise_h, h, env, ALTITUDE_GAIN_PER_S)
             return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=climb_rate_to_stick(climb, env))

@@ -38,6 +38,7 @@ from enum import Enum
 from typing import Sequence
 
 from geofence.boundary_shift import activation_margins
+from geofence.dynamics import return_not_assured
 from geofence.interface import Envelope
 from geofence.local_fence import LocalFence
 from geofence.rooms import envelope_turn_radius_m
@@ -51,6 +52,8 @@ class RoutePart(str, Enum):
     LEG = "leg"
     TURN = "turn"
     LOITER = "loiter"
+    WIND = "wind"
+    """The expected wind itself: return cannot be assured, so the unit lands at once (the whole route)."""
 
 
 @dataclass(frozen=True)
@@ -82,6 +85,8 @@ class PreflightFinding:
     """The binding constraint (lateral feature and edge, or vertical)."""
 
     def describe(self) -> str:
+        if self.part is RoutePart.WIND:
+            return f"expected wind: {self.reason}: the geofence would land at once instead of flying the mission"
         where = f"({self.east_m:.0f}, {self.north_m:.0f}) m ENU at {self.height_m:.0f} m"
         return f"{self.part.value} {self.label}: activation margin {self.activation_margin_m:.1f} m at {where}: {self.reason}"
 
@@ -187,6 +192,7 @@ def check_route(
     *,
     wind_en: tuple[float, float] = (0.0, 0.0),
     wind_extra_mps: float = 0.0,
+    turbulence_sigma_mps: float = 0.0,
     h_uncertainty_m: float = 0.0,
     v_uncertainty_m: float = 0.0,
     buffer_m: float = 0.0,
@@ -197,10 +203,18 @@ def check_route(
     ``speed_mps``: the planned speed (multirotor ground speed, fixed-wing
     airspeed). ``wind_en``: the expected mean wind (E, N m/s, toward);
     ``wind_extra_mps``, ``h_uncertainty_m``, ``v_uncertainty_m``: the same
-    allowances the unit adds in flight. One finding per offending stretch,
-    with its smallest margin. An empty list means the route passes.
+    allowances the unit adds in flight (``turbulence_sigma_mps``: the forecast's σ behind
+    ``wind_extra_mps``). One finding per offending stretch, with its smallest margin. An empty
+    list means the route passes. When the expected wind is beyond what the platform can be sure
+    to fly back against (:func:`geofence.dynamics.return_not_assured`), the unit lands as soon as
+    it flies: the one finding is then the wind itself.
     """
     findings: list[PreflightFinding] = []
+    wps = list(waypoints)
+    why = return_not_assured(math.hypot(*wind_en), turbulence_sigma_mps, env)
+    if why is not None and wps:
+        w0 = wps[0]
+        return [PreflightFinding(RoutePart.WIND, 0, "forecast", w0.east_m, w0.north_m, w0.height_m, -math.inf, why)]
 
     def score(samples: list[_Sample], part: RoutePart, index: int, label: str) -> None:
         worst = None
@@ -234,7 +248,6 @@ def check_route(
             )
         findings.append(PreflightFinding(part, index, label, p.e, p.n, p.h, r.activation_margin_m, reason))
 
-    wps = list(waypoints)
     for i in range(len(wps) - 1):
         a, b = wps[i], wps[i + 1]
         score(_leg_samples(env, a, b, speed_mps, wind_en, step_m), RoutePart.LEG, i, f"{a.label or i} -> {b.label or i + 1}")

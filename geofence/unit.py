@@ -12,9 +12,12 @@ With the position source lost, the unit navigates to the gap by dead
 reckoning from its last valid estimate (:mod:`geofence.dead_reckoning`).
 
 * MONITOR and RECOVERED pass the pilot's sticks through unchanged.
-* Return is impossible when the estimated mean wind reaches 90 % of the
-  platform's max speed: at an activation, or held for 3 s at any time, the unit goes
-  straight to LAND_IN_GAP (the most reachable floor gap, downwind preferred).
+* Return is impossible when the estimated mean wind plus one sigma of the forecast
+  turbulence reaches 90 % of the platform's max speed
+  (:func:`geofence.dynamics.return_not_assured`): at an activation, or held for 3 s
+  at any time, the unit goes straight to LAND_IN_GAP (the most reachable floor gap,
+  downwind preferred). A multirotor flies there at the lowest safe height and aims
+  upwind in the gap.
 * Either a lateral or a vertical trigger starts the whole 3-D override
   (lateral goal: the recovery point; vertical goal: a safe height band).
 * The activation margin is the estimated margin to the fence minus the room
@@ -44,7 +47,7 @@ from geofence.boundary_shift import ShiftResult, activation_margins
 from geofence.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
-from geofence.dynamics import envelope_at_density, isa_density_ratio
+from geofence.dynamics import envelope_at_density, isa_density_ratio, return_not_assured
 from geofence.fence import AltitudeReference
 from geofence.guidance import (
     FixedWingRecovery,
@@ -61,7 +64,6 @@ from geofence.rooms import envelope_turn_radius_m, room_upper_bounds_fast_m, ver
 
 RECOVERED_HOLD_S = 1.0
 WIND_BEYOND_AUTHORITY_PERSIST_S = 3.0
-RETURN_IMPOSSIBLE_WIND_FRACTION = 0.9
 TERMINATE_BELOW_AGL_M = 8.0
 LANDING_EDGE_MARGIN_M = 2.0
 ROUTE_CLEARANCE_MULTIROTOR_M = 3.0
@@ -267,15 +269,14 @@ class GeofenceUnit:
         return 0.5 * (lo + hi) if math.isfinite(lo) else hi - 5.0
 
     def _return_impossible(self) -> str | None:
-        """Why return is impossible, or None: the mean wind at 90 % of the platform's max speed or more.
+        """Why return is impossible (or cannot be assured), or None (:func:`geofence.dynamics.return_not_assured`).
 
-        (Judged on the mean: the estimated turbulence also holds the estimate's own noise, and landing
-        because of it was measured to cause more breaches than it prevents.)
+        The turbulence is the forecast's σ only, never the unit's own estimate: that also
+        holds the estimate's noise, and landing because of it was measured to cause more breaches than
+        it prevents.
         """
-        w = math.hypot(*self.wind_enu)
-        if w >= RETURN_IMPOSSIBLE_WIND_FRACTION * self.env.max_speed_mps:
-            return f"return impossible: wind {w:.1f} m/s >= {RETURN_IMPOSSIBLE_WIND_FRACTION:.0%} of max speed {self.env.max_speed_mps:.1f} m/s"
-        return None
+        cfg = self.config
+        return return_not_assured(math.hypot(*self.wind_enu), cfg.turbulence_sigma_mps, self.env)
 
     def _landing_point(self, s: VehicleState) -> tuple[float, float]:
         """Where to land: the most reachable floor gap (wind-aware), or here / the recovery point with no floor."""
@@ -298,13 +299,30 @@ class GeofenceUnit:
         v = max(self.env.max_speed_mps, 1.0)
         best, best_time = fence.recovery_en, math.inf
         for gap in fence.floor_gaps:
-            ge, gn, _ = gap.inradius()
+            ge, gn, r_in = gap.inradius()
             d = math.hypot(ge - s.east_m, gn - s.north_m)
             tail = (we * (ge - s.east_m) + wn * (gn - s.north_m)) / d if d > 1e-6 else 0.0
             t = d / max(v + tail, 0.1 * v)
             if t < best_time:
-                best, best_time = (ge, gn), t
+                best, best_time = self._upwind_in_gap(ge, gn, r_in), t
         return best
+
+    def _upwind_in_gap(self, ge: float, gn: float, r_in_m: float) -> tuple[float, float]:
+        """Where in a gap (inscribed circle centre ``ge, gn``, radius ``r_in_m``) a multirotor aims its landing.
+
+        Upwind of the centre, by up to the inscribed radius less the landing edge margin and 1 m, in
+        proportion to the wind up to half the max speed: a vehicle that cannot stop in the wind drifts
+        downwind while it descends, and then has the whole gap to drift across instead of half of it.
+        A fixed-wing spirals over the centre.
+        """
+        if not self.env.is_multirotor:
+            return ge, gn
+        we, wn = self.wind_enu
+        w = math.hypot(we, wn)
+        if w < 1e-6:
+            return ge, gn
+        offset = max(r_in_m - LANDING_EDGE_MARGIN_M - 1.0, 0.0) * min(1.0, w / (0.5 * max(self.env.max_speed_mps, 1.0)))
+        return ge - offset * we / w, gn - offset * wn / w
 
     # -- routes inside the fence ------------------------------------------------
     def _planner(self, clearance_m: float) -> RecoveryPlanner:
@@ -391,7 +409,12 @@ class GeofenceUnit:
         turn_sign = 0
         if not self.env.is_multirotor and not s.on_ground:
             turn_sign = self._margins(s, h, self._sigma_h_m, self._sigma_v_m, 0.0).turn_sign
-        self.landing.start(pe, pn, self._goal_height(h), self._route(s, (pe, pn)), turn_sign)
+        # over a floor, a multirotor flies to its gap at the lowest height that is safe everywhere: it has
+        # that much less to descend once over the gap, and drifts that much less in a wind it cannot beat
+        # (a fixed-wing keeps its height until its spiral)
+        low = self.env.is_multirotor and self.fence.floor_m is not None
+        cruise_h = self._goal_height(-math.inf if low else h)
+        self.landing.start(pe, pn, cruise_h, self._route(s, (pe, pn)), turn_sign)
         self._switch(t_s, Mode.LAND_IN_GAP, reason + f"; landing at ({pe:.0f}, {pn:.0f}) m ENU")
 
     def _start_override(self, t_s: float, s: VehicleState, h: float, r: ShiftResult, reason: str) -> None:
@@ -536,6 +559,23 @@ class GeofenceUnit:
             return False
         return fence.floor_m is None or fence.gap_distance_m(s.east_m, s.north_m) >= LANDING_EDGE_MARGIN_M
 
+    def _finish_below_floor(self, s: VehicleState, h: float) -> bool:
+        """Below the floor in a gap, drifting toward its edge: is touching down the quicker way out?
+
+        Below the floor the vehicle may only be over a gap. When it drifts toward the gap's edge (a wind
+        it cannot beat), climbing back above the floor and touching down both end the exposure; it keeps
+        descending while it may still be inside the gap (its estimate within ``k·σ_h`` of it) and
+        touchdown comes no later than the climb would clear the floor.
+        """
+        fence = self.fence
+        if fence.floor_m is None or h >= fence.floor_m:
+            return False
+        # inside the gap as far as the estimate can tell (within k·σ of it): climbing back is a sure floor breach
+        if fence.gap_distance_m(s.east_m, s.north_m) <= -self.config.uncertainty_k_sigma * self._sigma_h_m:
+            return False
+        climb_s = (fence.floor_m - h) / max(self.env.max_climb_rate_mps, 0.1)
+        return self.landing.time_to_touchdown_s(s.agl_m, s.ground_speed_mps) <= climb_s
+
     def _land(self, t_s: float, s: VehicleState, h: float, dt_s: float) -> StickCommand:
         if self.env.is_multirotor:
             if s.on_ground:
@@ -546,7 +586,8 @@ class GeofenceUnit:
                 # dead reckoning: away from the edges first, then down at the full rate (it drifts every second)
                 room = self.fence.lateral_margin_m(s.east_m, s.north_m) >= DEAD_RECKONING_LANDING_MARGIN_M
                 return self.landing.sticks(s, h, dt_s, descend=room or self.landing.over_point(s), hurry=True)
-            return self.landing.sticks(s, h, dt_s, descend=self._safe_to_descend(s) or self.landing.over_point(s))
+            descend = self._safe_to_descend(s) or self.landing.over_point(s) or self._finish_below_floor(s, h)
+            return self.landing.sticks(s, h, dt_s, descend=descend)
         if self.mode is Mode.LAND_IN_GAP and self.landing.over_point(s) and s.agl_m < TERMINATE_BELOW_AGL_M:
             self._switch(t_s, Mode.TERMINATE, f"flight termination over the landing gap at {s.agl_m:.1f} m AGL")
         if self.mode is Mode.TERMINATE:

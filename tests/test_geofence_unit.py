@@ -3,11 +3,13 @@
 import math
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from geofence.config import parse_geofence
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, StickCommand, VehicleState
-from geofence.unit import GeofenceUnit, Mode
+from geofence.unit import LANDING_EDGE_MARGIN_M, GeofenceUnit, Mode
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 MC = Envelope(
@@ -120,7 +122,33 @@ def test_lands_in_the_most_reachable_floor_gap():
     u2 = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), MC)
     u2.update(0.0, state(0.0, -5.0), PILOT, DT, wind_en=(12.0, 0.0))  # a strong tailwind toward the east gap
     u2.update(0.1, state(0.1, -5.0), PILOT, DT, wind_en=(12.0, 0.0), position_valid=False)
-    assert u2.landing.point[0] == pytest.approx(60.0, abs=1.0)
+    # the east gap, aimed upwind (west) of its centre by its inscribed radius less 3 m
+    assert u2.landing.point[0] == pytest.approx(60.0 - 7.0, abs=0.5)
+    assert u2.landing.point[1] == pytest.approx(0.0, abs=0.5)
+
+
+def test_told_turbulence_makes_return_not_assured_and_a_gust_does_not():
+    """Mean wind + one forecast sigma at 90 % of max speed: land (3 s held); the gust allowance is left out."""
+    strong = (11.0, 0.0)  # 11 + 3 = 14 >= 0.9 * 15 m/s
+    u = unit(wind_prior={"speed_mps": 11, "from_deg": 270, "turbulence_sigma_mps": 3.0})
+    for k in range(0, 125):
+        u.update(k * DT, state(k * DT, 0.0), PILOT, DT, wind_en=strong)
+    assert u.mode is Mode.LAND_IN_GAP and "sustained turbulence 3.0 m/s" in u.transitions[-1].reason
+    # sigma 2 m/s: 13 < 13.5; a 6 m/s gust forecast widens the margins but does not make return impossible
+    calm = unit(wind_prior={"speed_mps": 11, "from_deg": 270, "turbulence_sigma_mps": 2.0, "gust_mps": 6.0})
+    for k in range(0, 125):
+        calm.update(k * DT, state(k * DT, 0.0), PILOT, DT, wind_en=strong)
+    assert all("return impossible" not in t.reason for t in calm.transitions)
+
+
+def test_a_multirotor_flies_to_its_gap_at_the_lowest_safe_height():
+    gap = [list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in ((40, -10), (60, -10), (60, 10), (40, 10))]
+    cfg = parse_geofence({"fence": box(100.0, {"floor_m": 10, "floor_gaps": [gap]})}, "test")
+    u = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), MC)
+    u.update(0.0, state(0.0, -50.0, agl=40.0), PILOT, DT)
+    u.update(0.1, state(0.1, -50.0, agl=40.0), PILOT, DT, position_valid=False)
+    assert u.mode is Mode.LAND_IN_GAP
+    assert 10.0 < u.landing.cruise_h < 16.0  # just above the floor (uncertainty, hysteresis, settling), not 40 m
 
 
 def test_envelope_is_scaled_to_the_air_density_at_a_high_site():
@@ -144,3 +172,25 @@ def test_envelope_is_scaled_to_the_air_density_at_a_high_site():
     low.update(0.0, VehicleState(east_m=0.0, north_m=0.0, agl_m=100.0, alt_m=0.0, v_north_mps=24.0), PILOT, DT)
     s = VehicleState(east_m=0.0, north_m=1900.0, agl_m=100.0, alt_m=2780.0, v_north_mps=12.0)
     assert u._margins(s, 100.0, 0.0, 0.0, DT).lateral_shift_m > 1.2 * low._margins(s, 100.0, 0.0, 0.0, DT).lateral_shift_m
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    half_e=st.floats(2.0, 30.0),
+    half_n=st.floats(2.0, 30.0),
+    wind_mps=st.floats(0.0, 20.0),
+    wind_to_deg=st.floats(0.0, 360.0),
+)
+def test_the_landing_aim_stays_inside_the_gap_by_the_edge_margin(half_e, half_n, wind_mps, wind_to_deg):
+    """Upwind of the gap's centre, but never closer to its edge than the landing edge margin + 1 m."""
+    corners = [(50 - half_e, -half_n), (50 + half_e, -half_n), (50 + half_e, half_n), (50 - half_e, half_n)]
+    gap = [list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in corners]
+    cfg = parse_geofence({"fence": box(100.0, {"floor_m": 10, "floor_gaps": [gap]})}, "test")
+    local = cfg.fence.to_local(FRAME)
+    u = GeofenceUnit(cfg, local, MC)
+    a = math.radians(wind_to_deg)
+    wind = (wind_mps * math.sin(a), wind_mps * math.cos(a))
+    u.update(0.0, state(0.0, -50.0), PILOT, DT, wind_en=wind)
+    u.update(0.1, state(0.1, -50.0), PILOT, DT, wind_en=wind, position_valid=False)
+    r_in = local.floor_gaps[0].inradius()[2]
+    assert local.gap_distance_m(*u.landing.point) >= min(r_in, LANDING_EDGE_MARGIN_M + 1.0) - 0.05

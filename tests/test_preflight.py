@@ -2,7 +2,11 @@
 
 import math
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from geofence.config import parse_geofence
+from geofence.dynamics import return_not_assured
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind
 from geofence.preflight import PlannedWaypoint, RoutePart, check_route
@@ -81,3 +85,34 @@ def test_fixed_wing_turns_and_loiters_are_checked():
     assert any(x.part is RoutePart.LOITER for x in check_route(f, FW, wps, 16.0))
     # a comfortable fixed-wing pattern passes
     assert check_route(f, FW, square(250.0, 80.0), 16.0, wind_en=(0.0, 5.0)) == []
+
+
+def test_an_expected_wind_beyond_authority_is_the_one_finding():
+    """Mean 8 m/s + one sigma 2.8 m/s >= 90 % of the F450RD's 10.3 m/s: the unit would land at once."""
+    route = square(150.0, 30.0)
+    assert check_route(fence(), MC, route, 5.3, wind_en=(8.0, 0.0)) == []  # the mean alone: fine
+    out = check_route(fence(), MC, route, 5.3, wind_en=(8.0, 0.0), turbulence_sigma_mps=2.8)
+    assert len(out) == 1 and out[0].part is RoutePart.WIND and out[0].activation_margin_m == -math.inf
+    assert "return impossible" in out[0].reason and "land at once" in out[0].describe()
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    wind_mps=st.floats(0.0, 12.0),
+    sigma_mps=st.floats(0.0, 4.0),
+    gust_mps=st.floats(0.0, 5.0),
+)
+def test_a_passing_check_means_the_unit_can_return(wind_mps, sigma_mps, gust_mps):
+    """The check never passes a mission in a wind where the unit would judge return not assured."""
+    route = square(100.0, 30.0)
+    out = check_route(
+        fence(),
+        MC,
+        route,
+        5.3,
+        wind_en=(wind_mps, 0.0),
+        wind_extra_mps=1.5 * sigma_mps + gust_mps,
+        turbulence_sigma_mps=sigma_mps,
+    )
+    if not out:
+        assert return_not_assured(wind_mps, sigma_mps, MC) is None

@@ -19,7 +19,7 @@ from geofence.dynamics import envelope_at_density, isa_density_ratio
 from geofence.fence import AltitudeReference
 from geofence.geodesy import LocalFrame
 from geofence.preflight import PlannedWaypoint, PreflightFinding, check_route
-from scenarios.spec.schema import Scenario
+from scenarios.spec.schema import PilotKind, Scenario
 
 BUFFER_M = 2.0
 """A mission passes when its activation margin stays above this everywhere (m): tracking errors, estimator noise."""
@@ -51,7 +51,7 @@ def planned_route(scenario: Scenario, frame: LocalFrame) -> list[PlannedWaypoint
 def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
     """The findings of the pre-flight check, or None when the scenario has no mission or no geofence."""
     cfg = scenario.geofence
-    if cfg is None or scenario.mission is None or scenario.pilot.kind != "mission":
+    if cfg is None or scenario.mission is None or scenario.pilot.kind is not PilotKind.MISSION:
         return None
     st = scenario.start
     frame = scenario.frame
@@ -71,6 +71,7 @@ def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
         speed,
         wind_en=cfg.wind_prior_enu,
         wind_extra_mps=cfg.turbulence_k_sigma * cfg.turbulence_sigma_mps + cfg.gust_mps,
+        turbulence_sigma_mps=cfg.turbulence_sigma_mps,
         h_uncertainty_m=k * sensors.gps_h_sigma_m + cfg.extra_margin_m,
         v_uncertainty_m=k * sensors.gps_v_sigma_m + cfg.extra_margin_m,
         buffer_m=BUFFER_M,
