@@ -154,3 +154,30 @@ def test_a_package_shadowing_ours_is_refused_in_one_line(tmp_path, name):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and f"the package {name!r}" in lines[0] and "shadows it" in lines[0], r.stderr
     assert "Traceback" not in r.stderr and r.stdout == ""
+
+
+def test_validate_prints_the_fence_files_warnings(tmp_path):
+    """An importer's warning (here an ED-269 zone without restriction, skipped) reaches the user, exit 0."""
+
+    def square(lat, lon, d):
+        return [[lon - d, lat - d], [lon + d, lat - d], [lon + d, lat + d], [lon - d, lat + d], [lon - d, lat - d]]
+
+    lat, lon = -35.363262, 149.165237
+    features = [
+        {
+            "type": "Feature",
+            "properties": {"geofence": "keep_in"},
+            "geometry": {"type": "Polygon", "coordinates": [square(lat, lon, 0.003)]},
+        },
+        {
+            "type": "Feature",
+            "id": "open-1",
+            "properties": {"restriction": "NO_RESTRICTION"},
+            "geometry": {"type": "Polygon", "coordinates": [square(lat + 0.001, lon, 0.0003)]},
+        },
+    ]
+    write(tmp_path, json.dumps({"type": "FeatureCollection", "features": features}), "f.geojson")
+    p = write(tmp_path, good_text() + "geofence: {fence: {file: f.geojson, ceiling_m: 60}}\n")
+    r = run_cli("validate", str(p))
+    assert r.returncode == 0, r.stderr
+    assert "fence file:" in r.stderr and "NO_RESTRICTION" in r.stderr and "open-1" in r.stderr

@@ -437,6 +437,8 @@ def _cmd_validate(args) -> int:
             continue
         for w in dict.fromkeys(w for sc in scenarios for w in sc.warnings):
             print(f"warning: {w}", file=sys.stderr)
+        for w in dict.fromkeys(w for sc in scenarios if sc.geofence is not None for w in sc.geofence.fence_warnings):
+            print(f"warning: {path}: fence file: {w}", file=sys.stderr)
         sc = scenarios[0]
         if sweep:
             aircraft = ", ".join(dict.fromkeys(x.aircraft for x in scenarios))
