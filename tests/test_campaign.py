@@ -24,7 +24,7 @@ import pytest
 import yaml
 from scipy.stats import binom, poisson
 
-from aircraft.profile import load_profile
+from aircraft.profile import available_profiles, load_profile
 from analysis.campaign import (
     KEEP_IN_TOLERANCE_M,
     campaign_rows,
@@ -41,20 +41,25 @@ from analysis.campaign import (
     unprotected_vs_protected,
     write_campaign_report,
 )
+from geofence.fence import parse_fence
 from geofence.geodesy import LocalFrame
 from geofence.rooms import worst_case_lateral_shift_m
 from geofence.validation import ConfigError
 from scenarios.spec.campaign import (
+    BREACH_PUSH_FACTOR,
     MISSION_INSET_ROOMS,
+    Attack,
     CampaignError,
     CaseFamily,
     Variant,
+    build_case,
+    case_family,
     generate_campaign,
     generate_cases,
     platform_room_m,
     wind_limit_mps,
 )
-from scenarios.spec.schema import load_scenario
+from scenarios.spec.schema import PilotKind, load_scenario, parse_scenario
 
 ROOT = Path(__file__).parents[1]
 CI_SLICE = ROOT / "scenarios" / "campaign_ci"
@@ -106,7 +111,11 @@ def test_200_generated_cases_validate_and_cover_every_family_and_platform(campai
         "behind_keep_out",
         "gap_takeoff",
         "gap_descent_dash",
+        "breach_attempts",
     } <= attacks
+    breach_kinds = {c["platform_kind"] for c in cases if c["attack"] == "breach_attempts"}
+    assert breach_kinds == {"multirotor", "fixed_wing"}
+    assert all(c["pilot"] == "breach_attempts" for c in cases if c["attack"] == "breach_attempts")
     assert any(c["gps_fault"] for c in cases)
     lats = [c["site"]["lat_deg"] for c in cases]
     assert min(lats) < -60.0 and max(lats) > 60.0
@@ -179,6 +188,126 @@ def test_acute_corners_and_stars_are_what_they_claim(campaign_200):
             assert 19.5 <= min(angles) <= 40.5, c["case_id"]
         if c["family"] == "star":
             assert k in (10, 12, 14)
+
+
+def test_circle_family_writes_keep_in_circle_and_validates(tmp_path):
+    generate_campaign(tmp_path, 3, 11, families=[CaseFamily.CIRCLE])  # validates every document
+    cases = json.loads((tmp_path / "campaign.json").read_text())["cases"]
+    assert len(cases) == 3
+    for c in cases:
+        assert c["family"] == "circle" and c["attack"] != "corner"
+        fence = c["fence"]
+        assert "keep_in" not in fence and set(fence["keep_in_circle"]) == {"center", "radius_m"}
+        sc = load_scenario(tmp_path / c["files"]["predictive"])
+        assert sc.geofence is not None and sc.geofence.fence.keep_in_circle is not None
+        r = fence["keep_in_circle"]["radius_m"]
+        local = case_fence(c)
+        n = len(local.keep_in.vertices)
+        assert n >= 16 and local.inradius()[2] == pytest.approx(r * math.cos(math.pi / n), rel=2e-3)
+        # the polygon is the circle's (centred on its centre), the start is inside, sized like the other families
+        st = c["start"]
+        frame = LocalFrame(st["lat_deg"], st["lon_deg"], st["ground_alt_m"])
+        ce, cn, _ = frame.to_enu(*fence["keep_in_circle"]["center"], frame.h0_m)
+        assert math.hypot(local.inradius()[0] - ce, local.inradius()[1] - cn) < 0.01 * r
+        assert max(np.hypot(*(local.keep_in.vertices - [ce, cn]).T)) == pytest.approx(r, rel=1e-3)  # ENU at the site height
+        assert local.lateral_margin_m(0.0, 0.0) > 0.0
+        assert r >= 2.9 * platform_room_m(load_profile(c["platform"]))
+
+
+def _buildings(fence: dict) -> list[float]:
+    polys = [k["ceiling_m"] for k in fence.get("keep_out_polygons", []) if isinstance(k, dict)]
+    return polys + [k["ceiling_m"] for k in fence.get("keep_out_circles", []) if "ceiling_m" in k]
+
+
+def test_keep_out_family_writes_buildings_with_their_own_ceiling():
+    cases = generate_cases(24, 3, families=[CaseFamily.KEEP_OUT])
+    polygon_buildings = 0
+    for case in cases:
+        fence = case.manifest["fence"]
+        parsed = parse_fence(fence, case.case_id)  # the schema's fence parser accepts every form written
+        for i, k in enumerate(fence.get("keep_out_polygons", [])):
+            if isinstance(k, dict):
+                assert set(k) == {"polygon", "ceiling_m"}
+                assert parsed.keep_out_polygon_extents[i].ceiling_m == k["ceiling_m"]
+                polygon_buildings += 1
+        # a building stands above the flight (the pilot flies level into it) and below the fence's ceiling
+        for top in _buildings(fence):
+            assert case.manifest["start"]["agl_m"] + 4.9 <= top <= fence["ceiling_m"]
+    assert polygon_buildings >= 1
+    assert 0 < sum(bool(_buildings(c.manifest["fence"])) for c in cases) < len(cases)
+
+
+def _breach_case(kind: str, seed: int = 7):
+    platforms = [p for p in available_profiles() if load_profile(p).kind.value == kind]
+    for i in range(300):
+        case = build_case(i, seed, CaseFamily.CONVEX_BOX, platforms, max_duration_s=120.0)
+        if case is not None and case.attack is Attack.BREACH_ATTEMPTS:
+            return case
+    raise AssertionError(f"no breach-attempts case for a {kind} in 300 box cases")
+
+
+def _ray_exit_m(local, course_deg: float, limit_m: float, step_m: float = 0.25) -> float:
+    """Distance from the start (the frame origin) along ``course_deg`` to the first point outside the keep-in."""
+    ue, un = math.sin(math.radians(course_deg)), math.cos(math.radians(course_deg))
+    for d in np.arange(0.0, limit_m + step_m, step_m):
+        if local.keep_in.signed_distance(d * ue, d * un) < 0.0:
+            return float(d)
+    return math.inf
+
+
+def _nearest_edge(ki, p: np.ndarray) -> int:
+    t = np.clip(np.einsum("ij,ij->i", p - ki.starts, ki.directions), 0.0, ki.lengths)
+    foot = ki.starts + t[:, None] * ki.directions
+    return int(np.argmin(np.hypot(*(p - foot).T)))
+
+
+@pytest.mark.parametrize("kind", ["multirotor", "fixed_wing"])
+def test_breach_attempts_cases_validate_and_aim_at_the_keep_in(kind):
+    case = _breach_case(kind)
+    m = case.manifest
+    assert m["pilot"] == "breach_attempts" and m["platform_kind"] == kind
+    for variant, doc in case.documents.items():
+        sc = parse_scenario(yaml.safe_load(yaml.safe_dump(doc)), where=f"{case.case_id}/{variant.value}")
+        assert sc.pilot.kind is PilotKind.BREACH_ATTEMPTS and sc.pilot.breach is not None
+    pilot = case.documents[Variant.PREDICTIVE]["pilot"]
+    env = load_profile(m["platform"]).envelope
+    lo, hi = pilot["speed_mps"]
+    assert hi == pytest.approx(env.max_speed_mps, abs=0.01)
+    assert lo == pytest.approx(0.5 * env.max_speed_mps if kind == "multirotor" else env.cruise_speed_mps, abs=0.01)
+    assert pilot["home_agl_m"] == m["start"]["agl_m"] and pilot["rest_s"] == 3.0
+    assert pilot["attempts"] >= 1 and m["duration_s"] <= 120.0
+    bearings = [d for d in pilot["directions"] if not isinstance(d, str)]
+    assert 2 <= len(bearings) <= 4 and set(pilot["directions"]) - set(bearings) <= {"up"}
+    local = case_fence(m)
+    ki = local.keep_in
+    exits = []
+    for b in bearings:
+        d = _ray_exit_m(local, b, pilot["push_m"])
+        assert d < pilot["push_m"], (case.case_id, b, d, pilot["push_m"])  # the ray leaves the keep-in within push_m
+        exits.append(d)
+        # it leaves head-on (within 5 deg of the edge's normal) or shallow (15-30 deg off the edge)
+        ue, un = math.sin(math.radians(b)), math.cos(math.radians(b))
+        p = np.array([d * ue, d * un])
+        i = _nearest_edge(ki, p)
+        off_edge = math.degrees(math.asin(min(1.0, abs(ue * ki.outward_normals[i][0] + un * ki.outward_normals[i][1]))))
+        assert off_edge >= 84.5 or 14.5 <= off_edge <= 30.5, (case.case_id, b, off_edge)
+    # push_m is 1.3 x the farthest target (a fixed-wing's: from its orbit's roll-out point, so at least that)
+    assert pilot["push_m"] >= BREACH_PUSH_FACTOR * max(exits) - 1.0
+    if kind == "multirotor":
+        assert pilot["push_m"] == pytest.approx(BREACH_PUSH_FACTOR * max(exits), abs=1.0)
+
+
+def test_the_circle_family_takes_over_only_its_own_cases():
+    families = list(CaseFamily)
+    assert families[-1] is CaseFamily.CIRCLE
+    for i in range(200):
+        if i % len(families) == len(families) - 1:
+            assert case_family(i, families) is CaseFamily.CIRCLE
+        else:  # the family case i had before the circle family existed
+            assert case_family(i, families) is families[i % (len(families) - 1)]
+    counts = [sum(case_family(i, families) is f for i in range(90)) for f in families]
+    assert counts == [9] * len(families)
+    assert [case_family(i, [CaseFamily.STAR]) for i in range(3)] == [CaseFamily.STAR] * 3
 
 
 def test_bad_arguments_are_rejected(tmp_path):

@@ -30,6 +30,12 @@ geofence's worst-case lateral shift in the case's design wind
 would not fit (wider than :data:`MAX_FENCE_SPAN_M`, or an infinite shift)
 makes the case skip that platform and try the next one.
 
+Families take turns (:func:`case_family`). Besides the scripted attacks, a lateral family (the keep-in
+shapes, the corridor and the ``keep_in_circle``) may fly the ``breach_attempts`` pilot: 2-4 bearings from
+a legal home at points on the keep-in boundary (head-on and shallow), optionally ``up``; a keep-out may be
+a building (``ceiling_m`` of its own). Features added after campaigns had been published draw from a
+child generator (:func:`_added_rng`), so the cases that do not use them stay as they were.
+
 Every written document is re-read from its YAML text and validated with
 :func:`scenarios.spec.schema.parse_scenario`; a rejected document is a generator
 bug and raises :class:`CampaignError`.
@@ -53,13 +59,13 @@ from aircraft.sensors import SensorConfig
 from geofence.boundary_shift import activation_margins
 from geofence.config import GeofenceConfig
 from geofence.dynamics import envelope_at_density, isa_density_ratio
-from geofence.fence import parse_fence
+from geofence.fence import circle_to_polygon, parse_fence
 from geofence.geodesy import LocalFrame
 from geofence.local_fence import LocalFence
 from geofence.polygon import PolygonIndex
 from geofence.rooms import multicopter_stopping_distance_m, turn_radius_m, worst_case_lateral_shift_m
 from geofence.validation import ConfigError
-from scenarios.spec.schema import PilotKind
+from scenarios.spec.schema import BREACH_SPEED_LIMIT_MPS, PilotKind
 
 MANIFEST = "campaign.json"
 MAX_FENCE_SPAN_M = 9_000.0
@@ -96,6 +102,8 @@ class CaseFamily(Enum):
     KEEP_OUT = "keep_out"
     CEILING = "ceiling"
     FLOOR_GAPS = "floor_gaps"
+    CIRCLE = "circle"
+    """A circular keep-in (``keep_in_circle``), flown against with the lateral attacks (head-on is radial)."""
 
 
 class Attack(Enum):
@@ -113,6 +121,8 @@ class Attack(Enum):
     INTO_KEEP_OUT = "into_keep_out"
     BEHIND_KEEP_OUT = "behind_keep_out"
     MISSION = "mission"
+    BREACH_ATTEMPTS = "breach_attempts"
+    """The ``breach_attempts`` pilot: repeated pushes from home at points on the keep-in boundary."""
 
 
 class Variant(Enum):
@@ -123,7 +133,34 @@ class Variant(Enum):
     UNPROTECTED = "unprotected"
 
 
-LATERAL_ATTACKS = (Attack.HEAD_ON, Attack.SHALLOW, Attack.CORNER, Attack.TURNING, Attack.REPEATED, Attack.MISSION)
+LATERAL_ATTACKS = (
+    Attack.HEAD_ON,
+    Attack.SHALLOW,
+    Attack.CORNER,
+    Attack.TURNING,
+    Attack.REPEATED,
+    Attack.MISSION,
+    Attack.BREACH_ATTEMPTS,
+)
+LATERAL_WEIGHTS = (3.0, 2.0, 2.0, 2.0, 2.0, 2.0, 1.5)
+ADDED_LATERAL_ATTACKS = 1
+"""How many of :data:`LATERAL_ATTACKS` (the last ones) were added after campaigns had been published
+(see :func:`_pick_keeping`)."""
+CIRCLE_ATTACKS = tuple(a for a in LATERAL_ATTACKS if a is not Attack.CORNER)
+"""A circle has no corner worth the name (its polygon's vertices turn by 360/n deg)."""
+CIRCLE_WEIGHTS = tuple(w for a, w in zip(LATERAL_ATTACKS, LATERAL_WEIGHTS) if a is not Attack.CORNER)
+BUILDING_PROBABILITY = 0.3
+"""A keep-out is a building (``ceiling_m`` of its own, above the flight height) with this probability."""
+BREACH_PUSH_FACTOR = 1.3
+"""A breach attempt's ``push_m``: this times the distance to the farthest targeted boundary point."""
+BREACH_REST_S = 3.0
+BREACH_UP_PROBABILITY = 0.3
+"""A breach-attempts case also pushes ``up`` (toward the ceiling) with this probability."""
+BREACH_ORBIT_TURN_RADII, BREACH_MIN_ORBIT_RADIUS_M = 1.5, 30.0
+"""The fixed-wing breach pilot's home orbit: this many turn radii at cruise, at least this (m); as in
+:mod:`scenarios.flight.pilots.breach_attempts_fixedwing`, which this layer may not import."""
+BREACH_SETTLE_S = 3.0
+"""A multirotor breach pilot's settling in its home hover before the first push (s, estimate)."""
 
 SITES: tuple[tuple[str, tuple[float, float], tuple[float, float]], ...] = (
     # (continent, (lat lo, hi), (lon lo, hi)): boxes on land, incl. +-60 deg and beyond
@@ -227,7 +264,13 @@ def _ll(frame: LocalFrame, points: np.ndarray) -> list[list[float]]:
 
 @dataclass
 class FenceDraft:
-    """A fence being built in the site's ENU frame (metres)."""
+    """A fence being built in the site's ENU frame (metres).
+
+    ``keep_in`` is always a polygon (span, planning); with ``keep_in_circle`` (``(e, n, radius)``, made by
+    :meth:`circle`) it is that circle's inscribed polygon as the unit builds it, and :meth:`mapping` writes
+    ``keep_in_circle`` instead. ``keep_out_polygon_ceilings`` / ``keep_out_circle_ceilings`` (by index; a
+    missing or None entry: full height) give a keep-out its own ``ceiling_m`` (a building).
+    """
 
     keep_in: np.ndarray
     ceiling_m: float
@@ -235,23 +278,49 @@ class FenceDraft:
     floor_gaps: tuple[np.ndarray, ...] = ()
     keep_out_polygons: tuple[np.ndarray, ...] = ()
     keep_out_circles: tuple[tuple[float, float, float], ...] = ()
+    keep_in_circle: tuple[float, float, float] | None = None
+    keep_out_polygon_ceilings: tuple[float | None, ...] = ()
+    keep_out_circle_ceilings: tuple[float | None, ...] = ()
+
+    @classmethod
+    def circle(cls, frame: LocalFrame, e: float, n: float, radius_m: float, ceiling_m: float) -> FenceDraft:
+        """A circular keep-in centred at ``(e, n)``; ``keep_in`` is its polygon (:func:`circle_to_polygon`) as written."""
+        lat, lon = _ll(frame, np.array([[e, n]]))[0]
+        verts = circle_to_polygon(lat, lon, _r(radius_m, 1))[0]
+        poly = np.array([frame.to_enu(la, lo, frame.h0_m)[:2] for la, lo in verts])
+        return cls(poly, ceiling_m, keep_in_circle=(float(e), float(n), float(radius_m)))
 
     def span_m(self) -> float:
         v = self.keep_in
         return float(max(np.ptp(v[:, 0]), np.ptp(v[:, 1])))
 
     def mapping(self, frame: LocalFrame) -> dict:
-        m: dict[str, Any] = {"keep_in": _ll(frame, self.keep_in), "ceiling_m": _r(self.ceiling_m, 1)}
+        m: dict[str, Any]
+        if self.keep_in_circle is not None:
+            e, n, r = self.keep_in_circle
+            m = {"keep_in_circle": {"center": _ll(frame, np.array([[e, n]]))[0], "radius_m": _r(r, 1)}}
+        else:
+            m = {"keep_in": _ll(frame, self.keep_in)}
+        m["ceiling_m"] = _r(self.ceiling_m, 1)
         if self.floor_m is not None:
             m["floor_m"] = _r(self.floor_m, 1)
         if self.floor_gaps:
             m["floor_gaps"] = [_ll(frame, g) for g in self.floor_gaps]
         if self.keep_out_polygons:
-            m["keep_out_polygons"] = [_ll(frame, k) for k in self.keep_out_polygons]
+            m["keep_out_polygons"] = []
+            for i, k in enumerate(self.keep_out_polygons):
+                top = _at(self.keep_out_polygon_ceilings, i)
+                m["keep_out_polygons"].append(
+                    _ll(frame, k) if top is None else {"polygon": _ll(frame, k), "ceiling_m": _r(top, 1)}
+                )
         if self.keep_out_circles:
-            m["keep_out_circles"] = [
-                {"center": _ll(frame, np.array([[e, n]]))[0], "radius_m": _r(r, 1)} for e, n, r in self.keep_out_circles
-            ]
+            m["keep_out_circles"] = []
+            for i, (e, n, r) in enumerate(self.keep_out_circles):
+                c: dict[str, Any] = {"center": _ll(frame, np.array([[e, n]]))[0], "radius_m": _r(r, 1)}
+                top = _at(self.keep_out_circle_ceilings, i)
+                if top is not None:
+                    c["ceiling_m"] = _r(top, 1)
+                m["keep_out_circles"].append(c)
         return m
 
     def local(self, frame: LocalFrame) -> LocalFence:
@@ -267,6 +336,10 @@ class FenceDraft:
 _LOCAL_CACHE: dict[str, LocalFence] = {}
 
 
+def _at(xs: Sequence[float | None], i: int) -> float | None:
+    return xs[i] if i < len(xs) else None
+
+
 # --------------------------------------------------------------------------- pilots
 @dataclass
 class Plan:
@@ -279,6 +352,8 @@ class Plan:
     approach_s: float
     duration_s: float
     mission: dict | None = None
+    pilot: dict | None = None
+    """The ``pilot:`` block (``type`` included) when it is not a scripted one (the segments are then unused)."""
 
 
 def _approach_speed(ctx: CaseContext, speed: str = "max") -> float:
@@ -470,6 +545,149 @@ def _plan_mission(rng: np.random.Generator, ctx: CaseContext, local: LocalFence,
     return Plan(start, heading, agl_m, [], t, _r(min(t * 1.3 + 20.0, ctx.max_duration_s), 1), mission=mission)
 
 
+def _ray_hit(local: LocalFence, origin: np.ndarray, course_deg: float) -> tuple[float, int]:
+    """(distance m, edge index) of the first keep-in edge hit from ``origin`` on ``course_deg``; (inf, -1) if none."""
+    ki = local.keep_in
+    u = _unit(course_deg)
+    d = ki.ends - ki.starts
+    w = ki.starts - origin
+    den = u[0] * d[:, 1] - u[1] * d[:, 0]
+    ok = np.abs(den) > 1e-12
+    safe = np.where(ok, den, 1.0)
+    t = (w[:, 0] * d[:, 1] - w[:, 1] * d[:, 0]) / safe
+    s = (w[:, 0] * u[1] - w[:, 1] * u[0]) / safe
+    hit = ok & (t > 1e-6) & (s >= 0.0) & (s <= 1.0)
+    if not hit.any():
+        return math.inf, -1
+    i = int(np.argmin(np.where(hit, t, np.inf)))
+    return float(t[i]), i
+
+
+def _breach_orbit_radius_m(ctx: CaseContext) -> float:
+    """The fixed-wing breach pilot's home orbit radius (0 for a multirotor, which hovers)."""
+    return 0.0 if ctx.multirotor else max(BREACH_ORBIT_TURN_RADII * ctx.room_m, BREACH_MIN_ORBIT_RADIUS_M)
+
+
+def _push_reach_m(ctx: CaseContext, local: LocalFence, start: np.ndarray, course_deg: float) -> float:
+    """How far a push on ``course_deg`` travels to the keep-in edge: from home, and (fixed-wing) from the
+    point of its clockwise home orbit where it rolls out (``R`` left of home, seen along the push)."""
+    reach = _ray_hit(local, start, course_deg)[0]
+    orbit = _breach_orbit_radius_m(ctx)
+    if orbit > 0.0:
+        reach = max(reach, _ray_hit(local, start + orbit * _unit(course_deg - 90.0), course_deg)[0])
+    return reach
+
+
+def _breach_targets(
+    rng: np.random.Generator, ctx: CaseContext, local: LocalFence, start: np.ndarray, corner: int | None
+) -> list[tuple[float, float]]:
+    """2-4 ``(bearing deg, push reach m)`` toward points on the keep-in boundary seen from ``start``.
+
+    Half head-on (within 5 deg of an edge's normal), half shallow (15-30 deg off an edge's direction),
+    each the first edge the ray meets, 15 deg or more apart; ``corner``: the first aims at that vertex.
+    Falls back to random bearings (each still ends on the boundary) when the shape allows too few.
+    """
+    ki = local.keep_in
+    want = int(rng.integers(2, 5))
+    out: list[tuple[float, float]] = []
+
+    def add(course: float, reach: float) -> None:
+        if math.isfinite(reach) and all(abs((course - c + 180.0) % 360.0 - 180.0) >= 15.0 for c, _ in out):
+            out.append((course % 360.0, reach))
+
+    if corner is not None:
+        v = ki.vertices[corner]
+        course = _course_deg(v - start)
+        t, _ = _ray_hit(local, start, course)
+        if abs(t - float(np.hypot(*(v - start)))) < 0.02 * t:
+            add(course, _push_reach_m(ctx, local, start, course))
+    w = ki.lengths / ki.lengths.sum()
+    for _ in range(80):
+        if len(out) >= want:
+            break
+        i = int(rng.choice(len(w), p=w))
+        a, d = ki.starts[i], ki.directions[i]
+        along = float((start - a) @ d)
+        h = float(abs((start - a) @ ki.outward_normals[i]))
+        if rng.random() < 0.5:  # shallow: 15-30 deg off the edge's direction
+            s = along + (1.0 if rng.random() < 0.5 else -1.0) * h / math.tan(math.radians(rng.uniform(15.0, 30.0)))
+        else:  # head-on: the foot of the perpendicular, +-5 deg
+            s = along + h * math.tan(math.radians(rng.uniform(-5.0, 5.0)))
+        if not 0.05 * ki.lengths[i] <= s <= 0.95 * ki.lengths[i]:
+            continue
+        p = a + s * d
+        course = _course_deg(p - start)
+        t, j = _ray_hit(local, start, course)
+        if j == i and abs(t - float(np.hypot(*(p - start)))) < 1e-6 * max(t, 1.0) + 1e-3:
+            add(course, _push_reach_m(ctx, local, start, course))
+    for _ in range(80):
+        if len(out) >= 2:
+            break
+        course = float(rng.uniform(0.0, 360.0))
+        add(course, _push_reach_m(ctx, local, start, course))
+    return out
+
+
+def _plan_breach(
+    rng: np.random.Generator, ctx: CaseContext, draft: FenceDraft, local: LocalFence, agl_m: float, corner: int | None = None
+) -> Plan | None:
+    """The ``breach_attempts`` pilot from a legal home near the pole (None: no legal home found).
+
+    Home: the pole or a point up to half the inradius from it, with room for the fixed-wing's home orbit.
+    Speeds: [0.5 max, max] (multirotor) or [cruise, max] (fixed-wing); ``push_m``: :data:`BREACH_PUSH_FACTOR`
+    times the farthest push to the boundary; as many attempts as fit in the case's duration, each estimated
+    as out and back at the low speed, the rest, and (fixed-wing) one home orbit to align.
+    """
+    env = ctx.profile.envelope
+    pole_e, pole_n, r_in = local.inradius()
+    pole = np.array([pole_e, pole_n])
+    orbit = _breach_orbit_radius_m(ctx)
+    need = orbit + 0.5 * ctx.room_m if orbit > 0.0 else 0.3 * r_in
+    home: tuple[np.ndarray, float] | None = None
+    for k in range(30):
+        start = pole if k == 0 else pole + _unit(rng.uniform(0.0, 360.0)) * rng.uniform(0.0, 0.5) * r_in
+        heading = float(rng.uniform(0.0, 360.0))
+        if local.lateral_margin_m(float(start[0]), float(start[1])) < need:
+            continue
+        if legal_start(ctx, draft, Plan(start, heading, agl_m, [], 0.0, 0.0)):
+            home = (start, heading)
+            if k > 0 or rng.random() < 0.3:  # mostly off the pole: shallow pushes need an edge at an angle
+                break
+    if home is None:
+        return None
+    start, heading = home
+    targets = _breach_targets(rng, ctx, local, start, corner)
+    limit = BREACH_SPEED_LIMIT_MPS[ctx.profile.kind]
+    hi = min(env.max_speed_mps, limit)
+    lo = min(0.5 * env.max_speed_mps if env.is_multirotor else env.cruise_speed_mps, hi)
+    push = BREACH_PUSH_FACTOR * max(t for _, t in targets)
+    directions: list[float | str] = [_r(c, 1) for c, _ in targets]
+    orbit_s = 2.0 * math.pi * orbit / env.cruise_speed_mps if orbit > 0.0 else 0.0
+    per_attempt = [2.0 * t / lo + BREACH_REST_S + orbit_s for _, t in targets]
+    if rng.random() < BREACH_UP_PROBABILITY:
+        directions.append("up")
+        climb = draft.ceiling_m - agl_m
+        per_attempt.append(climb / min(lo, env.max_climb_rate_mps) + climb / env.max_descent_rate_mps + BREACH_REST_S + orbit_s)
+    lead = BREACH_SETTLE_S if env.is_multirotor else 1.5 * math.pi * orbit / env.cruise_speed_mps
+    attempts, t = 0, lead
+    while attempts < 50 and (attempts == 0 or t + per_attempt[attempts % len(per_attempt)] <= ctx.max_duration_s):
+        t += per_attempt[attempts % len(per_attempt)]
+        attempts += 1
+    pilot = {
+        "type": PilotKind.BREACH_ATTEMPTS.value,
+        "attempts": attempts,
+        "directions": directions,
+        "speed_mps": [_r(lo), _r(hi)],
+        "push_m": _r(push, 1),
+        "rest_s": BREACH_REST_S,
+        "home_agl_m": _r(agl_m, 1),
+        "seed": int(rng.integers(0, 2**31 - 1)),
+    }
+    approach = lead + orbit_s + targets[0][1] / lo
+    duration = _r(min(t + 5.0, ctx.max_duration_s), 1)
+    return Plan(start, heading, agl_m, [], approach, duration, pilot=pilot)
+
+
 # --------------------------------------------------------------------------- families
 def _heights(rng: np.random.Generator, ctx: CaseContext) -> tuple[float, float]:
     """(ceiling m AGL, start/flight height m AGL) for a lateral case."""
@@ -483,20 +701,29 @@ def _heights(rng: np.random.Generator, ctx: CaseContext) -> tuple[float, float]:
 def _lateral_case(
     rng: np.random.Generator,
     ctx: CaseContext,
-    unit_shape: Sequence[Sequence[float]],
+    unit_shape: Sequence[Sequence[float]] | None,
     attack: Attack | None = None,
     corner_angle: bool = False,
 ) -> tuple[FenceDraft, Plan, Attack]:
-    attack = attack or _pick(rng, LATERAL_ATTACKS, (3, 2, 2, 2, 2, 2))
+    """A keep-in shape (``unit_shape``, scaled and turned; None: a ``keep_in_circle`` on the site) and a lateral attack."""
+    attack = attack or _pick_keeping(rng, LATERAL_ATTACKS, LATERAL_WEIGHTS, ADDED_LATERAL_ATTACKS)
     r = ctx.target_inradius_m(rng) * (1.6 if attack is Attack.MISSION else 1.0)
     ceiling, agl = _heights(rng, ctx)
-    draft = FenceDraft(_scaled(unit_shape, r, rng), ceiling)
+    frame = ctx.frame
+    if unit_shape is None:
+        draft = FenceDraft.circle(frame, 0.0, 0.0, r, ceiling)
+    else:
+        draft = FenceDraft(_scaled(unit_shape, r, rng), ceiling)
     if draft.span_m() > MAX_FENCE_SPAN_M:
         raise _DoesNotFit
-    frame = ctx.frame
     local = draft.local(frame)
     if attack is Attack.MISSION:
         plan = _plan_mission(rng, ctx, local, frame, agl)
+        if plan is not None:
+            return draft, plan, attack
+        attack = Attack.HEAD_ON
+    if attack is Attack.BREACH_ATTEMPTS:
+        plan = _plan_breach(rng, ctx, draft, local, agl, 0 if corner_angle else None)
         if plan is not None:
             return draft, plan, attack
         attack = Attack.HEAD_ON
@@ -510,6 +737,28 @@ def _lateral_case(
 def _pick(rng: np.random.Generator, options: Sequence, weights: Sequence[float]):
     w = np.asarray(weights, dtype=float)
     return options[int(rng.choice(len(options), p=w / w.sum()))]
+
+
+def _added_rng(rng: np.random.Generator) -> np.random.Generator:
+    """A child generator for draws a feature added later needs; ``rng``'s own stream is left as it was.
+
+    (:meth:`numpy.random.Generator.spawn` derives the child from the seed sequence without drawing from
+    ``rng``, so every case that does not use the feature draws exactly what it drew before.)
+    """
+    return rng.spawn(1)[0]
+
+
+def _pick_keeping(rng: np.random.Generator, options: Sequence, weights: Sequence[float], n_added: int):
+    """:func:`_pick` where the last ``n_added`` options were added after campaigns had been published.
+
+    The added options get their share of the weight from a child generator (:func:`_added_rng`); otherwise
+    the older options are picked from ``rng`` exactly as before they were added, so those cases do not change.
+    """
+    w = np.asarray(weights, dtype=float)
+    extra = _added_rng(rng)
+    if extra.random() < w[-n_added:].sum() / w.sum():
+        return options[len(options) - n_added + int(extra.choice(n_added, p=w[-n_added:] / w[-n_added:].sum()))]
+    return _pick(rng, options[:-n_added], weights[:-n_added])
 
 
 def family_box(rng: np.random.Generator, ctx: CaseContext):
@@ -549,6 +798,11 @@ def family_acute(rng: np.random.Generator, ctx: CaseContext):
     return _lateral_case(rng, ctx, tri, corner_angle=True)
 
 
+def family_circle(rng: np.random.Generator, ctx: CaseContext):
+    """A ``keep_in_circle`` of the lateral families' size, centred on the site; no corner attack."""
+    return _lateral_case(rng, ctx, None, attack=_pick(rng, CIRCLE_ATTACKS, CIRCLE_WEIGHTS))
+
+
 def family_corridor(rng: np.random.Generator, ctx: CaseContext):
     r = ctx.target_inradius_m(rng)
     c = min(rng.uniform(2.0, 4.0) * ctx.room_m, 1.6 * r)
@@ -565,7 +819,17 @@ def family_corridor(rng: np.random.Generator, ctx: CaseContext):
         raise _DoesNotFit
     frame = ctx.frame
     local = draft.local(frame)
-    attack = _pick(rng, (Attack.HEAD_ON, Attack.CORNER, Attack.TURNING, Attack.MISSION, Attack.SHALLOW), (2, 1, 1, 1, 3))
+    attack = _pick_keeping(
+        rng,
+        (Attack.HEAD_ON, Attack.CORNER, Attack.TURNING, Attack.MISSION, Attack.SHALLOW, Attack.BREACH_ATTEMPTS),
+        (2, 1, 1, 1, 3, 1),
+        1,
+    )
+    if attack is Attack.BREACH_ATTEMPTS:
+        plan = _plan_breach(rng, ctx, draft, local, agl)
+        if plan is not None:
+            return draft, plan, attack
+        attack = Attack.HEAD_ON
     if attack is Attack.SHALLOW and rng.random() < 0.6:
         # through the corridor: start in one room, fly along the corridor at the far room
         pole = np.array(local.inradius()[:2])
@@ -605,12 +869,22 @@ def family_keep_out(rng: np.random.Generator, ctx: CaseContext):
         ang = np.sort(rng.uniform(0.0, 2 * math.pi, k)) if k > 3 else np.array([0.0, 2.1, 4.2]) + rng.uniform(0, 1)
         polys.append(np.column_stack([off[0] + rad * np.sin(ang), off[1] + rad * np.cos(ang)]))
     draft.keep_out_circles, draft.keep_out_polygons = tuple(circles), tuple(polys)
+    # buildings: a keep-out's own ceiling above the flight height (the unit treats it as full height: planning
+    # is unchanged); drawn from a child generator so the cases drawn before buildings existed stay as they were
+    extra = _added_rng(rng)
+
+    def building() -> float | None:
+        return float(extra.uniform(agl + 5.0, ceiling)) if extra.random() < BUILDING_PROBABILITY else None
+
+    draft.keep_out_circle_ceilings = tuple(building() for _ in circles)
+    draft.keep_out_polygon_ceilings = tuple(building() for _ in polys)
     local = draft.local(frame)
     pole = np.array(local.inradius()[:2])
     attack = _pick(rng, (Attack.BEHIND_KEEP_OUT, Attack.INTO_KEEP_OUT, Attack.MISSION), (3, 3, 1))
     if rng.random() < 0.5:  # a second, small keep-out near the path
         mid = (pole + off) / 2.0 + _unit(rng.uniform(0, 360)) * 0.2 * r
         draft.keep_out_circles = draft.keep_out_circles + ((float(mid[0]), float(mid[1]), float(0.08 * r)),)
+        draft.keep_out_circle_ceilings = (*draft.keep_out_circle_ceilings, building())
         local = draft.local(frame)
         pole = np.array(local.inradius()[:2])
     if attack is Attack.MISSION:
@@ -759,6 +1033,7 @@ FAMILY_BUILDERS: dict[CaseFamily, Callable[[np.random.Generator, CaseContext], t
     CaseFamily.KEEP_OUT: family_keep_out,
     CaseFamily.CEILING: family_ceiling,
     CaseFamily.FLOOR_GAPS: family_floor_gaps,
+    CaseFamily.CIRCLE: family_circle,
 }
 
 
@@ -926,6 +1201,8 @@ def _assemble(
     if plan.mission is not None:
         doc["mission"] = plan.mission
         doc["pilot"] = {"type": "mission"}
+    elif plan.pilot is not None:
+        doc["pilot"] = dict(plan.pilot)
     else:
         doc["pilot"] = {"type": "scripted", "segments": plan.segments}
     doc["wind"] = wind
@@ -954,7 +1231,9 @@ def _assemble(
         "case_id": case_id,
         "family": family.value,
         "attack": attack.value,
-        "pilot": (PilotKind.MISSION if plan.mission is not None else PilotKind.SCRIPTED).value,
+        "pilot": (
+            PilotKind.MISSION if plan.mission is not None else PilotKind(plan.pilot["type"]) if plan.pilot else PilotKind.SCRIPTED
+        ).value,
         "platform": ctx.platform,
         "platform_kind": ctx.profile.kind.value,
         "seed": case_seed,
@@ -984,6 +1263,20 @@ def _validate(text: str, where: str) -> None:
         raise CampaignError(f"generator bug: the schema rejects a generated scenario: {exc}") from None
 
 
+def case_family(i: int, families: Sequence[CaseFamily]) -> CaseFamily:
+    """The family of case ``i``: the last of ``n`` families takes every n-th case (``i % n == n - 1``), the
+    others take turns in the rest (``families[i % (n - 1)]``); every family gets 1 in n of the cases.
+
+    A family added at the end of a list that was cycled by plain turns (``i % (n - 1)``) so takes over only
+    its own cases: the default list's last family, :attr:`CaseFamily.CIRCLE`, was added after campaigns with
+    the other nine had been published, and every other case of those campaigns keeps its family.
+    """
+    n = len(families)
+    if n == 1:
+        return families[0]
+    return families[-1] if i % n == n - 1 else families[i % (n - 1)]
+
+
 def generate_cases(
     n_cases: int,
     seed: int,
@@ -1007,7 +1300,7 @@ def generate_cases(
         raise ConfigError(f"families: expected CaseFamily members, got {families!r}")
     cases = []
     for i in range(n_cases):
-        family = families[i % len(families)]
+        family = case_family(i, families)
         case = build_case(i, seed, family, platforms, max_duration_s)
         if case is not None:
             cases.append(case)
@@ -1025,7 +1318,7 @@ def generate_campaign(
 ) -> list[Path]:
     """Write ``n_cases`` cases x 3 variants of scenario YAML and ``campaign.json`` into ``out_dir``.
 
-    Families take turns (case ``i`` is ``families[i % len]``); everything else
+    Families take turns (:func:`case_family`); everything else
     is drawn from ``numpy.random.default_rng([seed, i])``, so the same
     arguments always write the same files, and case ``i`` does not depend on
     ``n_cases``. ``platforms`` defaults to every shipped profile; a case whose
