@@ -145,6 +145,16 @@ def test_build_pilot_picks_the_platform_s_pilot():
     assert slow.speed(0) == pytest.approx(13.2)
 
 
+def test_a_multirotor_returns_home_at_its_slowest_push_speed():
+    """Indoors (the seed flights) 0.4 m/s within 15 s; outdoors the slowest push speed, with time to fly back."""
+    f450 = parse_scenario(doc("F450"), "ba.yaml").profile.envelope
+    indoor = BreachAttemptsPilot(BreachAttemptsConfig(speed_mps=(0.2, 1.0), push_m=1.5), f450, VehicleState(), 0.025)
+    assert indoor.return_speed_mps == pytest.approx(0.4) and indoor.return_max_s == pytest.approx(15.0)
+    outdoor = BreachAttemptsPilot(BreachAttemptsConfig(speed_mps=(5.0, 10.0), push_m=120.0), f450, VehicleState(), 0.025)
+    assert outdoor.return_speed_mps == pytest.approx(5.0)
+    assert outdoor.return_max_s >= 2.0 * 120.0 / 5.0
+
+
 # --------------------------------------------------------------------------- the direction type
 @given(st.floats(min_value=-1e6, max_value=1e6, allow_nan=False, allow_infinity=False))
 @settings(max_examples=300, deadline=None)

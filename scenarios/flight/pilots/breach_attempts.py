@@ -52,7 +52,9 @@ HOME_SPEED_TOLERANCE_MPS = 0.12
 SETTLE_MIN_S = 1.0
 SETTLE_MAX_S = 6.0
 RETURN_SPEED_MPS = 0.4
+"""The slowest return home (m/s; the seed flights' indoor pilot); faster pilots return at their slowest push speed."""
 RETURN_MAX_S = 15.0
+"""The shortest time allowed for the return home (s); a longer push gets the time to fly it back, twice over."""
 PUSH_SLACK_S = 3.0
 PULLED_BACK_MPS = 0.03
 """The pilot lets go once the aircraft moves against the push faster than this (after having moved with it)."""
@@ -181,6 +183,9 @@ class BreachAttemptsPilot(BreachAttemptsSchedule):
         self.phase_since_s = start.t_s
         self._push_origin = (0.0, 0.0, 0.0)
         self._moved_with_push = False
+        self.return_speed_mps = max(RETURN_SPEED_MPS, config.speed_mps[0])
+        """Home is flown back to at the slowest push speed (at least :data:`RETURN_SPEED_MPS`)."""
+        self.return_max_s = max(RETURN_MAX_S, 2.0 * config.push_m / self.return_speed_mps + 5.0)
 
     def speed(self, k: int) -> float:
         """The approach speed of attempt ``k`` (m/s; a climb or descent is capped at the envelope's rate)."""
@@ -200,9 +205,9 @@ class BreachAttemptsPilot(BreachAttemptsSchedule):
             and math.sqrt(s.v_east_mps**2 + s.v_north_mps**2 + s.v_up_mps**2) < HOME_SPEED_TOLERANCE_MPS
         )
 
-    def _hold_home(self, s: VehicleState, speed_mps: float = RETURN_SPEED_MPS) -> StickCommand:
+    def _hold_home(self, s: VehicleState) -> StickCommand:
         he, hn, hu = self.home
-        return self.nav.sticks_to_point(s, he, hn, hu, speed_mps, self.yaw_hold, self.dt_s)
+        return self.nav.sticks_to_point(s, he, hn, hu, self.return_speed_mps, self.yaw_hold, self.dt_s)
 
     def _start_push(self, s: VehicleState) -> None:
         k = self.attempt
@@ -246,7 +251,7 @@ class BreachAttemptsPilot(BreachAttemptsSchedule):
                 return self._hold_home(s)
             return self._push_sticks(s, d, speed)
         if self.phase == self.RETURN:
-            if self._at_home(s) or in_phase >= RETURN_MAX_S:
+            if self._at_home(s) or in_phase >= self.return_max_s:
                 self.log_time("t_return_end_s", t)
                 self._enter(self.REST, t)
             return self._hold_home(s)
