@@ -225,9 +225,10 @@ def build_parser() -> argparse.ArgumentParser:
         "campaign",
         help="generate an adversarial efficacy campaign, or report on a flown one",
         description=(
-            "generate: write N adversarial cases (fence shapes: box, L, U, star, acute corner, corridor, keep-outs, "
-            "ceilings, floors with gaps; every shipped platform; sites worldwide up to 2,800 m; winds, turbulence, "
-            "gusts, GPS faults; head-on, shallow, corner, turning and repeated attempts, and normal missions), each "
+            "generate: write N adversarial cases (fence shapes: box, L, U, star, acute corner, corridor, circle, "
+            "keep-outs and buildings, ceilings, floors with gaps; every shipped platform; sites worldwide up to 2,800 m; "
+            "winds, turbulence, gusts, GPS faults; head-on, shallow, corner, turning, repeated and breach-attempts "
+            "pilots, and normal missions), each "
             "three times (predictive, reactive, unprotected), plus campaign.json, into DIR; fly them with "
             "'geofence-testbed batch DIR --out RESULTS'. report: breaches with 95 % upper confidence bounds per "
             "flight and per flight hour, peak excursions, nuisance overrides, written to RESULTS/campaign_report.md."
