@@ -17,6 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import geofence.importers
+from aircraft.profile import load_profile
 from analysis.fast_margins import fence_margins
 from analysis.scoring import keep_out_margin, score_flight
 from geofence.boundary_shift import activation_margins
@@ -32,7 +33,6 @@ from geofence.fence import (
 )
 from geofence.geodesy import LocalFrame, geodesic_distance_m
 from geofence.importers import fence_to_yaml_block, load_fence_file
-from geofence.interface import Envelope, PlatformKind
 from geofence.local_fence import LocalFence
 from scenarios.spec.schema import load_scenario
 
@@ -383,20 +383,7 @@ def test_volume_margins_match_a_brute_force_reference():
 
 
 # ------------------------------------------------------------------ the unit: full-height, unchanged
-MC = Envelope(
-    PlatformKind.MULTIROTOR,
-    cruise_speed_mps=5.0,
-    max_speed_mps=12.0,
-    min_speed_mps=0.0,
-    max_bank_rad=math.radians(30.0),
-    max_pitch_rad=0.5,
-    max_yaw_rate_radps=1.0,
-    max_climb_rate_mps=3.0,
-    max_descent_rate_mps=2.0,
-    braking_decel_mps2=5.0,
-    vertical_accel_mps2=4.0,
-    reaction_time_s=0.1,
-)
+MC = load_profile("F450RD").envelope
 
 
 def test_the_units_margins_do_not_depend_on_the_extents():
