@@ -79,6 +79,11 @@ def main() -> None:
         )
         units[nv] = (fence, unit_states)
 
+    def restarted(source):
+        """Samples from t = 0 each repeat: the wind sources refuse time going backwards (a reset starts them over)."""
+        source.reset()
+        return lambda k: source.sample(k * 0.025, 0.0, 0.0, 30.0, 12.0)
+
     def unit_fn(nv):
         fence, states = units[nv]
         unit = GeofenceUnit(
@@ -94,8 +99,8 @@ def main() -> None:
 
     cases = {
         "bare JSBSim frame (F450RD + FC)": lambda: lambda k: run(),
-        "wind field (profile+Dryden+gust)": lambda: lambda k: field.sample(k * 0.025, 0.0, 0.0, 30.0, 12.0),
-        "Dryden turbulence alone": lambda: lambda k: turb.sample(k * 0.025, 0.0, 0.0, 30.0, 12.0),
+        "wind field (profile+Dryden+gust)": lambda: restarted(field),
+        "Dryden turbulence alone": lambda: restarted(turb),
         "sensor suite sample": lambda: lambda k: suite.sample(truth),
         "geofence update, 4 vertices": lambda: unit_fn(4),
         "geofence update, 1,000 vertices": lambda: unit_fn(1000),
