@@ -77,6 +77,7 @@ from .rooms import (
     G_MPS2,
     TWO_PI,
     climb_arrest_phase,
+    climb_back_drift_m,
     fixed_wing_room_bound_m,
     multirotor_room_m,
     reaction_arc_m,
@@ -212,7 +213,11 @@ def activation_margins(
     The floor is safe while *either* the descent can be arrested above the
     floor *or* the vehicle stays inside the gap it is over, so the floor
     activation is the larger of the vertical arrest margin (gaps ignored) and
-    the lateral activation margin against the gap's edges.
+    the lateral activation margin against the gap's edges. A fixed-wing cannot
+    hover: it stays inside the gap by circling, and the circle drifts with the
+    wind while it climbs back above the floor, so its gap room also holds that
+    drift from the deepest point its descent reaches
+    (:func:`geofence.rooms.climb_back_drift_m`).
     Plain-Python scalar code for the per-step loop.
     """
     t_r = envelope.reaction_time_s + latency_s
@@ -344,6 +349,9 @@ def activation_margins(
             if gd > 0.0:  # over a gap: staying inside it (laterally) also keeps the floor
                 gdists, gmin = _edge_distances(fence.gap_edges(gi), e, n)
                 g_act = worst_edge(gdists, gmin)[0]
+                if fixed_wing:  # it circles while it climbs back from the deepest point its descent reaches
+                    deepest = h - vertical_arrest_distance_m(-vu, t_r, envelope.vertical_accel_mps2) - v_uncertainty_m
+                    g_act -= climb_back_drift_m(fence.floor_m - deepest, envelope.max_climb_rate_mps, wspeed)
                 if g_act > gd:
                     g_act = gd
                 if g_act > f_act:

@@ -383,6 +383,18 @@ def vertical_arrest_distance_m(v_toward_mps: float, reaction_time_s: float, acce
     return v_toward_mps * reaction_time_s + v_toward_mps * v_toward_mps / (2.0 * accel_mps2)
 
 
+def climb_back_drift_m(depth_below_floor_m: float, climb_rate_mps: float, wind_speed_mps: float) -> float:
+    """How far a fixed-wing circling inside a floor gap drifts while it climbs back above the floor (m).
+
+    It cannot hover: it stays over the gap by circling, and the circle moves with the air, for
+    ``depth / climb rate`` seconds. 0 when it is not below the floor. (A multirotor holds its position
+    while it climbs: no drift.)
+    """
+    if depth_below_floor_m <= 0.0:
+        return 0.0
+    return wind_speed_mps * depth_below_floor_m / max(climb_rate_mps, 0.1)
+
+
 # --------------------------------------------------------------------------- envelope-level rooms
 def head_on_room_m(env: Envelope, speed_mps: float, wind_toward_mps: float, wind_speed_mps: float, g: float = G_MPS2) -> float:
     """Room (m) to stop or turn back in a head-on approach at ``speed_mps`` (what the analysis figures draw).

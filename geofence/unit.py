@@ -60,7 +60,12 @@ from geofence.guidance import (
 from geofence.interface import Envelope, StickCommand, VehicleState
 from geofence.local_fence import LocalFence
 from geofence.recovery_path import RecoveryPlanner
-from geofence.rooms import envelope_turn_radius_m, room_upper_bounds_fast_m, vertical_arrest_distance_m
+from geofence.rooms import (
+    climb_back_drift_m,
+    envelope_turn_radius_m,
+    room_upper_bounds_fast_m,
+    vertical_arrest_distance_m,
+)
 
 RECOVERED_HOLD_S = 1.0
 WIND_BEYOND_AUTHORITY_PERSIST_S = 3.0
@@ -210,6 +215,8 @@ class GeofenceUnit:
             return False
         if fence.floor_m is None or h - fence.floor_m > vroom:
             return True
+        if not env.is_multirotor:  # it circles in a gap while it climbs back: the circle drifts (an upper bound)
+            room += climb_back_drift_m(fence.floor_m + vroom - h, env.max_climb_rate_mps, w)
         return fence.best_gap(s.east_m, s.north_m)[1] > room
 
     def _margins(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> ShiftResult:

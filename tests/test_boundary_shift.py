@@ -15,6 +15,7 @@ from geofence.fence import FenceError, parse_fence
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, VehicleState
 from geofence.rooms import (
+    climb_back_drift_m,
     course_reversal_time_s,
     fixed_wing_room_from_velocity_m,
     fixed_wing_room_m,
@@ -312,3 +313,24 @@ def test_shifted_fence_vanishes_vertically():
     thin = square_fence(1000.0, ceiling_m=12.0, floor_m=10.0)
     with pytest.raises(FenceError, match="vanishes vertically"):
         check_shift_feasible(thin, MC, 0.0)
+
+
+def test_a_fixed_wing_deep_in_a_gap_needs_room_for_the_drift_of_its_climb_back():
+    """A fixed-wing circles inside a gap while it climbs back above the floor; the circle drifts with the wind.
+
+    Floor 40 m, a 400 m gap, the vehicle in its middle descending at 2 m/s. 10 m deeper means 10 m more
+    to climb back at 3 m/s: in 8 m/s wind 8 x 10 / 3 m more drift, so a floor activation that much
+    smaller; in calm air, or for a multirotor (it holds its position while it climbs), no change.
+    """
+    fr = LocalFrame(47.4, 8.5, 0.0)
+    gap = [list(fr.to_geodetic(x, y, 0.0)[:2]) for x, y in ((-200, -200), (200, -200), (200, 200), (-200, 200))]
+    lf = square_fence(1500.0, ceiling_m=600.0, floor_m=40.0, floor_gaps=[gap])
+
+    def floor_act(env, h, wind_e):
+        vn = env.cruise_speed_mps if env is FW else 0.0
+        return activation_margins(lf, 0.0, 0.0, h, 0.0, vn, -2.0, env, wind_e, 0.0).vertical_activation_m
+
+    assert floor_act(FW, 30.0, 8.0) - floor_act(FW, 20.0, 8.0) == pytest.approx(8.0 * 10.0 / FW.max_climb_rate_mps)
+    assert floor_act(FW, 30.0, 0.0) == pytest.approx(floor_act(FW, 20.0, 0.0))
+    assert floor_act(MC, 30.0, 8.0) == pytest.approx(floor_act(MC, 20.0, 8.0))
+    assert climb_back_drift_m(0.0, 3.0, 8.0) == 0.0 and climb_back_drift_m(-5.0, 3.0, 8.0) == 0.0
