@@ -45,7 +45,7 @@ from scipy.stats import beta, chi2
 
 from analysis.batch_plots import num, save_figure, truthy
 from analysis.report import RESULTS_CSV, read_results_csv
-from analysis.scoring import score_flight
+from analysis.scoring import SCORED_COLUMNS, score_flight
 from geofence.fence import parse_fence
 from geofence.geodesy import LocalFrame
 
@@ -61,17 +61,6 @@ FIGURES = {
     "campaign_excursion": "Peak excursion per family: predictive vs reactive (vs unprotected)",
     "campaign_breach_bounds": "Breach rate and its 95 % upper bound per platform",
 }
-_TRAJ_COLUMNS = (
-    "time_s",
-    "east_m",
-    "north_m",
-    "agl_m",
-    "alt_m",
-    "v_east_mps",
-    "v_north_mps",
-    "ground_speed_mps",
-    "geofence_mode",
-)
 
 
 # --------------------------------------------------------------------------- statistics
@@ -107,7 +96,7 @@ def split_flight(flight: str) -> tuple[str, str]:
     return (case, variant) if sep else (str(flight), "")
 
 
-def read_trajectory_columns(path: str | Path, names: Sequence[str] = _TRAJ_COLUMNS) -> dict[str, np.ndarray]:
+def read_trajectory_columns(path: str | Path, names: Sequence[str] = SCORED_COLUMNS) -> dict[str, np.ndarray]:
     """The named columns of a ``trajectory.csv`` (those present) as float arrays."""
     path = Path(path)
     with open(path, newline="") as fh:

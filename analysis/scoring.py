@@ -97,6 +97,20 @@ def keep_out_margin(traj: dict[str, np.ndarray], fence: LocalFence) -> np.ndarra
     return fence_margins(fence, x, traj["north_m"], h)["keep_out"]
 
 
+SCORED_COLUMNS = (
+    "time_s",
+    "east_m",
+    "north_m",
+    "agl_m",
+    "alt_m",
+    "v_east_mps",
+    "v_north_mps",
+    "ground_speed_mps",
+    "geofence_mode",
+)
+"""The trajectory columns :func:`score_flight` reads (a recorder or a trajectory.csv provides them)."""
+
+
 def score_flight(traj: dict[str, np.ndarray], fence: LocalFence) -> dict[str, float | int | bool]:
     """Breach scores of one flight (see the module docstring)."""
     return score_many([traj], fence)[0]

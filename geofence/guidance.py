@@ -56,16 +56,18 @@ FIXED_WING_ALTITUDE_GAIN_PER_S = 0.35
 COURSE_GAIN_PER_S = 0.9
 ROLL_OUT_TOLERANCE_RAD = math.radians(15.0)
 LEVEL_TOUCHDOWN_BELOW_M = 1.5
+"""Below this height AGL a multirotor landing that has (nearly) stopped over its point holds the wind-balance tilt."""
 TOUCHDOWN_MAX_GROUND_SPEED_MPS = 0.7
+"""Slower than this over the ground a multirotor touches down gently (a moving touchdown tips over); faster, a
+wind it cannot beat is carrying it away, and it keeps descending at the full rate."""
 HURRIED_SLOW_BELOW_M = 5.0
+"""A hurried landing (position source lost) descends at the full rate down to this height, then levels off
+(wind-balance tilt) and touches down at 1 m/s."""
 SLOW_DESCENT_BELOW_M = 3.0
 """A multirotor landing descends at its full rate down to this height AGL, then at touchdown speed
 (as ArduPilot's LAND mode: LAND_SPEED_HIGH down to LAND_ALT_LOW, then LAND_SPEED)."""
 TOUCHDOWN_DESCENT_MPS = 1.0
 """A multirotor's descent rate for the last metres (m/s)."""
-"""A hurried landing (position source lost) descends at the full rate down to this height, then levels off
-(wind-balance tilt) and touches down at 1 m/s."""
-"""A multirotor descends to land only while slower than this over the ground (a moving touchdown tips over)."""
 
 
 class Route(Protocol):
@@ -314,15 +316,18 @@ class LandingGuidance:
         if self.velocity:
             self.velocity.reset()
 
+    def touchdown_rate_mps(self, ground_speed_mps: float) -> float:
+        """A multirotor's descent rate below :data:`SLOW_DESCENT_BELOW_M` (m/s): touchdown speed, or the full
+        rate while a wind it cannot beat carries it faster than :data:`TOUCHDOWN_MAX_GROUND_SPEED_MPS`."""
+        full = self.env.max_descent_rate_mps
+        return full if ground_speed_mps > TOUCHDOWN_MAX_GROUND_SPEED_MPS else min(TOUCHDOWN_DESCENT_MPS, full)
+
     def time_to_touchdown_s(self, agl_m: float, ground_speed_mps: float = 0.0) -> float:
         """How long a multirotor's descent from ``agl_m`` over the point takes (s): the full rate down to
-        :data:`SLOW_DESCENT_BELOW_M`, touchdown speed below it (the full rate while moving faster than
-        :data:`TOUCHDOWN_MAX_GROUND_SPEED_MPS`)."""
-        env = self.env
-        moving = ground_speed_mps > TOUCHDOWN_MAX_GROUND_SPEED_MPS
-        slow = env.max_descent_rate_mps if moving else min(TOUCHDOWN_DESCENT_MPS, env.max_descent_rate_mps)
+        :data:`SLOW_DESCENT_BELOW_M`, :meth:`touchdown_rate_mps` below it."""
         high = max(agl_m - SLOW_DESCENT_BELOW_M, 0.0)
-        return high / max(env.max_descent_rate_mps, 1e-3) + (max(agl_m, 0.0) - high) / max(slow, 1e-3)
+        slow = self.touchdown_rate_mps(ground_speed_mps)
+        return high / max(self.env.max_descent_rate_mps, 1e-3) + (max(agl_m, 0.0) - high) / max(slow, 1e-3)
 
     def over_point(self, s: VehicleState) -> bool:
         pe, pn = self.point
@@ -359,8 +364,7 @@ class LandingGuidance:
                 # vehicle never stops over the point, and every second in the air drifts it)
                 climb = -env.max_descent_rate_mps
             elif over:  # the last metres at touchdown speed, unless a wind it cannot beat is carrying it away
-                moving = s.ground_speed_mps > TOUCHDOWN_MAX_GROUND_SPEED_MPS
-                climb = -(env.max_descent_rate_mps if moving else min(TOUCHDOWN_DESCENT_MPS, env.max_descent_rate_mps))
+                climb = -self.touchdown_rate_mps(s.ground_speed_mps)
             else:
                 climb = altitude_to_climb_rate(self.cruise_h, h, env, ALTITUDE_GAIN_PER_S)
             return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=climb_rate_to_stick(climb, env))

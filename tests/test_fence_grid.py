@@ -12,32 +12,15 @@ import random
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from aircraft.profile import load_profile
 from geofence.boundary_shift import activation_margins
 from geofence.fence import Fence, KeepOutCircle
 from geofence.fence_grid import SMALL_FENCE_ELEMENTS
 from geofence.geodesy import LocalFrame
-from geofence.interface import Envelope, PlatformKind
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
-FW = Envelope(
-    PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0, 0.6, 5.0, 1.1
-)
-MC = Envelope(
-    PlatformKind.MULTIROTOR,
-    5.3,
-    10.3,
-    0.0,
-    math.radians(30),
-    math.radians(30),
-    math.radians(90),
-    3.0,
-    2.0,
-    6.0,
-    4.2,
-    0.15,
-    drag_linear_per_s=0.435,
-    drag_quadratic_per_m=0.011,
-)
+FW = load_profile("Tern").envelope
+MC = load_profile("F450RD").envelope
 
 
 def _ll(e, n):

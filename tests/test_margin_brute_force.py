@@ -20,11 +20,11 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from aircraft.profile import load_profile
 from geofence.boundary_shift import activation_margins
 from geofence.config import parse_geofence
 from geofence.dynamics import G_MPS2, drag_coefficients, wind_push_mps2
 from geofence.geodesy import LocalFrame
-from geofence.interface import Envelope, PlatformKind
 
 FRAME = LocalFrame(10.0, 20.0, 0.0)
 HALF = 5000.0
@@ -38,25 +38,8 @@ FENCE = parse_geofence(
         }
     }
 ).fence.to_local(FRAME)
-FW = Envelope(
-    PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0, 0.6, 5.0, 1.1
-)
-MC = Envelope(
-    PlatformKind.MULTIROTOR,
-    5.3,
-    10.3,
-    0.0,
-    math.radians(30),
-    math.radians(30),
-    math.radians(90),
-    3.0,
-    2.0,
-    6.0,
-    4.2,
-    0.15,
-    drag_linear_per_s=0.435,
-    drag_quadratic_per_m=0.011,
-)
+FW = load_profile("Tern").envelope
+MC = load_profile("F450RD").envelope
 
 
 def simulate_fixed_wing(e, n, v_air, psi, we, wn, t_react, turn_sign, turn_angle, dt=0.002):

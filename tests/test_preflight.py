@@ -5,32 +5,15 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from aircraft.profile import load_profile
 from geofence.config import parse_geofence
 from geofence.dynamics import return_not_assured
 from geofence.geodesy import LocalFrame
-from geofence.interface import Envelope, PlatformKind
 from geofence.preflight import PlannedWaypoint, RoutePart, check_route
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
-MC = Envelope(
-    PlatformKind.MULTIROTOR,
-    5.3,
-    10.3,
-    0.0,
-    math.radians(30),
-    math.radians(30),
-    math.radians(90),
-    3.0,
-    2.0,
-    6.0,
-    4.2,
-    0.15,
-    drag_linear_per_s=0.435,
-    drag_quadratic_per_m=0.011,
-)
-FW = Envelope(
-    PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0, 0.6, 5.0, 1.1
-)
+MC = load_profile("F450RD").envelope
+FW = load_profile("Tern").envelope
 
 
 def fence(half=300.0, ceiling=60.0, **extra):

@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any, Callable, NamedTuple
 
 from aircraft.factory import build_platform
-from analysis.scoring import score_flight
+from analysis.scoring import SCORED_COLUMNS, score_flight
 from geofence.config import GeofenceConfig, StateSource
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, VehicleState
@@ -179,20 +179,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     }
     if unit is not None and fence is not None:
         summary["preflight"] = findings_summary(preflight_findings(scenario))
-        traj = {
-            name: recorder.column(name)
-            for name in (
-                "time_s",
-                "east_m",
-                "north_m",
-                "agl_m",
-                "alt_m",
-                "v_east_mps",
-                "v_north_mps",
-                "ground_speed_mps",
-                "geofence_mode",
-            )
-        }
+        traj = {name: recorder.column(name) for name in SCORED_COLUMNS}
         summary.update(score_flight(traj, fence))
         summary["activations"] = unit.activations
         summary["final_mode"] = unit.mode.name
