@@ -8,6 +8,12 @@ It does so without editing the original model: the model folder is mirrored
 into a temporary root with symlinks, and only the top-level XML is rewritten
 with the extra ``<system file=...>`` lines.
 
+A model of ours may also be *derived* from another one instead of copying it:
+``models/NAME/NAME.derive.xml`` names a ``base`` model and lists elements to
+append under paths of the base's XML (:func:`derive_model_xml`). The mirror
+then holds the base's folder with the derived top-level XML, so the file that
+ships is exactly the difference, with its sources beside it.
+
 Properties are read and written through cached property nodes (the fastest
 access path measured for the wheel; see ``shared/README.md``). Units: JSBSim
 speaks feet; this class converts at the edge, and everything it returns is SI.
@@ -45,31 +51,90 @@ class UnknownAircraftError(ConfigError):
     """No JSBSim model of that name ships in the wheel or in ``aircraft/models``."""
 
 
+DERIVE_SUFFIX = ".derive.xml"
+"""A model folder of ours holding ``NAME.derive.xml`` instead of ``NAME.xml`` derives from a base model."""
+
+
+def _is_model(folder: Path) -> bool:
+    return (folder / f"{folder.name}.xml").is_file() or (folder / f"{folder.name}{DERIVE_SUFFIX}").is_file()
+
+
 def available_models() -> list[str]:
     """Names of every loadable aircraft model, our own first."""
-    own = sorted(p.name for p in OWN_MODELS.glob("*") if (p / f"{p.name}.xml").is_file())
+    own = sorted(p.name for p in OWN_MODELS.glob("*") if _is_model(p))
     wheel = sorted(p.name for p in (JSBSIM_ROOT / "aircraft").glob("*") if (p / f"{p.name}.xml").is_file())
     return own + [m for m in wheel if m not in own]
 
 
 def model_folder(name: str) -> Path:
     """The folder holding model ``name`` (ours shadow the wheel's)."""
-    for root in (OWN_MODELS, JSBSIM_ROOT / "aircraft"):
-        folder = root / name
-        if (folder / f"{name}.xml").is_file():
-            return folder
+    if _is_model(OWN_MODELS / name):
+        return OWN_MODELS / name
+    folder = JSBSIM_ROOT / "aircraft" / name
+    if (folder / f"{name}.xml").is_file():
+        return folder
     raise UnknownAircraftError(f"unknown aircraft model {name!r}; known: {', '.join(available_models())}")
+
+
+def derive_model_xml(derive_file: Path) -> tuple[str, ET.ElementTree]:
+    """The base model's name and its XML tree with the derivation in ``derive_file`` applied.
+
+    The file's root is ``<derive base="NAME" name="...">``; each ``<append to="PATH">``
+    child (an ElementTree path below the base's ``<fdm_config>``, which must match exactly
+    one element) has its children appended there, and a ``<fileheader>`` child replaces
+    the base's. ``name`` becomes the ``<fdm_config name=...>``.
+    """
+    spec = ET.parse(derive_file).getroot()
+    base = spec.get("base")
+    if spec.tag != "derive" or not base:
+        raise ConfigError(f"{derive_file}: root must be <derive base=\"MODEL\">")
+    base_folder = model_folder(base)
+    if (base_folder / f"{base}{DERIVE_SUFFIX}").is_file():
+        raise ConfigError(f"{derive_file}: base {base!r} is itself derived (one level only)")
+    tree = ET.parse(base_folder / f"{base}.xml")
+    top = tree.getroot()
+    if spec.get("name"):
+        top.set("name", spec.get("name"))
+    for child in spec:
+        if child.tag == "fileheader":
+            old = top.find("fileheader")
+            index = list(top).index(old) if old is not None else 0
+            if old is not None:
+                top.remove(old)
+            top.insert(index, child)
+        elif child.tag == "append":
+            found = top.findall(child.get("to", ""))
+            if len(found) != 1:
+                raise ConfigError(
+                    f"{derive_file}: append to={child.get('to')!r}: matches {len(found)} elements of {base!r}, needs 1"
+                )
+            found[0].extend(list(child))
+        else:
+            raise ConfigError(f"{derive_file}: unknown element <{child.tag}> (expected fileheader or append)")
+    return base, tree
 
 
 def _mirror_with_systems(name: str, extra_systems: list[Path], root: Path) -> None:
     """Mirror model ``name`` into ``root/aircraft/name`` with extra system files appended."""
     source = model_folder(name)
+    derive_file = source / f"{name}{DERIVE_SUFFIX}"
+    if derive_file.is_file():
+        base, tree = derive_model_xml(derive_file)
+        folders = [model_folder(base), source]
+        skip = {f"{base}.xml", derive_file.name}
+    else:
+        tree = ET.parse(source / f"{name}.xml")
+        folders = [source]
+        skip = {f"{name}.xml"}
     target = root / "aircraft" / name
     target.mkdir(parents=True)
-    for entry in source.iterdir():
-        if entry.name != f"{name}.xml":
-            os.symlink(entry, target / entry.name)
-    tree = ET.parse(source / f"{name}.xml")
+    for folder in folders:  # the derived model's own files (engines, notes) shadow the base's
+        for entry in folder.iterdir():
+            if entry.name not in skip:
+                link = target / entry.name
+                if link.is_symlink():
+                    link.unlink()
+                os.symlink(entry, link)
     top = tree.getroot()
     for system in extra_systems:
         ET.SubElement(top, "system", {"file": str(Path(system).resolve())})

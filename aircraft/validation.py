@@ -185,7 +185,8 @@ PLATFORM_NOTES: dict[str, str] = {
     "Tern": "Our 2.5 kg electric trainer (aircraft/models/Tern): bands from its design figures, hobby-servo and motor "
     "ratings, and a glide bound from the Aerosonde's parasitic drag plus fixed gear.",
     "J3Cub": "JSBSim's wheel J3Cub; speeds are the FC's commanded limits (profile), compared with the J-3C-65's.",
-    "c172x": "JSBSim's wheel Cessna 172; speeds are the FC's commanded limits (profile), compared with the 172R's.",
+    "c172x": "JSBSim's wheel Cessna 172 plus the drag of its idling or windmilling propeller (aircraft/models/C172W; "
+    "without it the c172x glides at 14.4:1); speeds are the FC's commanded limits (profile), compared with the 172R's.",
 }
 
 
@@ -620,11 +621,15 @@ def _measure_fixed_wing(p: Platform, m: Measurement) -> None:
 
 # -- public API --------------------------------------------------------------------------------
 def measure_platform(profile: PlatformProfile | str) -> Measurement:
-    """Build the platform for ``profile`` (or a model name) and fly its standard manoeuvres."""
+    """Build the platform for ``profile`` (or a profile's name) and fly its standard manoeuvres.
+
+    The measurement carries the profile's name when given one (the name scenarios fly), else the
+    profile's JSBSim model.
+    """
     prof = load_profile(profile) if isinstance(profile, str) else profile
     t0 = time.perf_counter()
     p = build_platform(prof)
-    m = Measurement(platform=prof.model, kind=prof.kind)
+    m = Measurement(platform=profile if isinstance(profile, str) else prof.model, kind=prof.kind)
     if prof.kind is PlatformKind.MULTIROTOR:
         _measure_multirotor(p, m)
     else:
