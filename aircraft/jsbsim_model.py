@@ -76,8 +76,8 @@ def model_folder(name: str) -> Path:
     raise UnknownAircraftError(f"unknown aircraft model {name!r}; known: {', '.join(available_models())}")
 
 
-def derive_model_xml(derive_file: Path) -> tuple[str, ET.ElementTree]:
-    """The base model's name and its XML tree with the derivation in ``derive_file`` applied.
+def derive_model_xml(derive_file: Path) -> tuple[str, ET.Element]:
+    """The base model's name and its top-level XML element with the derivation in ``derive_file`` applied.
 
     The file's root is ``<derive base="NAME" name="...">``; each ``<append to="PATH">``
     child (an ElementTree path below the base's ``<fdm_config>``, which must match exactly
@@ -87,14 +87,14 @@ def derive_model_xml(derive_file: Path) -> tuple[str, ET.ElementTree]:
     spec = ET.parse(derive_file).getroot()
     base = spec.get("base")
     if spec.tag != "derive" or not base:
-        raise ConfigError(f"{derive_file}: root must be <derive base=\"MODEL\">")
+        raise ConfigError(f'{derive_file}: root must be <derive base="MODEL">')
     base_folder = model_folder(base)
     if (base_folder / f"{base}{DERIVE_SUFFIX}").is_file():
         raise ConfigError(f"{derive_file}: base {base!r} is itself derived (one level only)")
-    tree = ET.parse(base_folder / f"{base}.xml")
-    top = tree.getroot()
-    if spec.get("name"):
-        top.set("name", spec.get("name"))
+    top = ET.parse(base_folder / f"{base}.xml").getroot()
+    new_name = spec.get("name")
+    if new_name:
+        top.set("name", new_name)
     for child in spec:
         if child.tag == "fileheader":
             old = top.find("fileheader")
@@ -111,7 +111,7 @@ def derive_model_xml(derive_file: Path) -> tuple[str, ET.ElementTree]:
             found[0].extend(list(child))
         else:
             raise ConfigError(f"{derive_file}: unknown element <{child.tag}> (expected fileheader or append)")
-    return base, tree
+    return base, top
 
 
 def _mirror_with_systems(name: str, extra_systems: list[Path], root: Path) -> None:
@@ -119,11 +119,11 @@ def _mirror_with_systems(name: str, extra_systems: list[Path], root: Path) -> No
     source = model_folder(name)
     derive_file = source / f"{name}{DERIVE_SUFFIX}"
     if derive_file.is_file():
-        base, tree = derive_model_xml(derive_file)
+        base, top = derive_model_xml(derive_file)
         folders = [model_folder(base), source]
         skip = {f"{base}.xml", derive_file.name}
     else:
-        tree = ET.parse(source / f"{name}.xml")
+        top = ET.parse(source / f"{name}.xml").getroot()
         folders = [source]
         skip = {f"{name}.xml"}
     target = root / "aircraft" / name
@@ -135,10 +135,9 @@ def _mirror_with_systems(name: str, extra_systems: list[Path], root: Path) -> No
                 if link.is_symlink():
                     link.unlink()
                 os.symlink(entry, link)
-    top = tree.getroot()
     for system in extra_systems:
         ET.SubElement(top, "system", {"file": str(Path(system).resolve())})
-    tree.write(target / f"{name}.xml", xml_declaration=True, encoding="utf-8")
+    ET.ElementTree(top).write(target / f"{name}.xml", xml_declaration=True, encoding="utf-8")
 
 
 @contextlib.contextmanager

@@ -18,10 +18,9 @@ from geofence.validation import ConfigError
 def test_c172w_is_the_wheel_c172x_plus_one_drag_term():
     folder = model_folder("C172W")
     assert "C172W" in available_models()
-    base, tree = derive_model_xml(folder / "C172W.derive.xml")
+    base, derived = derive_model_xml(folder / "C172W.derive.xml")
     assert base == "c172x"
     wheel = ET.parse(model_folder("c172x") / "c172x.xml").getroot()
-    derived = tree.getroot()
     names = lambda root: [f.get("name") for f in root.find("aerodynamics/axis[@name='DRAG']").iter("function")]  # noqa: E731
     assert names(derived) == names(wheel) + ["aero/coefficient/CDprop-windmill"]
     assert "geofence-testbed" in derived.find("fileheader/author").text
