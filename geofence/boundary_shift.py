@@ -175,6 +175,70 @@ def _edge_distances(edges: tuple, e: float, n: float) -> tuple[list, float]:
     return out, min_d
 
 
+PRUNE_FROM_EDGES = 12
+"""From this many threatened edges on, a fixed-wing's binding edge is found by :func:`_binding_edge_pruned`
+(bounded excursions, nearest first); below it the plain scan is cheaper. Both give the same answer."""
+
+
+def _binding_edge_no_turn(near: list) -> tuple[float, tuple | None]:
+    """``(activation, (room, feature, index, edge, nx, ny, d, v_n))`` of the edge with the smallest
+    ``d - room`` (the first in ``near``'s order on a tie): a multirotor's room is the per-edge ``base``."""
+    worst = math.inf
+    wk = None
+    for d, nx, ny, feat, idx, j, v_n, _w_n, base, _psi0 in near:
+        act = d - base
+        if act < worst:
+            worst, wk = act, (base, feat, idx, j, nx, ny, d, v_n)
+    return worst, wk
+
+
+def _binding_edge_scan(
+    near: list, radius: float, inv_omega: float, v_turn: float, s: float, delta: float
+) -> tuple[float, tuple | None]:
+    """The fixed-wing's :func:`_binding_edge_no_turn`: room = ``base`` + the trochoid excursion of the turn
+    ``s``, ``delta`` against each edge (the reference form: every edge scored)."""
+    worst = math.inf
+    wk = None
+    for d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 in near:
+        room = base + trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
+        act = d - room
+        if act < worst:
+            worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)
+    return worst, wk
+
+
+def _binding_edge_pruned(
+    near: list, radius: float, inv_omega: float, v_turn: float, s: float, delta: float
+) -> tuple[float, tuple | None]:
+    """:func:`_binding_edge_scan`'s answer (the same edge, bit for bit) scoring only the edges that can bind.
+
+    The excursion of the turn is at most ``R·(1 - s·sin psi0) + max(w_n, 0)·delta/omega`` (each term of
+    ``x(theta)`` bounded over ``theta in [0, delta]``), so an edge's activation is at least
+    ``d - base - that bound``. Edges are scored in order of that lower bound until it exceeds the worst
+    activation found; a tie keeps the edge that comes first in ``near`` (as the scan does).
+    """
+    bounded = []
+    for pos, item in enumerate(near):
+        d, w_n, base, psi0 = item[0], item[7], item[8], item[9]
+        drift = w_n * delta * inv_omega if w_n > 0.0 else 0.0
+        ub = radius * (1.0 - s * math.sin(psi0)) + drift
+        ub += 1e-6 * (1.0 + radius + drift)  # covers the excursion's round-off
+        bounded.append((d - base - ub, pos))
+    bounded.sort()
+    worst = math.inf
+    wk = None
+    wpos = -1
+    for lb, pos in bounded:
+        if lb > worst:
+            break
+        d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 = near[pos]
+        room = base + trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
+        act = d - room
+        if act < worst or (act == worst and pos < wpos):
+            worst, wk, wpos = act, (room, feat, idx, j, nx, ny, d, v_n), pos
+    return worst, wk
+
+
 def activation_margins(
     fence: LocalFence,
     e: float,
@@ -317,13 +381,12 @@ def activation_margins(
             near.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0))
         best = None
         for s, delta in directions:
-            worst = math.inf
-            wk = None
-            for d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 in near:
-                room = base + trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta) if fixed_wing else base
-                act = d - room
-                if act < worst:
-                    worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)
+            if not fixed_wing:
+                worst, wk = _binding_edge_no_turn(near)
+            elif len(near) < PRUNE_FROM_EDGES:
+                worst, wk = _binding_edge_scan(near, radius, inv_omega, v_turn, s, delta)
+            else:
+                worst, wk = _binding_edge_pruned(near, radius, inv_omega, v_turn, s, delta)
             if best is None or worst > best[0]:
                 best = (worst, s, wk, delta)
         return best
