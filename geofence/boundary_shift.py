@@ -258,6 +258,7 @@ def activation_margins(
     wind_extra_mps: float = 0.0,
     rollout_target_en: tuple[float, float] | None = None,
     g: float = G_MPS2,
+    prune_from_edges: int = PRUNE_FROM_EDGES,
 ) -> ShiftResult:
     """Required shifts and activation margins for a state (see :class:`ShiftResult`).
 
@@ -271,6 +272,8 @@ def activation_margins(
     towards it for the whole manoeuvre (``w_n + extra``, ``|W| + extra``).
     ``rollout_target_en``: where the fixed-wing's recovery turn rolls out
     towards (the first point of its planned route; default the recovery point).
+    ``prune_from_edges``: from this many threatened edges on, a fixed-wing's binding edge is found by the
+    pruned search (the same answer; a huge value scores every edge, the reference).
 
     Floor gaps: below the floor inside a gap, leaving the gap sideways is a
     breach, so the gap's edges are scored like keep-in edges (lateral room).
@@ -383,7 +386,7 @@ def activation_margins(
         for s, delta in directions:
             if not fixed_wing:
                 worst, wk = _binding_edge_no_turn(near)
-            elif len(near) < PRUNE_FROM_EDGES:
+            elif len(near) < prune_from_edges:
                 worst, wk = _binding_edge_scan(near, radius, inv_omega, v_turn, s, delta)
             else:
                 worst, wk = _binding_edge_pruned(near, radius, inv_omega, v_turn, s, delta)

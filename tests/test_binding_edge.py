@@ -5,14 +5,13 @@ activation and stops early; :func:`~geofence.boundary_shift._binding_edge_scan` 
 reference). Random threatened-edge lists (distances, normals, winds, reaction rooms, headings), turns of
 either direction and any angle up to a full circle, with duplicated edges so that ties occur: the same
 activation and the same edge (room, feature, index, normal, distance, closing speed) must come out.
-Also, whole margins: :func:`activation_margins` on large random fences equals itself with the pruning
-threshold raised above every list length (the scan everywhere).
+Also, whole margins: :func:`activation_margins` on a large wavy fence equals itself with
+``prune_from_edges`` above every list length (the scan everywhere).
 """
 
 import math
 
-import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import geofence.boundary_shift as bs
@@ -20,7 +19,10 @@ from geofence.fence import Fence
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind
 
-finite = dict(allow_nan=False, allow_infinity=False)
+
+def fl(lo: float, hi: float, exclude_max: bool = False) -> st.SearchStrategy[float]:
+    """Finite floats in [lo, hi] (or [lo, hi))."""
+    return st.floats(lo, hi, allow_nan=False, allow_infinity=False, exclude_max=exclude_max)
 
 
 @st.composite
@@ -28,18 +30,18 @@ def near_lists(draw):
     n = draw(st.integers(1, 40))
     items = []
     for k in range(n):
-        a = draw(st.floats(-math.pi, math.pi, **finite))
+        a = draw(fl(-math.pi, math.pi))
         item = (
-            draw(st.floats(0.0, 400.0, **finite)),  # d
+            draw(fl(0.0, 400.0)),  # d
             math.cos(a),
             math.sin(a),
             "keep_in",
             0,
             k,
-            draw(st.floats(-40.0, 40.0, **finite)),  # v_n
-            draw(st.floats(-20.0, 20.0, **finite)),  # w_n
-            draw(st.floats(0.0, 200.0, **finite)),  # base
-            draw(st.floats(-math.pi, math.pi, exclude_max=True, **finite)),  # psi0
+            draw(fl(-40.0, 40.0)),  # v_n
+            draw(fl(-20.0, 20.0)),  # w_n
+            draw(fl(0.0, 200.0)),  # base
+            draw(fl(-math.pi, math.pi, exclude_max=True)),  # psi0
         )
         items.append(item)
         if draw(st.booleans()) and draw(st.booleans()):
@@ -50,10 +52,10 @@ def near_lists(draw):
 @settings(max_examples=400, deadline=None)
 @given(
     near=near_lists(),
-    v=st.floats(5.0, 60.0, **finite),
-    bank=st.floats(0.1, 1.2, **finite),
+    v=fl(5.0, 60.0),
+    bank=fl(0.1, 1.2),
     s=st.sampled_from([1.0, -1.0]),
-    delta=st.floats(0.0, 2.0 * math.pi, **finite),
+    delta=fl(0.0, 2.0 * math.pi),
 )
 def test_pruned_equals_scan(near, v, bank, s, delta):
     radius, inv_omega = bs.turn_constants(v, bank)
@@ -70,7 +72,11 @@ FW = Envelope(
 
 def _wavy_fence(n_vertices: int):
     """A wavy keep-in about 1.2 km across (finely sampled: many edges within a fixed-wing's reach) and one keep-out."""
-    ll = lambda e, n: tuple(FRAME.to_geodetic(e, n, FRAME.h0_m)[:2])  # noqa: E731
+
+    def ll(e: float, n: float) -> tuple[float, float]:
+        lat, lon, _ = FRAME.to_geodetic(e, n, FRAME.h0_m)
+        return lat, lon
+
     keep_in = []
     for i in range(n_vertices):
         a = 2.0 * math.pi * i / n_vertices
@@ -83,32 +89,20 @@ def _wavy_fence(n_vertices: int):
 WAVY = _wavy_fence(1500)
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=150, deadline=None)
 @given(
-    a=st.floats(0.0, 2.0 * math.pi, **finite),
-    inset=st.floats(-5.0, 300.0, **finite),
-    heading=st.floats(-math.pi, math.pi, **finite),
-    speed=st.floats(10.0, 30.0, **finite),
-    bank=st.floats(-0.5, 0.5, **finite),
-    wind=st.tuples(st.floats(-8.0, 8.0, **finite), st.floats(-8.0, 8.0, **finite)),
+    a=fl(0.0, 2.0 * math.pi),
+    inset=fl(-5.0, 300.0),
+    heading=fl(-math.pi, math.pi),
+    speed=fl(10.0, 30.0),
+    bank=fl(-0.5, 0.5),
+    wind=st.tuples(fl(-8.0, 8.0), fl(-8.0, 8.0)),
 )
-def test_margins_with_pruning_equal_the_scan(monkeypatch_free, a, inset, heading, speed, bank, wind):
+def test_margins_with_pruning_equal_the_scan(a, inset, heading, speed, bank, wind):
     r = 600.0 * (1.0 + 0.15 * math.sin(5.0 * a) + 0.04 * math.sin(41.0 * a)) - inset
     e, n = r * math.cos(a), r * math.sin(a)
     args = (WAVY, e, n, 40.0, speed * math.cos(heading), speed * math.sin(heading), 0.5, FW, wind[0], wind[1])
     kw = dict(h_uncertainty_m=3.0, v_uncertainty_m=1.0, latency_s=0.05, bank_rad=bank, wind_extra_mps=1.5)
     pruned = bs.activation_margins(*args, **kw)
-    monkeypatch_free.setattr(bs, "PRUNE_FROM_EDGES", 10**9)
-    try:
-        scanned = bs.activation_margins(*args, **kw)
-    finally:
-        monkeypatch_free.undo()
+    scanned = bs.activation_margins(*args, **kw, prune_from_edges=10**9)
     assert repr(pruned) == repr(scanned)  # every field, bit for bit (repr round-trips floats)
-
-
-@pytest.fixture(scope="module")
-def monkeypatch_free():
-    """A monkeypatch usable with hypothesis (module scope: undone explicitly after each example)."""
-    mp = pytest.MonkeyPatch()
-    yield mp
-    mp.undo()
