@@ -175,6 +175,70 @@ def _edge_distances(edges: tuple, e: float, n: float) -> tuple[list, float]:
     return out, min_d
 
 
+PRUNE_FROM_EDGES = 12
+"""From this many threatened edges on, a fixed-wing's binding edge is found by :func:`_binding_edge_pruned`
+(bounded excursions, nearest first); below it the plain scan is cheaper. Both give the same answer."""
+
+
+def _binding_edge_no_turn(near: list) -> tuple[float, tuple | None]:
+    """``(activation, (room, feature, index, edge, nx, ny, d, v_n))`` of the edge with the smallest
+    ``d - room`` (the first in ``near``'s order on a tie): a multirotor's room is the per-edge ``base``."""
+    worst = math.inf
+    wk = None
+    for d, nx, ny, feat, idx, j, v_n, _w_n, base, _psi0 in near:
+        act = d - base
+        if act < worst:
+            worst, wk = act, (base, feat, idx, j, nx, ny, d, v_n)
+    return worst, wk
+
+
+def _binding_edge_scan(
+    near: list, radius: float, inv_omega: float, v_turn: float, s: float, delta: float
+) -> tuple[float, tuple | None]:
+    """The fixed-wing's :func:`_binding_edge_no_turn`: room = ``base`` + the trochoid excursion of the turn
+    ``s``, ``delta`` against each edge (the reference form: every edge scored)."""
+    worst = math.inf
+    wk = None
+    for d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 in near:
+        room = base + trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
+        act = d - room
+        if act < worst:
+            worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)
+    return worst, wk
+
+
+def _binding_edge_pruned(
+    near: list, radius: float, inv_omega: float, v_turn: float, s: float, delta: float
+) -> tuple[float, tuple | None]:
+    """:func:`_binding_edge_scan`'s answer (the same edge, bit for bit) scoring only the edges that can bind.
+
+    The excursion of the turn is at most ``R·(1 - s·sin psi0) + max(w_n, 0)·delta/omega`` (each term of
+    ``x(theta)`` bounded over ``theta in [0, delta]``), so an edge's activation is at least
+    ``d - base - that bound``. Edges are scored in order of that lower bound until it exceeds the worst
+    activation found; a tie keeps the edge that comes first in ``near`` (as the scan does).
+    """
+    bounded = []
+    for pos, item in enumerate(near):
+        d, w_n, base, psi0 = item[0], item[7], item[8], item[9]
+        drift = w_n * delta * inv_omega if w_n > 0.0 else 0.0
+        ub = radius * (1.0 - s * math.sin(psi0)) + drift
+        ub += 1e-6 * (1.0 + radius + drift)  # covers the excursion's round-off
+        bounded.append((d - base - ub, pos))
+    bounded.sort()
+    worst = math.inf
+    wk = None
+    wpos = -1
+    for lb, pos in bounded:
+        if lb > worst:
+            break
+        d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 = near[pos]
+        room = base + trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
+        act = d - room
+        if act < worst or (act == worst and pos < wpos):
+            worst, wk, wpos = act, (room, feat, idx, j, nx, ny, d, v_n), pos
+    return worst, wk
+
+
 def activation_margins(
     fence: LocalFence,
     e: float,
@@ -194,6 +258,7 @@ def activation_margins(
     wind_extra_mps: float = 0.0,
     rollout_target_en: tuple[float, float] | None = None,
     g: float = G_MPS2,
+    prune_from_edges: int = PRUNE_FROM_EDGES,
 ) -> ShiftResult:
     """Required shifts and activation margins for a state (see :class:`ShiftResult`).
 
@@ -207,6 +272,8 @@ def activation_margins(
     towards it for the whole manoeuvre (``w_n + extra``, ``|W| + extra``).
     ``rollout_target_en``: where the fixed-wing's recovery turn rolls out
     towards (the first point of its planned route; default the recovery point).
+    ``prune_from_edges``: from this many threatened edges on, a fixed-wing's binding edge is found by the
+    pruned search (the same answer; a huge value scores every edge, the reference).
 
     Floor gaps: below the floor inside a gap, leaving the gap sideways is a
     breach, so the gap's edges are scored like keep-in edges (lateral room).
@@ -317,13 +384,12 @@ def activation_margins(
             near.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0))
         best = None
         for s, delta in directions:
-            worst = math.inf
-            wk = None
-            for d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 in near:
-                room = base + trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta) if fixed_wing else base
-                act = d - room
-                if act < worst:
-                    worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)
+            if not fixed_wing:
+                worst, wk = _binding_edge_no_turn(near)
+            elif len(near) < prune_from_edges:
+                worst, wk = _binding_edge_scan(near, radius, inv_omega, v_turn, s, delta)
+            else:
+                worst, wk = _binding_edge_pruned(near, radius, inv_omega, v_turn, s, delta)
             if best is None or worst > best[0]:
                 best = (worst, s, wk, delta)
         return best
@@ -366,27 +432,28 @@ def activation_margins(
         vttb = f_m / -vu
     else:
         vttb = math.inf
+    # positional (a keyword call costs a microsecond per step); the fields in ShiftResult's order
     return ShiftResult(
-        activation_margin_m=min(lat_act, v_act),
-        lateral_margin_m=lat_margin,
-        lateral_shift_m=room,
-        lateral_activation_m=lat_act,
-        feature=feat,
-        feature_index=idx,
-        edge=j,
-        normal_e=nx,
-        normal_n=ny,
-        edge_distance_m=d_edge,
-        closing_speed_mps=v_n,
-        time_to_breach_s=ttb,
-        turn_sign=int(s_best),
-        turn_angle_rad=turn_angle,
-        ceiling_margin_m=c_m,
-        ceiling_shift_m=c_s,
-        floor_margin_m=f_m,
-        floor_shift_m=f_s,
-        vertical_activation_m=v_act,
-        vertical_time_to_breach_s=vttb,
+        v_act if v_act < lat_act else lat_act,  # activation_margin_m: min(lat_act, v_act), exactly
+        lat_margin,  # lateral_margin_m
+        room,  # lateral_shift_m
+        lat_act,  # lateral_activation_m
+        feat,  # feature
+        idx,  # feature_index
+        j,  # edge
+        nx,  # normal_e
+        ny,  # normal_n
+        d_edge,  # edge_distance_m
+        v_n,  # closing_speed_mps
+        ttb,  # time_to_breach_s
+        int(s_best),  # turn_sign
+        turn_angle,  # turn_angle_rad
+        c_m,  # ceiling_margin_m
+        c_s,  # ceiling_shift_m
+        f_m,  # floor_margin_m
+        f_s,  # floor_shift_m
+        v_act,  # vertical_activation_m
+        vttb,  # vertical_time_to_breach_s
     )
 
 

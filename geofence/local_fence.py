@@ -110,6 +110,8 @@ class LocalFence:
         "_gap_edges",
         "_grid",
         "_use_index",
+        "_memo_en",
+        "_memo_margin_m",
     )
 
     def __init__(self, fence: Fence, frame: LocalFrame, *, index: bool | None = None) -> None:
@@ -119,6 +121,8 @@ class LocalFence:
         self.fence = fence
         self.frame = frame
         self._grid: FenceGrid | None = None
+        self._memo_en: tuple[float, float] | None = None
+        self._memo_margin_m = math.nan
         h0 = frame.h0_m
 
         def proj(poly: PolygonLL) -> PolygonIndex:
@@ -176,13 +180,20 @@ class LocalFence:
 
     # ---- scalar margins (per-step)
     def lateral_margin_m(self, e: float, n: float) -> float:
-        """Lateral margin in m: + inside the allowed area, - breached (keep-in or a keep-out)."""
+        """Lateral margin in m: + inside the allowed area, - breached (keep-in or a keep-out).
+
+        A step asks it several times at the same estimate (the unit's skip shortcut, its margins, the
+        recovery route's projection and carrot): the last answer is remembered (a pure function of (e, n)).
+        """
+        if self._memo_en == (e, n):
+            return self._memo_margin_m
         grid = self._grid if self._grid is not None else self.grid()
-        if grid is not None:
-            m = grid.clearly_allowed(e, n)
-            if m is not None:
-                return m
-        return self.lateral_margin_scan_m(e, n)
+        m = grid.clearly_allowed(e, n) if grid is not None else None
+        if m is None:
+            m = self.lateral_margin_scan_m(e, n)
+        self._memo_en = (e, n)
+        self._memo_margin_m = m
+        return m
 
     def lateral_margin_exceeds(self, e: float, n: float, m: float) -> bool:
         """``lateral_margin_m(e, n) > m``, answered from the index's lower bound when it suffices (far from
