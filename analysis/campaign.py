@@ -24,6 +24,13 @@ Definitions (per flight; see :func:`flight_outcome`):
 * **breach**: any of the four. Failed flights (an error, or not completed)
   are counted apart and never as breaches or as clean flights.
 
+Conditions (:func:`condition`): **nominal** (the wind within the platform's authority and no GPS
+fault: the cases the containment figure is for), **GPS fault** (the position source lost or out:
+dead reckoning drifts with the wind estimate's error) and **beyond authority** (the case's mean wind
+plus one turbulence sigma at the start height is more than the platform can fly back against, as
+the generator judged it before any flight: ``beyond_authority`` in the manifest). Every breach is
+listed whatever its condition; the headline rate is the nominal one.
+
 Rates: breaches / flights with a one-sided exact (Clopper-Pearson) 95 % upper
 bound, ``beta.ppf(0.95, k + 1, n - k)`` (0 of 1000 -> 0.00299), and breaches
 per simulated flight hour with the Poisson 95 % upper bound
@@ -149,6 +156,7 @@ def campaign_rows(rows: Iterable[Mapping], manifest: Mapping, batch_dir: str | P
             platform_kind=case.get("platform_kind", row.get("platform_kind")),
             case_pilot=case.get("pilot"),
             gps_fault=bool(case.get("gps_fault")),
+            beyond_authority=case.get("beyond_authority") or "",
         )
         if variant == "unprotected" and batch_dir is not None and not math.isfinite(num(row.get("max_excursion_m"))):
             row.update(score_unprotected(batch_dir, row, case))
@@ -157,6 +165,19 @@ def campaign_rows(rows: Iterable[Mapping], manifest: Mapping, batch_dir: str | P
 
 
 # --------------------------------------------------------------------------- per-flight outcome
+CONDITIONS = ("nominal", "GPS fault", "beyond authority")
+
+
+def condition(row: Mapping) -> str:
+    """The case's condition (module docstring): beyond authority first, then GPS fault, else nominal.
+
+    A manifest written before the authority test counts its cases as within it.
+    """
+    if row.get("beyond_authority"):
+        return "beyond authority"
+    return "GPS fault" if truthy(row.get("gps_fault")) else "nominal"
+
+
 def is_error(row: Mapping) -> bool:
     return bool(row.get("error"))
 
@@ -394,7 +415,8 @@ def describe_flight(r: Mapping) -> str:
     return (
         f"{r.get('flight')}: {', '.join(what) or 'clean'}; lateral excursion {num(r.get('max_lateral_excursion_m')):+.2f} m, "
         f"vertical {num(r.get('max_vertical_excursion_m')):+.2f} m, {r.get('platform')} {r.get('family')}/{r.get('attack')}, "
-        f"wind {num(r.get('wind_speed_mps')):.1f} m/s{', GPS fault' if truthy(r.get('gps_fault')) else ''}, "
+        f"wind {num(r.get('wind_speed_mps')):.1f} m/s{', GPS fault' if truthy(r.get('gps_fault')) else ''}"
+        f"{'; beyond authority (' + str(r.get('beyond_authority')) + ')' if r.get('beyond_authority') else ''}, "
         f"activations {r.get('activations')}, final mode {r.get('final_mode')}"
     )
 
@@ -531,6 +553,25 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
         "against its case's fence.",
         "",
     ]
+    rows = [dict(r, condition=condition(r)) for r in rows]
+    nominal = [r for r in rows if r["condition"] == "nominal"]
+    lines += [
+        "## Nominal conditions (the containment figure)",
+        "",
+        "Wind within each platform's authority (mean + one turbulence sigma at the start height below "
+        "90 % of its max speed, judged before the flight) and no GPS fault.",
+        "",
+    ]
+    lines += _stats_table(grouped(nominal, ("variant",)), ["variant"]) + [""]
+    lines += [
+        "## Per variant and condition",
+        "",
+        "GPS fault: the position source lost or out (dead reckoning drifts with the wind estimate's error). "
+        "Beyond authority: a wind the platform cannot fly back against for long; the unit is to land, never "
+        "over a forbidden area.",
+        "",
+    ]
+    lines += _stats_table(grouped(rows, ("variant", "condition")), ["variant", "condition"]) + [""]
     lines += ["## Per variant", ""] + _stats_table(grouped(rows, ("variant",)), ["variant"]) + [""]
     lines += (
         ["## Per variant and platform", ""] + _stats_table(grouped(rows, ("variant", "platform")), ["variant", "platform"]) + [""]

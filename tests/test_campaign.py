@@ -27,9 +27,11 @@ from scipy.stats import binom, poisson
 from aircraft.profile import available_profiles, load_profile
 from analysis.campaign import (
     KEEP_IN_TOLERANCE_M,
+    campaign_report_lines,
     campaign_rows,
     case_fence,
     clopper_pearson_upper,
+    condition,
     describe_flight,
     excursion_comparison,
     flight_outcome,
@@ -41,6 +43,7 @@ from analysis.campaign import (
     unprotected_vs_protected,
     write_campaign_report,
 )
+from geofence.dynamics import return_not_assured
 from geofence.fence import parse_fence
 from geofence.geodesy import LocalFrame
 from geofence.rooms import worst_case_lateral_shift_m
@@ -57,9 +60,11 @@ from scenarios.spec.campaign import (
     generate_campaign,
     generate_cases,
     platform_room_m,
+    wind_authority,
     wind_limit_mps,
 )
 from scenarios.spec.schema import PilotKind, load_scenario, parse_scenario
+from wind.dryden import SEVERITY_W20_MPS, dryden_scales
 
 ROOT = Path(__file__).parents[1]
 CI_SLICE = ROOT / "scenarios" / "campaign_ci"
@@ -334,6 +339,41 @@ def test_committed_ci_slice_is_the_generators_output(tmp_path):
     assert all(c["duration_s"] <= CI_MAX_DURATION_S for c in manifest["cases"])
     assert len({c["family"] for c in manifest["cases"]}) == len(CaseFamily)
     assert len({c["platform"] for c in manifest["cases"]}) >= 5
+
+
+def test_wind_authority_uses_the_scenarios_own_turbulence_and_the_units_rule():
+    """Mean wind at the start height (profile applied) + one Dryden sigma there, judged like a told forecast."""
+    f450rd = load_profile("F450RD")
+    gusty = {
+        "speed_mps": 5.99,
+        "from_deg": 89.4,
+        "profile": {"law": "power", "exponent": 0.14, "reference_height_m": 10},
+        "turbulence": {"severity": "moderate"},
+    }
+    a = wind_authority(gusty, 18.4, f450rd, 34.0)
+    assert a["mean_wind_mps"] == pytest.approx(5.99 * 1.84**0.14, abs=0.01)
+    assert a["turbulence_sigma_mps"] == pytest.approx(dryden_scales(18.4, SEVERITY_W20_MPS["moderate"])[2], abs=0.01)
+    assert a["beyond_authority"] and a["beyond_authority"].startswith("return impossible")
+    calm_turb = dict(gusty, turbulence={"severity": "light"})
+    assert wind_authority(calm_turb, 18.4, f450rd, 34.0)["beyond_authority"] is None
+    # the same rule as the unit's, at the density of the site
+    assert (wind_authority(gusty, 18.4, f450rd, 34.0)["beyond_authority"] is None) == (
+        return_not_assured(a["mean_wind_mps"], a["turbulence_sigma_mps"], f450rd.envelope) is None
+    )
+
+
+def test_the_report_counts_nominal_gps_fault_and_beyond_authority_apart():
+    manifest = {"cases": [dict(c) for c in SYNTH_MANIFEST["cases"]]}
+    manifest["cases"][0]["beyond_authority"] = "return impossible: wind 9 m/s >= 90% of max speed 10 m/s"
+    manifest["cases"][2]["gps_fault"] = {"gps_fail_at_s": 3.0}
+    rows = campaign_rows([r for r in synthetic_rows()], manifest)
+    by_case = {r["case_id"]: condition(r) for r in rows}
+    assert by_case == {"box-0000": "beyond authority", "star-0001": "nominal", "box-0002": "GPS fault"}
+    text = "\n".join(campaign_report_lines(rows))
+    nominal = text.split("## Nominal conditions")[1].split("## Per variant and condition")[0]
+    assert "| predictive | 1 |" in nominal  # only star-0001's predictive flight is nominal
+    assert "| predictive | GPS fault | 1 |" in text and "| predictive | beyond authority | 1 |" in text
+    assert "beyond authority (return impossible" in describe_flight(next(r for r in rows if r["flight"] == "box-0000__reactive"))
 
 
 # --------------------------------------------------------------------------- report math

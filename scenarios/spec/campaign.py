@@ -36,6 +36,13 @@ a legal home at points on the keep-in boundary (head-on and shallow), optionally
 a building (``ceiling_m`` of its own). Features added after campaigns had been published draw from a
 child generator (:func:`_added_rng`), so the cases that do not use them stay as they were.
 
+Each case's manifest also says whether the wind is within the platform's *authority*
+(:func:`wind_authority`): the mean wind at the start height plus one Dryden sigma there (the
+scenario's own turbulence, by its MIL-F-8785C definition) tested with the same rule the unit applies
+to a forecast it is told (:func:`geofence.dynamics.return_not_assured`). A case beyond it is one no
+controller can fly back against for long; the report counts its breaches apart and checks that the
+unit landed instead. The ``design_wind_mps`` (steady + gust + 1.5 rough sigma) only sizes the fence.
+
 Every written document is re-read from its YAML text and validated with
 :func:`scenarios.spec.schema.parse_scenario`; a rejected document is a generator
 bug and raises :class:`CampaignError`.
@@ -45,7 +52,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
@@ -58,7 +65,7 @@ from aircraft.profile import PlatformProfile, available_profiles, load_profile
 from aircraft.sensors import SensorConfig
 from geofence.boundary_shift import activation_margins
 from geofence.config import GeofenceConfig
-from geofence.dynamics import envelope_at_density, isa_density_ratio
+from geofence.dynamics import envelope_at_density, isa_density_ratio, return_not_assured
 from geofence.fence import circle_to_polygon, parse_fence
 from geofence.geodesy import LocalFrame
 from geofence.local_fence import LocalFence
@@ -66,6 +73,8 @@ from geofence.polygon import PolygonIndex
 from geofence.rooms import multicopter_stopping_distance_m, turn_radius_m, worst_case_lateral_shift_m
 from geofence.validation import ConfigError
 from scenarios.spec.schema import BREACH_SPEED_LIMIT_MPS, PilotKind
+from wind.config import parse_wind
+from wind.dryden import dryden_scales
 
 MANIFEST = "campaign.json"
 MAX_FENCE_SPAN_M = 9_000.0
@@ -79,7 +88,8 @@ WIND_LIMIT_MULTIROTOR = 0.7
 WIND_LIMIT_FIXED_WING = 0.5
 """Wind (steady + gust) up to this fraction of a fixed-wing's cruise airspeed."""
 TURBULENCE_SIGMA_MPS = {"none": 0.0, "light": 0.8, "moderate": 1.6}
-"""Rough low-level Dryden sigma per severity, only to size the design wind."""
+"""Rough low-level Dryden sigma per severity, only to size the design wind (and so the fence; kept as it
+was so that published campaigns regenerate). The authority test uses the real sigma (:func:`wind_authority`)."""
 
 
 class CampaignError(RuntimeError):
@@ -1077,6 +1087,27 @@ def draw_wind(rng: np.random.Generator, profile: PlatformProfile, approach_hint_
     return wind, design
 
 
+def wind_authority(wind: Mapping[str, Any], agl_m: float, profile: PlatformProfile, ground_alt_m: float) -> dict:
+    """The case's wind against the platform's authority, at the start height ``agl_m``.
+
+    ``mean_wind_mps``: the steady wind there (its height profile applied); ``turbulence_sigma_mps``:
+    the Dryden sigma_u there (:func:`wind.dryden.dryden_scales` of the scenario's W20);
+    ``beyond_authority``: why return cannot be assured against them
+    (:func:`geofence.dynamics.return_not_assured`, the envelope at the site's density), or None.
+    """
+    cfg = parse_wind(dict(wind), "wind")
+    factor = cfg.profile.build().factor(agl_m) if cfg.profile is not None else 1.0
+    mean = cfg.speed_mps * factor
+    w20 = cfg.turbulence.resolved_w20_mps if cfg.turbulence is not None else 0.0
+    sigma = dryden_scales(agl_m, w20)[2] if w20 > 0.0 else 0.0
+    env = envelope_at_density(profile.envelope, isa_density_ratio(ground_alt_m + agl_m))
+    return {
+        "mean_wind_mps": round(mean, 2),
+        "turbulence_sigma_mps": round(sigma, 2),
+        "beyond_authority": return_not_assured(mean, sigma, env),
+    }
+
+
 def _gps_fault(rng: np.random.Generator) -> dict | None:
     if rng.random() >= GPS_FAULT_PROBABILITY:
         return None
@@ -1240,6 +1271,7 @@ def _assemble(
         "site": dict(ctx.site),
         "wind": wind,
         "design_wind_mps": round(ctx.design_wind_mps, 2),
+        **wind_authority(wind, plan.agl_m, ctx.profile, ctx.site["ground_alt_m"]),
         "gps_fault": fault,
         "room_m": round(ctx.room_m, 1),
         "worst_case_shift_m": round(ctx.shift_m, 1),
