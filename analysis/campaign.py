@@ -31,6 +31,10 @@ plus one turbulence sigma at the start height is more than the platform can fly 
 the generator judged it before any flight: ``beyond_authority`` in the manifest). Every breach is
 listed whatever its condition; the headline rate is the nominal one.
 
+For each breached flight the report also gives the strongest wind the vehicle met, averaged over
+:data:`SUSTAINED_WIND_WINDOW_S` (:func:`peak_sustained_wind_mps`, from its recorded trajectory), against
+its platform's max speed: above 1, the air around it moved faster than it can fly.
+
 Rates: breaches / flights with a one-sided exact (Clopper-Pearson) 95 % upper
 bound, ``beta.ppf(0.95, k + 1, n - k)`` (0 of 1000 -> 0.00299), and breaches
 per simulated flight hour with the Poisson 95 % upper bound
@@ -113,6 +117,28 @@ def read_trajectory_columns(path: str | Path, names: Sequence[str] = SCORED_COLU
     return {header[c]: data[:, i] for i, c in enumerate(cols)}
 
 
+SUSTAINED_WIND_WINDOW_S = 10.0
+"""The averaging window of the strongest wind a breached flight met (s)."""
+
+
+def peak_sustained_wind_mps(path: str | Path, window_s: float = SUSTAINED_WIND_WINDOW_S) -> float:
+    """The largest horizontal wind speed at the vehicle averaged over ``window_s`` (a moving mean of the
+    recorded ``wind_east_mps``/``wind_north_mps``, by time), m/s; NaN without those columns."""
+    cols = read_trajectory_columns(path, ("time_s", "wind_east_mps", "wind_north_mps"))
+    if len(cols) < 3 or len(cols["time_s"]) < 2:
+        return math.nan
+    t, we, wn = cols["time_s"], cols["wind_east_mps"], cols["wind_north_mps"]
+    dt = np.diff(t, prepend=t[0])
+    ce, cn, ct = (np.concatenate(([0.0], np.cumsum(x * dt))) for x in (we, wn, np.ones_like(t)))
+    j = np.arange(1, len(t) + 1)
+    i = np.searchsorted(t, t - window_s, side="left")  # the window (t - window_s, t]
+    span = ct[j] - ct[i]
+    ok = span >= min(window_s, float(t[-1] - t[0])) - 1e-9
+    if not ok.any():
+        return math.nan
+    return float(np.max(np.hypot((ce[j] - ce[i])[ok], (cn[j] - cn[i])[ok]) / span[ok]))
+
+
 def case_fence(case: Mapping):
     """The :class:`~geofence.local_fence.LocalFence` of a manifest case, in the runner's frame (its start point)."""
     st = case["start"]
@@ -157,9 +183,14 @@ def campaign_rows(rows: Iterable[Mapping], manifest: Mapping, batch_dir: str | P
             case_pilot=case.get("pilot"),
             gps_fault=bool(case.get("gps_fault")),
             beyond_authority=case.get("beyond_authority") or "",
+            platform_max_speed_mps=case.get("max_speed_mps"),
         )
         if variant == "unprotected" and batch_dir is not None and not math.isfinite(num(row.get("max_excursion_m"))):
             row.update(score_unprotected(batch_dir, row, case))
+        if batch_dir is not None and variant != "unprotected" and flight_outcome(row).breach:
+            traj = Path(batch_dir) / str(row.get("flight") or row.get("scenario")) / "trajectory.csv"
+            if traj.is_file():
+                row["peak_sustained_wind_mps"] = peak_sustained_wind_mps(traj)
         out.append(row)
     return out
 
@@ -416,9 +447,18 @@ def describe_flight(r: Mapping) -> str:
         f"{r.get('flight')}: {', '.join(what) or 'clean'}; lateral excursion {num(r.get('max_lateral_excursion_m')):+.2f} m, "
         f"vertical {num(r.get('max_vertical_excursion_m')):+.2f} m, {r.get('platform')} {r.get('family')}/{r.get('attack')}, "
         f"wind {num(r.get('wind_speed_mps')):.1f} m/s{', GPS fault' if truthy(r.get('gps_fault')) else ''}"
-        f"{'; beyond authority (' + str(r.get('beyond_authority')) + ')' if r.get('beyond_authority') else ''}, "
+        f"{'; beyond authority (' + str(r.get('beyond_authority')) + ')' if r.get('beyond_authority') else ''}"
+        f"{_sustained_wind_text(r)}, "
         f"activations {r.get('activations')}, final mode {r.get('final_mode')}"
     )
+
+
+def _sustained_wind_text(r: Mapping) -> str:
+    w, vmax = num(r.get("peak_sustained_wind_mps")), num(r.get("platform_max_speed_mps"))
+    if not math.isfinite(w):
+        return ""
+    ratio = f", {w / vmax:.2f} x its max speed {vmax:.1f} m/s" if math.isfinite(vmax) and vmax > 0 else ""
+    return f"; wind met {w:.1f} m/s over {SUSTAINED_WIND_WINDOW_S:g} s{ratio}"
 
 
 # --------------------------------------------------------------------------- figures

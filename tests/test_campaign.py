@@ -38,6 +38,7 @@ from analysis.campaign import (
     group_stats,
     load_manifest,
     offending_flights,
+    peak_sustained_wind_mps,
     poisson_rate_upper,
     score_unprotected,
     unprotected_vs_protected,
@@ -360,6 +361,24 @@ def test_wind_authority_uses_the_scenarios_own_turbulence_and_the_units_rule():
     assert (wind_authority(gusty, 18.4, f450rd, 34.0)["beyond_authority"] is None) == (
         return_not_assured(a["mean_wind_mps"], a["turbulence_sigma_mps"], f450rd.envelope) is None
     )
+
+
+def test_peak_sustained_wind_is_the_largest_moving_mean_over_the_window(tmp_path):
+    """A 5 s burst of 20 m/s in a 3 m/s wind, sampled at 40 Hz: its 10 s mean is (5 x 20 + 5 x 3) / 10 = 11.5."""
+    t = np.arange(0.0, 60.0, 0.025)
+    we = np.where((t >= 30.0) & (t < 35.0), 20.0, 3.0)
+    path = tmp_path / "trajectory.csv"
+    np.savetxt(
+        path,
+        np.column_stack([t, we, np.zeros_like(t), t]),
+        delimiter=",",
+        header="time_s,wind_east_mps,wind_north_mps,x",
+        comments="",
+    )
+    assert peak_sustained_wind_mps(path) == pytest.approx(11.5, abs=0.15)  # one 25 ms sample of slack
+    assert peak_sustained_wind_mps(path, window_s=5.0) == pytest.approx(20.0, abs=0.15)
+    np.savetxt(path, np.column_stack([t, t]), delimiter=",", header="time_s,x", comments="")
+    assert math.isnan(peak_sustained_wind_mps(path))
 
 
 def test_the_report_counts_nominal_gps_fault_and_beyond_authority_apart():

@@ -1093,7 +1093,8 @@ def wind_authority(wind: Mapping[str, Any], agl_m: float, profile: PlatformProfi
     ``mean_wind_mps``: the steady wind there (its height profile applied); ``turbulence_sigma_mps``:
     the Dryden sigma_u there (:func:`wind.dryden.dryden_scales` of the scenario's W20);
     ``beyond_authority``: why return cannot be assured against them
-    (:func:`geofence.dynamics.return_not_assured`, the envelope at the site's density), or None.
+    (:func:`geofence.dynamics.return_not_assured`, the envelope at the site's density), or None;
+    ``max_speed_mps``: that envelope's max speed (the report compares the wind a breached flight met with it).
     """
     cfg = parse_wind(dict(wind), "wind")
     factor = cfg.profile.build().factor(agl_m) if cfg.profile is not None else 1.0
@@ -1105,6 +1106,7 @@ def wind_authority(wind: Mapping[str, Any], agl_m: float, profile: PlatformProfi
         "mean_wind_mps": round(mean, 2),
         "turbulence_sigma_mps": round(sigma, 2),
         "beyond_authority": return_not_assured(mean, sigma, env),
+        "max_speed_mps": round(env.max_speed_mps, 2),
     }
 
 
