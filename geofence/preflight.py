@@ -16,14 +16,21 @@ What "on paper" means (the autopilot's flight, idealised):
   speed for a multirotor; airspeed for a fixed-wing, which crabs to hold the
   track in the wind); the height moves toward the next waypoint's at the
   platform's max climb or descent rate; sampled every ``step_m``;
-* **fixed-wing turns**: the aircraft passes the waypoint, then turns onto the
-  next leg on an arc of the radius it has at its bank limit, starting at the
-  waypoint and tangent to the incoming leg (the outside of the turn, where
-  it sweeps toward the fence); sampled every 10 deg of heading;
+* **fixed-wing turns**: the aircraft passes the waypoint, flies on for its
+  roll-in (the envelope's ``reaction_time_s`` at its ground speed), then turns
+  at its bank limit until its track is the next leg's: a circle of the bank
+  limit's radius *in the air mass*, which drifts with the wind while it turns
+  (a trochoid over the ground; the outside of the turn, where it sweeps toward
+  the fence); sampled every 10 deg of heading;
 * **fixed-wing loiters**: the orbit (clockwise, as the autopilot flies it) at
   ``max(radius, 1.5 R)`` around the loiter point, sampled every 10 deg;
 * a multirotor brakes to a stop at each waypoint; it is checked at full
   planned speed right up to the waypoint (conservative).
+
+The expected wind is not what the unit will see: the forecast has its error and the unit's own
+estimate in flight has its own. ``wind_uncertainty_mps`` is the radius of the disc of winds around
+the expected one that the route must pass for: it is checked at the expected wind and at eight winds
+on that circle, and each stretch reports its worst margin.
 
 Everything is in the fence's local ENU frame (m, m/s) and altitude reference.
 Plain Python; a 20-leg mission in a 100-vertex fence checks in well under a
@@ -151,7 +158,12 @@ def _leg_samples(env, a: PlannedWaypoint, b: PlannedWaypoint, speed: float, wind
 
 
 def _turn_samples(env, prev: PlannedWaypoint, wp: PlannedWaypoint, nxt: PlannedWaypoint, speed: float, wind_en) -> list[_Sample]:
-    """The fixed-wing's turn onto the next leg, starting at ``wp`` tangent to the incoming leg."""
+    """The fixed-wing's turn onto the next leg: past ``wp`` for its roll-in, then a circle in the drifting air mass.
+
+    Math angles (counter-clockwise from east). The air velocity turns at ``speed / r`` (``r``: the bank
+    limit's radius at ``speed``) from the crab heading that held the incoming track, until the ground
+    track (air velocity + wind) is the outgoing course; meanwhile the circle drifts with the wind.
+    """
     c_in = math.atan2(wp.north_m - prev.north_m, wp.east_m - prev.east_m)
     c_out = math.atan2(nxt.north_m - wp.north_m, nxt.east_m - wp.east_m)
     delta = (c_out - c_in + math.pi) % (2.0 * math.pi) - math.pi  # + = left (counter-clockwise)
@@ -159,15 +171,28 @@ def _turn_samples(env, prev: PlannedWaypoint, wp: PlannedWaypoint, nxt: PlannedW
         return []
     r = envelope_turn_radius_m(env, speed)
     s = 1.0 if delta > 0.0 else -1.0
-    # centre of the turn: r to the left (s = +1) or right of the incoming track
-    cx, cy = wp.east_m - s * r * math.sin(c_in), wp.north_m + s * r * math.cos(c_in)
-    out = []
-    k = max(1, int(math.ceil(abs(delta) / HEADING_STEP_RAD)))
-    for i in range(k + 1):
-        c = c_in + delta * i / k
-        e, n = cx + s * r * math.sin(c), cy - s * r * math.cos(c)
-        ve, vn = _ground_velocity(env, speed, c, wind_en)
+    we, wn = wind_en
+    ge, gn = _ground_velocity(env, speed, c_in, wind_en)
+    roll_in = env.reaction_time_s
+    e0, n0 = wp.east_m + ge * roll_in, wp.north_m + gn * roll_in
+    out = [_Sample(wp.east_m, wp.north_m, wp.height_m, ge, gn, 0.0)]
+    psi0 = math.atan2(gn - wn, ge - we)  # the air velocity's heading on the incoming track
+    omega = max(speed, 1e-3) / r
+    track_prev = c_in
+    turned = 0.0
+    step = s * HEADING_STEP_RAD
+    for i in range(int(round(2.0 * math.pi / HEADING_STEP_RAD)) + 1):
+        psi = psi0 + step * i
+        t = abs(psi - psi0) / omega
+        e = e0 + we * t + s * r * (math.sin(psi) - math.sin(psi0))
+        n = n0 + wn * t + s * r * (math.cos(psi0) - math.cos(psi))
+        ve, vn = speed * math.cos(psi) + we, speed * math.sin(psi) + wn
         out.append(_Sample(e, n, wp.height_m, ve, vn, 0.0))
+        track = math.atan2(vn, ve)
+        turned += (track - track_prev + math.pi) % (2.0 * math.pi) - math.pi
+        track_prev = track
+        if s * turned >= abs(delta):
+            break
     return out
 
 
@@ -191,6 +216,7 @@ def check_route(
     speed_mps: float,
     *,
     wind_en: tuple[float, float] = (0.0, 0.0),
+    wind_uncertainty_mps: float = 0.0,
     wind_extra_mps: float = 0.0,
     turbulence_sigma_mps: float = 0.0,
     h_uncertainty_m: float = 0.0,
@@ -201,8 +227,8 @@ def check_route(
     """Every leg, turn and loiter of the route whose activation margin falls to ``buffer_m`` or below.
 
     ``speed_mps``: the planned speed (multirotor ground speed, fixed-wing
-    airspeed). ``wind_en``: the expected mean wind (E, N m/s, toward);
-    ``wind_extra_mps``, ``h_uncertainty_m``, ``v_uncertainty_m``: the same
+    airspeed). ``wind_en``: the expected mean wind (E, N m/s, toward); ``wind_uncertainty_mps``:
+    how far the wind the unit will estimate may be from it (module docstring); ``wind_extra_mps``, ``h_uncertainty_m``, ``v_uncertainty_m``: the same
     allowances the unit adds in flight (``turbulence_sigma_mps``: the forecast's σ behind
     ``wind_extra_mps``). One finding per offending stretch, with its smallest margin. An empty
     list means the route passes. When the expected wind is beyond what the platform can be sure
@@ -216,26 +242,34 @@ def check_route(
         w0 = wps[0]
         return [PreflightFinding(RoutePart.WIND, 0, "forecast", w0.east_m, w0.north_m, w0.height_m, -math.inf, why)]
 
-    def score(samples: list[_Sample], part: RoutePart, index: int, label: str) -> None:
+    winds = [wind_en]
+    if wind_uncertainty_mps > 0.0:
+        winds += [
+            (wind_en[0] + wind_uncertainty_mps * math.cos(a), wind_en[1] + wind_uncertainty_mps * math.sin(a))
+            for a in (i * math.pi / 4.0 for i in range(8))
+        ]
+
+    def score(sample_sets: list[tuple[tuple[float, float], list[_Sample]]], part: RoutePart, index: int, label: str) -> None:
         worst = None
-        for p in samples:
-            r = activation_margins(
-                fence,
-                p.e,
-                p.n,
-                p.h,
-                p.ve,
-                p.vn,
-                p.vu,
-                env,
-                wind_en[0],
-                wind_en[1],
-                h_uncertainty_m=h_uncertainty_m,
-                v_uncertainty_m=v_uncertainty_m,
-                wind_extra_mps=wind_extra_mps,
-            )
-            if worst is None or r.activation_margin_m < worst[0].activation_margin_m:
-                worst = (r, p)
+        for wind, samples in sample_sets:
+            for p in samples:
+                r = activation_margins(
+                    fence,
+                    p.e,
+                    p.n,
+                    p.h,
+                    p.ve,
+                    p.vn,
+                    p.vu,
+                    env,
+                    wind[0],
+                    wind[1],
+                    h_uncertainty_m=h_uncertainty_m,
+                    v_uncertainty_m=v_uncertainty_m,
+                    wind_extra_mps=wind_extra_mps,
+                )
+                if worst is None or r.activation_margin_m < worst[0].activation_margin_m:
+                    worst = (r, p)
         if worst is None or worst[0].activation_margin_m > buffer_m:
             return
         r, p = worst
@@ -250,11 +284,13 @@ def check_route(
 
     for i in range(len(wps) - 1):
         a, b = wps[i], wps[i + 1]
-        score(_leg_samples(env, a, b, speed_mps, wind_en, step_m), RoutePart.LEG, i, f"{a.label or i} -> {b.label or i + 1}")
+        legs = [(w, _leg_samples(env, a, b, speed_mps, w, step_m)) for w in winds]
+        score(legs, RoutePart.LEG, i, f"{a.label or i} -> {b.label or i + 1}")
         if not env.is_multirotor and 0 < i + 1 < len(wps) - 1:
-            score(_turn_samples(env, a, b, wps[i + 2], speed_mps, wind_en), RoutePart.TURN, i + 1, b.label or str(i + 1))
+            turns = [(w, _turn_samples(env, a, b, wps[i + 2], speed_mps, w)) for w in winds]
+            score(turns, RoutePart.TURN, i + 1, b.label or str(i + 1))
     if not env.is_multirotor:
         for i, wp in enumerate(wps):
             if wp.loiter_radius_m > 0.0:
-                score(_loiter_samples(env, wp, speed_mps, wind_en), RoutePart.LOITER, i, wp.label or str(i))
+                score([(w, _loiter_samples(env, wp, speed_mps, w)) for w in winds], RoutePart.LOITER, i, wp.label or str(i))
     return findings

@@ -2,6 +2,7 @@
 
 import math
 
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -99,3 +100,39 @@ def test_a_passing_check_means_the_unit_can_return(wind_mps, sigma_mps, gust_mps
     )
     if not out:
         assert return_not_assured(wind_mps, sigma_mps, MC) is None
+
+
+def test_a_fixed_wing_turn_rolls_in_then_circles_in_the_drifting_air():
+    """Calm air: past the waypoint by the roll-in, then a circle of the bank limit's radius tangent to the track.
+    In wind the same circle drifts downwind with the turn's time."""
+    from geofence.preflight import _turn_samples
+    from geofence.rooms import envelope_turn_radius_m
+
+    a, b, c = PlannedWaypoint(-300.0, 0.0, 80.0), PlannedWaypoint(0.0, 0.0, 80.0), PlannedWaypoint(0.0, 300.0, 80.0)
+    r = envelope_turn_radius_m(FW, 16.0)
+    calm = _turn_samples(FW, a, b, c, 16.0, (0.0, 0.0))
+    roll_in_m = 16.0 * FW.reaction_time_s
+    assert (calm[1].e, calm[1].n) == (pytest.approx(roll_in_m), pytest.approx(0.0, abs=1e-9))
+    centre = (roll_in_m, r)  # a left turn from eastbound: the centre is r to the north of the roll-out point
+    assert all(math.hypot(p.e - centre[0], p.n - centre[1]) == pytest.approx(r, rel=1e-9) for p in calm[1:])
+    assert math.degrees(math.atan2(calm[-1].vn, calm[-1].ve)) == pytest.approx(90.0, abs=10.0)  # ends on the new leg
+    # a 5 m/s tailwind on the way in: the turn sweeps further on (east) by the roll-in's and the turn's drift
+    windy = _turn_samples(FW, a, b, c, 16.0, (5.0, 0.0))
+    assert max(p.e for p in windy) > max(p.e for p in calm) + 15.0
+    # and it turns until the track, not the heading, is the new leg's (north)
+    assert math.degrees(math.atan2(windy[-1].vn, windy[-1].ve)) == pytest.approx(90.0, abs=10.0)
+
+
+def test_a_route_must_pass_for_every_wind_within_the_uncertainty():
+    # a leg toward the east edge that passes at the expected wind fails when the wind may be 3 m/s stronger toward it
+    wps = [PlannedWaypoint(0.0, 0.0, 30.0), PlannedWaypoint(240.0, 0.0, 30.0)]
+    f = fence(ceiling=200.0)
+    margins = [
+        check_route(f, MC, wps, 5.3, wind_en=(4.0, 0.0), wind_uncertainty_mps=u, buffer_m=1e9)[0].activation_margin_m
+        for u in (0.0, 1.0, 2.0, 4.0)
+    ]
+    assert margins == sorted(margins, reverse=True) and margins[-1] < margins[0] - 5.0  # a wider disc, a worse worst wind
+    # the buffer decides: passes at the expected wind, fails for a disc whose worst wind leaves less than it
+    buffer = 0.5 * (margins[0] + margins[-1])
+    assert check_route(f, MC, wps, 5.3, wind_en=(4.0, 0.0), buffer_m=buffer) == []
+    assert check_route(f, MC, wps, 5.3, wind_en=(4.0, 0.0), wind_uncertainty_mps=4.0, buffer_m=buffer) != []
