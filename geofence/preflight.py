@@ -157,7 +157,7 @@ def _leg_samples(env, a: PlannedWaypoint, b: PlannedWaypoint, speed: float, wind
     return out
 
 
-def _turn_samples(env, prev: PlannedWaypoint, wp: PlannedWaypoint, nxt: PlannedWaypoint, speed: float, wind_en) -> list[_Sample]:
+def turn_samples(env, prev: PlannedWaypoint, wp: PlannedWaypoint, nxt: PlannedWaypoint, speed: float, wind_en) -> list[_Sample]:
     """The fixed-wing's turn onto the next leg: past ``wp`` for its roll-in, then a circle in the drifting air mass.
 
     Math angles (counter-clockwise from east). The air velocity turns at ``speed / r`` (``r``: the bank
@@ -287,7 +287,7 @@ def check_route(
         legs = [(w, _leg_samples(env, a, b, speed_mps, w, step_m)) for w in winds]
         score(legs, RoutePart.LEG, i, f"{a.label or i} -> {b.label or i + 1}")
         if not env.is_multirotor and 0 < i + 1 < len(wps) - 1:
-            turns = [(w, _turn_samples(env, a, b, wps[i + 2], speed_mps, w)) for w in winds]
+            turns = [(w, turn_samples(env, a, b, wps[i + 2], speed_mps, w)) for w in winds]
             score(turns, RoutePart.TURN, i + 1, b.label or str(i + 1))
     if not env.is_multirotor:
         for i, wp in enumerate(wps):

@@ -105,19 +105,19 @@ def test_a_passing_check_means_the_unit_can_return(wind_mps, sigma_mps, gust_mps
 def test_a_fixed_wing_turn_rolls_in_then_circles_in_the_drifting_air():
     """Calm air: past the waypoint by the roll-in, then a circle of the bank limit's radius tangent to the track.
     In wind the same circle drifts downwind with the turn's time."""
-    from geofence.preflight import _turn_samples
+    from geofence.preflight import turn_samples
     from geofence.rooms import envelope_turn_radius_m
 
     a, b, c = PlannedWaypoint(-300.0, 0.0, 80.0), PlannedWaypoint(0.0, 0.0, 80.0), PlannedWaypoint(0.0, 300.0, 80.0)
     r = envelope_turn_radius_m(FW, 16.0)
-    calm = _turn_samples(FW, a, b, c, 16.0, (0.0, 0.0))
+    calm = turn_samples(FW, a, b, c, 16.0, (0.0, 0.0))
     roll_in_m = 16.0 * FW.reaction_time_s
     assert (calm[1].e, calm[1].n) == (pytest.approx(roll_in_m), pytest.approx(0.0, abs=1e-9))
     centre = (roll_in_m, r)  # a left turn from eastbound: the centre is r to the north of the roll-out point
     assert all(math.hypot(p.e - centre[0], p.n - centre[1]) == pytest.approx(r, rel=1e-9) for p in calm[1:])
     assert math.degrees(math.atan2(calm[-1].vn, calm[-1].ve)) == pytest.approx(90.0, abs=10.0)  # ends on the new leg
     # a 5 m/s tailwind on the way in: the turn sweeps further on (east) by the roll-in's and the turn's drift
-    windy = _turn_samples(FW, a, b, c, 16.0, (5.0, 0.0))
+    windy = turn_samples(FW, a, b, c, 16.0, (5.0, 0.0))
     assert max(p.e for p in windy) > max(p.e for p in calm) + 15.0
     # and it turns until the track, not the heading, is the new leg's (north)
     assert math.degrees(math.atan2(windy[-1].vn, windy[-1].ve)) == pytest.approx(90.0, abs=10.0)

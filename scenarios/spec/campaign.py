@@ -36,6 +36,10 @@ a legal home at points on the keep-in boundary (head-on and shallow), optionally
 a building (``ceiling_m`` of its own). Features added after campaigns had been published draw from a
 child generator (:func:`_added_rng`), so the cases that do not use them stay as they were.
 
+The geofence is told a forecast (``wind_prior``) as an operator gets one: the mean wind within
+±20 % and ±20°, and the turbulence sigma at the start height and the strongest gust, each within
+±20 %, when the case has them.
+
 Each case's manifest also says whether the wind is within the platform's *authority*
 (:func:`wind_authority`): the mean wind at the start height plus one Dryden sigma there (the
 scenario's own turbulence, by its MIL-F-8785C definition) tested with the same rule the unit applies
@@ -1248,10 +1252,18 @@ def _assemble(
             doc["sensors"] = {"gps_outages": [[at, _r(at + ctx.gps_fault["length_s"], 1)]]}
         fault = doc["sensors"]
     fence = draft.mapping(frame)
-    forecast = {
+    forecast: dict[str, Any] = {
         "speed_mps": _r(wind["speed_mps"] * rng.uniform(0.8, 1.2)),
         "from_deg": _r((wind["from_deg"] + rng.uniform(-20.0, 20.0)) % 360.0, 1),
     }
+    authority = wind_authority(wind, plan.agl_m, ctx.profile, ctx.site["ground_alt_m"])
+    # the forecast states what an operator's does: the turbulence and the gusts too, each within 20 %
+    # (drawn from a child generator: the cases' other draws stay as they were)
+    told = _added_rng(rng)
+    if authority["turbulence_sigma_mps"] > 0.0:
+        forecast["turbulence_sigma_mps"] = _r(authority["turbulence_sigma_mps"] * told.uniform(0.8, 1.2))
+    if wind.get("gusts"):
+        forecast["gust_mps"] = _r(max(g["amplitude_mps"] for g in wind["gusts"]) * told.uniform(0.8, 1.2))
     documents = {}
     for variant in Variant:
         d = dict(doc)
@@ -1273,7 +1285,7 @@ def _assemble(
         "site": dict(ctx.site),
         "wind": wind,
         "design_wind_mps": round(ctx.design_wind_mps, 2),
-        **wind_authority(wind, plan.agl_m, ctx.profile, ctx.site["ground_alt_m"]),
+        **authority,
         "gps_fault": fault,
         "room_m": round(ctx.room_m, 1),
         "worst_case_shift_m": round(ctx.shift_m, 1),
