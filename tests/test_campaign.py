@@ -69,9 +69,10 @@ from wind.dryden import SEVERITY_W20_MPS, dryden_scales
 
 ROOT = Path(__file__).parents[1]
 CI_SLICE = ROOT / "scenarios" / "campaign_ci"
-CI_SEED, CI_CASES, CI_MAX_DURATION_S = 9, 16, 60.0
+CI_SEED, CI_CASES, CI_MAX_DURATION_S = 9, 16, 120.0
 """How scenarios/campaign_ci was generated (the seed was picked for coverage before flying: every platform, ten
-pilots including breach attempts on both platform kinds, a normal mission)."""
+pilots including breach attempts on both platform kinds, a normal mission; 120 s, so that the fixed-wing's breach
+attempts reach the fence after their home orbit)."""
 
 
 # --------------------------------------------------------------------------- generator
@@ -577,6 +578,10 @@ def test_ci_slice_has_no_predictive_breach(tmp_path):
     # the twins must have been scored, and the fence must matter somewhere
     assert all(math.isfinite(float(r["max_excursion_m"])) for r in rows if r["variant"] == "unprotected")
     assert group_stats([r for r in rows if r["variant"] == "unprotected"]).breaches > 0
+    # the breach attempts of both platform kinds reach the fence (the geofence acts on them)
+    attempts = [r for r in rows if r["variant"] == "predictive" and r["attack"] == "breach_attempts"]
+    assert {r["platform_kind"] for r in attempts} == {"multirotor", "fixed_wing"}
+    assert all(float(r["activations"]) > 0 for r in attempts), [(r["flight"], r["activations"]) for r in attempts]
     bad = offending_flights(rows, "predictive")
     for r in bad:
         print("PREDICTIVE BREACH:", describe_flight(r))
