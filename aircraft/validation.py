@@ -573,7 +573,8 @@ def _measure_fixed_wing(p: Platform, m: Measurement) -> None:
         m.add(f"{name} arrest on release, mean decel", vert[name], "m/s^2")
 
     # power-off glide: the FC's throttle forced to 0 (speed loop off, trim far below 0 so the
-    # frozen speed integrator cannot lift it), a sweep of descent commands
+    # frozen speed integrator cannot lift it), a sweep of descent commands. A piston engine idles
+    # (the FC keeps its mixture leaned for altitude): the handbooks' glide is at idle power.
     best = (math.nan, math.nan, math.nan)
     throttle_max = rpm_max = 0.0
     for stick in (-0.2, -0.35, -0.5, -0.7, -1.0):
@@ -583,9 +584,8 @@ def _measure_fixed_wing(p: Platform, m: Measurement) -> None:
             ("fc/speed-ki", 0.0),
             ("fc/climb-throttle-ff", 0.0),
             ("fc/throttle-trim", -10.0),
-            ("fcs/mixture-cmd-norm", 0.0),
         ):
-            model.set(prop, value)  # mixture 0 stops a piston engine (the propeller windmills)
+            model.set(prop, value)
         run = f.fly(StickCommand(pitch=stick), 45.0)
         throttle_max = max(throttle_max, model.get("fcs/throttle-cmd-norm"))
         rpm_max = max(rpm_max, model.get("propulsion/engine/engine-rpm"))

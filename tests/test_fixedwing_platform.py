@@ -218,3 +218,25 @@ def test_initial_crosswind_is_steady_not_a_gust(plane):
     s1 = plane.truth()
     assert s1.east_m == pytest.approx(60.0, rel=0.15)
     plane.set_wind_enu(0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("model", ["J3Cub", "c172x"])
+def test_a_piston_engine_is_leaned_for_altitude_and_climbs_at_a_high_site(model):
+    """Full rich, the J3Cub's engine quits above about 2,500 m (it has no mixture control of its own); the FC
+    leans it with the ambient pressure as a pilot does, so at a 2,700 m site it holds its height at cruise and
+    still climbs at full stick."""
+    p = FixedWingPlatform(load_profile(model))
+    high = LocalFrame(39.7, 111.4, 2606.0)
+    p.reset(high, 39.7, 111.4, 100.0, 0.0, 0.0)
+    n = int(round(0.1 / p.dt_s))
+    p.command(StickCommand())
+    for _ in range(300):
+        p.step(n)
+    s = p.truth()
+    assert p.model.get("fcs/mixture-pos-norm") == pytest.approx(p.model.get("atmosphere/P-psf") / 2116.22, rel=0.02)
+    assert abs(s.up_m - 100.0) < 5.0 and abs(eas(s) - p.envelope.cruise_speed_mps) < 2.0
+    h0 = s.up_m
+    p.command(StickCommand(pitch=1.0, throttle=1.0))
+    for _ in range(150):
+        p.step(n)
+    assert p.truth().up_m - h0 > 10.0  # 15 s at full climb stick
