@@ -136,3 +136,13 @@ def test_a_route_must_pass_for_every_wind_within_the_uncertainty():
     buffer = 0.5 * (margins[0] + margins[-1])
     assert check_route(f, MC, wps, 5.3, wind_en=(4.0, 0.0), buffer_m=buffer) == []
     assert check_route(f, MC, wps, 5.3, wind_en=(4.0, 0.0), wind_uncertainty_mps=4.0, buffer_m=buffer) != []
+
+
+def test_the_expected_wind_is_the_forecast_raised_to_the_routes_top_with_its_error_disc():
+    from scenarios.spec.preflight import FORECAST_SPEED_ERROR, WIND_ESTIMATE_ERROR_MPS, expected_wind
+
+    (we, wn), radius = expected_wind((3.0, 4.0), 120.0)
+    assert math.hypot(we, wn) == pytest.approx(5.0 * 12.0 ** (1.0 / 7.0)) and we / wn == pytest.approx(0.75)
+    assert radius == pytest.approx(FORECAST_SPEED_ERROR * math.hypot(we, wn) + WIND_ESTIMATE_ERROR_MPS)
+    assert expected_wind((3.0, 4.0), 2.0)[0] == pytest.approx((3.0, 4.0))  # never weaker than the 10 m forecast
+    assert expected_wind((0.0, 0.0), 50.0) == ((0.0, 0.0), WIND_ESTIMATE_ERROR_MPS)

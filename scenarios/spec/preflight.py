@@ -22,14 +22,14 @@ from geofence.fence import AltitudeReference
 from geofence.geodesy import LocalFrame
 from geofence.preflight import PlannedWaypoint, PreflightFinding, check_route
 from scenarios.spec.schema import PilotKind, Scenario
+from wind.steady import PowerLawProfile
 
 BUFFER_M = 2.0
 """A mission passes when its activation margin stays above this everywhere (m): tracking errors, estimator noise."""
-FORECAST_REFERENCE_HEIGHT_M = 10.0
-"""A forecast's wind is the wind at this height (the WMO standard 10 m surface wind)."""
-FORECAST_PROFILE_EXPONENT = 1.0 / 7.0
-"""Above it the check assumes the neutral-atmosphere power law ``(h / 10 m) ** (1/7)`` up to the mission's highest
-point: the wind aloft is stronger than the forecast's (by 42 % at 120 m), never weaker."""
+FORECAST_PROFILE = PowerLawProfile(exponent=1.0 / 7.0, reference_height_m=10.0)
+"""A forecast's wind is the wind at 10 m (the WMO surface wind); above it the check assumes the neutral-atmosphere
+power law up to the mission's highest point: the wind aloft is stronger than the forecast's (by 42 % at 120 m),
+never weaker."""
 FORECAST_SPEED_ERROR = 0.2
 """The forecast wind may be off by this fraction of its speed (in any direction)."""
 WIND_ESTIMATE_ERROR_MPS = 1.0
@@ -60,6 +60,17 @@ def planned_route(scenario: Scenario, frame: LocalFrame) -> list[PlannedWaypoint
     return out
 
 
+def expected_wind(forecast_en: tuple[float, float], top_agl_m: float) -> tuple[tuple[float, float], float]:
+    """The wind the check flies the route in (E, N m/s) and the radius of winds around it the route must pass for.
+
+    The forecast raised to the route's highest point by :data:`FORECAST_PROFILE` (never below its 10 m value);
+    the radius is :data:`FORECAST_SPEED_ERROR` of that speed plus :data:`WIND_ESTIMATE_ERROR_MPS`.
+    """
+    scale = FORECAST_PROFILE.factor(max(top_agl_m, FORECAST_PROFILE.reference_height_m))
+    wind_en = (forecast_en[0] * scale, forecast_en[1] * scale)
+    return wind_en, FORECAST_SPEED_ERROR * math.hypot(*wind_en) + WIND_ESTIMATE_ERROR_MPS
+
+
 def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
     """The findings of the pre-flight check, or None when the scenario has no mission or no geofence."""
     cfg = scenario.geofence
@@ -74,19 +85,16 @@ def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
     k = cfg.uncertainty_k_sigma
     sensors = scenario.sensors
     route = planned_route(scenario, frame)
+    wind_en, wind_uncertainty_mps = expected_wind(cfg.wind_prior_enu, max(w.height_m for w in route))
     if fence.altitude_reference is AltitudeReference.AMSL:
         route = [PlannedWaypoint(w.east_m, w.north_m, w.height_m + st.ground_alt_m, w.label, w.loiter_radius_m) for w in route]
-    # the forecast at the route's highest point (never weaker than at 10 m), and how far the unit's estimate may be from it
-    top_agl_m = max(max(w.height_m for w in planned_route(scenario, frame)), FORECAST_REFERENCE_HEIGHT_M)
-    scale = (top_agl_m / FORECAST_REFERENCE_HEIGHT_M) ** FORECAST_PROFILE_EXPONENT
-    wind_en = (cfg.wind_prior_enu[0] * scale, cfg.wind_prior_enu[1] * scale)
     return check_route(
         fence,
         env,
         route,
         speed,
         wind_en=wind_en,
-        wind_uncertainty_mps=FORECAST_SPEED_ERROR * math.hypot(*wind_en) + WIND_ESTIMATE_ERROR_MPS,
+        wind_uncertainty_mps=wind_uncertainty_mps,
         wind_extra_mps=cfg.turbulence_k_sigma * cfg.turbulence_sigma_mps + cfg.gust_mps,
         turbulence_sigma_mps=cfg.turbulence_sigma_mps,
         h_uncertainty_m=k * sensors.gps_h_sigma_m + cfg.extra_margin_m,
