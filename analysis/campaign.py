@@ -602,6 +602,13 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
         "90 % of its max speed, judged before the flight) and no GPS fault.",
         "",
     ]
+    cases = (manifest or {}).get("cases") or []
+    if cases and not any("beyond_authority" in c for c in cases):
+        lines += [
+            "**This manifest predates the authority test: every case without a GPS fault counts as nominal here.** "
+            "Regenerate the campaign (same seed: the same cases) to class them.",
+            "",
+        ]
     lines += _stats_table(grouped(nominal, ("variant",)), ["variant"]) + [""]
     lines += [
         "## Per variant and condition",

@@ -363,6 +363,28 @@ def test_wind_authority_uses_the_scenarios_own_turbulence_and_the_units_rule():
     )
 
 
+def test_the_forecast_tells_the_turbulence_and_the_gusts_within_20_percent():
+    cases = generate_cases(40, 11)
+    told_sigma = told_gust = 0
+    for c in cases:
+        prior = c.documents[Variant.PREDICTIVE]["geofence"]["wind_prior"]
+        assert c.documents[Variant.REACTIVE]["geofence"]["wind_prior"] == prior
+        sigma = c.manifest["turbulence_sigma_mps"]
+        if sigma > 0.0:
+            told_sigma += 1
+            assert 0.8 * sigma - 0.01 <= prior["turbulence_sigma_mps"] <= 1.2 * sigma + 0.01
+        else:
+            assert "turbulence_sigma_mps" not in prior
+        gusts = c.manifest["wind"].get("gusts")
+        if gusts:
+            told_gust += 1
+            top = max(g["amplitude_mps"] for g in gusts)
+            assert 0.8 * top - 0.01 <= prior["gust_mps"] <= 1.2 * top + 0.01
+        else:
+            assert "gust_mps" not in prior
+    assert told_sigma and told_gust
+
+
 def test_peak_sustained_wind_is_the_largest_moving_mean_over_the_window(tmp_path):
     """A 5 s burst of 20 m/s in a 3 m/s wind, sampled at 40 Hz: its 10 s mean is (5 x 20 + 5 x 3) / 10 = 11.5."""
     t = np.arange(0.0, 60.0, 0.025)
@@ -388,11 +410,14 @@ def test_the_report_counts_nominal_gps_fault_and_beyond_authority_apart():
     rows = campaign_rows([r for r in synthetic_rows()], manifest)
     by_case = {r["case_id"]: condition(r) for r in rows}
     assert by_case == {"box-0000": "beyond authority", "star-0001": "nominal", "box-0002": "GPS fault"}
-    text = "\n".join(campaign_report_lines(rows))
+    text = "\n".join(campaign_report_lines(rows, manifest))
     nominal = text.split("## Nominal conditions")[1].split("## Per variant and condition")[0]
     assert "| predictive | 1 |" in nominal  # only star-0001's predictive flight is nominal
     assert "| predictive | GPS fault | 1 |" in text and "| predictive | beyond authority | 1 |" in text
     assert "beyond authority (return impossible" in describe_flight(next(r for r in rows if r["flight"] == "box-0000__reactive"))
+    assert "predates the authority test" not in text
+    old_rows = campaign_rows(synthetic_rows(), SYNTH_MANIFEST)  # a manifest written before the authority test
+    assert "predates the authority test" in "\n".join(campaign_report_lines(old_rows, SYNTH_MANIFEST))
 
 
 # --------------------------------------------------------------------------- report math
