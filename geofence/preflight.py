@@ -27,10 +27,13 @@ What "on paper" means (the autopilot's flight, idealised):
 * a multirotor brakes to a stop at each waypoint; it is checked at full
   planned speed right up to the waypoint (conservative).
 
-The expected wind is not what the unit will see: the forecast has its error and the unit's own
-estimate in flight has its own. ``wind_uncertainty_mps`` is the radius of the disc of winds around
-the expected one that the route must pass for: it is checked at the expected wind and at eight winds
-on that circle, and each stretch reports its worst margin.
+The expected wind is not what the unit will see. The forecast has its error (``forecast_speed_error``,
+``forecast_direction_error_rad``: the true mean lies in an annular sector around it) and the unit's own
+estimate in flight has its own (``wind_uncertainty_mps`` around the true mean): the route must pass for
+every wind in that widened sector, sampled on its edge (:func:`winds_to_check`), and each stretch reports
+its worst margin. Return must be assured against the strongest of them too. The unit reacts to data up to
+``latency_s`` old (one control step plus the age of its newest GNSS fix), which it adds to its reaction
+time in flight; the check adds the same.
 
 Everything is in the fence's local ENU frame (m, m/s) and altitude reference.
 Plain Python; a 20-leg mission in a 100-vertex fence checks in well under a
@@ -209,6 +212,50 @@ def _loiter_samples(env, wp: PlannedWaypoint, speed: float, wind_en) -> list[_Sa
     return out
 
 
+def winds_to_check(
+    forecast_en: tuple[float, float],
+    estimate_error_mps: float = 0.0,
+    speed_error: float = 0.0,
+    direction_error_rad: float = 0.0,
+) -> list[tuple[float, float]]:
+    """The winds (E, N m/s) a route is checked in: the forecast first, then the edge of what the unit may estimate.
+
+    A forecast ``f`` that is within ``speed_error`` (a fraction) of the true mean wind's speed and within
+    ``direction_error_rad`` of its direction leaves the true mean in an annular sector around ``f``: speeds
+    ``|f| / (1 + e)`` to ``|f| / (1 - e)``, bearings ``±d``. In flight the unit's estimate is within
+    ``estimate_error_mps`` of that mean. The set of winds it may hold is the sector widened by that radius;
+    the check samples its edge: the far arc at five bearings, the four corners pushed out sideways, the near
+    arc, and (with no forecast error) the ring of eight winds around ``f``.
+    """
+    fe, fn = float(forecast_en[0]), float(forecast_en[1])
+    speed = math.hypot(fe, fn)
+    r = max(float(estimate_error_mps), 0.0)
+    out = [(fe, fn)]
+    if speed <= 0.0 or (speed_error <= 0.0 and direction_error_rad <= 0.0):
+        if r > 0.0:
+            out += [(fe + r * math.cos(a), fn + r * math.sin(a)) for a in (i * math.pi / 4.0 for i in range(8))]
+        return out
+    e = min(max(speed_error, 0.0), 0.9)
+    d = min(max(direction_error_rad, 0.0), math.pi)
+    bearing = math.atan2(fn, fe)  # math angle of the vector (E = x, N = y)
+    lo, hi = speed / (1.0 + e), speed / (1.0 - e)
+
+    def at(v: float, a: float, push: float = 0.0, side: float = 0.0) -> tuple[float, float]:
+        # speed v at angle bearing + a, pushed `push` m/s outward (side 0: along it; side ±1: across it)
+        th = bearing + a
+        ue, un = math.cos(th), math.sin(th)
+        if side:
+            pe, pn = -un * side, ue * side
+        else:
+            pe, pn = ue, un
+        return (v * ue + push * pe, v * un + push * pn)
+
+    out += [at(hi, f * d, r) for f in (-1.0, -0.5, 0.0, 0.5, 1.0)]
+    out += [at(v, s * d, r, s) for v in (lo, hi) for s in (-1.0, 1.0)]
+    out.append(at(max(lo - r, 0.0), 0.0))
+    return out
+
+
 def check_route(
     fence: LocalFence,
     env: Envelope,
@@ -217,18 +264,22 @@ def check_route(
     *,
     wind_en: tuple[float, float] = (0.0, 0.0),
     wind_uncertainty_mps: float = 0.0,
+    forecast_speed_error: float = 0.0,
+    forecast_direction_error_rad: float = 0.0,
     wind_extra_mps: float = 0.0,
     turbulence_sigma_mps: float = 0.0,
     h_uncertainty_m: float = 0.0,
     v_uncertainty_m: float = 0.0,
+    latency_s: float = 0.0,
     buffer_m: float = 0.0,
     step_m: float = 5.0,
 ) -> list[PreflightFinding]:
     """Every leg, turn and loiter of the route whose activation margin falls to ``buffer_m`` or below.
 
     ``speed_mps``: the planned speed (multirotor ground speed, fixed-wing
-    airspeed). ``wind_en``: the expected mean wind (E, N m/s, toward); ``wind_uncertainty_mps``:
-    how far the wind the unit will estimate may be from it (module docstring); ``wind_extra_mps``, ``h_uncertainty_m``, ``v_uncertainty_m``: the same
+    airspeed). ``wind_en``: the expected mean wind (E, N m/s, toward); ``forecast_speed_error`` and
+    ``forecast_direction_error_rad``: how far the true mean may be from it; ``wind_uncertainty_mps``: how far
+    the wind the unit will estimate may be from the true mean (:func:`winds_to_check`); ``wind_extra_mps``, ``h_uncertainty_m``, ``v_uncertainty_m``: the same
     allowances the unit adds in flight (``turbulence_sigma_mps``: the forecast's σ behind
     ``wind_extra_mps``). One finding per offending stretch, with its smallest margin. An empty
     list means the route passes. When the expected wind is beyond what the platform can be sure
@@ -237,17 +288,11 @@ def check_route(
     """
     findings: list[PreflightFinding] = []
     wps = list(waypoints)
-    why = return_not_assured(math.hypot(*wind_en), turbulence_sigma_mps, env)
+    winds = winds_to_check(wind_en, wind_uncertainty_mps, forecast_speed_error, forecast_direction_error_rad)
+    why = return_not_assured(max(math.hypot(*w) for w in winds), turbulence_sigma_mps, env)
     if why is not None and wps:
         w0 = wps[0]
         return [PreflightFinding(RoutePart.WIND, 0, "forecast", w0.east_m, w0.north_m, w0.height_m, -math.inf, why)]
-
-    winds = [wind_en]
-    if wind_uncertainty_mps > 0.0:
-        winds += [
-            (wind_en[0] + wind_uncertainty_mps * math.cos(a), wind_en[1] + wind_uncertainty_mps * math.sin(a))
-            for a in (i * math.pi / 4.0 for i in range(8))
-        ]
 
     def score(sample_sets: list[tuple[tuple[float, float], list[_Sample]]], part: RoutePart, index: int, label: str) -> None:
         worst = None
@@ -267,6 +312,7 @@ def check_route(
                     h_uncertainty_m=h_uncertainty_m,
                     v_uncertainty_m=v_uncertainty_m,
                     wind_extra_mps=wind_extra_mps,
+                    latency_s=latency_s,
                 )
                 if worst is None or r.activation_margin_m < worst[0].activation_margin_m:
                     worst = (r, p)

@@ -1,6 +1,7 @@
 """The pre-flight mission check flags the legs, turns and loiters that will meet the activation boundary."""
 
 import math
+from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
@@ -12,6 +13,7 @@ from geofence.dynamics import return_not_assured
 from geofence.geodesy import LocalFrame
 from geofence.preflight import PlannedWaypoint, RoutePart, check_route
 
+REPO = Path(__file__).resolve().parents[1]
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 MC = load_profile("F450RD").envelope
 FW = load_profile("Tern").envelope
@@ -139,10 +141,68 @@ def test_a_route_must_pass_for_every_wind_within_the_uncertainty():
 
 
 def test_the_expected_wind_is_the_forecast_raised_to_the_routes_top_with_its_error_disc():
-    from scenarios.spec.preflight import FORECAST_SPEED_ERROR, WIND_ESTIMATE_ERROR_MPS, expected_wind
+    from scenarios.spec.preflight import TURBULENCE_IN_ESTIMATE_SIGMAS, WIND_ESTIMATE_ERROR_MPS, expected_wind
 
     (we, wn), radius = expected_wind((3.0, 4.0), 120.0)
     assert math.hypot(we, wn) == pytest.approx(5.0 * 12.0 ** (1.0 / 7.0)) and we / wn == pytest.approx(0.75)
-    assert radius == pytest.approx(FORECAST_SPEED_ERROR * math.hypot(we, wn) + WIND_ESTIMATE_ERROR_MPS)
+    assert radius == pytest.approx(WIND_ESTIMATE_ERROR_MPS)
+    assert expected_wind((3.0, 4.0), 120.0, 2.0)[1] == pytest.approx(
+        WIND_ESTIMATE_ERROR_MPS + 2.0 * TURBULENCE_IN_ESTIMATE_SIGMAS
+    )
     assert expected_wind((3.0, 4.0), 2.0)[0] == pytest.approx((3.0, 4.0))  # never weaker than the 10 m forecast
     assert expected_wind((0.0, 0.0), 50.0) == ((0.0, 0.0), WIND_ESTIMATE_ERROR_MPS)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    speed_mps=st.floats(0.5, 30.0),
+    bearing_deg=st.floats(0.0, 360.0),
+    scale=st.floats(0.8, 1.2),
+    turn_deg=st.floats(-20.0, 20.0),
+    radius_mps=st.floats(0.0, 5.0),
+)
+def test_the_checked_winds_reach_as_far_as_any_wind_the_forecast_allows(speed_mps, bearing_deg, scale, turn_deg, radius_mps):
+    """A true mean wind whose forecast is within 20 % and 20 deg of it, estimated within r: the checked winds
+    include one at least as strong, one at least as far toward it, and none outside the set."""
+    from geofence.preflight import winds_to_check
+
+    b = math.radians(bearing_deg)
+    fb = b + math.radians(turn_deg)
+    forecast = (scale * speed_mps * math.cos(fb), scale * speed_mps * math.sin(fb))
+    winds = winds_to_check(forecast, radius_mps, 0.2, math.radians(20.0))
+    assert winds[0] == forecast
+    assert max(math.hypot(*w) for w in winds) >= speed_mps + radius_mps - 1e-9
+    # the unit's estimate furthest along the true wind's own direction is covered (within the sampling's chord)
+    ub = (math.cos(b), math.sin(b))
+    reach = max(w[0] * ub[0] + w[1] * ub[1] for w in winds)
+    assert reach >= (speed_mps + radius_mps) * math.cos(math.radians(5.0)) - 1e-9
+    # and no checked wind lies outside the sector widened by r
+    f = math.hypot(*forecast)
+    for w in winds:
+        v = math.hypot(*w)
+        assert v <= f / 0.8 + radius_mps + 1e-9
+        if v > 1e-9:
+            off = abs(math.remainder(math.atan2(w[1], w[0]) - fb, 2.0 * math.pi))
+            assert off <= math.radians(20.0) + math.asin(min(1.0, radius_mps / max(f / 1.2, 1e-9))) + 1e-9
+
+
+def test_return_must_be_assured_against_the_strongest_wind_the_forecast_allows():
+    route = square(100.0, 30.0)
+    # 8 m/s forecast: fine on its own for the 10.3 m/s multirotor; as much as 8 / 0.8 = 10 m/s is not
+    assert check_route(fence(), MC, route, 5.3, wind_en=(8.0, 0.0)) == []
+    out = check_route(fence(), MC, route, 5.3, wind_en=(8.0, 0.0), forecast_speed_error=0.2)
+    assert len(out) == 1 and out[0].part is RoutePart.WIND
+
+
+def test_the_check_adds_the_units_latency_and_it_matches_the_sensors():
+    from scenarios.spec.preflight import latency_bound_s
+    from scenarios.spec.schema import load_scenario
+
+    wps = [PlannedWaypoint(0.0, 0.0, 30.0), PlannedWaypoint(230.0, 0.0, 30.0)]
+    f = fence(ceiling=200.0)
+    m0 = check_route(f, MC, wps, 5.3, buffer_m=1e9)[0].activation_margin_m
+    m1 = check_route(f, MC, wps, 5.3, latency_s=0.4, buffer_m=1e9)[0].activation_margin_m
+    assert m1 <= m0 - 5.3 * 0.4 + 1e-9  # at least the 0.4 s more at 5.3 m/s toward the edge
+    sc = load_scenario(REPO / "scenarios" / "geofence_multicopter_adversarial_wind.yaml")
+    s = sc.sensors
+    assert latency_bound_s(sc) == pytest.approx(1.0 / sc.control_rate_hz + s.gps_latency_s + 1.0 / s.gps_rate_hz)

@@ -37,7 +37,8 @@ a building (``ceiling_m`` of its own). Features added after campaigns had been p
 child generator (:func:`_added_rng`), so the cases that do not use them stay as they were.
 
 The geofence is told a forecast (``wind_prior``) as an operator gets one: the mean wind within
-±20 % and ±20°, and the turbulence sigma at the start height and the strongest gust, each within
+±20 % and ±20° (the error the pre-flight check allows for, :data:`scenarios.spec.preflight.FORECAST_SPEED_ERROR`
+and :data:`~scenarios.spec.preflight.FORECAST_DIRECTION_ERROR_DEG`), and the turbulence sigma at the start height and the strongest gust, each within
 ±20 %, when the case has them.
 
 Each case's manifest also says whether the wind is within the platform's *authority*
@@ -76,6 +77,7 @@ from geofence.local_fence import LocalFence
 from geofence.polygon import PolygonIndex
 from geofence.rooms import multicopter_stopping_distance_m, turn_radius_m, worst_case_lateral_shift_m
 from geofence.validation import ConfigError
+from scenarios.spec.preflight import FORECAST_DIRECTION_ERROR_DEG, FORECAST_SPEED_ERROR
 from scenarios.spec.schema import BREACH_SPEED_LIMIT_MPS, PilotKind
 from wind.config import parse_wind
 from wind.dryden import dryden_scales
@@ -1253,8 +1255,8 @@ def _assemble(
         fault = doc["sensors"]
     fence = draft.mapping(frame)
     forecast: dict[str, Any] = {
-        "speed_mps": _r(wind["speed_mps"] * rng.uniform(0.8, 1.2)),
-        "from_deg": _r((wind["from_deg"] + rng.uniform(-20.0, 20.0)) % 360.0, 1),
+        "speed_mps": _r(wind["speed_mps"] * rng.uniform(1.0 - FORECAST_SPEED_ERROR, 1.0 + FORECAST_SPEED_ERROR)),
+        "from_deg": _r((wind["from_deg"] + rng.uniform(-FORECAST_DIRECTION_ERROR_DEG, FORECAST_DIRECTION_ERROR_DEG)) % 360.0, 1),
     }
     authority = wind_authority(wind, plan.agl_m, ctx.profile, ctx.site["ground_alt_m"])
     # the forecast states what an operator's does: the turbulence and the gusts too, each within 20 %

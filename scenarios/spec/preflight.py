@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 
+from geofence.config import StateSource
 from geofence.dynamics import envelope_at_density, isa_density_ratio
 from geofence.fence import AltitudeReference
 from geofence.geodesy import LocalFrame
@@ -31,10 +32,18 @@ FORECAST_PROFILE = PowerLawProfile(exponent=1.0 / 7.0, reference_height_m=10.0)
 power law up to the mission's highest point: the wind aloft is stronger than the forecast's (by 42 % at 120 m),
 never weaker."""
 FORECAST_SPEED_ERROR = 0.2
-"""The forecast wind may be off by this fraction of its speed (in any direction)."""
+"""The forecast's speed may be off by this fraction of the true mean wind's speed."""
+FORECAST_DIRECTION_ERROR_DEG = 20.0
+"""The forecast's direction may be off by this much (deg)."""
 WIND_ESTIMATE_ERROR_MPS = 1.0
 """In flight the unit acts on its own wind estimate, within this of the mean wind (issue 10's requirement,
 measured in tests/test_wind_estimator.py), plus the turbulence its 20 s average still holds."""
+TURBULENCE_IN_ESTIMATE_SIGMAS = 1.5
+"""How much of the forecast's turbulence sigma the unit's 20 s wind estimate may still hold. A first-order
+average over ``tau`` of turbulence with time scale ``T`` keeps ``sqrt(T / (T + tau))`` of its sigma: 0.65 for the
+15 s of a Dryden gust at 20 m in 8 m/s, so 1.5 sigma is 2.3 of the estimate's own standard deviations. Measured:
+the 122 missions of the 1,000-case campaign (seed 20261125) stayed within 1 m/s + 1.5 sigma of the mean wind at
+the vehicle, apart from start-up and landing transients."""
 
 
 def planned_route(scenario: Scenario, frame: LocalFrame) -> list[PlannedWaypoint]:
@@ -60,7 +69,9 @@ def planned_route(scenario: Scenario, frame: LocalFrame) -> list[PlannedWaypoint
     return out
 
 
-def expected_wind(forecast_en: tuple[float, float], top_agl_m: float) -> tuple[tuple[float, float], float]:
+def expected_wind(
+    forecast_en: tuple[float, float], top_agl_m: float, turbulence_sigma_mps: float = 0.0
+) -> tuple[tuple[float, float], float]:
     """The wind the check flies the route in (E, N m/s) and the radius of winds around it the route must pass for.
 
     The forecast raised to the route's highest point by :data:`FORECAST_PROFILE` (never below its 10 m value);
@@ -68,7 +79,16 @@ def expected_wind(forecast_en: tuple[float, float], top_agl_m: float) -> tuple[t
     """
     scale = FORECAST_PROFILE.factor(max(top_agl_m, FORECAST_PROFILE.reference_height_m))
     wind_en = (forecast_en[0] * scale, forecast_en[1] * scale)
-    return wind_en, FORECAST_SPEED_ERROR * math.hypot(*wind_en) + WIND_ESTIMATE_ERROR_MPS
+    return wind_en, WIND_ESTIMATE_ERROR_MPS + TURBULENCE_IN_ESTIMATE_SIGMAS * max(turbulence_sigma_mps, 0.0)
+
+
+def latency_bound_s(scenario: Scenario) -> float:
+    """The longest the unit's reaction can lag its data (s): one control step plus, unless it is given the true
+    state, the age of the newest GNSS fix (its latency plus one fix period), as the unit adds in flight."""
+    lag = 1.0 / scenario.control_rate_hz
+    if scenario.geofence is not None and scenario.geofence.state_source is not StateSource.TRUTH:
+        lag += scenario.sensors.gps_latency_s + 1.0 / scenario.sensors.gps_rate_hz
+    return lag
 
 
 def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
@@ -85,7 +105,7 @@ def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
     k = cfg.uncertainty_k_sigma
     sensors = scenario.sensors
     route = planned_route(scenario, frame)
-    wind_en, wind_uncertainty_mps = expected_wind(cfg.wind_prior_enu, max(w.height_m for w in route))
+    wind_en, wind_uncertainty_mps = expected_wind(cfg.wind_prior_enu, max(w.height_m for w in route), cfg.turbulence_sigma_mps)
     if fence.altitude_reference is AltitudeReference.AMSL:
         route = [PlannedWaypoint(w.east_m, w.north_m, w.height_m + st.ground_alt_m, w.label, w.loiter_radius_m) for w in route]
     return check_route(
@@ -95,10 +115,13 @@ def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
         speed,
         wind_en=wind_en,
         wind_uncertainty_mps=wind_uncertainty_mps,
+        forecast_speed_error=FORECAST_SPEED_ERROR,
+        forecast_direction_error_rad=math.radians(FORECAST_DIRECTION_ERROR_DEG),
         wind_extra_mps=cfg.turbulence_k_sigma * cfg.turbulence_sigma_mps + cfg.gust_mps,
         turbulence_sigma_mps=cfg.turbulence_sigma_mps,
         h_uncertainty_m=k * sensors.gps_h_sigma_m + cfg.extra_margin_m,
         v_uncertainty_m=k * sensors.gps_v_sigma_m + cfg.extra_margin_m,
+        latency_s=latency_bound_s(scenario),
         buffer_m=BUFFER_M,
     )
 
