@@ -20,6 +20,9 @@ from scenarios.spec.schema import MissionConfig
 MULTIROTOR_VERTICAL_TOLERANCE_M = 2.0
 LAND_SLOW_BELOW_AGL_M = 3.0
 LAND_FINAL_DESCENT_MPS = 0.5
+TURN_COMMIT_RAD = math.radians(150.0)
+"""A fixed-wing's course change of more than this keeps the direction it began in (autopilots' L1 guidance
+does the same near a reversal; see :meth:`FixedWingNavigator.bank_stick_for_course`)."""
 LAND_DESCENT_MPS = 1.5
 
 
@@ -43,7 +46,7 @@ class MissionAutopilot:
         self.speed_mps = mission.speed_mps or env.cruise_speed_mps
         self.multirotor = env.is_multirotor
         self.mc = MultirotorNavigator(env) if self.multirotor else None
-        self.fw = None if self.multirotor else FixedWingNavigator(env)
+        self.fw = None if self.multirotor else FixedWingNavigator(env, turn_commit_rad=TURN_COMMIT_RAD)
         self.targets = [self._to_target(item, frame, start) for item in mission.items]
         self.index = 0
         self.finished = False

@@ -27,8 +27,11 @@ from geofence.control_laws import (
     altitude_to_climb_rate,
     approach_velocity,
     bank_stick_for_course,
+    bank_stick_for_turn_rate,
     climb_rate_to_stick,
+    ground_course_rad,
     orbit_course_rad,
+    wrap_pi,
     yaw_stick_for_heading,
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
@@ -96,8 +99,13 @@ class FixedWingNavigator:
         path_gain_per_m: float = 0.025,
         orbit_gain: float = 2.0,
         altitude_gain_per_s: float = 0.35,
+        turn_commit_rad: float | None = None,
     ):
+        """``turn_commit_rad``: once the course error exceeds it, keep turning the way the turn began
+        until the error is back below it (None: always turn the short way)."""
         self.env = env
+        self.turn_commit_rad = turn_commit_rad
+        self._turn_sign = 0.0
         self.k_course = course_gain
         self.chi_inf = path_approach_angle_rad
         self.k_path = path_gain_per_m
@@ -109,8 +117,24 @@ class FixedWingNavigator:
         return v * v / (G_MPS2 * math.tan(self.env.max_bank_rad))
 
     def bank_stick_for_course(self, s: VehicleState, course_cmd_rad: float) -> float:
-        """Coordinated-turn law: commanded turn rate proportional to course error -> bank."""
-        return bank_stick_for_course(s, course_cmd_rad, self.env, self.k_course)
+        """Coordinated-turn law: commanded turn rate proportional to course error -> bank.
+
+        With ``turn_commit_rad`` a turn of more than that keeps its direction. A course reversal's error
+        sits near 180 deg, where the short way flips with every change of the track (in a strong wind the
+        track swings with the crab angle); without the commitment the aircraft rolls one way, then the
+        other, and flies on in between.
+        """
+        if self.turn_commit_rad is None:
+            return bank_stick_for_course(s, course_cmd_rad, self.env, self.k_course)
+        err = wrap_pi(course_cmd_rad - ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad))
+        if abs(err) > self.turn_commit_rad:
+            if self._turn_sign * err < 0.0:
+                err += math.copysign(2.0 * math.pi, self._turn_sign)  # the long way: the way it is turning
+            elif self._turn_sign == 0.0:
+                self._turn_sign = math.copysign(1.0, err)
+        else:
+            self._turn_sign = 0.0
+        return bank_stick_for_turn_rate(self.k_course * err, s.ground_speed_mps, self.env)
 
     def course_on_line(self, s: VehicleState, e0: float, n0: float, e1: float, n1: float) -> tuple[float, float, float]:
         """Vector-field course to follow the line p0 -> p1.
