@@ -86,7 +86,10 @@ heuristic, admissible and consistent: the route is still the shortest over
 the same graph) and the safe-point searches stop at the first safe point
 settled. Same graph, same routes; only the work done differs. Per-step :meth:`RecoveryPath.lookahead_point`
 is plain Python: a projection over the path's segments and one or two exact
-chord tests (bounding-box filtered loops over the edges).
+chord tests (bounding-box filtered loops over the edges). A segment whose
+bounding box holds many edges (a fixed-wing's roll-out route: a straight leg
+across the fence to the recovery point, asked once per 10 m cell it enters)
+is tested in numpy, with the scalar test's arithmetic (the same verdict).
 """
 
 from __future__ import annotations
@@ -125,6 +128,10 @@ MAX_SAFE_POINTS: int = 12
 
 BBOX_PREFILTER_EDGES: int = 256
 """From this many boundary edges on, the scalar segment test filters edges by bounding box in numpy first."""
+
+VECTOR_FROM_EDGES: int = 24
+"""From this many edges in a segment's bounding box on, :meth:`RecoveryPlanner._clear_one` tests them in numpy
+(a roll-out route's straight leg across an airspace-scale fence meets thousands); the same answer as the loop."""
 
 LAZY_MIN_NODES: int = 1500
 """From this many graph nodes on, the graph is built lazily (see the module docstring's Complexity)."""
@@ -486,8 +493,13 @@ class RecoveryPlanner:
         return in_cone | ~self._is_corner[idx]
 
     # ------------------------------------------------------------------ exact segment tests
-    def _clear_one(self, p: Point, q: Point, thr: float) -> bool:
-        """Exact: with ``margin(p) >= thr > 0`` (caller's duty), is ``margin >= thr`` all along p-q?"""
+    def _clear_one(self, p: Point, q: Point, thr: float, *, vector_from: int | None = None) -> bool:
+        """Exact: with ``margin(p) >= thr > 0`` (caller's duty), is ``margin >= thr`` all along p-q?
+
+        ``vector_from``: from this many boundary edges in the segment's bounding box on, they are tested
+        by :func:`_edges_block_np` (the same arithmetic, vectorized; ``None``: :data:`VECTOR_FROM_EDGES`); a
+        huge value loops over them in Python (the reference).
+        """
         ax, ay = p
         bx, by = q
         t2 = thr * thr
@@ -497,7 +509,12 @@ class RecoveryPlanner:
         if len(edges) > BBOX_PREFILTER_EDGES:  # large fences: the bounding-box test vectorized first
             b = self._ebox
             hit = np.flatnonzero((b[:, 1] >= xmin) & (b[:, 0] <= xmax) & (b[:, 3] >= ymin) & (b[:, 2] <= ymax))
-            edges = tuple(edges[k] for k in hit.tolist())
+            if len(hit) >= (VECTOR_FROM_EDGES if vector_from is None else vector_from):
+                if _edges_block_np(ax, ay, bx, by, self._ea[hit], self._eb[hit], t2):
+                    return False
+                edges = ()
+            else:
+                edges = tuple(edges[k] for k in hit.tolist())
         for cx, cy, dx, dy, exmin, exmax, eymin, eymax in edges:
             if exmax < xmin or exmin > xmax or eymax < ymin or eymin > ymax:
                 continue
@@ -908,6 +925,44 @@ def _pt_seg_d2_np(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     qx = w[..., 0] - t * d[..., 0]
     qy = w[..., 1] - t * d[..., 1]
     return qx * qx + qy * qy
+
+
+def _edges_block_np(ax: float, ay: float, bx: float, by: float, ca: np.ndarray, cb: np.ndarray, t2: float) -> bool:
+    """Does any edge ``ca[k]-cb[k]`` cross the segment a-b or come within ``sqrt(t2)`` of it?
+
+    :meth:`RecoveryPlanner._clear_one`'s per-edge test (:func:`_cross_properly` and the four
+    :func:`_pt_seg_d2` endpoint distances) over 1-D arrays, with the scalar code's operations in the
+    same order, so each edge gets the same floats and the same verdict.
+    """
+    cx, cy, dx, dy = ca[:, 0], ca[:, 1], cb[:, 0], cb[:, 1]
+    # _cross_properly(a, b, c, d)
+    ux, uy = bx - ax, by - ay
+    o1 = ux * (cy - ay) - uy * (cx - ax)
+    o2 = ux * (dy - ay) - uy * (dx - ax)
+    vx, vy = dx - cx, dy - cy
+    o3 = vx * (ay - cy) - vy * (ax - cx)
+    o4 = vx * (by - cy) - vy * (bx - cx)
+    bad = (o1 * o2 < 0.0) & (o3 * o4 < 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # _pt_seg_d2(a, c-d) and _pt_seg_d2(b, c-d): a point to each edge
+        l2 = vx * vx + vy * vy
+        pos = l2 > 0.0
+        for px, py in ((ax, ay), (bx, by)):
+            qx, qy = px - cx, py - cy
+            t = np.clip((qx * vx + qy * vy) / l2, 0.0, 1.0)
+            qx = np.where(pos, qx - t * vx, qx)
+            qy = np.where(pos, qy - t * vy, qy)
+            bad |= qx * qx + qy * qy < t2
+    # _pt_seg_d2(c, a-b) and _pt_seg_d2(d, a-b): each edge's endpoints to the segment
+    sl2 = ux * ux + uy * uy
+    for ex, ey in ((cx, cy), (dx, dy)):
+        rx, ry = ex - ax, ey - ay
+        if sl2 > 0.0:
+            s = np.clip((rx * ux + ry * uy) / sl2, 0.0, 1.0)
+            rx = rx - s * ux
+            ry = ry - s * uy
+        bad |= rx * rx + ry * ry < t2
+    return bool(bad.any())
 
 
 def _cross_np(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> np.ndarray:
