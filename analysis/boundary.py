@@ -45,6 +45,11 @@ def edge_shifts_m(fence: LocalFence, env: Envelope, wind_en: tuple[float, float]
     return np.asarray([head_on_room_m(env, v, float(wn), wind_speed) for wn in w_n])
 
 
+CHUNK_PAIRS = 2_000_000
+"""Point-edge pairs held at once (a few tens of MB of temporaries): an airspace fence of 10,000 edges on a
+220 x 220 grid would otherwise need 7 GB for one array."""
+
+
 def _segment_distances(poly, pts: np.ndarray) -> np.ndarray:
     """(points, edges) distances from each point to each edge of a polygon index."""
     a = poly.starts[None, :, :]
@@ -52,6 +57,19 @@ def _segment_distances(poly, pts: np.ndarray) -> np.ndarray:
     p = pts[:, None, :]
     t = np.clip(((p - a) * d).sum(-1) / (d * d).sum(-1), 0.0, 1.0)
     return np.linalg.norm(p - (a + t[..., None] * d), axis=-1)
+
+
+def _nearest(poly, pts: np.ndarray, shifts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per point: ``min over edges (distance - shift)`` and ``min over edges distance``, in chunks of points."""
+    n_edges = max(len(poly.starts), 1)
+    step = max(1, CHUNK_PAIRS // n_edges)
+    shifted = np.empty(len(pts))
+    nearest = np.empty(len(pts))
+    for i in range(0, len(pts), step):
+        dist = _segment_distances(poly, pts[i : i + step])
+        shifted[i : i + step] = (dist - shifts[None, :]).min(axis=1)
+        nearest[i : i + step] = dist.min(axis=1)
+    return shifted, nearest
 
 
 def activation_field(
@@ -75,16 +93,14 @@ def activation_field(
     v = _speed(env, speed_mps)
 
     shifts = edge_shifts_m(fence, env, wind_en, v)
-    dist = _segment_distances(k, pts)
-    field = (dist - shifts[None, :]).min(axis=1)
-    field = np.where(k.contains_array(pts), field, -dist.min(axis=1))
+    shifted, nearest = _nearest(k, pts, shifts)
+    field = np.where(k.contains_array(pts), shifted, -nearest)
 
     for poly in fence.keep_out_polygons:
         # approaching from outside: the aircraft moves along the inward normal, so the tailwind is -(n . w)
         sh = np.asarray([head_on_room_m(env, v, float(-wn), wind_speed) for wn in poly.outward_normals @ wind])
-        d = _segment_distances(poly, pts)
-        f = (d - sh[None, :]).min(axis=1)
-        field = np.minimum(field, np.where(poly.contains_array(pts), -d.min(axis=1), f))
+        f, nearest = _nearest(poly, pts, sh)
+        field = np.minimum(field, np.where(poly.contains_array(pts), -nearest, f))
 
     if fence.keep_out_circles:
         # room as a function of the tailwind component, interpolated (it is smooth and monotone in it)
