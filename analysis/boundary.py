@@ -59,10 +59,10 @@ def _segment_distances(poly, pts: np.ndarray) -> np.ndarray:
     return np.linalg.norm(p - (a + t[..., None] * d), axis=-1)
 
 
-def _nearest(poly, pts: np.ndarray, shifts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _nearest(poly, pts: np.ndarray, shifts: np.ndarray, chunk_pairs: int) -> tuple[np.ndarray, np.ndarray]:
     """Per point: ``min over edges (distance - shift)`` and ``min over edges distance``, in chunks of points."""
     n_edges = max(len(poly.starts), 1)
-    step = max(1, CHUNK_PAIRS // n_edges)
+    step = max(1, chunk_pairs // n_edges)
     shifted = np.empty(len(pts))
     nearest = np.empty(len(pts))
     for i in range(0, len(pts), step):
@@ -73,13 +73,19 @@ def _nearest(poly, pts: np.ndarray, shifts: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def activation_field(
-    fence: LocalFence, env: Envelope, wind_en: tuple[float, float], resolution: int = 220, speed_mps: float | None = None
+    fence: LocalFence,
+    env: Envelope,
+    wind_en: tuple[float, float],
+    resolution: int = 220,
+    speed_mps: float | None = None,
+    chunk_pairs: int = CHUNK_PAIRS,
 ):
     """(E, N, field) grids over the keep-in bounding box; field < 0 outside the activation boundary.
 
     Keep-in edges, keep-out polygons and keep-out circles, each with its own
     head-on room at ``speed_mps`` (airspeed for a fixed-wing, ground speed for a
     multirotor; default cruise) in the steady wind ``wind_en`` (m/s toward E, N).
+    ``chunk_pairs``: point-edge pairs computed at once (memory; the field is the same for any value).
     """
     k = fence.keep_in
     x0, y0, x1, y1 = k.bbox
@@ -93,13 +99,13 @@ def activation_field(
     v = _speed(env, speed_mps)
 
     shifts = edge_shifts_m(fence, env, wind_en, v)
-    shifted, nearest = _nearest(k, pts, shifts)
+    shifted, nearest = _nearest(k, pts, shifts, chunk_pairs)
     field = np.where(k.contains_array(pts), shifted, -nearest)
 
     for poly in fence.keep_out_polygons:
         # approaching from outside: the aircraft moves along the inward normal, so the tailwind is -(n . w)
         sh = np.asarray([head_on_room_m(env, v, float(-wn), wind_speed) for wn in poly.outward_normals @ wind])
-        f, nearest = _nearest(poly, pts, sh)
+        f, nearest = _nearest(poly, pts, sh, chunk_pairs)
         field = np.minimum(field, np.where(poly.contains_array(pts), -nearest, f))
 
     if fence.keep_out_circles:
