@@ -14,7 +14,9 @@ is propagated with what the unit still measures:
 * fixed-wing: the airspeed along the AHRS heading plus the last wind estimate
   gives the ground velocity directly.
 
-Heights keep coming from the estimator's barometric channel. The error grows
+It starts from the estimate at the last fix's time of validity when the estimator gives it
+(:class:`geofence.interface.FixState`), replaying the attitude seen since, else from the last
+fresh estimate. Heights keep coming from the estimator's barometric channel. The error grows
 with time (about ½·g·δθ·t², 8 m after 15 s for a 0.5° attitude error), which
 is enough to fly a few hundred metres to a floor gap and land in it.
 """
@@ -22,10 +24,11 @@ is enough to fly a few hundred metres to a floor gap and land in it.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import replace
 
 from geofence.dynamics import G_MPS2, drag_accel_mps2, drag_coefficients
-from geofence.interface import Envelope, VehicleState
+from geofence.interface import Envelope, FixState, VehicleState
 
 
 class DeadReckoning:
@@ -36,9 +39,27 @@ class DeadReckoning:
         self.e = self.n = self.ve = self.vn = 0.0
 
     def start(self, last_valid: VehicleState) -> None:
+        """From an estimate (already extrapolated past its fix: the fallback when no fix state is known)."""
         self.active = True
         self.e, self.n = last_valid.east_m, last_valid.north_m
         self.ve, self.vn = last_valid.v_east_mps, last_valid.v_north_mps
+
+    def start_at_fix(self, fix: FixState, since: Iterable[VehicleState], wind_en: tuple[float, float]) -> None:
+        """From the state at the last fix's time of validity, replaying the estimates (attitudes) seen since.
+
+        The estimator extrapolates past its newest fix with the acceleration it had then; in a hard manoeuvre
+        that is seconds behind (a 40 deg brake of a multirotor reversed its velocity inside the 0.5 s an
+        estimate stays fresh). Replaying the attitude from the fix's time starts the dead reckoning from
+        what the vehicle did since, not from the extrapolation.
+        """
+        self.active = True
+        self.e, self.n = fix.east_m, fix.north_m
+        self.ve, self.vn = fix.v_east_mps, fix.v_north_mps
+        t = fix.t_s
+        for est in since:
+            if est.t_s > t:
+                self.step(est, est.t_s - t, wind_en)
+                t = est.t_s
 
     def stop(self) -> None:
         self.active = False

@@ -76,7 +76,7 @@ from dataclasses import dataclass
 
 from geofence.dynamics import isa_density_ratio
 from geofence.geodesy import WGS84_A_M, WGS84_F, LocalFrame
-from geofence.interface import VehicleState
+from geofence.interface import FixState, VehicleState
 from geofence.measurements import AirData, AttitudeSample, GpsFix
 
 _E2 = WGS84_F * (2.0 - WGS84_F)
@@ -400,6 +400,13 @@ class GeofenceEstimator:
     def baro_offset_m(self) -> float:
         """Estimated baro offset (baro altitude - origin height - up) in m."""
         return self._b
+
+    def horizon_state(self) -> FixState | None:
+        """The fused horizontal state at the newest fix's time of validity (None before the first fix)."""
+        ex, nx = self._east, self._north
+        if ex is None or nx is None:
+            return None
+        return FixState(self._t_d, ex.p, nx.p, ex.v, nx.v)
 
     @property
     def accel_en_mps2(self) -> tuple[float, float]:

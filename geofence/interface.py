@@ -32,6 +32,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum
+from typing import NamedTuple
 
 
 class PlatformKind(str, Enum):
@@ -130,3 +131,17 @@ class VehicleState:
     @property
     def ground_speed_mps(self) -> float:
         return (self.v_east_mps**2 + self.v_north_mps**2) ** 0.5
+
+
+class FixState(NamedTuple):
+    """The horizontal estimate at its newest GNSS data's time of validity (the fusion horizon), not extrapolated.
+
+    A position estimator fuses each fix at the fix's own time and extrapolates from there to the present;
+    when fixes stop, dead reckoning starts best from this state, replaying the attitude since ``t_s``.
+    """
+
+    t_s: float
+    east_m: float
+    north_m: float
+    v_east_mps: float
+    v_north_mps: float

@@ -40,6 +40,7 @@ fence's altitude reference (AGL or AMSL).
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum
 
@@ -57,7 +58,7 @@ from geofence.guidance import (
     SeedPDRecovery,
     StraightRoute,
 )
-from geofence.interface import Envelope, StickCommand, VehicleState
+from geofence.interface import Envelope, FixState, StickCommand, VehicleState
 from geofence.local_fence import LocalFence
 from geofence.recovery_path import RecoveryPlanner
 from geofence.rooms import (
@@ -80,6 +81,8 @@ VERTICAL_CLEARANCE_M = 2.0
 DEAD_RECKONING_LANDING_MARGIN_M = 25.0
 """With the position source lost, a multirotor lands in place only this far inside (else at the nearest point that is)."""
 FRESH_ESTIMATE_AGE_S = 0.5
+REPLAY_WINDOW_S = 2.0
+"""How far back the unit keeps its estimates (attitudes) for the dead reckoning to replay from the last fix."""
 """Dead reckoning starts from the last estimate whose GNSS data was at most this old (not a long extrapolation)."""
 DENSITY_REFRESH_M = 100.0
 """The envelope is re-scaled to the air density when the altitude moved this much (while monitoring)."""
@@ -130,6 +133,8 @@ class GeofenceUnit:
         self._strong_wind_since_s: float | None = None
         self._position_valid = True
         self._last_valid: VehicleState | None = None
+        self._last_horizon: FixState | None = None
+        self._history: deque[VehicleState] = deque()
         self.estimate: VehicleState | None = None
         """The state the unit acted on last (its estimate, or its dead reckoning)."""
         self._override_period_start_s = 0.0
@@ -446,6 +451,7 @@ class GeofenceUnit:
         sigma_v_m: float = 0.0,
         turbulence_sigma_mps: float | None = None,
         estimate_age_s: float = 0.0,
+        horizon: FixState | None = None,
     ) -> StickCommand:
         """One step: returns the sticks to send to the flight controller (the pilot's, or the override's).
 
@@ -453,7 +459,8 @@ class GeofenceUnit:
         turbulence intensity (m/s, 1-sigma), if it has one. ``estimate_age_s``:
         the age of the position data behind the estimate (a GNSS fix's latency
         plus the time since it): the vehicle may have accelerated for that long
-        unseen, so it adds to the reaction time in every margin.
+        unseen, so it adds to the reaction time in every margin. ``horizon``: the estimate at its newest
+        fix's time of validity, if the estimator gives it: dead reckoning then starts there.
         """
         self._latency_s = dt_s + max(estimate_age_s, 0.0)
         if wind_en is not None:
@@ -461,17 +468,28 @@ class GeofenceUnit:
         if turbulence_sigma_mps is not None:
             self._turbulence_est_mps = turbulence_sigma_mps
         self._position_valid = position_valid
+        history = self._history
         if position_valid and estimate_age_s <= FRESH_ESTIMATE_AGE_S:
             self._last_valid = est
+            self._last_horizon = horizon
             self.dead_reckoning.stop()
         elif self._last_valid is not None:
-            # fixes are missing: dead reckoning runs from the last fresh estimate (in the shadow while the
-            # estimator still extrapolates, in charge once it declares the position lost)
+            # fixes are missing: dead reckoning runs from the last fix (in the shadow while the estimator
+            # still extrapolates, in charge once it declares the position lost)
             if not self.dead_reckoning.active:
-                self.dead_reckoning.start(self._last_valid)
+                wind = (self.wind_enu[0], self.wind_enu[1])
+                fix = self._last_horizon
+                if fix is not None and history and history[0].t_s <= fix.t_s:
+                    self.dead_reckoning.start_at_fix(fix, history, wind)
+                else:
+                    self.dead_reckoning.start(self._last_valid)
             reckoned = self.dead_reckoning.step(est, dt_s, (self.wind_enu[0], self.wind_enu[1]))
             if not position_valid:
                 est = reckoned
+        # the attitudes of the last REPLAY_WINDOW_S (the dead reckoning replays them from the last fix)
+        history.append(est)
+        while history[0].t_s < t_s - REPLAY_WINDOW_S:
+            history.popleft()
         self.estimate = est
         self._sigma_v_m = sigma_v_m
         if math.isfinite(sigma_h_m):

@@ -267,3 +267,15 @@ def test_multirotor_losing_gps_deep_inside_descends_at_its_full_rate():
     rate = res.unit.env.max_descent_rate_mps
     assert touchdown_s < 60.0 / rate + 10.0, f"took {touchdown_s:.0f} s from 60 m (1 m/s would take 60 s)"
     assert_held(res, "multirotor landing by dead reckoning")
+
+
+def test_a_multirotor_losing_gps_in_a_hard_brake_dead_reckons_from_its_last_fix():
+    """GPS fails 1.2 s after a full-power take-off while the override brakes at 40 deg (campaign seed 20261201,
+    floor_gaps-0161). The last fresh estimate was extrapolated 0.5 s past its fix with the filter's acceleration
+    (6 m/s off by then); dead reckoning from the fix's own time, replaying the attitude, starts 3x closer."""
+    res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_floor_gaps_0161_gps_fail_braking.yaml"))
+    lost = next(t for t in res.unit.transitions if "position source lost" in t.reason)
+    c = res.recorder.column
+    k = int(np.searchsorted(c("time_s"), lost.t_s)) + 1
+    err = float(np.hypot(c("east_m")[k] - c("est_east_m")[k], c("north_m")[k] - c("est_north_m")[k]))
+    assert err < 3.0, f"dead-reckoned position {err:.1f} m off when it took over"  # 6.4 m from the extrapolation

@@ -30,7 +30,7 @@ from aircraft.factory import build_platform
 from analysis.scoring import SCORED_COLUMNS, score_flight
 from geofence.config import GeofenceConfig, StateSource
 from geofence.geodesy import LocalFrame
-from geofence.interface import Envelope, VehicleState
+from geofence.interface import Envelope, FixState, VehicleState
 from geofence.local_fence import LocalFence
 from geofence.unit import GeofenceUnit, Mode
 from scenarios.flight.pilots import Pilot, build_pilot
@@ -119,6 +119,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                     sigma_v_m=seen.sigma_v_m,
                     estimate_age_s=own.data_age_s,
                     turbulence_sigma_mps=own.turbulence_sigma_mps,
+                    horizon=seen.horizon,
                 )
                 mode = unit.mode
                 pilot.notice_control(mode in (Mode.MONITOR, Mode.RECOVERED))  # the pilot feels the sticks come back
@@ -196,6 +197,8 @@ class Sensed(NamedTuple):
     position_valid: bool
     sigma_h_m: float
     sigma_v_m: float
+    horizon: FixState | None = None
+    """The estimate at its newest fix's time of validity (None with a truth source)."""
 
 
 class _GeofenceSensing:
@@ -242,7 +245,7 @@ class _GeofenceSensing:
         est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
         valid = self.estimator.position_valid
         wind_en = self.wind.update(est, air.airspeed_mps, dt_s, valid)
-        return Sensed(est, wind_en, valid, self.estimator.sigma_h_m, self.estimator.sigma_v_m)
+        return Sensed(est, wind_en, valid, self.estimator.sigma_h_m, self.estimator.sigma_v_m, self.estimator.horizon_state())
 
 
 def write_result(
