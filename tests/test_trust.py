@@ -101,6 +101,10 @@ def test_scenario_hash_is_the_resolved_document_and_the_version():
 
     assert scenario_hash(doc, version=project_version()) == h
     assert scenario_hash(doc, version="999.0") != h, "a new version must re-fly"
+    from scenarios.spec.sweep import code_fingerprint
+
+    assert scenario_hash(doc, code=code_fingerprint()) == h
+    assert scenario_hash(doc, code="other code") != h, "a result flown by other code must re-fly"
     # a file without a name and a file naming itself by its stem are the same flight
     nameless = dict(doc)
     nameless.pop("name")
@@ -425,3 +429,24 @@ def test_an_unreachable_dask_scheduler_is_one_line_at_once(tmp_path):
     one_line_exit_2(res, "--scheduler", "cannot reach the Dask scheduler")
     assert time.monotonic() - t0 < 20
     assert not list((tmp_path / "out").glob("*/summary.json"))
+
+
+def test_the_code_fingerprint_changes_with_any_code_file_and_only_with_code(tmp_path):
+    """Edit a module, add a model file: another fingerprint. A scenario YAML or a figure beside the code: the same."""
+    import shutil
+
+    from scenarios.spec.sweep import CODE_PACKAGES, code_fingerprint
+
+    root = Path(__file__).resolve().parents[1]
+    for pkg in CODE_PACKAGES:
+        shutil.copytree(root / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__", "*.png", "*.svg"))
+    base = code_fingerprint(tmp_path)
+    assert base == code_fingerprint(tmp_path) and len(base) == 64
+    (tmp_path / "scenarios" / "new_case.yaml").write_text("name: x\n")
+    assert code_fingerprint(tmp_path) == base, "a scenario file is the input, not the code"
+    unit = tmp_path / "geofence" / "unit.py"
+    unit.write_text(unit.read_text() + "\n# an edit\n")
+    edited = code_fingerprint(tmp_path)
+    assert edited != base
+    (tmp_path / "aircraft" / "systems" / "extra.xml").write_text("<system/>")
+    assert code_fingerprint(tmp_path) not in (base, edited)

@@ -8,7 +8,7 @@
   ``<out>/<flight_id>/`` and swapped in as a whole (``scenario.yaml``,
   ``trajectory.csv``, figures, ``summary.json``), so a folder is either the
   complete result of one flight or absent. Its ``summary.json`` holds the
-  flight's ``scenario_hash`` (sha256 of the resolved scenario and the version,
+  flight's ``scenario_hash`` (sha256 of the resolved scenario, the version and the code that flew it,
   :func:`scenarios.spec.sweep.scenario_hash`, and of the bytes of a fence file it references,
   :func:`with_referenced_files`): re-running skips only flights whose
   stored hash matches, and flies an edited scenario again. A crash or Ctrl-C

@@ -81,7 +81,8 @@ def build_parser() -> argparse.ArgumentParser:
             "Fly every scenario YAML found under PATH (files or folders, searched recursively), expanding "
             "sweeps (grids and Monte Carlo draws), in parallel processes. Each finished flight is written "
             "atomically to DIR/<flight>/; re-running the same command skips finished flights whose scenario is "
-            "unchanged (same scenario_hash) and re-flies edited ones, so an interrupted batch resumes. A flight that fails is recorded with its error and the batch goes "
+            "unchanged (same scenario_hash: the scenario, the version and the code) and re-flies edited ones, or all after a "
+            "code change, so an interrupted batch resumes and no result is stale. A flight that fails is recorded with its error and the batch goes "
             "on. At the end DIR/results.csv (one row per flight) and DIR/report.md (comparison table, "
             "figures) are written. Exit code 0 if every flight completed, 1 otherwise, 130 if interrupted."
         ),
@@ -562,7 +563,7 @@ def _cmd_batch(args) -> int:
         changed = len(resume_state(specs, args.out).changed)
         if changed:
             print(
-                f"re-flying {changed} changed flight{'s' if changed != 1 else ''} (scenario or version differs from the stored result)"
+                f"re-flying {changed} changed flight{'s' if changed != 1 else ''} (scenario, version or code differs from the stored result)"
             )
     outcome = run_batch(
         specs,

@@ -85,13 +85,53 @@ def project_version() -> str:
         return "unknown"
 
 
-def scenario_hash(document: dict, *, version: str | None = None) -> str:
-    """A flight's identity: sha256 of the canonical JSON of its resolved document, its shipped profile(s) and the version.
+CODE_PACKAGES = ("aircraft", "analysis", "geofence", "scenarios", "wind")
+"""The folders whose code decides a flight and its scores (their ``.py`` files, and the models and systems
+JSBSim loads: ``.xml``; the platform profiles are hashed per flight by name)."""
 
-    ``version`` defaults to :func:`project_version` (the installed package's).
+
+def code_fingerprint(root: Path | None = None) -> str:
+    """sha256 of the project's code as it is on disk: every ``.py`` and ``.xml`` file under :data:`CODE_PACKAGES`.
+
+    A result flown by other code is another result: a resumed batch flies it again (the package version alone
+    does not change with every edit, and an editable install runs whatever the checkout holds). The running
+    code's (``root`` None) is read once per process; another tree's every time.
+    """
+    return _running_code_fingerprint() if root is None else _fingerprint_of_tree(Path(root))
+
+
+@lru_cache(maxsize=1)
+def _running_code_fingerprint() -> str:
+    return _fingerprint_of_tree(Path(__file__).resolve().parents[2])
+
+
+def _fingerprint_of_tree(base: Path) -> str:
+    h = hashlib.sha256()
+    files = sorted(
+        p
+        for pkg in CODE_PACKAGES
+        for p in (base / pkg).rglob("*")
+        if p.suffix in (".py", ".xml") and p.is_file() and "__pycache__" not in p.parts
+    )
+    for p in files:
+        h.update(p.relative_to(base).as_posix().encode("utf-8") + b"\0")
+        h.update(hashlib.sha256(p.read_bytes()).digest())
+    return h.hexdigest()
+
+
+def scenario_hash(document: dict, *, version: str | None = None, code: str | None = None) -> str:
+    """A flight's identity: sha256 of the canonical JSON of its resolved document, its shipped profile(s), the
+    version and the code that flies it.
+
+    ``version`` defaults to :func:`project_version` (the installed package's), ``code`` to :func:`code_fingerprint`.
     """
     doc = dict(document)
-    payload = {"scenario": doc, "version": project_version() if version is None else version, "profiles": _profile_texts(doc)}
+    payload = {
+        "scenario": doc,
+        "version": project_version() if version is None else version,
+        "code": code_fingerprint() if code is None else code,
+        "profiles": _profile_texts(doc),
+    }
     return _sha256(payload)
 
 
