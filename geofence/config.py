@@ -171,6 +171,11 @@ class GeofenceConfig:
         ):
             object.__setattr__(self, name, enum_type(getattr(self, name)))
 
+    def wind_allowance_mps(self, sigma_mps: float) -> float:
+        """The turbulence and gust allowance added to the wind in every margin, ``k * sigma + gust_mps`` (m/s):
+        the one home of that formula (the unit passes the sigma it holds, the pre-flight check the forecast's)."""
+        return self.turbulence_k_sigma * sigma_mps + self.gust_mps
+
 
 _KEYS = {
     "fence",

@@ -67,10 +67,14 @@ def bank_stick_for_turn_rate(turn_rate_radps: float, ground_speed_mps: float, en
     return clip(bank / env.max_bank_rad, -1.0, 1.0)
 
 
+def course_error_rad(s: VehicleState, course_cmd_rad: float) -> float:
+    """The commanded course minus the ground course, the short way (-pi, pi]: + turns right."""
+    return wrap_pi(course_cmd_rad - ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad))
+
+
 def bank_stick_for_course(s: VehicleState, course_cmd_rad: float, env: Envelope, gain_per_s: float) -> float:
     """Fixed-wing course law: turn rate = gain · course error (ground course), flown as a coordinated bank."""
-    course = ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad)
-    return bank_stick_for_turn_rate(gain_per_s * wrap_pi(course_cmd_rad - course), s.ground_speed_mps, env)
+    return bank_stick_for_turn_rate(gain_per_s * course_error_rad(s, course_cmd_rad), s.ground_speed_mps, env)
 
 
 def airspeed_to_stick(airspeed_mps: float, env: Envelope) -> float:

@@ -81,9 +81,9 @@ VERTICAL_CLEARANCE_M = 2.0
 DEAD_RECKONING_LANDING_MARGIN_M = 25.0
 """With the position source lost, a multirotor lands in place only this far inside (else at the nearest point that is)."""
 FRESH_ESTIMATE_AGE_S = 0.5
+"""Dead reckoning starts from the last estimate whose GNSS data was at most this old (not a long extrapolation)."""
 REPLAY_WINDOW_S = 2.0
 """How far back the unit keeps its estimates (attitudes) for the dead reckoning to replay from the last fix."""
-"""Dead reckoning starts from the last estimate whose GNSS data was at most this old (not a long extrapolation)."""
 DENSITY_REFRESH_M = 100.0
 """The envelope is re-scaled to the air density when the altitude moved this much (while monitoring)."""
 
@@ -190,7 +190,7 @@ class GeofenceUnit:
         sigma = cfg.turbulence_sigma_mps
         if cfg.turbulence_source is TurbulenceSource.ESTIMATE and self._turbulence_est_mps > sigma:
             sigma = self._turbulence_est_mps
-        return cfg.turbulence_k_sigma * sigma + cfg.gust_mps
+        return cfg.wind_allowance_mps(sigma)
 
     def _far_from_everything(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> bool:
         """Cheap pre-check: no edge, ceiling or floor is within the largest room this state could need.
@@ -476,14 +476,14 @@ class GeofenceUnit:
         elif self._last_valid is not None:
             # fixes are missing: dead reckoning runs from the last fix (in the shadow while the estimator
             # still extrapolates, in charge once it declares the position lost)
+            wind = (self.wind_enu[0], self.wind_enu[1])
             if not self.dead_reckoning.active:
-                wind = (self.wind_enu[0], self.wind_enu[1])
                 fix = self._last_horizon
                 if fix is not None and history and history[0].t_s <= fix.t_s:
                     self.dead_reckoning.start_at_fix(fix, history, wind)
                 else:
                     self.dead_reckoning.start(self._last_valid)
-            reckoned = self.dead_reckoning.step(est, dt_s, (self.wind_enu[0], self.wind_enu[1]))
+            reckoned = self.dead_reckoning.step(est, dt_s, wind)
             if not position_valid:
                 est = reckoned
         # the attitudes of the last REPLAY_WINDOW_S (the dead reckoning replays them from the last fix)

@@ -4,8 +4,9 @@ This module owns the translation from a scenario (mission items in WGS-84, the
 platform, the geofence configuration, the sensors) to what the check needs:
 the planned route in the fence's local frame, the planned speed, the expected
 wind (the geofence block's forecast ``wind_prior``, taken as the 10 m wind and raised
-to the mission's highest point by a 1/7 power law) and how far the unit's own
-estimate may be from it (:data:`FORECAST_SPEED_ERROR`, :data:`WIND_ESTIMATE_ERROR_MPS`), the unit's turbulence and
+to the mission's highest point by a 1/7 power law), how far the true mean may be from it
+(:data:`FORECAST_SPEED_ERROR`, :data:`FORECAST_DIRECTION_ERROR_DEG`) and the unit's estimate from that
+(:data:`WIND_ESTIMATE_ERROR_MPS`, :data:`TURBULENCE_IN_ESTIMATE_SIGMAS`), the unit's reaction latency, its turbulence and
 gust allowance from that forecast, and its nominal uncertainty margins
 (``k·σ`` of the GNSS errors the sensors declare). The check itself, and what
 it guarantees, lives in :mod:`geofence.preflight`.
@@ -75,7 +76,9 @@ def expected_wind(
     """The wind the check flies the route in (E, N m/s) and the radius of winds around it the route must pass for.
 
     The forecast raised to the route's highest point by :data:`FORECAST_PROFILE` (never below its 10 m value);
-    the radius is :data:`FORECAST_SPEED_ERROR` of that speed plus :data:`WIND_ESTIMATE_ERROR_MPS`.
+    the radius is how far the unit's estimate may be from the true mean: :data:`WIND_ESTIMATE_ERROR_MPS` plus
+    :data:`TURBULENCE_IN_ESTIMATE_SIGMAS` of the forecast's turbulence sigma. (The forecast's own error, which
+    places the true mean, is :data:`FORECAST_SPEED_ERROR` and :data:`FORECAST_DIRECTION_ERROR_DEG`.)
     """
     scale = FORECAST_PROFILE.factor(max(top_agl_m, FORECAST_PROFILE.reference_height_m))
     wind_en = (forecast_en[0] * scale, forecast_en[1] * scale)
@@ -117,7 +120,7 @@ def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
         wind_uncertainty_mps=wind_uncertainty_mps,
         forecast_speed_error=FORECAST_SPEED_ERROR,
         forecast_direction_error_rad=math.radians(FORECAST_DIRECTION_ERROR_DEG),
-        wind_extra_mps=cfg.turbulence_k_sigma * cfg.turbulence_sigma_mps + cfg.gust_mps,
+        wind_extra_mps=cfg.wind_allowance_mps(cfg.turbulence_sigma_mps),
         turbulence_sigma_mps=cfg.turbulence_sigma_mps,
         h_uncertainty_m=k * sensors.gps_h_sigma_m + cfg.extra_margin_m,
         v_uncertainty_m=k * sensors.gps_v_sigma_m + cfg.extra_margin_m,

@@ -29,9 +29,8 @@ from geofence.control_laws import (
     bank_stick_for_course,
     bank_stick_for_turn_rate,
     climb_rate_to_stick,
-    ground_course_rad,
+    course_error_rad,
     orbit_course_rad,
-    wrap_pi,
     yaw_stick_for_heading,
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
@@ -126,7 +125,7 @@ class FixedWingNavigator:
         """
         if self.turn_commit_rad is None:
             return bank_stick_for_course(s, course_cmd_rad, self.env, self.k_course)
-        err = wrap_pi(course_cmd_rad - ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad))
+        err = course_error_rad(s, course_cmd_rad)
         if abs(err) > self.turn_commit_rad:
             if self._turn_sign * err < 0.0:
                 err += math.copysign(2.0 * math.pi, self._turn_sign)  # the long way: the way it is turning
