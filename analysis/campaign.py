@@ -24,12 +24,16 @@ Definitions (per flight; see :func:`flight_outcome`):
 * **breach**: any of the four. Failed flights (an error, or not completed)
   are counted apart and never as breaches or as clean flights.
 
-Conditions (:func:`condition`): **nominal** (the wind within the platform's authority and no GPS
-fault: the cases the containment figure is for), **GPS fault** (the position source lost or out:
-dead reckoning drifts with the wind estimate's error) and **beyond authority** (the case's mean wind
-plus one turbulence sigma at the start height is more than the platform can fly back against, as
-the generator judged it before any flight: ``beyond_authority`` in the manifest). Every breach is
-listed whatever its condition; the headline rate is the nominal one.
+Conditions (:func:`condition`, in this order): **beyond authority** (the case's mean wind plus one
+turbulence sigma at the start height is more than the platform can fly back against, as the
+generator judged it before any flight: ``beyond_authority`` in the manifest); **beyond max speed in
+flight** (the flight met a wind whose mean over :data:`SUSTAINED_WIND_WINDOW_S` exceeded its
+platform's max speed, :func:`peak_sustained_wind_mps` from its recorded trajectory: for those
+seconds the air moved faster than the vehicle can fly, so no override can hold it; judged on every
+flight alike, breached or not, since the forecast-based class cannot see a tail of the turbulence);
+**GPS fault** (the position source lost or out: dead reckoning drifts with the wind estimate's
+error); else **nominal** (the cases the containment figure is for). Every breach is listed whatever
+its condition; the headline rate is the nominal one.
 
 For each breached flight the report also gives the strongest wind the vehicle met, averaged over
 :data:`SUSTAINED_WIND_WINDOW_S` (:func:`peak_sustained_wind_mps`, from its recorded trajectory), against
@@ -118,7 +122,8 @@ def read_trajectory_columns(path: str | Path, names: Sequence[str] = SCORED_COLU
 
 
 SUSTAINED_WIND_WINDOW_S = 10.0
-"""The averaging window of the strongest wind a breached flight met (s)."""
+"""The averaging window of the strongest wind a flight met (s): about the time a multirotor needs to
+stop and turn back, and a fixed-wing to reverse its course."""
 
 
 def peak_sustained_wind_mps(path: str | Path, window_s: float = SUSTAINED_WIND_WINDOW_S) -> float:
@@ -187,7 +192,7 @@ def campaign_rows(rows: Iterable[Mapping], manifest: Mapping, batch_dir: str | P
         )
         if variant == "unprotected" and batch_dir is not None and not math.isfinite(num(row.get("max_excursion_m"))):
             row.update(score_unprotected(batch_dir, row, case))
-        if batch_dir is not None and variant != "unprotected" and flight_outcome(row).breach:
+        if batch_dir is not None and not is_error(row):
             traj = Path(batch_dir) / str(row.get("flight") or row.get("scenario")) / "trajectory.csv"
             if traj.is_file():
                 row["peak_sustained_wind_mps"] = peak_sustained_wind_mps(traj)
@@ -196,16 +201,27 @@ def campaign_rows(rows: Iterable[Mapping], manifest: Mapping, batch_dir: str | P
 
 
 # --------------------------------------------------------------------------- per-flight outcome
-CONDITIONS = ("nominal", "GPS fault", "beyond authority")
+CONDITIONS = ("nominal", "GPS fault", "beyond authority", "beyond max speed in flight")
+
+
+def met_wind_beyond_max_speed(row: Mapping) -> bool:
+    """The flight met a wind above its platform's max speed for :data:`SUSTAINED_WIND_WINDOW_S`
+    (``peak_sustained_wind_mps`` > ``platform_max_speed_mps``; False when either is unknown)."""
+    w, vmax = num(row.get("peak_sustained_wind_mps")), num(row.get("platform_max_speed_mps"))
+    return math.isfinite(w) and math.isfinite(vmax) and vmax > 0.0 and w > vmax
 
 
 def condition(row: Mapping) -> str:
-    """The case's condition (module docstring): beyond authority first, then GPS fault, else nominal.
+    """The flight's condition (module docstring): beyond authority (forecast), beyond max speed in
+    flight, GPS fault, else nominal.
 
-    A manifest written before the authority test counts its cases as within it.
+    A manifest written before the authority test counts its cases as within it; a row without a
+    recorded wind (no trajectory) is judged by its case alone.
     """
     if row.get("beyond_authority"):
         return "beyond authority"
+    if met_wind_beyond_max_speed(row):
+        return "beyond max speed in flight"
     return "GPS fault" if truthy(row.get("gps_fault")) else "nominal"
 
 
@@ -599,7 +615,8 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
         "## Nominal conditions (the containment figure)",
         "",
         "Wind within each platform's authority (mean + one turbulence sigma at the start height below "
-        "90 % of its max speed, judged before the flight) and no GPS fault.",
+        "90 % of its max speed, judged before the flight; and in flight no "
+        f"{SUSTAINED_WIND_WINDOW_S:g} s mean of the wind met above its max speed) and no GPS fault.",
         "",
     ]
     cases = (manifest or {}).get("cases") or []
@@ -615,7 +632,9 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
         "",
         "GPS fault: the position source lost or out (dead reckoning drifts with the wind estimate's error). "
         "Beyond authority: a wind the platform cannot fly back against for long; the unit is to land, never "
-        "over a forbidden area.",
+        "over a forbidden area. Beyond max speed in flight: the flight met a wind whose "
+        f"{SUSTAINED_WIND_WINDOW_S:g} s mean exceeded its platform's max speed (judged on every flight from its "
+        "trajectory, breached or not).",
         "",
     ]
     lines += _stats_table(grouped(rows, ("variant", "condition")), ["variant", "condition"]) + [""]

@@ -420,6 +420,36 @@ def test_the_report_counts_nominal_gps_fault_and_beyond_authority_apart():
     assert "predates the authority test" in "\n".join(campaign_report_lines(old_rows, SYNTH_MANIFEST))
 
 
+def test_a_flight_that_met_a_wind_beyond_its_max_speed_is_classed_apart_breached_or_not(tmp_path):
+    """The in-flight class reads every flight's own trajectory: box-0002's predictive flight met a 10 s
+    mean of 12 m/s (max speed 10 m/s), its reactive twin 8 m/s, whatever their outcomes."""
+    manifest = {"cases": [dict(c, max_speed_mps=10.0) for c in SYNTH_MANIFEST["cases"]]}
+    manifest["cases"][2]["gps_fault"] = {"gps_fail_at_s": 3.0}  # the wind met comes before the GPS fault
+    t = np.arange(0.0, 60.0, 0.025)
+    for flight, burst in (("box-0002__predictive", 12.0), ("box-0002__reactive", 8.0), ("box-0000__predictive", 9.5)):
+        (tmp_path / flight).mkdir()
+        we = np.where((t >= 20.0) & (t < 40.0), burst, 2.0)
+        np.savetxt(
+            tmp_path / flight / "trajectory.csv",
+            np.column_stack([t, we, np.zeros_like(t)]),
+            delimiter=",",
+            header="time_s,wind_east_mps,wind_north_mps",
+            comments="",
+        )
+    raw = [dict(r) for r in synthetic_rows()]
+    rows = campaign_rows(raw, manifest, batch_dir=tmp_path)
+    by_flight = {r["flight"]: condition(r) for r in rows}
+    assert by_flight["box-0002__predictive"] == "beyond max speed in flight"
+    assert by_flight["box-0002__reactive"] == "GPS fault"
+    assert by_flight["box-0000__predictive"] == "nominal"  # 9.5 m/s: within its max speed
+    assert by_flight["star-0001__predictive"] == "nominal"  # no trajectory: judged by its case alone
+    text = "\n".join(campaign_report_lines(rows, manifest))
+    assert "| predictive | beyond max speed in flight | 1 |" in text
+    assert "wind met 12.0 m/s over 10 s, 1.20 x its max speed 10.0 m/s" in describe_flight(
+        next(r for r in rows if r["flight"] == "box-0002__predictive")
+    )
+
+
 # --------------------------------------------------------------------------- report math
 def test_clopper_pearson_matches_known_values_and_the_binomial():
     assert clopper_pearson_upper(0, 1000) == pytest.approx(0.002991, abs=5e-6)
