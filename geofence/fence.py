@@ -74,12 +74,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from enum import StrEnum
-from typing import TYPE_CHECKING, Any, Mapping, NamedTuple, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
 from .geodesy import LocalFrame, ecef_to_geodetic, geodesic_destination, geodesic_distance_m, geodetic_to_ecef
+from .heights import ALTITUDE_REFERENCES, FULL_HEIGHT, AltitudeReference, VerticalExtent  # noqa: F401 (re-exported)
+from .local_fence import LocalFence
 from .polygon import (
     polygon_covers_polygon,
     polygons_intersect,
@@ -88,24 +89,10 @@ from .polygon import (
 )
 from .validation import ConfigError, enum_value, field_default, latitude, longitude, number, reject_unknown_keys
 
-if TYPE_CHECKING:
-    from .local_fence import LocalFence
-
 
 class FenceError(ConfigError):
     """An invalid fence: one line, naming the field and the problem."""
 
-
-class AltitudeReference(StrEnum):
-    """What the fence's heights (ceiling, floor, recovery altitude) are measured from."""
-
-    AGL = "agl"
-    """Above the ground under the vehicle (the scenario's flat ground at the start's ground altitude)."""
-    AMSL = "amsl"
-    """Above mean sea level (the WGS-84 height the platforms report)."""
-
-
-ALTITUDE_REFERENCES = tuple(r.value for r in AltitudeReference)
 
 LatLon = tuple[float, float]
 PolygonLL = tuple[LatLon, ...]
@@ -118,47 +105,6 @@ MIN_KEEP_IN_CIRCLE_RADIUS_M = 5.0
 MAX_KEEP_IN_CIRCLE_RADIUS_M = 10_000.0
 """The largest inline keep-in circle radius (m): up to it, :func:`circle_to_polygon`'s 720 vertices meet
 :data:`DEFAULT_CIRCLE_TOLERANCE_M` (sag ``r(1 - cos(pi/720))`` = 0.095 m at 10 km)."""
-
-
-class VerticalExtent(NamedTuple):
-    """A keep-out's own floor and ceiling (m, in the fence's altitude reference); ``None`` = unbounded.
-
-    ``VerticalExtent()`` is a full-height keep-out (the default). The geofence unit treats every keep-out
-    as full-height (see the module docstring); the scoring uses :meth:`volume_margin_array`.
-    """
-
-    floor_m: float | None = None
-    ceiling_m: float | None = None
-
-    @property
-    def full_height(self) -> bool:
-        """True when neither bound is set."""
-        return self.floor_m is None and self.ceiling_m is None
-
-    def volume_margin_array(self, outside_m: np.ndarray, h: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
-        """Distance outside the keep-out's volume (m, + outside, - inside), from the lateral one.
-
-        ``outside_m``: each sample's distance outside the keep-out's footprint (+ outside, - inside);
-        ``h``: its height. The result is ``max(outside_m, h - ceiling_m, floor_m - h)`` (an unbounded side
-        drops out): negative only inside laterally *and* strictly between the floor and the ceiling, and then
-        minus the smallest penetration along any axis; positive outside, where it is at most the Euclidean
-        distance to the volume (conservative, like the gap-aware floor margin). ``out`` may be ``outside_m``
-        itself (in place).
-        """
-        if out is None:
-            out = np.array(outside_m, dtype=float)
-        elif out is not outside_m:
-            np.copyto(out, outside_m)
-        h = np.asarray(h, dtype=float)
-        if self.ceiling_m is not None:
-            np.maximum(out, h - self.ceiling_m, out=out)
-        if self.floor_m is not None:
-            np.maximum(out, self.floor_m - h, out=out)
-        return out
-
-
-FULL_HEIGHT = VerticalExtent()
-"""A keep-out with no floor and no ceiling of its own."""
 
 
 @dataclass(frozen=True)
@@ -366,8 +312,6 @@ class Fence:
     def to_local(self, frame: LocalFrame | None = None, *, index: bool | None = None) -> LocalFence:
         """This fence projected into ``frame`` (default: :meth:`default_frame`, cached); ``index``: see
         :class:`LocalFence`."""
-        from .local_fence import LocalFence  # the local form imports this module for its types only
-
         if frame is None and index is None:
             if not self._default_local:
                 self._default_local.append(LocalFence(self, self.default_frame()))

@@ -24,9 +24,9 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from .fence import AltitudeReference, VerticalExtent
 from .fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame
+from .heights import AltitudeReference, VerticalExtent
 from .polygon import PolygonIndex, pole_of_inaccessibility
 
 if TYPE_CHECKING:
