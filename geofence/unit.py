@@ -79,7 +79,10 @@ ROLLOUT_CELL_M = 10.0
 VERTICAL_CLEARANCE_M = 2.0
 """Below the floor inside a gap, the override climbs this far above the floor before it moves sideways."""
 DEAD_RECKONING_LANDING_MARGIN_M = 25.0
-"""With the position source lost, a multirotor lands in place only this far inside (else at the nearest point that is)."""
+"""With the position source lost, a multirotor lands in place only this far inside (else at the nearest point that
+is), or farther when its descent takes long (:meth:`GeofenceUnit.dead_reckoning_room_m`)."""
+DEAD_RECKONING_WIND_ERROR_MPS = 1.0
+"""The error of the mean-wind estimate a multirotor's dead reckoning flies on (m/s), besides the turbulence."""
 FRESH_ESTIMATE_AGE_S = 0.5
 """Dead reckoning starts from the last estimate whose GNSS data was at most this old (not a long extrapolation)."""
 REPLAY_WINDOW_S = 2.0
@@ -296,7 +299,7 @@ class GeofenceUnit:
         if fence.floor_m is None or not fence.floor_gaps:
             if self.env.is_multirotor:
                 # without a position source, dead reckoning drifts: land only where there is room for it
-                need = LANDING_EDGE_MARGIN_M if self._position_valid else DEAD_RECKONING_LANDING_MARGIN_M
+                need = LANDING_EDGE_MARGIN_M if self._position_valid else self.dead_reckoning_room_m(s.agl_m)
                 if fence.lateral_margin_m(s.east_m, s.north_m) > need:
                     return s.east_m, s.north_m
                 found = self._point_with_room(s, need)
@@ -388,6 +391,18 @@ class GeofenceUnit:
                 if found is not None:
                     return found
         return self._route(s, goal), goal
+
+    def dead_reckoning_room_m(self, agl_m: float) -> float:
+        """How far inside a multirotor without a position source must be to descend from ``agl_m`` (m).
+
+        It drifts at the error of the wind it dead-reckons on for as long as the descent takes: the
+        mean wind's error (:data:`DEAD_RECKONING_WIND_ERROR_MPS`) plus the turbulence of those seconds,
+        which no estimate knows (near the ground its time scale is tens of seconds, so it does not
+        average out over a descent): the margins' wind allowance ``k·σ + gust``. At least
+        :data:`DEAD_RECKONING_LANDING_MARGIN_M`.
+        """
+        rate = DEAD_RECKONING_WIND_ERROR_MPS + self.wind_allowance_mps
+        return max(DEAD_RECKONING_LANDING_MARGIN_M, rate * self.landing.time_to_touchdown_s(agl_m))
 
     def _point_with_room(self, s: VehicleState, radius_m: float) -> tuple[Route, tuple[float, float]] | None:
         """The route to, and the nearest point (by route) where a circle of ``radius_m`` keeps the largest route
@@ -609,7 +624,7 @@ class GeofenceUnit:
                 return StickCommand(throttle=climb_rate_to_stick(-min(1.0, self.env.max_descent_rate_mps), self.env))
             if not self._position_valid and self.fence.floor_m is None:
                 # dead reckoning: away from the edges first, then down at the full rate (it drifts every second)
-                room = self.fence.lateral_margin_m(s.east_m, s.north_m) >= DEAD_RECKONING_LANDING_MARGIN_M
+                room = self.fence.lateral_margin_m(s.east_m, s.north_m) >= self.dead_reckoning_room_m(s.agl_m)
                 return self.landing.sticks(s, h, dt_s, descend=room or self.landing.over_point(s), hurry=True)
             descend = self._safe_to_descend(s) or self.landing.over_point(s) or self._finish_below_floor(s, h)
             return self.landing.sticks(s, h, dt_s, descend=descend)
