@@ -38,6 +38,21 @@ heading straight at an edge a reversal needs ``2R`` sideways -- if that
 exceeds the room, the activation margin is negative at the recovery point
 itself, which is what :func:`check_shift_feasible` reports for the whole fence.
 
+Dense fences: the group search
+------------------------------
+With a fence index whose groups of consecutive edges hold several edges
+(:mod:`geofence.fence_grid`), a fixed-wing's binding edge is found group by
+group (:func:`_binding_edge_grouped`): a group's activation is at least its
+distance bound less the room bounds over its normal cone
+(:func:`~geofence.rooms.reaction_arc_cone_bound_m`,
+:func:`~geofence.rooms.trochoid_excursion_cone_bound_m` and, refined,
+:func:`~geofence.rooms.trochoid_excursion_cone_refined_m`); groups and edges
+are visited best first and a group is expanded only when its bound is at most
+the worst activation found, so the binding edge, its room and the tie order
+(the first edge in element order) are those of the full scan.
+:func:`~geofence.rooms.multirotor_room_cone_bound_m` bounds a multirotor's
+room over a cone the same way (its reach is short: the element walk is used).
+
 Multirotor: the manoeuvre scored
 --------------------------------
 The worst-case pilot (:func:`~geofence.rooms.multirotor_room_m`): until the
@@ -65,12 +80,14 @@ position covariance (conservative in every direction), vertically
 
 from __future__ import annotations
 
+import heapq
 import math
 from dataclasses import dataclass
 from typing import NamedTuple, Sequence
 
 from .dynamics import drag_coefficients, wind_push_mps2
 from .fence import AltitudeReference, FenceError
+from .fence_grid import FenceGrid
 from .interface import Envelope, PlatformKind, VehicleState
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 from .rooms import (
@@ -79,9 +96,13 @@ from .rooms import (
     climb_arrest_phase,
     climb_back_drift_m,
     fixed_wing_room_bound_m,
+    multirotor_room_cone_bound_m,
     multirotor_room_m,
+    reaction_arc_cone_bound_m,
     reaction_arc_m,
     tilt_accel_mps2,
+    trochoid_excursion_cone_bound_m,
+    trochoid_excursion_cone_refined_m,
     trochoid_excursion_m,
     turn_constants,
     turn_rate_radps,
@@ -239,6 +260,84 @@ def _binding_edge_pruned(
     return worst, wk
 
 
+GROUPED_REFERENCE = 10**6
+"""``prune_from_edges`` at or above this also turns the group search off (the reference: every edge scored)."""
+
+
+def _binding_edge_grouped(
+    grid: FenceGrid,
+    e: float,
+    n: float,
+    min_d: float,
+    bound: float,
+    group_lbs: list,
+    cones: dict,
+    terms: dict,
+    edge_terms,
+    turn: tuple,
+    s: float,
+    delta: float,
+    beat: float,
+) -> tuple[float, tuple | None]:
+    """The scan's answer (:func:`_binding_edge_scan` / :func:`_binding_edge_no_turn` over the elements with
+    ``d - bound < min_d``, bit for bit) from groups of edges, best first; or, once the worst activation found
+    is at most ``beat`` (another turn direction's, which wins the tie), that worst (this direction loses).
+
+    ``group_lbs``: ``(lower bound of the activation of every element of the group, gid)``
+    (:meth:`FenceGrid.groups_near`'s distance bound less a room bound over the group's normal cone:
+    :func:`~geofence.rooms.reaction_arc_cone_bound_m` + :func:`~geofence.rooms.trochoid_excursion_cone_bound_m`,
+    or :func:`~geofence.rooms.multirotor_room_cone_bound_m`). A heap holds them by lower bound; a fixed-wing
+    group popped first gets the tighter :func:`~geofence.rooms.trochoid_excursion_cone_refined_m` bound
+    (``cones[gid] = (distance bound - reaction bound, w_n0, psi0 of n0, rho)``) and goes back, a group popped
+    with its final bound is expanded into its edges (a fixed-wing's pushed with
+    :func:`~geofence.rooms.trochoid_excursion_cone_bound_m` at ``rho = 0``, a multirotor's scored at once), an
+    edge popped is scored exactly. The search stops when the smallest bound left exceeds the worst activation
+    found (strictly: every edge that ties the worst is scored, and the tie keeps the lowest element id, the
+    scan's first). ``terms`` caches ``edge_terms`` per element id across the turn directions;
+    ``turn = (R, 1/omega, V, |W|)``, or ``None`` for a multirotor.
+    """
+    heap = [(lb, 0, g) for lb, g in group_lbs]
+    heapq.heapify(heap)
+    pop, push = heapq.heappop, heapq.heappush
+    if turn is not None:
+        radius, inv_omega, v_turn, wind_speed = turn
+    worst = math.inf
+    wk = None
+    wid = -1
+    while heap:
+        lb, kind, key = pop(heap)
+        if lb > worst:
+            break
+        if kind == 0 and turn is not None:
+            lbb, w_n0, psi0, rho = cones[key]
+            refined = lbb - trochoid_excursion_cone_refined_m(radius, inv_omega, v_turn, w_n0, psi0, rho, wind_speed, s, delta)
+            push(heap, (refined if refined > lb else lb, 1, key))
+        elif kind <= 1:
+            for i, item in grid.group_items(key, e, n):
+                t = terms.get(i)
+                if t is None:
+                    if item[0] - bound >= min_d:
+                        continue
+                    t = terms[i] = edge_terms(*item)
+                d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 = t
+                if turn is not None:
+                    ub = trochoid_excursion_cone_bound_m(radius, inv_omega, math.sin(psi0), w_n, 0.0, wind_speed, s, delta)
+                    push(heap, (d - base - ub, 2, i))
+                    continue
+                act = d - base
+                if act < worst or (act == worst and i < wid):
+                    worst, wk, wid = act, (base, feat, idx, j, nx, ny, d, v_n), i
+        else:
+            d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 = terms[key]
+            room = base + trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
+            act = d - room
+            if act < worst or (act == worst and key < wid):
+                worst, wk, wid = act, (room, feat, idx, j, nx, ny, d, v_n), key
+        if worst <= beat:
+            break
+    return worst, wk
+
+
 def activation_margins(
     fence: LocalFence,
     e: float,
@@ -341,47 +440,34 @@ def activation_margins(
         # arresting a climb lowers the collective, and with it the horizontal braking force
         climb_arrest = climb_arrest_phase(vu, envelope.vertical_accel_mps2, g)
         directions = ((0.0, 0.0),)
+        radius = inv_omega = v_turn = 0.0  # no turn
         # no edge farther than min_d + bound can bind: bound >= the room against any edge (the largest
         # closing speed, push and pilot acceleration, the weakest braking; the room grows with each)
         push_max = wind_push_mps2(k1, k2, wspeed, wspeed)
         a_p_max = a_tilt + push_max
         room_max = multirotor_room_m(speed, speed, t_r, max(a_p_max, 0.0), a_brake - push_max, climb_arrest)
         bound = (room_max + hu) * (1.0 + 1e-9) + 1e-6
-    grid = fence.grid()
-    if grid is not None and bound < math.inf:
-        dists, min_d = grid.near(e, n, bound)
-    else:
-        dists, min_d = _edge_distances(fence.danger_edges(), e, n)
-        for i, (ce, cn, r) in enumerate(fence.keep_out_circles):
-            dist = math.hypot(ce - e, cn - n)
-            ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
-            d = dist - r
-            dists.append((d, ux, uy, FEATURE_KEEP_OUT_CIRCLE, i, -1))
-            if d < min_d:
-                min_d = d
+    def edge_terms(d: float, nx: float, ny: float, feat: str, idx: int, j: int) -> tuple:
+        """An edge's direction-independent part: ``(d, nx, ny, feat, idx, j, v_n, w_n, base room, psi0)``."""
+        v_n = ve * nx + vn * ny
+        w_n = wind_e * nx + wind_n * ny + extra
+        if fixed_wing:
+            base = reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n) + hu
+            # air heading relative to the normal: angle from n to (ca, sa)
+            psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
+        else:
+            # worst case: the pilot keeps accelerating at the tilt limit toward the
+            # edge (while below max airspeed), helped by the wind's push, until the
+            # override acts (t_r); then the vehicle brakes against that push
+            push = wind_push_mps2(k1, k2, wspeed, w_n)
+            a_p = (a_tilt if v_air_mc < envelope.max_speed_mps else 0.0) + push
+            base = multirotor_room_m(v_n, speed, t_r, a_p, a_brake - push, climb_arrest) + hu
+            psi0 = 0.0
+        return (d, nx, ny, feat, idx, j, v_n, w_n, base, psi0)
 
     def worst_edge(dists: list, min_d: float):
-        """(activation, turn sign, (room, feature, index, edge, nx, ny, d, v_n)) of the binding edge."""
-        # per threatened edge, the direction-independent part: (d, ..., v_n, w_n, base room, psi0)
-        near = []
-        for d, nx, ny, feat, idx, j in dists:
-            if d - bound >= min_d:
-                continue
-            v_n = ve * nx + vn * ny
-            w_n = wind_e * nx + wind_n * ny + extra
-            if fixed_wing:
-                base = reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n) + hu
-                # air heading relative to the normal: angle from n to (ca, sa)
-                psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
-            else:
-                # worst case: the pilot keeps accelerating at the tilt limit toward the
-                # edge (while below max airspeed), helped by the wind's push, until the
-                # override acts (t_r); then the vehicle brakes against that push
-                push = wind_push_mps2(k1, k2, wspeed, w_n)
-                a_p = (a_tilt if v_air_mc < envelope.max_speed_mps else 0.0) + push
-                base = multirotor_room_m(v_n, speed, t_r, a_p, a_brake - push, climb_arrest) + hu
-                psi0 = 0.0
-            near.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0))
+        """(activation, turn sign, (room, feature, index, edge, nx, ny, d, v_n), delta) of the binding edge."""
+        near = [edge_terms(*item) for item in dists if item[0] - bound < min_d]
         best = None
         for s, delta in directions:
             if not fixed_wing:
@@ -394,7 +480,71 @@ def activation_margins(
                 best = (worst, s, wk, delta)
         return best
 
-    lat_act, s_best, (room, feat, idx, j, nx, ny, d_edge, v_n), turn_angle = worst_edge(dists, min_d)
+    grid = fence.grid()
+    if fixed_wing and grid is not None and bound < math.inf and grid.grouped and prune_from_edges < GROUPED_REFERENCE:
+        # dense fence: groups of consecutive edges, bounded over their normal cones (the same answer)
+        min_d, groups = grid.groups_near(e, n, bound)
+        wspeed_w = math.hypot(wind_e, wind_n)  # |W|, the cone's wind term
+        cones: dict[int, tuple] = {}
+        if fixed_wing:
+            cheap = []
+            for lb, g, n0x, n0y, rho in groups:
+                w_n0 = wind_e * n0x + wind_n * n0y + extra
+                lb -= reaction_arc_cone_bound_m(v_turn, psi_react0, rot, omega_now, t_fw, n0x, n0y, w_n0, rho, wspeed_w) + hu
+                sin0 = n0x * sa - n0y * ca
+                cones[g] = (lb, w_n0, math.atan2(sin0, n0x * ca + n0y * sa), rho)
+                cheap.append((lb, g, sin0, w_n0, rho))
+
+            def group_bounds(s: float, delta: float) -> list:
+                return [
+                    (lb - trochoid_excursion_cone_bound_m(radius, inv_omega, sin0, w_n0, rho, wspeed_w, s, delta), g)
+                    for lb, g, sin0, w_n0, rho in cheap
+                ]
+
+            turn = (radius, inv_omega, v_turn, wspeed_w)
+        else:
+            a_t = a_tilt if v_air_mc < envelope.max_speed_mps else 0.0
+            drag = (k1, k2)
+            mc = [
+                (
+                    lb
+                    - hu
+                    - multirotor_room_cone_bound_m(
+                        ve * n0x + vn * n0y, wind_e * n0x + wind_n * n0y + extra, rho, speed, wspeed, t_r, a_t, a_brake, drag,
+                        climb_arrest,
+                    ),
+                    g,
+                )
+                for lb, g, n0x, n0y, rho in groups
+            ]  # fmt: skip
+
+            def group_bounds(s: float, delta: float) -> list:
+                return mc
+
+            turn = None
+        terms: dict[int, tuple] = {}
+        best = None
+        for s, delta in directions:
+            worst, wk = _binding_edge_grouped(
+                grid, e, n, min_d, bound, group_bounds(s, delta), cones, terms, edge_terms, turn, s, delta,
+                -math.inf if best is None else best[0],
+            )  # fmt: skip
+            if best is None or worst > best[0]:
+                best = (worst, s, wk, delta)
+        lat_act, s_best, (room, feat, idx, j, nx, ny, d_edge, v_n), turn_angle = best
+    else:
+        if grid is not None and bound < math.inf:
+            dists, min_d = grid.near(e, n, bound)
+        else:
+            dists, min_d = _edge_distances(fence.danger_edges(), e, n)
+            for i, (ce, cn, r) in enumerate(fence.keep_out_circles):
+                dist = math.hypot(ce - e, cn - n)
+                ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
+                d = dist - r
+                dists.append((d, ux, uy, FEATURE_KEEP_OUT_CIRCLE, i, -1))
+                if d < min_d:
+                    min_d = d
+        lat_act, s_best, (room, feat, idx, j, nx, ny, d_edge, v_n), turn_angle = worst_edge(dists, min_d)
     if lat_margin < lat_act:
         lat_act = lat_margin
     if lat_margin <= 0.0:

@@ -34,13 +34,30 @@ crossing parity is counted over the edges of one horizontal row strip (the
 only edges that can straddle the point's latitude line), with the same test
 as :meth:`geofence.polygon.PolygonIndex.signed_distance`.
 
+Groups (for dense boundaries): when the fence is loaded, each polygon's edges
+are cut into chains of consecutive edges (at most ``GROUP_LENGTH_M`` long and
+``GROUP_MAX_EDGES`` edges), and each circle is a group of its own. A group
+holds a bounding circle and a box of its end points (a lower bound of every
+element's distance) and a normal cone: a unit ``n0`` and ``rho = max |n_i -
+n0|``. Cells also list the groups, and :meth:`FenceGrid.groups_near` returns
+the exact nearest distance and the groups within reach with their bounds;
+:func:`geofence.boundary_shift.activation_margins` bounds each group's rooms
+over its cone (:mod:`geofence.rooms`) and expands a group into its edges
+(:meth:`FenceGrid.group_items`) only when that bound could beat the worst
+activation found. The fixed-wing's per-step cost then depends on the groups
+within reach, not on the vertex density; the fence is searched group by group
+when its groups hold at least ``GROUPED_FROM_EDGES_PER_GROUP`` elements on
+average (a sparse fence's groups are single edges).
+
 ``tests/test_fence_grid.py`` compares every answer with the full scan on
-random fences and states (next to corners, inside keep-outs, outside).
+random fences and states (next to corners, inside keep-outs, outside);
+and, for the group search, on dense ragged fences.
 """
 
 from __future__ import annotations
 
 import math
+from itertools import chain
 from typing import Sequence
 
 import numpy as np
@@ -66,7 +83,21 @@ MAX_CACHED_CANDIDATES: int = 4_000_000
 """Candidates (all cells together) kept before the table is cleared: a cell far inside a 100,000-vertex fence
 can hold most of its elements, and scattered queries (an inradius search) visit thousands of cells."""
 
+GROUP_LENGTH_M: float = 24.0
+"""Longest chain of consecutive edges one group holds (m): a dense boundary is searched group by group."""
+
+GROUP_MAX_EDGES: int = 64
+"""Most edges one group holds."""
+
+GROUPED_FROM_EDGES_PER_GROUP: float = 2.0
+"""The activation search goes group by group (:meth:`FenceGrid.groups_near`) when the groups hold at least this
+many elements on average; a sparse fence's groups are single edges and the element walk is cheaper."""
+
+GROUP_SLACK_M: float = 1e-6
+"""Added to a group's radius: covers the round-off of the distances its bound is compared with."""
+
 Item = tuple  # (d, nx, ny, feature, feature_index, edge): the ``dists`` format of activation_margins
+Group = tuple  # (lb, gid, n0x, n0y, rho): a group's distance lower bound from the query point and its normal cone
 
 
 class FenceGrid:
@@ -87,6 +118,7 @@ class FenceGrid:
         keep_outs: Sequence[PolygonIndex],
         cell_m: float = DEFAULT_CELL_M,
         prefix_items: int = PREFIX_ITEMS,
+        group_length_m: float = GROUP_LENGTH_M,
     ) -> None:
         self.cell_m = float(cell_m)
         self.prefix_items = int(prefix_items)
@@ -111,6 +143,54 @@ class FenceGrid:
         self._cells: dict[tuple[int, int], tuple] = {}
         self._cached = 0
         self._rows = _RowStrips(keep_in)
+        self._build_groups(edges, circles, group_length_m)
+        self.grouped = self.n_elements >= GROUPED_FROM_EDGES_PER_GROUP * len(self._groups)
+        self._memo_en: tuple[float, float] | None = None
+        self._memo_items: dict[int, list] = {}
+
+    def _build_groups(self, edges: Sequence[tuple], circles: Sequence[tuple], length_m: float) -> None:
+        """Chains of consecutive edges of one polygon (at most ``length_m`` long and ``GROUP_MAX_EDGES`` edges),
+        then one group per circle. Per group: element ids ``[i0, i1)``, a bounding circle ``(cx, cy, r)`` of its
+        edges' end points (so of the edges) and its normal cone: a unit ``n0`` and ``rho = max |n_i - n0|``
+        (a circle's normal can point anywhere: ``rho = 2``)."""
+        spans = []
+        i = 0
+        s = len(edges)
+        while i < s:
+            feat, idx = edges[i][7], edges[i][8]
+            j, length = i, 0.0
+            while j < s and j - i < GROUP_MAX_EDGES and edges[j][7] == feat and edges[j][8] == idx:
+                seg = math.hypot(edges[j][2], edges[j][3])
+                if j > i and length + seg > length_m:
+                    break
+                length += seg
+                j += 1
+            spans.append((i, j))
+            i = j
+        groups = []
+        for i0, i1 in spans:
+            pts = [(a[0], a[1]) for a in edges[i0:i1]] + [(a[0] + a[2], a[1] + a[3]) for a in edges[i0:i1]]
+            xs, ys = [p[0] for p in pts], [p[1] for p in pts]
+            cx, cy = 0.5 * (min(xs) + max(xs)), 0.5 * (min(ys) + max(ys))
+            r = max(math.hypot(x - cx, y - cy) for x, y in pts) + GROUP_SLACK_M
+            sx, sy = sum(a[5] for a in edges[i0:i1]), sum(a[6] for a in edges[i0:i1])
+            norm = math.hypot(sx, sy)
+            if norm > 1e-9 * (i1 - i0):
+                n0x, n0y = sx / norm, sy / norm
+                rho = max(math.hypot(a[5] - n0x, a[6] - n0y) for a in edges[i0:i1]) + 1e-12
+            else:  # normals that cancel: no cone
+                n0x, n0y, rho = 1.0, 0.0, 2.0
+            # the box: the end points' extent along n0 and along its tangent (-n0y, n0x), about the centre
+            po = [(x - cx) * n0x + (y - cy) * n0y for x, y in pts]
+            pt = [(y - cy) * n0x - (x - cx) * n0y for x, y in pts]
+            sl = GROUP_SLACK_M
+            groups.append((i0, i1, cx, cy, r, n0x, n0y, min(rho, 2.0), min(po) - sl, max(po) + sl, min(pt) - sl, max(pt) + sl))
+        for k, (ce, cn, cr) in enumerate(circles):
+            rr = cr + GROUP_SLACK_M
+            groups.append((s + k, s + k + 1, ce, cn, rr, 1.0, 0.0, 2.0, -rr, rr, -rr, rr))
+        self._groups = groups
+        g = np.array([[x[2], x[3], x[4]] for x in groups], dtype=float).reshape(-1, 3)
+        self._gx, self._gy, self._gr = (g[:, k].copy() for k in range(3))
 
     # ---- cells
     def _segment_distances(self, x: float, y: float, which) -> np.ndarray:
@@ -150,7 +230,14 @@ class FenceGrid:
         kb = self._ko_bbox
         lo_x, lo_y, hi_x, hi_y = key[0] * c, key[1] * c, (key[0] + 1) * c, (key[1] + 1) * c
         ko = tuple(np.flatnonzero((kb[:, 0] <= hi_x) & (kb[:, 2] >= lo_x) & (kb[:, 1] <= hi_y) & (kb[:, 3] >= lo_y)).tolist())
-        cell = (built_for, cx, cy, cands, ki_state, ko, rest, rest_lb)
+        # groups: lower bound of their elements' distance from the centre, kept as the elements are
+        gd = np.hypot(self._gx - cx, self._gy - cy) - self._gr
+        gsel = np.flatnonzero(gd <= u + built_for + h)
+        gsel = gsel[np.argsort(gd[gsel], kind="stable")]
+        groups = self._groups
+        gcands = tuple((float(gd[g]), g) + groups[g][2:] for g in gsel[: self.prefix_items].tolist())
+        grest = gsel[self.prefix_items :]
+        cell = (built_for, cx, cy, cands, ki_state, ko, rest, rest_lb, gcands, grest, gd[grest])
         if len(self._cells) >= MAX_CELLS or self._cached + len(sel) > MAX_CACHED_CANDIDATES:
             self._cells.clear()
             self._cached = 0
@@ -176,7 +263,7 @@ class FenceGrid:
         Items are ``(d, nx, ny, feature, feature_index, edge)`` with the
         breach-pointing unit normal (for a circle: towards its centre).
         """
-        _, cx, cy, cands, _, _, rest, rest_lb = self._cell(e, n, reach)
+        _, cx, cy, cands, _, _, rest, rest_lb = self._cell(e, n, reach)[:8]
         delta = math.hypot(e - cx, n - cy)
         best = math.inf
         found = []
@@ -185,16 +272,7 @@ class FenceGrid:
             if lb - delta - reach > best:
                 stopped = True
                 break
-            if il2 >= 0.0:
-                px, py = e - a, n - b
-                t = (px * c + py * dd) * il2
-                t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
-                qx, qy = px - t * c, py - t * dd
-                d = math.sqrt(qx * qx + qy * qy)
-            else:
-                dist = math.hypot(a - e, b - n)
-                nx, ny = ((a - e) / dist, (b - n) / dist) if dist > 0.0 else (1.0, 0.0)
-                d = dist - c
+            d, nx, ny = _element_distance(e, n, a, b, c, dd, il2, nx, ny)
             found.append((i, (d, nx, ny, feat, idx, j)))
             if d < best:
                 best = d
@@ -224,7 +302,7 @@ class FenceGrid:
 
         The nearest element's distance from the cell centre, less the distance to it (1-Lipschitz).
         """
-        _, cx, cy, cands, ki_state, ko, _, _ = self._cell(e, n, 0.0)
+        _, cx, cy, cands, ki_state, ko = self._cell(e, n, 0.0)[:6]
         if ki_state != 1 or not cands:
             return None
         kb = self._ko_bbox
@@ -242,7 +320,7 @@ class FenceGrid:
         best = self.nearest_distance(e, n)
         if best <= BOUNDARY_TOL_M:
             return None
-        _, _, _, _, ki_state, ko, _, _ = self._cells[(math.floor(e / self.cell_m), math.floor(n / self.cell_m))]
+        ki_state, ko = self._cells[(math.floor(e / self.cell_m), math.floor(n / self.cell_m))][4:6]
         if ki_state < 0 or (ki_state == 0 and not self._rows.inside(e, n)):
             return None
         kb = self._ko_bbox
@@ -250,6 +328,84 @@ class FenceGrid:
             if kb[k, 0] <= e <= kb[k, 2] and kb[k, 1] <= n <= kb[k, 3] and self._keep_outs[k].signed_distance(e, n) >= 0.0:
                 return None
         return best
+
+
+    def group_items(self, gid: int, e: float, n: float) -> list:
+        """The elements of group ``gid`` at (e, n): ``(id, (d, nx, ny, feature, feature_index, edge))`` in element
+        order, ``d`` with :meth:`near`'s arithmetic (remembered for the last point asked)."""
+        if self._memo_en != (e, n):
+            self._memo_en = (e, n)
+            self._memo_items = {}
+        else:
+            items = self._memo_items.get(gid)
+            if items is not None:
+                return items
+        i0, i1 = self._groups[gid][:2]
+        items = []
+        for i, a, b, c, dd, il2, nx, ny, feat, idx, j in self._recs[i0:i1]:
+            d, nx, ny = _element_distance(e, n, a, b, c, dd, il2, nx, ny)
+            items.append((i, (d, nx, ny, feat, idx, j)))
+        self._memo_items[gid] = items
+        return items
+
+    def groups_near(self, e: float, n: float, reach: float) -> tuple[float, list[Group]]:
+        """``(d_min, groups)``: the nearest element's ``d`` (exact, as :meth:`near`'s) and every group that can
+        hold an element with ``d - reach < d_min``, as ``(lb, gid, n0x, n0y, rho)`` with ``lb`` at most the ``d``
+        of each of its elements: the distance to the group's bounding circle or, if larger, to its box
+        (:meth:`_build_groups`), less the slack.
+
+        The cell's groups are walked in order of their circle bound from the cell centre; a group is expanded
+        (:meth:`group_items`) while its bound is below the nearest ``d`` found, so ``d_min`` is exact.
+        """
+        cell = self._cell(e, n, reach)
+        cx, cy = cell[1], cell[2]
+        delta = math.hypot(e - cx, n - cy) + GROUP_SLACK_M
+        best = math.inf
+        found = []
+        for gd, g, gx, gy, gr, n0x, n0y, rho, o_lo, o_hi, t_lo, t_hi in chain(cell[8], self._rest_groups(cell)):
+            if gd - delta > best + reach:
+                break
+            px, py = e - gx, n - gy
+            lb = math.sqrt(px * px + py * py) - gr
+            po = px * n0x + py * n0y
+            pt = py * n0x - px * n0y
+            do = o_lo - po if po < o_lo else (po - o_hi if po > o_hi else 0.0)
+            dt = t_lo - pt if pt < t_lo else (pt - t_hi if pt > t_hi else 0.0)
+            if do > 0.0 or dt > 0.0:
+                box = math.sqrt(do * do + dt * dt) - GROUP_SLACK_M
+                if box > lb:
+                    lb = box
+            if lb >= best + reach:
+                continue
+            if lb < best:
+                for _, it in self.group_items(g, e, n):
+                    if it[0] < best:
+                        best = it[0]
+            found.append((lb, g, n0x, n0y, rho))
+        limit = best + reach
+        return best, [f for f in found if f[0] < limit]
+
+    def _rest_groups(self, cell: tuple):
+        """The cell's group candidates past its tuple prefix, in the same order and format."""
+        groups = self._groups
+        for gd, g in zip(cell[10].tolist(), cell[9].tolist()):
+            yield (gd, g) + groups[g][2:]
+
+
+def _element_distance(
+    e: float, n: float, a: float, b: float, c: float, dd: float, il2: float, nx: float, ny: float
+) -> tuple[float, float, float]:
+    """``(d, nx, ny)`` of one element record from (e, n): an edge's point-segment distance (its normal as
+    given) or a circle's ``hypot - radius`` and the unit normal towards its centre (``il2 < 0``)."""
+    if il2 >= 0.0:
+        px, py = e - a, n - b
+        t = (px * c + py * dd) * il2
+        t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+        qx, qy = px - t * c, py - t * dd
+        return math.sqrt(qx * qx + qy * qy), nx, ny
+    dist = math.hypot(a - e, b - n)
+    nx, ny = ((a - e) / dist, (b - n) / dist) if dist > 0.0 else (1.0, 0.0)
+    return dist - c, nx, ny
 
 
 class _RowStrips:

@@ -3,7 +3,11 @@
 On random fences (noisy star-shaped keep-ins of 40-600 vertices, keep-out squares and circles) and
 random states (next to vertices and edges, inside keep-outs, outside the keep-in, far inside), the
 indexed :meth:`LocalFence.lateral_margin_m` and :func:`activation_margins` equal the full scan
-(``index=False``) bit for bit, for a multirotor and a fixed-wing in wind.
+(``index=False``) bit for bit, for a multirotor and a fixed-wing in wind. The same for the group search
+(edge chains bounded over their normal cones) on random dense ragged fences (keep-ins of 1,500-4,000
+vertices a metre or two apart with jagged noise and notches, keep-out squares whose sides are cut into
+short edges, circles) and states next to vertices, inside keep-outs and around them: equal to the reference
+(``prune_from_edges`` huge) and the full scan, with the default groups and longer ones.
 """
 
 import math
@@ -15,7 +19,8 @@ from hypothesis import strategies as st
 from aircraft.profile import load_profile
 from geofence.boundary_shift import activation_margins
 from geofence.fence import Fence, KeepOutCircle
-from geofence.fence_grid import SMALL_FENCE_ELEMENTS
+from geofence.fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
+from geofence.local_fence import FEATURE_KEEP_OUT_CIRCLE
 from geofence.geodesy import LocalFrame
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
@@ -28,13 +33,18 @@ def _ll(e, n):
     return (lat, lon)
 
 
-def random_fence(seed: int, n_vertices: int, n_squares: int, n_circles: int) -> Fence:
+def random_fence(seed: int, n_vertices: int, n_squares: int, n_circles: int, dense: bool = False) -> Fence:
     rng = random.Random(seed)
-    r0 = rng.uniform(300.0, 900.0)
+    r0 = rng.uniform(300.0, 900.0) if not dense else rng.uniform(350.0, 700.0)
     keep_in = []
     for i in range(n_vertices):
         a = 2.0 * math.pi * i / n_vertices
-        r = r0 * (1.0 + 0.25 * math.sin(3 * a + seed) + 0.04 * rng.uniform(-1.0, 1.0))
+        if dense:
+            r = r0 * (1.0 + 0.2 * math.sin(3 * a + seed) + 0.03 * math.sin(29 * a)) + rng.uniform(-1.5, 1.5)
+            if rng.random() < 0.01:  # a notch: sharp corners
+                r -= rng.uniform(5.0, 25.0)
+        else:
+            r = r0 * (1.0 + 0.25 * math.sin(3 * a + seed) + 0.04 * rng.uniform(-1.0, 1.0))
         keep_in.append((r * math.cos(a), r * math.sin(a)))
     squares, circles, placed = [], [], []
     for _ in range(200):
@@ -47,9 +57,13 @@ def random_fence(seed: int, n_vertices: int, n_squares: int, n_circles: int) -> 
         placed.append((cx, cy, s))
         if len(squares) < n_squares:
             t = rng.uniform(0, math.pi)
-            squares.append(
-                tuple(_ll(cx + s * math.cos(t + k * math.pi / 2), cy + s * math.sin(t + k * math.pi / 2)) for k in range(4))
-            )
+            cut = rng.randint(1, 12) if dense else 1  # sides cut into short edges
+            corners = [(cx + s * math.cos(t + k * math.pi / 2), cy + s * math.sin(t + k * math.pi / 2)) for k in range(4)]
+            pts = []
+            for k in range(4):
+                (ax, ay), (bx, by) = corners[k], corners[(k + 1) % 4]
+                pts += [(ax + (bx - ax) * q / cut, ay + (by - ay) * q / cut) for q in range(cut)]
+            squares.append(tuple(_ll(x, y) for x, y in pts))
         else:
             circles.append(KeepOutCircle(*_ll(cx, cy), s))
     return Fence(
@@ -171,9 +185,6 @@ def test_lower_bound_and_exceeds_agree_with_the_margin(seed, n_vertices, n_squar
 @given(seed=st.integers(0, 10_000), n_vertices=st.integers(48, 400), prefix=st.integers(1, 40))
 def test_candidates_past_the_tuple_prefix_give_the_same_answers(seed, n_vertices, prefix):
     """A cell keeps only its first candidates as tuples; the walk continues over the rest vectorised."""
-    from geofence.fence_grid import FenceGrid
-    from geofence.local_fence import FEATURE_KEEP_OUT_CIRCLE
-
     local = random_fence(seed, n_vertices, 8, 3).to_local(FRAME, index=True)
     full = local.grid()
     short = FenceGrid(
@@ -193,3 +204,69 @@ def test_candidates_past_the_tuple_prefix_give_the_same_answers(seed, n_vertices
         assert a_min == b_min
         # the walk may visit different supersets; what can bind (d - reach < d_min) must be identical
         assert [x for x in a_items if x[0] - reach < a_min] == [x for x in b_items if x[0] - reach < b_min]
+
+
+def dense_fence(seed: int, n_vertices: int, n_squares: int, n_circles: int) -> Fence:
+    """A keep-in of closely spaced jagged vertices with notches, keep-out squares cut into short edges."""
+    return random_fence(seed, n_vertices, n_squares, n_circles, dense=True)
+
+
+def dense_states(local, rng: random.Random, count: int):
+    """Points next to keep-in vertices (inside and out), next to and inside keep-outs, near circles."""
+    ki = local.keep_in
+    for _ in range(count):
+        kind = rng.randrange(4)
+        if kind == 0 or not (local.keep_out_polygons or local.keep_out_circles):
+            v = ki.vertices[rng.randrange(ki.n)]
+            inward = -ki.outward_normals[rng.randrange(ki.n)]
+            depth = rng.choice([rng.uniform(-3.0, 3.0), rng.uniform(0.0, 120.0)])
+            yield v[0] + inward[0] * depth + rng.gauss(0, 1.0), v[1] + inward[1] * depth + rng.gauss(0, 1.0)
+        elif kind in (1, 2) and local.keep_out_polygons:
+            k = local.keep_out_polygons[rng.randrange(len(local.keep_out_polygons))]
+            v = k.vertices[rng.randrange(k.n)] if kind == 1 else k.vertices.mean(axis=0)
+            yield v[0] + rng.uniform(-12.0, 12.0), v[1] + rng.uniform(-12.0, 12.0)
+        elif local.keep_out_circles:
+            ce, cn, r = local.keep_out_circles[rng.randrange(len(local.keep_out_circles))]
+            yield ce + rng.uniform(-1.5 * r, 1.5 * r), cn + rng.uniform(-1.5 * r, 1.5 * r)
+
+
+@settings(max_examples=20, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    n_vertices=st.integers(1500, 4000),
+    n_squares=st.integers(0, 12),
+    n_circles=st.integers(0, 4),
+    group_length_m=st.sampled_from([None, 60.0, 200.0]),
+)
+def test_group_search_equals_the_reference(seed, n_vertices, n_squares, n_circles, group_length_m):
+    fence = dense_fence(seed, n_vertices, n_squares, n_circles)
+    indexed = fence.to_local(FRAME, index=True)
+    scan = fence.to_local(FRAME, index=False)
+    if group_length_m is not None:
+        indexed._grid = FenceGrid(
+            indexed.danger_edges(), indexed.keep_out_circles, FEATURE_KEEP_OUT_CIRCLE, indexed.keep_in,
+            indexed.keep_out_polygons, group_length_m=group_length_m,
+        )  # fmt: skip
+    assert indexed.grid().grouped
+    rng = random.Random(seed)
+    for e, n in dense_states(indexed, rng, 60):
+        for env in (FW, MC):
+            speed = rng.uniform(0.0, env.max_speed_mps * 1.2)
+            course = rng.uniform(-math.pi, math.pi)
+            if rng.random() < 0.2:
+                course = math.pi * rng.choice([1.0, -1.0]) * (1.0 - 1e-12 * rng.random())  # heading at the wrap
+            w, wd = rng.uniform(0.0, 9.0), rng.uniform(-math.pi, math.pi)
+            args = (e, n, 30.0, speed * math.cos(course), speed * math.sin(course), rng.uniform(-3, 3), env)
+            args += (w * math.cos(wd), w * math.sin(wd))
+            kw = dict(
+                h_uncertainty_m=rng.uniform(0, 6),
+                v_uncertainty_m=1.0,
+                latency_s=rng.uniform(0, 0.3),
+                bank_rad=rng.uniform(-0.7, 0.7),
+                wind_extra_mps=rng.uniform(0, 3),
+                rollout_target_en=rng.choice([None, (rng.uniform(-300, 300), rng.uniform(-300, 300)), (e, n)]),
+            )
+            a = activation_margins(indexed, *args, **kw)
+            ref = activation_margins(indexed, *args, **kw, prune_from_edges=10**9)
+            full = activation_margins(scan, *args, **kw)
+            assert tuple(a) == tuple(ref) == tuple(full), (e, n, env.kind)
