@@ -447,6 +447,7 @@ def activation_margins(
         a_p_max = a_tilt + push_max
         room_max = multirotor_room_m(speed, speed, t_r, max(a_p_max, 0.0), a_brake - push_max, climb_arrest)
         bound = (room_max + hu) * (1.0 + 1e-9) + 1e-6
+
     def edge_terms(d: float, nx: float, ny: float, feat: str, idx: int, j: int) -> tuple:
         """An edge's direction-independent part: ``(d, nx, ny, feat, idx, j, v_n, w_n, base room, psi0)``."""
         v_n = ve * nx + vn * ny
@@ -488,17 +489,17 @@ def activation_margins(
         cones: dict[int, tuple] = {}
         if fixed_wing:
             cheap = []
-            for lb, g, n0x, n0y, rho in groups:
+            for lb, gid, n0x, n0y, rho in groups:
                 w_n0 = wind_e * n0x + wind_n * n0y + extra
                 lb -= reaction_arc_cone_bound_m(v_turn, psi_react0, rot, omega_now, t_fw, n0x, n0y, w_n0, rho, wspeed_w) + hu
                 sin0 = n0x * sa - n0y * ca
-                cones[g] = (lb, w_n0, math.atan2(sin0, n0x * ca + n0y * sa), rho)
-                cheap.append((lb, g, sin0, w_n0, rho))
+                cones[gid] = (lb, w_n0, math.atan2(sin0, n0x * ca + n0y * sa), rho)
+                cheap.append((lb, gid, sin0, w_n0, rho))
 
             def group_bounds(s: float, delta: float) -> list:
                 return [
-                    (lb - trochoid_excursion_cone_bound_m(radius, inv_omega, sin0, w_n0, rho, wspeed_w, s, delta), g)
-                    for lb, g, sin0, w_n0, rho in cheap
+                    (lb - trochoid_excursion_cone_bound_m(radius, inv_omega, sin0, w_n0, rho, wspeed_w, s, delta), gid)
+                    for lb, gid, sin0, w_n0, rho in cheap
                 ]
 
             turn = (radius, inv_omega, v_turn, wspeed_w)
@@ -513,9 +514,9 @@ def activation_margins(
                         ve * n0x + vn * n0y, wind_e * n0x + wind_n * n0y + extra, rho, speed, wspeed, t_r, a_t, a_brake, drag,
                         climb_arrest,
                     ),
-                    g,
+                    gid,
                 )
-                for lb, g, n0x, n0y, rho in groups
+                for lb, gid, n0x, n0y, rho in groups
             ]  # fmt: skip
 
             def group_bounds(s: float, delta: float) -> list:
@@ -531,7 +532,10 @@ def activation_margins(
             )  # fmt: skip
             if best is None or worst > best[0]:
                 best = (worst, s, wk, delta)
-        lat_act, s_best, (room, feat, idx, j, nx, ny, d_edge, v_n), turn_angle = best
+        assert best is not None  # a group holds the nearest element
+        lat_act, s_best, binding, turn_angle = best
+        assert binding is not None
+        room, feat, idx, j, nx, ny, d_edge, v_n = binding
     else:
         if grid is not None and bound < math.inf:
             dists, min_d = grid.near(e, n, bound)

@@ -329,7 +329,6 @@ class FenceGrid:
                 return None
         return best
 
-
     def group_items(self, gid: int, e: float, n: float) -> list:
         """The elements of group ``gid`` at (e, n): ``(id, (d, nx, ny, feature, feature_index, edge))`` in element
         order, ``d`` with :meth:`near`'s arithmetic (remembered for the last point asked)."""

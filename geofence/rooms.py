@@ -295,7 +295,16 @@ def reaction_arc_m(v_air: float, psi0: float, rot: float, omega: float, t: float
 
 
 def reaction_arc_cone_bound_m(
-    v_air: float, psi0: float, rot: float, omega: float, t: float, n0x: float, n0y: float, w_n0: float, rho: float, wind_speed: float
+    v_air: float,
+    psi0: float,
+    rot: float,
+    omega: float,
+    t: float,
+    n0x: float,
+    n0y: float,
+    w_n0: float,
+    rho: float,
+    wind_speed: float,
 ) -> float:
     """Upper bound (m) of :func:`reaction_arc_m` against every unit normal ``n`` with ``|n - n0| <= rho``:
     ``reaction_arc_m(.., n0, w_n0) + (v_air + |W|)·t·rho`` (+ round-off).

@@ -20,8 +20,8 @@ from aircraft.profile import load_profile
 from geofence.boundary_shift import activation_margins
 from geofence.fence import Fence, KeepOutCircle
 from geofence.fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
-from geofence.local_fence import FEATURE_KEEP_OUT_CIRCLE
 from geofence.geodesy import LocalFrame
+from geofence.local_fence import FEATURE_KEEP_OUT_CIRCLE
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 FW = load_profile("Tern").envelope
