@@ -50,8 +50,8 @@ distance bound less the room bounds over its normal cone
 are visited best first and a group is expanded only when its bound is at most
 the worst activation found, so the binding edge, its room and the tie order
 (the first edge in element order) are those of the full scan.
-:func:`~geofence.rooms.multirotor_room_cone_bound_m` bounds a multirotor's
-room over a cone the same way (its reach is short: the element walk is used).
+A multirotor's reach is short (a few edges of even a dense fence): it keeps
+the element walk.
 
 Multirotor: the manoeuvre scored
 --------------------------------
@@ -96,7 +96,6 @@ from .rooms import (
     climb_arrest_phase,
     climb_back_drift_m,
     fixed_wing_room_bound_m,
-    multirotor_room_cone_bound_m,
     multirotor_room_m,
     reaction_arc_cone_bound_m,
     reaction_arc_m,
@@ -273,62 +272,55 @@ def _binding_edge_grouped(
     group_lbs: list,
     cones: dict,
     terms: dict,
-    edge_terms,
+    terms_of,
     turn: tuple,
     s: float,
     delta: float,
     beat: float,
 ) -> tuple[float, tuple | None]:
-    """The scan's answer (:func:`_binding_edge_scan` / :func:`_binding_edge_no_turn` over the elements with
-    ``d - bound < min_d``, bit for bit) from groups of edges, best first; or, once the worst activation found
-    is at most ``beat`` (another turn direction's, which wins the tie), that worst (this direction loses).
+    """A fixed-wing's :func:`_binding_edge_scan` answer over the elements with ``d - bound < min_d`` (bit for
+    bit), from groups of edges, best first; or, once the worst activation found is at most ``beat`` (another
+    turn direction's, which wins the tie), that worst (this direction loses).
 
     ``group_lbs``: ``(lower bound of the activation of every element of the group, gid)``
-    (:meth:`FenceGrid.groups_near`'s distance bound less a room bound over the group's normal cone:
-    :func:`~geofence.rooms.reaction_arc_cone_bound_m` + :func:`~geofence.rooms.trochoid_excursion_cone_bound_m`,
-    or :func:`~geofence.rooms.multirotor_room_cone_bound_m`). A heap holds them by lower bound; a fixed-wing
-    group popped first gets the tighter :func:`~geofence.rooms.trochoid_excursion_cone_refined_m` bound
-    (``cones[gid] = (distance bound - reaction bound, w_n0, psi0 of n0, rho)``) and goes back, a group popped
-    with its final bound is expanded into its edges (a fixed-wing's pushed with
-    :func:`~geofence.rooms.trochoid_excursion_cone_bound_m` at ``rho = 0``, a multirotor's scored at once), an
-    edge popped is scored exactly. The search stops when the smallest bound left exceeds the worst activation
+    (:meth:`FenceGrid.groups_near`'s distance bound less room bounds over the group's normal cone:
+    :func:`~geofence.rooms.reaction_arc_cone_bound_m` + :func:`~geofence.rooms.trochoid_excursion_cone_bound_m`).
+    A heap holds them by lower bound; a group popped first gets the tighter
+    :func:`~geofence.rooms.trochoid_excursion_cone_refined_m` bound (``cones[gid] = (distance bound - reaction
+    bound, w_n0, psi0 of n0, rho)``) and goes back; a group popped with its final bound is expanded into its
+    edges, each pushed with :func:`~geofence.rooms.trochoid_excursion_cone_bound_m` at ``rho = 0``; an edge
+    popped is scored exactly. The search stops when the smallest bound left exceeds the worst activation
     found (strictly: every edge that ties the worst is scored, and the tie keeps the lowest element id, the
-    scan's first). ``terms`` caches ``edge_terms`` per element id across the turn directions;
-    ``turn = (R, 1/omega, V, |W|)``, or ``None`` for a multirotor.
+    scan's first). ``terms`` caches per group its edges within reach ``(element id, terms_of item)`` across
+    the turn directions; ``turn = (R, 1/omega, V, |W|)``.
     """
-    heap = [(lb, 0, g) for lb, g in group_lbs]
+    heap: list[tuple] = [(lb, 0, g) for lb, g in group_lbs]  # (bound, kind, key[, terms of an edge])
     heapq.heapify(heap)
     pop, push = heapq.heappop, heapq.heappush
-    if turn is not None:
-        radius, inv_omega, v_turn, wind_speed = turn
+    radius, inv_omega, v_turn, wind_speed = turn
     worst = math.inf
     wk = None
     wid = -1
     while heap:
-        lb, kind, key = pop(heap)
+        entry = pop(heap)
+        lb, kind, key = entry[0], entry[1], entry[2]
         if lb > worst:
             break
-        if kind == 0 and turn is not None:
+        if kind == 0:
             lbb, w_n0, psi0, rho = cones[key]
             refined = lbb - trochoid_excursion_cone_refined_m(radius, inv_omega, v_turn, w_n0, psi0, rho, wind_speed, s, delta)
             push(heap, (refined if refined > lb else lb, 1, key))
-        elif kind <= 1:
-            for i, item in grid.group_items(key, e, n):
-                t = terms.get(i)
-                if t is None:
-                    if item[0] - bound >= min_d:
-                        continue
-                    t = terms[i] = edge_terms(*item)
-                d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 = t
-                if turn is not None:
-                    ub = trochoid_excursion_cone_bound_m(radius, inv_omega, math.sin(psi0), w_n, 0.0, wind_speed, s, delta)
-                    push(heap, (d - base - ub, 2, i))
-                    continue
-                act = d - base
-                if act < worst or (act == worst and i < wid):
-                    worst, wk, wid = act, (base, feat, idx, j, nx, ny, d, v_n), i
+        elif kind == 1:
+            group = terms.get(key)
+            if group is None:
+                items = grid.group_items(key, e, n)
+                ids = [i for i, item in items if item[0] - bound < min_d]  # the ones terms_of keeps
+                group = terms[key] = list(zip(ids, terms_of([item for _, item in items], min_d)))
+            for i, t in group:
+                ub = trochoid_excursion_cone_bound_m(radius, inv_omega, math.sin(t[9]), t[7], 0.0, wind_speed, s, delta)
+                push(heap, (t[0] - t[8] - ub, 2, i, t))
         else:
-            d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 = terms[key]
+            d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 = entry[3]
             room = base + trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
             act = d - room
             if act < worst or (act == worst and key < wid):
@@ -448,27 +440,34 @@ def activation_margins(
         room_max = multirotor_room_m(speed, speed, t_r, max(a_p_max, 0.0), a_brake - push_max, climb_arrest)
         bound = (room_max + hu) * (1.0 + 1e-9) + 1e-6
 
-    def edge_terms(d: float, nx: float, ny: float, feat: str, idx: int, j: int) -> tuple:
-        """An edge's direction-independent part: ``(d, nx, ny, feat, idx, j, v_n, w_n, base room, psi0)``."""
-        v_n = ve * nx + vn * ny
-        w_n = wind_e * nx + wind_n * ny + extra
-        if fixed_wing:
-            base = reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n) + hu
-            # air heading relative to the normal: angle from n to (ca, sa)
-            psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
-        else:
-            # worst case: the pilot keeps accelerating at the tilt limit toward the
-            # edge (while below max airspeed), helped by the wind's push, until the
-            # override acts (t_r); then the vehicle brakes against that push
-            push = wind_push_mps2(k1, k2, wspeed, w_n)
-            a_p = (a_tilt if v_air_mc < envelope.max_speed_mps else 0.0) + push
-            base = multirotor_room_m(v_n, speed, t_r, a_p, a_brake - push, climb_arrest) + hu
-            psi0 = 0.0
-        return (d, nx, ny, feat, idx, j, v_n, w_n, base, psi0)
+    def terms_of(items: list, min_d: float) -> list:
+        """Per edge item ``(d, nx, ny, feat, idx, j)`` that can bind (``d - bound < min_d``), its
+        direction-independent part ``(d, nx, ny, feat, idx, j, v_n, w_n, base room, psi0)`` (one call per
+        list: the per-step loop)."""
+        out = []
+        for d, nx, ny, feat, idx, j in items:
+            if d - bound >= min_d:
+                continue
+            v_n = ve * nx + vn * ny
+            w_n = wind_e * nx + wind_n * ny + extra
+            if fixed_wing:
+                base = reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n) + hu
+                # air heading relative to the normal: angle from n to (ca, sa)
+                psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
+            else:
+                # worst case: the pilot keeps accelerating at the tilt limit toward the
+                # edge (while below max airspeed), helped by the wind's push, until the
+                # override acts (t_r); then the vehicle brakes against that push
+                push = wind_push_mps2(k1, k2, wspeed, w_n)
+                a_p = (a_tilt if v_air_mc < envelope.max_speed_mps else 0.0) + push
+                base = multirotor_room_m(v_n, speed, t_r, a_p, a_brake - push, climb_arrest) + hu
+                psi0 = 0.0
+            out.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0))
+        return out
 
     def worst_edge(dists: list, min_d: float):
         """(activation, turn sign, (room, feature, index, edge, nx, ny, d, v_n), delta) of the binding edge."""
-        near = [edge_terms(*item) for item in dists if item[0] - bound < min_d]
+        near = terms_of(dists, min_d)
         best = None
         for s, delta in directions:
             if not fixed_wing:
@@ -482,52 +481,37 @@ def activation_margins(
         return best
 
     grid = fence.grid()
-    if fixed_wing and grid is not None and bound < math.inf and grid.grouped and prune_from_edges < GROUPED_REFERENCE:
+    if (
+        fixed_wing
+        and grid is not None
+        and bound < math.inf
+        and prune_from_edges < GROUPED_REFERENCE
+        and grid.group_search_pays(e, n, bound)
+    ):
         # dense fence: groups of consecutive edges, bounded over their normal cones (the same answer)
         min_d, groups = grid.groups_near(e, n, bound)
         wspeed_w = math.hypot(wind_e, wind_n)  # |W|, the cone's wind term
         cones: dict[int, tuple] = {}
-        if fixed_wing:
-            cheap = []
-            for lb, gid, n0x, n0y, rho in groups:
-                w_n0 = wind_e * n0x + wind_n * n0y + extra
-                lb -= reaction_arc_cone_bound_m(v_turn, psi_react0, rot, omega_now, t_fw, n0x, n0y, w_n0, rho, wspeed_w) + hu
-                sin0 = n0x * sa - n0y * ca
-                cones[gid] = (lb, w_n0, math.atan2(sin0, n0x * ca + n0y * sa), rho)
-                cheap.append((lb, gid, sin0, w_n0, rho))
+        cheap = []
+        for lb, gid, n0x, n0y, rho in groups:
+            w_n0 = wind_e * n0x + wind_n * n0y + extra
+            lb -= reaction_arc_cone_bound_m(v_turn, psi_react0, rot, omega_now, t_fw, n0x, n0y, w_n0, rho, wspeed_w) + hu
+            sin0 = n0x * sa - n0y * ca
+            cones[gid] = (lb, w_n0, math.atan2(sin0, n0x * ca + n0y * sa), rho)
+            cheap.append((lb, gid, sin0, w_n0, rho))
 
-            def group_bounds(s: float, delta: float) -> list:
-                return [
-                    (lb - trochoid_excursion_cone_bound_m(radius, inv_omega, sin0, w_n0, rho, wspeed_w, s, delta), gid)
-                    for lb, gid, sin0, w_n0, rho in cheap
-                ]
+        def group_bounds(s: float, delta: float) -> list:
+            return [
+                (lb - trochoid_excursion_cone_bound_m(radius, inv_omega, sin0, w_n0, rho, wspeed_w, s, delta), gid)
+                for lb, gid, sin0, w_n0, rho in cheap
+            ]
 
-            turn = (radius, inv_omega, v_turn, wspeed_w)
-        else:
-            a_t = a_tilt if v_air_mc < envelope.max_speed_mps else 0.0
-            drag = (k1, k2)
-            mc = [
-                (
-                    lb
-                    - hu
-                    - multirotor_room_cone_bound_m(
-                        ve * n0x + vn * n0y, wind_e * n0x + wind_n * n0y + extra, rho, speed, wspeed, t_r, a_t, a_brake, drag,
-                        climb_arrest,
-                    ),
-                    gid,
-                )
-                for lb, gid, n0x, n0y, rho in groups
-            ]  # fmt: skip
-
-            def group_bounds(s: float, delta: float) -> list:
-                return mc
-
-            turn = None
-        terms: dict[int, tuple] = {}
+        turn = (radius, inv_omega, v_turn, wspeed_w)
+        terms: dict[int, list] = {}
         best = None
         for s, delta in directions:
             worst, wk = _binding_edge_grouped(
-                grid, e, n, min_d, bound, group_bounds(s, delta), cones, terms, edge_terms, turn, s, delta,
+                grid, e, n, min_d, bound, group_bounds(s, delta), cones, terms, terms_of, turn, s, delta,
                 -math.inf if best is None else best[0],
             )  # fmt: skip
             if best is None or worst > best[0]:

@@ -230,20 +230,37 @@ class FenceGrid:
         kb = self._ko_bbox
         lo_x, lo_y, hi_x, hi_y = key[0] * c, key[1] * c, (key[0] + 1) * c, (key[1] + 1) * c
         ko = tuple(np.flatnonzero((kb[:, 0] <= hi_x) & (kb[:, 2] >= lo_x) & (kb[:, 1] <= hi_y) & (kb[:, 3] >= lo_y)).tolist())
-        # groups: lower bound of their elements' distance from the centre, kept as the elements are
-        gd = np.hypot(self._gx - cx, self._gy - cy) - self._gr
-        gsel = np.flatnonzero(gd <= u + built_for + h)
-        gsel = gsel[np.argsort(gd[gsel], kind="stable")]
-        groups = self._groups
-        gcands = tuple((float(gd[g]), g) + groups[g][2:] for g in gsel[: self.prefix_items].tolist())
-        grest = gsel[self.prefix_items :]
-        cell = (built_for, cx, cy, cands, ki_state, ko, rest, rest_lb, gcands, grest, gd[grest])
+        # the cell's groups are listed when the group search first asks (:meth:`_cell_groups`)
+        cell = (built_for, cx, cy, cands, ki_state, ko, rest, rest_lb, u, [])
         if len(self._cells) >= MAX_CELLS or self._cached + len(sel) > MAX_CACHED_CANDIDATES:
             self._cells.clear()
             self._cached = 0
         self._cells[key] = cell
         self._cached += len(sel)
         return cell
+
+    def _cell_groups(self, cell: tuple) -> tuple:
+        """``(prefix, rest ids, rest bounds, dense)``: the groups that can hold one of the cell's candidates, sorted
+        by the lower bound of their elements' distance from the centre (kept as the elements are; listed once per
+        cell, the first time the group search asks), and whether they hold at least
+        ``GROUPED_FROM_EDGES_PER_GROUP`` of the cell's candidates each on average."""
+        slot = cell[9]
+        if not slot:
+            built_for, cx, cy, u = cell[0], cell[1], cell[2], cell[8]
+            gd = np.hypot(self._gx - cx, self._gy - cy) - self._gr
+            gsel = np.flatnonzero(gd <= u + built_for + self.half_diag_m)
+            gsel = gsel[np.argsort(gd[gsel], kind="stable")]
+            groups = self._groups
+            gcands = tuple((float(gd[g]), g) + groups[g][2:] for g in gsel[: self.prefix_items].tolist())
+            grest = gsel[self.prefix_items :]
+            n_elements = len(cell[3]) + len(cell[6])
+            slot.append((gcands, grest, gd[grest], n_elements >= GROUPED_FROM_EDGES_PER_GROUP * len(gsel)))
+        return slot[0]
+
+    def group_search_pays(self, e: float, n: float, reach: float) -> bool:
+        """Whether the groups within reach of (e, n)'s cell hold at least ``GROUPED_FROM_EDGES_PER_GROUP``
+        elements on average (else the group search only adds its bounds: a sparse stretch, single-edge groups)."""
+        return self.grouped and self._cell_groups(self._cell(e, n, reach))[3]
 
     def _rest(self, e: float, n: float, rest: np.ndarray, rest_lb: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
         """``(ids, d)`` of the candidates past a cell's tuple prefix whose lower bound is within ``limit``
@@ -263,7 +280,7 @@ class FenceGrid:
         Items are ``(d, nx, ny, feature, feature_index, edge)`` with the
         breach-pointing unit normal (for a circle: towards its centre).
         """
-        _, cx, cy, cands, _, _, rest, rest_lb = self._cell(e, n, reach)[:8]
+        _, cx, cy, cands, _, _, rest, rest_lb, _, _ = self._cell(e, n, reach)
         delta = math.hypot(e - cx, n - cy)
         best = math.inf
         found = []
@@ -272,7 +289,14 @@ class FenceGrid:
             if lb - delta - reach > best:
                 stopped = True
                 break
-            d, nx, ny = _element_distance(e, n, a, b, c, dd, il2, nx, ny)
+            if il2 >= 0.0:  # inline (the per-step walk): _element_distance's arithmetic
+                px, py = e - a, n - b
+                t = (px * c + py * dd) * il2
+                t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+                qx, qy = px - t * c, py - t * dd
+                d = math.sqrt(qx * qx + qy * qy)
+            else:
+                d, nx, ny = _element_distance(e, n, a, b, c, dd, il2, nx, ny)
             found.append((i, (d, nx, ny, feat, idx, j)))
             if d < best:
                 best = d
@@ -302,7 +326,7 @@ class FenceGrid:
 
         The nearest element's distance from the cell centre, less the distance to it (1-Lipschitz).
         """
-        _, cx, cy, cands, ki_state, ko = self._cell(e, n, 0.0)[:6]
+        _, cx, cy, cands, ki_state, ko, _, _, _, _ = self._cell(e, n, 0.0)
         if ki_state != 1 or not cands:
             return None
         kb = self._ko_bbox
@@ -320,7 +344,7 @@ class FenceGrid:
         best = self.nearest_distance(e, n)
         if best <= BOUNDARY_TOL_M:
             return None
-        ki_state, ko = self._cells[(math.floor(e / self.cell_m), math.floor(n / self.cell_m))][4:6]
+        _, _, _, _, ki_state, ko, _, _, _, _ = self._cells[(math.floor(e / self.cell_m), math.floor(n / self.cell_m))]
         if ki_state < 0 or (ki_state == 0 and not self._rows.inside(e, n)):
             return None
         kb = self._ko_bbox
@@ -358,10 +382,11 @@ class FenceGrid:
         """
         cell = self._cell(e, n, reach)
         cx, cy = cell[1], cell[2]
+        gcands, grest, grest_lb, _ = self._cell_groups(cell)
         delta = math.hypot(e - cx, n - cy) + GROUP_SLACK_M
         best = math.inf
         found = []
-        for gd, g, gx, gy, gr, n0x, n0y, rho, o_lo, o_hi, t_lo, t_hi in chain(cell[8], self._rest_groups(cell)):
+        for gd, g, gx, gy, gr, n0x, n0y, rho, o_lo, o_hi, t_lo, t_hi in chain(gcands, self._rest_groups(grest, grest_lb)):
             if gd - delta > best + reach:
                 break
             px, py = e - gx, n - gy
@@ -384,10 +409,10 @@ class FenceGrid:
         limit = best + reach
         return best, [f for f in found if f[0] < limit]
 
-    def _rest_groups(self, cell: tuple):
+    def _rest_groups(self, grest: np.ndarray, grest_lb: np.ndarray):
         """The cell's group candidates past its tuple prefix, in the same order and format."""
         groups = self._groups
-        for gd, g in zip(cell[10].tolist(), cell[9].tolist()):
+        for gd, g in zip(grest_lb.tolist(), grest.tolist()):
             yield (gd, g) + groups[g][2:]
 
 

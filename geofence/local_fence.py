@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from .fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
+from .fence_grid import GROUP_LENGTH_M, SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame
 from .heights import AltitudeReference, VerticalExtent
 from .polygon import PolygonIndex, pole_of_inaccessibility
@@ -110,14 +110,19 @@ class LocalFence:
         "_gap_edges",
         "_grid",
         "_use_index",
+        "_group_length_m",
         "_memo_en",
         "_memo_margin_m",
     )
 
-    def __init__(self, fence: Fence, frame: LocalFrame, *, index: bool | None = None) -> None:
+    def __init__(
+        self, fence: Fence, frame: LocalFrame, *, index: bool | None = None, group_length_m: float = GROUP_LENGTH_M
+    ) -> None:
         """``index``: answer the per-step lateral queries from a :class:`~geofence.fence_grid.FenceGrid`
         (``None``: when the fence has at least :data:`~geofence.fence_grid.SMALL_FENCE_ELEMENTS` elements;
-        ``False``: always the full scan, the reference the index is tested against)."""
+        ``False``: always the full scan, the reference the index is tested against); ``group_length_m``: the
+        index's longest chain of edges searched as one group (:data:`~geofence.fence_grid.GROUP_LENGTH_M`)."""
+        self._group_length_m = group_length_m
         self.fence = fence
         self.frame = frame
         self._grid: FenceGrid | None = None
@@ -174,7 +179,12 @@ class LocalFence:
         """The candidate-set index of the lateral elements (built on first use), or None for a small fence."""
         if self._grid is None and self._use_index:
             self._grid = FenceGrid(
-                self.danger_edges(), self.keep_out_circles, FEATURE_KEEP_OUT_CIRCLE, self.keep_in, self.keep_out_polygons
+                self.danger_edges(),
+                self.keep_out_circles,
+                FEATURE_KEEP_OUT_CIRCLE,
+                self.keep_in,
+                self.keep_out_polygons,
+                group_length_m=self._group_length_m,
             )
         return self._grid
 

@@ -102,7 +102,6 @@ __all__ = [
     "course_reversal_time_s",
     "envelope_turn_radius_m",
     "fixed_wing_room_bound_m",
-    "multirotor_room_cone_bound_m",
     "reaction_arc_cone_bound_m",
     "trochoid_excursion_cone_bound_m",
     "trochoid_excursion_cone_refined_m",
@@ -420,48 +419,6 @@ def multirotor_room_m(
     base = (v_n * t_s if v_n > 0.0 else 0.0) + 0.5 * a_pilot_mps2 * t_s * t_s
     v1 = speed_mps + a_pilot_mps2 * t_s
     return base + braking_room_m(v_n1, v1 if v1 > v_n1 else v_n1, a_brake_mps2, climb_arrest)
-
-
-def multirotor_room_cone_bound_m(
-    v_n0: float,
-    w_n0: float,
-    rho: float,
-    speed_mps: float,
-    wind_speed_mps: float,
-    t_s: float,
-    a_tilt_mps2: float,
-    a_brake_mps2: float,
-    drag: tuple[float, float],
-    climb_arrest: tuple[float, float],
-) -> float:
-    """Upper bound (m) of the per-edge multirotor room against every unit normal ``n`` with ``|n - n0| <= rho``.
-
-    The per-edge room is :func:`multirotor_room_m` ``(v_n, v, t, a_t + a_w, a_brake - a_w, climb_arrest)``
-    with ``v_n = v·n`` (ground velocity), ``a_w = wind_push_mps2(k1, k2, |W|, w_n)``, ``w_n = W·n + extra``,
-    ``a_t`` the pilot's tilt acceleration (or 0). Given ``v_n0 = v·n0``, ``w_n0 = W·n0 + extra``,
-    ``wind_speed_mps`` (the ``|W|`` of the push, at least the wind speed) and ``drag = (k1, k2)``: with
-    ``v_ub = min(v_n0 + v·rho, v)`` and ``w_ub = w_n0 + |W|·rho`` (``v·n <= v·n0 + |v|·|n - n0|`` and
-    ``<= |v|``; likewise ``W·n``), the bound is
-    ``max(multirotor_room_m(v_ub, v, t, a_t + a_w(w_ub), a_brake - a_w(w_ub)), max(v_ub, 0)·t)``.
-
-    Proof: the push is non-decreasing in ``w_n``. Where ``v_n1 = v_n + a_p·t <= 0`` the room is
-    ``max(v_n, 0)·t <= max(v_ub, 0)·t``. Where ``v_n1 > 0`` (then also at ``(v_ub, w_ub)``), the room
-    ``max(v_n, 0)·t + a_p·t²/2 + braking`` is non-decreasing in ``v_n`` and in the push: the pilot term grows
-    with ``a_p``; :func:`braking_room_m` is ``(v_n1/v1)·S(v1)`` with ``S`` the stopping distance along the
-    velocity, non-decreasing in ``v_n1``, in ``v1 = max(v + a_p·t, v_n1)`` (``S(v)/v`` grows with ``v``: ``v/(2a)``
-    without an arrest; with one, ``t1 - a1·t1²/(2v) + (v - a1·t1)²/(2a·v)`` or ``v/(2·a1)``) and as the braking
-    deceleration ``a_brake - a_w`` falls (infinite room at <= 0). (The room is not monotone across
-    ``v_n1 = 0``, hence the second term.) ``(1 + 1e-9)`` and ``1e-6`` cover the round-off.
-    """
-    v_ub = v_n0 + speed_mps * rho
-    if v_ub > speed_mps:
-        v_ub = speed_mps
-    push = wind_push_mps2(drag[0], drag[1], wind_speed_mps, w_n0 + wind_speed_mps * rho)
-    ub = multirotor_room_m(v_ub, speed_mps, t_s, a_tilt_mps2 + push, a_brake_mps2 - push, climb_arrest)
-    straight = v_ub * t_s if v_ub > 0.0 else 0.0
-    if straight > ub:
-        ub = straight
-    return ub * (1.0 + 1e-9) + 1e-6
 
 
 def multicopter_stopping_distance_m(

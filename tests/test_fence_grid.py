@@ -19,9 +19,9 @@ from hypothesis import strategies as st
 from aircraft.profile import load_profile
 from geofence.boundary_shift import activation_margins
 from geofence.fence import Fence, KeepOutCircle
-from geofence.fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
+from geofence.fence_grid import GROUP_LENGTH_M, SMALL_FENCE_ELEMENTS, FenceGrid
 from geofence.geodesy import LocalFrame
-from geofence.local_fence import FEATURE_KEEP_OUT_CIRCLE
+from geofence.local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 FW = load_profile("Tern").envelope
@@ -240,13 +240,8 @@ def dense_states(local, rng: random.Random, count: int):
 )
 def test_group_search_equals_the_reference(seed, n_vertices, n_squares, n_circles, group_length_m):
     fence = dense_fence(seed, n_vertices, n_squares, n_circles)
-    indexed = fence.to_local(FRAME, index=True)
+    indexed = LocalFence(fence, FRAME, index=True, group_length_m=group_length_m or GROUP_LENGTH_M)
     scan = fence.to_local(FRAME, index=False)
-    if group_length_m is not None:
-        indexed._grid = FenceGrid(
-            indexed.danger_edges(), indexed.keep_out_circles, FEATURE_KEEP_OUT_CIRCLE, indexed.keep_in,
-            indexed.keep_out_polygons, group_length_m=group_length_m,
-        )  # fmt: skip
     assert indexed.grid().grouped
     rng = random.Random(seed)
     for e, n in dense_states(indexed, rng, 60):
