@@ -66,6 +66,8 @@ from geofence.geodesy import LocalFrame
 
 MANIFEST = "campaign.json"
 REPORT_MD = "campaign_report.md"
+FLIGHTS_CSV = "campaign_flights.csv"
+"""One row per flight: its condition, status, breaches and whether its unprotected twin breached."""
 KEEP_IN_TOLERANCE_M = 0.0
 """A keep-in breach is a lateral excursion strictly beyond this (m)."""
 VERTICAL_TOLERANCE_M = 0.0
@@ -435,6 +437,59 @@ def unprotected_vs_protected(rows: Sequence[Mapping]) -> dict[str, dict[str, int
     return out
 
 
+FLIGHT_COLUMNS = (
+    "flight", "case_id", "variant", "family", "attack", "platform", "condition", "status", "breach",
+    "keep_in_breach", "keep_out_entry", "vertical_breach", "out_of_gap_landing", "max_excursion_m",
+    "activations", "twin_breached", "peak_sustained_wind_mps",
+)  # fmt: skip
+"""The columns of :data:`FLIGHTS_CSV` (:func:`flight_summaries`)."""
+
+
+def flight_status(row: Mapping) -> str:
+    """``error``, ``mission stalled by the geofence`` (a mission left unfinished after the geofence acted, no
+    error), ``incomplete`` (otherwise not completed) or ``completed``."""
+    if is_error(row):
+        return "error"
+    if mission_stalled(row):
+        return "mission stalled by the geofence"
+    return "completed" if truthy(row.get("completed")) else "incomplete"
+
+
+def flight_summaries(rows: Sequence[Mapping]) -> list[dict]:
+    """Per flight (:data:`FLIGHT_COLUMNS`): its case, condition and status, its breach flags (empty when it was
+    not scored) and, for a protected flight, whether its case's unprotected twin breached (empty for the twin
+    itself, or when the twin erred or was not scored)."""
+    twins = {str(r.get("case_id")): flight_outcome(r) for r in rows if r.get("variant") == "unprotected" and not is_error(r)}
+    out = []
+    for r in rows:
+        o = flight_outcome(r)
+        twin = twins.get(str(r.get("case_id"))) if r.get("variant") != "unprotected" else None
+        flags = (o.breach, o.keep_in_breach, o.keep_out_entry, o.vertical_breach, o.out_of_gap_landing)
+        out.append(
+            dict(
+                zip(
+                    FLIGHT_COLUMNS,
+                    (
+                        r.get("flight"),
+                        r.get("case_id"),
+                        r.get("variant"),
+                        r.get("family"),
+                        r.get("attack"),
+                        r.get("platform"),
+                        condition(r),
+                        flight_status(r),
+                        *(f if o.scored else "" for f in flags),
+                        r.get("max_excursion_m", ""),
+                        r.get("activations", ""),
+                        twin.breach if twin is not None and twin.scored else "",
+                        r.get("peak_sustained_wind_mps", ""),
+                    ),  # fmt: skip
+                )
+            )
+        )
+    return out
+
+
 def offending_flights(rows: Sequence[Mapping], variant: str = "predictive") -> list[Mapping]:
     """Flights of ``variant`` with a keep-in breach, a keep-out entry or an out-of-gap landing."""
     bad = []
@@ -730,7 +785,8 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
 
 
 def write_campaign_report(batch_dir: str | Path, manifest_path: str | Path, *, out_dir: str | Path | None = None) -> Path:
-    """Read ``<batch_dir>/results.csv`` and the manifest; write ``campaign_report.md`` and its figures.
+    """Read ``<batch_dir>/results.csv`` and the manifest; write ``campaign_report.md``, its figures and
+    ``campaign_flights.csv`` (one row per flight, :func:`flight_summaries`).
 
     Returns the report's path (in ``out_dir``, default ``batch_dir``).
     """
@@ -741,6 +797,13 @@ def write_campaign_report(batch_dir: str | Path, manifest_path: str | Path, *, o
     rows = campaign_rows(read_results_csv(batch_dir / RESULTS_CSV), manifest, batch_dir)
     plot_excursions(rows, out_dir / "campaign_excursion")
     plot_breach_bounds(rows, out_dir / "campaign_breach_bounds")
+    flights = out_dir / FLIGHTS_CSV
+    tmp = flights.with_name(f".{flights.name}.tmp")
+    with open(tmp, "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=FLIGHT_COLUMNS)
+        writer.writeheader()
+        writer.writerows(flight_summaries(rows))
+    os.replace(tmp, flights)
     path = out_dir / REPORT_MD
     tmp = path.with_name(f".{path.name}.tmp")
     tmp.write_text("\n".join(campaign_report_lines(rows, manifest)))

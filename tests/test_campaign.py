@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import math
 import time
@@ -35,6 +36,7 @@ from analysis.campaign import (
     describe_flight,
     excursion_comparison,
     flight_outcome,
+    flight_summaries,
     group_stats,
     load_manifest,
     offending_flights,
@@ -543,6 +545,23 @@ def synthetic_rows():
     return campaign_rows(raw, SYNTH_MANIFEST)
 
 
+def test_every_flight_summary_says_its_status_and_whether_its_twin_breached():
+    by = {r["flight"]: r for r in flight_summaries(synthetic_rows())}
+    assert len(by) == 9
+    # box-0000: the predictive flight held on the line while its twin flew 40 m out
+    assert by["box-0000__predictive"]["breach"] is False and by["box-0000__predictive"]["twin_breached"] is True
+    assert by["box-0000__unprotected"]["twin_breached"] == "" and by["box-0000__unprotected"]["breach"] is True
+    # star-0001: a mission the geofence stalled is not an error; its twin erred, so nothing is said of it
+    assert by["star-0001__predictive"]["status"] == "mission stalled by the geofence"
+    assert by["star-0001__predictive"]["twin_breached"] == ""
+    assert by["star-0001__reactive"]["status"] == "completed"
+    assert by["star-0001__unprotected"]["status"] == "error" and by["star-0001__unprotected"]["breach"] == ""
+    # box-0002: the predictive flight entered a keep-out, its twin breached too
+    p = by["box-0002__predictive"]
+    assert (p["breach"], p["keep_out_entry"], p["keep_in_breach"], p["twin_breached"]) == (True, True, True, True)
+    assert by["box-0002__reactive"]["out_of_gap_landing"] is True and by["box-0002__reactive"]["vertical_breach"] is True
+
+
 def test_counts_breaches_missions_and_errors_on_synthetic_rows():
     rows = synthetic_rows()
     assert len(rows) == 9
@@ -636,6 +655,11 @@ def test_ci_slice_has_no_predictive_breach(tmp_path):
     attempts = [r for r in rows if r["variant"] == "predictive" and r["attack"] == "breach_attempts"]
     assert {r["platform_kind"] for r in attempts} == {"multirotor", "fixed_wing"}
     assert all(float(r["activations"]) > 0 for r in attempts), [(r["flight"], r["activations"]) for r in attempts]
+    with open(tmp_path / "campaign_flights.csv", newline="") as fh:
+        flights = list(csv.DictReader(fh))
+    assert len(flights) == 3 * CI_CASES
+    assert all(f["twin_breached"] in ("True", "False") for f in flights if f["variant"] == "predictive")
+    assert {f["status"] for f in flights} <= {"completed", "mission stalled by the geofence", "incomplete"}
     bad = offending_flights(rows, "predictive")
     for r in bad:
         print("PREDICTIVE BREACH:", describe_flight(r))

@@ -232,7 +232,7 @@ def build_parser() -> argparse.ArgumentParser:
             "pilots, and normal missions), each "
             "three times (predictive, reactive, unprotected), plus campaign.json, into DIR; fly them with "
             "'geofence-testbed batch DIR --out RESULTS'. report: breaches with 95 % upper confidence bounds per "
-            "flight and per flight hour, peak excursions, nuisance overrides, written to RESULTS/campaign_report.md."
+            "flight and per flight hour, peak excursions, nuisance overrides, written to RESULTS/campaign_report.md, and one row per flight (condition, status, breaches, whether its unprotected twin breached) in RESULTS/campaign_flights.csv."
         ),
     )
     camp_sub = camp.add_subparsers(dest="campaign_command", required=True, metavar="ACTION")
@@ -254,7 +254,7 @@ def build_parser() -> argparse.ArgumentParser:
     rep = camp_sub.add_parser(
         "report",
         help="write campaign_report.md from a flown campaign",
-        description="Read RESULTS/results.csv (from batch) and the campaign's campaign.json; write RESULTS/campaign_report.md and its figures.",
+        description="Read RESULTS/results.csv (from batch) and the campaign's campaign.json; write RESULTS/campaign_report.md, its figures and RESULTS/campaign_flights.csv (one row per flight).",
     )
     rep.add_argument("results", type=Path, metavar="RESULTS", help="the batch output folder")
     rep.add_argument(
