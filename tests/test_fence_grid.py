@@ -101,6 +101,31 @@ def probe_points(local, rng: random.Random, count: int):
     return pts
 
 
+def random_margin_call(
+    rng: random.Random, e: float, n: float, env, *, bank_rad: float, wrap_heading: bool = False, rollout: bool = False
+) -> tuple[tuple, dict]:
+    """Random arguments of :func:`activation_margins` at (e, n): speed up to 1.2 x max in any course (with
+    ``wrap_heading``, 1 in 5 at the ±pi wrap), wind up to 9 m/s, uncertainty, latency, bank up to ``bank_rad``,
+    wind allowance and (with ``rollout``) a roll-out target: none, anywhere, or the point itself."""
+    speed = rng.uniform(0.0, env.max_speed_mps * 1.2)
+    course = rng.uniform(-math.pi, math.pi)
+    if wrap_heading and rng.random() < 0.2:
+        course = math.pi * rng.choice([1.0, -1.0]) * (1.0 - 1e-12 * rng.random())
+    w, wd = rng.uniform(0.0, 9.0), rng.uniform(-math.pi, math.pi)
+    args = (e, n, 30.0, speed * math.cos(course), speed * math.sin(course), rng.uniform(-3, 3), env)
+    args += (w * math.cos(wd), w * math.sin(wd))
+    kw = dict(
+        h_uncertainty_m=rng.uniform(0, 6),
+        v_uncertainty_m=1.0,
+        latency_s=rng.uniform(0, 0.3),
+        bank_rad=rng.uniform(-bank_rad, bank_rad),
+        wind_extra_mps=rng.uniform(0, 3),
+    )
+    if rollout:
+        kw["rollout_target_en"] = rng.choice([None, (rng.uniform(-300, 300), rng.uniform(-300, 300)), (e, n)])
+    return args, kw
+
+
 @settings(max_examples=12, deadline=None)
 @given(seed=st.integers(0, 10_000), n_vertices=st.integers(40, 600), n_squares=st.integers(0, 25), n_circles=st.integers(0, 8))
 def test_index_equals_full_scan(seed, n_vertices, n_squares, n_circles):
@@ -112,27 +137,7 @@ def test_index_equals_full_scan(seed, n_vertices, n_squares, n_circles):
     for e, n in probe_points(indexed, rng, 150):
         assert indexed.lateral_margin_m(e, n) == scan.lateral_margin_m(e, n), (e, n)
         for env in (MC, FW):
-            speed = rng.uniform(0.0, env.max_speed_mps * 1.2)
-            course = rng.uniform(-math.pi, math.pi)
-            w, wd = rng.uniform(0.0, 9.0), rng.uniform(-math.pi, math.pi)
-            args = (
-                e,
-                n,
-                30.0,
-                speed * math.cos(course),
-                speed * math.sin(course),
-                rng.uniform(-3, 3),
-                env,
-                w * math.cos(wd),
-                w * math.sin(wd),
-            )
-            kw = dict(
-                h_uncertainty_m=rng.uniform(0, 6),
-                v_uncertainty_m=1.0,
-                latency_s=rng.uniform(0, 0.3),
-                bank_rad=rng.uniform(-0.5, 0.5),
-                wind_extra_mps=rng.uniform(0, 3),
-            )
+            args, kw = random_margin_call(rng, e, n, env, bank_rad=0.5)
             a = activation_margins(indexed, *args, **kw)
             b = activation_margins(scan, *args, **kw)
             assert tuple(a) == tuple(b), (e, n, env.kind)
@@ -246,21 +251,7 @@ def test_group_search_equals_the_reference(seed, n_vertices, n_squares, n_circle
     rng = random.Random(seed)
     for e, n in dense_states(indexed, rng, 60):
         for env in (FW, MC):
-            speed = rng.uniform(0.0, env.max_speed_mps * 1.2)
-            course = rng.uniform(-math.pi, math.pi)
-            if rng.random() < 0.2:
-                course = math.pi * rng.choice([1.0, -1.0]) * (1.0 - 1e-12 * rng.random())  # heading at the wrap
-            w, wd = rng.uniform(0.0, 9.0), rng.uniform(-math.pi, math.pi)
-            args = (e, n, 30.0, speed * math.cos(course), speed * math.sin(course), rng.uniform(-3, 3), env)
-            args += (w * math.cos(wd), w * math.sin(wd))
-            kw = dict(
-                h_uncertainty_m=rng.uniform(0, 6),
-                v_uncertainty_m=1.0,
-                latency_s=rng.uniform(0, 0.3),
-                bank_rad=rng.uniform(-0.7, 0.7),
-                wind_extra_mps=rng.uniform(0, 3),
-                rollout_target_en=rng.choice([None, (rng.uniform(-300, 300), rng.uniform(-300, 300)), (e, n)]),
-            )
+            args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True, rollout=True)
             a = activation_margins(indexed, *args, **kw)
             ref = activation_margins(indexed, *args, **kw, prune_from_edges=10**9)
             full = activation_margins(scan, *args, **kw)
