@@ -414,18 +414,22 @@ def excursion_comparison(rows: Sequence[Mapping], by: str = "family") -> list[di
     return out
 
 
+def twin_outcomes(rows: Sequence[Mapping]) -> dict[str, FlightOutcome]:
+    """Per case id, the outcome of its unprotected twin (twins that erred are left out)."""
+    return {str(r.get("case_id")): flight_outcome(r) for r in rows if r.get("variant") == "unprotected" and not is_error(r)}
+
+
 def unprotected_vs_protected(rows: Sequence[Mapping]) -> dict[str, dict[str, int]]:
     """Per protected variant: cases where the twin breached and the variant did / did not, and the reverse."""
-    by_case: dict[str, dict[str, Mapping]] = {}
-    for r in rows:
-        by_case.setdefault(str(r.get("case_id")), {})[str(r.get("variant"))] = r
+    twins = twin_outcomes(rows)
     out = {}
     for v in ("predictive", "reactive"):
         c = {"twin_breached": 0, "twin_breached_and_held": 0, "twin_breached_and_breached": 0, "twin_clean_but_breached": 0}
-        for d in by_case.values():
-            if v not in d or "unprotected" not in d or is_error(d[v]) or is_error(d["unprotected"]):
+        for r in rows:
+            tw = twins.get(str(r.get("case_id")))
+            if r.get("variant") != v or tw is None or is_error(r):
                 continue
-            tw, pr = flight_outcome(d["unprotected"]), flight_outcome(d[v])
+            pr = flight_outcome(r)
             if not (tw.scored and pr.scored):
                 continue
             if tw.breach:
@@ -459,7 +463,7 @@ def flight_summaries(rows: Sequence[Mapping]) -> list[dict]:
     """Per flight (:data:`FLIGHT_COLUMNS`): its case, condition and status, its breach flags (empty when it was
     not scored) and, for a protected flight, whether its case's unprotected twin breached (empty for the twin
     itself, or when the twin erred or was not scored)."""
-    twins = {str(r.get("case_id")): flight_outcome(r) for r in rows if r.get("variant") == "unprotected" and not is_error(r)}
+    twins = twin_outcomes(rows)
     out = []
     for r in rows:
         o = flight_outcome(r)

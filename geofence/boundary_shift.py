@@ -287,9 +287,9 @@ def _binding_edge_grouped(
     :func:`~geofence.rooms.reaction_arc_cone_bound_m` + :func:`~geofence.rooms.trochoid_excursion_cone_bound_m`).
     A heap holds them by lower bound; a group popped first gets the tighter
     :func:`~geofence.rooms.trochoid_excursion_cone_refined_m` bound (``cones[gid] = (distance bound - reaction
-    bound, w_n0, psi0 of n0, rho)``) and goes back; a group popped with its final bound is expanded into its
-    edges, each pushed with :func:`~geofence.rooms.trochoid_excursion_cone_bound_m` at ``rho = 0``; an edge
-    popped is scored exactly. The search stops when the smallest bound left exceeds the worst activation
+    bound, w_n0, sin and cos of the heading from n0, rho)``) and goes back; a group popped with its final
+    bound is expanded into its edges, each pushed with :func:`~geofence.rooms.trochoid_excursion_cone_bound_m`
+    at ``rho = 0``; an edge popped is scored exactly. The search stops when the smallest bound left exceeds the worst activation
     found (strictly: every edge that ties the worst is scored, and the tie keeps the lowest element id, the
     scan's first). ``terms`` caches per group its edges within reach ``(element id, terms_of item)`` across
     the turn directions; ``turn = (R, 1/omega, V, |W|)``.
@@ -307,7 +307,8 @@ def _binding_edge_grouped(
         if lb > worst:
             break
         if kind == 0:
-            lbb, w_n0, psi0, rho = cones[key]
+            lbb, w_n0, sin0, cos0, rho = cones[key]
+            psi0 = math.atan2(sin0, cos0)  # only for the groups popped
             refined = lbb - trochoid_excursion_cone_refined_m(radius, inv_omega, v_turn, w_n0, psi0, rho, wind_speed, s, delta)
             push(heap, (refined if refined > lb else lb, 1, key))
         elif kind == 1:
@@ -497,7 +498,7 @@ def activation_margins(
             w_n0 = wind_e * n0x + wind_n * n0y + extra
             lb -= reaction_arc_cone_bound_m(v_turn, psi_react0, rot, omega_now, t_fw, n0x, n0y, w_n0, rho, wspeed_w) + hu
             sin0 = n0x * sa - n0y * ca
-            cones[gid] = (lb, w_n0, math.atan2(sin0, n0x * ca + n0y * sa), rho)
+            cones[gid] = (lb, w_n0, sin0, n0x * ca + n0y * sa, rho)
             cheap.append((lb, gid, sin0, w_n0, rho))
 
         def group_bounds(s: float, delta: float) -> list:

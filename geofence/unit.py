@@ -67,6 +67,7 @@ from geofence.rooms import (
     room_upper_bounds_fast_m,
     vertical_arrest_distance_m,
 )
+from geofence.wind_estimator import WIND_ESTIMATE_ERROR_MPS
 
 RECOVERED_HOLD_S = 1.0
 WIND_BEYOND_AUTHORITY_PERSIST_S = 3.0
@@ -81,8 +82,6 @@ VERTICAL_CLEARANCE_M = 2.0
 DEAD_RECKONING_LANDING_MARGIN_M = 25.0
 """With the position source lost, a multirotor lands in place only this far inside (else at the nearest point that
 is), or farther when its descent takes long (:meth:`GeofenceUnit.dead_reckoning_room_m`)."""
-DEAD_RECKONING_WIND_ERROR_MPS = 1.0
-"""The error of the mean-wind estimate a multirotor's dead reckoning flies on (m/s), besides the turbulence."""
 FRESH_ESTIMATE_AGE_S = 0.5
 """Dead reckoning starts from the last estimate whose GNSS data was at most this old (not a long extrapolation)."""
 REPLAY_WINDOW_S = 2.0
@@ -396,12 +395,12 @@ class GeofenceUnit:
         """How far inside a multirotor without a position source must be to descend from ``agl_m`` (m).
 
         It drifts at the error of the wind it dead-reckons on for as long as the descent takes: the
-        mean wind's error (:data:`DEAD_RECKONING_WIND_ERROR_MPS`) plus the turbulence of those seconds,
+        mean wind's error (:data:`geofence.wind_estimator.WIND_ESTIMATE_ERROR_MPS`) plus the turbulence of those seconds,
         which no estimate knows (near the ground its time scale is tens of seconds, so it does not
         average out over a descent): the margins' wind allowance ``k·σ + gust``. At least
         :data:`DEAD_RECKONING_LANDING_MARGIN_M`.
         """
-        rate = DEAD_RECKONING_WIND_ERROR_MPS + self.wind_allowance_mps
+        rate = WIND_ESTIMATE_ERROR_MPS + self.wind_allowance_mps
         return max(DEAD_RECKONING_LANDING_MARGIN_M, rate * self.landing.time_to_touchdown_s(agl_m))
 
     def _point_with_room(self, s: VehicleState, radius_m: float) -> tuple[Route, tuple[float, float]] | None:

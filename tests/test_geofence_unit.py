@@ -206,7 +206,8 @@ def test_the_landing_aim_stays_inside_the_gap_by_the_edge_margin(half_e, half_n,
 def test_dead_reckoning_room_grows_with_the_descent_and_the_turbulence(agl, higher, sigma, more_sigma):
     """Without a position source the room to descend is the drift (wind error + k·σ + gust) for as long as the
     descent takes, never below the fixed floor: more height or more turbulence never asks for less."""
-    from geofence.unit import DEAD_RECKONING_LANDING_MARGIN_M, DEAD_RECKONING_WIND_ERROR_MPS
+    from geofence.unit import DEAD_RECKONING_LANDING_MARGIN_M
+    from geofence.wind_estimator import WIND_ESTIMATE_ERROR_MPS
 
     u = unit(wind_prior={"speed_mps": 3.0, "from_deg": 0.0, "turbulence_sigma_mps": sigma}, turbulence_source="forecast")
     v = unit(
@@ -216,7 +217,7 @@ def test_dead_reckoning_room_grows_with_the_descent_and_the_turbulence(agl, high
     assert room >= DEAD_RECKONING_LANDING_MARGIN_M
     assert u.dead_reckoning_room_m(agl + higher) >= room
     assert v.dead_reckoning_room_m(agl) >= room
-    rate = DEAD_RECKONING_WIND_ERROR_MPS + 1.5 * sigma  # k = 1.5 by default, no gust
+    rate = WIND_ESTIMATE_ERROR_MPS + 1.5 * sigma  # k = 1.5 by default, no gust
     assert room == pytest.approx(max(DEAD_RECKONING_LANDING_MARGIN_M, rate * u.landing.time_to_touchdown_s(agl)))
     if sigma == 0.0:
         assert u.dead_reckoning_room_m(0.0) == DEAD_RECKONING_LANDING_MARGIN_M

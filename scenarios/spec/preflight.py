@@ -6,7 +6,7 @@ the planned route in the fence's local frame, the planned speed, the expected
 wind (the geofence block's forecast ``wind_prior``, taken as the 10 m wind and raised
 to the mission's highest point by a 1/7 power law), how far the true mean may be from it
 (:data:`FORECAST_SPEED_ERROR`, :data:`FORECAST_DIRECTION_ERROR_DEG`) and the unit's estimate from that
-(:data:`WIND_ESTIMATE_ERROR_MPS`, :data:`TURBULENCE_IN_ESTIMATE_SIGMAS`), the unit's reaction latency, its turbulence and
+(:data:`geofence.wind_estimator.WIND_ESTIMATE_ERROR_MPS`, :data:`TURBULENCE_IN_ESTIMATE_SIGMAS`), the unit's reaction latency, its turbulence and
 gust allowance from that forecast, and its nominal uncertainty margins
 (``k·σ`` of the GNSS errors the sensors declare). The check itself, and what
 it guarantees, lives in :mod:`geofence.preflight`.
@@ -23,6 +23,7 @@ from geofence.dynamics import envelope_at_density, isa_density_ratio
 from geofence.fence import AltitudeReference
 from geofence.geodesy import LocalFrame
 from geofence.preflight import PlannedWaypoint, PreflightFinding, check_route
+from geofence.wind_estimator import WIND_ESTIMATE_ERROR_MPS
 from scenarios.spec.schema import PilotKind, Scenario
 from wind.steady import PowerLawProfile
 
@@ -36,9 +37,6 @@ FORECAST_SPEED_ERROR = 0.2
 """The forecast's speed may be off by this fraction of the true mean wind's speed."""
 FORECAST_DIRECTION_ERROR_DEG = 20.0
 """The forecast's direction may be off by this much (deg)."""
-WIND_ESTIMATE_ERROR_MPS = 1.0
-"""In flight the unit acts on its own wind estimate, within this of the mean wind (issue 10's requirement,
-measured in tests/test_wind_estimator.py), plus the turbulence its 20 s average still holds."""
 TURBULENCE_IN_ESTIMATE_SIGMAS = 1.5
 """How much of the forecast's turbulence sigma the unit's 20 s wind estimate may still hold. A first-order
 average over ``tau`` of turbulence with time scale ``T`` keeps ``sqrt(T / (T + tau))`` of its sigma: 0.65 for the
@@ -76,7 +74,7 @@ def expected_wind(
     """The wind the check flies the route in (E, N m/s) and the radius of winds around it the route must pass for.
 
     The forecast raised to the route's highest point by :data:`FORECAST_PROFILE` (never below its 10 m value);
-    the radius is how far the unit's estimate may be from the true mean: :data:`WIND_ESTIMATE_ERROR_MPS` plus
+    the radius is how far the unit's estimate may be from the true mean: ``WIND_ESTIMATE_ERROR_MPS`` plus
     :data:`TURBULENCE_IN_ESTIMATE_SIGMAS` of the forecast's turbulence sigma. (The forecast's own error, which
     places the true mean, is :data:`FORECAST_SPEED_ERROR` and :data:`FORECAST_DIRECTION_ERROR_DEG`.)
     """
