@@ -380,7 +380,6 @@ def activation_margins(
     Plain-Python scalar code for the per-step loop.
     """
     t_r = envelope.reaction_time_s + latency_s
-    lat_margin = fence.lateral_margin_m(e, n)
     speed = math.hypot(ve, vn)
     extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
     wspeed = math.hypot(wind_e, wind_n) + extra
@@ -490,6 +489,7 @@ def activation_margins(
         and grid.group_search_pays(e, n, bound)
     ):
         # dense fence: groups of consecutive edges, bounded over their normal cones (the same answer)
+        lat_margin = fence.lateral_margin_m(e, n)
         min_d, groups = grid.groups_near(e, n, bound)
         wspeed_w = math.hypot(wind_e, wind_n)  # |W|, the cone's wind term
         cones: dict[int, tuple] = {}
@@ -524,7 +524,9 @@ def activation_margins(
     else:
         if grid is not None and bound < math.inf:
             dists, min_d = grid.near(e, n, bound)
+            lat_margin = fence.lateral_margin_m(e, n, min_d)  # the walk just made gives the nearest element
         else:
+            lat_margin = fence.lateral_margin_m(e, n)
             dists, min_d = _edge_distances(fence.danger_edges(), e, n)
             for i, (ce, cn, r) in enumerate(fence.keep_out_circles):
                 dist = math.hypot(ce - e, cn - n)

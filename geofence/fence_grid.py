@@ -335,16 +335,17 @@ class FenceGrid:
                 return None
         return cands[0][0] - math.hypot(e - cx, n - cy)
 
-    def clearly_allowed(self, e: float, n: float) -> float | None:
+    def clearly_allowed(self, e: float, n: float, nearest_d: float | None = None) -> float | None:
         """The lateral margin when (e, n) is strictly inside the allowed area (more than the boundary
         tolerance from every element), else ``None`` (the caller then computes it in full).
 
-        Inside the allowed area the lateral margin *is* the nearest element's distance.
+        Inside the allowed area the lateral margin *is* the nearest element's distance (``nearest_d`` when
+        the caller has it from :meth:`near` at (e, n), any reach: the same number).
         """
-        best = self.nearest_distance(e, n)
+        best = self.nearest_distance(e, n) if nearest_d is None else nearest_d
         if best <= BOUNDARY_TOL_M:
             return None
-        _, _, _, _, ki_state, ko, _, _, _, _ = self._cells[(math.floor(e / self.cell_m), math.floor(n / self.cell_m))]
+        _, _, _, _, ki_state, ko, _, _, _, _ = self._cell(e, n, 0.0)
         if ki_state < 0 or (ki_state == 0 and not self._rows.inside(e, n)):
             return None
         kb = self._ko_bbox

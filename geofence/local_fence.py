@@ -37,6 +37,9 @@ FEATURE_KEEP_IN = "keep_in"
 FEATURE_KEEP_OUT_POLYGON = "keep_out_polygon"
 FEATURE_KEEP_OUT_CIRCLE = "keep_out_circle"
 FEATURE_FLOOR_GAP = "floor_gap"
+LIPSCHITZ_SLACK_M = 1e-6
+"""Round-off allowance when the lateral margin at one point is bounded by the margin at another plus their
+distance (a signed distance moves no faster than the point; computed in float, it may by far less than this)."""
 
 
 class DangerEdge(NamedTuple):
@@ -189,16 +192,18 @@ class LocalFence:
         return self._grid
 
     # ---- scalar margins (per-step)
-    def lateral_margin_m(self, e: float, n: float) -> float:
+    def lateral_margin_m(self, e: float, n: float, nearest_d: float | None = None) -> float:
         """Lateral margin in m: + inside the allowed area, - breached (keep-in or a keep-out).
 
         A step asks it several times at the same estimate (the unit's skip shortcut, its margins, the
         recovery route's projection and carrot): the last answer is remembered (a pure function of (e, n)).
+        ``nearest_d``: the index's nearest element distance at (e, n) when the caller already has it
+        (:meth:`FenceGrid.near`'s ``d_min``), which spares the index's walk.
         """
         if self._memo_en == (e, n):
             return self._memo_margin_m
         grid = self._grid if self._grid is not None else self.grid()
-        m = grid.clearly_allowed(e, n) if grid is not None else None
+        m = grid.clearly_allowed(e, n, nearest_d) if grid is not None else None
         if m is None:
             m = self.lateral_margin_scan_m(e, n)
         self._memo_en = (e, n)
@@ -207,7 +212,13 @@ class LocalFence:
 
     def lateral_margin_exceeds(self, e: float, n: float, m: float) -> bool:
         """``lateral_margin_m(e, n) > m``, answered from the index's lower bound when it suffices (far from
-        every boundary), else exactly."""
+        every boundary), or from the last margin computed (near a boundary: the margin is 1-Lipschitz, so it is
+        at most that margin plus the distance from its point, with ``LIPSCHITZ_SLACK_M`` for round-off), else
+        exactly."""
+        if self._memo_en is not None:
+            e0, n0 = self._memo_en
+            if self._memo_margin_m + math.hypot(e - e0, n - n0) + LIPSCHITZ_SLACK_M <= m:
+                return False
         grid = self._grid if self._grid is not None else self.grid()
         if grid is not None:
             lb = grid.margin_lower_bound(e, n)

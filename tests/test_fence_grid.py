@@ -186,6 +186,24 @@ def test_lower_bound_and_exceeds_agree_with_the_margin(seed, n_vertices, n_squar
             assert local.lateral_margin_exceeds(e, n, x) == (m > x)
 
 
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(4, 300), index=st.booleans(), step_m=st.floats(0.01, 30.0))
+def test_exceeds_from_the_last_margin_agrees_along_a_walk(seed, n_vertices, index, step_m):
+    """Along a walk of small steps the answer often comes from the previous step's margin (1-Lipschitz
+    bound); it must be the margin's own answer at every step, at thresholds on both sides of it."""
+    fence = random_fence(seed, n_vertices, 4, 2)
+    local, scan = fence.to_local(FRAME, index=index), fence.to_local(FRAME, index=False)
+    rng = random.Random(seed)
+    e, n = next(iter(probe_points(local, rng, 1)))
+    for _ in range(60):
+        e, n = e + rng.uniform(-step_m, step_m), n + rng.uniform(-step_m, step_m)
+        m = scan.lateral_margin_m(e, n)
+        x = m + rng.choice((-2.0, -1e-5, 1e-5, 2.0, 2.0 * step_m))
+        assert local.lateral_margin_exceeds(e, n, x) == (m > x)
+        if rng.random() < 0.7:  # the unit's margins then ask for the margin itself (the next step's bound)
+            assert local.lateral_margin_m(e, n) == m
+
+
 @settings(max_examples=8, deadline=None)
 @given(seed=st.integers(0, 10_000), n_vertices=st.integers(48, 400), prefix=st.integers(1, 40))
 def test_candidates_past_the_tuple_prefix_give_the_same_answers(seed, n_vertices, prefix):

@@ -95,6 +95,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     step = 0
     # faster than this is a numerical blow-up (e.g. a ground-contact explosion), not flight
     diverged_above_mps = 5.0 * env.max_speed_mps + 50.0
+    loop0 = time.perf_counter()
     try:
         for step in range(n_steps + 1):
             truth = platform.truth()
@@ -147,6 +148,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     except FloatingPointError as exc:
         error = str(exc)
 
+    loop_wall = time.perf_counter() - loop0
     wall = time.perf_counter() - wall0
     frames = step * frames_per_step
     mission = scenario.pilot.kind is PilotKind.MISSION
@@ -174,6 +176,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         "control_rate_hz": round(1.0 / dt_s, 3),
         "jsbsim_frames": frames,
         "jsbsim_frames_per_wall_s": round(frames / wall, 1) if wall > 0 else None,
+        "loop_wall_time_s": round(loop_wall, 4),
         "max_agl_m": round(float(recorder.column("agl_m").max()), 2) if recorder.n else 0.0,
         "max_ground_speed_mps": round(float(recorder.column("ground_speed_mps").max()), 2) if recorder.n else 0.0,
         "error": error,
