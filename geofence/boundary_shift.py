@@ -50,8 +50,11 @@ distance bound less the room bounds over its normal cone
 are visited best first and a group is expanded only when its bound is at most
 the worst activation found, so the binding edge, its room and the tie order
 (the first edge in element order) are those of the full scan.
-A multirotor's reach is short (a few edges of even a dense fence): it keeps
-the element walk.
+A multirotor's room grows with the closing speed and the wind push, so it is
+bounded over a cone by the room at their largest values there
+(:func:`~geofence.rooms.multirotor_room_cone_bound_m`); its groups are
+expanded best first and each expanded group's edges are scored exactly
+(:func:`_binding_edge_grouped_no_turn`).
 
 Multirotor: the manoeuvre scored
 --------------------------------
@@ -96,6 +99,7 @@ from .rooms import (
     climb_arrest_phase,
     climb_back_drift_m,
     fixed_wing_room_bound_m,
+    multirotor_room_cone_bound_m,
     multirotor_room_m,
     reaction_arc_cone_bound_m,
     reaction_arc_m,
@@ -331,6 +335,34 @@ def _binding_edge_grouped(
     return worst, wk
 
 
+def _binding_edge_grouped_no_turn(
+    grid: FenceGrid, e: float, n: float, min_d: float, bound: float, group_lbs: list, terms_of
+) -> tuple[float, tuple | None]:
+    """A multirotor's :func:`_binding_edge_no_turn` answer over the elements with ``d - bound < min_d`` (bit for
+    bit), from groups of edges, best first.
+
+    ``group_lbs``: ``(lower bound of the activation of every element of the group, gid)``
+    (:meth:`FenceGrid.groups_near`'s distance bound less :func:`~geofence.rooms.multirotor_room_cone_bound_m`
+    over the group's normal cone and the uncertainty). Groups are expanded in order of that bound, every
+    element scored exactly (its room costs about what a bound of it would), until the bound exceeds the worst
+    activation found (strictly: every element that ties the worst is scored, and the tie keeps the lowest
+    element id, the scan's first).
+    """
+    worst = math.inf
+    wk = None
+    wid = -1
+    for lb, gid in sorted(group_lbs):
+        if lb > worst:
+            break
+        items = grid.group_items(gid, e, n)
+        ids = [i for i, item in items if item[0] - bound < min_d]  # the ones terms_of keeps
+        for i, (d, nx, ny, feat, idx, j, v_n, _w_n, base, _psi0) in zip(ids, terms_of([item for _, item in items], min_d)):
+            act = d - base
+            if act < worst or (act == worst and i < wid):
+                worst, wk, wid = act, (base, feat, idx, j, nx, ny, d, v_n), i
+    return worst, wk
+
+
 def activation_margins(
     fence: LocalFence,
     e: float,
@@ -481,16 +513,32 @@ def activation_margins(
         return best
 
     grid = fence.grid()
-    if (
-        fixed_wing
-        and grid is not None
+    grouped = (
+        grid is not None
         and bound < math.inf
         and prune_from_edges < GROUPED_REFERENCE
         and grid.group_search_pays(e, n, bound)
-    ):
-        # dense fence: groups of consecutive edges, bounded over their normal cones (the same answer)
-        lat_margin = fence.lateral_margin_m(e, n)
+    )
+    if grouped and not fixed_wing:
+        # dense fence: groups of consecutive edges, the room bounded over their normal cones (the same answer)
         min_d, groups = grid.groups_near(e, n, bound)
+        lat_margin = fence.lateral_margin_m(e, n, min_d)
+        a_pilot = a_tilt if v_air_mc < envelope.max_speed_mps else 0.0
+        group_lbs = []
+        for lb, gid, n0x, n0y, rho in groups:
+            room_ub = multirotor_room_cone_bound_m(
+                ve * n0x + vn * n0y, wind_e * n0x + wind_n * n0y + extra, rho, speed, wspeed, t_r, a_pilot,
+                k1, k2, a_brake, climb_arrest,
+            ) + hu  # fmt: skip
+            group_lbs.append((lb - room_ub, gid))
+        lat_act, (room, feat, idx, j, nx, ny, d_edge, v_n) = _binding_edge_grouped_no_turn(
+            grid, e, n, min_d, bound, group_lbs, terms_of
+        )
+        s_best, turn_angle = 0.0, 0.0
+    elif grouped:
+        # dense fence: groups of consecutive edges, bounded over their normal cones (the same answer)
+        min_d, groups = grid.groups_near(e, n, bound)
+        lat_margin = fence.lateral_margin_m(e, n, min_d)
         wspeed_w = math.hypot(wind_e, wind_n)  # |W|, the cone's wind term
         cones: dict[int, tuple] = {}
         cheap = []

@@ -44,8 +44,8 @@ the exact nearest distance and the groups within reach with their bounds;
 :func:`geofence.boundary_shift.activation_margins` bounds each group's rooms
 over its cone (:mod:`geofence.rooms`) and expands a group into its edges
 (:meth:`FenceGrid.group_items`) only when that bound could beat the worst
-activation found. The fixed-wing's per-step cost then depends on the groups
-within reach, not on the vertex density; the fence is searched group by group
+activation found. The per-step cost then depends on the groups within reach
+more than on the vertex density; the fence is searched group by group
 when its groups hold at least ``GROUPED_FROM_EDGES_PER_GROUP`` elements on
 average (a sparse fence's groups are single edges).
 

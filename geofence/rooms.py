@@ -421,6 +421,37 @@ def multirotor_room_m(
     return base + braking_room_m(v_n1, v1 if v1 > v_n1 else v_n1, a_brake_mps2, climb_arrest)
 
 
+def multirotor_room_cone_bound_m(
+    v_n0: float,
+    w_n0: float,
+    rho: float,
+    speed_mps: float,
+    wind_speed_mps: float,
+    t_s: float,
+    a_tilt_mps2: float,
+    k1: float,
+    k2: float,
+    a_brake_mps2: float,
+    climb_arrest: tuple[float, float],
+) -> float:
+    """Upper bound (m) of :func:`multirotor_room_m` against every unit normal ``n`` of a cone ``|n - n0| <= rho``.
+
+    ``v_n0 = v·n0`` the closing speed and ``w_n0 = W·n0 + extra`` the wind towards ``n0`` (m/s), ground speed
+    ``speed_mps = |v|`` and ``wind_speed_mps`` the wind speed the push is computed with (``|W| + extra``, at
+    least ``|W|``);
+    ``a_tilt_mps2`` the pilot's acceleration before the push (0 above max airspeed), ``(k1, k2)`` the drag
+    coefficients, ``a_brake_mps2`` the braking deceleration before the push, ``climb_arrest`` as
+    :func:`climb_arrest_phase`. Proof: the room grows with the closing speed ``v_n`` (every term, and the
+    braking from ``v_n1 = v_n + a_p·t``, is non-decreasing in it) and with the push (a larger pilot
+    acceleration, a weaker braking); ``v·n <= v·n0 + |v|·rho`` and ``W·n <= W·n0 + |W|·rho`` on the cone (the
+    push's own wind speed is ``wind_speed_mps``). ``1e-6·(1 + room)`` covers round-off.
+    """
+    w_n = w_n0 + wind_speed_mps * rho
+    push = wind_push_mps2(k1, k2, wind_speed_mps, w_n)
+    room = multirotor_room_m(v_n0 + speed_mps * rho, speed_mps, t_s, a_tilt_mps2 + push, a_brake_mps2 - push, climb_arrest)
+    return room + 1e-6 * (1.0 + room)
+
+
 def multicopter_stopping_distance_m(
     v_normal_mps: float,
     reaction_time_s: float,

@@ -29,6 +29,7 @@ from geofence.rooms import (
     fixed_wing_room_m,
     head_on_room_m,
     multicopter_stopping_distance_m,
+    multirotor_room_cone_bound_m,
     multirotor_room_m,
     reaction_arc_cone_bound_m,
     reaction_arc_m,
@@ -210,6 +211,33 @@ def test_fixed_wing_cone_bounds_bound_every_normal_of_the_cone(
     psi0 = math.atan2(sin0, n0x * ca + n0y * sa)
     for rep in (psi0, psi0 + TWO_PI, psi0 - TWO_PI):  # any representative of the heading from n0
         assert exc <= trochoid_excursion_cone_refined_m(radius, inv_omega, v, w_n0, rep, rho, wind, s, delta)
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    angles, st.floats(0.0, 20.0), angles, st.floats(0.0, 2.0), st.floats(-1.0, 1.0), angles, st.floats(0.0, 15.0),
+    st.floats(0.0, 4.0), st.floats(0.0, 2.0), st.floats(0.0, 8.0), st.floats(0.5, 10.0), st.floats(0.0, 3.0),
+    st.booleans(),
+)  # fmt: skip
+def test_multirotor_cone_bound_bounds_every_normal_of_the_cone(
+    heading, speed, theta0, rho, frac, wind_dir, wind, extra, t_r, a_tilt, a_brake, v_up, over_max_speed
+):
+    """The room against any normal ``|n - n0| <= rho`` is at most the cone bound (as activation_margins calls both)."""
+    k1, k2 = 0.25, 0.02
+    ve, vn = speed * math.cos(heading), speed * math.sin(heading)
+    we, wn = wind * math.cos(wind_dir), wind * math.sin(wind_dir)
+    wspeed = wind + extra
+    a_p0 = 0.0 if over_max_speed else a_tilt
+    arrest = climb_arrest_phase(v_up, 3.0)
+    n0x, n0y = math.cos(theta0), math.sin(theta0)
+    nx, ny, _ = _in_cone(theta0, rho, frac)
+    w_n = we * nx + wn * ny + extra
+    push = (k1 + k2 * wspeed) * w_n if w_n > 0.0 else 0.0
+    room = multirotor_room_m(ve * nx + vn * ny, speed, t_r, a_p0 + push, a_brake - push, arrest)
+    bound = multirotor_room_cone_bound_m(
+        ve * n0x + vn * n0y, we * n0x + wn * n0y + extra, rho, speed, wspeed, t_r, a_p0, k1, k2, a_brake, arrest
+    )
+    assert room <= bound
 
 
 # ------------------------------------------------------------------ multirotor fast forms
