@@ -108,7 +108,7 @@ class DrydenTurbulence:
 
     __slots__ = (
         "w20_mps", "seed", "mean_wind", "min_speed_mps", "min_height_m", "_rng", "_rows",
-        "_t", "_out", "_xu", "_xv1", "_xv2", "_xw1", "_xw2", "_mean_fn", "_hmin_ft", "_sigma_w",
+        "_t", "_out", "_state", "_mean_fn", "_hmin_ft", "_sigma_w",
     )  # fmt: skip
 
     def __init__(
@@ -151,7 +151,8 @@ class DrydenTurbulence:
         self._rows: Iterator[list[float]] = iter(())
         self._t: float | None = None
         self._out: Vec3 = (0.0, 0.0, 0.0)
-        self._xu = self._xv1 = self._xv2 = self._xw1 = self._xw2 = 0.0
+        self._state = (0.0, 0.0, 0.0, 0.0, 0.0)
+        """The filter states (xu, xv1, xv2, xw1, xw2), unit variance (see the module docstring)."""
 
     def scales(self, up_m: float) -> tuple[float, float, float, float]:
         """(L_u = L_v in m, L_w in m, sigma_u = sigma_v in m/s, sigma_w in m/s) at ``up_m`` AGL."""
@@ -209,6 +210,7 @@ class DrydenTurbulence:
             xw1 = n3
             xw2 = 0.5 * (n3 + n4)
         else:
+            xu, xv1, xv2, xw1, xw2 = self._state
             dt = t_s - last
             # u (and v, which shares L): r = dt / tau
             r = v * dt / lu
@@ -220,10 +222,10 @@ class DrydenTurbulence:
             l21 = q12 / l11
             q22 = 0.5 * q11 - a2 * r * (r + 1.0) - l21 * l21
             l22 = sqrt(q22) if q22 > 0.0 else 0.0
-            xu = a * self._xu + l11 * n0
-            x1 = self._xv1
+            xu = a * xu + l11 * n0
+            x1 = xv1
             xv1 = a * x1 + l11 * n1
-            xv2 = a * (r * x1 + self._xv2) + l21 * n1 + l22 * n2
+            xv2 = a * (r * x1 + xv2) + l21 * n1 + l22 * n2
             # w
             r = v * dt / lw
             a = exp(-r)
@@ -234,10 +236,10 @@ class DrydenTurbulence:
             l21 = q12 / l11
             q22 = 0.5 * q11 - a2 * r * (r + 1.0) - l21 * l21
             l22 = sqrt(q22) if q22 > 0.0 else 0.0
-            x1 = self._xw1
+            x1 = xw1
             xw1 = a * x1 + l11 * n3
-            xw2 = a * (r * x1 + self._xw2) + l21 * n3 + l22 * n4
-        self._xu, self._xv1, self._xv2, self._xw1, self._xw2 = xu, xv1, xv2, xw1, xw2
+            xw2 = a * (r * x1 + xw2) + l21 * n3 + l22 * n4
+        self._state = (xu, xv1, xv2, xw1, xw2)
         self._t = t_s
 
         tu = su * xu

@@ -158,7 +158,7 @@ class GustTrain:
         "after_first_activation",
         "_armed",
         "_passed",
-        "_n_passed",
+        "_first_live",
     )
 
     def __init__(
@@ -189,9 +189,10 @@ class GustTrain:
         self._x = x
         self._dirs = tuple(toward_unit(g.from_deg) for g in gusts)
         self._floor = tuple(max(self.min_speed_mps, g.length_m / self.max_rise_time_s) for g in gusts)
-        # the gusts that have gone by (Gust.passed): sample skips them, and all of them once all have passed
+        # The gusts that have gone by (Gust.passed), and the first that has not: sample skips the first ones, and
+        # returns zero at once while the first live gust has not begun (or when all have gone by).
         self._passed = [False] * len(gusts)
-        self._n_passed = 0
+        self._first_live = 0
 
     def reset(self) -> None:
         """Back to the start: no distance travelled into any gust; the activation-timed gusts unarmed again."""
@@ -265,7 +266,9 @@ class GustTrain:
         pos = self._pos
         self._pos = (east_m, north_m)
         gusts = self.gusts
-        if not gusts or t_s <= gusts[0].onset_s or self._n_passed == len(gusts):
+        n_gusts = len(gusts)
+        live = self._first_live
+        if live == n_gusts or t_s <= gusts[live].onset_s:
             self._out = ZERO
             return ZERO
 
@@ -286,7 +289,8 @@ class GustTrain:
         floors = self._floor
         dirs = self._dirs
         passed = self._passed
-        for i, g in enumerate(gusts):
+        for i in range(live, n_gusts):
+            g = gusts[i]
             if t_s <= g.onset_s:
                 break  # sorted by onset
             if passed[i]:
@@ -307,7 +311,9 @@ class GustTrain:
                 u += g.vertical_mps * k
             elif g.passed(x):
                 passed[i] = True
-                self._n_passed += 1
+                while live < n_gusts and passed[live]:
+                    live += 1
+                self._first_live = live
         self._out = (e, n, u)
         return self._out
 
