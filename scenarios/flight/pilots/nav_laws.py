@@ -35,6 +35,8 @@ from geofence.control_laws import (
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
 
+_TWO_OVER_PI = 2.0 / math.pi
+
 
 class MultirotorNavigator:
     """Position and velocity control of a multirotor through tilt / climb-rate sticks."""
@@ -69,7 +71,7 @@ class MultirotorNavigator:
         roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve_cmd, vn_cmd, yaw_rad, dt_s)
         yaw = yaw_stick_for_heading(yaw_cmd_rad, yaw_rad, env, self.kpsi)
         throttle = climb_rate_to_stick(v_up_cmd, env)
-        return StickCommand(roll, pitch, yaw, throttle)  # (positional: cheaper than keywords on the per-step path)
+        return StickCommand(roll, pitch, yaw, throttle)  # (positional: cheaper than keywords)
 
     def sticks_to_point(
         self,
@@ -109,6 +111,9 @@ class FixedWingNavigator:
         self.k_path = path_gain_per_m
         self.k_orbit = orbit_gain
         self.kh = altitude_gain_per_s
+        # the throttle stick of the last airspeed demand (a demand is held for many steps: mapped when it changes)
+        self._airspeed_demand = math.nan
+        self._throttle_stick = 0.0
 
     def min_turn_radius_m(self, airspeed_mps: float | None = None) -> float:
         v = self.env.cruise_speed_mps if airspeed_mps is None else airspeed_mps
@@ -148,7 +153,7 @@ class FixedWingNavigator:
         along = pe * qe + pn * qn
         cross_right = pe * qn - pn * qe  # + when right of the path
         chi_q = math.atan2(qe, qn)
-        return chi_q - self.chi_inf * (2.0 / math.pi) * math.atan(self.k_path * cross_right), along, length
+        return chi_q - self.chi_inf * _TWO_OVER_PI * math.atan(self.k_path * cross_right), along, length
 
     def course_on_orbit(
         self, s: VehicleState, ce: float, cn: float, radius_m: float, clockwise: bool = True
@@ -172,5 +177,8 @@ class FixedWingNavigator:
         roll = self.bank_stick_for_course(s, course_cmd_rad)
         if climb_stick is None:
             climb_stick = climb_rate_to_stick(altitude_to_climb_rate(target_up_m, s.up_m, env, self.kh), env)
-        throttle = airspeed_to_stick(airspeed_mps, env)
-        return StickCommand(roll, climb_stick, 0.0, throttle)  # (positional: cheaper than keywords on the per-step path)
+        if airspeed_mps != self._airspeed_demand:
+            self._airspeed_demand = airspeed_mps
+            self._throttle_stick = airspeed_to_stick(airspeed_mps, env)
+        # (positional: cheaper than keywords on the per-step path)
+        return StickCommand(roll, climb_stick, 0.0, self._throttle_stick)

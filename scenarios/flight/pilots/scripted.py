@@ -68,7 +68,8 @@ class ScriptedPilot:
 
     @property
     def items_reached(self) -> int:
-        return max(self._segment_index, 0)
+        i = self._segment_index
+        return i if i > 0 else 0  # (-1 before the first command)
 
     def notice_control(self, in_control: bool) -> None:
         """Whether the pilot's sticks fly the aircraft this step (False while the geofence overrides them)."""
@@ -90,7 +91,7 @@ class ScriptedPilot:
             seg = self.segments[self._index]
             if s.t_s >= self._start_s + seg.duration_s:
                 self._start_s += seg.duration_s
-            elif self._event(seg, self._index, s):
+            elif seg.end_on is not None and self._event(seg, self._index, s):
                 self._start_s = s.t_s
             else:
                 break
