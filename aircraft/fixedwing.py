@@ -162,10 +162,10 @@ class FixedWingPlatform(StickPlatform):
     def set_wind_enu(self, east_mps: float, north_mps: float, up_mps: float) -> None:
         """Air-mass velocity in m/s (ENU, toward). Right after :meth:`reset`, re-settles in it."""
         wind = (east_mps, north_mps, up_mps)
-        changed = wind != self._wind_mps
+        changed = self._fresh and wind != self._wind_mps  # (in flight, not fresh: no comparison)
         self._wind_mps = wind
         self.model.set_wind_enu(east_mps, north_mps, up_mps)
-        if changed and self._fresh and self._reset_args is not None:
+        if changed and self._reset_args is not None:
             self.reset(*self._reset_args)
 
     def step(self, n_frames: int = 1) -> None:

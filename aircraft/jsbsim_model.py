@@ -23,13 +23,14 @@ from __future__ import annotations
 
 import atexit
 import contextlib
-import math
+import dataclasses
 import os
 import shutil
 import sys
 import tempfile
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
+from math import isnan
 from pathlib import Path
 
 import jsbsim
@@ -258,6 +259,7 @@ class JSBSimModel:
         self._wind_nodes = tuple(
             n(p) for p in ("atmosphere/wind-east-fps", "atmosphere/wind-north-fps", "atmosphere/wind-down-fps")
         )
+        self._wind_setters = tuple(nd.set_double_value for nd in self._wind_nodes)
 
     # -- property access ---------------------------------------------------
     def node(self, prop: str):
@@ -282,7 +284,7 @@ class JSBSimModel:
         self.closed = True
         _remove_root(self._root)
         self._nodes.clear()
-        self._truth_nodes = self._truth_getters = self._wind_nodes = ()
+        self._truth_nodes = self._truth_getters = self._wind_nodes = self._wind_setters = ()
         self._pm = None  # type: ignore[assignment]  # closed: nothing may use the instance any more
         self.fdm = None  # type: ignore[assignment]
 
@@ -335,37 +337,52 @@ class JSBSimModel:
 
     def set_wind_enu(self, east_mps: float, north_mps: float, up_mps: float) -> None:
         """Air-mass velocity in m/s, ENU, as the direction the air moves *toward*."""
-        e, n, d = self._wind_nodes
-        e.set_double_value(east_mps * M_TO_FT)
-        n.set_double_value(north_mps * M_TO_FT)
-        d.set_double_value(-up_mps * M_TO_FT)
+        set_e, set_n, set_d = self._wind_setters
+        set_e(east_mps * M_TO_FT)
+        set_n(north_mps * M_TO_FT)
+        set_d(-up_mps * M_TO_FT)
 
     def truth(self) -> VehicleState:
         """Current truth state (SI, ENU about the reset frame)."""
-        t, lat, lon, h, agl, ve, vn, vd, phi, theta, psi, vt, wow = [get() for get in self._truth_getters]
-        h_m = h * FT_TO_M
         frame = self.frame
         if frame is None:
             raise RuntimeError(f"{self.name}: truth() before reset() placed the aircraft")
-        e, n, u = frame.to_enu(lat, lon, h_m)
-        agl_m = agl * FT_TO_M
-        if math.isnan(h_m) or math.isnan(e):
-            raise FloatingPointError(f"JSBSim state of {self.name} diverged (NaN) at t={t:.2f} s")
-        return VehicleState(
-            t_s=t,
-            lat_deg=lat,
-            lon_deg=lon,
-            alt_m=h_m,
-            east_m=e,
-            north_m=n,
-            up_m=u,
-            agl_m=agl_m,
-            v_east_mps=ve * FT_TO_M,
-            v_north_mps=vn * FT_TO_M,
-            v_up_mps=-vd * FT_TO_M,
-            roll_rad=phi,
-            pitch_rad=theta,
-            yaw_rad=psi,
-            airspeed_mps=vt * FT_TO_M,
-            on_ground=wow > 0.5,
+        # per-step path: one call per property, unrolled (a comprehension over the getters costs a third more)
+        get_t, get_lat, get_lon, get_h, get_agl, get_ve, get_vn, get_vd, get_phi, get_theta, get_psi, get_vt, get_wow = (
+            self._truth_getters
         )
+        t = get_t()
+        lat = get_lat()
+        lon = get_lon()
+        h_m = get_h() * FT_TO_M
+        e, n, u = frame.to_enu(lat, lon, h_m)
+        if isnan(h_m) or isnan(e):
+            raise FloatingPointError(f"JSBSim state of {self.name} diverged (NaN) at t={t:.2f} s")
+        # Positional arguments in VehicleState's field order (checked at import below): with keywords,
+        # building the 16-field state costs more than reading the 13 properties.
+        return VehicleState(
+            t,  # t_s
+            lat,  # lat_deg
+            lon,  # lon_deg
+            h_m,  # alt_m
+            e,  # east_m
+            n,  # north_m
+            u,  # up_m
+            get_agl() * FT_TO_M,  # agl_m
+            get_ve() * FT_TO_M,  # v_east_mps
+            get_vn() * FT_TO_M,  # v_north_mps
+            -get_vd() * FT_TO_M,  # v_up_mps
+            get_phi(),  # roll_rad
+            get_theta(),  # pitch_rad
+            get_psi(),  # yaw_rad
+            get_vt() * FT_TO_M,  # airspeed_mps
+            get_wow() > 0.5,  # on_ground
+        )
+
+
+_TRUTH_FIELD_ORDER = (
+    "t_s", "lat_deg", "lon_deg", "alt_m", "east_m", "north_m", "up_m", "agl_m",
+    "v_east_mps", "v_north_mps", "v_up_mps", "roll_rad", "pitch_rad", "yaw_rad", "airspeed_mps", "on_ground",
+)  # fmt: skip
+if tuple(f.name for f in dataclasses.fields(VehicleState)) != _TRUTH_FIELD_ORDER:
+    raise ImportError("VehicleState's fields changed: update JSBSimModel.truth (it passes them by position)")

@@ -366,6 +366,23 @@ def test_gust_shape_bounded_and_symmetric(length, hold, x):
     assert k == pytest.approx(g.shape(g.extent_m - x), abs=1e-9)
 
 
+@given(
+    length=st.floats(0.5, 200.0),
+    hold=st.one_of(st.floats(0.0, 100.0), st.just(math.inf)),
+    x=st.floats(-100.0, 600.0),
+    dx=st.floats(0.0, 1000.0),
+)
+def test_a_gust_that_has_passed_stays_at_zero(length, hold, x, dx):
+    """GustTrain skips a gust once Gust.passed: its shape must be 0 there and at every larger distance."""
+    g = Gust(0.0, 1.0, length, 0.0, hold_m=hold)
+    if g.passed(x):
+        assert g.shape(x) == 0.0 and g.shape(x + dx) == 0.0 and g.passed(x + dx)
+    if math.isinf(hold):
+        assert not g.passed(x)  # rise-and-hold never ends
+    if x >= g.extent_m + 1e-6 * g.extent_m:
+        assert g.passed(x)
+
+
 def test_random_gust_train_reproducible_and_within_ranges():
     kw = dict(count=5, start_s=10.0, end_s=60.0, amplitude_mps=(2.0, 6.0), length_m=(10.0, 40.0), from_deg=270.0, spread_deg=30.0)
     a, b, c = GustTrain.random(3, **kw), GustTrain.random(3, **kw), GustTrain.random(4, **kw)

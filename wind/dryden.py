@@ -54,11 +54,17 @@ Noise: standard normals from ``numpy.random.default_rng(seed)``, drawn in
 blocks and consumed five per step, so a given seed and sequence of sample
 times reproduces the same series. The state starts from the stationary
 distribution (no start-up transient).
+
+Cost: ``sample`` runs once per outer-loop step, so it is written for the
+interpreter: plain floats, constants of the configuration computed once in
+``__init__``, and the noise block stored as rows of five (one row per step).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from math import exp, expm1, sqrt
 
 import numpy as np
 
@@ -73,7 +79,8 @@ SEVERITY_W20_MPS: dict[str, float] = {"light": 15.0 * KT_MPS, "moderate": 30.0 *
 _SQRT3 = math.sqrt(3.0)
 _C1 = _SQRT3 / math.sqrt(2.0)  # output weights of the normalized 2nd-order form
 _C2 = (1.0 - _SQRT3) / math.sqrt(2.0)
-_POOL = 5 * 2048  # normals per refill (multiple of the 5 used per step)
+_NORMALS_PER_STEP = 5
+_POOL = _NORMALS_PER_STEP * 2048  # normals per refill
 _H_MAX_FT = 1000.0
 
 
@@ -100,8 +107,8 @@ class DrydenTurbulence:
     """
 
     __slots__ = (
-        "w20_mps", "seed", "mean_wind", "min_speed_mps", "min_height_m", "_rng", "_pool", "_i",
-        "_t", "_out", "_xu", "_xv1", "_xv2", "_xw1", "_xw2", "_mean_fn",
+        "w20_mps", "seed", "mean_wind", "min_speed_mps", "min_height_m", "_rng", "_rows",
+        "_t", "_out", "_state", "_mean_fn", "_hmin_ft", "_sigma_w",
     )  # fmt: skip
 
     def __init__(
@@ -133,16 +140,19 @@ class DrydenTurbulence:
         self.min_speed_mps = float(min_speed_mps)
         self.min_height_m = float(min_height_m)
         self._mean_fn = mean_wind.mean if mean_wind is not None else None
+        # per-step constants of the scales (the same expressions as dryden_scales)
+        self._hmin_ft = self.min_height_m / FT_M
+        self._sigma_w = 0.1 * self.w20_mps
         self.reset()
 
     def reset(self) -> None:
         """Back to the initial seeded state: the next sample() restarts the series."""
         self._rng = np.random.default_rng(self.seed)
-        self._pool: list[float] = []
-        self._i = 0
+        self._rows: Iterator[list[float]] = iter(())
         self._t: float | None = None
         self._out: Vec3 = (0.0, 0.0, 0.0)
-        self._xu = self._xv1 = self._xv2 = self._xw1 = self._xw2 = 0.0
+        self._state = (0.0, 0.0, 0.0, 0.0, 0.0)
+        """The filter states (xu, xv1, xv2, xw1, xw2), unit variance (see the module docstring)."""
 
     def scales(self, up_m: float) -> tuple[float, float, float, float]:
         """(L_u = L_v in m, L_w in m, sigma_u = sigma_v in m/s, sigma_w in m/s) at ``up_m`` AGL."""
@@ -151,14 +161,11 @@ class DrydenTurbulence:
     def mean(self, up_m: float) -> Vec3:
         return (0.0, 0.0, 0.0)
 
-    def _normals(self) -> tuple[float, float, float, float, float]:
-        i = self._i
-        if i >= len(self._pool):
-            self._pool = self._rng.standard_normal(_POOL).tolist()
-            i = 0
-        self._i = i + 5
-        p = self._pool
-        return p[i], p[i + 1], p[i + 2], p[i + 3], p[i + 4]
+    def _refill(self) -> list[float]:
+        """Draw the next block of :data:`_POOL` normals; return its first row of five."""
+        # the block's normals in draw order, five to a row: one row per step
+        self._rows = iter(self._rng.standard_normal(_POOL).reshape(-1, _NORMALS_PER_STEP).tolist())
+        return next(self._rows)
 
     def sample(self, t_s: float, east_m: float, north_m: float, up_m: float, airspeed_mps: float) -> Vec3:
         last = self._t
@@ -168,29 +175,34 @@ class DrydenTurbulence:
             raise ValueError(f"DrydenTurbulence.sample: time went backwards ({t_s!r} s after {last!r} s); call reset()")
 
         # mean wind: axes and convection speed
-        if self._mean_fn is not None:
-            me, mn, _ = self._mean_fn(up_m)
-            wspd = math.sqrt(me * me + mn * mn)
+        mean_fn = self._mean_fn
+        if mean_fn is not None:
+            me, mn, _ = mean_fn(up_m)
+            wspd = sqrt(me * me + mn * mn)
         else:
             me = mn = wspd = 0.0
-        v = airspeed_mps if airspeed_mps > self.min_speed_mps else self.min_speed_mps
+        v_min = self.min_speed_mps
+        v = airspeed_mps if airspeed_mps > v_min else v_min
         if wspd > v:
             v = wspd
 
-        # MIL-F-8785C low-altitude scales (inlined dryden_scales)
+        # MIL-F-8785C low-altitude scales (inlined dryden_scales; hmin and sigma_w precomputed in __init__)
         h = up_m / FT_M
-        hmin = self.min_height_m / FT_M
+        hmin = self._hmin_ft
         if not h > hmin:
             h = hmin
         elif h > _H_MAX_FT:
             h = _H_MAX_FT
         d = 0.177 + 0.000823 * h
-        sw = 0.1 * self.w20_mps
+        sw = self._sigma_w
         su = sw / d**0.4
         lw = h * FT_M
         lu = lw / d**1.2
 
-        n0, n1, n2, n3, n4 = self._normals()
+        row = next(self._rows, None)
+        if row is None:
+            row = self._refill()
+        n0, n1, n2, n3, n4 = row
         if last is None:  # start from the stationary distribution
             xu = n0
             xv1 = n1
@@ -198,35 +210,36 @@ class DrydenTurbulence:
             xw1 = n3
             xw2 = 0.5 * (n3 + n4)
         else:
+            xu, xv1, xv2, xw1, xw2 = self._state
             dt = t_s - last
             # u (and v, which shares L): r = dt / tau
             r = v * dt / lu
-            a = math.exp(-r)
-            q11 = -math.expm1(-2.0 * r)  # 1 - a^2, accurate for small r
-            l11 = math.sqrt(q11)
+            a = exp(-r)
+            q11 = -expm1(-2.0 * r)  # 1 - a^2, accurate for small r
+            l11 = sqrt(q11)
             a2 = a * a
             q12 = 0.5 * q11 - a2 * r
             l21 = q12 / l11
             q22 = 0.5 * q11 - a2 * r * (r + 1.0) - l21 * l21
-            l22 = math.sqrt(q22) if q22 > 0.0 else 0.0
-            xu = a * self._xu + l11 * n0
-            x1 = self._xv1
+            l22 = sqrt(q22) if q22 > 0.0 else 0.0
+            xu = a * xu + l11 * n0
+            x1 = xv1
             xv1 = a * x1 + l11 * n1
-            xv2 = a * (r * x1 + self._xv2) + l21 * n1 + l22 * n2
+            xv2 = a * (r * x1 + xv2) + l21 * n1 + l22 * n2
             # w
             r = v * dt / lw
-            a = math.exp(-r)
-            q11 = -math.expm1(-2.0 * r)
-            l11 = math.sqrt(q11)
+            a = exp(-r)
+            q11 = -expm1(-2.0 * r)
+            l11 = sqrt(q11)
             a2 = a * a
             q12 = 0.5 * q11 - a2 * r
             l21 = q12 / l11
             q22 = 0.5 * q11 - a2 * r * (r + 1.0) - l21 * l21
-            l22 = math.sqrt(q22) if q22 > 0.0 else 0.0
-            x1 = self._xw1
+            l22 = sqrt(q22) if q22 > 0.0 else 0.0
+            x1 = xw1
             xw1 = a * x1 + l11 * n3
-            xw2 = a * (r * x1 + self._xw2) + l21 * n3 + l22 * n4
-        self._xu, self._xv1, self._xv2, self._xw1, self._xw2 = xu, xv1, xv2, xw1, xw2
+            xw2 = a * (r * x1 + xw2) + l21 * n3 + l22 * n4
+        self._state = (xu, xv1, xv2, xw1, xw2)
         self._t = t_s
 
         tu = su * xu

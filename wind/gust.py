@@ -59,7 +59,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from wind.field import Vec3, WindField, toward_unit
+from wind.field import ZERO, Vec3, WindField, toward_unit
 
 MAX_RISE_TIME_S = 5.0
 """Default upper bound on a convected gust's rise time (s): its speed floor is ``length_m / MAX_RISE_TIME_S``."""
@@ -110,6 +110,14 @@ class Gust:
             return 0.5 * (1.0 + math.cos(math.pi * x_m / d))
         return 0.0
 
+    def passed(self, x_m: float) -> bool:
+        """Whether the gust has gone by at penetration distance ``x_m``: :meth:`shape` is 0 there and beyond.
+
+        The same test as :meth:`shape`'s last branch (never true for rise-and-hold); ``x - (d + hold)`` grows
+        with x, so once true it stays true for every larger distance.
+        """
+        return x_m - (self.length_m + self.hold_m) >= self.length_m
+
     @property
     def extent_m(self) -> float:
         """Total penetration distance over which the gust is non-zero (inf for rise-and-hold)."""
@@ -149,6 +157,8 @@ class GustTrain:
         "_timed",
         "after_first_activation",
         "_armed",
+        "_passed",
+        "_first_live",
     )
 
     def __init__(
@@ -179,12 +189,16 @@ class GustTrain:
         self._x = x
         self._dirs = tuple(toward_unit(g.from_deg) for g in gusts)
         self._floor = tuple(max(self.min_speed_mps, g.length_m / self.max_rise_time_s) for g in gusts)
+        # The gusts that have gone by (Gust.passed), and the first that has not: sample skips the first ones, and
+        # returns zero at once while the first live gust has not begun (or when all have gone by).
+        self._passed = [False] * len(gusts)
+        self._first_live = 0
 
     def reset(self) -> None:
         """Back to the start: no distance travelled into any gust; the activation-timed gusts unarmed again."""
         self._t: float | None = None
         self._pos: tuple[float, float] | None = None
-        self._out: Vec3 = (0.0, 0.0, 0.0)
+        self._out: Vec3 = ZERO
         self._armed = False
         self._schedule(self._timed, [0.0] * len(self._timed))
 
@@ -252,9 +266,11 @@ class GustTrain:
         pos = self._pos
         self._pos = (east_m, north_m)
         gusts = self.gusts
-        if not gusts or t_s <= gusts[0].onset_s:
-            self._out = (0.0, 0.0, 0.0)
-            return self._out
+        n_gusts = len(gusts)
+        live = self._first_live
+        if live == n_gusts or t_s <= gusts[live].onset_s:
+            self._out = ZERO
+            return ZERO
 
         # speed of the vehicle relative to the mean air mass that carries the frozen gusts
         me = mn = 0.0
@@ -271,9 +287,14 @@ class GustTrain:
         e = n = u = 0.0
         xs = self._x
         floors = self._floor
-        for i, g in enumerate(gusts):
+        dirs = self._dirs
+        passed = self._passed
+        for i in range(live, n_gusts):
+            g = gusts[i]
             if t_s <= g.onset_s:
                 break  # sorted by onset
+            if passed[i]:
+                continue  # gone by: no more wind from it
             if g.penetration_speed_mps is not None:
                 x = g.penetration_speed_mps * (t_s - g.onset_s)
             else:
@@ -283,11 +304,16 @@ class GustTrain:
                 xs[i] = x
             k = g.shape(x)
             if k != 0.0:
-                de, dn = self._dirs[i]
+                de, dn = dirs[i]
                 a = g.amplitude_mps * k
                 e += a * de
                 n += a * dn
                 u += g.vertical_mps * k
+            elif g.passed(x):
+                passed[i] = True
+                while live < n_gusts and passed[live]:
+                    live += 1
+                self._first_live = live
         self._out = (e, n, u)
         return self._out
 

@@ -78,7 +78,7 @@ WindProfile = UniformProfile | PowerLawProfile | LogLawProfile
 class SteadyWind:
     """Steady horizontal wind of ``speed_mps`` (at the profile's reference height) from ``from_deg``."""
 
-    __slots__ = ("speed_mps", "from_deg", "profile", "_e", "_n", "_uniform")
+    __slots__ = ("speed_mps", "from_deg", "profile", "_e", "_n", "_uniform", "_level", "_last_up", "_last_mean")
 
     def __init__(self, speed_mps: float, from_deg: float, profile: WindProfile | None = None) -> None:
         if not (math.isfinite(speed_mps) and speed_mps >= 0.0):
@@ -92,6 +92,12 @@ class SteadyWind:
         self._e = self.speed_mps * ue
         self._n = self.speed_mps * un
         self._uniform = isinstance(self.profile, UniformProfile)
+        self._level: Vec3 = (self._e, self._n, 0.0)
+        """The wind at every height of a uniform profile."""
+        # The last height asked for and its wind: within one step the turbulence and the gusts ask
+        # for the mean wind at the height the steady part was just sampled at.
+        self._last_up = math.nan
+        self._last_mean: Vec3 = self._level
 
     def speed_at(self, up_m: float) -> float:
         """Horizontal wind speed in m/s at height ``up_m`` AGL."""
@@ -99,9 +105,14 @@ class SteadyWind:
 
     def mean(self, up_m: float) -> Vec3:
         if self._uniform:
-            return (self._e, self._n, 0.0)
+            return self._level
+        if up_m == self._last_up:  # (never true for a NaN height)
+            return self._last_mean
         k = self.profile.factor(up_m)
-        return (self._e * k, self._n * k, 0.0)
+        out = (self._e * k, self._n * k, 0.0)
+        self._last_up = up_m
+        self._last_mean = out
+        return out
 
     def sample(self, t_s: float, east_m: float, north_m: float, up_m: float, airspeed_mps: float) -> Vec3:
         return self.mean(up_m)

@@ -169,8 +169,8 @@ class FixedWingBreachAttemptsPilot(BreachAttemptsSchedule):
         course, _, _ = self.nav.course_on_line(s, e0, n0, e0 + far * ue, n0 + far * un)
         if not d.is_vertical:  # along the bearing at the drawn airspeed, the home height held
             return self.nav.sticks(s, course, self.home[2], speed)
-        cmd = self.nav.sticks(s, course, u0, self.env.cruise_speed_mps)
-        return StickCommand(cmd.roll, climb_rate_to_stick(float(d.vertical) * speed, self.env), cmd.yaw, cmd.throttle)
+        climb_stick = climb_rate_to_stick(float(d.vertical) * speed, self.env)
+        return self.nav.sticks(s, course, u0, self.env.cruise_speed_mps, climb_stick)
 
     # -- the per-step entry point ----------------------------------------------
     def command(self, s: VehicleState) -> StickCommand:

@@ -35,6 +35,8 @@ from geofence.control_laws import (
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
 
+_TWO_OVER_PI = 2.0 / math.pi
+
 
 class MultirotorNavigator:
     """Position and velocity control of a multirotor through tilt / climb-rate sticks."""
@@ -64,13 +66,12 @@ class MultirotorNavigator:
         self, s: VehicleState, ve_cmd: float, vn_cmd: float, v_up_cmd: float, yaw_cmd_rad: float, dt_s: float
     ) -> StickCommand:
         """PI velocity loop -> tilt sticks; climb rate -> throttle stick; yaw toward ``yaw_cmd_rad``."""
-        roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve_cmd, vn_cmd, s.yaw_rad, dt_s)
-        return StickCommand(
-            roll=roll,
-            pitch=pitch,
-            yaw=yaw_stick_for_heading(yaw_cmd_rad, s.yaw_rad, self.env, self.kpsi),
-            throttle=climb_rate_to_stick(v_up_cmd, self.env),
-        )
+        env = self.env
+        yaw_rad = s.yaw_rad
+        roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve_cmd, vn_cmd, yaw_rad, dt_s)
+        yaw = yaw_stick_for_heading(yaw_cmd_rad, yaw_rad, env, self.kpsi)
+        throttle = climb_rate_to_stick(v_up_cmd, env)
+        return StickCommand(roll, pitch, yaw, throttle)  # (positional: cheaper than keywords)
 
     def sticks_to_point(
         self,
@@ -110,6 +111,9 @@ class FixedWingNavigator:
         self.k_path = path_gain_per_m
         self.k_orbit = orbit_gain
         self.kh = altitude_gain_per_s
+        # the throttle stick of the last airspeed demand (a demand is held for many steps: mapped when it changes)
+        self._airspeed_demand = math.nan
+        self._throttle_stick = 0.0
 
     def min_turn_radius_m(self, airspeed_mps: float | None = None) -> float:
         v = self.env.cruise_speed_mps if airspeed_mps is None else airspeed_mps
@@ -149,7 +153,7 @@ class FixedWingNavigator:
         along = pe * qe + pn * qn
         cross_right = pe * qn - pn * qe  # + when right of the path
         chi_q = math.atan2(qe, qn)
-        return chi_q - self.chi_inf * (2.0 / math.pi) * math.atan(self.k_path * cross_right), along, length
+        return chi_q - self.chi_inf * _TWO_OVER_PI * math.atan(self.k_path * cross_right), along, length
 
     def course_on_orbit(
         self, s: VehicleState, ce: float, cn: float, radius_m: float, clockwise: bool = True
@@ -157,11 +161,24 @@ class FixedWingNavigator:
         """Vector-field course to converge onto a circle; returns (course rad, distance from center m)."""
         return orbit_course_rad(s.east_m, s.north_m, ce, cn, radius_m, self.k_orbit, clockwise)
 
-    def sticks(self, s: VehicleState, course_cmd_rad: float, target_up_m: float, airspeed_mps: float) -> StickCommand:
-        vz = altitude_to_climb_rate(target_up_m, s.up_m, self.env, self.kh)
-        return StickCommand(
-            roll=self.bank_stick_for_course(s, course_cmd_rad),
-            pitch=climb_rate_to_stick(vz, self.env),
-            yaw=0.0,
-            throttle=airspeed_to_stick(airspeed_mps, self.env),
-        )
+    def sticks(
+        self,
+        s: VehicleState,
+        course_cmd_rad: float,
+        target_up_m: float,
+        airspeed_mps: float,
+        climb_stick: float | None = None,
+    ) -> StickCommand:
+        """Sticks that fly ``course_cmd_rad`` at ``airspeed_mps`` and hold ``target_up_m``.
+
+        ``climb_stick`` given: that climb-rate (pitch) stick instead of the altitude hold (``target_up_m`` unused).
+        """
+        env = self.env
+        roll = self.bank_stick_for_course(s, course_cmd_rad)
+        if climb_stick is None:
+            climb_stick = climb_rate_to_stick(altitude_to_climb_rate(target_up_m, s.up_m, env, self.kh), env)
+        if airspeed_mps != self._airspeed_demand:
+            self._airspeed_demand = airspeed_mps
+            self._throttle_stick = airspeed_to_stick(airspeed_mps, env)
+        # (positional: cheaper than keywords on the per-step path)
+        return StickCommand(roll, climb_stick, 0.0, self._throttle_stick)

@@ -54,6 +54,11 @@ class ScriptedPilot:
         self.fw = None if env.is_multirotor else FixedWingNavigator(env)
         self._hold_up_m = start.up_m
         self._hold_yaw_rad = start.yaw_rad
+        # the current segment's demands (set by _start_segment)
+        self._course_rad = 0.0
+        self._speed_mps = 0.0
+        self._v_en = (0.0, 0.0)
+        self._v_up = 0.0
         self._segment_index = -1
         self.finished = False  # a script has no goal: it flies until the scenario's duration ends
 
@@ -63,7 +68,8 @@ class ScriptedPilot:
 
     @property
     def items_reached(self) -> int:
-        return max(self._segment_index, 0)
+        i = self._segment_index
+        return i if i > 0 else 0  # (-1 before the first command)
 
     def notice_control(self, in_control: bool) -> None:
         """Whether the pilot's sticks fly the aircraft this step (False while the geofence overrides them)."""
@@ -85,7 +91,7 @@ class ScriptedPilot:
             seg = self.segments[self._index]
             if s.t_s >= self._start_s + seg.duration_s:
                 self._start_s += seg.duration_s
-            elif self._event(seg, self._index, s):
+            elif seg.end_on is not None and self._event(seg, self._index, s):
                 self._start_s = s.t_s
             else:
                 break
@@ -93,27 +99,33 @@ class ScriptedPilot:
             self._overridden = False
         return self.segments[self._index], self._index
 
+    def _start_segment(self, seg: ScriptSegment, s: VehicleState) -> None:
+        """Latch the height and heading to hold, and the segment's fixed demands (once, not every step)."""
+        self._hold_up_m = s.up_m
+        self._hold_yaw_rad = s.yaw_rad
+        if seg.course_deg is None:  # raw sticks
+            return
+        env = self.env
+        self._course_rad = math.radians(seg.course_deg)
+        self._speed_mps = {"max": env.max_speed_mps, "cruise": env.cruise_speed_mps, "min": env.min_speed_mps}[seg.speed]
+        # multirotor: the ground velocity (E, N) and the climb rate (unless "hold": see command)
+        self._v_en = (self._speed_mps * math.sin(self._course_rad), self._speed_mps * math.cos(self._course_rad))
+        self._v_up = {"hold": 0.0, "max": env.max_climb_rate_mps, "descend": -env.max_descent_rate_mps}[seg.climb]
+
     def command(self, s: VehicleState) -> StickCommand:
         seg, i = self._segment_at(s)
         if i != self._segment_index:
             self._segment_index = i
-            self._hold_up_m = s.up_m
-            self._hold_yaw_rad = s.yaw_rad
+            self._start_segment(seg, s)
         if seg.sticks is not None:
             return StickCommand(*seg.sticks)
-        assert seg.course_deg is not None  # the schema: a segment has sticks or a course
-        course = math.radians(seg.course_deg)
-        env = self.env
-        speed = {"max": env.max_speed_mps, "cruise": env.cruise_speed_mps, "min": env.min_speed_mps}[seg.speed]
         if self.mc is not None:
-            vz = {"hold": 0.0, "max": env.max_climb_rate_mps, "descend": -env.max_descent_rate_mps}[seg.climb]
+            vz = self._v_up
             if seg.climb == "hold":
+                env = self.env
                 vz = max(-env.max_descent_rate_mps, min(env.max_climb_rate_mps, self._hold_up_m - s.up_m))
-            return self.mc.sticks_for_velocity(
-                s, speed * math.sin(course), speed * math.cos(course), vz, self._hold_yaw_rad, self.dt_s
-            )
+            ve, vn = self._v_en
+            return self.mc.sticks_for_velocity(s, ve, vn, vz, self._hold_yaw_rad, self.dt_s)
         assert self.fw is not None  # not a multirotor
-        cmd = self.fw.sticks(s, course, self._hold_up_m, speed)
-        if seg.climb != "hold":
-            cmd = StickCommand(cmd.roll, _CLIMB_STICK[seg.climb], cmd.yaw, cmd.throttle)
-        return cmd
+        climb_stick = None if seg.climb == "hold" else _CLIMB_STICK[seg.climb]
+        return self.fw.sticks(s, self._course_rad, self._hold_up_m, self._speed_mps, climb_stick)
