@@ -43,7 +43,8 @@ GNSS bias
     *receiver's* position (white noise only in the measurement model, the bias
     wander ``2 sigma^2 / tau`` as extra position process noise) and the
     reported standard deviations add the bias sigma:
-    ``sigma_h = sqrt(max(P_ee, P_nn) + gps_h_bias_m^2)``,
+    ``sigma_h = sqrt(P_ee + gps_h_bias_m^2)`` (``P_nn = P_ee``: both axes have
+    the same model and noise, so one covariance serves both),
     ``sigma_v = sqrt(P_uu + gps_v_bias_m^2)``. These are the figures the
     geofence turns into an extra boundary margin (``k * sigma``).
 
@@ -121,20 +122,46 @@ class EstimatorConfig:
 
 
 class _Axis:
-    """One horizontal axis: state (p, v, a), symmetric covariance stored as 6 floats."""
+    """One horizontal axis's state (p, v, a); its covariance is the :class:`_AxisCovariance` both axes share."""
 
-    __slots__ = ("p", "v", "a", "P00", "P01", "P02", "P11", "P12", "P22")
+    __slots__ = ("p", "v", "a")
 
-    def __init__(self, p: float, v: float, var_p: float, var_v: float, var_a: float) -> None:
+    def __init__(self, p: float, v: float) -> None:
         self.p, self.v, self.a = p, v, 0.0
+
+    def predict(self, dt: float) -> None:
+        """Constant-acceleration extrapolation over ``dt``."""
+        if dt <= 0.0:
+            return
+        h = 0.5 * dt * dt
+        self.p += self.v * dt + self.a * h
+        self.v += self.a * dt
+
+    def correct(self, y: float, k: tuple[float, float, float]) -> None:
+        """Scalar Kalman correction with the innovation ``y`` and the gain ``k``."""
+        k0, k1, k2 = k
+        self.p += k0 * y
+        self.v += k1 * y
+        self.a += k2 * y
+
+
+class _AxisCovariance:
+    """Covariance of one horizontal axis's (p, v, a), symmetric, stored as 6 floats.
+
+    East and north have the same model, process noise and measurement noise, and a covariance does not
+    depend on the measured values, so the two axes' covariances are equal at all times: one instance serves
+    both, and each update's gain is computed once for both (an axis-specific noise would need one each).
+    """
+
+    __slots__ = ("P00", "P01", "P02", "P11", "P12", "P22")
+
+    def __init__(self, var_p: float, var_v: float, var_a: float) -> None:
         self.P00, self.P01, self.P02, self.P11, self.P12, self.P22 = var_p, 0.0, 0.0, var_v, 0.0, var_a
 
     def predict(self, dt: float, qj: float, qp: float) -> None:
         if dt <= 0.0:
             return
         h = 0.5 * dt * dt
-        self.p += self.v * dt + self.a * h
-        self.v += self.a * dt
         P00, P01, P02, P11, P12, P22 = self.P00, self.P01, self.P02, self.P11, self.P12, self.P22
         # F = [[1, dt, h], [0, 1, dt], [0, 0, 1]];  F P F^T + Q (white jerk) + position wander
         r00, r01, r02 = P00 + dt * P01 + h * P02, P01 + dt * P11 + h * P12, P02 + dt * P12 + h * P22  # row 0 of F P
@@ -147,26 +174,24 @@ class _Axis:
         self.P12 = r12 + qj * d2 / 2.0
         self.P22 = P22 + qj * dt
 
-    def update_p(self, z: float, r: float) -> None:
-        """Scalar update with a position measurement (H = [1, 0, 0])."""
-        self._update(z - self.p, self.P00 + r, self.P00, self.P01, self.P02)
+    def update_p(self, r: float) -> tuple[float, float, float]:
+        """Scalar update with a position measurement of variance ``r`` (H = [1, 0, 0]); returns the gain."""
+        return self._update(self.P00 + r, self.P00, self.P01, self.P02)
 
-    def update_v(self, z: float, r: float) -> None:
-        """Scalar update with a velocity measurement (H = [0, 1, 0])."""
-        self._update(z - self.v, self.P11 + r, self.P01, self.P11, self.P12)
+    def update_v(self, r: float) -> tuple[float, float, float]:
+        """Scalar update with a velocity measurement of variance ``r`` (H = [0, 1, 0]); returns the gain."""
+        return self._update(self.P11 + r, self.P01, self.P11, self.P12)
 
-    def _update(self, y: float, s: float, c0: float, c1: float, c2: float) -> None:
-        """Scalar Kalman update: innovation ``y``, its variance ``s``, ``(c0, c1, c2) = P H^T``."""
+    def _update(self, s: float, c0: float, c1: float, c2: float) -> tuple[float, float, float]:
+        """Scalar Kalman update of P: innovation variance ``s``, ``(c0, c1, c2) = P H^T``; returns the gain."""
         k0, k1, k2 = c0 / s, c1 / s, c2 / s
-        self.p += k0 * y
-        self.v += k1 * y
-        self.a += k2 * y
         self.P00 -= k0 * c0
         self.P01 -= k0 * c1
         self.P02 -= k0 * c2
         self.P11 -= k1 * c1
         self.P12 -= k1 * c2
         self.P22 -= k2 * c2
+        return (k0, k1, k2)
 
 
 class GeofenceEstimator:
@@ -216,6 +241,7 @@ class GeofenceEstimator:
         # horizontal (delayed horizon at t_d)
         self._east: _Axis | None = None
         self._north: _Axis | None = None
+        self._P_h: _AxisCovariance | None = None  # the covariance of each axis (the same for both)
         self._t_d = 0.0
         self._horizon: FixState | None = None  # the fused state at t_d, rebuilt when a fix is fused
         # vertical (current time): up, v_up, baro offset b
@@ -343,16 +369,22 @@ class GeofenceEstimator:
             self.fixes_rejected += 1
             return
         dt = t_m - self._t_d
-        ex, nx = self._east, self._north
-        if ex is None or nx is None:  # not reached: the first fix initialised both axes above
+        ex, nx, P = self._east, self._north, self._P_h
+        if ex is None or nx is None or P is None:  # not reached: the first fix initialised the axes above
             return
-        ex.predict(dt, self._qj, self._qp_h)
-        nx.predict(dt, self._qj, self._qp_h)
+        ex.predict(dt)
+        nx.predict(dt)
+        P.predict(dt, self._qj, self._qp_h)
         self._t_d = t_m
-        ex.update_p(e, self._r_p)
-        nx.update_p(n, self._r_p)
-        ex.update_v(fix.v_east_mps, self._r_v)
-        nx.update_v(fix.v_north_mps, self._r_v)
+        # position, then velocity: each gain serves both axes (their covariances are equal)
+        ye, yn = e - ex.p, n - nx.p
+        k = P.update_p(self._r_p)
+        ex.correct(ye, k)
+        nx.correct(yn, k)
+        ye, yn = fix.v_east_mps - ex.v, fix.v_north_mps - nx.v
+        k = P.update_v(self._r_v)
+        ex.correct(ye, k)
+        nx.correct(yn, k)
         self._horizon = FixState(t_m, ex.p, nx.p, ex.v, nx.v)
         # vertical: current-time filter, first-order latency compensation
         q = self._qv
@@ -377,9 +409,9 @@ class GeofenceEstimator:
         """A new estimate at the current estimator time (also kept as ``self.state``)."""
         now = self.t_s
         self.position_valid = (now - self._last_fix_arrival_s) <= self._timeout_s
-        ex, nx = self._east, self._north
+        ex, nx, P = self._east, self._north, self._P_h
         roll, pitch, yaw = self._att
-        if ex is None or nx is None:
+        if ex is None or nx is None or P is None:
             self.sigma_h_m = self.sigma_v_m = math.inf
             self.state = VehicleState(t_s=now, roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw)
             return self.state
@@ -391,14 +423,11 @@ class GeofenceEstimator:
         n = nx.p + nx.v * d + nx.a * h
         ve = ex.v + ex.a * d
         vn = nx.v + nx.a * d
-        # position variance extrapolated from the horizon: g P g^T + Q, g = (1, d, h)
+        # position variance extrapolated from the horizon: g P g^T + Q, g = (1, d, h); the same for both axes
         qd = self._qj * d * d * d * d * d / 20.0 + self._qp_h * d
-        g01, g02, g11, g22 = 2.0 * d, 2.0 * h, d * d, h * h  # the factors of P01, P02, P11, P22 (P12's: g01 * h)
-        var_e = ex.P00 + g01 * ex.P01 + g02 * ex.P02 + g11 * ex.P11 + g01 * h * ex.P12 + g22 * ex.P22 + qd
-        var_n = nx.P00 + g01 * nx.P01 + g02 * nx.P02 + g11 * nx.P11 + g01 * h * nx.P12 + g22 * nx.P22 + qd
-        self.var_e_m2 = var_e
-        self.var_n_m2 = var_n
-        self.sigma_h_m = math.sqrt((var_e if var_e > var_n else var_n) + self._var_bias_h)
+        var = P.P00 + 2.0 * d * P.P01 + 2.0 * h * P.P02 + d * d * P.P11 + 2.0 * d * h * P.P12 + h * h * P.P22 + qd
+        self.var_e_m2 = self.var_n_m2 = var
+        self.sigma_h_m = math.sqrt(var + self._var_bias_h)
         self.sigma_v_m = math.sqrt(self._V[0] + self._var_bias_v)
         u = self._u
         curv = (e * e + n * n) * self._inv_2r
@@ -448,8 +477,9 @@ class GeofenceEstimator:
     def _init(self, e: float, n: float, u: float, fix: GpsFix, t_m: float, lag: float) -> None:
         cfg = self.config
         var_a = 4.0  # (2 m/s^2)^2: unknown initial acceleration
-        self._east = ex = _Axis(e, fix.v_east_mps, self._r_p, self._r_v, var_a)
-        self._north = nx = _Axis(n, fix.v_north_mps, self._r_p, self._r_v, var_a)
+        self._east = ex = _Axis(e, fix.v_east_mps)
+        self._north = nx = _Axis(n, fix.v_north_mps)
+        self._P_h = _AxisCovariance(self._r_p, self._r_v, var_a)
         self._t_d = t_m
         self._horizon = FixState(t_m, ex.p, nx.p, ex.v, nx.v)
         self._u = u + fix.v_up_mps * lag
