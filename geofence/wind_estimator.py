@@ -91,6 +91,8 @@ WIND_ESTIMATE_ERROR_MPS = 1.0
 measured in ``tests/test_wind_estimator.py``. The unit's dead reckoning drifts at it (plus the turbulence of the
 moment), and the pre-flight check widens the forecast by it (:mod:`scenarios.spec.preflight`)."""
 
+_MIN_G_UP_MPS2 = 0.2 * G_MPS2  # the least thrust (per unit mass, vertical) the force balance assumes
+
 
 @dataclass(frozen=True)
 class WindEstimatorConfig:
@@ -142,7 +144,8 @@ class WindEstimator:
         self._k1 = k1 if cfg.drag_c1_per_s is None else float(cfg.drag_c1_per_s)
         self._k2 = k2 if cfg.drag_c2_per_m is None else float(cfg.drag_c2_per_m)
         # low-pass state of the multirotor force balance: velocity (E, N, U) and horizontal thrust (E, N)
-        self._lp: list[float] | None = None
+        self._lp: tuple[float, float, float, float, float] | None = None
+        self._accel_ref2 = cfg.accel_ref_mps2 * cfg.accel_ref_mps2  # of the sample weight, once
         self.last_sample: tuple[float, float] | None = None
         self.last_weight = 0.0
         self._last_kind_mr = False
@@ -188,19 +191,26 @@ class WindEstimator:
         else:
             self._lp = None  # the force balance restarts from fresh filter states
         self.last_sample = sample
-        self.last_weight = weight if sample is not None else 0.0
-        if sample is not None and weight > 0.0:
-            we, wn = sample
-            if math.isfinite(we) and math.isfinite(wn):
-                memory = min(cfg.tau_s, cfg.prior_weight_s + self.t_used_s)
-                wdt = weight * dt_s
-                k = wdt / (memory + wdt)
-                self._we += k * (we - self._we)
-                self._wn += k * (wn - self._wn)
-                self.t_used_s += wdt
-                # turbulence: the spread of the samples about the mean (per horizontal axis)
-                de, dn = we - self._we, wn - self._wn
-                self._var += k * (0.5 * (de * de + dn * dn) - self._var)
+        if sample is None:
+            self.last_weight = 0.0
+            return (self._we, self._wn)
+        self.last_weight = weight
+        we, wn = sample
+        if weight > 0.0 and math.isfinite(we) and math.isfinite(wn):
+            t_used = self.t_used_s
+            memory = cfg.prior_weight_s + t_used
+            if not memory < cfg.tau_s:  # min(tau, prior_weight_s + t_used)
+                memory = cfg.tau_s
+            wdt = weight * dt_s
+            k = wdt / (memory + wdt)
+            mean_e = self._we + k * (we - self._we)
+            mean_n = self._wn + k * (wn - self._wn)
+            self._we, self._wn = mean_e, mean_n
+            self.t_used_s = t_used + wdt
+            # turbulence: the spread of the samples about the mean (per horizontal axis)
+            de, dn = we - mean_e, wn - mean_n
+            self._var += k * (0.5 * (de * de + dn * dn) - self._var)
+            return (mean_e, mean_n)
         return (self._we, self._wn)
 
     @property
@@ -234,9 +244,10 @@ class WindEstimator:
         if not (math.isfinite(ve) and math.isfinite(vn) and math.isfinite(vu)):
             return None
         # thrust direction (body -z) in ENU
-        cr, sr = math.cos(s.roll_rad), math.sin(s.roll_rad)
-        cp, sp = math.cos(s.pitch_rad), math.sin(s.pitch_rad)
-        cy, sy = math.cos(s.yaw_rad), math.sin(s.yaw_rad)
+        roll, pitch, yaw = s.roll_rad, s.pitch_rad, s.yaw_rad
+        cr, sr = math.cos(roll), math.sin(roll)
+        cp, sp = math.cos(pitch), math.sin(pitch)
+        cy, sy = math.cos(yaw), math.sin(yaw)
         t_n = -(cy * sp * cr + sy * sr)
         t_e = -(sy * sp * cr - cy * sr)
         t_up = cp * cr
@@ -244,34 +255,36 @@ class WindEstimator:
             self._lp = None
             return None
         # low-passed velocity, its derivative (the acceleration), and the low-passed horizontal thrust
-        tau = cfg.accel_window_s
         lp = self._lp
         if lp is None:
             # the vertical acceleration is unknown on the first step: take level flight
-            self._lp = [ve, vn, vu, G_MPS2 * t_e / t_up, G_MPS2 * t_n / t_up]
+            self._lp = (ve, vn, vu, G_MPS2 * t_e / t_up, G_MPS2 * t_n / t_up)
             return None
-        ae = (ve - lp[0]) / (tau + dt_s)
-        an = (vn - lp[1]) / (tau + dt_s)
-        au = (vu - lp[2]) / (tau + dt_s)
-        alpha = dt_s / (tau + dt_s)
-        lp[0] += alpha * (ve - lp[0])
-        lp[1] += alpha * (vn - lp[1])
-        lp[2] += alpha * (vu - lp[2])
+        lp_e, lp_n, lp_u, lp_fe, lp_fn = lp
+        tau_dt = cfg.accel_window_s + dt_s
+        ae = (ve - lp_e) / tau_dt
+        an = (vn - lp_n) / tau_dt
+        au = (vu - lp_u) / tau_dt
+        alpha = dt_s / tau_dt
+        lp_e += alpha * (ve - lp_e)
+        lp_n += alpha * (vn - lp_n)
+        lp_u += alpha * (vu - lp_u)
         g_up = G_MPS2 + au
-        if g_up < 0.2 * G_MPS2:
-            g_up = 0.2 * G_MPS2  # free fall or a hard descent: the thrust size is unknown
-        lp[3] += alpha * (g_up * t_e / t_up - lp[3])
-        lp[4] += alpha * (g_up * t_n / t_up - lp[4])
+        if g_up < _MIN_G_UP_MPS2:
+            g_up = _MIN_G_UP_MPS2  # free fall or a hard descent: the thrust size is unknown
+        lp_fe += alpha * (g_up * t_e / t_up - lp_fe)
+        lp_fn += alpha * (g_up * t_n / t_up - lp_fn)
+        self._lp = (lp_e, lp_n, lp_u, lp_fe, lp_fn)
         # drag vector = thrust - acceleration; it points along the air-relative velocity
-        de, dn = lp[3] - ae, lp[4] - an
+        de, dn = lp_fe - ae, lp_fn - an
         d = math.sqrt(de * de + dn * dn)
         v_air = airspeed_for_drag_mps(k1, k2, d)
         if not math.isfinite(v_air):
             return None
         if d > 1e-12:
-            we, wn = lp[0] - v_air * de / d, lp[1] - v_air * dn / d
+            we, wn = lp_e - v_air * de / d, lp_n - v_air * dn / d
         else:
-            we, wn = lp[0], lp[1]
+            we, wn = lp_e, lp_n
         # weight: trust falls with the manoeuvre (see the module docstring)
-        q = (ae * ae + an * an) / (cfg.accel_ref_mps2 * cfg.accel_ref_mps2)
+        q = (ae * ae + an * an) / self._accel_ref2
         return (we, wn, 1.0 / (1.0 + q))
