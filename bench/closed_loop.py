@@ -101,5 +101,6 @@ def main() -> None:
             f" {ca / b:27.2f}, {ga / b:.2f}"
         )
 
+
 if __name__ == "__main__":
     main()

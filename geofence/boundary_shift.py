@@ -513,15 +513,12 @@ def activation_margins(
         return best
 
     grid = fence.grid()
-    grouped = (
-        grid is not None
-        and bound < math.inf
-        and prune_from_edges < GROUPED_REFERENCE
-        and grid.group_search_pays(e, n, bound)
-    )
-    if grouped and not fixed_wing:
+    grouped = None  # the index, where its groups of edges are searched
+    if grid is not None and bound < math.inf and prune_from_edges < GROUPED_REFERENCE and grid.group_search_pays(e, n, bound):
+        grouped = grid
+    if grouped is not None and not fixed_wing:
         # dense fence: groups of consecutive edges, the room bounded over their normal cones (the same answer)
-        min_d, groups = grid.groups_near(e, n, bound)
+        min_d, groups = grouped.groups_near(e, n, bound)
         lat_margin = fence.lateral_margin_m(e, n, min_d)
         a_pilot = a_tilt if v_air_mc < envelope.max_speed_mps else 0.0
         group_lbs = []
@@ -531,13 +528,13 @@ def activation_margins(
                 k1, k2, a_brake, climb_arrest,
             ) + hu  # fmt: skip
             group_lbs.append((lb - room_ub, gid))
-        lat_act, (room, feat, idx, j, nx, ny, d_edge, v_n) = _binding_edge_grouped_no_turn(
-            grid, e, n, min_d, bound, group_lbs, terms_of
-        )
+        lat_act, binding = _binding_edge_grouped_no_turn(grouped, e, n, min_d, bound, group_lbs, terms_of)
+        assert binding is not None  # a group holds the nearest element
+        room, feat, idx, j, nx, ny, d_edge, v_n = binding
         s_best, turn_angle = 0.0, 0.0
-    elif grouped:
+    elif grouped is not None:
         # dense fence: groups of consecutive edges, bounded over their normal cones (the same answer)
-        min_d, groups = grid.groups_near(e, n, bound)
+        min_d, groups = grouped.groups_near(e, n, bound)
         lat_margin = fence.lateral_margin_m(e, n, min_d)
         wspeed_w = math.hypot(wind_e, wind_n)  # |W|, the cone's wind term
         cones: dict[int, tuple] = {}
@@ -560,7 +557,7 @@ def activation_margins(
         best = None
         for s, delta in directions:
             worst, wk = _binding_edge_grouped(
-                grid, e, n, min_d, bound, group_bounds(s, delta), cones, terms, terms_of, turn, s, delta,
+                grouped, e, n, min_d, bound, group_bounds(s, delta), cones, terms, terms_of, turn, s, delta,
                 -math.inf if best is None else best[0],
             )  # fmt: skip
             if best is None or worst > best[0]:

@@ -10,15 +10,17 @@ Times ``t_s`` are on the unit's clock (the simulation time). A GNSS fix is
 stamped with its **time of validity** (the epoch the receiver solved for, like
 u-blox ``iTOW``), and arrives some latency later; the estimator uses the
 difference between the arrival time and ``t_s`` to compensate the latency.
+
+The messages are immutable named tuples: one is built per sensor per step, and a
+tuple is built in a third of the time of a frozen dataclass.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 
-@dataclass(frozen=True, slots=True)
-class GpsFix:
+class GpsFix(NamedTuple):
     """One GNSS navigation solution.
 
     ``alt_m`` is the height above the WGS-84 ellipsoid (the simulation takes the
@@ -43,8 +45,7 @@ class GpsFix:
     valid: bool = True
 
 
-@dataclass(frozen=True, slots=True)
-class AirData:
+class AirData(NamedTuple):
     """Air-data sample: pitot true airspeed (None without a pitot, e.g. multirotors) and baro altitude.
 
     ``baro_alt_m`` is the pressure altitude referenced to the same datum as the
@@ -57,8 +58,7 @@ class AirData:
     baro_alt_m: float
 
 
-@dataclass(frozen=True, slots=True)
-class AttitudeSample:
+class AttitudeSample(NamedTuple):
     """AHRS attitude in rad: roll (+ right wing down), pitch (+ nose up), yaw (true heading, clockwise from north)."""
 
     t_s: float
