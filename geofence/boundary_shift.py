@@ -90,7 +90,7 @@ from typing import NamedTuple, Sequence
 
 from .dynamics import drag_coefficients, wind_push_mps2
 from .fence import AltitudeReference, FenceError
-from .fence_grid import FenceGrid
+from .fence_grid import GROUPED_FROM_EDGES_PER_GROUP, MULTIROTOR_GROUPED_FROM_EDGES_PER_GROUP, FenceGrid
 from .interface import Envelope, PlatformKind, VehicleState
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 from .rooms import (
@@ -514,7 +514,14 @@ def activation_margins(
 
     grid = fence.grid()
     grouped = None  # the index, where its groups of edges are searched
-    if grid is not None and bound < math.inf and prune_from_edges < GROUPED_REFERENCE and grid.group_search_pays(e, n, bound):
+    if (
+        grid is not None
+        and bound < math.inf
+        and prune_from_edges < GROUPED_REFERENCE
+        and grid.group_search_pays(
+            e, n, bound, GROUPED_FROM_EDGES_PER_GROUP if fixed_wing else MULTIROTOR_GROUPED_FROM_EDGES_PER_GROUP
+        )
+    ):
         grouped = grid
     if grouped is not None and not fixed_wing:
         # dense fence: groups of consecutive edges, the room bounded over their normal cones (the same answer)

@@ -93,6 +93,11 @@ GROUPED_FROM_EDGES_PER_GROUP: float = 2.0
 """The activation search goes group by group (:meth:`FenceGrid.groups_near`) when the groups hold at least this
 many elements on average; a sparse fence's groups are single edges and the element walk is cheaper."""
 
+MULTIROTOR_GROUPED_FROM_EDGES_PER_GROUP: float = 40.0
+"""The same for a multirotor, whose room is cheap beside the group search's overhead: measured side by side
+(``bench/fence_scale.py``, near an edge), its group search loses at 10,000 vertices (2 m edges, about a dozen
+per group: 27 -> 29 us) and wins at 100,000 (0.2 m edges: 164 -> 91 us)."""
+
 GROUP_SLACK_M: float = 1e-6
 """Added to a group's radius: covers the round-off of the distances its bound is compared with."""
 
@@ -240,10 +245,10 @@ class FenceGrid:
         return cell
 
     def _cell_groups(self, cell: tuple) -> tuple:
-        """``(prefix, rest ids, rest bounds, dense)``: the groups that can hold one of the cell's candidates, sorted
-        by the lower bound of their elements' distance from the centre (kept as the elements are; listed once per
-        cell, the first time the group search asks), and whether they hold at least
-        ``GROUPED_FROM_EDGES_PER_GROUP`` of the cell's candidates each on average."""
+        """``(prefix, rest ids, rest bounds, per group)``: the groups that can hold one of the cell's candidates,
+        sorted by the lower bound of their elements' distance from the centre (kept as the elements are; listed
+        once per cell, the first time the group search asks), and how many of the cell's candidates they hold on
+        average."""
         slot = cell[9]
         if not slot:
             built_for, cx, cy, u = cell[0], cell[1], cell[2], cell[8]
@@ -254,13 +259,13 @@ class FenceGrid:
             gcands = tuple((float(gd[g]), g) + groups[g][2:] for g in gsel[: self.prefix_items].tolist())
             grest = gsel[self.prefix_items :]
             n_elements = len(cell[3]) + len(cell[6])
-            slot.append((gcands, grest, gd[grest], n_elements >= GROUPED_FROM_EDGES_PER_GROUP * len(gsel)))
+            slot.append((gcands, grest, gd[grest], n_elements / max(len(gsel), 1)))
         return slot[0]
 
-    def group_search_pays(self, e: float, n: float, reach: float) -> bool:
-        """Whether the groups within reach of (e, n)'s cell hold at least ``GROUPED_FROM_EDGES_PER_GROUP``
-        elements on average (else the group search only adds its bounds: a sparse stretch, single-edge groups)."""
-        return self.grouped and self._cell_groups(self._cell(e, n, reach))[3]
+    def group_search_pays(self, e: float, n: float, reach: float, min_per_group: float = GROUPED_FROM_EDGES_PER_GROUP) -> bool:
+        """Whether the groups within reach of (e, n)'s cell hold at least ``min_per_group`` elements on average
+        (else the group search only adds its bounds: a sparse stretch, single-edge groups)."""
+        return self.grouped and self._cell_groups(self._cell(e, n, reach))[3] >= min_per_group
 
     def _rest(self, e: float, n: float, rest: np.ndarray, rest_lb: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
         """``(ids, d)`` of the candidates past a cell's tuple prefix whose lower bound is within ``limit``
