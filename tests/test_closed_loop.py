@@ -56,6 +56,9 @@ def test_multicopter_holds_hover_within_1m_for_30s_in_calm_air():
     dev = np.sqrt(e[window] ** 2 + n[window] ** 2 + (u[window] - 10.0) ** 2)
     assert window.sum() > 1000
     assert dev.max() < 1.0, f"hover deviation {dev.max():.2f} m"
+    # the stepping loop's own time (what bench/closed_loop.py compares with bare JSBSim) is part of the flight's
+    s = res.summary
+    assert 0.0 < s["loop_wall_time_s"] <= s["wall_time_s"] + 1e-3
 
 
 @pytest.mark.parametrize("aircraft, agl_m, size_m, acceptance_m", [("F450", 0.0, 60.0, 3.0), ("Tern", 60.0, 400.0, 15.0)])
