@@ -1,4 +1,4 @@
-"""Benchmark: geofence unit cost per update against fence size, indexed vs full scan, side by side.
+"""Benchmark: geofence unit cost per update against fence size: compiled, Python and unindexed, side by side.
 
 For fences of one family -- a noisy star-shaped keep-in about 6 km across with
 ``V`` vertices and ``K`` square keep-outs (20-40 m buildings on a jittered grid)
@@ -13,9 +13,12 @@ For fences of one family -- a noisy star-shaped keep-in about 6 km across with
   the rate a real flight pays them;
 * ``far``: the same at the fence's centre (the skip shortcut answers).
 
-Each case runs with the fence index (``index=True``) and with the full scan
-(``index=False``, the reference) in the same run; medians of interleaved repeats.
-It prints a table and saves ``bench/fence_scale.png`` (log-log).
+Each case runs three ways in the same run: with the fence index and the
+compiled search (``index``, what a flight uses), with the index and the
+plain-Python reference the compiled code is tested against (``python``,
+:func:`geofence.jit.use_compiled` off), and with the full scan of every
+element (``scan``, no index); medians of repeats. It prints a table and saves
+``bench/fence_scale.png`` (log-log).
 
     python bench/fence_scale.py [--quick] [--repeats 3] [--sizes 100x0,10000x500] [--out bench/fence_scale.png]
     python bench/fence_scale.py --plot-from run1.txt run2.txt   # the figure from saved tables
@@ -35,6 +38,7 @@ from geofence.config import GeofenceConfig
 from geofence.fence import Fence
 from geofence.geodesy import LocalFrame
 from geofence.interface import StickCommand, VehicleState
+from geofence.jit import use_compiled
 from geofence.unit import GeofenceUnit
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
@@ -42,6 +46,9 @@ RADIUS_M = 3000.0
 DT_S = 1.0 / 40.0
 WIND_EN = (6.0 * math.cos(0.7), 6.0 * math.sin(0.7))
 PLATFORMS = ("F450RD", "Tern")
+VARIANTS = ("index", "python", "scan")
+"""Per case: the index with the compiled search, the index with the plain-Python reference
+(:func:`geofence.jit.use_compiled` off), and the full scan (no index, compiled)."""
 PLANNER_LIMIT_ELEMENTS = 20_000
 """Above this many fence elements the fixed-wing cases are skipped (n/a): its margin needs the recovery-route
 planner's roll-out target, whose lazy graph is measured up to the 10,000 + 500 park (12,000 elements); beyond that
@@ -210,7 +217,7 @@ def main() -> None:
     rows = []
     print(
         f"{'vertices':>9s} {'keep-outs':>9s} {'build s':>8s}  "
-        + "  ".join(f"{p + ' ' + w:>15s} idx/scan µs" for p in PLATFORMS for w in ("near", "far"))
+        + "  ".join(f"{p + ' ' + w + ' µs: index/python/scan':>34s}" for p in PLATFORMS for w in ("near", "far"))
     )
     for nv, nk in sizes:
         t0 = time.perf_counter()
@@ -224,36 +231,44 @@ def main() -> None:
                     cells.append((platform, near, math.nan, math.nan, 0))
                     continue
                 res = {}
-                for index in (True, False):
+                for variant in VARIANTS:
+                    index, compiled = variant != "scan", variant != "python"
                     # a full scan of 100k elements costs ~0.1 s per call: time fewer calls there
                     calls = 400 if (index or nv + 4 * nk <= 2000) else (60 if nv + 4 * nk <= 30000 else 12)
                     if args.quick:
                         calls = min(calls, 200)
-                    runs = [time_updates(fence, platform, near, index, calls) for _ in range(args.repeats)]
-                    res[index] = (statistics.median(r[0] for r in runs), max(r[1] for r in runs))
-                cells.append((platform, near, res[True][0], res[False][0], res[True][1] + res[False][1]))
+                    previous = use_compiled(compiled)
+                    try:
+                        runs = [time_updates(fence, platform, near, index, calls) for _ in range(args.repeats)]
+                    finally:
+                        use_compiled(previous)
+                    res[variant] = (statistics.median(r[0] for r in runs), max(r[1] for r in runs))
+                cells.append((platform, near, *(res[v][0] for v in VARIANTS), sum(res[v][1] for v in VARIANTS)))
         rows.append((nv, nk, build, cells))
-        print(
-            f"{nv:9d} {nk:9d} {build:8.1f}  " + "  ".join(f"{c[2]:12.1f} / {c[3]:9.1f}" + ("!" if c[4] else " ") for c in cells),
-            flush=True,
-        )
+        print(f"{nv:9d} {nk:9d} {build:8.1f}  " + "  ".join(_cell_text(c) for c in cells), flush=True)
     print("(! = the unit activated during the run: the case measured an override, not monitoring;")
     print(f" nan = not measured: the fixed-wing above {PLANNER_LIMIT_ELEMENTS:,} elements, see PLANNER_LIMIT_ELEMENTS)")
     _plot(rows, args.out)
     print(f"figure: {args.out}")
 
 
+def _cell_text(c: tuple) -> str:
+    """One platform and position's ``index / python / scan`` µs, ``!`` if the unit activated."""
+    return f"{c[2]:10.1f} / {c[3]:9.1f} / {c[4]:9.1f}" + ("!" if c[5] else " ")
+
+
 def _read_table(path: Path) -> list:
     """The rows of a table this script printed: ``(vertices, keep_outs, build_s, cells)``."""
     rows = []
+    n_var = len(VARIANTS)
     for line in path.read_text().splitlines():
         parts = line.replace("!", " ").replace("/", " ").split()
-        if len(parts) != 11 or not parts[0].isdigit():
+        if len(parts) != 3 + 4 * n_var or not parts[0].isdigit():
             continue
         nv, nk, build = int(parts[0]), int(parts[1]), float(parts[2])
         vals = [float(x) for x in parts[3:]]
         cells = [
-            (p, near, vals[2 * k], vals[2 * k + 1], 0)
+            (p, near, *vals[n_var * k : n_var * (k + 1)], 0)
             for k, (p, near) in enumerate((p, w) for p in PLATFORMS for w in (True, False))
         ]
         rows.append((nv, nk, build, cells))
@@ -285,7 +300,18 @@ def _plot(rows, out: Path) -> None:
             colour, marker = styles[(platform, near)]
             label = f"{platform} {'near edge' if near else 'far'}"
             ax.plot(xs, [r[3][k][2] for r in part], color=colour, marker=marker, label=label + ", index")
-            ax.plot(xs, [r[3][k][3] for r in part], color=colour, marker=marker, ls=":", alpha=0.7, label=label + ", full scan")
+            if near:  # the Python reference beside the compiled search (far from the fence both skip it)
+                ax.plot(
+                    xs,
+                    [r[3][k][3] for r in part],
+                    color=colour,
+                    marker=marker,
+                    ls="--",
+                    alpha=0.6,
+                    mfc="none",
+                    label=label + ", index, Python",
+                )
+            ax.plot(xs, [r[3][k][4] for r in part], color=colour, marker=marker, ls=":", alpha=0.5, label=label + ", full scan")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(xlabel)
@@ -305,7 +331,10 @@ def _plot(rows, out: Path) -> None:
                         label=f"{platform} near, + 500 keep-outs, index",
                     )
     axes[0].legend(fontsize=7, ncol=2)
-    fig.suptitle("Geofence cost per update vs fence size (solid: indexed, dotted: full scan)")
+    fig.suptitle(
+        "Geofence cost per update vs fence size (solid: indexed, compiled; dashed: indexed, Python reference; dotted: full scan)",
+        fontsize=10,
+    )
     fig.savefig(out, dpi=110)
 
 

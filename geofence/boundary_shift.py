@@ -88,10 +88,12 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple, Sequence
 
+from . import jit as _jit
 from .dynamics import drag_coefficients, wind_push_mps2
 from .fence import AltitudeReference, FenceError
 from .fence_grid import GROUPED_FROM_EDGES_PER_GROUP, MULTIROTOR_GROUPED_FROM_EDGES_PER_GROUP, FenceGrid
 from .interface import Envelope, PlatformKind, VehicleState
+from .lateral_kernel import lateral_binding
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 from .rooms import (
     G_MPS2,
@@ -383,6 +385,7 @@ def activation_margins(
     rollout_target_en: tuple[float, float] | None = None,
     g: float = G_MPS2,
     prune_from_edges: int = PRUNE_FROM_EDGES,
+    compiled: bool | None = None,
 ) -> ShiftResult:
     """Required shifts and activation margins for a state (see :class:`ShiftResult`).
 
@@ -398,6 +401,10 @@ def activation_margins(
     towards (the first point of its planned route; default the recovery point).
     ``prune_from_edges``: from this many threatened edges on, a fixed-wing's binding edge is found by the
     pruned search (the same answer; a huge value scores every edge, the reference).
+    ``compiled``: the binding lateral element comes from the compiled search
+    (:func:`geofence.lateral_kernel.lateral_binding`); ``False`` runs the plain-Python branches below, the
+    reference it equals bit for bit; ``None`` (default): as :data:`geofence.jit.ACTIVE` says (compiled where
+    numba is installed).
 
     Floor gaps: below the floor inside a gap, leaving the gap sideways is a
     breach, so the gap's edges are scored like keep-in edges (lateral room).
@@ -411,6 +418,8 @@ def activation_margins(
     (:func:`geofence.rooms.climb_back_drift_m`).
     Plain-Python scalar code for the per-step loop.
     """
+    if compiled is None:
+        compiled = _jit.ACTIVE
     t_r = envelope.reaction_time_s + latency_s
     speed = math.hypot(ve, vn)
     extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
@@ -512,10 +521,13 @@ def activation_margins(
                 best = (worst, s, wk, delta)
         return best
 
+    # the binding lateral element: one compiled call (lateral_kernel), or the Python reference below (the
+    # full scan, the index's walk, or its group search on dense fences), which it equals bit for bit
     grid = fence.grid()
     grouped = None  # the index, where its groups of edges are searched
     if (
-        grid is not None
+        not compiled
+        and grid is not None
         and bound < math.inf
         and prune_from_edges < GROUPED_REFERENCE
         and grid.group_search_pays(
@@ -523,7 +535,30 @@ def activation_margins(
         )
     ):
         grouped = grid
-    if grouped is not None and not fixed_wing:
+    if compiled:
+        E, meta, all_ids, zeros = fence.element_table()
+        if grid is not None and bound < math.inf:  # the index's walk
+            walk = True
+            ids, lbs, delta_c = grid.candidates(e, n, bound)
+        else:  # every element
+            walk = False
+            ids, lbs, delta_c = all_ids, zeros, 0.0
+        if fixed_wing:
+            (s1, delta1), (s2, delta2) = directions
+            k1 = k2 = a_pilot = a_brake = arrest_t = arrest_loss = 0.0
+        else:
+            s1 = delta1 = s2 = delta2 = v_turn = psi_react0 = rot = omega_now = t_fw = sa = ca = 0.0
+            a_pilot = a_tilt if v_air_mc < envelope.max_speed_mps else 0.0
+            arrest_t, arrest_loss = climb_arrest
+        lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
+            E, ids, lbs, walk, e, n, bound, delta_c, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
+            v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
+            k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss,
+        )  # fmt: skip
+        assert i_bind >= 0  # the nearest element is always a candidate
+        feat, idx, j = meta[i_bind]
+        lat_margin = fence.lateral_margin_m(e, n, min_d) if walk else fence.lateral_margin_m(e, n)
+    elif grouped is not None and not fixed_wing:
         # dense fence: groups of consecutive edges, the room bounded over their normal cones (the same answer)
         min_d, groups = grouped.groups_near(e, n, bound)
         lat_margin = fence.lateral_margin_m(e, n, min_d)

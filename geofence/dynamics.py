@@ -31,6 +31,7 @@ import math
 from dataclasses import replace
 
 from geofence.interface import Envelope
+from geofence.jit import jitable
 
 G_MPS2: float = 9.80665
 """Standard gravity, m/s²."""
@@ -86,6 +87,7 @@ def airspeed_for_drag_mps(k1: float, k2: float, accel_mps2: float) -> float:
     return accel_mps2 / k1 if k1 > 0.0 else math.inf
 
 
+@jitable
 def wind_push_mps2(k1: float, k2: float, wind_speed_mps: float, wind_normal_mps: float) -> float:
     """Drag acceleration the wind exerts towards an edge on a vehicle at rest over the ground, m/s².
 

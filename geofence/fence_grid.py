@@ -62,6 +62,8 @@ from typing import Sequence
 
 import numpy as np
 
+from . import jit as _jit
+from .lateral_kernel import element_table, nearest_distance
 from .polygon import BOUNDARY_TOL_M, PolygonIndex
 
 SMALL_FENCE_ELEMENTS: int = 48
@@ -137,6 +139,7 @@ class FenceGrid:
         ]
         recs += [(s + k, ce, cn, r, 0.0, -1.0, 0.0, 0.0, circle_feature, k, -1) for k, (ce, cn, r) in enumerate(circles)]
         self._recs = recs
+        self._table = element_table(edges, circles)  # the compiled walk's
         e = np.array([[r[1], r[2], r[3], r[4], r[5]] for r in recs[:s]], dtype=float).reshape(-1, 5)
         self._ax, self._ay, self._dx, self._dy, self._il2 = (e[:, k].copy() for k in range(5))
         c = np.array(list(circles), dtype=float).reshape(-1, 3)
@@ -225,8 +228,6 @@ class FenceGrid:
         u = float(d.min()) + h
         sel = np.flatnonzero(d <= u + built_for + h)
         sel = sel[np.argsort(d[sel], kind="stable")]
-        recs = self._recs
-        cands = tuple((float(d[i]),) + recs[i] for i in sel[: self.prefix_items].tolist())
         rest = sel[self.prefix_items :]
         rest_lb = d[rest]
         # keep-in: wholly inside (+1), wholly outside (-1) or crossed by its boundary (0)
@@ -236,7 +237,9 @@ class FenceGrid:
         lo_x, lo_y, hi_x, hi_y = key[0] * c, key[1] * c, (key[0] + 1) * c, (key[1] + 1) * c
         ko = tuple(np.flatnonzero((kb[:, 0] <= hi_x) & (kb[:, 2] >= lo_x) & (kb[:, 1] <= hi_y) & (kb[:, 3] >= lo_y)).tolist())
         # the cell's groups are listed when the group search first asks (:meth:`_cell_groups`)
-        cell = (built_for, cx, cy, cands, ki_state, ko, rest, rest_lb, u, [])
+        # [10], [11]: every candidate's id and bound as arrays, for the compiled walk (geofence.lateral_kernel)
+        # [3]: the tuple prefix, built when the Python walk first asks (:meth:`_prefix`)
+        cell = (built_for, cx, cy, [], ki_state, ko, rest, rest_lb, u, [], sel, d[sel])
         if len(self._cells) >= MAX_CELLS or self._cached + len(sel) > MAX_CACHED_CANDIDATES:
             self._cells.clear()
             self._cached = 0
@@ -258,8 +261,18 @@ class FenceGrid:
             groups = self._groups
             gcands = tuple((float(gd[g]), g) + groups[g][2:] for g in gsel[: self.prefix_items].tolist())
             grest = gsel[self.prefix_items :]
-            n_elements = len(cell[3]) + len(cell[6])
+            n_elements = len(cell[10])
             slot.append((gcands, grest, gd[grest], n_elements / max(len(gsel), 1)))
+        return slot[0]
+
+    def _prefix(self, cell: tuple) -> tuple:
+        """The cell's first ``prefix_items`` candidates as ready tuples ``(d(c),) + record`` (built once)."""
+        slot = cell[3]
+        if not slot:
+            d, recs = cell[11], self._recs
+            slot.append(
+                tuple((lb,) + recs[i] for lb, i in zip(d[: self.prefix_items].tolist(), cell[10][: self.prefix_items].tolist()))
+            )
         return slot[0]
 
     def group_search_pays(self, e: float, n: float, reach: float, min_per_group: float = GROUPED_FROM_EDGES_PER_GROUP) -> bool:
@@ -285,7 +298,9 @@ class FenceGrid:
         Items are ``(d, nx, ny, feature, feature_index, edge)`` with the
         breach-pointing unit normal (for a circle: towards its centre).
         """
-        _, cx, cy, cands, _, _, rest, rest_lb, _, _ = self._cell(e, n, reach)
+        cell = self._cell(e, n, reach)
+        cx, cy, rest, rest_lb = cell[1], cell[2], cell[6], cell[7]
+        cands = self._prefix(cell)
         delta = math.hypot(e - cx, n - cy)
         best = math.inf
         found = []
@@ -321,8 +336,20 @@ class FenceGrid:
         found.sort()
         return [f[1] for f in found], best
 
+    def candidates(self, e: float, n: float, reach: float) -> tuple[np.ndarray, np.ndarray, float]:
+        """``(ids, bounds, delta)``: :meth:`near`'s walk as arrays for the compiled search
+        (:func:`geofence.lateral_kernel.lateral_binding`): the cell's candidate ids sorted by their distance
+        ``bounds`` from the cell centre, and ``delta = |p - c|``; walked in order until
+        ``bound - delta - reach`` exceeds the nearest distance found."""
+        cell = self._cell(e, n, reach)
+        return cell[10], cell[11], math.hypot(e - cell[1], n - cell[2])
+
     def nearest_distance(self, e: float, n: float) -> float:
-        """The nearest element's ``d`` (circles signed: negative inside)."""
+        """The nearest element's ``d`` (circles signed: negative inside); :meth:`near`'s walk, compiled where
+        numba is (:func:`geofence.lateral_kernel.nearest_distance`, the same number)."""
+        if _jit.ACTIVE:
+            ids, lbs, delta = self.candidates(e, n, 0.0)
+            return nearest_distance(self._table, ids, lbs, delta, e, n)
         return self.near(e, n, 0.0)[1]
 
     def margin_lower_bound(self, e: float, n: float) -> float | None:
@@ -331,14 +358,14 @@ class FenceGrid:
 
         The nearest element's distance from the cell centre, less the distance to it (1-Lipschitz).
         """
-        _, cx, cy, cands, ki_state, ko, _, _, _, _ = self._cell(e, n, 0.0)
-        if ki_state != 1 or not cands:
+        _, cx, cy, _, ki_state, ko, _, _, _, _, sel, sel_d = self._cell(e, n, 0.0)
+        if ki_state != 1 or not len(sel):
             return None
         kb = self._ko_bbox
         for k in ko:
             if kb[k, 0] <= e <= kb[k, 2] and kb[k, 1] <= n <= kb[k, 3]:
                 return None
-        return cands[0][0] - math.hypot(e - cx, n - cy)
+        return float(sel_d[0]) - math.hypot(e - cx, n - cy)
 
     def clearly_allowed(self, e: float, n: float, nearest_d: float | None = None) -> float | None:
         """The lateral margin when (e, n) is strictly inside the allowed area (more than the boundary
@@ -350,7 +377,7 @@ class FenceGrid:
         best = self.nearest_distance(e, n) if nearest_d is None else nearest_d
         if best <= BOUNDARY_TOL_M:
             return None
-        _, _, _, _, ki_state, ko, _, _, _, _ = self._cell(e, n, 0.0)
+        _, _, _, _, ki_state, ko, _, _, _, _, _, _ = self._cell(e, n, 0.0)
         if ki_state < 0 or (ki_state == 0 and not self._rows.inside(e, n)):
             return None
         kb = self._ko_bbox

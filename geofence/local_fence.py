@@ -27,6 +27,7 @@ import numpy as np
 from .fence_grid import GROUP_LENGTH_M, SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame
 from .heights import AltitudeReference, VerticalExtent
+from .lateral_kernel import element_table
 from .polygon import PolygonIndex, pole_of_inaccessibility
 
 if TYPE_CHECKING:
@@ -116,6 +117,7 @@ class LocalFence:
         "_group_length_m",
         "_memo_en",
         "_memo_margin_m",
+        "_element_table",
     )
 
     def __init__(
@@ -156,6 +158,7 @@ class LocalFence:
         self._inradius: tuple[float, float, float] | None = None
         self._danger_edges: tuple[DangerEdge, ...] | None = None
         self._gap_edges: tuple[tuple[DangerEdge, ...], ...] | None = None
+        self._element_table: tuple | None = None
         self.recovery_height_m: float | None
         rp = fence.recovery_point
         if rp is not None:
@@ -365,6 +368,20 @@ class LocalFence:
                 out += _edge_items(k, FEATURE_KEEP_OUT_POLYGON, i, -1.0)
             self._danger_edges = tuple(out)
         return self._danger_edges
+
+    def element_table(self) -> tuple[np.ndarray, tuple[tuple[str, int, int], ...], np.ndarray, np.ndarray]:
+        """``(E, meta, ids, zeros)`` for the compiled lateral search (cached): the float table of
+        :meth:`danger_edges` then ``keep_out_circles`` (:func:`geofence.lateral_kernel.element_table`), each
+        element's ``(feature, feature_index, edge)``, and every element's id in order with a zero bound per
+        element (the full scan's candidate list)."""
+        if self._element_table is None:
+            edges = self.danger_edges()
+            circles = self.keep_out_circles
+            meta = tuple((x.feature, x.feature_index, x.edge) for x in edges)
+            meta += tuple((FEATURE_KEEP_OUT_CIRCLE, k, -1) for k in range(len(circles)))
+            n = len(meta)
+            self._element_table = (element_table(edges, circles), meta, np.arange(n, dtype=np.int64), np.zeros(n))
+        return self._element_table
 
     def gap_edges(self, gap: int) -> tuple[DangerEdge, ...]:
         """The edges of floor gap ``gap`` in the :meth:`danger_edges` item format (cached).

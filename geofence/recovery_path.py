@@ -101,6 +101,8 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
+from . import jit as _jit
+from .jit import COMPILED, jitable, numba
 from .polygon import pole_of_inaccessibility
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -140,6 +142,7 @@ Point = tuple[float, float]
 
 
 # ----------------------------------------------------------------------------- scalar helpers
+@jitable
 def _pt_seg_d2(px: float, py: float, ax: float, ay: float, bx: float, by: float) -> float:
     """Squared distance from point p to the closed segment a-b (m²)."""
     dx, dy = bx - ax, by - ay
@@ -170,6 +173,7 @@ def segment_segment_distance(p1: Point, p2: Point, q1: Point, q2: Point) -> floa
     )
 
 
+@jitable
 def _cross_properly(ax, ay, bx, by, cx, cy, dx, dy) -> bool:
     ux, uy = bx - ax, by - ay
     o1 = ux * (cy - ay) - uy * (cx - ax)
@@ -180,6 +184,50 @@ def _cross_properly(ax, ay, bx, by, cx, cy, dx, dy) -> bool:
     o3 = vx * (ay - cy) - vy * (ax - cx)
     o4 = vx * (by - cy) - vy * (bx - cx)
     return o1 * o2 < 0.0 and o3 * o4 < 0.0
+
+
+def _segment_clear(ax: float, ay: float, bx: float, by: float, thr: float, edges: np.ndarray, circles: np.ndarray) -> bool:
+    """:meth:`RecoveryPlanner._clear_one`'s verdict in one loop: no edge row ``(cx, cy, dx, dy, xmin, xmax, ymin,
+    ymax)`` crosses a-b or comes within ``thr`` of it, and no circle row ``(x, y, r)`` comes within ``thr``.
+
+    The same tests in the same arithmetic as the scalar loop (:func:`_cross_properly`, :func:`_pt_seg_d2`), so
+    the same verdict; compiled (:data:`segment_clear`) it is the per-step form of a long leg across a large
+    fence, which stops at the first edge in the way.
+    """
+    t2 = thr * thr
+    xmin = (ax if ax <= bx else bx) - thr
+    xmax = (ax if ax >= bx else bx) + thr
+    ymin = (ay if ay <= by else by) - thr
+    ymax = (ay if ay >= by else by) + thr
+    for k in range(edges.shape[0]):
+        if edges[k, 5] < xmin or edges[k, 4] > xmax or edges[k, 7] < ymin or edges[k, 6] > ymax:
+            continue
+        cx = edges[k, 0]
+        cy = edges[k, 1]
+        dx = edges[k, 2]
+        dy = edges[k, 3]
+        if _cross_properly(ax, ay, bx, by, cx, cy, dx, dy):
+            return False
+        if (
+            _pt_seg_d2(ax, ay, cx, cy, dx, dy) < t2
+            or _pt_seg_d2(bx, by, cx, cy, dx, dy) < t2
+            or _pt_seg_d2(cx, cy, ax, ay, bx, by) < t2
+            or _pt_seg_d2(dx, dy, ax, ay, bx, by) < t2
+        ):
+            return False
+    for k in range(circles.shape[0]):
+        cx = circles[k, 0]
+        cy = circles[k, 1]
+        rr = circles[k, 2] + thr
+        if cx + rr < xmin + thr or cx - rr > xmax - thr or cy + rr < ymin + thr or cy - rr > ymax - thr:
+            continue
+        if _pt_seg_d2(cx, cy, ax, ay, bx, by) < rr * rr:
+            return False
+    return True
+
+
+segment_clear = numba.njit(cache=True)(_segment_clear) if COMPILED else None
+"""The compiled :func:`_segment_clear` (``None`` without numba: :meth:`RecoveryPlanner._clear_one` loops)."""
 
 
 # ----------------------------------------------------------------------------- results
@@ -332,10 +380,12 @@ class RecoveryPlanner:
             for (ax, ay), (bx, by) in zip(a.tolist(), b.tolist())
         )
         self._ebox = np.array([e[4:] for e in self._edges], dtype=float).reshape(-1, 4)  # xmin, xmax, ymin, ymax
+        self._edge_rows = np.array(self._edges, dtype=float).reshape(-1, 8)  # for segment_clear
         circ = fence.keep_out_circles
         self._circles = tuple((float(x), float(y), float(r)) for x, y, r in circ)
         self._cc = np.array([(x, y) for x, y, _ in circ], dtype=float).reshape(-1, 2)
         self._cr = np.array([r for _, _, r in circ], dtype=float)
+        self._circle_rows = np.array(self._circles, dtype=float).reshape(-1, 3)
         # a fixed shuffled edge order spreads each chunk over the whole fence (earlier rejection)
         self._perm = np.random.default_rng(12345).permutation(len(a))
         # ---- nodes
@@ -498,10 +548,13 @@ class RecoveryPlanner:
 
         ``vector_from``: from this many boundary edges in the segment's bounding box on, they are tested
         by :func:`_edges_block_np` (the same arithmetic, vectorized; ``None``: :data:`VECTOR_FROM_EDGES`); a
-        huge value loops over them in Python (the reference).
+        huge value loops over them in Python (the reference). ``None`` while :data:`geofence.jit.ACTIVE`:
+        the compiled loop (:data:`segment_clear`, the same verdict).
         """
         ax, ay = p
         bx, by = q
+        if vector_from is None and _jit.ACTIVE and segment_clear is not None:
+            return segment_clear(ax, ay, bx, by, thr, self._edge_rows, self._circle_rows)
         t2 = thr * thr
         xmin, xmax = min(ax, bx) - thr, max(ax, bx) + thr
         ymin, ymax = min(ay, by) - thr, max(ay, by) + thr

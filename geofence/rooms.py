@@ -93,6 +93,7 @@ import math
 from .control_laws import wrap_pi
 from .dynamics import G_MPS2, drag_coefficients, wind_push_mps2
 from .interface import Envelope, PlatformKind
+from .jit import jitable
 
 __all__ = [
     "G_MPS2",
@@ -165,6 +166,7 @@ def turn_constants(airspeed_mps: float, bank_rad: float, g: float = G_MPS2) -> t
     return airspeed_mps * airspeed_mps / tanb, airspeed_mps / tanb
 
 
+@jitable
 def trochoid_excursion_m(
     radius: float, inv_omega: float, v: float, w: float, psi0: float, s: float, delta: float | None
 ) -> float:
@@ -275,6 +277,7 @@ def turn_excursion_m(
     )
 
 
+@jitable
 def reaction_arc_m(v_air: float, psi0: float, rot: float, omega: float, t: float, nx: float, ny: float, w_n: float) -> float:
     """Reaction travel along the normal ``(nx, ny)`` while the current turn goes on for ``t`` s, m (>= 0).
 
@@ -378,6 +381,7 @@ def climb_arrest_phase(v_up_mps: float, vertical_accel_mps2: float, g: float = G
     return 0.0, 0.0
 
 
+@jitable
 def braking_room_m(v_n: float, v: float, a: float, climb_arrest: tuple[float, float]) -> float:
     """Braking distance along the normal from ground speed ``v`` (normal part ``v_n``, m/s) at ``a`` m/s², in m.
 
@@ -400,6 +404,7 @@ def braking_room_m(v_n: float, v: float, a: float, climb_arrest: tuple[float, fl
     return v_n * v / (2.0 * a)
 
 
+@jitable
 def multirotor_room_m(
     v_n: float, speed_mps: float, t_s: float, a_pilot_mps2: float, a_brake_mps2: float, climb_arrest: tuple[float, float]
 ) -> float:

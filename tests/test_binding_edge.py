@@ -5,8 +5,9 @@ activation and stops early; :func:`~geofence.boundary_shift._binding_edge_scan` 
 reference). Random threatened-edge lists (distances, normals, winds, reaction rooms, headings), turns of
 either direction and any angle up to a full circle, with duplicated edges so that ties occur: the same
 activation and the same edge (room, feature, index, normal, distance, closing speed) must come out.
-Also, whole margins: :func:`activation_margins` on a large wavy fence equals itself with
-``prune_from_edges`` above every list length (the scan everywhere).
+Also, whole margins: :func:`activation_margins`'s Python branches (``compiled=False``) on a large wavy
+fence equal themselves with ``prune_from_edges`` above every list length (the scan everywhere), and the
+compiled search.
 """
 
 import math
@@ -103,6 +104,7 @@ def test_margins_with_pruning_equal_the_scan(a, inset, heading, speed, bank, win
     e, n = r * math.cos(a), r * math.sin(a)
     args = (WAVY, e, n, 40.0, speed * math.cos(heading), speed * math.sin(heading), 0.5, FW, wind[0], wind[1])
     kw = dict(h_uncertainty_m=3.0, v_uncertainty_m=1.0, latency_s=0.05, bank_rad=bank, wind_extra_mps=1.5)
-    pruned = bs.activation_margins(*args, **kw)
-    scanned = bs.activation_margins(*args, **kw, prune_from_edges=10**9)
+    pruned = bs.activation_margins(*args, **kw, compiled=False)
+    scanned = bs.activation_margins(*args, **kw, prune_from_edges=10**9, compiled=False)
     assert repr(pruned) == repr(scanned)  # every field, bit for bit (repr round-trips floats)
+    assert repr(bs.activation_margins(*args, **kw)) == repr(scanned)  # and the compiled search (where numba is)

@@ -7,7 +7,8 @@ indexed :meth:`LocalFence.lateral_margin_m` and :func:`activation_margins` equal
 (edge chains bounded over their normal cones) on random dense ragged fences (keep-ins of 1,500-4,000
 vertices a metre or two apart with jagged noise and notches, keep-out squares whose sides are cut into
 short edges, circles) and states next to vertices, inside keep-outs and around them: equal to the reference
-(``prune_from_edges`` huge) and the full scan, with the default groups and longer ones.
+(``prune_from_edges`` huge) and the full scan, with the default groups and longer ones (these are the
+Python branches, ``compiled=False``; ``tests/test_lateral_kernel.py`` holds the compiled search to them).
 """
 
 import math
@@ -28,7 +29,7 @@ FW = load_profile("Tern").envelope
 MC = load_profile("F450RD").envelope
 
 
-def _ll(e, n):
+def latlon(e, n):
     lat, lon, _ = FRAME.to_geodetic(e, n, FRAME.h0_m)
     return (lat, lon)
 
@@ -63,11 +64,11 @@ def random_fence(seed: int, n_vertices: int, n_squares: int, n_circles: int, den
             for k in range(4):
                 (ax, ay), (bx, by) = corners[k], corners[(k + 1) % 4]
                 pts += [(ax + (bx - ax) * q / cut, ay + (by - ay) * q / cut) for q in range(cut)]
-            squares.append(tuple(_ll(x, y) for x, y in pts))
+            squares.append(tuple(latlon(x, y) for x, y in pts))
         else:
-            circles.append(KeepOutCircle(*_ll(cx, cy), s))
+            circles.append(KeepOutCircle(*latlon(cx, cy), s))
     return Fence(
-        keep_in=tuple(_ll(e, n) for e, n in keep_in),
+        keep_in=tuple(latlon(e, n) for e, n in keep_in),
         ceiling_m=120.0,
         keep_out_polygons=tuple(squares),
         keep_out_circles=tuple(circles),
@@ -138,9 +139,10 @@ def test_index_equals_full_scan(seed, n_vertices, n_squares, n_circles):
         assert indexed.lateral_margin_m(e, n) == scan.lateral_margin_m(e, n), (e, n)
         for env in (MC, FW):
             args, kw = random_margin_call(rng, e, n, env, bank_rad=0.5)
-            a = activation_margins(indexed, *args, **kw)
-            b = activation_margins(scan, *args, **kw)
-            assert tuple(a) == tuple(b), (e, n, env.kind)
+            for compiled in (True, False):  # the compiled search and the Python walk (the reference)
+                a = activation_margins(indexed, *args, **kw, compiled=compiled)
+                b = activation_margins(scan, *args, **kw, compiled=compiled)
+                assert tuple(a) == tuple(b), (e, n, env.kind, compiled)
 
 
 def test_small_fences_are_scanned_and_large_ones_indexed():
@@ -163,7 +165,7 @@ def test_a_cell_is_rebuilt_for_a_larger_reach():
 def test_the_binding_edge_beyond_the_nearest_one_is_kept():
     """Flying fast at an edge while close to another: the farther edge binds, and the index keeps it."""
     sq = [(-200.0, -200.0), (200.0, -200.0), (200.0, 200.0), (-200.0, 200.0)]
-    fence = Fence(keep_in=tuple(_ll(e, n) for e, n in sq), ceiling_m=120.0)
+    fence = Fence(keep_in=tuple(latlon(e, n) for e, n in sq), ceiling_m=120.0)
     indexed, scan = fence.to_local(FRAME, index=True), fence.to_local(FRAME, index=False)
     for env, e, n, speed in ((MC, 185.0, -192.0, 12.0), (FW, 120.0, -190.0, 22.0)):
         args = (e, n, 30.0, speed, 0.0, 0.0, env, 0.0, 0.0)
@@ -270,7 +272,7 @@ def test_group_search_equals_the_reference(seed, n_vertices, n_squares, n_circle
     for e, n in dense_states(indexed, rng, 60):
         for env in (FW, MC):
             args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True, rollout=True)
-            a = activation_margins(indexed, *args, **kw)
-            ref = activation_margins(indexed, *args, **kw, prune_from_edges=10**9)
-            full = activation_margins(scan, *args, **kw)
+            a = activation_margins(indexed, *args, **kw, compiled=False)
+            ref = activation_margins(indexed, *args, **kw, prune_from_edges=10**9, compiled=False)
+            full = activation_margins(scan, *args, **kw, compiled=False)
             assert tuple(a) == tuple(ref) == tuple(full), (e, n, env.kind)

@@ -1,0 +1,429 @@
+"""The binding lateral element of one state, compiled: the per-step hot path of the activation margin.
+
+One question: given the fence's lateral elements (keep-in and keep-out edges,
+keep-out circles) as one float table, a candidate list and the state's room
+parameters, which element has the smallest activation ``d - room``, and what
+is the nearest element's distance? :func:`geofence.boundary_shift.activation_margins`
+asks it every step; its plain-Python branches (the full scan, the index walk
+:meth:`geofence.fence_grid.FenceGrid.near`, ``terms_of`` and the binding-edge
+searches) stay as the reference, and ``tests/test_lateral_kernel.py`` checks
+that both give the same :class:`~geofence.boundary_shift.ShiftResult`, bit for
+bit, on random fences and states.
+
+Bit for bit because the kernel does the reference's float operations in the
+reference's order: the room formulas are compiled from their one home in
+:mod:`geofence.rooms` and :mod:`geofence.dynamics` (:func:`geofence.jit.jitable`);
+``sin``, ``atan2``, ``acos`` and ``sqrt`` are the C library's, as in CPython;
+no fused multiply-adds (numba does not contract without ``fastmath``); and
+:func:`hypot` is CPython's own algorithm (which is not the C library's).
+
+Element table ``E`` (one row per element, in :meth:`LocalFence.danger_edges`
+order then the circles): ``(ax, ay, dx, dy, 1/len², nx, ny)`` for an edge,
+``(east, north, radius, 0, -1, 0, 0)`` for a circle (``1/len² < 0`` marks it).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from geofence.dynamics import wind_push_mps2
+from geofence.jit import COMPILED, jitable, numba
+from geofence.rooms import multirotor_room_m, reaction_arc_m, trochoid_excursion_m
+
+__all__ = ["element_table", "hypot", "lateral_binding", "nearest_distance"]
+
+_DBL_MIN = 2.2250738585072014e-308
+_SPLIT = 134217729.0  # 2**27 + 1, Veltkamp's splitter
+
+
+def element_table(edges: Sequence[tuple], circles: Sequence[tuple[float, float, float]]) -> np.ndarray:
+    """The kernel's float table of ``edges`` (``danger_edges`` items) then ``circles`` (``(east, north, r)``)."""
+    rows = [(ax, ay, dx, dy, il2, nx, ny) for ax, ay, dx, dy, il2, nx, ny, *_ in edges]
+    rows += [(ce, cn, r, 0.0, -1.0, 0.0, 0.0) for ce, cn, r in circles]
+    return np.array(rows, dtype=np.float64).reshape(-1, 7)
+
+
+@jitable
+def _two_product(x: float, y: float) -> tuple[float, float]:
+    """``(hi, lo)`` with ``hi + lo == x·y`` exactly (Dekker's product with Veltkamp's split)."""
+    hi = x * y
+    c = _SPLIT * x
+    xh = c - (c - x)
+    xl = x - xh
+    c = _SPLIT * y
+    yh = c - (c - y)
+    yl = y - yh
+    lo = ((xh * yh - hi) + xh * yl + xl * yh) + xl * yl
+    return hi, lo
+
+
+@jitable
+def _norm_scaled(ax: float, ay: float, mx: float) -> float:
+    """CPython's ``vector_norm`` for two finite non-negative coordinates with ``mx = max(ax, ay) > 0``."""
+    max_e = math.frexp(mx)[1]
+    scale = math.ldexp(1.0, -max_e)
+    csum = 1.0
+    frac1 = 0.0
+    frac2 = 0.0
+    for v in (ax, ay):
+        v = v * scale  # lossless scaling
+        hi, lo = _two_product(v, v)  # lossless squaring
+        s = csum + hi  # lossless addition (|csum| >= |hi|)
+        frac2 += hi - (s - csum)
+        csum = s
+        frac1 += lo
+    h = math.sqrt(csum - 1.0 + (frac1 + frac2))
+    hi, lo = _two_product(-h, h)
+    s = csum + hi
+    frac2 += hi - (s - csum)
+    csum = s
+    frac1 += lo
+    x = csum - 1.0 + (frac1 + frac2)
+    h += x / (2.0 * h)  # differential correction
+    return h / scale
+
+
+@jitable
+def hypot(x: float, y: float) -> float:
+    """``math.hypot(x, y)`` as CPython 3.11+ computes it (its ``vector_norm``, a corrected square root),
+    so compiled code gets the interpreter's value bit for bit (the C library's ``hypot`` differs in the last
+    bit about once in a hundred calls)."""
+    ax = abs(x)
+    ay = abs(y)
+    if math.isinf(ax) or math.isinf(ay):
+        return math.inf
+    if math.isnan(ax) or math.isnan(ay):
+        return math.nan
+    mx = ax if ax > ay else ay
+    if mx == 0.0:
+        return mx
+    if math.frexp(mx)[1] < -1023:  # subnormal: scale up first, as CPython does
+        return _DBL_MIN * _norm_scaled(ax / _DBL_MIN, ay / _DBL_MIN, mx / _DBL_MIN)
+    return _norm_scaled(ax, ay, mx)
+
+
+@jitable
+def _multirotor_binding(
+    f_d: np.ndarray,
+    f_nx: np.ndarray,
+    f_ny: np.ndarray,
+    f_id: np.ndarray,
+    keep: np.ndarray,
+    ve: float,
+    vn: float,
+    wind_e: float,
+    wind_n: float,
+    extra: float,
+    hu: float,
+    k1: float,
+    k2: float,
+    wspeed: float,
+    speed: float,
+    a_pilot: float,
+    t_r: float,
+    a_brake: float,
+    arrest_t: float,
+    arrest_loss: float,
+) -> tuple[float, float, int, float, float, float]:
+    """``(activation, 0, position in keep, room, 0, v_n)``: the smallest ``d - base`` over ``keep`` (the
+    reference's ``terms_of`` and ``_binding_edge_no_turn``: the lowest element id ``f_id`` on a tie, the first
+    in the reference's element order)."""
+    worst = math.inf
+    wq = -1
+    wroom = 0.0
+    wvn = 0.0
+    for q in range(keep.shape[0]):
+        k = keep[q]
+        nx = f_nx[k]
+        ny = f_ny[k]
+        v_n = ve * nx + vn * ny
+        w_n = wind_e * nx + wind_n * ny + extra
+        push = wind_push_mps2(k1, k2, wspeed, w_n)
+        a_p = a_pilot + push
+        base = multirotor_room_m(v_n, speed, t_r, a_p, a_brake - push, (arrest_t, arrest_loss)) + hu
+        act = f_d[k] - base
+        if act < worst or (wq >= 0 and act == worst and f_id[k] < f_id[keep[wq]]):
+            worst = act
+            wq = q
+            wroom = base
+            wvn = v_n
+    return worst, 0.0, wq, wroom, 0.0, wvn
+
+
+@jitable
+def _fixed_wing_binding(
+    f_d: np.ndarray,
+    f_nx: np.ndarray,
+    f_ny: np.ndarray,
+    f_id: np.ndarray,
+    keep: np.ndarray,
+    ve: float,
+    vn: float,
+    wind_e: float,
+    wind_n: float,
+    extra: float,
+    hu: float,
+    v_turn: float,
+    psi_react0: float,
+    rot: float,
+    omega_now: float,
+    t_fw: float,
+    sa: float,
+    ca: float,
+    radius: float,
+    inv_omega: float,
+    s1: float,
+    delta1: float,
+    s2: float,
+    delta2: float,
+) -> tuple[float, float, int, float, float, float]:
+    """``(activation, turn sign, position in keep, room, turn angle, v_n)`` of a fixed-wing's binding element
+    over ``keep``: per turn ``(s1, delta1)``, ``(s2, delta2)`` the smallest ``d - base - excursion`` (the lowest
+    element id on a tie: ``_binding_edge_scan``'s first in element order), the first turn winning a tie.
+
+    Each element's exact terms (the reference's ``terms_of`` arithmetic: ``reaction_arc_m``, the heading
+    ``psi0`` by ``atan2``) are computed only for the elements whose activation can be the smallest: a
+    cheap lower bound without transcendental functions comes first. For a unit normal ``n`` at angle
+    ``theta``, ``sin(psi - theta) = sin psi·nx - cos psi·ny`` gives the reaction arc, and
+    ``sin psi0 = nx·sin a - ny·cos a`` the excursion bound ``R·(1 - s·sin psi0) + max(w_n, 0)·delta/omega``
+    (``_binding_edge_pruned``'s). Their round-off (about 1e-15 of the arc's scale) is covered by a slack of
+    1e-9 of it; a normal that is not unit (a zero-length edge) gets no bound. The scan in element order keeps
+    an element's bound at most its activation, so every element that can tie the smallest is scored exactly.
+    """
+    nk = keep.shape[0]
+    if nk == 0:
+        return math.inf, 0.0, -1, 0.0, 0.0, 0.0
+    done = np.zeros(nk, np.bool_)
+    base = np.empty(nk)
+    psi = np.empty(nk)
+    wn = np.empty(nk)
+    lb_base = np.empty(nk)  # d - (upper bound of base)
+    sinp = np.empty(nk)  # sin psi0, to round-off
+    straight = abs(rot) < 1e-6
+    sp = math.sin(psi_react0)
+    cp = math.cos(psi_react0)
+    sq = math.sin(psi_react0 - rot)
+    cq = math.cos(psi_react0 - rot)
+    arc = v_turn * t_fw if straight else v_turn / omega_now
+    for q in range(nk):
+        k = keep[q]
+        nx = f_nx[k]
+        ny = f_ny[k]
+        w_n = wind_e * nx + wind_n * ny + extra
+        wn[q] = w_n
+        if abs(nx * nx + ny * ny - 1.0) > 1e-9:  # no bound: scored exactly
+            lb_base[q] = -math.inf
+            sinp[q] = 0.0
+            continue
+        if straight:
+            along = arc * (cp * nx + sp * ny)
+        else:
+            along = arc * ((sp * nx - cp * ny) - (sq * nx - cq * ny))
+        dd = along + w_n * t_fw
+        ub = dd if dd > 0.0 else 0.0
+        lb_base[q] = f_d[k] - ub - hu - 1e-9 * (1.0 + abs(arc) + abs(w_n) * t_fw + abs(hu))
+        sinp[q] = nx * sa - ny * ca
+    b_act = math.inf
+    b_s = 0.0
+    b_q = -1
+    b_room = 0.0
+    b_delta = 0.0
+    lbq = np.empty(nk)
+    for di in range(2):
+        s = s1 if di == 0 else s2
+        delta = delta1 if di == 0 else delta2
+        seed = -1
+        for q in range(nk):
+            w_n = wn[q]
+            drift = w_n * delta * inv_omega if w_n > 0.0 else 0.0
+            ub = radius * (1.0 - s * sinp[q]) + drift
+            ub += 1e-6 * (1.0 + radius + drift)  # the excursion's round-off and sin psi0's
+            lbq[q] = lb_base[q] - ub
+            if seed < 0 or lbq[q] < lbq[seed]:
+                seed = q
+        worst = math.inf
+        wq = -1
+        wroom = 0.0
+        for r in range(-1, nk):
+            q = seed if r < 0 else r
+            if r >= 0 and (q == seed or lbq[q] > worst):
+                continue
+            k = keep[q]
+            if not done[q]:
+                nx = f_nx[k]
+                ny = f_ny[k]
+                base[q] = reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, wn[q]) + hu
+                psi[q] = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
+                done[q] = True
+            room = base[q] + trochoid_excursion_m(radius, inv_omega, v_turn, wn[q], psi[q], s, delta)
+            act = f_d[k] - room
+            if act < worst or (wq >= 0 and act == worst and f_id[k] < f_id[keep[wq]]):
+                worst = act
+                wq = q
+                wroom = room
+        if b_q < 0 or worst > b_act:
+            b_act = worst
+            b_s = s
+            b_q = wq
+            b_room = wroom
+            b_delta = delta
+    k = keep[b_q]
+    return b_act, b_s, b_q, b_room, b_delta, ve * f_nx[k] + vn * f_ny[k]
+
+
+@jitable
+def _walk(
+    E: np.ndarray,
+    ids: np.ndarray,
+    lbs: np.ndarray,
+    walk: bool,
+    e: float,
+    n: float,
+    reach: float,
+    delta_c: float,
+    f_id: np.ndarray,
+    f_d: np.ndarray,
+    f_nx: np.ndarray,
+    f_ny: np.ndarray,
+) -> tuple[int, float]:
+    """``(count, nearest d)``: the candidates' distances ``d`` and breach normals into ``f_*`` (the reference's
+    arithmetic: the point-segment distance, a circle's ``hypot - radius`` and the unit normal towards its
+    centre), in ``ids`` order; with ``walk``, until the bound ``lbs[k] - delta_c - reach`` exceeds the nearest
+    ``d`` found (:meth:`FenceGrid.near`'s stop rule)."""
+    m = ids.shape[0]
+    cnt = 0
+    best = math.inf
+    for k in range(m):
+        if walk and lbs[k] - delta_c - reach > best:
+            break
+        i = ids[k]
+        a = E[i, 0]
+        b = E[i, 1]
+        c = E[i, 2]
+        dd = E[i, 3]
+        il2 = E[i, 4]
+        if il2 >= 0.0:
+            px = e - a
+            py = n - b
+            t = (px * c + py * dd) * il2
+            t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+            qx = px - t * c
+            qy = py - t * dd
+            d = math.sqrt(qx * qx + qy * qy)
+            nx = E[i, 5]
+            ny = E[i, 6]
+        else:
+            dist = hypot(a - e, b - n)
+            if dist > 0.0:
+                nx = (a - e) / dist
+                ny = (b - n) / dist
+            else:
+                nx = 1.0
+                ny = 0.0
+            d = dist - c
+        f_id[cnt] = i
+        f_d[cnt] = d
+        f_nx[cnt] = nx
+        f_ny[cnt] = ny
+        cnt += 1
+        if d < best:
+            best = d
+    return cnt, best
+
+
+def _nearest_distance(E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, delta_c: float, e: float, n: float) -> float:
+    """The nearest candidate's ``d`` by :func:`_walk` (reach 0): :meth:`FenceGrid.nearest_distance`."""
+    m = ids.shape[0]
+    f_id = np.empty(m, np.int64)
+    f_d = np.empty(m)
+    f_nx = np.empty(m)
+    f_ny = np.empty(m)
+    return _walk(E, ids, lbs, True, e, n, 0.0, delta_c, f_id, f_d, f_nx, f_ny)[1]
+
+
+def _lateral_binding(
+    E: np.ndarray,
+    ids: np.ndarray,
+    lbs: np.ndarray,
+    walk: bool,
+    e: float,
+    n: float,
+    reach: float,
+    delta_c: float,
+    fixed_wing: bool,
+    ve: float,
+    vn: float,
+    wind_e: float,
+    wind_n: float,
+    extra: float,
+    hu: float,
+    v_turn: float,
+    psi_react0: float,
+    rot: float,
+    omega_now: float,
+    t_fw: float,
+    sa: float,
+    ca: float,
+    radius: float,
+    inv_omega: float,
+    s1: float,
+    delta1: float,
+    s2: float,
+    delta2: float,
+    k1: float,
+    k2: float,
+    wspeed: float,
+    speed: float,
+    a_pilot: float,
+    t_r: float,
+    a_brake: float,
+    arrest_t: float,
+    arrest_loss: float,
+) -> tuple[float, float, int, float, float, float, float, float, float, float]:
+    """``(activation, turn sign, element id, room, nx, ny, d, v_n, turn angle, d_min)`` of the binding element.
+
+    Candidates: the rows ``ids`` of ``E``. ``walk``: they are sorted by ``lbs``, lower bounds of their
+    distance plus ``delta_c`` (an index cell's list, :meth:`FenceGrid.near`'s walk and stop rule); else every
+    candidate is scored (the full scan; ``ids`` in element order). Kept: ``d - reach < d_min``; a tie goes to
+    the lowest element id (the reference's first in element order): :func:`_fixed_wing_binding` (turns ``(s1, delta1)`` and ``(s2, delta2)``) or
+    :func:`_multirotor_binding`. Element id -1: no candidate.
+    """
+    m = ids.shape[0]
+    f_id = np.empty(m, np.int64)
+    f_d = np.empty(m)
+    f_nx = np.empty(m)
+    f_ny = np.empty(m)
+    cnt, best = _walk(E, ids, lbs, walk, e, n, reach, delta_c, f_id, f_d, f_nx, f_ny)
+    min_d = best
+    # the elements that can bind, in element order
+    keep = np.empty(cnt, np.int64)
+    nk = 0
+    for k in range(cnt):
+        if f_d[k] - reach < min_d:
+            keep[nk] = k
+            nk += 1
+    keep = keep[:nk]
+    if fixed_wing:
+        b_act, b_s, b_q, b_room, b_delta, t_vn = _fixed_wing_binding(
+            f_d, f_nx, f_ny, f_id, keep, ve, vn, wind_e, wind_n, extra, hu, v_turn, psi_react0, rot, omega_now,
+            t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
+        )  # fmt: skip
+    else:
+        b_act, b_s, b_q, b_room, b_delta, t_vn = _multirotor_binding(
+            f_d, f_nx, f_ny, f_id, keep, ve, vn, wind_e, wind_n, extra, hu, k1, k2, wspeed, speed, a_pilot, t_r,
+            a_brake, arrest_t, arrest_loss,
+        )  # fmt: skip
+    if b_q < 0:
+        return math.inf, 0.0, -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, min_d
+    k = keep[b_q]
+    return b_act, b_s, f_id[k], b_room, f_nx[k], f_ny[k], f_d[k], t_vn, b_delta, min_d
+
+
+lateral_binding = numba.njit(cache=True)(_lateral_binding) if COMPILED else _lateral_binding
+"""The compiled :func:`_lateral_binding` (the Python function itself without numba)."""
+
+nearest_distance = numba.njit(cache=True)(_nearest_distance) if COMPILED else _nearest_distance
+"""The compiled :func:`_nearest_distance`."""

@@ -1,0 +1,198 @@
+"""Property: the compiled hot path changes no answer.
+
+Where numba is installed, :func:`activation_margins` takes its binding lateral element from
+:func:`geofence.lateral_kernel.lateral_binding`, the index's nearest distance comes from the compiled walk and
+the recovery planner's segment test from :func:`geofence.recovery_path.segment_clear`. The plain-Python code
+(``compiled=False``; ``vector_from`` huge) is the reference. On random sparse and dense fences with keep-out
+squares and circles, indexed and scanned, for both platform kinds in wind, at states next to vertices, inside
+keep-outs and outside the keep-in, every field of the result must be equal bit for bit; also where elements
+tie exactly (the first in element order wins), and :func:`geofence.lateral_kernel.hypot` must be CPython's
+``math.hypot`` for every pair of floats.
+"""
+
+import math
+import random
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_fence_grid import FRAME, FW, MC, dense_fence, dense_states, latlon, probe_points, random_fence, random_margin_call
+
+from geofence.boundary_shift import activation_margins
+from geofence.fence import Fence, KeepOutCircle
+from geofence.jit import COMPILED, numba, use_compiled
+from geofence.lateral_kernel import hypot
+from geofence.recovery_path import RecoveryPlanner, segment_clear
+from scenarios.flight.runner import fly
+from scenarios.spec.schema import load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+
+needs_numba = pytest.mark.skipif(not COMPILED, reason="numba not installed (the kernels run as Python)")
+
+
+def _bits(x) -> object:
+    return x if isinstance(x, str) else float(x).hex()  # a float's exact value (and its sign, inf, nan)
+
+
+def _same(a, b) -> bool:
+    """Every field equal bit for bit (numpy or Python floats alike)."""
+    return [_bits(x) for x in a] == [_bits(x) for x in b]
+
+
+_compiled_hypot = numba.njit(lambda x, y: hypot(x, y)) if COMPILED else None
+
+
+@needs_numba
+@settings(max_examples=400, deadline=None)
+@given(x=st.floats(allow_nan=True, allow_infinity=True), y=st.floats(allow_nan=True, allow_infinity=True))
+def test_hypot_is_cpythons(x, y):
+    assert repr(_compiled_hypot(x, y)) == repr(math.hypot(x, y)) == repr(hypot(x, y))
+
+
+@needs_numba
+def test_hypot_is_cpythons_where_the_c_library_differs():
+    """A million random pairs of the sizes a fence has (a plain C ``hypot`` differs on about 1 %)."""
+    rng = random.Random(3)
+    xs = [(rng.uniform(-2e3, 2e3), rng.uniform(-2e3, 2e3)) for _ in range(200_000)]
+    xs += [
+        (rng.uniform(-1, 1) * 10 ** rng.uniform(-310, 308), rng.uniform(-1, 1) * 10 ** rng.uniform(-310, 308))
+        for _ in range(50_000)
+    ]
+    bad = [(x, y) for x, y in xs if _compiled_hypot(x, y) != math.hypot(x, y)]
+    assert not bad, bad[:5]
+
+
+@settings(max_examples=12, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    n_vertices=st.integers(4, 600),
+    n_squares=st.integers(0, 25),
+    n_circles=st.integers(0, 8),
+    index=st.booleans(),
+)
+def test_compiled_margins_equal_the_reference(seed, n_vertices, n_squares, n_circles, index):
+    fence = random_fence(seed, n_vertices, n_squares, n_circles)
+    local = fence.to_local(FRAME, index=index and n_vertices >= 48)
+    rng = random.Random(seed)
+    for e, n in probe_points(local, rng, 120):
+        for env in (MC, FW):
+            args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True, rollout=True)
+            a = activation_margins(local, *args, **kw)
+            ref = activation_margins(local, *args, **kw, compiled=False)
+            assert _same(a, ref), (e, n, env.kind)
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(1500, 4000), n_squares=st.integers(0, 12), n_circles=st.integers(0, 4))
+def test_compiled_margins_on_dense_fences_equal_the_group_search(seed, n_vertices, n_squares, n_circles):
+    local = dense_fence(seed, n_vertices, n_squares, n_circles).to_local(FRAME, index=True)
+    assert local.grid().grouped
+    rng = random.Random(seed)
+    for e, n in dense_states(local, rng, 40):
+        for env in (FW, MC):
+            args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True, rollout=True)
+            a = activation_margins(local, *args, **kw)
+            grouped = activation_margins(local, *args, **kw, compiled=False)
+            assert _same(a, grouped), (e, n, env.kind)
+
+
+def _square(cx: float, cy: float, s: float) -> tuple:
+    return tuple(latlon(cx + x, cy + y) for x, y in ((-s, -s), (s, -s), (s, s), (-s, s)))
+
+
+@pytest.mark.parametrize("index", [False, True])
+def test_exact_ties_go_to_the_first_element(index):
+    """Two identical keep-outs (every edge of the second ties one of the first, exactly) and, indexed, two
+    identical circles: the reference's first element wins, and so does the compiled search."""
+    keep_outs = (_square(0.0, 120.0, 20.0), _square(0.0, 120.0, 20.0))
+    fence = Fence(keep_in=_square(0.0, 0.0, 300.0), ceiling_m=120.0, keep_out_polygons=keep_outs)
+    if index:
+        fence = Fence(
+            keep_in=tuple(latlon(300.0 * math.cos(a), 300.0 * math.sin(a)) for a in (2 * math.pi * k / 64 for k in range(64))),
+            ceiling_m=120.0,
+            keep_out_polygons=keep_outs,
+            keep_out_circles=(KeepOutCircle(*latlon(0.0, -120.0), 20.0), KeepOutCircle(*latlon(0.0, -120.0), 20.0)),
+        )
+    local = fence.to_local(FRAME, index=index)
+    assert (local.grid() is not None) == index
+    rng = random.Random(5)
+    states = [(0.0, 0.0, 0.0, 0.0), (0.0, 60.0, 0.0, 0.0), (0.0, 60.0, 0.0, 10.0), (0.0, -60.0, 0.0, -10.0)]
+    states += [(rng.uniform(-5, 5), 60.0 + rng.uniform(-5, 5), 0.0, rng.uniform(0, 20)) for _ in range(20)]
+    tied = []
+    for e, n, ve, vn in states:
+        for env in (MC, FW):
+            for wind in ((0.0, 0.0), (0.0, 4.0)):
+                args = (local, e, n, 30.0, ve, vn, 0.0, env, *wind)
+                a = activation_margins(*args)
+                ref = activation_margins(*args, compiled=False)
+                assert _same(a, ref), (e, n, ve, vn, env.kind, wind)
+                if a.feature == "keep_out_polygon":
+                    tied.append(a)
+    # at rest in the middle of the square, the multirotor's four keep-in edges tie: the first one binds
+    # the duplicate keep-out's edges tie exactly with the first's: the first keep-out binds
+    assert tied and all(r.feature_index == 0 for r in tied)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(48, 600), n_circles=st.integers(0, 6))
+def test_compiled_nearest_distance_equals_the_walk(seed, n_vertices, n_circles):
+    local = random_fence(seed, n_vertices, 10, n_circles).to_local(FRAME, index=True)
+    grid = local.grid()
+    rng = random.Random(seed)
+    for e, n in probe_points(local, rng, 150):
+        assert grid.nearest_distance(e, n) == grid.near(e, n, 0.0)[1], (e, n)
+
+
+@settings(max_examples=6, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(4, 300), n_squares=st.integers(0, 10), n_circles=st.integers(0, 4))
+def test_compiled_segment_test_equals_the_loop(seed, n_vertices, n_squares, n_circles):
+    local = random_fence(seed, n_vertices, n_squares, n_circles).to_local(FRAME)
+    planner = RecoveryPlanner(local, 8.0)
+    rng = random.Random(seed)
+    pts = probe_points(local, rng, 160)
+    for p, q in zip(pts[::2], pts[1::2]):
+        thr = rng.choice((1e-3, 4.0, 8.0, 30.0))
+        ref = planner._clear_one(p, q, thr, vector_from=10**9)
+        assert planner._clear_one(p, q, thr) == ref, (p, q, thr)
+    # short legs from a point: some clear, some not (both verdicts are exercised)
+    e, n = pts[0]
+    legs = [planner._clear_one((e, n), (e + 5.0 * math.cos(a), n + 5.0 * math.sin(a)), 1e-3) for a in range(6)]
+    legs_ref = [
+        planner._clear_one((e, n), (e + 5.0 * math.cos(a), n + 5.0 * math.sin(a)), 1e-3, vector_from=10**9) for a in range(6)
+    ]
+    assert legs == legs_ref
+
+
+@needs_numba
+def test_the_compiled_paths_are_the_ones_taken():
+    assert segment_clear is not None
+
+
+@needs_numba
+@pytest.mark.closed_loop
+@pytest.mark.parametrize(
+    "name, seconds",
+    [("geofence_fixedwing_adversarial_wind.yaml", 40.0), ("airspace/airspace_large_fence_multicopter_wind.yaml", 20.0)],
+)
+def test_a_flight_is_the_same_flight_compiled_and_in_python(name, seconds):
+    """The switch (:func:`geofence.jit.use_compiled`) changes the speed only: an adversarial pilot against a
+    fixed-wing's fence in wind, and a multirotor against the 10,000-vertex airspace fence, record the same
+    trajectory bit for bit either way."""
+    sc = replace(load_scenario(ROOT / "scenarios" / name), duration_s=seconds)
+    runs = []
+    for on in (True, False):
+        previous = use_compiled(on)
+        try:
+            runs.append(fly(sc))
+        finally:
+            use_compiled(previous)
+    a, b = runs
+    assert a.recorder.n == b.recorder.n > 0
+    assert a.recorder.data.tobytes() == b.recorder.data.tobytes()
+    timing = ("wall_time_s", "loop_wall_time_s", "jsbsim_frames_per_wall_s")
+    assert repr({k: v for k, v in a.summary.items() if k not in timing}) == repr(
+        {k: v for k, v in b.summary.items() if k not in timing}
+    )  # repr: nan equals nan
