@@ -49,9 +49,13 @@ more than on the vertex density; the fence is searched group by group
 when its groups hold at least ``GROUPED_FROM_EDGES_PER_GROUP`` elements on
 average (a sparse fence's groups are single edges).
 
-``tests/test_fence_grid.py`` compares every answer with the full scan on
-random fences and states (next to corners, inside keep-outs, outside);
-and, for the group search, on dense ragged fences.
+The per-step walk runs compiled where numba is installed
+(:func:`geofence.lateral_kernel.lateral_binding` over :meth:`FenceGrid.candidates`,
+:meth:`FenceGrid.nearest_distance`); :meth:`FenceGrid.near`, its tuple
+prefix and the group search are the plain-Python reference it is tested
+against. ``tests/test_fence_grid.py`` compares every answer with the full
+scan on random fences and states (next to corners, inside keep-outs,
+outside); and, for the group search, on dense ragged fences.
 """
 
 from __future__ import annotations
@@ -79,7 +83,8 @@ MAX_CELLS: int = 50_000
 """Cells kept before the table is cleared (memory bound for long flights over big fences)."""
 
 PREFIX_ITEMS: int = 512
-"""Candidates a cell keeps as ready Python tuples (the walk rarely goes further); the rest stay numpy indices."""
+"""Candidates a cell keeps as ready Python tuples for the Python walk (:meth:`FenceGrid.near`, built when it first
+asks; it rarely goes further); the rest stay numpy indices."""
 
 MAX_CACHED_CANDIDATES: int = 4_000_000
 """Candidates (all cells together) kept before the table is cleared: a cell far inside a 100,000-vertex fence
@@ -367,24 +372,34 @@ class FenceGrid:
                 return None
         return float(sel_d[0]) - math.hypot(e - cx, n - cy)
 
-    def clearly_allowed(self, e: float, n: float, nearest_d: float | None = None) -> float | None:
-        """The lateral margin when (e, n) is strictly inside the allowed area (more than the boundary
-        tolerance from every element), else ``None`` (the caller then computes it in full).
+    def margin_from_index(self, e: float, n: float, nearest_d: float | None = None) -> float | None:
+        """The lateral margin at (e, n) where the index gives it exactly, else ``None`` (the caller then scans
+        every element). Inside the keep-in (its cell wholly inside, or the row strip's crossing parity):
 
-        Inside the allowed area the lateral margin *is* the nearest element's distance (``nearest_d`` when
-        the caller has it from :meth:`near` at (e, n), any reach: the same number).
+        * inside no keep-out and more than the boundary tolerance from every element, the margin *is* the
+          nearest element's distance (``nearest_d`` when the caller has it from the walk at (e, n), any reach:
+          the same number);
+        * inside keep-outs by more than the tolerance, the margin is the smallest of their negated depths:
+          the polygons whose box holds the point and whose signed distance is >= 0 (the only ones whose term
+          can be negative), and the circles, whose smallest ``d`` is then the nearest element's. The full
+          scan's minimum over the same floats (the keep-in's term is positive, every other keep-out's is
+          above minus the tolerance), without visiting thousands of keep-outs for one point inside a
+          building, as the recovery planner asks for every corner of a dense city.
         """
         best = self.nearest_distance(e, n) if nearest_d is None else nearest_d
-        if best <= BOUNDARY_TOL_M:
-            return None
         _, _, _, _, ki_state, ko, _, _, _, _, _, _ = self._cell(e, n, 0.0)
         if ki_state < 0 or (ki_state == 0 and not self._rows.inside(e, n)):
             return None
+        m = best if best < 0.0 else math.inf  # inside a circle: the deepest one's d
         kb = self._ko_bbox
         for k in ko:
-            if kb[k, 0] <= e <= kb[k, 2] and kb[k, 1] <= n <= kb[k, 3] and self._keep_outs[k].signed_distance(e, n) >= 0.0:
-                return None
-        return best
+            if kb[k, 0] <= e <= kb[k, 2] and kb[k, 1] <= n <= kb[k, 3]:
+                sd = self._keep_outs[k].signed_distance(e, n)
+                if sd >= 0.0 and -sd < m:
+                    m = -sd
+        if m < math.inf:
+            return m if m < -BOUNDARY_TOL_M else None
+        return best if best > BOUNDARY_TOL_M else None
 
     def group_items(self, gid: int, e: float, n: float) -> list:
         """The elements of group ``gid`` at (e, n): ``(id, (d, nx, ny, feature, feature_index, edge))`` in element

@@ -107,30 +107,14 @@ def hypot(x: float, y: float) -> float:
 
 @jitable
 def _multirotor_binding(
-    f_d: np.ndarray,
-    f_nx: np.ndarray,
-    f_ny: np.ndarray,
-    f_id: np.ndarray,
-    keep: np.ndarray,
-    ve: float,
-    vn: float,
-    wind_e: float,
-    wind_n: float,
-    extra: float,
-    hu: float,
-    k1: float,
-    k2: float,
-    wspeed: float,
-    speed: float,
-    a_pilot: float,
-    t_r: float,
-    a_brake: float,
-    arrest_t: float,
-    arrest_loss: float,
+    f_d: np.ndarray, f_nx: np.ndarray, f_ny: np.ndarray, f_id: np.ndarray, keep: np.ndarray, state: tuple, brake: tuple
 ) -> tuple[float, float, int, float, float, float]:
     """``(activation, 0, position in keep, room, 0, v_n)``: the smallest ``d - base`` over ``keep`` (the
     reference's ``terms_of`` and ``_binding_edge_no_turn``: the lowest element id ``f_id`` on a tie, the first
-    in the reference's element order)."""
+    in the reference's element order). ``state = (ve, vn, wind_e, wind_n, extra, hu)``, ``brake = (k1, k2,
+    wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss)``: :func:`_lateral_binding`'s arguments."""
+    ve, vn, wind_e, wind_n, extra, hu = state
+    k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss = brake
     worst = math.inf
     wq = -1
     wroom = 0.0
@@ -155,30 +139,7 @@ def _multirotor_binding(
 
 @jitable
 def _fixed_wing_binding(
-    f_d: np.ndarray,
-    f_nx: np.ndarray,
-    f_ny: np.ndarray,
-    f_id: np.ndarray,
-    keep: np.ndarray,
-    ve: float,
-    vn: float,
-    wind_e: float,
-    wind_n: float,
-    extra: float,
-    hu: float,
-    v_turn: float,
-    psi_react0: float,
-    rot: float,
-    omega_now: float,
-    t_fw: float,
-    sa: float,
-    ca: float,
-    radius: float,
-    inv_omega: float,
-    s1: float,
-    delta1: float,
-    s2: float,
-    delta2: float,
+    f_d: np.ndarray, f_nx: np.ndarray, f_ny: np.ndarray, f_id: np.ndarray, keep: np.ndarray, state: tuple, turn: tuple
 ) -> tuple[float, float, int, float, float, float]:
     """``(activation, turn sign, position in keep, room, turn angle, v_n)`` of a fixed-wing's binding element
     over ``keep``: per turn ``(s1, delta1)``, ``(s2, delta2)`` the smallest ``d - base - excursion`` (the lowest
@@ -190,9 +151,14 @@ def _fixed_wing_binding(
     ``theta``, ``sin(psi - theta) = sin psi·nx - cos psi·ny`` gives the reaction arc, and
     ``sin psi0 = nx·sin a - ny·cos a`` the excursion bound ``R·(1 - s·sin psi0) + max(w_n, 0)·delta/omega``
     (``_binding_edge_pruned``'s). Their round-off (about 1e-15 of the arc's scale) is covered by a slack of
-    1e-9 of it; a normal that is not unit (a zero-length edge) gets no bound. The scan in element order keeps
-    an element's bound at most its activation, so every element that can tie the smallest is scored exactly.
+    1e-9 of it; a normal that is not unit (a zero-length edge) gets no bound. After the element with the
+    smallest bound, every element whose bound is at most the smallest activation found so far is scored; a
+    bound is at most its activation, so every element that can tie the smallest is scored exactly.
+    ``state = (ve, vn, wind_e, wind_n, extra, hu)``, ``turn = (v_turn, psi_react0, rot, omega_now, t_fw, sa,
+    ca, radius, inv_omega, s1, delta1, s2, delta2)``: :func:`_lateral_binding`'s arguments.
     """
+    ve, vn, wind_e, wind_n, extra, hu = state
+    v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2 = turn
     nk = keep.shape[0]
     if nk == 0:
         return math.inf, 0.0, -1, 0.0, 0.0, 0.0
@@ -387,9 +353,12 @@ def _lateral_binding(
 
     Candidates: the rows ``ids`` of ``E``. ``walk``: they are sorted by ``lbs``, lower bounds of their
     distance plus ``delta_c`` (an index cell's list, :meth:`FenceGrid.near`'s walk and stop rule); else every
-    candidate is scored (the full scan; ``ids`` in element order). Kept: ``d - reach < d_min``; a tie goes to
-    the lowest element id (the reference's first in element order): :func:`_fixed_wing_binding` (turns ``(s1, delta1)`` and ``(s2, delta2)``) or
-    :func:`_multirotor_binding`. Element id -1: no candidate.
+    candidate is scored (the full scan; ``ids`` in element order). Kept: ``d - reach < d_min``. Scored by
+    :func:`_fixed_wing_binding` (turns ``(s1, delta1)`` and ``(s2, delta2)``) or :func:`_multirotor_binding`;
+    a tie goes to the lowest element id (the reference's first in element order). Element id -1: no
+    candidate. The other arguments are :func:`~geofence.boundary_shift.activation_margins`' per-state
+    terms under the same names (the other platform kind's are zeros; ``arrest_t, arrest_loss`` its
+    ``climb_arrest``).
     """
     m = ids.shape[0]
     f_id = np.empty(m, np.int64)
@@ -406,16 +375,13 @@ def _lateral_binding(
             keep[nk] = k
             nk += 1
     keep = keep[:nk]
+    state = (ve, vn, wind_e, wind_n, extra, hu)
     if fixed_wing:
-        b_act, b_s, b_q, b_room, b_delta, t_vn = _fixed_wing_binding(
-            f_d, f_nx, f_ny, f_id, keep, ve, vn, wind_e, wind_n, extra, hu, v_turn, psi_react0, rot, omega_now,
-            t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
-        )  # fmt: skip
+        turn = (v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2)
+        b_act, b_s, b_q, b_room, b_delta, t_vn = _fixed_wing_binding(f_d, f_nx, f_ny, f_id, keep, state, turn)
     else:
-        b_act, b_s, b_q, b_room, b_delta, t_vn = _multirotor_binding(
-            f_d, f_nx, f_ny, f_id, keep, ve, vn, wind_e, wind_n, extra, hu, k1, k2, wspeed, speed, a_pilot, t_r,
-            a_brake, arrest_t, arrest_loss,
-        )  # fmt: skip
+        brake = (k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss)
+        b_act, b_s, b_q, b_room, b_delta, t_vn = _multirotor_binding(f_d, f_nx, f_ny, f_id, keep, state, brake)
     if b_q < 0:
         return math.inf, 0.0, -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, min_d
     k = keep[b_q]

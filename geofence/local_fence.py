@@ -206,7 +206,7 @@ class LocalFence:
         if self._memo_en == (e, n):
             return self._memo_margin_m
         grid = self._grid if self._grid is not None else self.grid()
-        m = grid.clearly_allowed(e, n, nearest_d) if grid is not None else None
+        m = grid.margin_from_index(e, n, nearest_d) if grid is not None else None
         if m is None:
             m = self.lateral_margin_scan_m(e, n)
         self._memo_en = (e, n)

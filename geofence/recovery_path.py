@@ -186,12 +186,25 @@ def _cross_properly(ax, ay, bx, by, cx, cy, dx, dy) -> bool:
     return o1 * o2 < 0.0 and o3 * o4 < 0.0
 
 
+@jitable
+def _edge_blocks(ax: float, ay: float, bx: float, by: float, cx: float, cy: float, dx: float, dy: float, t2: float) -> bool:
+    """Does edge c-d cross the segment a-b properly or come within ``sqrt(t2)`` of it (an end point of either
+    within that distance of the other)? The exact per-edge test of :meth:`RecoveryPlanner._clear_one`."""
+    if _cross_properly(ax, ay, bx, by, cx, cy, dx, dy):
+        return True
+    return (
+        _pt_seg_d2(ax, ay, cx, cy, dx, dy) < t2
+        or _pt_seg_d2(bx, by, cx, cy, dx, dy) < t2
+        or _pt_seg_d2(cx, cy, ax, ay, bx, by) < t2
+        or _pt_seg_d2(dx, dy, ax, ay, bx, by) < t2
+    )
+
+
 def _segment_clear(ax: float, ay: float, bx: float, by: float, thr: float, edges: np.ndarray, circles: np.ndarray) -> bool:
     """:meth:`RecoveryPlanner._clear_one`'s verdict in one loop: no edge row ``(cx, cy, dx, dy, xmin, xmax, ymin,
     ymax)`` crosses a-b or comes within ``thr`` of it, and no circle row ``(x, y, r)`` comes within ``thr``.
 
-    The same tests in the same arithmetic as the scalar loop (:func:`_cross_properly`, :func:`_pt_seg_d2`), so
-    the same verdict; compiled (:data:`segment_clear`) it is the per-step form of a long leg across a large
+    The same tests in the same arithmetic as the scalar loop (:func:`_edge_blocks`), so the same verdict; compiled (:data:`segment_clear`) it is the per-step form of a long leg across a large
     fence, which stops at the first edge in the way.
     """
     t2 = thr * thr
@@ -206,14 +219,7 @@ def _segment_clear(ax: float, ay: float, bx: float, by: float, thr: float, edges
         cy = edges[k, 1]
         dx = edges[k, 2]
         dy = edges[k, 3]
-        if _cross_properly(ax, ay, bx, by, cx, cy, dx, dy):
-            return False
-        if (
-            _pt_seg_d2(ax, ay, cx, cy, dx, dy) < t2
-            or _pt_seg_d2(bx, by, cx, cy, dx, dy) < t2
-            or _pt_seg_d2(cx, cy, ax, ay, bx, by) < t2
-            or _pt_seg_d2(dx, dy, ax, ay, bx, by) < t2
-        ):
+        if _edge_blocks(ax, ay, bx, by, cx, cy, dx, dy, t2):
             return False
     for k in range(circles.shape[0]):
         cx = circles[k, 0]
@@ -571,14 +577,7 @@ class RecoveryPlanner:
         for cx, cy, dx, dy, exmin, exmax, eymin, eymax in edges:
             if exmax < xmin or exmin > xmax or eymax < ymin or eymin > ymax:
                 continue
-            if _cross_properly(ax, ay, bx, by, cx, cy, dx, dy):
-                return False
-            if (
-                _pt_seg_d2(ax, ay, cx, cy, dx, dy) < t2
-                or _pt_seg_d2(bx, by, cx, cy, dx, dy) < t2
-                or _pt_seg_d2(cx, cy, ax, ay, bx, by) < t2
-                or _pt_seg_d2(dx, dy, ax, ay, bx, by) < t2
-            ):
+            if _edge_blocks(ax, ay, bx, by, cx, cy, dx, dy, t2):
                 return False
         for cx, cy, r in self._circles:
             rr = r + thr

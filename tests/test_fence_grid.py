@@ -276,3 +276,35 @@ def test_group_search_equals_the_reference(seed, n_vertices, n_squares, n_circle
             ref = activation_margins(indexed, *args, **kw, prune_from_edges=10**9, compiled=False)
             full = activation_margins(scan, *args, **kw, compiled=False)
             assert tuple(a) == tuple(ref) == tuple(full), (e, n, env.kind)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_squares=st.integers(1, 60), n_circles=st.integers(0, 10))
+def test_margins_inside_overlapping_keep_outs_equal_the_full_scan(seed, n_squares, n_circles):
+    """A dense city: keep-out squares and circles that overlap one another; points inside one or several of
+    them, on their edges, just outside: the index answers inside keep-outs itself (the deepest negated
+    depth) and must give the full scan's number."""
+    rng = random.Random(seed)
+    keep_in = tuple(latlon(400.0 * math.cos(a), 400.0 * math.sin(a)) for a in (2 * math.pi * k / 60 for k in range(60)))
+    centres = [(rng.uniform(-150, 150), rng.uniform(-150, 150)) for _ in range(n_squares + n_circles)]
+    squares = []
+    for cx, cy in centres[:n_squares]:
+        s, t = rng.uniform(5.0, 40.0), rng.uniform(0.0, math.pi)
+        squares.append(
+            tuple(latlon(cx + s * math.cos(t + k * math.pi / 2), cy + s * math.sin(t + k * math.pi / 2)) for k in range(4))
+        )
+    circles = tuple(KeepOutCircle(*latlon(cx, cy), rng.uniform(3.0, 30.0)) for cx, cy in centres[n_squares:])
+    fence = Fence(keep_in=keep_in, ceiling_m=120.0, keep_out_polygons=tuple(squares), keep_out_circles=circles)
+    indexed, scan = fence.to_local(FRAME, index=True), fence.to_local(FRAME, index=False)
+    inside = 0
+    for _ in range(300):
+        if rng.random() < 0.5 and indexed.keep_out_polygons:
+            k = indexed.keep_out_polygons[rng.randrange(len(indexed.keep_out_polygons))]
+            v = k.vertices[rng.randrange(k.n)] if rng.random() < 0.5 else k.vertices.mean(axis=0)
+            e, n = v[0] + rng.uniform(-20.0, 20.0), v[1] + rng.uniform(-20.0, 20.0)
+        else:
+            e, n = rng.uniform(-200, 200), rng.uniform(-200, 200)
+        m = scan.lateral_margin_m(e, n)
+        assert indexed.lateral_margin_m(e, n) == m, (e, n)
+        inside += m < 0.0
+    assert inside > 0
