@@ -65,6 +65,16 @@ def test_hypot_is_cpythons_where_the_c_library_differs():
     assert not bad, bad[:5]
 
 
+def _assert_compiled_equals_reference(local, points, rng: random.Random) -> None:
+    """At each point, for both platform kinds and random states, the compiled margins equal the reference's."""
+    for e, n in points:
+        for env in (MC, FW):
+            args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True, rollout=True)
+            a = activation_margins(local, *args, **kw)
+            ref = activation_margins(local, *args, **kw, compiled=False)
+            assert _same(a, ref), (e, n, env.kind)
+
+
 @settings(max_examples=12, deadline=None)
 @given(
     seed=st.integers(0, 10_000),
@@ -77,12 +87,7 @@ def test_compiled_margins_equal_the_reference(seed, n_vertices, n_squares, n_cir
     fence = random_fence(seed, n_vertices, n_squares, n_circles)
     local = fence.to_local(FRAME, index=index and n_vertices >= 48)
     rng = random.Random(seed)
-    for e, n in probe_points(local, rng, 120):
-        for env in (MC, FW):
-            args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True, rollout=True)
-            a = activation_margins(local, *args, **kw)
-            ref = activation_margins(local, *args, **kw, compiled=False)
-            assert _same(a, ref), (e, n, env.kind)
+    _assert_compiled_equals_reference(local, probe_points(local, rng, 120), rng)
 
 
 @settings(max_examples=8, deadline=None)
@@ -91,12 +96,7 @@ def test_compiled_margins_on_dense_fences_equal_the_group_search(seed, n_vertice
     local = dense_fence(seed, n_vertices, n_squares, n_circles).to_local(FRAME, index=True)
     assert local.grid().grouped
     rng = random.Random(seed)
-    for e, n in dense_states(local, rng, 40):
-        for env in (FW, MC):
-            args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True, rollout=True)
-            a = activation_margins(local, *args, **kw)
-            grouped = activation_margins(local, *args, **kw, compiled=False)
-            assert _same(a, grouped), (e, n, env.kind)
+    _assert_compiled_equals_reference(local, list(dense_states(local, rng, 40)), rng)  # the reference: groups
 
 
 def _square(cx: float, cy: float, s: float) -> tuple:
