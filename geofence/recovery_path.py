@@ -232,8 +232,37 @@ def _segment_clear(ax: float, ay: float, bx: float, by: float, thr: float, edges
     return True
 
 
+def _fan_clear_rows(ox: float, oy: float, q: np.ndarray, thr: float, edges: np.ndarray, circles: np.ndarray) -> np.ndarray:
+    """:meth:`RecoveryPlanner._clear_batch`'s verdicts for the segments from (ox, oy) to each row of ``q``: each
+    circle row ``(x, y, r)`` first, then the edge rows ``(cx, cy, dx, dy, ...)`` in the given order, with the
+    same per-edge test (:func:`_edge_blocks`, the vectorised test's arithmetic); a segment leaves at the first
+    element in its way (no bounding-box shortcut, which could differ from the vectorised test where an edge
+    lies on the segment's line)."""
+    t2 = thr * thr
+    out = np.zeros(q.shape[0], np.bool_)
+    for i in range(q.shape[0]):
+        bx = q[i, 0]
+        by = q[i, 1]
+        clear = True
+        for k in range(circles.shape[0]):
+            rr = circles[k, 2] + thr
+            if _pt_seg_d2(circles[k, 0], circles[k, 1], ox, oy, bx, by) < rr * rr:
+                clear = False
+                break
+        if clear:
+            for k in range(edges.shape[0]):
+                if _edge_blocks(ox, oy, bx, by, edges[k, 0], edges[k, 1], edges[k, 2], edges[k, 3], t2):
+                    clear = False
+                    break
+        out[i] = clear
+    return out
+
+
 segment_clear = numba.njit(cache=True)(_segment_clear) if COMPILED else None
 """The compiled :func:`_segment_clear` (``None`` without numba: :meth:`RecoveryPlanner._clear_one` loops)."""
+
+fan_clear = numba.njit(cache=True)(_fan_clear_rows) if COMPILED else None
+"""The compiled :func:`_fan_clear_rows` (``None`` without numba: :meth:`RecoveryPlanner._fan_clear` vectorises)."""
 
 
 # ----------------------------------------------------------------------------- results
@@ -629,7 +658,8 @@ class RecoveryPlanner:
         an edge farther than ``max L + thr`` from the origin can neither cross
         one nor come within ``thr``: those edges are dropped, and the rest are
         tested nearest first (near edges block most directions of a fan, so
-        blocked segments leave after the first chunk).
+        blocked segments leave after the first chunk). While :data:`geofence.jit.ACTIVE`, the compiled
+        :data:`fan_clear` gives the same verdicts segment by segment.
         """
         if len(q) == 0:
             return np.zeros(0, dtype=bool)
@@ -637,6 +667,11 @@ class RecoveryPlanner:
         d2 = _pt_seg_d2_np(origin, self._ea, self._eb)
         near = np.flatnonzero(d2 <= reach * reach)
         order = near[np.argsort(d2[near], kind="stable")]
+        if _jit.ACTIVE and fan_clear is not None:  # compiled: each segment stops at its first blocking element
+            o = np.asarray(origin, dtype=float)
+            return fan_clear(
+                float(o[0]), float(o[1]), np.ascontiguousarray(q, dtype=float), thr, self._edge_rows[order], self._circle_rows
+            )
         return self._clear_batch(np.broadcast_to(origin, q.shape), q, thr, edge_order=order)
 
     def _visible_from(self, p: Point, thr: float, dist: list[float] | None = None) -> list[int]:

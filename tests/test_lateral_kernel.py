@@ -15,6 +15,7 @@ import random
 from dataclasses import replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -196,3 +197,30 @@ def test_a_flight_is_the_same_flight_compiled_and_in_python(name, seconds):
     assert repr({k: v for k, v in a.summary.items() if k not in timing}) == repr(
         {k: v for k, v in b.summary.items() if k not in timing}
     )  # repr: nan equals nan
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(4, 300), n_squares=st.integers(0, 30), n_circles=st.integers(0, 6))
+def test_compiled_fans_equal_the_vectorised_test(seed, n_vertices, n_squares, n_circles):
+    """The planner's fans (segments from one point to many, its graph's neighbours and the goal's view): the
+    compiled verdicts equal the vectorised reference's, segment by segment, and both kinds of verdict occur."""
+    local = random_fence(seed, n_vertices, n_squares, n_circles).to_local(FRAME)
+    planner = RecoveryPlanner(local, 6.0)
+    rng = random.Random(seed)
+    pts = probe_points(local, rng, 41)
+    seen = set()
+    for origin in pts[:6]:
+        q = np.array(pts[6:], dtype=float)
+        thr = rng.choice((1e-3, 3.0, 6.0))
+        previous = use_compiled(True)
+        try:
+            compiled = planner._fan_clear(np.asarray(origin, dtype=float), q, thr)
+        finally:
+            use_compiled(False)
+        try:
+            ref = planner._fan_clear(np.asarray(origin, dtype=float), q, thr)
+        finally:
+            use_compiled(previous)
+        assert compiled.tolist() == ref.tolist(), (origin, thr)
+        seen |= set(ref.tolist())
+    assert seen == {True, False} or not (n_squares or n_circles or n_vertices > 60)
