@@ -399,8 +399,8 @@ def activation_margins(
     towards it for the whole manoeuvre (``w_n + extra``, ``|W| + extra``).
     ``rollout_target_en``: where the fixed-wing's recovery turn rolls out
     towards (the first point of its planned route; default the recovery point).
-    ``prune_from_edges``: from this many threatened edges on, a fixed-wing's binding edge is found by the
-    pruned search (the same answer; a huge value scores every edge, the reference).
+    ``prune_from_edges`` (the Python branches): from this many threatened edges on, a fixed-wing's binding
+    edge is found by the pruned search (the same answer; a huge value scores every edge, the reference).
     ``compiled``: the binding lateral element comes from the compiled search
     (:func:`geofence.lateral_kernel.lateral_binding`); ``False`` runs the plain-Python branches below, the
     reference it equals bit for bit; ``None`` (default): as :data:`geofence.jit.ACTIVE` says (compiled where
