@@ -24,10 +24,11 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from . import jit as _jit
 from .fence_grid import GROUP_LENGTH_M, SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame
 from .heights import AltitudeReference, VerticalExtent
-from .lateral_kernel import element_table
+from .lateral_kernel import element_table, lateral_margin_scan, polygon_rows
 from .polygon import PolygonIndex, pole_of_inaccessibility
 
 if TYPE_CHECKING:
@@ -118,6 +119,7 @@ class LocalFence:
         "_memo_en",
         "_memo_margin_m",
         "_element_table",
+        "_scan_table",
     )
 
     def __init__(
@@ -159,6 +161,7 @@ class LocalFence:
         self._danger_edges: tuple[DangerEdge, ...] | None = None
         self._gap_edges: tuple[tuple[DangerEdge, ...], ...] | None = None
         self._element_table: tuple | None = None
+        self._scan_table: tuple | None = None
         self.recovery_height_m: float | None
         rp = fence.recovery_point
         if rp is not None:
@@ -230,7 +233,14 @@ class LocalFence:
         return self.lateral_margin_m(e, n) > m
 
     def lateral_margin_scan_m(self, e: float, n: float) -> float:
-        """:meth:`lateral_margin_m` by the full scan of every element (the reference; also the breached case)."""
+        """:meth:`lateral_margin_m` by the full scan of every element (the reference; also the breached case);
+        compiled while :data:`geofence.jit.ACTIVE` (:func:`geofence.lateral_kernel.lateral_margin_scan`, the
+        same number)."""
+        if _jit.ACTIVE:
+            t = self._scan_table
+            if t is None:
+                t = self._scan_table = self._build_scan_table()
+            return lateral_margin_scan(e, n, *t)
         m = self.keep_in.signed_distance(e, n)
         if self._no_keepouts:
             return m
@@ -243,6 +253,15 @@ class LocalFence:
             if d < m:
                 m = d
         return m
+
+    def _build_scan_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The compiled scan's tables: the keep-in's edge rows, the keep-outs' rows end to end with their
+        offsets, and the circles ``(east, north, r)``."""
+        kos = [polygon_rows(k.edge_tuples()) for k in self.keep_out_polygons]
+        offsets = np.cumsum([0] + [len(r) for r in kos]).astype(np.int64)
+        ko = np.concatenate(kos) if kos else np.zeros((0, 7))
+        circles = np.array(self.keep_out_circles, dtype=np.float64).reshape(-1, 3)
+        return polygon_rows(self.keep_in.edge_tuples()), ko, offsets, circles
 
     def lateral_nearest(self, e: float, n: float) -> tuple[float, str, int, int, float, float]:
         """``(margin, feature, feature_index, edge, dx, dy)`` of the binding lateral constraint.

@@ -436,6 +436,10 @@ class PolygonIndex:
             edges.append((ax, ay, by, dx, dy, 1.0 / l2 if l2 > 0.0 else 0.0, dx / dy if dy != 0.0 else 0.0))
         self._edges = tuple(edges)
 
+    def edge_tuples(self) -> tuple[tuple[float, float, float, float, float, float, float], ...]:
+        """Per edge ``(ax, ay, by, dx, dy, 1/len², dx/dy)``: what :meth:`signed_distance` loops over."""
+        return self._edges
+
     # ---- scalar (per-step) queries
     def signed_distance(self, x: float, y: float) -> float:
         """Signed distance in m to the boundary: + inside, - outside (on-boundary -> >= 0)."""

@@ -224,3 +224,26 @@ def test_compiled_fans_equal_the_vectorised_test(seed, n_vertices, n_squares, n_
         assert compiled.tolist() == ref.tolist(), (origin, thr)
         seen |= set(ref.tolist())
     assert seen == {True, False} or not (n_squares or n_circles or n_vertices > 60)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(3, 300), n_squares=st.integers(0, 20), n_circles=st.integers(0, 6))
+def test_compiled_lateral_scan_equals_the_polygon_loops(seed, n_vertices, n_squares, n_circles):
+    """The full scan of the lateral margin (keep-in, keep-out polygons, circles): the compiled number equals the
+    per-polygon Python loops' at points next to vertices and edges, inside keep-outs and outside the keep-in."""
+    local = random_fence(seed, n_vertices, n_squares, n_circles).to_local(FRAME, index=False)
+    rng = random.Random(seed)
+    signs = set()
+    for e, n in probe_points(local, rng, 200):
+        previous = use_compiled(True)
+        try:
+            a = local.lateral_margin_scan_m(e, n)
+        finally:
+            use_compiled(False)
+        try:
+            ref = local.lateral_margin_scan_m(e, n)
+        finally:
+            use_compiled(previous)
+        assert _bits(a) == _bits(ref), (e, n)
+        signs.add(ref > 0.0)
+    assert signs == {True, False}  # inside and breached points both checked
