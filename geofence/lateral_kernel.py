@@ -31,10 +31,9 @@ import numpy as np
 
 from geofence.dynamics import wind_push_mps2
 from geofence.jit import COMPILED, jitable, numba
-from geofence.polygon import BOUNDARY_TOL_M
 from geofence.rooms import multirotor_room_m, reaction_arc_m, trochoid_excursion_m
 
-__all__ = ["element_table", "hypot", "lateral_binding", "lateral_margin_scan", "nearest_distance", "polygon_rows"]
+__all__ = ["element_table", "hypot", "lateral_binding", "nearest_distance"]
 
 _DBL_MIN = 2.2250738585072014e-308
 _SPLIT = 134217729.0  # 2**27 + 1, Veltkamp's splitter
@@ -389,64 +388,8 @@ def _lateral_binding(
     return b_act, b_s, f_id[k], b_room, f_nx[k], f_ny[k], f_d[k], t_vn, b_delta, min_d
 
 
-def polygon_rows(edges: Sequence[tuple]) -> np.ndarray:
-    """A polygon's ``PolygonIndex`` edge tuples ``(ax, ay, by, dx, dy, 1/len², dx/dy)`` as a float table."""
-    return np.array(edges, dtype=np.float64).reshape(-1, 7)
-
-
-@jitable
-def _signed_distance_rows(rows: np.ndarray, x: float, y: float) -> float:
-    """:meth:`PolygonIndex.signed_distance` over its edge table (the same arithmetic: the smallest squared
-    point-segment distance and the crossing parity, + inside, within the boundary tolerance counted inside)."""
-    inside = False
-    best = math.inf
-    for k in range(rows.shape[0]):
-        ax = rows[k, 0]
-        ay = rows[k, 1]
-        by = rows[k, 2]
-        dx = rows[k, 3]
-        dy = rows[k, 4]
-        px = x - ax
-        py = y - ay
-        t = (px * dx + py * dy) * rows[k, 5]
-        if t < 0.0:
-            t = 0.0
-        elif t > 1.0:
-            t = 1.0
-        qx = px - t * dx
-        qy = py - t * dy
-        d2 = qx * qx + qy * qy
-        if d2 < best:
-            best = d2
-        if (ay > y) != (by > y) and px < py * rows[k, 6]:
-            inside = not inside
-    d = math.sqrt(best)
-    return d if (inside or d <= BOUNDARY_TOL_M) else -d
-
-
-def _lateral_margin_scan(
-    e: float, n: float, keep_in: np.ndarray, keep_outs: np.ndarray, offsets: np.ndarray, circles: np.ndarray
-) -> float:
-    """:meth:`LocalFence.lateral_margin_scan_m`: the keep-in's signed distance, less every keep-out polygon's
-    (rows ``offsets[k]:offsets[k + 1]`` of ``keep_outs``) and every circle's ``hypot - r`` (rows ``(e, n, r)``),
-    the smallest; the same floats in the same order."""
-    m = _signed_distance_rows(keep_in, e, n)
-    for k in range(offsets.shape[0] - 1):
-        d = -_signed_distance_rows(keep_outs[offsets[k] : offsets[k + 1]], e, n)
-        if d < m:
-            m = d
-    for k in range(circles.shape[0]):
-        d = hypot(e - circles[k, 0], n - circles[k, 1]) - circles[k, 2]
-        if d < m:
-            m = d
-    return m
-
-
 lateral_binding = numba.njit(cache=True)(_lateral_binding) if COMPILED else _lateral_binding
 """The compiled :func:`_lateral_binding` (the Python function itself without numba)."""
 
 nearest_distance = numba.njit(cache=True)(_nearest_distance) if COMPILED else _nearest_distance
 """The compiled :func:`_nearest_distance`."""
-
-lateral_margin_scan = numba.njit(cache=True)(_lateral_margin_scan) if COMPILED else _lateral_margin_scan
-"""The compiled :func:`_lateral_margin_scan`."""

@@ -28,8 +28,9 @@ from . import jit as _jit
 from .fence_grid import GROUP_LENGTH_M, SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame
 from .heights import AltitudeReference, VerticalExtent
-from .lateral_kernel import element_table, lateral_margin_scan, polygon_rows
+from .lateral_kernel import element_table
 from .polygon import PolygonIndex, pole_of_inaccessibility
+from .scan_kernel import lateral_margin_scan, polygon_rows
 
 if TYPE_CHECKING:
     from .fence import Fence, PolygonLL
@@ -234,7 +235,7 @@ class LocalFence:
 
     def lateral_margin_scan_m(self, e: float, n: float) -> float:
         """:meth:`lateral_margin_m` by the full scan of every element (the reference; also the breached case);
-        compiled while :data:`geofence.jit.ACTIVE` (:func:`geofence.lateral_kernel.lateral_margin_scan`, the
+        compiled while :data:`geofence.jit.ACTIVE` (:func:`geofence.scan_kernel.lateral_margin_scan`, the
         same number)."""
         if _jit.ACTIVE:
             t = self._scan_table

@@ -1,0 +1,82 @@
+"""The lateral margin of a point by the full scan of every element, compiled.
+
+One question: :meth:`geofence.local_fence.LocalFence.lateral_margin_scan_m`
+(the keep-in's signed distance, less each keep-out polygon's, each circle's
+``hypot - radius``, the smallest), for a small fence's every step and for the
+breached points of a large one, as one compiled call over float tables built
+once per fence. The per-polygon Python loops
+(:meth:`geofence.polygon.PolygonIndex.signed_distance`) are the reference:
+the same floats in the same order, CPython's ``hypot``
+(:func:`geofence.lateral_kernel.hypot`), and ``tests/test_lateral_kernel.py``
+holds the two equal bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from geofence.jit import COMPILED, jitable, numba
+from geofence.lateral_kernel import hypot
+from geofence.polygon import BOUNDARY_TOL_M
+
+__all__ = ["lateral_margin_scan", "polygon_rows"]
+
+
+def polygon_rows(edges: Sequence[tuple]) -> np.ndarray:
+    """A polygon's ``PolygonIndex`` edge tuples ``(ax, ay, by, dx, dy, 1/len², dx/dy)`` as a float table."""
+    return np.array(edges, dtype=np.float64).reshape(-1, 7)
+
+
+@jitable
+def _signed_distance_rows(rows: np.ndarray, x: float, y: float) -> float:
+    """:meth:`PolygonIndex.signed_distance` over its edge table (the same arithmetic: the smallest squared
+    point-segment distance and the crossing parity, + inside, within the boundary tolerance counted inside)."""
+    inside = False
+    best = math.inf
+    for k in range(rows.shape[0]):
+        ax = rows[k, 0]
+        ay = rows[k, 1]
+        by = rows[k, 2]
+        dx = rows[k, 3]
+        dy = rows[k, 4]
+        px = x - ax
+        py = y - ay
+        t = (px * dx + py * dy) * rows[k, 5]
+        if t < 0.0:
+            t = 0.0
+        elif t > 1.0:
+            t = 1.0
+        qx = px - t * dx
+        qy = py - t * dy
+        d2 = qx * qx + qy * qy
+        if d2 < best:
+            best = d2
+        if (ay > y) != (by > y) and px < py * rows[k, 6]:
+            inside = not inside
+    d = math.sqrt(best)
+    return d if (inside or d <= BOUNDARY_TOL_M) else -d
+
+
+def _lateral_margin_scan(
+    e: float, n: float, keep_in: np.ndarray, keep_outs: np.ndarray, offsets: np.ndarray, circles: np.ndarray
+) -> float:
+    """:meth:`LocalFence.lateral_margin_scan_m`: the keep-in's signed distance, less every keep-out polygon's
+    (rows ``offsets[k]:offsets[k + 1]`` of ``keep_outs``) and every circle's ``hypot - r`` (rows ``(e, n, r)``),
+    the smallest; the same floats in the same order."""
+    m = _signed_distance_rows(keep_in, e, n)
+    for k in range(offsets.shape[0] - 1):
+        d = -_signed_distance_rows(keep_outs[offsets[k] : offsets[k + 1]], e, n)
+        if d < m:
+            m = d
+    for k in range(circles.shape[0]):
+        d = hypot(e - circles[k, 0], n - circles[k, 1]) - circles[k, 2]
+        if d < m:
+            m = d
+    return m
+
+
+lateral_margin_scan = numba.njit(cache=True)(_lateral_margin_scan) if COMPILED else _lateral_margin_scan
+"""The compiled :func:`_lateral_margin_scan`."""
