@@ -31,7 +31,7 @@ from scenarios.spec.schema import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 
-needs_numba = pytest.mark.skipif(not COMPILED, reason="numba not installed (the kernels run as Python)")
+needs_numba = pytest.mark.skipif(not COMPILED, reason="numba not installed, or NUMBA_DISABLE_JIT set (the kernels run as Python)")
 
 
 def _bits(x) -> object:
@@ -71,7 +71,7 @@ def _assert_compiled_equals_reference(local, points, rng: random.Random) -> None
     for e, n in points:
         for env in (MC, FW):
             args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True, rollout=True)
-            a = activation_margins(local, *args, **kw)
+            a = activation_margins(local, *args, **kw, compiled=True)  # without numba: the kernel's Python form
             ref = activation_margins(local, *args, **kw, compiled=False)
             assert _same(a, ref), (e, n, env.kind)
 
