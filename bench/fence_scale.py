@@ -20,7 +20,8 @@ plain-Python reference the compiled code is tested against (``python``,
 element (``scan``, no index); medians of repeats. It prints a table and saves
 ``bench/fence_scale.png`` (log-log).
 
-    python bench/fence_scale.py [--quick] [--repeats 3] [--sizes 100x0,10000x500] [--out bench/fence_scale.png]
+    python bench/fence_scale.py [--repeats 3]            # the full run: table and bench/fence_scale.png
+    python bench/fence_scale.py --sizes 100x0,10000x500   # some sizes: the table only (--out PATH for a figure)
     python bench/fence_scale.py --plot-from run1.txt run2.txt   # the figure from saved tables
 """
 
@@ -46,6 +47,7 @@ RADIUS_M = 3000.0
 DT_S = 1.0 / 40.0
 WIND_EN = (6.0 * math.cos(0.7), 6.0 * math.sin(0.7))
 PLATFORMS = ("F450RD", "Tern")
+DEFAULT_FIGURE = Path(__file__).with_name("fence_scale.png")
 VARIANTS = ("index", "python", "scan")
 """Per case: the index with the compiled search, the index with the plain-Python reference
 (:func:`geofence.jit.use_compiled` off), and the full scan (no index, compiled)."""
@@ -185,7 +187,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help="fewer sizes and calls (a smoke run)")
     ap.add_argument("--repeats", type=int, default=3, help="interleaved repeats, median reported (default 3)")
-    ap.add_argument("--out", type=Path, default=Path(__file__).with_name("fence_scale.png"), help="figure path")
+    ap.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="figure path (default bench/fence_scale.png for a full run or --plot-from; a --sizes or --quick run draws"
+        " no figure unless given one, so it never replaces the full run's)",
+    )
     ap.add_argument(
         "--sizes",
         default=None,
@@ -203,8 +211,9 @@ def main() -> None:
     args = ap.parse_args()
     if args.plot_from:
         rows = [r for path in args.plot_from for r in _read_table(path)]
-        _plot(sorted(rows, key=lambda r: (r[1], r[0])), args.out)
-        print(f"figure: {args.out}")
+        out = args.out or DEFAULT_FIGURE
+        _plot(sorted(rows, key=lambda r: (r[1], r[0])), out)
+        print(f"figure: {out}")
         return
     if args.sizes:
         try:
@@ -267,8 +276,13 @@ def main() -> None:
         f" nan = not measured: the fixed-wing's Python and full scan above {CITY_LIMIT_KEEP_OUTS:,} keep-outs and its"
         f" full scan above {PLANNER_LIMIT_ELEMENTS:,} elements, see CITY_LIMIT_KEEP_OUTS and PLANNER_LIMIT_ELEMENTS)"
     )
-    _plot(rows, args.out)
-    print(f"figure: {args.out}")
+    partial = bool(args.sizes or args.quick)
+    if partial and args.out is None:
+        print(f"figure: not drawn (a partial run; --out PATH draws it, {DEFAULT_FIGURE.name} keeps the full run's)")
+        return
+    out = args.out or DEFAULT_FIGURE
+    _plot(rows, out)
+    print(f"figure: {out}")
 
 
 def _cell_text(c: tuple) -> str:

@@ -547,7 +547,7 @@ def activation_margins(
             (s1, delta1), (s2, delta2) = directions
             k1 = k2 = a_pilot = a_brake = arrest_t = arrest_loss = 0.0
         else:
-            s1 = delta1 = s2 = delta2 = v_turn = psi_react0 = rot = omega_now = t_fw = sa = ca = 0.0
+            s1 = delta1 = s2 = delta2 = psi_react0 = rot = omega_now = t_fw = sa = ca = 0.0  # (radius, v_turn: 0 above)
             a_pilot = a_tilt if v_air_mc < envelope.max_speed_mps else 0.0
             arrest_t, arrest_loss = climb_arrest
         lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
@@ -557,7 +557,7 @@ def activation_margins(
         )  # fmt: skip
         assert i_bind >= 0  # the nearest element is always a candidate
         feat, idx, j = meta[i_bind]
-        lat_margin = fence.lateral_margin_m(e, n, min_d) if walk else fence.lateral_margin_m(e, n)
+        lat_margin = fence.lateral_margin_m(e, n, min_d)  # min_d: the exact nearest element, walked or scanned
     elif grouped is not None and not fixed_wing:
         # dense fence: groups of consecutive edges, the room bounded over their normal cones (the same answer)
         min_d, groups = grouped.groups_near(e, n, bound)

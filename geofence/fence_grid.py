@@ -62,7 +62,7 @@ from __future__ import annotations
 
 import math
 from itertools import chain
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
@@ -112,6 +112,30 @@ Item = tuple  # (d, nx, ny, feature, feature_index, edge): the ``dists`` format 
 Group = tuple  # (lb, gid, n0x, n0y, rho): a group's distance lower bound from the query point and its normal cone
 
 
+class _Cell(NamedTuple):
+    """One cache cell: what every query at a point inside it starts from (built by :meth:`FenceGrid._cell`)."""
+
+    built_for: float
+    """The reach (m) its candidate list covers."""
+    cx: float
+    cy: float
+    """Its centre (m, ENU)."""
+    ids: np.ndarray
+    """Every candidate element's id, sorted by ``lbs``."""
+    lbs: np.ndarray
+    """Each candidate's distance from the centre (a lower bound of its distance from any point, plus ``|p - c|``)."""
+    u: float
+    """The nearest element's distance from the centre plus the half diagonal: bounds ``d_min`` in the cell."""
+    ki_state: int
+    """The keep-in wholly around the cell (+1), wholly away (-1) or crossing it (0)."""
+    ko: tuple[int, ...]
+    """The keep-out polygons whose bounding box meets the cell."""
+    prefix: list
+    """The first ``prefix_items`` candidates as Python tuples, built when the Python walk first asks."""
+    groups: list
+    """The cell's groups, listed when the group search first asks (:meth:`FenceGrid._cell_groups`)."""
+
+
 class FenceGrid:
     """The candidate-set index of one :class:`~geofence.local_fence.LocalFence` (see the module docstring).
 
@@ -144,7 +168,8 @@ class FenceGrid:
         ]
         recs += [(s + k, ce, cn, r, 0.0, -1.0, 0.0, 0.0, circle_feature, k, -1) for k, (ce, cn, r) in enumerate(circles)]
         self._recs = recs
-        self._table = element_table(edges, circles)  # the compiled walk's
+        self.table = element_table(edges, circles)
+        """Every element as the compiled walk's float rows (:func:`geofence.lateral_kernel.element_table`)."""
         e = np.array([[r[1], r[2], r[3], r[4], r[5]] for r in recs[:s]], dtype=float).reshape(-1, 5)
         self._ax, self._ay, self._dx, self._dy, self._il2 = (e[:, k].copy() for k in range(5))
         c = np.array(list(circles), dtype=float).reshape(-1, 3)
@@ -153,7 +178,7 @@ class FenceGrid:
         self._keep_outs = tuple(keep_outs)
         kb = np.array([k.bbox for k in keep_outs], dtype=float).reshape(-1, 4)
         self._ko_bbox = kb
-        self._cells: dict[tuple[int, int], tuple] = {}
+        self._cells: dict[tuple[int, int], _Cell] = {}
         self._cached = 0
         self._rows = _RowStrips(keep_in)
         self._build_groups(edges, circles, group_length_m)
@@ -220,31 +245,26 @@ class FenceGrid:
         d_circ = np.hypot(self._ce - x, self._cn - y) - self._cr
         return np.concatenate([d_seg, d_circ])
 
-    def _cell(self, e: float, n: float, reach: float) -> tuple:
+    def _cell(self, e: float, n: float, reach: float) -> _Cell:
         c = self.cell_m
         key = (math.floor(e / c), math.floor(n / c))
         cell = self._cells.get(key)
-        if cell is not None and cell[0] >= reach:
+        if cell is not None and cell.built_for >= reach:
             return cell
-        built_for = max(reach, MIN_REACH_M, 1.5 * cell[0] if cell is not None else 0.0)
+        built_for = max(reach, MIN_REACH_M, 1.5 * cell.built_for if cell is not None else 0.0)
         cx, cy = (key[0] + 0.5) * c, (key[1] + 0.5) * c
         h = self.half_diag_m
         d = self._distances_from(cx, cy)
         u = float(d.min()) + h
         sel = np.flatnonzero(d <= u + built_for + h)
         sel = sel[np.argsort(d[sel], kind="stable")]
-        rest = sel[self.prefix_items :]
-        rest_lb = d[rest]
         # keep-in: wholly inside (+1), wholly outside (-1) or crossed by its boundary (0)
         d_ki = float(d[: self._keep_in.n].min())  # the keep-in's edges come first
         ki_state = 0 if d_ki <= h + 1e-6 else (1 if self._rows.inside(cx, cy) else -1)
         kb = self._ko_bbox
         lo_x, lo_y, hi_x, hi_y = key[0] * c, key[1] * c, (key[0] + 1) * c, (key[1] + 1) * c
         ko = tuple(np.flatnonzero((kb[:, 0] <= hi_x) & (kb[:, 2] >= lo_x) & (kb[:, 1] <= hi_y) & (kb[:, 3] >= lo_y)).tolist())
-        # the cell's groups are listed when the group search first asks (:meth:`_cell_groups`)
-        # [10], [11]: every candidate's id and bound as arrays, for the compiled walk (geofence.lateral_kernel)
-        # [3]: the tuple prefix, built when the Python walk first asks (:meth:`_prefix`)
-        cell = (built_for, cx, cy, [], ki_state, ko, rest, rest_lb, u, [], sel, d[sel])
+        cell = _Cell(built_for, cx, cy, sel, d[sel], u, ki_state, ko, [], [])
         if len(self._cells) >= MAX_CELLS or self._cached + len(sel) > MAX_CACHED_CANDIDATES:
             self._cells.clear()
             self._cached = 0
@@ -252,32 +272,30 @@ class FenceGrid:
         self._cached += len(sel)
         return cell
 
-    def _cell_groups(self, cell: tuple) -> tuple:
+    def _cell_groups(self, cell: _Cell) -> tuple:
         """``(prefix, rest ids, rest bounds, per group)``: the groups that can hold one of the cell's candidates,
         sorted by the lower bound of their elements' distance from the centre (kept as the elements are; listed
         once per cell, the first time the group search asks), and how many of the cell's candidates they hold on
         average."""
-        slot = cell[9]
+        slot = cell.groups
         if not slot:
-            built_for, cx, cy, u = cell[0], cell[1], cell[2], cell[8]
+            built_for, cx, cy, u = cell.built_for, cell.cx, cell.cy, cell.u
             gd = np.hypot(self._gx - cx, self._gy - cy) - self._gr
             gsel = np.flatnonzero(gd <= u + built_for + self.half_diag_m)
             gsel = gsel[np.argsort(gd[gsel], kind="stable")]
             groups = self._groups
             gcands = tuple((float(gd[g]), g) + groups[g][2:] for g in gsel[: self.prefix_items].tolist())
             grest = gsel[self.prefix_items :]
-            n_elements = len(cell[10])
+            n_elements = len(cell.ids)
             slot.append((gcands, grest, gd[grest], n_elements / max(len(gsel), 1)))
         return slot[0]
 
-    def _prefix(self, cell: tuple) -> tuple:
+    def _prefix(self, cell: _Cell) -> tuple:
         """The cell's first ``prefix_items`` candidates as ready tuples ``(d(c),) + record`` (built once)."""
-        slot = cell[3]
+        slot = cell.prefix
         if not slot:
-            d, recs = cell[11], self._recs
-            slot.append(
-                tuple((lb,) + recs[i] for lb, i in zip(d[: self.prefix_items].tolist(), cell[10][: self.prefix_items].tolist()))
-            )
+            k, recs = self.prefix_items, self._recs
+            slot.append(tuple((lb,) + recs[i] for lb, i in zip(cell.lbs[:k].tolist(), cell.ids[:k].tolist())))
         return slot[0]
 
     def group_search_pays(self, e: float, n: float, reach: float, min_per_group: float = GROUPED_FROM_EDGES_PER_GROUP) -> bool:
@@ -304,8 +322,9 @@ class FenceGrid:
         breach-pointing unit normal (for a circle: towards its centre).
         """
         cell = self._cell(e, n, reach)
-        cx, cy, rest, rest_lb = cell[1], cell[2], cell[6], cell[7]
+        cx, cy = cell.cx, cell.cy
         cands = self._prefix(cell)
+        rest, rest_lb = cell.ids[self.prefix_items :], cell.lbs[self.prefix_items :]
         delta = math.hypot(e - cx, n - cy)
         best = math.inf
         found = []
@@ -347,14 +366,14 @@ class FenceGrid:
         ``bounds`` from the cell centre, and ``delta = |p - c|``; walked in order until
         ``bound - delta - reach`` exceeds the nearest distance found."""
         cell = self._cell(e, n, reach)
-        return cell[10], cell[11], math.hypot(e - cell[1], n - cell[2])
+        return cell.ids, cell.lbs, math.hypot(e - cell.cx, n - cell.cy)
 
     def nearest_distance(self, e: float, n: float) -> float:
         """The nearest element's ``d`` (circles signed: negative inside); :meth:`near`'s walk, compiled where
         numba is (:func:`geofence.lateral_kernel.nearest_distance`, the same number)."""
         if _jit.ACTIVE:
             ids, lbs, delta = self.candidates(e, n, 0.0)
-            return nearest_distance(self._table, ids, lbs, delta, e, n)
+            return nearest_distance(self.table, ids, lbs, delta, e, n)
         return self.near(e, n, 0.0)[1]
 
     def margin_lower_bound(self, e: float, n: float) -> float | None:
@@ -363,14 +382,14 @@ class FenceGrid:
 
         The nearest element's distance from the cell centre, less the distance to it (1-Lipschitz).
         """
-        _, cx, cy, _, ki_state, ko, _, _, _, _, sel, sel_d = self._cell(e, n, 0.0)
-        if ki_state != 1 or not len(sel):
+        cell = self._cell(e, n, 0.0)
+        if cell.ki_state != 1 or not len(cell.ids):
             return None
         kb = self._ko_bbox
-        for k in ko:
+        for k in cell.ko:
             if kb[k, 0] <= e <= kb[k, 2] and kb[k, 1] <= n <= kb[k, 3]:
                 return None
-        return float(sel_d[0]) - math.hypot(e - cx, n - cy)
+        return float(cell.lbs[0]) - math.hypot(e - cell.cx, n - cell.cy)
 
     def margin_from_index(self, e: float, n: float, nearest_d: float | None = None) -> float | None:
         """The lateral margin at (e, n) where the index gives it exactly, else ``None`` (the caller then scans
@@ -386,13 +405,13 @@ class FenceGrid:
           above minus the tolerance), without visiting thousands of keep-outs for one point inside a
           building, as the recovery planner asks for every corner of a dense city.
         """
-        best = self.nearest_distance(e, n) if nearest_d is None else nearest_d
-        _, _, _, _, ki_state, ko, _, _, _, _, _, _ = self._cell(e, n, 0.0)
-        if ki_state < 0 or (ki_state == 0 and not self._rows.inside(e, n)):
+        cell = self._cell(e, n, 0.0)
+        if cell.ki_state < 0 or (cell.ki_state == 0 and not self._rows.inside(e, n)):
             return None
+        best = self.nearest_distance(e, n) if nearest_d is None else nearest_d
         m = best if best < 0.0 else math.inf  # inside a circle: the deepest one's d
         kb = self._ko_bbox
-        for k in ko:
+        for k in cell.ko:
             if kb[k, 0] <= e <= kb[k, 2] and kb[k, 1] <= n <= kb[k, 3]:
                 sd = self._keep_outs[k].signed_distance(e, n)
                 if sd >= 0.0 and -sd < m:
@@ -429,7 +448,7 @@ class FenceGrid:
         (:meth:`group_items`) while its bound is below the nearest ``d`` found, so ``d_min`` is exact.
         """
         cell = self._cell(e, n, reach)
-        cx, cy = cell[1], cell[2]
+        cx, cy = cell.cx, cell.cy
         gcands, grest, grest_lb, _ = self._cell_groups(cell)
         delta = math.hypot(e - cx, n - cy) + GROUP_SLACK_M
         best = math.inf

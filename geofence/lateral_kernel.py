@@ -250,16 +250,17 @@ def _walk(
     n: float,
     reach: float,
     delta_c: float,
-    f_id: np.ndarray,
-    f_d: np.ndarray,
-    f_nx: np.ndarray,
-    f_ny: np.ndarray,
-) -> tuple[int, float]:
-    """``(count, nearest d)``: the candidates' distances ``d`` and breach normals into ``f_*`` (the reference's
-    arithmetic: the point-segment distance, a circle's ``hypot - radius`` and the unit normal towards its
-    centre), in ``ids`` order; with ``walk``, until the bound ``lbs[k] - delta_c - reach`` exceeds the nearest
-    ``d`` found (:meth:`FenceGrid.near`'s stop rule)."""
+) -> tuple[int, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(count, nearest d, f_id, f_d, f_nx, f_ny)``: the first ``count`` rows of the ``f_*`` arrays hold the
+    candidates walked, their distances ``d`` and breach normals (the reference's arithmetic: the
+    point-segment distance, a circle's ``hypot - radius`` and the unit normal towards its centre), in ``ids``
+    order; with ``walk``, until the bound ``lbs[k] - delta_c - reach`` exceeds the nearest ``d`` found
+    (:meth:`FenceGrid.near`'s stop rule)."""
     m = ids.shape[0]
+    f_id = np.empty(m, np.int64)
+    f_d = np.empty(m)
+    f_nx = np.empty(m)
+    f_ny = np.empty(m)
     cnt = 0
     best = math.inf
     for k in range(m):
@@ -297,17 +298,12 @@ def _walk(
         cnt += 1
         if d < best:
             best = d
-    return cnt, best
+    return cnt, best, f_id, f_d, f_nx, f_ny
 
 
 def _nearest_distance(E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, delta_c: float, e: float, n: float) -> float:
     """The nearest candidate's ``d`` by :func:`_walk` (reach 0): :meth:`FenceGrid.nearest_distance`."""
-    m = ids.shape[0]
-    f_id = np.empty(m, np.int64)
-    f_d = np.empty(m)
-    f_nx = np.empty(m)
-    f_ny = np.empty(m)
-    return _walk(E, ids, lbs, True, e, n, 0.0, delta_c, f_id, f_d, f_nx, f_ny)[1]
+    return _walk(E, ids, lbs, True, e, n, 0.0, delta_c)[1]
 
 
 def _lateral_binding(
@@ -360,13 +356,7 @@ def _lateral_binding(
     terms under the same names (the other platform kind's are zeros; ``arrest_t, arrest_loss`` its
     ``climb_arrest``).
     """
-    m = ids.shape[0]
-    f_id = np.empty(m, np.int64)
-    f_d = np.empty(m)
-    f_nx = np.empty(m)
-    f_ny = np.empty(m)
-    cnt, best = _walk(E, ids, lbs, walk, e, n, reach, delta_c, f_id, f_d, f_nx, f_ny)
-    min_d = best
+    cnt, min_d, f_id, f_d, f_nx, f_ny = _walk(E, ids, lbs, walk, e, n, reach, delta_c)
     # the elements that can bind, in element order
     keep = np.empty(cnt, np.int64)
     nk = 0

@@ -400,7 +400,9 @@ class LocalFence:
             meta = tuple((x.feature, x.feature_index, x.edge) for x in edges)
             meta += tuple((FEATURE_KEEP_OUT_CIRCLE, k, -1) for k in range(len(circles)))
             n = len(meta)
-            self._element_table = (element_table(edges, circles), meta, np.arange(n, dtype=np.int64), np.zeros(n))
+            grid = self.grid()  # an indexed fence's index holds the same table
+            table = grid.table if grid is not None else element_table(edges, circles)
+            self._element_table = (table, meta, np.arange(n, dtype=np.int64), np.zeros(n))
         return self._element_table
 
     def gap_edges(self, gap: int) -> tuple[DangerEdge, ...]:

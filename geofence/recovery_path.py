@@ -414,13 +414,11 @@ class RecoveryPlanner:
             (float(ax), float(ay), float(bx), float(by), min(ax, bx), max(ax, bx), min(ay, by), max(ay, by))
             for (ax, ay), (bx, by) in zip(a.tolist(), b.tolist())
         )
-        self._ebox = np.array([e[4:] for e in self._edges], dtype=float).reshape(-1, 4)  # xmin, xmax, ymin, ymax
-        self._edge_rows = np.array(self._edges, dtype=float).reshape(-1, 8)  # for segment_clear
-        circ = fence.keep_out_circles
-        self._circles = tuple((float(x), float(y), float(r)) for x, y, r in circ)
-        self._cc = np.array([(x, y) for x, y, _ in circ], dtype=float).reshape(-1, 2)
-        self._cr = np.array([r for _, _, r in circ], dtype=float)
+        self._edge_rows = np.array(self._edges, dtype=float).reshape(-1, 8)  # the compiled tests' rows
+        self._ebox = self._edge_rows[:, 4:]  # xmin, xmax, ymin, ymax
+        self._circles = tuple((float(x), float(y), float(r)) for x, y, r in fence.keep_out_circles)
         self._circle_rows = np.array(self._circles, dtype=float).reshape(-1, 3)
+        self._cc, self._cr = self._circle_rows[:, :2], self._circle_rows[:, 2]
         # a fixed shuffled edge order spreads each chunk over the whole fence (earlier rejection)
         self._perm = np.random.default_rng(12345).permutation(len(a))
         # ---- nodes
