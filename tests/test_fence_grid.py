@@ -34,6 +34,15 @@ def latlon(e, n):
     return (lat, lon)
 
 
+def _inside(poly: list[tuple[float, float]], x: float, y: float) -> bool:
+    """Even-odd test of a point against a polygon's vertices (for the generator only)."""
+    inside = False
+    for (ax, ay), (bx, by) in zip(poly, poly[1:] + poly[:1]):
+        if (ay > y) != (by > y) and x < ax + (y - ay) * (bx - ax) / (by - ay):
+            inside = not inside
+    return inside
+
+
 def random_fence(seed: int, n_vertices: int, n_squares: int, n_circles: int, dense: bool = False) -> Fence:
     rng = random.Random(seed)
     r0 = rng.uniform(300.0, 900.0) if not dense else rng.uniform(350.0, 700.0)
@@ -54,6 +63,8 @@ def random_fence(seed: int, n_vertices: int, n_squares: int, n_circles: int, den
         a, r = rng.uniform(0, 2 * math.pi), rng.uniform(0.0, 0.55 * r0)
         cx, cy, s = r * math.cos(a), r * math.sin(a), rng.uniform(8.0, 30.0)
         if any(math.hypot(cx - px, cy - py) < s + ps + 10.0 for px, py, ps in placed):
+            continue
+        if not _inside(keep_in, cx, cy):  # a narrow keep-in (a triangle) may not reach 0.55 r0 everywhere
             continue
         placed.append((cx, cy, s))
         if len(squares) < n_squares:
