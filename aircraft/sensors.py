@@ -75,7 +75,16 @@ _INF = float("inf")
 _TWO_PI = 2.0 * math.pi
 _EPS_S = 1e-9
 
-_GPS_STREAM, _BARO_STREAM, _PITOT_STREAM, _AHRS_STREAM = range(4)
+GPS_STREAM, BARO_STREAM, PITOT_STREAM, AHRS_STREAM = range(4)
+SENSOR_STREAMS = (GPS_STREAM, BARO_STREAM, PITOT_STREAM, AHRS_STREAM)
+"""The independent noise streams, one per sensor: the spawn key of each stream's seed sequence."""
+NORMAL_BLOCK = 4096
+"""Normals drawn from a stream at a time."""
+
+
+def stream_generator(seed: int, stream: int) -> np.random.Generator:
+    """The random generator of one sensor's noise stream for a flight's ``seed``."""
+    return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(stream,)))
 
 
 @dataclass(frozen=True)
@@ -126,7 +135,7 @@ class SensorConfig:
         return False
 
 
-def _normal_stream(rng: np.random.Generator, block: int = 4096) -> Callable[[], float]:
+def _normal_stream(rng: np.random.Generator, block: int = NORMAL_BLOCK) -> Callable[[], float]:
     """Standard normal floats from ``rng``: returns a callable that hands out the next one (cheap per call, reproducible).
 
     The normals are drawn ``block`` at a time and handed out as plain floats. A
@@ -189,10 +198,7 @@ class SensorSuite:
         self.prefill = prefill
         s = cfg.seed if cfg.seed is not None else (seed if seed is not None else 0)
         self.seed = s
-        gps_n, baro_n, pitot_n, ahrs_n = (
-            _normal_stream(np.random.default_rng(np.random.SeedSequence(s, spawn_key=(k,))))
-            for k in (_GPS_STREAM, _BARO_STREAM, _PITOT_STREAM, _AHRS_STREAM)
-        )
+        gps_n, baro_n, pitot_n, ahrs_n = (_normal_stream(stream_generator(s, k)) for k in SENSOR_STREAMS)
         self._gps_n, self._pitot_n = gps_n, pitot_n
         self._baro_n = baro_n
         tau = cfg.gps_bias_tau_s

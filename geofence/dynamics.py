@@ -78,6 +78,7 @@ def drag_accel_mps2(k1: float, k2: float, v_air_mps: float) -> float:
     return (k1 + k2 * v_air_mps) * v_air_mps
 
 
+@jitable
 def airspeed_for_drag_mps(k1: float, k2: float, accel_mps2: float) -> float:
     """The airspeed whose drag is ``accel_mps2`` (inverse of :func:`drag_accel_mps2`); ``inf`` with no drag."""
     if accel_mps2 <= 0.0:
@@ -106,6 +107,7 @@ def still_air_top_speed_mps(env: Envelope) -> float:
     return airspeed_for_drag_mps(k1, k2, G_MPS2 * math.tan(env.max_bank_rad))
 
 
+@jitable
 def isa_density_ratio(alt_m: float) -> float:
     """ISA troposphere density ratio ``σ = ρ/ρ0 = (1 - 2.25577e-5·h)^4.2559`` at ``h`` m AMSL (valid below 11 km)."""
     h = min(max(alt_m, -500.0), 11000.0)

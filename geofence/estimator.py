@@ -74,6 +74,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from geofence.dynamics import isa_density_ratio
 from geofence.geodesy import WGS84_A_M, WGS84_F, LocalFrame
@@ -194,6 +195,65 @@ class _AxisCovariance:
         return (k0, k1, k2)
 
 
+class EstimatorConstants(NamedTuple):
+    """The estimator's per-flight constants, derived once from its frame and tuning (SI; variances in m², (m/s)²)."""
+
+    h0_m: float
+    deg_per_m_n: float
+    """Latitude per metre north at the origin (deg/m), from the meridian radius."""
+    deg_per_m_e: float
+    """Longitude per metre east at the origin (deg/m), from the prime-vertical radius."""
+    inv_2r_per_m: float
+    """``1 / 2R`` of the Earth-curvature drop ``(e² + n²) / 2R`` (R the Gaussian mean radius at the origin)."""
+    q_jerk_h: float
+    q_wander_h: float
+    """The GNSS bias wander as horizontal position process noise, ``2 σ² / τ``."""
+    q_accel_v: float
+    baro_primary: bool
+    """A referenced barometer drifting less than the GNSS height is biased: it is the height reference."""
+    q_baro: float
+    r_p: float
+    r_v: float
+    r_pu: float
+    r_vu: float
+    r_baro: float
+    var_bias_h: float
+    var_bias_v: float
+    var_baro_drift: float
+
+
+def estimator_constants(frame: LocalFrame, cfg: EstimatorConfig) -> EstimatorConstants:
+    """:class:`EstimatorConstants` of an estimator in ``frame`` tuned by ``cfg`` (the one home of these formulas)."""
+    lat0 = math.radians(frame.lat0_deg)
+    s = math.sin(lat0)
+    w = 1.0 - _E2 * s * s
+    n_rad = WGS84_A_M / math.sqrt(w)
+    m_rad = n_rad * (1.0 - _E2) / w
+    baro_primary = cfg.baro_referenced and cfg.baro_drift_m < cfg.gps_v_bias_m
+    q_baro = 2.0 * cfg.baro_drift_m**2 / cfg.baro_drift_tau_s
+    if not baro_primary:  # the offset also absorbs the wander of the GNSS height it is tied to
+        q_baro += 2.0 * cfg.gps_v_bias_m**2 / cfg.gps_bias_tau_s
+    return EstimatorConstants(
+        h0_m=frame.h0_m,
+        deg_per_m_n=math.degrees(1.0) / (m_rad + frame.h0_m),
+        deg_per_m_e=math.degrees(1.0) / ((n_rad + frame.h0_m) * math.cos(lat0)),
+        inv_2r_per_m=0.5 / math.sqrt(m_rad * n_rad),
+        q_jerk_h=cfg.jerk_psd_h,
+        q_wander_h=2.0 * cfg.gps_h_bias_m**2 / cfg.gps_bias_tau_s,
+        q_accel_v=cfg.accel_psd_v,
+        baro_primary=baro_primary,
+        q_baro=q_baro,
+        r_p=cfg.gps_h_white_m**2,
+        r_v=cfg.gps_vel_h_mps**2,
+        r_pu=cfg.gps_v_white_m**2,
+        r_vu=cfg.gps_vel_v_mps**2,
+        r_baro=cfg.baro_noise_m**2,
+        var_bias_h=cfg.gps_h_bias_m**2,
+        var_bias_v=0.0 if baro_primary else cfg.gps_v_bias_m**2,
+        var_baro_drift=cfg.baro_drift_m**2,
+    )
+
+
 class GeofenceEstimator:
     """GNSS/baro/AHRS state estimator of the geofence unit (see the module docstring).
 
@@ -211,33 +271,15 @@ class GeofenceEstimator:
         self.config = cfg = config or EstimatorConfig()
         self.t_s = 0.0
         self._clock_set = False
-        self._h0 = frame.h0_m
-        lat0 = math.radians(frame.lat0_deg)
-        s = math.sin(lat0)
-        w = 1.0 - _E2 * s * s
-        n_rad = WGS84_A_M / math.sqrt(w)
-        m_rad = n_rad * (1.0 - _E2) / w
-        self._deg_per_m_n = math.degrees(1.0) / (m_rad + frame.h0_m)
-        self._deg_per_m_e = math.degrees(1.0) / ((n_rad + frame.h0_m) * math.cos(lat0))
-        self._inv_2r = 0.5 / math.sqrt(m_rad * n_rad)
+        k = estimator_constants(frame, cfg)
+        self._h0 = k.h0_m
+        self._deg_per_m_n, self._deg_per_m_e, self._inv_2r = k.deg_per_m_n, k.deg_per_m_e, k.inv_2r_per_m
         self._lat0_deg, self._lon0_deg = frame.lat0_deg, frame.lon0_deg
         self._timeout_s = cfg.timeout_s
-        # process noise
-        self._qj = cfg.jerk_psd_h
-        self._qp_h = 2.0 * cfg.gps_h_bias_m**2 / cfg.gps_bias_tau_s
-        self._qv = cfg.accel_psd_v
-        # baro-primary height: a referenced barometer that drifts less than the GNSS height is biased
-        self._baro_primary = cfg.baro_referenced and cfg.baro_drift_m < cfg.gps_v_bias_m
-        self._qb = 2.0 * cfg.baro_drift_m**2 / cfg.baro_drift_tau_s
-        if not self._baro_primary:  # the offset also absorbs the wander of the GNSS height it is tied to
-            self._qb += 2.0 * cfg.gps_v_bias_m**2 / cfg.gps_bias_tau_s
-        self._r_p = cfg.gps_h_white_m**2
-        self._r_v = cfg.gps_vel_h_mps**2
-        self._r_pu = cfg.gps_v_white_m**2
-        self._r_vu = cfg.gps_vel_v_mps**2
-        self._r_baro = cfg.baro_noise_m**2
-        self._var_bias_h = cfg.gps_h_bias_m**2
-        self._var_bias_v = 0.0 if self._baro_primary else cfg.gps_v_bias_m**2
+        self._qj, self._qp_h, self._qv, self._qb = k.q_jerk_h, k.q_wander_h, k.q_accel_v, k.q_baro
+        self._baro_primary = k.baro_primary
+        self._r_p, self._r_v, self._r_pu, self._r_vu, self._r_baro = k.r_p, k.r_v, k.r_pu, k.r_vu, k.r_baro
+        self._var_bias_h, self._var_bias_v, self._var_baro_drift = k.var_bias_h, k.var_bias_v, k.var_baro_drift
         # horizontal (delayed horizon at t_d)
         self._east: _Axis | None = None
         self._north: _Axis | None = None
@@ -475,7 +517,6 @@ class GeofenceEstimator:
 
     # -- internals -----------------------------------------------------------------
     def _init(self, e: float, n: float, u: float, fix: GpsFix, t_m: float, lag: float) -> None:
-        cfg = self.config
         var_a = 4.0  # (2 m/s^2)^2: unknown initial acceleration
         self._east = ex = _Axis(e, fix.v_east_mps)
         self._north = nx = _Axis(n, fix.v_north_mps)
@@ -494,13 +535,13 @@ class GeofenceEstimator:
             var_b = self._r_pu + self._r_baro
         else:
             self._b = 0.0
-            var_b = cfg.baro_drift_m**2 + self._var_bias_v + 100.0
+            var_b = self._var_baro_drift + self._var_bias_v + 100.0
         self._V = (self._r_pu, 0.0, 0.0, self._r_vu, 0.0, var_b)
         self._v_init = True
 
     def _init_vertical_from_baro(self, z: float) -> None:
         """Vertical state from a referenced barometer: up = baro - b with b ~ 0 (the baro drift)."""
-        var_b = self.config.baro_drift_m**2
+        var_b = self._var_baro_drift
         self._b = 0.0
         self._u = z
         # up and b are correlated: up = z - b

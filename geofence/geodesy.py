@@ -20,6 +20,8 @@ import numpy as np
 from geographiclib.constants import Constants
 from geographiclib.geodesic import Geodesic
 
+from geofence.jit import jitable
+
 WGS84_A_M: float = Constants.WGS84_a
 WGS84_F: float = Constants.WGS84_f
 _E2 = WGS84_F * (2.0 - WGS84_F)
@@ -27,6 +29,7 @@ _B = WGS84_A_M * (1.0 - WGS84_F)
 _EP2 = _E2 / (1.0 - _E2)
 
 
+@jitable
 def geodetic_to_ecef(lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
     """WGS-84 geodetic coordinates to Earth-centred Earth-fixed x, y, z in m."""
     lat = math.radians(lat_deg)
@@ -75,6 +78,16 @@ class LocalFrame:
         rot = ((-so, co, 0.0), (-sl * co, -sl * so, cl), (cl * co, cl * so, sl))
         object.__setattr__(self, "_rot", rot)
         object.__setattr__(self, "_origin", geodetic_to_ecef(self.lat0_deg, self.lon0_deg, self.h0_m))
+
+    @property
+    def ecef_to_enu_rows(self) -> tuple[tuple[float, float, float], ...]:
+        """The rotation from ECEF to ENU: its rows are the east, north and up unit vectors in ECEF."""
+        return self._rot
+
+    @property
+    def origin_ecef_m(self) -> tuple[float, float, float]:
+        """The origin in ECEF (x, y, z), m."""
+        return self._origin
 
     def to_enu(self, lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
         """Geodetic point -> (east, north, up) in m."""

@@ -77,11 +77,15 @@ KT_MPS = 1852.0 / 3600.0
 SEVERITY_W20_MPS: dict[str, float] = {"light": 15.0 * KT_MPS, "moderate": 30.0 * KT_MPS, "severe": 45.0 * KT_MPS}
 
 _SQRT3 = math.sqrt(3.0)
-_C1 = _SQRT3 / math.sqrt(2.0)  # output weights of the normalized 2nd-order form
-_C2 = (1.0 - _SQRT3) / math.sqrt(2.0)
-_NORMALS_PER_STEP = 5
-_POOL = _NORMALS_PER_STEP * 2048  # normals per refill
-_H_MAX_FT = 1000.0
+OUTPUT_WEIGHTS = (_SQRT3 / math.sqrt(2.0), (1.0 - _SQRT3) / math.sqrt(2.0))
+"""The output weights ``(c1, c2)`` of the normalized second-order (v, w) filters: ``c1 x1 + c2 x2``."""
+_C1, _C2 = OUTPUT_WEIGHTS
+NORMALS_PER_STEP = 5
+"""Standard normals a sample draws: one for u, two each for v and w."""
+POOL_NORMALS = NORMALS_PER_STEP * 2048
+"""Normals drawn from the generator at a time (a block)."""
+H_MAX_FT = 1000.0
+"""The top of the low-altitude model (ft): above it the scales of 1,000 ft hold."""
 
 
 def dryden_scales(up_m: float, w20_mps: float, min_height_m: float = 10.0 * FT_M) -> tuple[float, float, float, float]:
@@ -90,8 +94,8 @@ def dryden_scales(up_m: float, w20_mps: float, min_height_m: float = 10.0 * FT_M
     hmin = min_height_m / FT_M
     if not h > hmin:  # also catches NaN
         h = hmin
-    elif h > _H_MAX_FT:
-        h = _H_MAX_FT
+    elif h > H_MAX_FT:
+        h = H_MAX_FT
     d = 0.177 + 0.000823 * h
     sw = 0.1 * w20_mps
     return h * FT_M / d**1.2, h * FT_M, sw / d**0.4, sw
@@ -162,9 +166,9 @@ class DrydenTurbulence:
         return (0.0, 0.0, 0.0)
 
     def _refill(self) -> list[float]:
-        """Draw the next block of :data:`_POOL` normals; return its first row of five."""
+        """Draw the next block of :data:`POOL_NORMALS` normals; return its first row of five."""
         # the block's normals in draw order, five to a row: one row per step
-        self._rows = iter(self._rng.standard_normal(_POOL).reshape(-1, _NORMALS_PER_STEP).tolist())
+        self._rows = iter(self._rng.standard_normal(POOL_NORMALS).reshape(-1, NORMALS_PER_STEP).tolist())
         return next(self._rows)
 
     def sample(self, t_s: float, east_m: float, north_m: float, up_m: float, airspeed_mps: float) -> Vec3:
@@ -191,8 +195,8 @@ class DrydenTurbulence:
         hmin = self._hmin_ft
         if not h > hmin:
             h = hmin
-        elif h > _H_MAX_FT:
-            h = _H_MAX_FT
+        elif h > H_MAX_FT:
+            h = H_MAX_FT
         d = 0.177 + 0.000823 * h
         sw = self._sigma_w
         su = sw / d**0.4

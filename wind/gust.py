@@ -64,7 +64,8 @@ from wind.field import ZERO, Vec3, WindField, toward_unit
 MAX_RISE_TIME_S = 5.0
 """Default upper bound on a convected gust's rise time (s): its speed floor is ``length_m / MAX_RISE_TIME_S``."""
 
-_MAX_VELOCITY_DT_S = 1.0  # longer steps: positions too far apart to difference into a velocity
+MAX_VELOCITY_DT_S = 1.0
+"""Longer steps (s): the positions are too far apart to difference into a velocity (the airspeed stands in)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -277,7 +278,7 @@ class GustTrain:
         if self._mean_fn is not None:
             me, mn, _ = self._mean_fn(up_m)
         dt = t_s - last if last is not None else 0.0
-        if pos is not None and 0.0 < dt <= _MAX_VELOCITY_DT_S:
+        if pos is not None and 0.0 < dt <= MAX_VELOCITY_DT_S:
             re = (east_m - pos[0]) / dt - me
             rn = (north_m - pos[1]) / dt - mn
             v = math.sqrt(re * re + rn * rn)

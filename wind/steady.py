@@ -99,6 +99,11 @@ class SteadyWind:
         self._last_up = math.nan
         self._last_mean: Vec3 = self._level
 
+    @property
+    def reference_enu_mps(self) -> tuple[float, float]:
+        """The wind (east, north) at the profile's reference height (factor 1), m/s toward."""
+        return (self._e, self._n)
+
     def speed_at(self, up_m: float) -> float:
         """Horizontal wind speed in m/s at height ``up_m`` AGL."""
         return self.speed_mps * self.profile.factor(up_m)

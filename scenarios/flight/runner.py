@@ -24,21 +24,22 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, NamedTuple
+from typing import Any, Callable
 
 from aircraft.factory import build_platform
 from analysis.scoring import SCORED_COLUMNS, score_flight
-from geofence.config import GeofenceConfig, StateSource
+from geofence import jit
 from geofence.geodesy import LocalFrame
-from geofence.interface import Envelope, FixState, VehicleState
 from geofence.local_fence import LocalFence
 from geofence.unit import GeofenceUnit, Mode
 from scenarios.flight.pilots import Pilot, build_pilot
 from scenarios.flight.recorder import Recorder
+from scenarios.flight.sensing import GeofenceSensing
 from scenarios.spec.preflight import findings_summary, preflight_findings
 from scenarios.spec.schema import PilotKind, Scenario
 from wind.config import wind_from_config
 from wind.field import CalmWind, notify_first_activation
+from wind.field_kernel import compiled_wind
 
 TAIL_AFTER_FINISH_S = 2.0
 
@@ -68,8 +69,12 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     platform = build_platform(scenario.profile)
     env = platform.envelope
     wind = wind_from_config(scenario.wind, scenario.seed) if scenario.wind is not None else CalmWind()
+    # the wind's arrays sampled by one compiled call (the same numbers), where numba is active and the field is one
+    # wind_from_config builds; else the field objects
+    wind_arrays = compiled_wind(wind) if jit.ACTIVE else None
+    sample_wind = wind_arrays.sample if wind_arrays is not None else wind.sample
     # the start is settled in the wind at t = 0 (platforms keep a wind set before reset)
-    platform.set_wind_enu(*wind.sample(0.0, 0.0, 0.0, st.agl_m, st.airspeed_mps or env.cruise_speed_mps))
+    platform.set_wind_enu(*sample_wind(0.0, 0.0, 0.0, st.agl_m, st.airspeed_mps or env.cruise_speed_mps))
     platform.reset(frame, st.lat_deg, st.lon_deg, st.agl_m, st.heading_deg, st.airspeed_mps)
 
     frames_per_step = max(1, round(1.0 / (scenario.control_rate_hz * platform.dt_s)))
@@ -82,11 +87,11 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     pilot = build_pilot(scenario, frame, env, truth, dt_s)
     fence: LocalFence | None = None
     unit: GeofenceUnit | None = None
-    own: _GeofenceSensing | None = None
+    own: GeofenceSensing | None = None
     if scenario.geofence is not None:
         fence = scenario.geofence.fence.to_local(frame)
         unit = GeofenceUnit(scenario.geofence, fence, env)
-        own = _GeofenceSensing(scenario, scenario.geofence, frame, env)
+        own = GeofenceSensing(scenario, scenario.geofence, frame, env)
 
     error = None
     wind_told = False
@@ -104,7 +109,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                 raise FloatingPointError(
                     f"JSBSim state of {scenario.aircraft} diverged (speed beyond {diverged_above_mps:.0f} m/s) at t={truth.t_s:.2f} s"
                 )
-            w = wind.sample(truth.t_s, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)
+            w = sample_wind(truth.t_s, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)
             platform.set_wind_enu(*w)
             cmd_in = pilot.command(truth)
             if unit is not None and own is not None:
@@ -125,7 +130,10 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                 mode = unit.mode
                 pilot.notice_control(mode in (Mode.MONITOR, Mode.RECOVERED))  # the pilot feels the sticks come back
                 if unit.activations and not wind_told:
-                    notify_first_activation(wind, truth.t_s)  # gusts timed from the first override
+                    if wind_arrays is not None:  # gusts timed from the first override
+                        wind_arrays.first_activation(truth.t_s)
+                    else:
+                        notify_first_activation(wind, truth.t_s)
                     wind_told = True
                 recorder.append(
                     truth, w, cmd_in, cmd, int(mode), pilot.items_reached, unit.estimate, seen.wind_en, unit.activation_margin_m
@@ -189,66 +197,6 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         summary["final_mode"] = unit.mode.name
         summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
     return FlightResult(scenario=scenario, summary=summary, recorder=recorder, frame=frame, pilot=pilot, unit=unit, fence=fence)
-
-
-class Sensed(NamedTuple):
-    """What the geofence unit's own sensing gives it for one step."""
-
-    estimate: VehicleState
-    wind_en: tuple[float, float]
-    """Wind estimate (east, north), m/s, toward."""
-    position_valid: bool
-    sigma_h_m: float
-    sigma_v_m: float
-    horizon: FixState | None = None
-    """The estimate at its newest fix's time of validity (None with a truth source)."""
-
-
-class _GeofenceSensing:
-    """The geofence unit's own view of the flight: sensors -> state estimator -> wind estimator.
-
-    With ``state_source: truth`` (e.g. indoor motion capture) the unit gets the
-    true state and the true steady wind instead.
-    """
-
-    def __init__(self, scenario: Scenario, cfg: GeofenceConfig, frame: LocalFrame, env: Envelope):
-        from aircraft.sensors import SensorSuite
-        from geofence.estimator import GeofenceEstimator
-        from geofence.wind_estimator import WindEstimator, WindEstimatorConfig
-
-        self.truth_source = cfg.state_source is StateSource.TRUTH
-        sc = scenario.sensors
-        self.sensors = SensorSuite(sc, has_pitot=not env.is_multirotor, seed=scenario.seed)
-        self.estimator = GeofenceEstimator(
-            frame,
-            sc.estimator_config(),
-        )
-        self.wind = WindEstimator(env, WindEstimatorConfig(prior_enu=cfg.wind_prior_enu))
-        self._truth_wind = None
-        if self.truth_source and scenario.wind is not None:
-            self._truth_wind = wind_from_config(scenario.wind, scenario.seed)
-
-    @property
-    def turbulence_sigma_mps(self) -> float | None:
-        """The wind estimator's turbulence intensity (None with a truth source: the unit is told nothing)."""
-        return None if self.truth_source else self.wind.turbulence_sigma_mps
-
-    @property
-    def data_age_s(self) -> float:
-        """Age of the position data behind the estimate (0 for a perfect, immediate source)."""
-        return 0.0 if self.truth_source else self.estimator.data_age_s
-
-    def sense(self, truth: VehicleState, dt_s: float) -> Sensed:
-        """The unit's estimate, wind estimate, position validity and sigmas for this step."""
-        if self.truth_source:
-            we, wn = (self._truth_wind.mean(truth.agl_m)[:2]) if self._truth_wind is not None else (0.0, 0.0)
-            return Sensed(truth, (we, wn), True, 0.0, 0.0)
-        fix, air, att = self.sensors.sample(truth)
-        est = self.estimator.step(dt_s, fix, air, att)
-        est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
-        valid = self.estimator.position_valid
-        wind_en = self.wind.update(est, air.airspeed_mps, dt_s, valid)
-        return Sensed(est, wind_en, valid, self.estimator.sigma_h_m, self.estimator.sigma_v_m, self.estimator.horizon_state())
 
 
 def write_result(

@@ -1,0 +1,159 @@
+"""The geofence unit's own view of a simulated flight: sensors -> state estimator -> wind estimator, per step.
+
+:class:`GeofenceSensing` runs the chain either as the reference objects
+(:class:`aircraft.sensors.SensorSuite`, :class:`geofence.estimator.GeofenceEstimator`,
+:class:`geofence.wind_estimator.WindEstimator`) or, where numba is active
+(:data:`geofence.jit.ACTIVE`), as one compiled call per step through their
+array forms (:mod:`aircraft.sensor_kernel`, :mod:`geofence.estimator_kernel`,
+:mod:`geofence.wind_estimator_kernel`). Both give the same numbers, bit for bit
+(``tests/test_sensing_kernel.py`` steps them side by side, and flies whole
+flights both ways); the compiled chain costs about a fifth of the objects'.
+
+With ``state_source: truth`` (e.g. indoor motion capture) the unit gets the
+true state and the true steady wind instead.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Callable, NamedTuple
+
+import numpy as np
+
+from aircraft.sensor_kernel import HAS_PITOT, MAX_DRAWS_PER_STEP, SensorArrays, sensors_step
+from aircraft.sensors import SensorSuite
+from geofence import estimator_kernel as ek
+from geofence import jit
+from geofence.config import GeofenceConfig, StateSource
+from geofence.estimator import GeofenceEstimator
+from geofence.estimator_kernel import estimator_arrays, estimator_step
+from geofence.geodesy import LocalFrame
+from geofence.interface import Envelope, FixState, VehicleState
+from geofence.jit import COMPILED, numba
+from geofence.wind_estimator import WindEstimator, WindEstimatorConfig
+from geofence.wind_estimator_kernel import VAR, wind_estimator_arrays, wind_estimator_update
+from scenarios.spec.schema import Scenario
+from wind.config import wind_from_config
+
+
+class Sensed(NamedTuple):
+    """What the geofence unit's own sensing gives it for one step."""
+
+    estimate: VehicleState
+    wind_en: tuple[float, float]
+    """Wind estimate (east, north), m/s, toward."""
+    position_valid: bool
+    sigma_h_m: float
+    sigma_v_m: float
+    horizon: FixState | None = None
+    """The estimate at its newest fix's time of validity (None with a truth source)."""
+
+
+def _sense_step(
+    S: np.ndarray, C: np.ndarray, outages: np.ndarray, pending: np.ndarray, gps: np.ndarray, baro: np.ndarray,
+    pitot: np.ndarray, ahrs: np.ndarray, idx: np.ndarray, fix: np.ndarray, X: np.ndarray, K: np.ndarray,
+    W: np.ndarray, WC: np.ndarray, dt_s: float, t: float, lat: float, lon: float, alt: float, ve: float,
+    vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
+) -> tuple[tuple[float, ...], float, float, bool, float, float, bool, float, float, bool]:  # fmt: skip
+    """One step of the chain from the truth's fields: ``(estimate fields, wind e, wind n, position valid,
+    sigma_h, sigma_v, new horizon, data age, turbulence sigma, a noise pool runs low)``."""
+    delivered, a_ind, baro_alt, r, p, y = sensors_step(
+        S, C, outages, pending, gps, baro, pitot, ahrs, idx, fix, t, lat, lon, alt, ve, vn, vu, airspeed, roll, pitch, yaw
+    )
+    est = estimator_step(X, K, dt_s, delivered, fix, t, a_ind, baro_alt, r, p, y)
+    valid = X[ek.POSITION_VALID] != 0.0
+    we, wn = wind_estimator_update(
+        W, WC, C[HAS_PITOT] != 0.0, a_ind, dt_s, valid, est[3], est[7], est[8], est[9], est[10], est[11], est[12], est[13]
+    )
+    age = X[ek.T_S] - X[ek.T_D] if X[ek.HAS_H] != 0.0 else 0.0
+    var = W[VAR]
+    low = (
+        gps.shape[0] - idx[0] < MAX_DRAWS_PER_STEP
+        or baro.shape[0] - idx[1] < MAX_DRAWS_PER_STEP
+        or pitot.shape[0] - idx[2] < MAX_DRAWS_PER_STEP
+        or ahrs.shape[0] - idx[3] < MAX_DRAWS_PER_STEP
+    )
+    return (
+        est, we, wn, valid, X[ek.SIGMA_H], X[ek.SIGMA_V], X[ek.HORIZON_NEW] != 0.0, age if age > 0.0 else 0.0,
+        math.sqrt(var) if var > 0.0 else 0.0, low,
+    )  # fmt: skip
+
+
+sense_step: Callable[..., tuple[Any, ...]] = numba.njit(cache=True)(_sense_step) if COMPILED else _sense_step
+"""The compiled :func:`_sense_step` (the Python function itself without numba)."""
+
+
+class GeofenceSensing:
+    """The geofence unit's own view of the flight: sensors -> state estimator -> wind estimator.
+
+    ``compiled`` (default :data:`geofence.jit.ACTIVE` when built): one compiled call per step through the
+    chain's array forms; else the reference objects, kept as ``sensors``, ``estimator`` and ``wind``.
+    """
+
+    def __init__(
+        self, scenario: Scenario, cfg: GeofenceConfig, frame: LocalFrame, env: Envelope, compiled: bool | None = None
+    ) -> None:
+        self.truth_source = cfg.state_source is StateSource.TRUTH
+        sc = scenario.sensors
+        has_pitot = not env.is_multirotor
+        wind = WindEstimator(env, WindEstimatorConfig(prior_enu=cfg.wind_prior_enu))
+        self._truth_wind = None
+        if self.truth_source and scenario.wind is not None:
+            self._truth_wind = wind_from_config(scenario.wind, scenario.seed)
+        self.compiled = (jit.ACTIVE if compiled is None else compiled) and not self.truth_source
+        if not self.compiled:
+            self.sensors = SensorSuite(sc, has_pitot=has_pitot, seed=scenario.seed)
+            self.estimator = GeofenceEstimator(frame, sc.estimator_config())
+            self.wind = wind
+        else:
+            self._sensor_arrays = SensorArrays(sc, has_pitot=has_pitot, seed=scenario.seed)
+            X, K = estimator_arrays(frame, sc.estimator_config())
+            W, WC = wind_estimator_arrays(wind)
+            self._X = X
+            self._args: tuple[Any, ...] = (*self._sensor_arrays.args(), X, K, W, WC)
+            self._age = 0.0
+            self._turbulence = 0.0
+            self._horizon: FixState | None = None
+
+    @property
+    def turbulence_sigma_mps(self) -> float | None:
+        """The wind estimator's turbulence intensity (None with a truth source: the unit is told nothing)."""
+        if self.truth_source:
+            return None
+        return self._turbulence if self.compiled else self.wind.turbulence_sigma_mps
+
+    @property
+    def data_age_s(self) -> float:
+        """Age of the position data behind the estimate (0 for a perfect, immediate source)."""
+        if self.truth_source:
+            return 0.0
+        return self._age if self.compiled else self.estimator.data_age_s
+
+    def sense(self, truth: VehicleState, dt_s: float) -> Sensed:
+        """The unit's estimate, wind estimate, position validity and sigmas for this step."""
+        if self.truth_source:
+            we, wn = (self._truth_wind.mean(truth.agl_m)[:2]) if self._truth_wind is not None else (0.0, 0.0)
+            return Sensed(truth, (we, wn), True, 0.0, 0.0)
+        if self.compiled:
+            return self._sense_compiled(truth, dt_s)
+        fix, air, att = self.sensors.sample(truth)
+        est = self.estimator.step(dt_s, fix, air, att)
+        est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
+        valid = self.estimator.position_valid
+        wind_en = self.wind.update(est, air.airspeed_mps, dt_s, valid)
+        return Sensed(est, wind_en, valid, self.estimator.sigma_h_m, self.estimator.sigma_v_m, self.estimator.horizon_state())
+
+    def _sense_compiled(self, truth: VehicleState, dt_s: float) -> Sensed:
+        s = truth
+        fields, we, wn, valid, sigma_h, sigma_v, new_horizon, self._age, self._turbulence, low = sense_step(
+            *self._args, dt_s, s.t_s, s.lat_deg, s.lon_deg, s.alt_m, s.v_east_mps, s.v_north_mps, s.v_up_mps,
+            s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad,
+        )  # fmt: skip
+        if new_horizon:
+            X = self._X
+            self._horizon = FixState(*(float(X[i]) for i in (ek.H_T, ek.H_E, ek.H_N, ek.H_VE, ek.H_VN)))
+        if low and self._sensor_arrays.refill():
+            self._args = (*self._sensor_arrays.args(), *self._args[10:])
+        est = VehicleState(*fields)
+        est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
+        return Sensed(est, (we, wn), valid, sigma_h, sigma_v, self._horizon)
