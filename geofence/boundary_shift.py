@@ -88,6 +88,8 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple, Sequence
 
+import numpy as np
+
 from . import jit as _jit
 from .dynamics import drag_coefficients, wind_push_mps2
 from .fence import AltitudeReference, FenceError
@@ -95,6 +97,8 @@ from .fence_grid import GROUPED_FROM_EDGES_PER_GROUP, MULTIROTOR_GROUPED_FROM_ED
 from .interface import Envelope, PlatformKind, VehicleState
 from .lateral_kernel import lateral_binding
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
+from .margins_kernel import envelope_terms
+from .margins_kernel import margins as margins_kernel
 from .rooms import (
     G_MPS2,
     TWO_PI,
@@ -420,6 +424,11 @@ def activation_margins(
     """
     if compiled is None:
         compiled = _jit.ACTIVE
+    if compiled and fence.grid() is None:  # a fence without an index: the whole answer is one compiled call
+        return _margins_compiled(
+            fence, e, n, h, ve, vn, vu, envelope, wind_e, wind_n, h_uncertainty_m, v_uncertainty_m, latency_s, bank_rad,
+            wind_extra_mps, rollout_target_en, g,
+        )  # fmt: skip
     t_r = envelope.reaction_time_s + latency_s
     speed = math.hypot(ve, vn)
     extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
@@ -683,6 +692,29 @@ def activation_margins(
         v_act,  # vertical_activation_m
         vttb,  # vertical_time_to_breach_s
     )
+
+
+_ENVELOPE_TERMS: dict[int, tuple[Envelope, np.ndarray]] = {}
+
+
+def _margins_compiled(
+    fence: LocalFence, e: float, n: float, h: float, ve: float, vn: float, vu: float, envelope: Envelope,
+    wind_e: float, wind_n: float, hu: float, v_unc: float, latency_s: float, bank_rad: float, wind_extra_mps: float,
+    rollout_target_en: tuple[float, float] | None, g: float,
+) -> ShiftResult:  # fmt: skip
+    """:func:`activation_margins` of a fence without an index by :func:`geofence.margins_kernel.margins`."""
+    cached = _ENVELOPE_TERMS.get(id(envelope))
+    if cached is None or cached[0] is not envelope:
+        cached = _ENVELOPE_TERMS[id(envelope)] = (envelope, envelope_terms(envelope))
+    has_target = rollout_target_en is not None
+    te, tn = rollout_target_en if rollout_target_en is not None else (0.0, 0.0)
+    r = margins_kernel(
+        *fence.margin_tables(), cached[1], e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad,
+        wind_extra_mps, has_target, te, tn, g,
+    )  # fmt: skip
+    fence.remember_margin(e, n, r[1])
+    feat, idx, j = fence.element_table()[1][r[4]]
+    return ShiftResult(r[0], r[1], r[2], r[3], feat, idx, j, *r[5:])
 
 
 def activation_margins_for_state(

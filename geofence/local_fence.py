@@ -29,6 +29,7 @@ from .fence_grid import GROUP_LENGTH_M, SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame
 from .heights import AltitudeReference, VerticalExtent
 from .lateral_kernel import element_table
+from .margins_kernel import MarginTables
 from .polygon import PolygonIndex, pole_of_inaccessibility
 from .scan_kernel import lateral_margin_scan, polygon_rows
 
@@ -119,6 +120,7 @@ class LocalFence:
         "_group_length_m",
         "_memo_en",
         "_memo_margin_m",
+        "_margin_tables",
         "_element_table",
         "_scan_table",
     )
@@ -163,6 +165,7 @@ class LocalFence:
         self._gap_edges: tuple[tuple[DangerEdge, ...], ...] | None = None
         self._element_table: tuple | None = None
         self._scan_table: tuple | None = None
+        self._margin_tables: MarginTables | None = None
         self.recovery_height_m: float | None
         rp = fence.recovery_point
         if rp is not None:
@@ -238,10 +241,7 @@ class LocalFence:
         compiled while :data:`geofence.jit.ACTIVE` (:func:`geofence.scan_kernel.lateral_margin_scan`, the
         same number)."""
         if _jit.ACTIVE:
-            t = self._scan_table
-            if t is None:
-                t = self._scan_table = self._build_scan_table()
-            return lateral_margin_scan(e, n, *t)
+            return lateral_margin_scan(e, n, *self.scan_tables())
         m = self.keep_in.signed_distance(e, n)
         if self._no_keepouts:
             return m
@@ -254,6 +254,24 @@ class LocalFence:
             if d < m:
                 m = d
         return m
+
+    def scan_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The compiled scan's tables (cached): the keep-in's edge rows, the keep-outs' rows end to end with
+        their offsets, and the circles ``(east, north, r)``."""
+        if self._scan_table is None:
+            self._scan_table = self._build_scan_table()
+        return self._scan_table
+
+    def margin_tables(self) -> MarginTables:
+        """The compiled margins' tables of this fence (cached; :class:`geofence.margins_kernel.MarginTables`)."""
+        if self._margin_tables is None:
+            self._margin_tables = MarginTables.build(self)
+        return self._margin_tables
+
+    def remember_margin(self, e: float, n: float, margin_m: float) -> None:
+        """Keep ``margin_m`` as :meth:`lateral_margin_m`'s answer at (e, n) (computed elsewhere, the same number)."""
+        self._memo_en = (e, n)
+        self._memo_margin_m = margin_m
 
     def _build_scan_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The compiled scan's tables: the keep-in's edge rows, the keep-outs' rows end to end with their

@@ -133,6 +133,7 @@ def turn_radius_m(airspeed_mps: float, bank_rad: float, g: float = G_MPS2) -> fl
     return airspeed_mps * airspeed_mps / (g * math.tan(bank_rad))
 
 
+@jitable
 def turn_rate_radps(airspeed_mps: float, bank_rad: float, g: float = G_MPS2) -> float:
     """Coordinated-turn rate ``omega = g·tan phi / V`` in rad/s (+ in the bank's direction)."""
     return g * math.tan(bank_rad) / airspeed_mps
@@ -157,6 +158,7 @@ def course_reversal_time_s(airspeed_mps: float, bank_rad: float, g: float = G_MP
     return math.pi / turn_rate_radps(airspeed_mps, bank_rad, g)
 
 
+@jitable
 def turn_constants(airspeed_mps: float, bank_rad: float, g: float = G_MPS2) -> tuple[float, float]:
     """Fast form of ``(turn_radius_m, 1/turn_rate_radps)``: ``(R = V²/(g·tan phi) m, 1/omega = V/(g·tan phi) s)``.
 
@@ -353,6 +355,7 @@ def fixed_wing_room_from_velocity_m(
     return fixed_wing_room_m(v, bank_rad, math.atan2(vat, van), wind_normal, reaction_time_s, g)
 
 
+@jitable
 def fixed_wing_room_bound_m(radius: float, inv_omega: float, speed_mps: float, wind_speed_mps: float, t_s: float) -> float:
     """Upper bound of reaction travel + excursion against any edge: ``2R + |W|·2pi/omega + (v + |W|)·t``, in m.
 
@@ -365,11 +368,13 @@ def fixed_wing_room_bound_m(radius: float, inv_omega: float, speed_mps: float, w
 
 
 # --------------------------------------------------------------------------- multirotor: reaction and braking
+@jitable
 def tilt_accel_mps2(tilt_rad: float, g: float = G_MPS2) -> float:
     """Horizontal acceleration at tilt ``theta`` (rad): ``g·tan(theta)``, m/s²."""
     return g * math.tan(tilt_rad)
 
 
+@jitable
 def climb_arrest_phase(v_up_mps: float, vertical_accel_mps2: float, g: float = G_MPS2) -> tuple[float, float]:
     """``(t_arrest s, loss)`` of arresting a climb: ``(v_up/a_z, a_z/g)``; ``(0, 0)`` when not climbing.
 
@@ -481,6 +486,7 @@ def multicopter_stopping_distance_m(
 
 
 # --------------------------------------------------------------------------- vertical
+@jitable
 def vertical_arrest_distance_m(v_toward_mps: float, reaction_time_s: float, accel_mps2: float) -> float:
     """``v·t_react + v²/(2·a_z)`` in m for a climb towards the ceiling / descent towards the floor; 0 if moving away.
 
@@ -493,6 +499,7 @@ def vertical_arrest_distance_m(v_toward_mps: float, reaction_time_s: float, acce
     return v_toward_mps * reaction_time_s + v_toward_mps * v_toward_mps / (2.0 * accel_mps2)
 
 
+@jitable
 def climb_back_drift_m(depth_below_floor_m: float, climb_rate_mps: float, wind_speed_mps: float) -> float:
     """How far a fixed-wing circling inside a floor gap drifts while it climbs back above the floor (m).
 

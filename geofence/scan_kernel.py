@@ -22,7 +22,7 @@ from geofence.jit import COMPILED, jitable, numba
 from geofence.lateral_kernel import hypot
 from geofence.polygon import BOUNDARY_TOL_M
 
-__all__ = ["lateral_margin_scan", "polygon_rows"]
+__all__ = ["lateral_margin_scan", "polygon_rows", "signed_distance_rows"]
 
 
 def polygon_rows(edges: Sequence[tuple]) -> np.ndarray:
@@ -31,7 +31,7 @@ def polygon_rows(edges: Sequence[tuple]) -> np.ndarray:
 
 
 @jitable
-def _signed_distance_rows(rows: np.ndarray, x: float, y: float) -> float:
+def signed_distance_rows(rows: np.ndarray, x: float, y: float) -> float:
     """:meth:`PolygonIndex.signed_distance` over its edge table (the same arithmetic: the smallest squared
     point-segment distance and the crossing parity, + inside, within the boundary tolerance counted inside)."""
     inside = False
@@ -66,9 +66,9 @@ def _lateral_margin_scan(
     """:meth:`LocalFence.lateral_margin_scan_m`: the keep-in's signed distance, less every keep-out polygon's
     (rows ``offsets[k]:offsets[k + 1]`` of ``keep_outs``) and every circle's ``hypot - r`` (rows ``(e, n, r)``),
     the smallest; the same floats in the same order."""
-    m = _signed_distance_rows(keep_in, e, n)
+    m = signed_distance_rows(keep_in, e, n)
     for k in range(offsets.shape[0] - 1):
-        d = -_signed_distance_rows(keep_outs[offsets[k] : offsets[k + 1]], e, n)
+        d = -signed_distance_rows(keep_outs[offsets[k] : offsets[k + 1]], e, n)
         if d < m:
             m = d
     for k in range(circles.shape[0]):

@@ -38,7 +38,7 @@ def _bits(x) -> object:
     return x if isinstance(x, str) else float(x).hex()  # a float's exact value (and its sign, inf, nan)
 
 
-def _same(a, b) -> bool:
+def same_bits(a, b) -> bool:
     """Every field equal bit for bit (numpy or Python floats alike)."""
     return [_bits(x) for x in a] == [_bits(x) for x in b]
 
@@ -73,7 +73,7 @@ def _assert_compiled_equals_reference(local, points, rng: random.Random) -> None
             args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True, rollout=True)
             a = activation_margins(local, *args, **kw, compiled=True)  # without numba: the kernel's Python form
             ref = activation_margins(local, *args, **kw, compiled=False)
-            assert _same(a, ref), (e, n, env.kind)
+            assert same_bits(a, ref), (e, n, env.kind)
 
 
 @settings(max_examples=12, deadline=None)
@@ -129,7 +129,7 @@ def test_exact_ties_go_to_the_first_element(index):
                 args = (local, e, n, 30.0, ve, vn, 0.0, env, *wind)
                 a = activation_margins(*args)
                 ref = activation_margins(*args, compiled=False)
-                assert _same(a, ref), (e, n, ve, vn, env.kind, wind)
+                assert same_bits(a, ref), (e, n, ve, vn, env.kind, wind)
                 if a.feature == "keep_out_polygon":
                     tied.append(a)
     # at rest in the middle of the square, the multirotor's four keep-in edges tie: the first one binds

@@ -1,0 +1,296 @@
+"""The activation margins of a state against a fence without an index, compiled whole.
+
+One question: :func:`geofence.boundary_shift.activation_margins` for a fence
+small enough to be scanned element by element (no
+:class:`~geofence.fence_grid.FenceGrid`: the fences autopilots store, and most
+users'), as one compiled call: the per-state terms (reaction time, turn
+constants, roll-out heading, the room bound), the binding lateral element
+(:func:`geofence.lateral_kernel.lateral_binding`), the lateral margin's full
+scan (:func:`geofence.scan_kernel.lateral_margin_scan`), the ceiling, the floor
+and the floor gap the vehicle is over. The Python function stays the reference
+(``compiled=False``): the same floats in the same order, the formulas compiled
+from their one home in :mod:`geofence.rooms` and :mod:`geofence.dynamics`, and
+``tests/test_margins_kernel.py`` holds every field of the
+:class:`~geofence.boundary_shift.ShiftResult` equal bit for bit.
+
+The fence's tables (:class:`MarginTables`, built once per fence, packed in one
+float and one int array: a compiled call pays about 0.1 µs per array argument)
+and the envelope's terms (:func:`envelope_terms`) are arrays; the kernel returns
+the result's fields with the binding element's row id in place of its feature,
+index and edge.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, NamedTuple
+
+import numpy as np
+
+from geofence.dynamics import drag_coefficients, wind_push_mps2
+from geofence.interface import Envelope, PlatformKind
+from geofence.jit import COMPILED, jitable, numba
+from geofence.lateral_kernel import element_table, hypot, lateral_binding
+from geofence.rooms import (
+    TWO_PI,
+    climb_arrest_phase,
+    climb_back_drift_m,
+    fixed_wing_room_bound_m,
+    multirotor_room_m,
+    tilt_accel_mps2,
+    turn_constants,
+    turn_rate_radps,
+    vertical_arrest_distance_m,
+)
+from geofence.scan_kernel import lateral_margin_scan, polygon_rows, signed_distance_rows
+
+if TYPE_CHECKING:  # the fence imports this module for its tables
+    from geofence.local_fence import LocalFence
+
+__all__ = ["MarginTables", "envelope_terms", "margins"]
+
+# envelope terms
+FIXED_WING, REACTION_S, MAX_BANK, CRUISE, MIN_SPEED, MAX_SPEED, BRAKING, VERTICAL_ACCEL, MAX_CLIMB, K1, K2 = range(11)
+# fence scalars
+CEILING, FLOOR, HAS_FLOOR, RECOVERY_E, RECOVERY_N = range(5)
+
+
+# the tables packed in one float and one int array (two arguments: a compiled call pays per array)
+ELEMENTS, KEEP_IN, KEEP_OUTS, CIRCLES, GAP_POLYGONS, GAP_EDGES, ZEROS, SCALARS = range(8)  # float tables
+_FLOAT_COLUMNS = (7, 7, 7, 3, 7, 7, 1, 1)
+IDS, KEEP_OUT_OFFSETS, GAP_OFFSETS, GAP_EDGE_OFFSETS = range(8, 12)  # int vectors
+_HEADER = 2 * 12  # (start, rows) of each
+
+
+class MarginTables(NamedTuple):
+    """A fence's tables for :func:`margins`, packed (see :meth:`geofence.local_fence.LocalFence.margin_tables`).
+
+    Float tables: the lateral elements (:func:`geofence.lateral_kernel.element_table` rows, ``danger_edges``
+    then circles), the lateral margin's scan tables (the keep-in's and keep-outs' polygon rows, the circles),
+    the floor gaps' polygon rows end to end and their edge elements end to end (normals out of the gap), a
+    zero per element, and ``(ceiling, floor (nan without), has floor, recovery east, recovery north)``.
+    Int vectors: the element ids in order, the keep-outs', gaps' and gap edges' offsets. ``layout``'s first
+    :data:`_HEADER` entries are each part's ``(start, rows)``.
+    """
+
+    floats: np.ndarray
+    layout: np.ndarray
+
+    @classmethod
+    def build(cls, fence: LocalFence) -> MarginTables:
+        """The tables of a :class:`~geofence.local_fence.LocalFence` (its element table, scan table and gaps)."""
+        E, _meta, ids, zeros = fence.element_table()
+        ki, ko, ko_off, circles = fence.scan_tables()
+        gaps = fence.floor_gaps
+        gap_rows = [polygon_rows(g.edge_tuples()) for g in gaps]
+        gap_elems = [element_table(fence.gap_edges(i), ()) for i in range(len(gaps))]
+        re, rn = fence.recovery_en
+        floor = fence.floor_m
+        floats = [
+            E, ki, ko, circles,
+            np.concatenate(gap_rows) if gap_rows else np.zeros((0, 7)),
+            np.concatenate(gap_elems) if gap_elems else np.zeros((0, 7)),
+            zeros.reshape(-1, 1),
+            np.array([fence.ceiling_m, math.nan if floor is None else floor, float(floor is not None), re, rn]).reshape(-1, 1),
+        ]  # fmt: skip
+        ints = [
+            ids,
+            ko_off,
+            np.cumsum([0] + [len(r) for r in gap_rows]).astype(np.int64),
+            np.cumsum([0] + [len(r) for r in gap_elems]).astype(np.int64),
+        ]
+        header = np.zeros(_HEADER, np.int64)
+        start = 0
+        for k, (t, cols) in enumerate(zip(floats, _FLOAT_COLUMNS)):
+            assert t.shape[1] == cols
+            header[2 * k], header[2 * k + 1] = start, t.shape[0]
+            start += t.size
+        start = _HEADER
+        for k, v in enumerate(ints, start=len(floats)):
+            header[2 * k], header[2 * k + 1] = start, v.shape[0]
+            start += v.shape[0]
+        return cls(
+            np.concatenate([t.ravel() for t in floats]).astype(np.float64),
+            np.concatenate([header, *ints]).astype(np.int64),
+        )
+
+
+@jitable
+def _table(F: np.ndarray, L: np.ndarray, k: int, cols: int) -> np.ndarray:
+    """Float table ``k`` (``cols`` columns) of a packed :class:`MarginTables`."""
+    start = L[2 * k]
+    return F[start : start + L[2 * k + 1] * cols].reshape(L[2 * k + 1], cols)
+
+
+@jitable
+def _vector(L: np.ndarray, k: int) -> np.ndarray:
+    """Int vector ``k`` of a packed :class:`MarginTables`."""
+    start = L[2 * k]
+    return L[start : start + L[2 * k + 1]]
+
+
+def envelope_terms(env: Envelope) -> np.ndarray:
+    """The envelope's terms :func:`margins` reads (kind, reaction time, bank, speeds, braking, vertical
+    acceleration and climb rate, and the drag law's ``k1, k2``)."""
+    k1, k2 = drag_coefficients(env)
+    return np.array(
+        [
+            float(env.kind is PlatformKind.FIXED_WING), env.reaction_time_s, env.max_bank_rad, env.cruise_speed_mps,
+            env.min_speed_mps, env.max_speed_mps, env.braking_decel_mps2, env.vertical_accel_mps2,
+            env.max_climb_rate_mps, k1, k2,
+        ]
+    )  # fmt: skip
+
+
+def _margins(
+    F: np.ndarray,
+    L: np.ndarray,
+    V: np.ndarray,
+    e: float,
+    n: float,
+    h: float,
+    ve: float,
+    vn: float,
+    vu: float,
+    wind_e: float,
+    wind_n: float,
+    hu: float,
+    v_unc: float,
+    latency_s: float,
+    bank_rad: float,
+    wind_extra_mps: float,
+    has_target: bool,
+    target_e: float,
+    target_n: float,
+    g: float,
+) -> tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]:  # fmt: skip
+    """:func:`~geofence.boundary_shift.activation_margins` without an index: ``(activation, lateral margin, lateral
+    shift, lateral activation, element id, nx, ny, edge distance, closing speed, time to breach, turn sign,
+    turn angle, ceiling margin, ceiling shift, floor margin, floor shift, vertical activation, vertical time to
+    breach)``; the arguments are the reference's (``h_uncertainty_m`` is ``hu``, ``v_uncertainty_m`` ``v_unc``;
+    ``has_target``: a ``rollout_target_en`` is given). ``F, L``: a fence's packed :class:`MarginTables`."""
+    S = _table(F, L, SCALARS, 1)[:, 0]
+    fixed_wing = V[FIXED_WING] != 0.0
+    t_r = V[REACTION_S] + latency_s
+    speed = hypot(ve, vn)
+    extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
+    wspeed = hypot(wind_e, wind_n) + extra
+    max_bank = V[MAX_BANK]
+    s1 = delta1 = s2 = delta2 = psi_react0 = rot = omega_now = t_fw = sa = ca = 0.0
+    radius = inv_omega = v_turn = 0.0
+    k1 = k2 = a_pilot = a_brake = arrest_t = arrest_loss = 0.0
+    if fixed_wing:
+        vae, van = ve - wind_e, vn - wind_n
+        v_air = hypot(vae, van)
+        if v_air > 0.0:
+            psi_abs = math.atan2(van, vae)
+        elif speed > 0.0:
+            psi_abs = math.atan2(vn, ve)
+        else:
+            psi_abs = 0.0
+        v_turn = max(v_air, V[CRUISE], V[MIN_SPEED], 1e-3)
+        radius, inv_omega = turn_constants(v_turn, max_bank, g)
+        bank_now = max(-max_bank, min(max_bank, bank_rad))
+        t_fw = t_r + V[REACTION_S] * (abs(bank_now) / max_bank if max_bank > 0 else 0.0)
+        omega_now = turn_rate_radps(v_turn, bank_now, g)
+        rot = max(-math.pi, min(math.pi, omega_now * t_fw))
+        psi_react0 = psi_abs
+        psi_abs = psi_abs - rot
+        ca, sa = math.cos(psi_abs), math.sin(psi_abs)
+        re, rn = (target_e, target_n) if has_target else (S[RECOVERY_E], S[RECOVERY_N])
+        de, dn = re - e, rn - n
+        dd = hypot(de, dn)
+        if dd > 1.0:
+            psi_d = math.atan2(dn, de)
+            psi_f = psi_d
+            wc = (de * wind_n - dn * wind_e) / dd
+            if abs(wc) < v_turn:
+                cand = psi_d - math.asin(wc / v_turn)
+                if v_turn * math.cos(cand - psi_d) + (de * wind_e + dn * wind_n) / dd > 0.0:
+                    psi_f = cand
+            s1, delta1, s2, delta2 = 1.0, (psi_f - psi_abs) % TWO_PI, -1.0, (psi_abs - psi_f) % TWO_PI
+        else:
+            s1, delta1, s2, delta2 = 1.0, math.pi, -1.0, math.pi
+        bound = fixed_wing_room_bound_m(radius, inv_omega, speed, wspeed, t_fw) + hu
+    else:
+        a_tilt = tilt_accel_mps2(max_bank, g)
+        k1, k2 = V[K1], V[K2]
+        v_air_mc = hypot(ve - wind_e, vn - wind_n)
+        a_brake = V[BRAKING]
+        arrest_t, arrest_loss = climb_arrest_phase(vu, V[VERTICAL_ACCEL], g)
+        push_max = wind_push_mps2(k1, k2, wspeed, wspeed)
+        a_p_max = a_tilt + push_max
+        room_max = multirotor_room_m(speed, speed, t_r, max(a_p_max, 0.0), a_brake - push_max, (arrest_t, arrest_loss))
+        bound = (room_max + hu) * (1.0 + 1e-9) + 1e-6
+        a_pilot = a_tilt if v_air_mc < V[MAX_SPEED] else 0.0
+
+    lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
+        _table(F, L, ELEMENTS, 7), _vector(L, IDS), _table(F, L, ZEROS, 1)[:, 0], False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
+        v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
+        k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss,
+    )  # fmt: skip
+    lat_margin = lateral_margin_scan(
+        e, n, _table(F, L, KEEP_IN, 7), _table(F, L, KEEP_OUTS, 7), _vector(L, KEEP_OUT_OFFSETS), _table(F, L, CIRCLES, 3)
+    )
+    if lat_margin < lat_act:
+        lat_act = lat_margin
+    if lat_margin <= 0.0:
+        ttb = 0.0
+    else:
+        ttb = d_edge / v_n if v_n > 1e-9 else math.inf
+
+    # vertical
+    c_m = S[CEILING] - h
+    c_s = vertical_arrest_distance_m(vu, t_r, V[VERTICAL_ACCEL]) + v_unc
+    if S[HAS_FLOOR] == 0.0:
+        f_m, f_s, f_act = math.inf, 0.0, math.inf
+    else:
+        floor = S[FLOOR]
+        f_m = h - floor
+        f_act = h - floor - vertical_arrest_distance_m(-vu, t_r, V[VERTICAL_ACCEL]) - v_unc
+        gap_offsets = _vector(L, GAP_OFFSETS)
+        n_gaps = gap_offsets.shape[0] - 1
+        if n_gaps > 0:
+            gap_polygons = _table(F, L, GAP_POLYGONS, 7)
+            gi, gd = -1, -math.inf  # the gap the point is deepest inside (LocalFence.best_gap)
+            for k in range(n_gaps):
+                d = signed_distance_rows(gap_polygons[gap_offsets[k] : gap_offsets[k + 1]], e, n)
+                if d > gd:
+                    gi, gd = k, d
+            if gd > f_m:  # the gap-aware floor margin (LocalFence.floor_margin_m)
+                f_m = gd
+            if gd > 0.0:  # over a gap: staying inside it (laterally) also keeps the floor
+                edge_offsets = _vector(L, GAP_EDGE_OFFSETS)
+                G = _table(F, L, GAP_EDGES, 7)[edge_offsets[gi] : edge_offsets[gi + 1]]
+                cnt = G.shape[0]
+                g_act = lateral_binding(
+                    G, np.arange(cnt), np.zeros(cnt), False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n,
+                    extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2,
+                    delta2, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss,
+                )[0]  # fmt: skip
+                if fixed_wing:  # it circles while it climbs back from the deepest point its descent reaches
+                    deepest = h - vertical_arrest_distance_m(-vu, t_r, V[VERTICAL_ACCEL]) - v_unc
+                    g_act -= climb_back_drift_m(floor - deepest, V[MAX_CLIMB], wspeed)
+                if g_act > gd:
+                    g_act = gd
+                if g_act > f_act:
+                    f_act = g_act
+        f_s = f_m - f_act
+    ceiling_act = c_m - c_s
+    v_act = f_act if f_act < ceiling_act else ceiling_act
+    if c_m <= 0.0 or f_m <= 0.0:
+        vttb = 0.0
+    elif vu > 1e-9:
+        vttb = c_m / vu
+    elif vu < -1e-9 and S[HAS_FLOOR] != 0.0:
+        vttb = f_m / -vu
+    else:
+        vttb = math.inf
+    return (
+        v_act if v_act < lat_act else lat_act, lat_margin, room, lat_act, i_bind, nx, ny, d_edge, v_n, ttb,
+        int(s_best), turn_angle, c_m, c_s, f_m, f_s, v_act, vttb,
+    )  # fmt: skip
+
+
+margins = numba.njit(cache=True)(_margins) if COMPILED else _margins
+"""The compiled :func:`_margins` (the Python function itself without numba)."""

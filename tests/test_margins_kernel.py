@@ -1,0 +1,86 @@
+"""Property: the compiled margins of a fence without an index are the reference's, bit for bit.
+
+:func:`geofence.margins_kernel.margins` answers :func:`activation_margins` for a fence the unit scans element by
+element, as one compiled call. On random fences with keep-outs, a floor and floor gaps (the vertical part and the
+gap the vehicle is over: the floor-gap edges scored as lateral boundaries, the fixed-wing's climb-back drift),
+at states above and below the floor, inside and outside gaps, near the ceiling, climbing and descending, for both
+platform kinds, every field of the :class:`ShiftResult` must equal the plain-Python reference's
+(``compiled=False``) as floats' bits; and the lateral margin the kernel found is the fence's remembered answer.
+"""
+
+import math
+import random
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_fence_grid import FRAME, FW, MC, latlon, probe_points, random_fence, random_margin_call
+from test_lateral_kernel import same_bits
+
+from geofence.boundary_shift import activation_margins
+from geofence.fence import Fence
+
+
+def fence_with_gaps(seed: int, n_vertices: int, n_squares: int, n_circles: int, n_gaps: int) -> Fence:
+    """A random fence (``random_fence``) with a floor at 20 m and up to ``n_gaps`` square gaps near the centre."""
+    base = random_fence(seed, n_vertices, n_squares, n_circles)
+    rng = random.Random(seed + 1)
+    gaps = []
+    for k in range(n_gaps):
+        cx, cy, s = rng.uniform(-60, 60), rng.uniform(-60, 60), rng.uniform(10, 25)
+        gaps.append(tuple(latlon(cx + x, cy + y) for x, y in ((-s, -s), (s, -s), (s, s), (-s, s))))
+    return Fence(
+        keep_in=base.keep_in,
+        ceiling_m=base.ceiling_m,
+        keep_out_polygons=base.keep_out_polygons,
+        keep_out_circles=base.keep_out_circles,
+        floor_m=20.0,
+        floor_gaps=tuple(gaps),
+    )
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    n_vertices=st.integers(4, 24),
+    n_squares=st.integers(0, 3),
+    n_circles=st.integers(0, 3),
+    n_gaps=st.integers(0, 3),
+    floor=st.booleans(),
+)
+def test_compiled_margins_without_an_index_equal_the_reference(seed, n_vertices, n_squares, n_circles, n_gaps, floor):
+    fence = (
+        fence_with_gaps(seed, n_vertices, n_squares, n_circles, n_gaps)
+        if floor
+        else random_fence(seed, n_vertices, n_squares, n_circles)
+    )
+    local = fence.to_local(FRAME)
+    assert local.grid() is None  # small: scanned element by element
+    rng = random.Random(seed)
+    points = probe_points(local, rng, 60)
+    for g in local.floor_gaps:  # inside, on and around each gap
+        (x0, y0, x1, y1) = g.bbox
+        points += [(rng.uniform(x0 - 5, x1 + 5), rng.uniform(y0 - 5, y1 + 5)) for _ in range(20)]
+    for e, n in points:
+        for env in (MC, FW):
+            args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True, rollout=True)
+            h = rng.choice([30.0, 21.0, 19.0, 5.0, 118.0, 125.0, rng.uniform(0.0, 130.0)])
+            args = (args[0], args[1], h, *args[3:])
+            a = activation_margins(local, *args, **kw, compiled=True)  # without numba: the kernel's Python form
+            assert local.lateral_margin_m(e, n) == a.lateral_margin_m  # remembered, and the scan's number
+            ref = activation_margins(local, *args, **kw, compiled=False)
+            assert same_bits(a, ref), (e, n, h, env.kind)
+
+
+def test_over_a_gap_below_the_floor_the_gap_binds_both_ways():
+    """A multirotor and a fixed-wing below the floor inside a gap: the floor activation comes from the gap's
+    edges (finite, not the plain floor arrest) in the compiled margins as in the reference."""
+    fence = fence_with_gaps(3, 16, 0, 0, 0)
+    gap = tuple(latlon(x, y) for x, y in ((-30, -30), (30, -30), (30, 30), (-30, 30)))
+    fence = Fence(keep_in=fence.keep_in, ceiling_m=fence.ceiling_m, floor_m=20.0, floor_gaps=(gap,))
+    local = fence.to_local(FRAME)
+    for env in (MC, FW):
+        args = (local, 10.0, 5.0, 12.0, 3.0, 1.0, -1.0, env, 2.0, -1.0)
+        a = activation_margins(*args, compiled=True)
+        ref = activation_margins(*args, compiled=False)
+        assert same_bits(a, ref)
+        assert a.floor_margin_m > 0.0 and math.isfinite(a.vertical_activation_m)
