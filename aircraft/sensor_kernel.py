@@ -9,9 +9,9 @@ from machine code. :class:`SensorSuite` stays the readable reference (and the
 one the tests of the error models use); its module docstring states the models.
 
 Noise: the same four seeded streams (``SeedSequence(seed, spawn_key=(k,))``),
-drawn in the same blocks of 4,096 normals, consumed in the same order. A stream
-is a pool array and a read index; :meth:`SensorArrays.refill` tops the pools up
-between steps (a step draws at most :data:`MAX_DRAWS_PER_STEP` from a stream).
+consumed in the same order. A stream is a row of drawn normals and a read index;
+:meth:`SensorArrays.refill` tops the rows up in place between steps (a step
+draws at most :data:`MAX_DRAWS_PER_STEP` from a stream).
 
 The pending GNSS messages (solved, not yet delivered) are a ring of rows
 ``(t, lat, lon, alt, ve, vn, vu, h_acc, v_acc, valid)``.
@@ -37,12 +37,13 @@ from geofence.dynamics import isa_density_ratio
 from geofence.geodesy import WGS84_A_M, WGS84_F
 from geofence.jit import COMPILED, jitable, numba
 
-__all__ = ["MAX_DRAWS_PER_STEP", "SensorArrays", "sensors_step"]
+__all__ = ["MAX_DRAWS_PER_STEP", "RING", "SensorArrays", "sensors_step"]
 
 _E2 = WGS84_F * (2.0 - WGS84_F)
 _TWO_PI = 2.0 * math.pi
 _EPS_S = 1e-9
-_RING = 64  # pending GNSS messages (latency / period + 2 are ever pending; more is a configuration error)
+RING = 64
+"""Rows of the pending GNSS messages' ring (latency / period + 2 are ever pending; more is a configuration error)."""
 
 MAX_DRAWS_PER_STEP = 32
 """The most normals one step can take from one stream (two GNSS solutions of nine draws each, at the first step)."""
@@ -115,9 +116,9 @@ def _solve(
     nvn = C[VEL_H] * _draw(gps, idx, GPS_STREAM)
     nvu = C[VEL_V] * _draw(gps, idx, GPS_STREAM)
     count = int(S[COUNT])
-    if count >= _RING:
+    if count >= RING:
         raise ValueError("more pending GNSS messages than the ring holds (latency far beyond the fix period)")
-    row = (int(S[HEAD]) + count) % _RING
+    row = (int(S[HEAD]) + count) % RING
     S[COUNT] = count + 1
     if count == 0:
         S[NEXT_ARRIVAL] = t + C[LATENCY] - _EPS_S
@@ -211,11 +212,11 @@ def _sensors_step(
         head = int(S[HEAD])
         count = int(S[COUNT])
         fix[:] = pending[head]
-        head = (head + 1) % _RING
+        head = (head + 1) % RING
         count -= 1
         while count > 0 and t >= pending[head, 0] + C[LATENCY] - _EPS_S:
             fix[:] = pending[head]
-            head = (head + 1) % _RING
+            head = (head + 1) % RING
             count -= 1
         S[HEAD] = head
         S[COUNT] = count
@@ -255,7 +256,8 @@ class SensorArrays:
         cfg = config or SensorConfig()
         s = cfg.seed if cfg.seed is not None else (seed if seed is not None else 0)
         self._rngs = [stream_generator(s, k) for k in SENSOR_STREAMS]
-        self.pools = [rng.standard_normal(NORMAL_BLOCK) for rng in self._rngs]
+        self.pools = np.stack([rng.standard_normal(NORMAL_BLOCK) for rng in self._rngs])
+        """One row of normals per stream, read from ``idx[stream]`` on (refilled in place)."""
         self.idx = np.zeros(len(SENSOR_STREAMS), np.int64)
         rp = math.radians(cfg.ahrs_roll_pitch_deg)
         sigmas = (cfg.gps_h_bias_m, cfg.gps_h_bias_m, cfg.gps_v_bias_m, cfg.baro_drift_m, rp, rp, math.radians(cfg.ahrs_yaw_deg))
@@ -280,21 +282,26 @@ class SensorArrays:
         S[NEXT_ARRIVAL] = math.inf
         self.state, self.const = S, C
         self.outages = np.array(cfg.gps_outages, dtype=np.float64).reshape(-1, 2)
-        self.pending = np.zeros((_RING, 10))
+        self.pending = np.zeros((RING, 10))
         self.fix = np.zeros(10)
 
     def args(self) -> tuple[np.ndarray, ...]:
-        """``(S, C, outages, pending, gps, baro, pitot, ahrs, idx, fix)``: :func:`sensors_step`'s array arguments."""
+        """``(S, C, outages, pending, gps, baro, pitot, ahrs, idx, fix)``: :func:`sensors_step`'s array arguments
+        (the pools are views of :attr:`pools`' rows; they stay valid across :meth:`refill`)."""
         return (self.state, self.const, self.outages, self.pending, *self.pools, self.idx, self.fix)
 
     def refill(self) -> bool:
-        """Top up the pools that fell below :data:`MAX_DRAWS_PER_STEP` normals (the stream's next block appended);
-        True when one was (the arrays of :meth:`args` changed)."""
+        """Top up the streams that fell below :data:`MAX_DRAWS_PER_STEP` unread normals: the unread ones move to
+        the row's start and the stream's next draws fill the rest (a stream's numbers do not depend on how many
+        are drawn at a time). True when one was."""
         low = False
-        for k, pool in enumerate(self.pools):
+        cap = self.pools.shape[1]
+        for k in range(len(SENSOR_STREAMS)):
             i = int(self.idx[k])
-            if pool.shape[0] - i < MAX_DRAWS_PER_STEP:
-                self.pools[k] = np.concatenate((pool[i:], self._rngs[k].standard_normal(NORMAL_BLOCK)))
+            if cap - i < MAX_DRAWS_PER_STEP:
+                row = self.pools[k]
+                row[: cap - i] = row[i:].copy()
+                row[cap - i :] = self._rngs[k].standard_normal(i)
                 self.idx[k] = 0
                 low = True
         return low

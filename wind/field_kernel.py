@@ -40,7 +40,7 @@ D_HAS_T, D_T, D_XU, D_XV1, D_XV2, D_XW1, D_XW2, D_OUT_E, D_OUT_N, D_OUT_U = rang
 G_HAS_T, G_T, G_HAS_POS, G_POS_E, G_POS_N, G_OUT_E, G_OUT_N, G_OUT_U, G_FIRST_LIVE, POOL_IDX = range(10, 20)
 N_STATE = 20
 # gust table rows: onset, amplitude, length, hold, vertical, penetration speed (nan: convected), speed floor,
-# toward east, toward north; and the gusts' distances travelled and passed flags (1.0) in their own arrays
+# toward east, toward north; then (the state) the distance travelled and the passed flag (1.0)
 GUST_COLUMNS = 9
 
 
@@ -215,10 +215,15 @@ def _gusts(F: np.ndarray, Z: np.ndarray, G: np.ndarray, xs: np.ndarray, passed: 
 
 
 def _wind_sample(
-    F: np.ndarray, Z: np.ndarray, pool: np.ndarray, G: np.ndarray, xs: np.ndarray, passed: np.ndarray,
-    t_s: float, east_m: float, north_m: float, up_m: float, airspeed_mps: float,
+    FZ: np.ndarray, pool: np.ndarray, GX: np.ndarray, t_s: float, east_m: float, north_m: float, up_m: float,
+    airspeed_mps: float,
 ) -> tuple[float, float, float, bool]:  # fmt: skip
-    """The field's ``sample``: ``(east, north, up, the turbulence's noise pool needs its next block)``."""
+    """The field's ``sample``: ``(east, north, up, the turbulence's noise pool needs its next block)``.
+
+    Three arrays (a compiled call pays per array): the constants then the state (``FZ``), the turbulence's
+    noise, and the gust table with each gust's distance travelled and passed flag as its last two columns."""
+    F, Z = FZ[:N_CONST], FZ[N_CONST:]
+    G, xs, passed = GX[:, :GUST_COLUMNS], GX[:, GUST_COLUMNS], GX[:, GUST_COLUMNS + 1]
     e = n = u = 0.0
     single = F[N_PARTS] == 1.0  # one part alone: its own numbers (no sum from 0.0, which would turn -0.0 into 0.0)
     if F[HAS_STEADY] != 0.0:
@@ -283,7 +288,8 @@ class WindArrays:
         if gusts is not None:
             F[GUST_HAS_MEAN] = float(gusts.mean_wind is not None)
             gusts.reset()
-        self.F, self.Z = F, Z
+        self._FZ = np.concatenate((F, Z))
+        self.F, self.Z = self._FZ[:N_CONST], self._FZ[N_CONST:]  # views
         self._set_gusts(gusts.gusts if gusts is not None else (), np.zeros(len(gusts.gusts) if gusts is not None else 0))
         self._armed = False
 
@@ -303,17 +309,14 @@ class WindArrays:
             )  # fmt: skip
             for g in gusts
         ]
-        self.G = np.array(rows, dtype=np.float64).reshape(-1, GUST_COLUMNS)
-        self.xs = np.asarray(xs, dtype=np.float64)
-        self.passed = np.zeros(len(gusts))
+        G = np.array(rows, dtype=np.float64).reshape(-1, GUST_COLUMNS)
+        self._GX = np.column_stack((G, np.asarray(xs, dtype=np.float64), np.zeros(len(gusts))))
         self.Z[G_FIRST_LIVE] = 0.0
         self._gust_list = tuple(gusts)
 
     def sample(self, t_s: float, east_m: float, north_m: float, up_m: float, airspeed_mps: float) -> Vec3:
         """The field's ``sample`` (the same numbers)."""
-        e, n, u, low = wind_sample(
-            self.F, self.Z, self.pool, self.G, self.xs, self.passed, t_s, east_m, north_m, up_m, airspeed_mps
-        )
+        e, n, u, low = wind_sample(self._FZ, self.pool, self._GX, t_s, east_m, north_m, up_m, airspeed_mps)
         if low and self._rng is not None:
             i = int(self.Z[POOL_IDX])
             self.pool = np.concatenate((self.pool[i:], self._rng.standard_normal(POOL_NORMALS)))
@@ -327,7 +330,7 @@ class WindArrays:
             self._armed = True
             return
         self._armed = True
-        pairs = list(zip(self._gust_list, self.xs.tolist())) + [
+        pairs = list(zip(self._gust_list, self._GX[:, GUST_COLUMNS].tolist())) + [
             (replace(g, onset_s=t_s + g.onset_s), 0.0) for g in train.after_first_activation
         ]
         pairs.sort(key=lambda p: p[0].onset_s)

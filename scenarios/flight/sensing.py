@@ -20,10 +20,12 @@ from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
-from aircraft.sensor_kernel import HAS_PITOT, MAX_DRAWS_PER_STEP, SensorArrays, sensors_step
+from aircraft import sensor_kernel as sk
+from aircraft.sensor_kernel import HAS_PITOT, MAX_DRAWS_PER_STEP, RING, SensorArrays, sensors_step
 from aircraft.sensors import SensorSuite
 from geofence import estimator_kernel as ek
 from geofence import jit
+from geofence import wind_estimator_kernel as wk
 from geofence.config import GeofenceConfig, StateSource
 from geofence.estimator import GeofenceEstimator
 from geofence.estimator_kernel import estimator_arrays, estimator_step
@@ -49,17 +51,36 @@ class Sensed(NamedTuple):
     """The estimate at its newest fix's time of validity (None with a truth source)."""
 
 
+# The chain's state vectors and constants, packed end to end in one float array (a compiled call pays about
+# 0.1 us per array argument): the sensors' state and constants, the estimator's, the wind estimator's, the
+# delivered fix, the pending GNSS ring and, last, the outage windows.
+_S0 = 0
+_C0 = _S0 + sk.N_STATE
+_X0 = _C0 + sk.N_CONST
+_K0 = _X0 + ek.N_STATE
+_W0 = _K0 + ek.N_CONST
+_WC0 = _W0 + wk.N_STATE
+_FIX0 = _WC0 + wk.N_CONST
+_PENDING0 = _FIX0 + 10
+_OUTAGES0 = _PENDING0 + RING * 10
+
+
 def _sense_step(
-    S: np.ndarray, C: np.ndarray, outages: np.ndarray, pending: np.ndarray, gps: np.ndarray, baro: np.ndarray,
-    pitot: np.ndarray, ahrs: np.ndarray, idx: np.ndarray, fix: np.ndarray, X: np.ndarray, K: np.ndarray,
-    W: np.ndarray, WC: np.ndarray, dt_s: float, t: float, lat: float, lon: float, alt: float, ve: float,
-    vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
+    P: np.ndarray, pools: np.ndarray, idx: np.ndarray, dt_s: float, t: float, lat: float, lon: float, alt: float,
+    ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
 ) -> tuple[tuple[float, ...], float, float, bool, float, float, bool, float, float, bool]:  # fmt: skip
     """One step of the chain from the truth's fields: ``(estimate fields, wind e, wind n, position valid,
-    sigma_h, sigma_v, new horizon, data age, turbulence sigma, a noise pool runs low)``."""
+    sigma_h, sigma_v, new horizon, data age, turbulence sigma, a noise pool runs low)``. ``P``: the packed
+    state and constants; ``pools``, ``idx``: :class:`~aircraft.sensor_kernel.SensorArrays`' noise rows and
+    read indices."""
+    S, C, X, K = P[_S0:_C0], P[_C0:_X0], P[_X0:_K0], P[_K0:_W0]
+    W, WC, fix = P[_W0:_WC0], P[_WC0:_FIX0], P[_FIX0:_PENDING0]
+    pending = P[_PENDING0:_OUTAGES0].reshape(RING, 10)
+    outages = P[_OUTAGES0:].reshape(-1, 2)
     delivered, a_ind, baro_alt, r, p, y = sensors_step(
-        S, C, outages, pending, gps, baro, pitot, ahrs, idx, fix, t, lat, lon, alt, ve, vn, vu, airspeed, roll, pitch, yaw
-    )
+        S, C, outages, pending, pools[0], pools[1], pools[2], pools[3], idx, fix, t, lat, lon, alt, ve, vn, vu,
+        airspeed, roll, pitch, yaw,
+    )  # fmt: skip
     est = estimator_step(X, K, dt_s, delivered, fix, t, a_ind, baro_alt, r, p, y)
     valid = X[ek.POSITION_VALID] != 0.0
     we, wn = wind_estimator_update(
@@ -67,12 +88,10 @@ def _sense_step(
     )
     age = X[ek.T_S] - X[ek.T_D] if X[ek.HAS_H] != 0.0 else 0.0
     var = W[VAR]
-    low = (
-        gps.shape[0] - idx[0] < MAX_DRAWS_PER_STEP
-        or baro.shape[0] - idx[1] < MAX_DRAWS_PER_STEP
-        or pitot.shape[0] - idx[2] < MAX_DRAWS_PER_STEP
-        or ahrs.shape[0] - idx[3] < MAX_DRAWS_PER_STEP
-    )
+    low = False
+    for k in range(pools.shape[0]):
+        if pools.shape[1] - idx[k] < MAX_DRAWS_PER_STEP:
+            low = True
     return (
         est, we, wn, valid, X[ek.SIGMA_H], X[ek.SIGMA_V], X[ek.HORIZON_NEW] != 0.0, age if age > 0.0 else 0.0,
         math.sqrt(var) if var > 0.0 else 0.0, low,
@@ -106,11 +125,13 @@ class GeofenceSensing:
             self.estimator = GeofenceEstimator(frame, sc.estimator_config())
             self.wind = wind
         else:
-            self._sensor_arrays = SensorArrays(sc, has_pitot=has_pitot, seed=scenario.seed)
+            arrays = self._sensor_arrays = SensorArrays(sc, has_pitot=has_pitot, seed=scenario.seed)
             X, K = estimator_arrays(frame, sc.estimator_config())
             W, WC = wind_estimator_arrays(wind)
-            self._X = X
-            self._args: tuple[Any, ...] = (*self._sensor_arrays.args(), X, K, W, WC)
+            packed = (arrays.state, arrays.const, X, K, W, WC, arrays.fix, arrays.pending.ravel(), arrays.outages.ravel())
+            P = np.concatenate(packed)
+            self._X = P[_X0:_K0]
+            self._args: tuple[Any, ...] = (P, arrays.pools, arrays.idx)
             self._age = 0.0
             self._turbulence = 0.0
             self._horizon: FixState | None = None
@@ -152,8 +173,8 @@ class GeofenceSensing:
         if new_horizon:
             X = self._X
             self._horizon = FixState(*(float(X[i]) for i in (ek.H_T, ek.H_E, ek.H_N, ek.H_VE, ek.H_VN)))
-        if low and self._sensor_arrays.refill():
-            self._args = (*self._sensor_arrays.args(), *self._args[10:])
+        if low:
+            self._sensor_arrays.refill()  # in place: the pools stay the same array
         est = VehicleState(*fields)
         est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
         return Sensed(est, (we, wn), valid, sigma_h, sigma_v, self._horizon)
