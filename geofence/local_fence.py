@@ -31,7 +31,7 @@ from .heights import AltitudeReference, VerticalExtent
 from .lateral_kernel import element_table
 from .margins_kernel import MarginTables
 from .polygon import PolygonIndex, pole_of_inaccessibility
-from .scan_kernel import lateral_margin_scan, polygon_rows
+from .scan_kernel import deepest_polygon, lateral_margin_scan, polygon_rows
 
 if TYPE_CHECKING:
     from .fence import Fence, PolygonLL
@@ -121,6 +121,7 @@ class LocalFence:
         "_memo_en",
         "_memo_margin_m",
         "_margin_tables",
+        "_gap_table",
         "_element_table",
         "_scan_table",
     )
@@ -166,6 +167,7 @@ class LocalFence:
         self._element_table: tuple | None = None
         self._scan_table: tuple | None = None
         self._margin_tables: MarginTables | None = None
+        self._gap_table: tuple[np.ndarray, np.ndarray] | None = None
         self.recovery_height_m: float | None
         rp = fence.recovery_point
         if rp is not None:
@@ -309,6 +311,8 @@ class LocalFence:
 
     def gap_distance_m(self, e: float, n: float) -> float:
         """Largest floor-gap signed distance (+ inside a gap); ``-inf`` with no gaps."""
+        if _jit.ACTIVE:
+            return self.best_gap(e, n)[1]
         best = -math.inf
         for g in self.floor_gaps:
             d = g.signed_distance(e, n)
@@ -435,7 +439,15 @@ class LocalFence:
         return self._gap_edges[gap]
 
     def best_gap(self, e: float, n: float) -> tuple[int, float]:
-        """``(index, signed distance)`` of the floor gap that (e, n) is deepest inside; ``(-1, -inf)`` with no gaps."""
+        """``(index, signed distance)`` of the floor gap that (e, n) is deepest inside; ``(-1, -inf)`` with no gaps.
+
+        Compiled while :data:`geofence.jit.ACTIVE` (:func:`geofence.scan_kernel.deepest_polygon`, the same numbers).
+        """
+        if _jit.ACTIVE and self.floor_gaps:
+            if self._gap_table is None:
+                rows = [polygon_rows(g.edge_tuples()) for g in self.floor_gaps]
+                self._gap_table = (np.concatenate(rows), np.cumsum([0] + [len(r) for r in rows]).astype(np.int64))
+            return deepest_polygon(e, n, *self._gap_table)
         best, best_d = -1, -math.inf
         for i, g in enumerate(self.floor_gaps):
             d = g.signed_distance(e, n)

@@ -1,6 +1,7 @@
 """The lateral margin of a point by the full scan of every element, compiled.
 
-One question: :meth:`geofence.local_fence.LocalFence.lateral_margin_scan_m`
+One question (and its twin for the floor gaps, :func:`deepest_polygon`):
+:meth:`geofence.local_fence.LocalFence.lateral_margin_scan_m`
 (the keep-in's signed distance, less each keep-out polygon's, each circle's
 ``hypot - radius``, the smallest), for a small fence's every step and for the
 breached points of a large one, as one compiled call over float tables built
@@ -22,7 +23,7 @@ from geofence.jit import COMPILED, jitable, numba
 from geofence.lateral_kernel import hypot
 from geofence.polygon import BOUNDARY_TOL_M
 
-__all__ = ["lateral_margin_scan", "polygon_rows", "signed_distance_rows"]
+__all__ = ["deepest_polygon", "lateral_margin_scan", "polygon_rows", "signed_distance_rows"]
 
 
 def polygon_rows(edges: Sequence[tuple]) -> np.ndarray:
@@ -80,3 +81,18 @@ def _lateral_margin_scan(
 
 lateral_margin_scan = numba.njit(cache=True)(_lateral_margin_scan) if COMPILED else _lateral_margin_scan
 """The compiled :func:`_lateral_margin_scan`."""
+
+
+def _deepest_polygon(e: float, n: float, rows: np.ndarray, offsets: np.ndarray) -> tuple[int, float]:
+    """``(index, signed distance)`` of the polygon (rows ``offsets[k]:offsets[k + 1]``) that (e, n) is deepest
+    inside, the first on a tie; ``(-1, -inf)`` with none: :meth:`LocalFence.best_gap` over its floor gaps."""
+    best, best_d = -1, -math.inf
+    for k in range(offsets.shape[0] - 1):
+        d = signed_distance_rows(rows[offsets[k] : offsets[k + 1]], e, n)
+        if d > best_d:
+            best, best_d = k, d
+    return best, best_d
+
+
+deepest_polygon = numba.njit(cache=True)(_deepest_polygon) if COMPILED else _deepest_polygon
+"""The compiled :func:`_deepest_polygon`."""

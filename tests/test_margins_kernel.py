@@ -18,6 +18,7 @@ from test_lateral_kernel import same_bits
 
 from geofence.boundary_shift import activation_margins
 from geofence.fence import Fence
+from geofence.jit import use_compiled
 
 
 def fence_with_gaps(seed: int, n_vertices: int, n_squares: int, n_circles: int, n_gaps: int) -> Fence:
@@ -84,3 +85,25 @@ def test_over_a_gap_below_the_floor_the_gap_binds_both_ways():
         ref = activation_margins(*args, compiled=False)
         assert same_bits(a, ref)
         assert a.floor_margin_m > 0.0 and math.isfinite(a.vertical_activation_m)
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 10_000), n_gaps=st.integers(1, 4))
+def test_compiled_gap_queries_equal_the_polygon_loops(seed, n_gaps):
+    """:meth:`LocalFence.best_gap` and :meth:`gap_distance_m` compiled (:func:`geofence.scan_kernel.deepest_polygon`)
+    equal the per-gap Python loops, inside, on and around overlapping gaps."""
+    local = fence_with_gaps(seed, 12, 0, 0, n_gaps).to_local(FRAME)
+    rng = random.Random(seed)
+    points = [(rng.uniform(-90, 90), rng.uniform(-90, 90)) for _ in range(150)]
+    points += [v for g in local.floor_gaps for v in g.vertices]
+    for e, n in points:
+        previous = use_compiled(True)
+        try:
+            got = (local.best_gap(e, n), local.gap_distance_m(e, n))
+        finally:
+            use_compiled(False)
+        try:
+            ref = (local.best_gap(e, n), local.gap_distance_m(e, n))
+        finally:
+            use_compiled(previous)
+        assert repr(got) == repr(ref), (e, n)
