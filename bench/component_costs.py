@@ -4,8 +4,11 @@ Measured side by side in one run (median of interleaved repeats): a bare
 JSBSim frame of the F450RD with its flight controller (``fdm.run()``), and one
 call of each outer-loop component the closed loop makes per control step --
 the wind field (steady + power-law profile + light Dryden turbulence + a
-gust), Dryden turbulence alone, the geofence unit's sensor suite
-(``SensorSuite.sample``), and the geofence unit's ``update`` near an edge of a
+gust) as the flight samples it (compiled, :mod:`wind.field_kernel`) and as
+its reference objects, Dryden turbulence alone, the geofence unit's sensor
+suite (``SensorSuite.sample``), the unit's whole sensing chain (sensors,
+estimator, wind estimator: :mod:`scenarios.flight.sensing`) compiled and as
+the reference objects, and the geofence unit's ``update`` near an edge of a
 4-vertex and of a 1,000-vertex fence. The closed loop runs one control step
 per 3 frames (40 Hz outer loop, 120 Hz JSBSim), so a component that costs
 3 frames doubles the loop's cost.
@@ -19,6 +22,7 @@ import argparse
 import statistics
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from aircraft.factory import build_platform
@@ -27,12 +31,17 @@ from geofence.config import GeofenceConfig
 from geofence.geodesy import LocalFrame
 from geofence.interface import StickCommand, VehicleState
 from geofence.unit import GeofenceUnit
+from scenarios.flight.sensing import GeofenceSensing
+from scenarios.spec.schema import load_scenario
 from wind import SteadyWind
 from wind.config import parse_wind, wind_from_config
 from wind.dryden import DrydenTurbulence
+from wind.field_kernel import compiled_wind
 
 sys.path.insert(0, str(Path(__file__).parent))
 import fence_scale  # noqa: E402  (the fence family and the moving-vehicle states)
+
+SENSING_SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "geofence_multicopter_adversarial_wind.yaml"
 
 WIND = {
     "speed_mps": 8,
@@ -84,6 +93,22 @@ def main() -> None:
         source.reset()
         return lambda k: source.sample(k * 0.025, 0.0, 0.0, 30.0, 12.0)
 
+    def compiled_field():
+        """The same field's compiled sampler, fresh from t = 0."""
+        arrays = compiled_wind(wind_from_config(parse_wind(WIND, "bench: wind"), seed=0))
+        assert arrays is not None
+        return lambda k: arrays.sample(k * 0.025, 0.0, 0.0, 30.0, 12.0)
+
+    sc = load_scenario(SENSING_SCENARIO)
+    assert sc.geofence is not None
+
+    truths = [replace(truth, t_s=k * 0.025) for k in range(args.calls)]
+
+    def sensing(compiled: bool):
+        """The unit's sensing chain on a hovering truth from t = 0 (one GNSS fix every 8 calls)."""
+        own = GeofenceSensing(sc, sc.geofence, sc.frame, platform.envelope, compiled=compiled)
+        return lambda k: own.sense(truths[k], 0.025)
+
     def unit_fn(nv):
         fence, states = units[nv]
         unit = GeofenceUnit(
@@ -99,9 +124,12 @@ def main() -> None:
 
     cases = {
         "bare JSBSim frame (F450RD + FC)": lambda: lambda k: run(),
-        "wind field (profile+Dryden+gust)": lambda: restarted(field),
-        "Dryden turbulence alone": lambda: restarted(turb),
-        "sensor suite sample": lambda: lambda k: suite.sample(truth),
+        "wind field (profile+Dryden+gust)": compiled_field,
+        "  reference objects": lambda: restarted(field),
+        "Dryden turbulence alone (object)": lambda: restarted(turb),
+        "sensor suite sample (object)": lambda: lambda k: suite.sample(truth),
+        "unit's sensing chain": lambda: sensing(True),
+        "  reference objects ": lambda: sensing(False),
         "geofence update, 4 vertices": lambda: unit_fn(4),
         "geofence update, 1,000 vertices": lambda: unit_fn(1000),
     }

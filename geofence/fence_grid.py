@@ -70,8 +70,11 @@ from . import jit as _jit
 from .lateral_kernel import element_table, nearest_distance
 from .polygon import BOUNDARY_TOL_M, PolygonIndex
 
-SMALL_FENCE_ELEMENTS: int = 48
-"""Fences with fewer lateral elements than this are scanned in full (the scan is cheaper than the bookkeeping)."""
+SMALL_FENCE_ELEMENTS: int = 256
+"""Fences with fewer lateral elements than this are scanned in full: the scan's whole-margins compiled call
+(:mod:`geofence.margins_kernel`) is cheaper than the index's bookkeeping up to about 400 elements near an edge
+(``bench/fence_scale.py``, 2026-11-26: 200 edges 7.4 against 8.8 µs per update for the F450RD, 8.3 against 11.8
+for the Tern; 700 edges 9.1 against 8.7 and 10.8 against 12.6)."""
 
 DEFAULT_CELL_M: float = 16.0
 """Side of a cache cell (m): a vehicle at 20 m/s enters a new cell about every 0.8 s."""
