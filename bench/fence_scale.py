@@ -14,10 +14,12 @@ For fences of one family -- a noisy star-shaped keep-in about 6 km across with
 * ``far``: the same at the fence's centre (the skip shortcut answers).
 
 Each case runs three ways in the same run: with the fence index and the
-compiled search (``index``, what a flight uses), with the index and the
-plain-Python reference the compiled code is tested against (``python``,
-:func:`geofence.jit.use_compiled` off), and with the full scan of every
-element (``scan``, no index); medians of repeats. It prints a table and saves
+compiled search (``index``, what a flight uses from
+:data:`geofence.fence_grid.SMALL_FENCE_ELEMENTS` elements on), with the index
+and the plain-Python reference the compiled code is tested against
+(``python``, :func:`geofence.jit.use_compiled` off), and with the full scan of
+every element (``scan``, no index: what a flight uses below that, its whole
+margin one compiled call); medians of repeats. It prints a table and saves
 ``bench/fence_scale.png`` (log-log).
 
     python bench/fence_scale.py [--repeats 3]            # the full run: table and bench/fence_scale.png
