@@ -34,12 +34,11 @@ from aircraft.sensors import (
     stream_generator,
 )
 from geofence.dynamics import isa_density_ratio
-from geofence.geodesy import WGS84_A_M, WGS84_F
+from geofence.geodesy import radii_of_curvature_m
 from geofence.jit import COMPILED, jitable, numba
 
 __all__ = ["MAX_DRAWS_PER_STEP", "RING", "SensorArrays", "sensors_step"]
 
-_E2 = WGS84_F * (2.0 - WGS84_F)
 _TWO_PI = 2.0 * math.pi
 _EPS_S = 1e-9
 RING = 64
@@ -131,10 +130,7 @@ def _solve(
         r[9] = 0.0
         return
     lat = math.radians(lat_deg)
-    s = math.sin(lat)
-    w = 1.0 - _E2 * s * s
-    n_rad = WGS84_A_M / math.sqrt(w)  # prime vertical radius
-    m_rad = n_rad * (1.0 - _E2) / w  # meridian radius
+    n_rad, m_rad = radii_of_curvature_m(lat)  # prime vertical, meridian
     r[0] = t
     r[1] = lat_deg + math.degrees(dn / (m_rad + alt))
     r[2] = lon_deg + math.degrees(de / ((n_rad + alt) * math.cos(lat)))
@@ -187,10 +183,7 @@ def _sensors_step(
         if C[PREFILL] != 0.0 and lat > 0.0:
             # the receiver was already running: its previous epoch (truth extrapolated back) arrives now
             lat_r = math.radians(lat_deg)
-            s = math.sin(lat_r)
-            w = 1.0 - _E2 * s * s
-            n_rad = WGS84_A_M / math.sqrt(w)
-            m_rad = n_rad * (1.0 - _E2) / w
+            n_rad, m_rad = radii_of_curvature_m(lat_r)
             de, dn, du = ve * lat, vn * lat, vu * lat
             _solve(
                 S, C, outages, pending, gps, idx, t - lat,

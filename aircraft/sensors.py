@@ -64,12 +64,11 @@ import numpy as np
 
 from geofence.dynamics import isa_density_ratio
 from geofence.estimator import EstimatorConfig
-from geofence.geodesy import WGS84_A_M, WGS84_F
+from geofence.geodesy import radii_of_curvature_m
 from geofence.interface import VehicleState
 from geofence.measurements import AirData, AttitudeSample, GpsFix
 from geofence.validation import ConfigError, integer, kind, number, reject_unknown_keys, require_mapping
 
-_E2 = WGS84_F * (2.0 - WGS84_F)
 _NAN = float("nan")
 _INF = float("inf")
 _TWO_PI = 2.0 * math.pi
@@ -308,10 +307,7 @@ class SensorSuite:
         if cfg.gps_lost(t):
             return GpsFix(t, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _INF, _INF, False)
         lat = math.radians(truth.lat_deg)
-        s = math.sin(lat)
-        w = 1.0 - _E2 * s * s
-        n_rad = WGS84_A_M / math.sqrt(w)  # prime vertical radius
-        m_rad = n_rad * (1.0 - _E2) / w  # meridian radius
+        n_rad, m_rad = radii_of_curvature_m(lat)  # prime vertical, meridian
         h = truth.alt_m
         lat_deg = truth.lat_deg + math.degrees(dn / (m_rad + h))
         lon_deg = truth.lon_deg + math.degrees(de / ((n_rad + h) * math.cos(lat)))
@@ -338,10 +334,7 @@ class SensorSuite:
 def _back_dated(truth: VehicleState, dt_s: float) -> VehicleState:
     """Truth ``dt_s`` earlier, extrapolated back at constant velocity (for the pre-filled first fix)."""
     lat = math.radians(truth.lat_deg)
-    s = math.sin(lat)
-    w = 1.0 - _E2 * s * s
-    n_rad = WGS84_A_M / math.sqrt(w)
-    m_rad = n_rad * (1.0 - _E2) / w
+    n_rad, m_rad = radii_of_curvature_m(lat)
     de, dn, du = truth.v_east_mps * dt_s, truth.v_north_mps * dt_s, truth.v_up_mps * dt_s
     return replace(
         truth,

@@ -77,11 +77,9 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 from geofence.dynamics import isa_density_ratio
-from geofence.geodesy import WGS84_A_M, WGS84_F, LocalFrame
+from geofence.geodesy import LocalFrame, radii_of_curvature_m
 from geofence.interface import FixState, VehicleState
 from geofence.measurements import AirData, AttitudeSample, GpsFix
-
-_E2 = WGS84_F * (2.0 - WGS84_F)
 
 
 @dataclass(frozen=True)
@@ -225,10 +223,7 @@ class EstimatorConstants(NamedTuple):
 def estimator_constants(frame: LocalFrame, cfg: EstimatorConfig) -> EstimatorConstants:
     """:class:`EstimatorConstants` of an estimator in ``frame`` tuned by ``cfg`` (the one home of these formulas)."""
     lat0 = math.radians(frame.lat0_deg)
-    s = math.sin(lat0)
-    w = 1.0 - _E2 * s * s
-    n_rad = WGS84_A_M / math.sqrt(w)
-    m_rad = n_rad * (1.0 - _E2) / w
+    n_rad, m_rad = radii_of_curvature_m(lat0)
     baro_primary = cfg.baro_referenced and cfg.baro_drift_m < cfg.gps_v_bias_m
     q_baro = 2.0 * cfg.baro_drift_m**2 / cfg.baro_drift_tau_s
     if not baro_primary:  # the offset also absorbs the wander of the GNSS height it is tied to

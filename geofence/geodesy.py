@@ -30,6 +30,16 @@ _EP2 = _E2 / (1.0 - _E2)
 
 
 @jitable
+def radii_of_curvature_m(lat_rad: float) -> tuple[float, float]:
+    """``(N, M)``: the WGS-84 prime-vertical and meridian radii of curvature (m) at geodetic latitude ``lat_rad``;
+    a metre north is ``1 / (M + h)`` rad of latitude, a metre east ``1 / ((N + h) cos lat)`` of longitude."""
+    s = math.sin(lat_rad)
+    w = 1.0 - _E2 * s * s
+    n_rad = WGS84_A_M / math.sqrt(w)
+    return n_rad, n_rad * (1.0 - _E2) / w
+
+
+@jitable
 def geodetic_to_ecef(lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
     """WGS-84 geodetic coordinates to Earth-centred Earth-fixed x, y, z in m."""
     lat = math.radians(lat_deg)

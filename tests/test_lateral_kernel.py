@@ -34,6 +34,22 @@ ROOT = Path(__file__).resolve().parents[1]
 needs_numba = pytest.mark.skipif(not COMPILED, reason="numba not installed, or NUMBA_DISABLE_JIT set (the kernels run as Python)")
 
 
+def fly_both_ways(sc):
+    """The flight compiled and on the plain-Python reference (:func:`use_compiled`); asserts the same trajectory
+    bytes and returns both results."""
+    runs = []
+    for on in (True, False):
+        previous = use_compiled(on)
+        try:
+            runs.append(fly(sc))
+        finally:
+            use_compiled(previous)
+    a, b = runs
+    assert a.recorder.n == b.recorder.n > 0
+    assert a.recorder.data.tobytes() == b.recorder.data.tobytes()
+    return a, b
+
+
 def _bits(x) -> object:
     return x if isinstance(x, str) else float(x).hex()  # a float's exact value (and its sign, inf, nan)
 
@@ -182,17 +198,7 @@ def test_a_flight_is_the_same_flight_compiled_and_in_python(name, seconds):
     """The switch (:func:`geofence.jit.use_compiled`) changes the speed only: an adversarial pilot against a
     fixed-wing's fence in wind, and a multirotor against the 10,000-vertex airspace fence, record the same
     trajectory bit for bit either way."""
-    sc = replace(load_scenario(ROOT / "scenarios" / name), duration_s=seconds)
-    runs = []
-    for on in (True, False):
-        previous = use_compiled(on)
-        try:
-            runs.append(fly(sc))
-        finally:
-            use_compiled(previous)
-    a, b = runs
-    assert a.recorder.n == b.recorder.n > 0
-    assert a.recorder.data.tobytes() == b.recorder.data.tobytes()
+    a, b = fly_both_ways(replace(load_scenario(ROOT / "scenarios" / name), duration_s=seconds))
     timing = ("wall_time_s", "loop_wall_time_s", "jsbsim_frames_per_wall_s")
     assert repr({k: v for k, v in a.summary.items() if k not in timing}) == repr(
         {k: v for k, v in b.summary.items() if k not in timing}

@@ -18,6 +18,7 @@ from pathlib import Path
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from test_lateral_kernel import fly_both_ways
 
 from aircraft.profile import load_profile
 from aircraft.sensor_kernel import MAX_DRAWS_PER_STEP, SensorArrays, sensors_step
@@ -27,10 +28,8 @@ from geofence.estimator import GeofenceEstimator
 from geofence.estimator_kernel import estimator_arrays, estimator_step
 from geofence.geodesy import LocalFrame
 from geofence.interface import VehicleState
-from geofence.jit import use_compiled
 from geofence.wind_estimator import WindEstimator, WindEstimatorConfig
 from geofence.wind_estimator_kernel import VAR, wind_estimator_arrays, wind_estimator_update
-from scenarios.flight.runner import fly
 from scenarios.spec.schema import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -149,14 +148,4 @@ def test_the_compiled_chain_is_the_reference_chain(cfg, seed, multirotor, prefil
 def test_a_flight_senses_the_same_compiled_and_in_python(name, seconds):
     """The unit's whole view of a flight (its estimate and wind estimate are recorded) is the same either way:
     a fixed-wing that loses its GNSS, and a multirotor against an adversarial pilot in wind."""
-    sc = replace(load_scenario(ROOT / "scenarios" / name), duration_s=seconds)
-    runs = []
-    for on in (True, False):
-        previous = use_compiled(on)
-        try:
-            runs.append(fly(sc))
-        finally:
-            use_compiled(previous)
-    a, b = runs
-    assert a.recorder.n == b.recorder.n > 0
-    assert a.recorder.data.tobytes() == b.recorder.data.tobytes()
+    fly_both_ways(replace(load_scenario(ROOT / "scenarios" / name), duration_s=seconds))

@@ -68,6 +68,7 @@ from math import exp, expm1, sqrt
 
 import numpy as np
 
+from geofence.jit import jitable
 from wind.field import Vec3, WindField
 
 FT_M = 0.3048
@@ -99,6 +100,40 @@ def dryden_scales(up_m: float, w20_mps: float, min_height_m: float = 10.0 * FT_M
     d = 0.177 + 0.000823 * h
     sw = 0.1 * w20_mps
     return h * FT_M / d**1.2, h * FT_M, sw / d**0.4, sw
+
+
+@jitable
+def _coefficients(r: float) -> tuple[float, float, float, float]:
+    """``(a, l11, l21, l22)``: the exact discretisation of a unit-variance filter over ``r = dt / tau``, its
+    decay ``a = exp(-r)`` and the Cholesky factor of the step's noise covariance (see the module docstring)."""
+    a = exp(-r)
+    q11 = -expm1(-2.0 * r)  # 1 - a^2, accurate for small r
+    l11 = sqrt(q11)
+    a2 = a * a
+    q12 = 0.5 * q11 - a2 * r
+    l21 = q12 / l11
+    q22 = 0.5 * q11 - a2 * r * (r + 1.0) - l21 * l21
+    l22 = sqrt(q22) if q22 > 0.0 else 0.0
+    return a, l11, l21, l22
+
+
+@jitable
+def advance(
+    state: tuple[float, float, float, float, float], r_u: float, r_w: float, n0: float, n1: float, n2: float, n3: float, n4: float
+) -> tuple[float, float, float, float, float]:
+    """The filter states ``(xu, xv1, xv2, xw1, xw2)`` one step on: ``r_u = V dt / L_u`` (u and v), ``r_w = V dt / L_w``,
+    driven by the step's five standard normals (the one home of the step, for the object and the compiled sampler)."""
+    xu, xv1, xv2, xw1, xw2 = state
+    a, l11, l21, l22 = _coefficients(r_u)
+    xu = a * xu + l11 * n0
+    x1 = xv1
+    xv1 = a * x1 + l11 * n1
+    xv2 = a * (r_u * x1 + xv2) + l21 * n1 + l22 * n2
+    a, l11, l21, l22 = _coefficients(r_w)
+    x1 = xw1
+    xw1 = a * x1 + l11 * n3
+    xw2 = a * (r_w * x1 + xw2) + l21 * n3 + l22 * n4
+    return xu, xv1, xv2, xw1, xw2
 
 
 class DrydenTurbulence:
@@ -214,35 +249,9 @@ class DrydenTurbulence:
             xw1 = n3
             xw2 = 0.5 * (n3 + n4)
         else:
-            xu, xv1, xv2, xw1, xw2 = self._state
             dt = t_s - last
-            # u (and v, which shares L): r = dt / tau
-            r = v * dt / lu
-            a = exp(-r)
-            q11 = -expm1(-2.0 * r)  # 1 - a^2, accurate for small r
-            l11 = sqrt(q11)
-            a2 = a * a
-            q12 = 0.5 * q11 - a2 * r
-            l21 = q12 / l11
-            q22 = 0.5 * q11 - a2 * r * (r + 1.0) - l21 * l21
-            l22 = sqrt(q22) if q22 > 0.0 else 0.0
-            xu = a * xu + l11 * n0
-            x1 = xv1
-            xv1 = a * x1 + l11 * n1
-            xv2 = a * (r * x1 + xv2) + l21 * n1 + l22 * n2
-            # w
-            r = v * dt / lw
-            a = exp(-r)
-            q11 = -expm1(-2.0 * r)
-            l11 = sqrt(q11)
-            a2 = a * a
-            q12 = 0.5 * q11 - a2 * r
-            l21 = q12 / l11
-            q22 = 0.5 * q11 - a2 * r * (r + 1.0) - l21 * l21
-            l22 = sqrt(q22) if q22 > 0.0 else 0.0
-            x1 = xw1
-            xw1 = a * x1 + l11 * n3
-            xw2 = a * (r * x1 + xw2) + l21 * n3 + l22 * n4
+            # u (and v, which shares L) over r = V dt / L_u, w over V dt / L_w
+            xu, xv1, xv2, xw1, xw2 = advance(self._state, v * dt / lu, v * dt / lw, n0, n1, n2, n3, n4)
         self._state = (xu, xv1, xv2, xw1, xw2)
         self._t = t_s
 

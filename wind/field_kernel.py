@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from math import exp, expm1, sqrt
+from math import sqrt
 
 import numpy as np
 
 from geofence.jit import COMPILED, jitable, numba
-from wind.dryden import FT_M, H_MAX_FT, NORMALS_PER_STEP, OUTPUT_WEIGHTS, POOL_NORMALS, DrydenTurbulence
+from wind.dryden import FT_M, H_MAX_FT, NORMALS_PER_STEP, OUTPUT_WEIGHTS, POOL_NORMALS, DrydenTurbulence, advance
 from wind.field import CalmWind, CompositeWind, Vec3, WindField, toward_unit
 from wind.gust import MAX_VELOCITY_DT_S, GustTrain
 from wind.steady import LogLawProfile, PowerLawProfile, SteadyWind
@@ -97,33 +97,10 @@ def _dryden(F: np.ndarray, Z: np.ndarray, pool: np.ndarray, t_s: float, up_m: fl
         xw1 = n3
         xw2 = 0.5 * (n3 + n4)
     else:
-        xu, xv1, xv2, xw1, xw2 = Z[D_XU], Z[D_XV1], Z[D_XV2], Z[D_XW1], Z[D_XW2]
         dt = t_s - last
-        r = v * dt / lu
-        a = exp(-r)
-        q11 = -expm1(-2.0 * r)
-        l11 = sqrt(q11)
-        a2 = a * a
-        q12 = 0.5 * q11 - a2 * r
-        l21 = q12 / l11
-        q22 = 0.5 * q11 - a2 * r * (r + 1.0) - l21 * l21
-        l22 = sqrt(q22) if q22 > 0.0 else 0.0
-        xu = a * xu + l11 * n0
-        x1 = xv1
-        xv1 = a * x1 + l11 * n1
-        xv2 = a * (r * x1 + xv2) + l21 * n1 + l22 * n2
-        r = v * dt / lw
-        a = exp(-r)
-        q11 = -expm1(-2.0 * r)
-        l11 = sqrt(q11)
-        a2 = a * a
-        q12 = 0.5 * q11 - a2 * r
-        l21 = q12 / l11
-        q22 = 0.5 * q11 - a2 * r * (r + 1.0) - l21 * l21
-        l22 = sqrt(q22) if q22 > 0.0 else 0.0
-        x1 = xw1
-        xw1 = a * x1 + l11 * n3
-        xw2 = a * (r * x1 + xw2) + l21 * n3 + l22 * n4
+        xu, xv1, xv2, xw1, xw2 = advance(
+            (Z[D_XU], Z[D_XV1], Z[D_XV2], Z[D_XW1], Z[D_XW2]), v * dt / lu, v * dt / lw, n0, n1, n2, n3, n4
+        )
     Z[D_XU], Z[D_XV1], Z[D_XV2], Z[D_XW1], Z[D_XW2] = xu, xv1, xv2, xw1, xw2
     Z[D_T] = t_s
     Z[D_HAS_T] = 1.0
