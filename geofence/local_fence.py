@@ -267,7 +267,18 @@ class LocalFence:
     def margin_tables(self) -> MarginTables:
         """The compiled margins' tables of this fence (cached; :class:`geofence.margins_kernel.MarginTables`)."""
         if self._margin_tables is None:
-            self._margin_tables = MarginTables.build(self)
+            E, _meta, ids, _zeros = self.element_table()
+            gaps = self.floor_gaps
+            self._margin_tables = MarginTables.pack(
+                E,
+                ids,
+                self.scan_tables(),
+                [polygon_rows(g.edge_tuples()) for g in gaps],
+                [element_table(self.gap_edges(i), ()) for i in range(len(gaps))],
+                self.ceiling_m,
+                self.floor_m,
+                self.recovery_en,
+            )
         return self._margin_tables
 
     def remember_margin(self, e: float, n: float, margin_m: float) -> None:

@@ -23,14 +23,14 @@ index and edge.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
 from geofence.dynamics import drag_coefficients, wind_push_mps2
 from geofence.interface import Envelope, PlatformKind
 from geofence.jit import COMPILED, jitable, numba
-from geofence.lateral_kernel import element_table, hypot, lateral_binding
+from geofence.lateral_kernel import hypot, lateral_binding
 from geofence.rooms import (
     TWO_PI,
     climb_arrest_phase,
@@ -42,10 +42,7 @@ from geofence.rooms import (
     turn_rate_radps,
     vertical_arrest_distance_m,
 )
-from geofence.scan_kernel import lateral_margin_scan, polygon_rows, signed_distance_rows
-
-if TYPE_CHECKING:  # the fence imports this module for its tables
-    from geofence.local_fence import LocalFence
+from geofence.scan_kernel import lateral_margin_scan, signed_distance_rows
 
 __all__ = ["MarginTables", "envelope_terms", "margins"]
 
@@ -77,27 +74,34 @@ class MarginTables(NamedTuple):
     layout: np.ndarray
 
     @classmethod
-    def build(cls, fence: LocalFence) -> MarginTables:
-        """The tables of a :class:`~geofence.local_fence.LocalFence` (its element table, scan table and gaps)."""
-        E, _meta, ids, zeros = fence.element_table()
-        ki, ko, ko_off, circles = fence.scan_tables()
-        gaps = fence.floor_gaps
-        gap_rows = [polygon_rows(g.edge_tuples()) for g in gaps]
-        gap_elems = [element_table(fence.gap_edges(i), ()) for i in range(len(gaps))]
-        re, rn = fence.recovery_en
-        floor = fence.floor_m
+    def pack(
+        cls,
+        elements: np.ndarray,
+        ids: np.ndarray,
+        scan_tables: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+        gap_polygons: list[np.ndarray],
+        gap_edges: list[np.ndarray],
+        ceiling_m: float,
+        floor_m: float | None,
+        recovery_en: tuple[float, float],
+    ) -> MarginTables:
+        """Pack a fence's tables (:meth:`geofence.local_fence.LocalFence.margin_tables` gives them): its element
+        table and ids, its scan tables ``(keep-in rows, keep-out rows, their offsets, circles)``, each floor
+        gap's polygon rows and edge elements, its ceiling and floor (None: none) and recovery point."""
+        ki, ko, ko_off, circles = scan_tables
+        re, rn = recovery_en
         floats = [
-            E, ki, ko, circles,
-            np.concatenate(gap_rows) if gap_rows else np.zeros((0, 7)),
-            np.concatenate(gap_elems) if gap_elems else np.zeros((0, 7)),
-            zeros.reshape(-1, 1),
-            np.array([fence.ceiling_m, math.nan if floor is None else floor, float(floor is not None), re, rn]).reshape(-1, 1),
+            elements, ki, ko, circles,
+            np.concatenate(gap_polygons) if gap_polygons else np.zeros((0, 7)),
+            np.concatenate(gap_edges) if gap_edges else np.zeros((0, 7)),
+            np.zeros((len(ids), 1)),
+            np.array([ceiling_m, math.nan if floor_m is None else floor_m, float(floor_m is not None), re, rn]).reshape(-1, 1),
         ]  # fmt: skip
         ints = [
             ids,
             ko_off,
-            np.cumsum([0] + [len(r) for r in gap_rows]).astype(np.int64),
-            np.cumsum([0] + [len(r) for r in gap_elems]).astype(np.int64),
+            np.cumsum([0] + [len(r) for r in gap_polygons]).astype(np.int64),
+            np.cumsum([0] + [len(r) for r in gap_edges]).astype(np.int64),
         ]
         header = np.zeros(_HEADER, np.int64)
         start = 0
