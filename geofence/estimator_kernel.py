@@ -12,7 +12,7 @@ and their shared covariance at the fusion horizon ``t_d``, the vertical filter
 ``(up, v_up, b)`` and its covariance, the pending baro height, the bookkeeping
 and the outputs (validity, sigmas) and the horizon's ``FixState`` fields.
 Constants ``K``: :class:`~geofence.estimator.EstimatorConstants` and the
-frame's ECEF origin and rotation.
+frame's table (:attr:`~geofence.geodesy.LocalFrame.enu_table`).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import numpy as np
 
 from geofence.dynamics import isa_density_ratio
 from geofence.estimator import EstimatorConfig, estimator_constants
-from geofence.geodesy import LocalFrame, geodetic_to_ecef
+from geofence.geodesy import LocalFrame, enu_of
 from geofence.jit import COMPILED, jitable, numba
 
 __all__ = ["estimator_arrays", "estimator_step"]
@@ -41,8 +41,7 @@ N_STATE = 46
     H0, DEG_PER_M_N, DEG_PER_M_E, INV_2R, LAT0, LON0, TIMEOUT, QJ, QP_H, QV, BARO_PRIMARY, QB,
     R_P, R_V, R_PU, R_VU, R_BARO, VAR_BIAS_H, VAR_BIAS_V, VAR_BARO_DRIFT,
 ) = range(20)  # fmt: skip
-ORIGIN0 = 20  # ECEF origin x, y, z
-ROT0 = 23  # ECEF -> ENU rotation, row-major
+FRAME0 = 20  # the frame's table (LocalFrame.enu_table: ECEF origin, ECEF -> ENU rows)
 N_CONST = 32
 
 
@@ -56,25 +55,11 @@ def estimator_arrays(frame: LocalFrame, config: EstimatorConfig | None = None) -
     K[QJ], K[QP_H], K[QV], K[BARO_PRIMARY], K[QB] = k.q_jerk_h, k.q_wander_h, k.q_accel_v, float(k.baro_primary), k.q_baro
     K[R_P], K[R_V], K[R_PU], K[R_VU], K[R_BARO] = k.r_p, k.r_v, k.r_pu, k.r_vu, k.r_baro
     K[VAR_BIAS_H], K[VAR_BIAS_V], K[VAR_BARO_DRIFT] = k.var_bias_h, k.var_bias_v, k.var_baro_drift
-    K[ORIGIN0 : ORIGIN0 + 3] = frame.origin_ecef_m
-    K[ROT0 : ROT0 + 9] = np.array(frame.ecef_to_enu_rows).ravel()
+    K[FRAME0 : FRAME0 + 12] = frame.enu_table
     X = np.zeros(N_STATE)
     X[LAST_FIX_ARRIVAL] = -math.inf
     X[SIGMA_H] = X[SIGMA_V] = X[VAR_H] = math.inf
     return X, K
-
-
-@jitable
-def _to_enu(K: np.ndarray, lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
-    """:meth:`LocalFrame.to_enu` with the frame's origin and rotation from ``K``."""
-    x, y, z = geodetic_to_ecef(lat_deg, lon_deg, h_m)
-    dx, dy, dz = x - K[ORIGIN0], y - K[ORIGIN0 + 1], z - K[ORIGIN0 + 2]
-    r = ROT0
-    return (
-        K[r] * dx + K[r + 1] * dy + K[r + 2] * dz,
-        K[r + 3] * dx + K[r + 4] * dy + K[r + 5] * dz,
-        K[r + 6] * dx + K[r + 7] * dy + K[r + 8] * dz,
-    )
 
 
 @jitable
@@ -223,7 +208,7 @@ def _update_gps(X: np.ndarray, K: np.ndarray, fix: np.ndarray) -> None:
     if not finite or abs(lat) > 90.0:
         X[FIXES_REJECTED] += 1.0
         return
-    e, n, u = _to_enu(K, lat, lon, alt)
+    e, n, u = enu_of(K[FRAME0 : FRAME0 + 12], lat, lon, alt)
     lag = X[T_S] - t_m
     if lag < 0.0:
         lag = 0.0

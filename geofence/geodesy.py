@@ -20,7 +20,8 @@ import numpy as np
 from geographiclib.constants import Constants
 from geographiclib.geodesic import Geodesic
 
-from geofence.jit import jitable
+from geofence import jit as _jit
+from geofence.jit import COMPILED, jitable, numba
 
 WGS84_A_M: float = Constants.WGS84_a
 WGS84_F: float = Constants.WGS84_f
@@ -69,6 +70,22 @@ def ecef_to_geodetic(x: float, y: float, z: float) -> tuple[float, float, float]
     return math.degrees(lat), math.degrees(lon), h
 
 
+@jitable
+def enu_of(T: np.ndarray, lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
+    """:meth:`LocalFrame.to_enu` with the frame as its table ``T`` (:attr:`LocalFrame.enu_table`: the origin in
+    ECEF, then the rotation's rows), the one home of the ENU rotation for Python and compiled callers."""
+    x, y, z = geodetic_to_ecef(lat_deg, lon_deg, h_m)
+    dx, dy, dz = x - T[0], y - T[1], z - T[2]
+    return (
+        T[3] * dx + T[4] * dy + T[5] * dz,
+        T[6] * dx + T[7] * dy + T[8] * dz,
+        T[9] * dx + T[10] * dy + T[11] * dz,
+    )
+
+
+_enu_of_compiled = numba.njit(cache=True)(enu_of) if COMPILED else enu_of
+
+
 @dataclass(frozen=True)
 class LocalFrame:
     """East-North-Up frame tangent to WGS-84 at an origin (lat/lon deg, height m)."""
@@ -78,6 +95,8 @@ class LocalFrame:
     h0_m: float = 0.0
     _rot: tuple = field(init=False, repr=False, compare=False)
     _origin: tuple = field(init=False, repr=False, compare=False)
+    enu_table: np.ndarray = field(init=False, repr=False, compare=False)
+    """The origin in ECEF (x, y, z) then the ECEF -> ENU rotation's rows (east, north, up): :func:`enu_of`'s table."""
 
     def __post_init__(self) -> None:
         if not -90.0 <= self.lat0_deg <= 90.0 or not -180.0 <= self.lon0_deg <= 180.0:
@@ -88,24 +107,13 @@ class LocalFrame:
         rot = ((-so, co, 0.0), (-sl * co, -sl * so, cl), (cl * co, cl * so, sl))
         object.__setattr__(self, "_rot", rot)
         object.__setattr__(self, "_origin", geodetic_to_ecef(self.lat0_deg, self.lon0_deg, self.h0_m))
-
-    @property
-    def ecef_to_enu_rows(self) -> tuple[tuple[float, float, float], ...]:
-        """The rotation from ECEF to ENU: its rows are the east, north and up unit vectors in ECEF."""
-        return self._rot
-
-    @property
-    def origin_ecef_m(self) -> tuple[float, float, float]:
-        """The origin in ECEF (x, y, z), m."""
-        return self._origin
+        object.__setattr__(self, "enu_table", np.array([*self._origin, *rot[0], *rot[1], *rot[2]], dtype=np.float64))
 
     def to_enu(self, lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
-        """Geodetic point -> (east, north, up) in m."""
-        x, y, z = geodetic_to_ecef(lat_deg, lon_deg, h_m)
-        x0, y0, z0 = self._origin
-        dx, dy, dz = x - x0, y - y0, z - z0
-        (e0, e1, e2), (n0, n1, n2), (u0, u1, u2) = self._rot
-        return (e0 * dx + e1 * dy + e2 * dz, n0 * dx + n1 * dy + n2 * dz, u0 * dx + u1 * dy + u2 * dz)
+        """Geodetic point -> (east, north, up) in m (:func:`enu_of`, compiled while :data:`geofence.jit.ACTIVE`)."""
+        if _jit.ACTIVE:
+            return _enu_of_compiled(self.enu_table, lat_deg, lon_deg, h_m)
+        return enu_of(self.enu_table, lat_deg, lon_deg, h_m)
 
     def to_geodetic(self, east_m: float, north_m: float, up_m: float) -> tuple[float, float, float]:
         """(east, north, up) in m -> geodetic (lat deg, lon deg, height m)."""

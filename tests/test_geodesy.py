@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from geofence.geodesy import LocalFrame, ecef_to_geodetic, geodesic_destination, geodesic_distance_m, geodetic_to_ecef
+from geofence.jit import use_compiled
 
 lats = st.floats(-80.0, 80.0)
 lons = st.floats(-179.0, 179.0)
@@ -61,3 +62,29 @@ def test_vectorized_matches_scalar():
 def test_invalid_origin_is_rejected():
     with pytest.raises(ValueError, match="lat/lon"):
         LocalFrame(123.0, 8.0)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    lat0=st.floats(-89.0, 89.0),
+    lon0=st.floats(-180.0, 180.0),
+    h0=st.floats(-400.0, 5000.0),
+    dlat=st.floats(-0.05, 0.05),
+    dlon=st.floats(-0.05, 0.05),
+    h=st.floats(-400.0, 9000.0),
+)
+def test_compiled_to_enu_is_the_python_one(lat0, lon0, h0, dlat, dlon, h):
+    """``LocalFrame.to_enu`` compiled (``geodesy.enu_of`` under numba, the truth read-out's every step) gives the
+    plain-Python numbers, bit for bit."""
+    frame = LocalFrame(lat0, lon0, h0)
+    lat, lon = lat0 + dlat, lon0 + dlon
+    previous = use_compiled(True)
+    try:
+        got = frame.to_enu(lat, lon, h)
+    finally:
+        use_compiled(False)
+    try:
+        ref = frame.to_enu(lat, lon, h)
+    finally:
+        use_compiled(previous)
+    assert [x.hex() for x in got] == [x.hex() for x in ref]
