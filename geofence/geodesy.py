@@ -71,7 +71,7 @@ def ecef_to_geodetic(x: float, y: float, z: float) -> tuple[float, float, float]
 
 
 @jitable
-def enu_of(T: np.ndarray, lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
+def enu_of(T: np.ndarray | tuple, lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
     """:meth:`LocalFrame.to_enu` with the frame as its table ``T`` (:attr:`LocalFrame.enu_table`: the origin in
     ECEF, then the rotation's rows), the one home of the ENU rotation for Python and compiled callers."""
     x, y, z = geodetic_to_ecef(lat_deg, lon_deg, h_m)
@@ -95,6 +95,7 @@ class LocalFrame:
     h0_m: float = 0.0
     _rot: tuple = field(init=False, repr=False, compare=False)
     _origin: tuple = field(init=False, repr=False, compare=False)
+    _enu_tuple: tuple = field(init=False, repr=False, compare=False)
     enu_table: np.ndarray = field(init=False, repr=False, compare=False)
     """The origin in ECEF (x, y, z) then the ECEF -> ENU rotation's rows (east, north, up): :func:`enu_of`'s table."""
 
@@ -107,13 +108,15 @@ class LocalFrame:
         rot = ((-so, co, 0.0), (-sl * co, -sl * so, cl), (cl * co, cl * so, sl))
         object.__setattr__(self, "_rot", rot)
         object.__setattr__(self, "_origin", geodetic_to_ecef(self.lat0_deg, self.lon0_deg, self.h0_m))
-        object.__setattr__(self, "enu_table", np.array([*self._origin, *rot[0], *rot[1], *rot[2]], dtype=np.float64))
+        table = (*self._origin, *rot[0], *rot[1], *rot[2])
+        object.__setattr__(self, "_enu_tuple", table)  # Python floats in, Python floats out
+        object.__setattr__(self, "enu_table", np.array(table, dtype=np.float64))
 
     def to_enu(self, lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
         """Geodetic point -> (east, north, up) in m (:func:`enu_of`, compiled while :data:`geofence.jit.ACTIVE`)."""
         if _jit.ACTIVE:
             return _enu_of_compiled(self.enu_table, lat_deg, lon_deg, h_m)
-        return enu_of(self.enu_table, lat_deg, lon_deg, h_m)
+        return enu_of(self._enu_tuple, lat_deg, lon_deg, h_m)
 
     def to_geodetic(self, east_m: float, north_m: float, up_m: float) -> tuple[float, float, float]:
         """(east, north, up) in m -> geodetic (lat deg, lon deg, height m)."""

@@ -88,3 +88,4 @@ def test_compiled_to_enu_is_the_python_one(lat0, lon0, h0, dlat, dlon, h):
     finally:
         use_compiled(previous)
     assert [x.hex() for x in got] == [x.hex() for x in ref]
+    assert all(type(x) is float for x in got + ref)  # no numpy scalars leak into summaries
