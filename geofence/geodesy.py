@@ -93,9 +93,8 @@ class LocalFrame:
     lat0_deg: float
     lon0_deg: float
     h0_m: float = 0.0
-    _rot: tuple = field(init=False, repr=False, compare=False)
-    _origin: tuple = field(init=False, repr=False, compare=False)
     _enu_tuple: tuple = field(init=False, repr=False, compare=False)
+    """:attr:`enu_table` as Python floats (the plain-Python conversions read it)."""
     enu_table: np.ndarray = field(init=False, repr=False, compare=False)
     """The origin in ECEF (x, y, z) then the ECEF -> ENU rotation's rows (east, north, up): :func:`enu_of`'s table."""
 
@@ -106,10 +105,8 @@ class LocalFrame:
         sl, cl, so, co = math.sin(lat), math.cos(lat), math.sin(lon), math.cos(lon)
         # rows: east, north, up unit vectors in ECEF
         rot = ((-so, co, 0.0), (-sl * co, -sl * so, cl), (cl * co, cl * so, sl))
-        object.__setattr__(self, "_rot", rot)
-        object.__setattr__(self, "_origin", geodetic_to_ecef(self.lat0_deg, self.lon0_deg, self.h0_m))
-        table = (*self._origin, *rot[0], *rot[1], *rot[2])
-        object.__setattr__(self, "_enu_tuple", table)  # Python floats in, Python floats out
+        table = (*geodetic_to_ecef(self.lat0_deg, self.lon0_deg, self.h0_m), *rot[0], *rot[1], *rot[2])
+        object.__setattr__(self, "_enu_tuple", table)
         object.__setattr__(self, "enu_table", np.array(table, dtype=np.float64))
 
     def to_enu(self, lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
@@ -120,8 +117,7 @@ class LocalFrame:
 
     def to_geodetic(self, east_m: float, north_m: float, up_m: float) -> tuple[float, float, float]:
         """(east, north, up) in m -> geodetic (lat deg, lon deg, height m)."""
-        (e0, e1, e2), (n0, n1, n2), (u0, u1, u2) = self._rot
-        x0, y0, z0 = self._origin
+        x0, y0, z0, e0, e1, e2, n0, n1, n2, u0, u1, u2 = self._enu_tuple
         x = x0 + e0 * east_m + n0 * north_m + u0 * up_m
         y = y0 + e1 * east_m + n1 * north_m + u1 * up_m
         z = z0 + e2 * east_m + n2 * north_m + u2 * up_m
@@ -134,10 +130,8 @@ class LocalFrame:
         h = np.asarray(h_m, dtype=float)
         s, c = np.sin(lat), np.cos(lat)
         n = WGS84_A_M / np.sqrt(1.0 - _E2 * s * s)
-        ecef = np.stack([(n + h) * c * np.cos(lon), (n + h) * c * np.sin(lon), (n * (1.0 - _E2) + h) * s], axis=-1) - np.asarray(
-            self._origin
-        )
-        return ecef @ np.asarray(self._rot).T
+        ecef = np.stack([(n + h) * c * np.cos(lon), (n + h) * c * np.sin(lon), (n * (1.0 - _E2) + h) * s], axis=-1)
+        return (ecef - self.enu_table[:3]) @ self.enu_table[3:].reshape(3, 3).T
 
     def to_geodetic_array(self, enu_m) -> np.ndarray:
         """Vectorized :meth:`to_geodetic` for an (N, 3) ENU array; returns (N, 3) lat, lon, h."""
