@@ -31,7 +31,7 @@ from .heights import AltitudeReference, VerticalExtent
 from .lateral_kernel import element_table
 from .margins_kernel import MarginTables
 from .polygon import PolygonIndex, pole_of_inaccessibility
-from .scan_kernel import deepest_polygon, lateral_margin_scan, polygon_rows
+from .scan_kernel import deepest_polygon, lateral_margin_scan, polygon_rows, stacked
 
 if TYPE_CHECKING:
     from .fence import Fence, PolygonLL
@@ -268,18 +268,17 @@ class LocalFence:
         """The compiled margins' tables of this fence (cached; :class:`geofence.margins_kernel.MarginTables`)."""
         if self._margin_tables is None:
             E, _meta, ids, _zeros = self.element_table()
-            gaps = self.floor_gaps
+            gap_edges = stacked([element_table(self.gap_edges(i), ()) for i in range(len(self.floor_gaps))], 7)
             self._margin_tables = MarginTables.pack(
-                E,
-                ids,
-                self.scan_tables(),
-                [polygon_rows(g.edge_tuples()) for g in gaps],
-                [element_table(self.gap_edges(i), ()) for i in range(len(gaps))],
-                self.ceiling_m,
-                self.floor_m,
-                self.recovery_en,
+                E, ids, self.scan_tables(), self.gap_table(), gap_edges, self.ceiling_m, self.floor_m, self.recovery_en
             )
         return self._margin_tables
+
+    def gap_table(self) -> tuple[np.ndarray, np.ndarray]:
+        """The floor gaps' polygon rows end to end and their offsets (cached; :func:`geofence.scan_kernel.stacked`)."""
+        if self._gap_table is None:
+            self._gap_table = stacked([polygon_rows(g.edge_tuples()) for g in self.floor_gaps], 7)
+        return self._gap_table
 
     def remember_margin(self, e: float, n: float, margin_m: float) -> None:
         """Keep ``margin_m`` as :meth:`lateral_margin_m`'s answer at (e, n) (computed elsewhere, the same number)."""
@@ -289,9 +288,7 @@ class LocalFence:
     def _build_scan_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The compiled scan's tables: the keep-in's edge rows, the keep-outs' rows end to end with their
         offsets, and the circles ``(east, north, r)``."""
-        kos = [polygon_rows(k.edge_tuples()) for k in self.keep_out_polygons]
-        offsets = np.cumsum([0] + [len(r) for r in kos]).astype(np.int64)
-        ko = np.concatenate(kos) if kos else np.zeros((0, 7))
+        ko, offsets = stacked([polygon_rows(k.edge_tuples()) for k in self.keep_out_polygons], 7)
         circles = np.array(self.keep_out_circles, dtype=np.float64).reshape(-1, 3)
         return polygon_rows(self.keep_in.edge_tuples()), ko, offsets, circles
 
@@ -455,10 +452,7 @@ class LocalFence:
         Compiled while :data:`geofence.jit.ACTIVE` (:func:`geofence.scan_kernel.deepest_polygon`, the same numbers).
         """
         if _jit.ACTIVE and self.floor_gaps:
-            if self._gap_table is None:
-                rows = [polygon_rows(g.edge_tuples()) for g in self.floor_gaps]
-                self._gap_table = (np.concatenate(rows), np.cumsum([0] + [len(r) for r in rows]).astype(np.int64))
-            return deepest_polygon(e, n, *self._gap_table)
+            return deepest_polygon(e, n, *self.gap_table())
         best, best_d = -1, -math.inf
         for i, g in enumerate(self.floor_gaps):
             d = g.signed_distance(e, n)

@@ -79,29 +79,30 @@ class MarginTables(NamedTuple):
         elements: np.ndarray,
         ids: np.ndarray,
         scan_tables: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-        gap_polygons: list[np.ndarray],
-        gap_edges: list[np.ndarray],
+        gap_polygons: tuple[np.ndarray, np.ndarray],
+        gap_edges: tuple[np.ndarray, np.ndarray],
         ceiling_m: float,
         floor_m: float | None,
         recovery_en: tuple[float, float],
     ) -> MarginTables:
         """Pack a fence's tables (:meth:`geofence.local_fence.LocalFence.margin_tables` gives them): its element
-        table and ids, its scan tables ``(keep-in rows, keep-out rows, their offsets, circles)``, each floor
-        gap's polygon rows and edge elements, its ceiling and floor (None: none) and recovery point."""
+        table and ids, its scan tables ``(keep-in rows, keep-out rows, their offsets, circles)``, the floor
+        gaps' polygon rows and their edge elements (each ``(rows, offsets)``, :func:`geofence.scan_kernel.stacked`),
+        its ceiling and floor (None: none) and recovery point."""
         ki, ko, ko_off, circles = scan_tables
         re, rn = recovery_en
         floats = [
             elements, ki, ko, circles,
-            np.concatenate(gap_polygons) if gap_polygons else np.zeros((0, 7)),
-            np.concatenate(gap_edges) if gap_edges else np.zeros((0, 7)),
+            gap_polygons[0],
+            gap_edges[0],
             np.zeros((len(ids), 1)),
             np.array([ceiling_m, math.nan if floor_m is None else floor_m, float(floor_m is not None), re, rn]).reshape(-1, 1),
         ]  # fmt: skip
         ints = [
             ids,
             ko_off,
-            np.cumsum([0] + [len(r) for r in gap_polygons]).astype(np.int64),
-            np.cumsum([0] + [len(r) for r in gap_edges]).astype(np.int64),
+            gap_polygons[1],
+            gap_edges[1],
         ]
         header = np.zeros(_HEADER, np.int64)
         start = 0

@@ -23,12 +23,19 @@ from geofence.jit import COMPILED, jitable, numba
 from geofence.lateral_kernel import hypot
 from geofence.polygon import BOUNDARY_TOL_M
 
-__all__ = ["deepest_polygon", "lateral_margin_scan", "polygon_rows", "signed_distance_rows"]
+__all__ = ["deepest_polygon", "lateral_margin_scan", "polygon_rows", "signed_distance_rows", "stacked"]
 
 
 def polygon_rows(edges: Sequence[tuple]) -> np.ndarray:
     """A polygon's ``PolygonIndex`` edge tuples ``(ax, ay, by, dx, dy, 1/len², dx/dy)`` as a float table."""
     return np.array(edges, dtype=np.float64).reshape(-1, 7)
+
+
+def stacked(tables: Sequence[np.ndarray], columns: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(rows, offsets)``: tables of ``columns`` columns end to end, table ``k`` at rows ``offsets[k]:offsets[k + 1]``
+    (the form the compiled scans take a list of polygons in)."""
+    rows = np.concatenate(tables) if len(tables) else np.zeros((0, columns))
+    return rows, np.cumsum([0] + [len(t) for t in tables]).astype(np.int64)
 
 
 @jitable
