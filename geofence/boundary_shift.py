@@ -695,6 +695,10 @@ def activation_margins(
 
 
 _ENVELOPE_TERMS: dict[int, tuple[Envelope, np.ndarray]] = {}
+"""The compiled margins' envelope terms by envelope object (its identity checked: the entry holds it); cleared
+from :data:`_ENVELOPE_TERMS_KEPT` entries on (a unit makes a new envelope each time the air density it scales
+to moves, and a batch process flies many units)."""
+_ENVELOPE_TERMS_KEPT = 64
 
 
 def _margins_compiled(
@@ -705,6 +709,8 @@ def _margins_compiled(
     """:func:`activation_margins` of a fence without an index by :func:`geofence.margins_kernel.margins`."""
     cached = _ENVELOPE_TERMS.get(id(envelope))
     if cached is None or cached[0] is not envelope:
+        if len(_ENVELOPE_TERMS) >= _ENVELOPE_TERMS_KEPT:
+            _ENVELOPE_TERMS.clear()
         cached = _ENVELOPE_TERMS[id(envelope)] = (envelope, envelope_terms(envelope))
     has_target = rollout_target_en is not None
     te, tn = rollout_target_en if rollout_target_en is not None else (0.0, 0.0)
