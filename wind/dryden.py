@@ -69,7 +69,7 @@ from math import exp, expm1, sqrt
 import numpy as np
 
 from geofence.jit import jitable
-from wind.field import Vec3, WindField
+from wind.field import ZERO, Vec3, WindField
 
 FT_M = 0.3048
 KT_MPS = 1852.0 / 3600.0
@@ -80,7 +80,6 @@ SEVERITY_W20_MPS: dict[str, float] = {"light": 15.0 * KT_MPS, "moderate": 30.0 *
 _SQRT3 = math.sqrt(3.0)
 OUTPUT_WEIGHTS = (_SQRT3 / math.sqrt(2.0), (1.0 - _SQRT3) / math.sqrt(2.0))
 """The output weights ``(c1, c2)`` of the normalized second-order (v, w) filters: ``c1 x1 + c2 x2``."""
-_C1, _C2 = OUTPUT_WEIGHTS
 NORMALS_PER_STEP = 5
 """Standard normals a sample draws: one for u, two each for v and w."""
 POOL_NORMALS = NORMALS_PER_STEP * 2048
@@ -91,15 +90,19 @@ H_MAX_FT = 1000.0
 
 def dryden_scales(up_m: float, w20_mps: float, min_height_m: float = 10.0 * FT_M) -> tuple[float, float, float, float]:
     """(L_u = L_v in m, L_w in m, sigma_u = sigma_v in m/s, sigma_w in m/s) at height ``up_m`` AGL."""
+    return _scales(up_m, min_height_m / FT_M, 0.1 * w20_mps)
+
+
+@jitable
+def _scales(up_m: float, hmin_ft: float, sigma_w: float) -> tuple[float, float, float, float]:
+    """:func:`dryden_scales` with the floor height in ft and ``sigma_w = 0.1 W20`` (a turbulence's constants)."""
     h = up_m / FT_M
-    hmin = min_height_m / FT_M
-    if not h > hmin:  # also catches NaN
-        h = hmin
+    if not h > hmin_ft:  # also catches NaN
+        h = hmin_ft
     elif h > H_MAX_FT:
         h = H_MAX_FT
     d = 0.177 + 0.000823 * h
-    sw = 0.1 * w20_mps
-    return h * FT_M / d**1.2, h * FT_M, sw / d**0.4, sw
+    return h * FT_M / d**1.2, h * FT_M, sigma_w / d**0.4, sigma_w
 
 
 @jitable
@@ -118,11 +121,11 @@ def _coefficients(r: float) -> tuple[float, float, float, float]:
 
 
 @jitable
-def advance(
+def _advance(
     state: tuple[float, float, float, float, float], r_u: float, r_w: float, n0: float, n1: float, n2: float, n3: float, n4: float
 ) -> tuple[float, float, float, float, float]:
     """The filter states ``(xu, xv1, xv2, xw1, xw2)`` one step on: ``r_u = V dt / L_u`` (u and v), ``r_w = V dt / L_w``,
-    driven by the step's five standard normals (the one home of the step, for the object and the compiled sampler)."""
+    driven by the step's five standard normals."""
     xu, xv1, xv2, xw1, xw2 = state
     a, l11, l21, l22 = _coefficients(r_u)
     xu = a * xu + l11 * n0
@@ -134,6 +137,50 @@ def advance(
     xw1 = a * x1 + l11 * n3
     xw2 = a * (r_w * x1 + xw2) + l21 * n3 + l22 * n4
     return xu, xv1, xv2, xw1, xw2
+
+
+@jitable
+def turbulence_step(
+    state: tuple[float, float, float, float, float],
+    started: bool,
+    dt_s: float,
+    mean_e: float,
+    mean_n: float,
+    up_m: float,
+    airspeed_mps: float,
+    min_speed_mps: float,
+    hmin_ft: float,
+    sigma_w: float,
+    n0: float,
+    n1: float,
+    n2: float,
+    n3: float,
+    n4: float,
+) -> tuple[tuple[float, float, float, float, float], tuple[float, float, float]]:
+    """``(filter states, (east, north, up) m/s)`` of one sample (the one home of the step, for
+    :class:`DrydenTurbulence` and the compiled sampler :mod:`wind.field_kernel`): the convection speed
+    ``max(airspeed, |mean wind|, floor)``, the scales at ``up_m``, the states ``dt_s`` on from ``state`` (or, not
+    ``started``, drawn from the stationary distribution) by the step's five normals, and the output on the mean
+    wind's axes (north-aligned in calm air)."""
+    wspd = sqrt(mean_e * mean_e + mean_n * mean_n)
+    v = airspeed_mps if airspeed_mps > min_speed_mps else min_speed_mps
+    if wspd > v:
+        v = wspd
+    lu, lw, su, sw = _scales(up_m, hmin_ft, sigma_w)
+    if not started:  # start from the stationary distribution
+        state = (n0, n1, 0.5 * (n1 + n2), n3, 0.5 * (n3 + n4))
+    else:  # u (and v, which shares L) over r = V dt / L_u, w over V dt / L_w
+        state = _advance(state, v * dt_s / lu, v * dt_s / lw, n0, n1, n2, n3, n4)
+    xu, xv1, xv2, xw1, xw2 = state
+    c1, c2 = OUTPUT_WEIGHTS
+    tu = su * xu
+    tv = su * (c1 * xv1 + c2 * xv2)
+    tw = sw * (c1 * xw1 + c2 * xw2)
+    if wspd > 1e-9:
+        ce, cn = mean_e / wspd, mean_n / wspd
+    else:
+        ce, cn = 0.0, 1.0
+    return state, (tu * ce - tv * cn, tu * cn + tv * ce, tw)
 
 
 class DrydenTurbulence:
@@ -213,56 +260,16 @@ class DrydenTurbulence:
         if last is not None and not t_s > last:
             raise ValueError(f"DrydenTurbulence.sample: time went backwards ({t_s!r} s after {last!r} s); call reset()")
 
-        # mean wind: axes and convection speed
-        mean_fn = self._mean_fn
-        if mean_fn is not None:
-            me, mn, _ = mean_fn(up_m)
-            wspd = sqrt(me * me + mn * mn)
-        else:
-            me = mn = wspd = 0.0
-        v_min = self.min_speed_mps
-        v = airspeed_mps if airspeed_mps > v_min else v_min
-        if wspd > v:
-            v = wspd
-
-        # MIL-F-8785C low-altitude scales (inlined dryden_scales; hmin and sigma_w precomputed in __init__)
-        h = up_m / FT_M
-        hmin = self._hmin_ft
-        if not h > hmin:
-            h = hmin
-        elif h > H_MAX_FT:
-            h = H_MAX_FT
-        d = 0.177 + 0.000823 * h
-        sw = self._sigma_w
-        su = sw / d**0.4
-        lw = h * FT_M
-        lu = lw / d**1.2
-
+        me, mn, _ = self._mean_fn(up_m) if self._mean_fn is not None else ZERO
         row = next(self._rows, None)
         if row is None:
             row = self._refill()
         n0, n1, n2, n3, n4 = row
-        if last is None:  # start from the stationary distribution
-            xu = n0
-            xv1 = n1
-            xv2 = 0.5 * (n1 + n2)
-            xw1 = n3
-            xw2 = 0.5 * (n3 + n4)
-        else:
-            dt = t_s - last
-            # u (and v, which shares L) over r = V dt / L_u, w over V dt / L_w
-            xu, xv1, xv2, xw1, xw2 = advance(self._state, v * dt / lu, v * dt / lw, n0, n1, n2, n3, n4)
-        self._state = (xu, xv1, xv2, xw1, xw2)
+        self._state, out = turbulence_step(
+            self._state, last is not None, t_s - last if last is not None else 0.0, me, mn, up_m, airspeed_mps,
+            self.min_speed_mps, self._hmin_ft, self._sigma_w, n0, n1, n2, n3, n4,
+        )  # fmt: skip
         self._t = t_s
-
-        tu = su * xu
-        tv = su * (_C1 * xv1 + _C2 * xv2)
-        tw = sw * (_C1 * xw1 + _C2 * xw2)
-        if wspd > 1e-9:
-            ce, cn = me / wspd, mn / wspd
-        else:
-            ce, cn = 0.0, 1.0
-        out = (tu * ce - tv * cn, tu * cn + tv * ce, tw)
         self._out = out
         return out
 

@@ -23,7 +23,7 @@ from math import sqrt
 import numpy as np
 
 from geofence.jit import COMPILED, jitable, numba
-from wind.dryden import FT_M, H_MAX_FT, NORMALS_PER_STEP, OUTPUT_WEIGHTS, POOL_NORMALS, DrydenTurbulence, advance
+from wind.dryden import FT_M, NORMALS_PER_STEP, POOL_NORMALS, DrydenTurbulence, turbulence_step
 from wind.field import CalmWind, CompositeWind, Vec3, WindField, toward_unit
 from wind.gust import MAX_VELOCITY_DT_S, GustTrain
 from wind.steady import LogLawProfile, PowerLawProfile, SteadyWind
@@ -67,52 +67,18 @@ def _dryden(F: np.ndarray, Z: np.ndarray, pool: np.ndarray, t_s: float, up_m: fl
         return Z[D_OUT_E], Z[D_OUT_N], Z[D_OUT_U]
     if has_last and not t_s > last:
         raise ValueError("DrydenTurbulence.sample: time went backwards")
-    if F[DRY_HAS_MEAN] != 0.0:
-        me, mn = _steady_mean(F, up_m)
-        wspd = sqrt(me * me + mn * mn)
-    else:
-        me = mn = wspd = 0.0
-    v_min = F[DRY_MIN_SPEED]
-    v = airspeed_mps if airspeed_mps > v_min else v_min
-    if wspd > v:
-        v = wspd
-    h = up_m / FT_M
-    hmin = F[DRY_HMIN_FT]
-    if not h > hmin:
-        h = hmin
-    elif h > H_MAX_FT:
-        h = H_MAX_FT
-    d = 0.177 + 0.000823 * h
-    sw = F[DRY_SIGMA_W]
-    su = sw / d**0.4
-    lw = h * FT_M
-    lu = lw / d**1.2
+    me, mn = _steady_mean(F, up_m) if F[DRY_HAS_MEAN] != 0.0 else (0.0, 0.0)
     i = int(Z[POOL_IDX])
     Z[POOL_IDX] = i + NORMALS_PER_STEP
-    n0, n1, n2, n3, n4 = pool[i], pool[i + 1], pool[i + 2], pool[i + 3], pool[i + 4]
-    if not has_last:  # start from the stationary distribution
-        xu = n0
-        xv1 = n1
-        xv2 = 0.5 * (n1 + n2)
-        xw1 = n3
-        xw2 = 0.5 * (n3 + n4)
-    else:
-        dt = t_s - last
-        xu, xv1, xv2, xw1, xw2 = advance(
-            (Z[D_XU], Z[D_XV1], Z[D_XV2], Z[D_XW1], Z[D_XW2]), v * dt / lu, v * dt / lw, n0, n1, n2, n3, n4
-        )
-    Z[D_XU], Z[D_XV1], Z[D_XV2], Z[D_XW1], Z[D_XW2] = xu, xv1, xv2, xw1, xw2
+    state, out = turbulence_step(
+        (Z[D_XU], Z[D_XV1], Z[D_XV2], Z[D_XW1], Z[D_XW2]), has_last, t_s - last if has_last else 0.0, me, mn, up_m,
+        airspeed_mps, F[DRY_MIN_SPEED], F[DRY_HMIN_FT], F[DRY_SIGMA_W], pool[i], pool[i + 1], pool[i + 2], pool[i + 3],
+        pool[i + 4],
+    )  # fmt: skip
+    Z[D_XU], Z[D_XV1], Z[D_XV2], Z[D_XW1], Z[D_XW2] = state
     Z[D_T] = t_s
     Z[D_HAS_T] = 1.0
-    c1, c2 = OUTPUT_WEIGHTS
-    tu = su * xu
-    tv = su * (c1 * xv1 + c2 * xv2)
-    tw = sw * (c1 * xw1 + c2 * xw2)
-    if wspd > 1e-9:
-        ce, cn = me / wspd, mn / wspd
-    else:
-        ce, cn = 0.0, 1.0
-    Z[D_OUT_E], Z[D_OUT_N], Z[D_OUT_U] = tu * ce - tv * cn, tu * cn + tv * ce, tw
+    Z[D_OUT_E], Z[D_OUT_N], Z[D_OUT_U] = out
     return Z[D_OUT_E], Z[D_OUT_N], Z[D_OUT_U]
 
 
