@@ -85,6 +85,7 @@ from dataclasses import dataclass
 
 from geofence.dynamics import G_MPS2, airspeed_for_drag_mps, drag_coefficients, isa_density_ratio
 from geofence.interface import Envelope, VehicleState
+from geofence.jit import jitable
 
 WIND_ESTIMATE_ERROR_MPS = 1.0
 """How far the estimate of the mean wind may be from the true mean once converged (m/s): issue 10's requirement,
@@ -197,20 +198,9 @@ class WindEstimator:
         self.last_weight = weight
         we, wn = sample
         if weight > 0.0 and math.isfinite(we) and math.isfinite(wn):
-            t_used = self.t_used_s
-            memory = cfg.prior_weight_s + t_used
-            if not memory < cfg.tau_s:  # min(tau, prior_weight_s + t_used)
-                memory = cfg.tau_s
-            wdt = weight * dt_s
-            k = wdt / (memory + wdt)
-            mean_e = self._we + k * (we - self._we)
-            mean_n = self._wn + k * (wn - self._wn)
-            self._we, self._wn = mean_e, mean_n
-            self.t_used_s = t_used + wdt
-            # turbulence: the spread of the samples about the mean (per horizontal axis)
-            de, dn = we - mean_e, wn - mean_n
-            self._var += k * (0.5 * (de * de + dn * dn) - self._var)
-            return (mean_e, mean_n)
+            self._we, self._wn, self.t_used_s, self._var = mean_update(
+                self._we, self._wn, self.t_used_s, self._var, we, wn, weight, dt_s, cfg.prior_weight_s, cfg.tau_s
+            )
         return (self._we, self._wn)
 
     @property
@@ -225,66 +215,110 @@ class WindEstimator:
 
     def _fixed_wing_sample(self, s: VehicleState, va: float) -> tuple[float, float] | None:
         cfg = self.config
-        if not math.isfinite(va) or va < cfg.min_airspeed_mps or abs(s.roll_rad) > cfg.max_bank_rad:
-            return None
-        if cfg.airspeed_is_indicated:
-            va /= math.sqrt(isa_density_ratio(s.alt_m)) if math.isfinite(s.alt_m) else 1.0
-        vu = s.v_up_mps
-        vh2 = va * va - vu * vu
-        vh = math.sqrt(vh2) if vh2 > 0.0 else 0.0
-        y = s.yaw_rad
-        return (s.v_east_mps - vh * math.sin(y), s.v_north_mps - vh * math.cos(y))
+        ok, we, wn = airmass_sample(
+            va, cfg.airspeed_is_indicated, cfg.min_airspeed_mps, cfg.max_bank_rad, s.alt_m, s.v_east_mps, s.v_north_mps,
+            s.v_up_mps, s.roll_rad, s.yaw_rad,
+        )  # fmt: skip
+        return (we, wn) if ok else None
 
     def _multirotor_sample(self, s: VehicleState, dt_s: float) -> tuple[float, float, float] | None:
-        cfg = self.config
-        k1, k2 = self._k1, self._k2
-        if k1 <= 0.0 and k2 <= 0.0:
-            return None
-        ve, vn, vu = s.v_east_mps, s.v_north_mps, s.v_up_mps
-        if not (math.isfinite(ve) and math.isfinite(vn) and math.isfinite(vu)):
-            return None
-        # thrust direction (body -z) in ENU
-        roll, pitch, yaw = s.roll_rad, s.pitch_rad, s.yaw_rad
-        cr, sr = math.cos(roll), math.sin(roll)
-        cp, sp = math.cos(pitch), math.sin(pitch)
-        cy, sy = math.cos(yaw), math.sin(yaw)
-        t_n = -(cy * sp * cr + sy * sr)
-        t_e = -(sy * sp * cr - cy * sr)
-        t_up = cp * cr
-        if t_up < 0.2:
-            self._lp = None
-            return None
-        # low-passed velocity, its derivative (the acceleration), and the low-passed horizontal thrust
         lp = self._lp
-        if lp is None:
-            # the vertical acceleration is unknown on the first step: take level flight
-            self._lp = (ve, vn, vu, G_MPS2 * t_e / t_up, G_MPS2 * t_n / t_up)
-            return None
-        lp_e, lp_n, lp_u, lp_fe, lp_fn = lp
-        tau_dt = cfg.accel_window_s + dt_s
-        ae = (ve - lp_e) / tau_dt
-        an = (vn - lp_n) / tau_dt
-        au = (vu - lp_u) / tau_dt
-        alpha = dt_s / tau_dt
-        lp_e += alpha * (ve - lp_e)
-        lp_n += alpha * (vn - lp_n)
-        lp_u += alpha * (vu - lp_u)
-        g_up = G_MPS2 + au
-        if g_up < _MIN_G_UP_MPS2:
-            g_up = _MIN_G_UP_MPS2  # free fall or a hard descent: the thrust size is unknown
-        lp_fe += alpha * (g_up * t_e / t_up - lp_fe)
-        lp_fn += alpha * (g_up * t_n / t_up - lp_fn)
-        self._lp = (lp_e, lp_n, lp_u, lp_fe, lp_fn)
-        # drag vector = thrust - acceleration; it points along the air-relative velocity
-        de, dn = lp_fe - ae, lp_fn - an
-        d = math.sqrt(de * de + dn * dn)
-        v_air = airspeed_for_drag_mps(k1, k2, d)
-        if not math.isfinite(v_air):
-            return None
-        if d > 1e-12:
-            we, wn = lp_e - v_air * de / d, lp_n - v_air * dn / d
-        else:
-            we, wn = lp_e, lp_n
-        # weight: trust falls with the manoeuvre (see the module docstring)
-        q = (ae * ae + an * an) / self._accel_ref2
-        return (we, wn, 1.0 / (1.0 + q))
+        has_lp, lp, ok, we, wn, weight = force_balance_sample(
+            lp if lp is not None else _NO_FILTER, lp is not None, dt_s, s.v_east_mps, s.v_north_mps, s.v_up_mps,
+            s.roll_rad, s.pitch_rad, s.yaw_rad, self._k1, self._k2, self.config.accel_window_s, self._accel_ref2,
+        )  # fmt: skip
+        self._lp = lp if has_lp else None
+        return (we, wn, weight) if ok else None
+
+
+_NO_FILTER = (0.0, 0.0, 0.0, 0.0, 0.0)
+
+
+@jitable
+def mean_update(
+    mean_e: float, mean_n: float, t_used_s: float, var: float, we: float, wn: float, weight: float, dt_s: float,
+    prior_weight_s: float, tau_s: float,
+) -> tuple[float, float, float, float]:  # fmt: skip
+    """``(mean east, mean north, weighted time used, turbulence variance)`` after one sample ``(we, wn)`` of weight
+    ``weight`` over ``dt_s``: the growing-memory average turning into the ``tau_s`` low-pass (see the module
+    docstring), and the spread of the samples about the mean (per horizontal axis)."""
+    memory = prior_weight_s + t_used_s
+    if not memory < tau_s:  # min(tau, prior_weight_s + t_used)
+        memory = tau_s
+    wdt = weight * dt_s
+    k = wdt / (memory + wdt)
+    mean_e = mean_e + k * (we - mean_e)
+    mean_n = mean_n + k * (wn - mean_n)
+    de, dn = we - mean_e, wn - mean_n
+    return mean_e, mean_n, t_used_s + wdt, var + k * (0.5 * (de * de + dn * dn) - var)
+
+
+@jitable
+def airmass_sample(
+    va: float, indicated: bool, min_airspeed_mps: float, max_bank_rad: float, alt_m: float, ve: float, vn: float,
+    vu: float, roll: float, yaw: float,
+) -> tuple[bool, float, float]:  # fmt: skip
+    """``(sampled, wind east, wind north)`` from the pitot reading ``va`` (the fixed-wing's triangle: ground velocity
+    minus the horizontal airspeed along the heading; not sampled when slow, steeply banked or unread)."""
+    if not math.isfinite(va) or va < min_airspeed_mps or abs(roll) > max_bank_rad:
+        return False, 0.0, 0.0
+    if indicated:
+        va /= math.sqrt(isa_density_ratio(alt_m)) if math.isfinite(alt_m) else 1.0
+    vh2 = va * va - vu * vu
+    vh = math.sqrt(vh2) if vh2 > 0.0 else 0.0
+    return True, ve - vh * math.sin(yaw), vn - vh * math.cos(yaw)
+
+
+@jitable
+def force_balance_sample(
+    lp: tuple[float, float, float, float, float], has_lp: bool, dt_s: float, ve: float, vn: float, vu: float,
+    roll: float, pitch: float, yaw: float, k1: float, k2: float, accel_window_s: float, accel_ref2: float,
+) -> tuple[bool, tuple[float, float, float, float, float], bool, float, float, float]:  # fmt: skip
+    """The multirotor's force balance for one step: ``(filter kept, its low-passed velocity and thrust, sampled, wind
+    east, wind north, weight)`` from the filter state ``lp`` (``has_lp`` False: none yet) and the estimate (see the
+    module docstring)."""
+    if k1 <= 0.0 and k2 <= 0.0:
+        return has_lp, lp, False, 0.0, 0.0, 0.0
+    if not (math.isfinite(ve) and math.isfinite(vn) and math.isfinite(vu)):
+        return has_lp, lp, False, 0.0, 0.0, 0.0
+    # thrust direction (body -z) in ENU
+    cr, sr = math.cos(roll), math.sin(roll)
+    cp, sp = math.cos(pitch), math.sin(pitch)
+    cy, sy = math.cos(yaw), math.sin(yaw)
+    t_n = -(cy * sp * cr + sy * sr)
+    t_e = -(sy * sp * cr - cy * sr)
+    t_up = cp * cr
+    if t_up < 0.2:
+        return False, lp, False, 0.0, 0.0, 0.0
+    # low-passed velocity, its derivative (the acceleration), and the low-passed horizontal thrust
+    if not has_lp:
+        # the vertical acceleration is unknown on the first step: take level flight
+        return True, (ve, vn, vu, G_MPS2 * t_e / t_up, G_MPS2 * t_n / t_up), False, 0.0, 0.0, 0.0
+    lp_e, lp_n, lp_u, lp_fe, lp_fn = lp
+    tau_dt = accel_window_s + dt_s
+    ae = (ve - lp_e) / tau_dt
+    an = (vn - lp_n) / tau_dt
+    au = (vu - lp_u) / tau_dt
+    alpha = dt_s / tau_dt
+    lp_e += alpha * (ve - lp_e)
+    lp_n += alpha * (vn - lp_n)
+    lp_u += alpha * (vu - lp_u)
+    g_up = G_MPS2 + au
+    if g_up < _MIN_G_UP_MPS2:
+        g_up = _MIN_G_UP_MPS2  # free fall or a hard descent: the thrust size is unknown
+    lp_fe += alpha * (g_up * t_e / t_up - lp_fe)
+    lp_fn += alpha * (g_up * t_n / t_up - lp_fn)
+    lp = (lp_e, lp_n, lp_u, lp_fe, lp_fn)
+    # drag vector = thrust - acceleration; it points along the air-relative velocity
+    de, dn = lp_fe - ae, lp_fn - an
+    d = math.sqrt(de * de + dn * dn)
+    v_air = airspeed_for_drag_mps(k1, k2, d)
+    if not math.isfinite(v_air):
+        return True, lp, False, 0.0, 0.0, 0.0
+    if d > 1e-12:
+        we, wn = lp_e - v_air * de / d, lp_n - v_air * dn / d
+    else:
+        we, wn = lp_e, lp_n
+    # weight: trust falls with the manoeuvre (see the module docstring)
+    q = (ae * ae + an * an) / accel_ref2
+    return True, lp, True, we, wn, 1.0 / (1.0 + q)

@@ -3,7 +3,9 @@
 One question: given this step's state estimate, what is the steady wind?
 :func:`wind_estimator_update` answers it as :meth:`WindEstimator.update` does,
 bit for bit (``tests/test_sensing_kernel.py``), with the estimator's state in a
-float vector so the simulated flight's compiled sensing step can call it. The
+float vector so the simulated flight's compiled sensing step can call it; the
+arithmetic (``airmass_sample``, ``force_balance_sample``, ``mean_update``) is
+the class's own, compiled. The
 class stays the readable reference; its module docstring states both models
 (the fixed-wing's pitot triangle, the multirotor's force balance).
 """
@@ -14,9 +16,8 @@ import math
 
 import numpy as np
 
-from geofence.dynamics import G_MPS2, airspeed_for_drag_mps, isa_density_ratio
-from geofence.jit import COMPILED, jitable, numba
-from geofence.wind_estimator import WindEstimator
+from geofence.jit import COMPILED, numba
+from geofence.wind_estimator import WindEstimator, airmass_sample, force_balance_sample, mean_update
 
 __all__ = ["wind_estimator_arrays", "wind_estimator_update"]
 
@@ -26,7 +27,6 @@ N_STATE = 12
 # constants
 TAU, PRIOR_WEIGHT, MIN_AIRSPEED, MAX_BANK, INDICATED, ACCEL_WINDOW, ACCEL_REF2, MIN_AGL, K1, K2 = range(10)
 N_CONST = 10
-_MIN_G_UP_MPS2 = 0.2 * G_MPS2
 
 
 def wind_estimator_arrays(reference: WindEstimator) -> tuple[np.ndarray, np.ndarray]:
@@ -43,55 +43,6 @@ def wind_estimator_arrays(reference: WindEstimator) -> tuple[np.ndarray, np.ndar
     W = np.zeros(N_STATE)
     W[WE], W[WN] = reference.wind_enu
     return W, C
-
-
-@jitable
-def _multirotor_sample(W: np.ndarray, C: np.ndarray, dt_s: float, ve: float, vn: float, vu: float, roll: float, pitch: float, yaw: float) -> tuple[bool, float, float, float]:  # fmt: skip
-    """:meth:`WindEstimator._multirotor_sample`: ``(sampled, wind e, wind n, weight)``."""
-    k1, k2 = C[K1], C[K2]
-    if k1 <= 0.0 and k2 <= 0.0:
-        return False, 0.0, 0.0, 0.0
-    if not (math.isfinite(ve) and math.isfinite(vn) and math.isfinite(vu)):
-        return False, 0.0, 0.0, 0.0
-    cr, sr = math.cos(roll), math.sin(roll)
-    cp, sp = math.cos(pitch), math.sin(pitch)
-    cy, sy = math.cos(yaw), math.sin(yaw)
-    t_n = -(cy * sp * cr + sy * sr)
-    t_e = -(sy * sp * cr - cy * sr)
-    t_up = cp * cr
-    if t_up < 0.2:
-        W[HAS_LP] = 0.0
-        return False, 0.0, 0.0, 0.0
-    if W[HAS_LP] == 0.0:
-        W[HAS_LP] = 1.0
-        W[LP_E], W[LP_N], W[LP_U], W[LP_FE], W[LP_FN] = ve, vn, vu, G_MPS2 * t_e / t_up, G_MPS2 * t_n / t_up
-        return False, 0.0, 0.0, 0.0
-    lp_e, lp_n, lp_u, lp_fe, lp_fn = W[LP_E], W[LP_N], W[LP_U], W[LP_FE], W[LP_FN]
-    tau_dt = C[ACCEL_WINDOW] + dt_s
-    ae = (ve - lp_e) / tau_dt
-    an = (vn - lp_n) / tau_dt
-    au = (vu - lp_u) / tau_dt
-    alpha = dt_s / tau_dt
-    lp_e += alpha * (ve - lp_e)
-    lp_n += alpha * (vn - lp_n)
-    lp_u += alpha * (vu - lp_u)
-    g_up = G_MPS2 + au
-    if g_up < _MIN_G_UP_MPS2:
-        g_up = _MIN_G_UP_MPS2
-    lp_fe += alpha * (g_up * t_e / t_up - lp_fe)
-    lp_fn += alpha * (g_up * t_n / t_up - lp_fn)
-    W[LP_E], W[LP_N], W[LP_U], W[LP_FE], W[LP_FN] = lp_e, lp_n, lp_u, lp_fe, lp_fn
-    de, dn = lp_fe - ae, lp_fn - an
-    d = math.sqrt(de * de + dn * dn)
-    v_air = airspeed_for_drag_mps(k1, k2, d)
-    if not math.isfinite(v_air):
-        return False, 0.0, 0.0, 0.0
-    if d > 1e-12:
-        we, wn = lp_e - v_air * de / d, lp_n - v_air * dn / d
-    else:
-        we, wn = lp_e, lp_n
-    q = (ae * ae + an * an) / C[ACCEL_REF2]
-    return True, we, wn, 1.0 / (1.0 + q)
 
 
 def _wind_estimator_update(
@@ -119,16 +70,17 @@ def _wind_estimator_update(
     weight = 1.0
     if position_valid and agl >= C[MIN_AGL]:
         if has_pitot:
-            va = airspeed
-            if math.isfinite(va) and not va < C[MIN_AIRSPEED] and not abs(roll) > C[MAX_BANK]:
-                if C[INDICATED] != 0.0:
-                    va /= math.sqrt(isa_density_ratio(alt)) if math.isfinite(alt) else 1.0
-                vh2 = va * va - vu * vu
-                vh = math.sqrt(vh2) if vh2 > 0.0 else 0.0
-                sampled, we, wn = True, ve - vh * math.sin(yaw), vn - vh * math.cos(yaw)
+            sampled, we, wn = airmass_sample(
+                airspeed, C[INDICATED] != 0.0, C[MIN_AIRSPEED], C[MAX_BANK], alt, ve, vn, vu, roll, yaw
+            )
         else:
             W[LAST_KIND_MR] = 1.0
-            sampled, we, wn, weight = _multirotor_sample(W, C, dt_s, ve, vn, vu, roll, pitch, yaw)
+            has_lp, lp, sampled, we, wn, weight = force_balance_sample(
+                (W[LP_E], W[LP_N], W[LP_U], W[LP_FE], W[LP_FN]), W[HAS_LP] != 0.0, dt_s, ve, vn, vu, roll, pitch, yaw,
+                C[K1], C[K2], C[ACCEL_WINDOW], C[ACCEL_REF2],
+            )  # fmt: skip
+            W[HAS_LP] = 1.0 if has_lp else 0.0
+            W[LP_E], W[LP_N], W[LP_U], W[LP_FE], W[LP_FN] = lp
     else:
         W[HAS_LP] = 0.0  # the force balance restarts from fresh filter states
     if not sampled:
@@ -136,19 +88,9 @@ def _wind_estimator_update(
         return (W[WE], W[WN])
     W[LAST_WEIGHT] = weight
     if weight > 0.0 and math.isfinite(we) and math.isfinite(wn):
-        t_used = W[T_USED]
-        memory = C[PRIOR_WEIGHT] + t_used
-        if not memory < C[TAU]:
-            memory = C[TAU]
-        wdt = weight * dt_s
-        k = wdt / (memory + wdt)
-        mean_e = W[WE] + k * (we - W[WE])
-        mean_n = W[WN] + k * (wn - W[WN])
-        W[WE], W[WN] = mean_e, mean_n
-        W[T_USED] = t_used + wdt
-        de, dn = we - mean_e, wn - mean_n
-        W[VAR] += k * (0.5 * (de * de + dn * dn) - W[VAR])
-        return (mean_e, mean_n)
+        W[WE], W[WN], W[T_USED], W[VAR] = mean_update(
+            W[WE], W[WN], W[T_USED], W[VAR], we, wn, weight, dt_s, C[PRIOR_WEIGHT], C[TAU]
+        )
     return (W[WE], W[WN])
 
 
