@@ -43,11 +43,12 @@ class WindField(Protocol):
     def mean(self, up_m: float) -> Vec3: ...
 
 
-def notify_first_activation(field: WindField, t_s: float) -> None:
+def notify_first_activation(field: object, t_s: float) -> None:
     """Tell ``field`` (and, for a :class:`CompositeWind`, its components) that the geofence first activated at ``t_s``.
 
-    Wind fields with events (a gust train's activation-timed gusts) expose ``first_activation(t_s)``; the others
-    ignore it. The simulated flight calls this once, the step the unit first overrides the pilot.
+    Wind fields with events (a gust train's activation-timed gusts, the compiled sampler
+    :class:`wind.field_kernel.WindArrays`) expose ``first_activation(t_s)``; the others ignore it. The simulated
+    flight calls this once, the step the unit first overrides the pilot.
     """
     for part in getattr(field, "components", (field,)):
         hook = getattr(part, "first_activation", None)

@@ -38,8 +38,8 @@ from scenarios.flight.sensing import GeofenceSensing
 from scenarios.spec.preflight import findings_summary, preflight_findings
 from scenarios.spec.schema import PilotKind, Scenario
 from wind.config import wind_from_config
-from wind.field import CalmWind, notify_first_activation
-from wind.field_kernel import compiled_wind
+from wind.field import CalmWind, WindField, notify_first_activation
+from wind.field_kernel import WindArrays, compiled_wind
 
 TAIL_AFTER_FINISH_S = 2.0
 
@@ -72,7 +72,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     # the wind's arrays sampled by one compiled call (the same numbers), where numba is active and the field is one
     # wind_from_config builds; else the field objects
     wind_arrays = compiled_wind(wind) if jit.ACTIVE else None
-    sample_wind = wind_arrays.sample if wind_arrays is not None else wind.sample
+    sampler: WindField | WindArrays = wind if wind_arrays is None else wind_arrays  # sample() and the activation hook
+    sample_wind = sampler.sample
     # the start is settled in the wind at t = 0 (platforms keep a wind set before reset)
     platform.set_wind_enu(*sample_wind(0.0, 0.0, 0.0, st.agl_m, st.airspeed_mps or env.cruise_speed_mps))
     platform.reset(frame, st.lat_deg, st.lon_deg, st.agl_m, st.heading_deg, st.airspeed_mps)
@@ -130,10 +131,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                 mode = unit.mode
                 pilot.notice_control(mode in (Mode.MONITOR, Mode.RECOVERED))  # the pilot feels the sticks come back
                 if unit.activations and not wind_told:
-                    if wind_arrays is not None:  # gusts timed from the first override
-                        wind_arrays.first_activation(truth.t_s)
-                    else:
-                        notify_first_activation(wind, truth.t_s)
+                    notify_first_activation(sampler, truth.t_s)  # gusts timed from the first override
                     wind_told = True
                 recorder.append(
                     truth, w, cmd_in, cmd, int(mode), pilot.items_reached, unit.estimate, seen.wind_en, unit.activation_margin_m
