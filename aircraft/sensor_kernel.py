@@ -37,12 +37,10 @@ from geofence.dynamics import isa_density_ratio
 from geofence.geodesy import radii_of_curvature_m
 from geofence.jit import COMPILED, jitable, numba
 
-__all__ = ["MAX_DRAWS_PER_STEP", "RING", "SensorArrays", "sensors_step"]
+__all__ = ["MAX_DRAWS_PER_STEP", "SensorArrays", "ring_rows", "sensors_step"]
 
 _TWO_PI = 2.0 * math.pi
 _EPS_S = 1e-9
-RING = 64
-"""Rows of the pending GNSS messages' ring (latency / period + 2 are ever pending; more is a configuration error)."""
 
 MAX_DRAWS_PER_STEP = 32
 """The most normals one step can take from one stream (two GNSS solutions of nine draws each, at the first step)."""
@@ -54,12 +52,18 @@ N_STATE = GM0 + 7
 # constants C
 (
     PERIOD, LATENCY, PREFILL, HAS_PITOT, H_WHITE, V_WHITE, VEL_H, VEL_V, BARO_NOISE, AIRSPEED_NOISE,
-    H_ACC, V_ACC, FAIL_AT,
-) = range(13)  # fmt: skip
-GM_SIGMA0 = 13  # the seven processes' sigma, then their tau
+    H_ACC, V_ACC, FAIL_AT, N_OUTAGES,
+) = range(14)  # fmt: skip
+GM_SIGMA0 = 14  # the seven processes' sigma, then their tau
 GM_TAU0 = GM_SIGMA0 + 7
 N_CONST = GM_TAU0 + 7
 # pool read index per stream: GPS, BARO, PITOT, AHRS (aircraft.sensors' stream order)
+
+
+def ring_rows(cfg: SensorConfig) -> int:
+    """Rows of the pending GNSS messages' ring: more than are ever pending, the solutions of one latency (one per
+    fix period) plus the pre-filled first one and a margin."""
+    return int(math.ceil(cfg.gps_latency_s * cfg.gps_rate_hz)) + 4
 
 
 @jitable
@@ -115,9 +119,10 @@ def _solve(
     nvn = C[VEL_H] * _draw(gps, idx, GPS_STREAM)
     nvu = C[VEL_V] * _draw(gps, idx, GPS_STREAM)
     count = int(S[COUNT])
-    if count >= RING:
-        raise ValueError("more pending GNSS messages than the ring holds (latency far beyond the fix period)")
-    row = (int(S[HEAD]) + count) % RING
+    ring = pending.shape[0]
+    if count >= ring:  # not reached: ring_rows() holds every solution of one latency and more
+        raise ValueError("the pending GNSS messages' ring is full")
+    row = (int(S[HEAD]) + count) % ring
     S[COUNT] = count + 1
     if count == 0:
         S[NEXT_ARRIVAL] = t + C[LATENCY] - _EPS_S
@@ -205,11 +210,11 @@ def _sensors_step(
         head = int(S[HEAD])
         count = int(S[COUNT])
         fix[:] = pending[head]
-        head = (head + 1) % RING
+        head = (head + 1) % pending.shape[0]
         count -= 1
         while count > 0 and t >= pending[head, 0] + C[LATENCY] - _EPS_S:
             fix[:] = pending[head]
-            head = (head + 1) % RING
+            head = (head + 1) % pending.shape[0]
             count -= 1
         S[HEAD] = head
         S[COUNT] = count
@@ -266,6 +271,7 @@ class SensorArrays:
         C[BARO_NOISE], C[AIRSPEED_NOISE] = cfg.baro_noise_m, cfg.airspeed_noise_mps
         C[H_ACC], C[V_ACC] = cfg.gps_h_sigma_m, cfg.gps_v_sigma_m
         C[FAIL_AT] = cfg.gps_fail_at_s if cfg.gps_fail_at_s is not None else math.inf
+        C[N_OUTAGES] = len(cfg.gps_outages)
         S = np.zeros(N_STATE)
         for k, (sigma, tau, stream) in enumerate(zip(sigmas, taus, streams)):
             C[GM_SIGMA0 + k], C[GM_TAU0 + k] = sigma, tau
@@ -275,7 +281,7 @@ class SensorArrays:
         S[NEXT_ARRIVAL] = math.inf
         self.state, self.const = S, C
         self.outages = np.array(cfg.gps_outages, dtype=np.float64).reshape(-1, 2)
-        self.pending = np.zeros((RING, 10))
+        self.pending = np.zeros((ring_rows(cfg), 10))
         self.fix = np.zeros(10)
 
     def args(self) -> tuple[np.ndarray, ...]:

@@ -149,3 +149,23 @@ def test_a_flight_senses_the_same_compiled_and_in_python(name, seconds):
     """The unit's whole view of a flight (its estimate and wind estimate are recorded) is the same either way:
     a fixed-wing that loses its GNSS, and a multirotor against an adversarial pilot in wind."""
     fly_both_ways(replace(load_scenario(ROOT / "scenarios" / name), duration_s=seconds))
+
+
+def test_a_latency_of_many_fix_periods_is_sensed_the_same():
+    """The pending GNSS ring is sized by the configuration (here 90 messages in flight), not a fixed capacity."""
+    cfg = SensorConfig(gps_rate_hz=10.0, gps_latency_s=9.0, seed=4)
+    suite = SensorSuite(cfg, has_pitot=True)
+    arrays = SensorArrays(cfg, has_pitot=True)
+    delivered_count = 0
+    for truth in truth_states(4, 1200, 0.025, False):
+        fix, _air, _att = suite.sample(truth)
+        delivered, *_ = sensors_step(
+            *arrays.args(), truth.t_s, truth.lat_deg, truth.lon_deg, truth.alt_m, truth.v_east_mps, truth.v_north_mps,
+            truth.v_up_mps, truth.airspeed_mps, truth.roll_rad, truth.pitch_rad, truth.yaw_rad,
+        )  # fmt: skip
+        arrays.refill()
+        assert delivered == (fix is not None)
+        if fix is not None:
+            delivered_count += 1
+            assert [_bits(v) for v in fix] == [_bits(v) for v in arrays.fix]
+    assert delivered_count > 100

@@ -21,7 +21,7 @@ from typing import Any, Callable, NamedTuple
 import numpy as np
 
 from aircraft import sensor_kernel as sk
-from aircraft.sensor_kernel import HAS_PITOT, MAX_DRAWS_PER_STEP, RING, SensorArrays, sensors_step
+from aircraft.sensor_kernel import HAS_PITOT, MAX_DRAWS_PER_STEP, SensorArrays, sensors_step
 from aircraft.sensors import SensorSuite
 from geofence import estimator_kernel as ek
 from geofence import jit
@@ -53,7 +53,7 @@ class Sensed(NamedTuple):
 
 # The chain's state vectors and constants, packed end to end in one float array (a compiled call pays about
 # 0.1 us per array argument): the sensors' state and constants, the estimator's, the wind estimator's, the
-# delivered fix, the pending GNSS ring and, last, the outage windows.
+# delivered fix, the outage windows and, last, the pending GNSS ring (their sizes follow the sensor configuration).
 _S0 = 0
 _C0 = _S0 + sk.N_STATE
 _X0 = _C0 + sk.N_CONST
@@ -61,8 +61,7 @@ _K0 = _X0 + ek.N_STATE
 _W0 = _K0 + ek.N_CONST
 _WC0 = _W0 + wk.N_STATE
 _FIX0 = _WC0 + wk.N_CONST
-_PENDING0 = _FIX0 + 10
-_OUTAGES0 = _PENDING0 + RING * 10
+_OUTAGES0 = _FIX0 + 10
 
 
 def _sense_step(
@@ -74,9 +73,10 @@ def _sense_step(
     state and constants; ``pools``, ``idx``: :class:`~aircraft.sensor_kernel.SensorArrays`' noise rows and
     read indices."""
     S, C, X, K = P[_S0:_C0], P[_C0:_X0], P[_X0:_K0], P[_K0:_W0]
-    W, WC, fix = P[_W0:_WC0], P[_WC0:_FIX0], P[_FIX0:_PENDING0]
-    pending = P[_PENDING0:_OUTAGES0].reshape(RING, 10)
-    outages = P[_OUTAGES0:].reshape(-1, 2)
+    W, WC, fix = P[_W0:_WC0], P[_WC0:_FIX0], P[_FIX0:_OUTAGES0]
+    pending0 = _OUTAGES0 + 2 * int(C[sk.N_OUTAGES])
+    outages = P[_OUTAGES0:pending0].reshape(-1, 2)
+    pending = P[pending0:].reshape(-1, 10)
     delivered, a_ind, baro_alt, r, p, y = sensors_step(
         S, C, outages, pending, pools[0], pools[1], pools[2], pools[3], idx, fix, t, lat, lon, alt, ve, vn, vu,
         airspeed, roll, pitch, yaw,
@@ -128,7 +128,7 @@ class GeofenceSensing:
             arrays = self._sensor_arrays = SensorArrays(sc, has_pitot=has_pitot, seed=scenario.seed)
             X, K = estimator_arrays(frame, sc.estimator_config())
             W, WC = wind_estimator_arrays(wind)
-            packed = (arrays.state, arrays.const, X, K, W, WC, arrays.fix, arrays.pending.ravel(), arrays.outages.ravel())
+            packed = (arrays.state, arrays.const, X, K, W, WC, arrays.fix, arrays.outages.ravel(), arrays.pending.ravel())
             P = np.concatenate(packed)
             self._X = P[_X0:_K0]
             self._args: tuple[Any, ...] = (P, arrays.pools, arrays.idx)
