@@ -129,7 +129,8 @@ class GeofenceSensing:
             X, K = estimator_arrays(frame, sc.estimator_config())
             W, WC = wind_estimator_arrays(wind)
             packed = (arrays.state, arrays.const, X, K, W, WC, arrays.fix, arrays.outages.ravel(), arrays.pending.ravel())
-            P = np.concatenate(packed)
+            P = np.concatenate(packed)  # copies: from here on the step reads and writes P, and of the sensor
+            # arrays only their noise rows and read indices (refilled in place)
             self._X = P[_X0:_K0]
             self._args: tuple[Any, ...] = (P, arrays.pools, arrays.idx)
             self._age = 0.0
