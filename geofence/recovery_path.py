@@ -84,9 +84,12 @@ same tangency filter and exact test, one row of pairs), and the searches stop
 early: :meth:`RecoveryPlanner.plan` is A* toward the goal (Euclidean
 heuristic, admissible and consistent: the route is still the shortest over
 the same graph) and the safe-point searches stop at the first safe point
-settled. Same graph, same routes; only the work done differs. Per-step :meth:`RecoveryPath.lookahead_point`
-is plain Python: a projection over the path's segments and one or two exact
-chord tests (bounding-box filtered loops over the edges). A segment whose
+settled. Same graph, same routes; only the work done differs. Per step, :meth:`RecoveryPath.lookahead_point`
+is a projection over the path's segments and one or two exact chord tests
+(bounding-box filtered loops over the edges): one compiled call
+(:data:`path_lookahead`) while the vehicle is inside by more than 1e-9 m, the
+Python methods (the reference, and the certified test of a breached start)
+otherwise. A segment whose
 bounding box holds many edges (a fixed-wing's roll-out route: a straight leg
 across the fence to the recovery point, asked once per 10 m cell it enters)
 is tested in numpy, with the scalar test's arithmetic (the same verdict).
@@ -103,6 +106,7 @@ import numpy as np
 
 from . import jit as _jit
 from .jit import COMPILED, jitable, numba
+from .lateral_kernel import hypot
 from .polygon import pole_of_inaccessibility
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -200,6 +204,7 @@ def _edge_blocks(ax: float, ay: float, bx: float, by: float, cx: float, cy: floa
     )
 
 
+@jitable
 def _segment_clear(ax: float, ay: float, bx: float, by: float, thr: float, edges: np.ndarray, circles: np.ndarray) -> bool:
     """:meth:`RecoveryPlanner._clear_one`'s verdict in one loop: no edge row ``(cx, cy, dx, dy, xmin, xmax, ymin,
     ymax)`` crosses a-b or comes within ``thr`` of it, and no circle row ``(x, y, r)`` comes within ``thr``.
@@ -258,11 +263,120 @@ def _fan_clear_rows(ox: float, oy: float, q: np.ndarray, thr: float, edges: np.n
     return out
 
 
+@jitable
+def _lex_less(a0: float, a1: float, a2: float, a3: float, b0: float, b1: float, b2: float, b3: float) -> bool:
+    """``(a0, a1, a2, a3) < (b0, b1, b2, b3)`` as Python orders tuples of floats (no NaN)."""
+    if a0 != b0:
+        return a0 < b0
+    if a1 != b1:
+        return a1 < b1
+    if a2 != b2:
+        return a2 < b2
+    return a3 < b3
+
+
+@jitable
+def _path_point_at(pts: np.ndarray, cum: np.ndarray, s_m: float) -> tuple[float, float]:
+    """:meth:`RecoveryPath.point_at` on the path's arrays (the same arithmetic)."""
+    k = pts.shape[0]
+    if s_m <= 0.0 or k == 1:
+        return pts[0, 0], pts[0, 1]
+    if s_m >= cum[k - 1]:
+        return pts[k - 1, 0], pts[k - 1, 1]
+    i = 0
+    while cum[i + 1] < s_m:
+        i += 1
+    seg = cum[i + 1] - cum[i]
+    t = (s_m - cum[i]) / seg if seg > 0.0 else 0.0
+    ax = pts[i, 0]
+    ay = pts[i, 1]
+    return ax + t * (pts[i + 1, 0] - ax), ay + t * (pts[i + 1, 1] - ay)
+
+
+@jitable
+def _path_project(
+    pts: np.ndarray, cum: np.ndarray, s0: float, e: float, n: float, thr: float, edges: np.ndarray, circles: np.ndarray
+) -> float:
+    """:meth:`RecoveryPath.project` on the path's arrays, for a vehicle whose chords are tested exactly: its
+    margin exceeds ``thr + EPS_M`` (``thr = min(margin, c) - EPS_M > 0``, :meth:`RecoveryPlanner.chord_ok`'s
+    first branch). The same candidates in the same arithmetic, taken nearest first in the order Python sorts
+    their tuples (the first of equal ones, as the stable sort), the first four at most."""
+    k = pts.shape[0]
+    if k == 1:
+        return 0.0
+    cd = np.empty(k - 1)
+    cs = np.empty(k - 1)
+    cx = np.empty(k - 1)
+    cy = np.empty(k - 1)
+    c = 0
+    for i in range(k - 1):
+        if cum[i + 1] < s0:
+            continue
+        ax = pts[i, 0]
+        ay = pts[i, 1]
+        seg = cum[i + 1] - cum[i]
+        lo = (s0 - cum[i]) / seg if (seg > 0.0 and s0 > cum[i]) else 0.0
+        dx = pts[i + 1, 0] - ax
+        dy = pts[i + 1, 1] - ay
+        l2 = dx * dx + dy * dy
+        t = ((e - ax) * dx + (n - ay) * dy) / l2 if l2 > 0.0 else 0.0
+        t = lo if t < lo else (1.0 if t > 1.0 else t)
+        px = ax + t * dx
+        py = ay + t * dy
+        cd[c] = hypot(e - px, n - py)
+        cs[c] = cum[i] + t * seg
+        cx[c] = px
+        cy[c] = py
+        c += 1
+    used = np.zeros(c, np.bool_)
+    for _ in range(min(4, c)):
+        b = -1
+        for j in range(c):
+            if not used[j] and (b < 0 or _lex_less(cd[j], cs[j], cx[j], cy[j], cd[b], cs[b], cx[b], cy[b])):
+                b = j
+        used[b] = True
+        if cd[b] <= EPS_M or _segment_clear(e, n, cx[b], cy[b], thr, edges, circles):
+            return cs[b]
+    return s0
+
+
+def _path_lookahead(
+    pts: np.ndarray,
+    cum: np.ndarray,
+    s0: float,
+    e: float,
+    n: float,
+    lookahead_m: float,
+    thr: float,
+    edges: np.ndarray,
+    circles: np.ndarray,
+) -> tuple[float, float, float]:
+    """``(projection, carrot east, carrot north)``: :meth:`RecoveryPath.lookahead_point` on the path's arrays
+    for a vehicle whose chords are tested exactly (see :func:`_path_project`); the caller advances the progress."""
+    s = _path_project(pts, cum, s0, e, n, thr, edges, circles)
+    ce, cn = _path_point_at(pts, cum, s + lookahead_m)
+    if _segment_clear(e, n, ce, cn, thr, edges, circles):
+        return s, ce, cn
+    for i in range(cum.shape[0]):
+        if cum[i] > s + EPS_M:
+            if _segment_clear(e, n, pts[i, 0], pts[i, 1], thr, edges, circles):
+                return s, pts[i, 0], pts[i, 1]
+            break
+    ce, cn = _path_point_at(pts, cum, s)
+    return s, ce, cn
+
+
 segment_clear = numba.njit(cache=True)(_segment_clear) if COMPILED else None
 """The compiled :func:`_segment_clear` (``None`` without numba: :meth:`RecoveryPlanner._clear_one` loops)."""
 
 fan_clear = numba.njit(cache=True)(_fan_clear_rows) if COMPILED else None
 """The compiled :func:`_fan_clear_rows` (``None`` without numba: :meth:`RecoveryPlanner._fan_clear` vectorises)."""
+
+path_project = numba.njit(cache=True)(_path_project) if COMPILED else None
+"""The compiled :func:`_path_project` (``None`` without numba: :meth:`RecoveryPath.project` loops)."""
+
+path_lookahead = numba.njit(cache=True)(_path_lookahead) if COMPILED else None
+"""The compiled :func:`_path_lookahead` (``None`` without numba: :meth:`RecoveryPath.lookahead_point` loops)."""
 
 
 # ----------------------------------------------------------------------------- results
@@ -300,6 +414,8 @@ class RecoveryPath:
             cum.append(cum[-1] + math.hypot(bx - ax, by - ay))
         self.cum_m = cum
         self.length_m = cum[-1]
+        self._pts_rows = np.array(self.points, dtype=np.float64).reshape(-1, 2)  # the compiled follower's arrays
+        self._cum_rows = np.array(cum, dtype=np.float64)
         self.goal_en = (float(goal_en[0]), float(goal_en[1]))
         self.reached_goal = reached_goal
         self.first_leg_floor_m = first_leg_floor_m
@@ -331,12 +447,17 @@ class RecoveryPath:
         chord from (e, n) is safe (margin kept ``>= min(margin(e, n), c)``, see
         :meth:`RecoveryPlanner.chord_ok`) wins, so the projection never jumps
         across a wall to a later leg of the path. If none is, ``progress_m``.
-        Does not change ``progress_m``.
+        Does not change ``progress_m``. Compiled (:data:`path_project`) while :data:`geofence.jit.ACTIVE` and the
+        chords are tested exactly (the vehicle is more than 1e-9 m inside).
         """
         pts, cum = self.points, self.cum_m
         s0 = self.progress_m
         if len(pts) == 1:
             return 0.0
+        thr = self._exact_chord_threshold(e, n)
+        if thr is not None and path_project is not None:
+            planner = self.planner
+            return path_project(self._pts_rows, self._cum_rows, s0, e, n, thr, planner._edge_rows, planner._circle_rows)
         cands = []
         for i in range(len(pts) - 1):
             if cum[i + 1] < s0:
@@ -357,6 +478,15 @@ class RecoveryPath:
                 return s
         return s0
 
+    def _exact_chord_threshold(self, e: float, n: float) -> float | None:
+        """:meth:`RecoveryPlanner.chord_ok`'s exact threshold ``min(margin, c) - EPS_M`` for chords from (e, n)
+        while the compiled follower is active and it is positive; else None (the Python methods)."""
+        if not _jit.ACTIVE:
+            return None
+        planner = self.planner
+        t = min(planner.fence.lateral_margin_m(e, n), planner.clearance_m) - EPS_M
+        return t if t > 0.0 else None
+
     def remaining_m(self, e: float, n: float) -> float:
         """Path length (m) left from the projection of (e, n) (see :meth:`project`) to the end."""
         return max(0.0, self.length_m - self.project(e, n))
@@ -369,8 +499,17 @@ class RecoveryPath:
         corner), the next path vertex after the projection is returned instead,
         and if that chord is not safe either, the projection point itself. The
         returned point always lies on the path (so in the free space, except on
-        the first leg).
+        the first leg). Compiled (:data:`path_lookahead`) as :meth:`project` is.
         """
+        thr = self._exact_chord_threshold(e, n)
+        if thr is not None and path_lookahead is not None:
+            planner = self.planner
+            s, ce, cn = path_lookahead(
+                self._pts_rows, self._cum_rows, self.progress_m, e, n, lookahead_m, thr, planner._edge_rows, planner._circle_rows
+            )
+            if s > self.progress_m:
+                self.progress_m = s
+            return (ce, cn)
         s = self.project(e, n)
         if s > self.progress_m:
             self.progress_m = s
