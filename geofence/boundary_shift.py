@@ -99,6 +99,7 @@ from .lateral_kernel import lateral_binding
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 from .margins_kernel import envelope_terms
 from .margins_kernel import margins as margins_kernel
+from .margins_kernel import monitor_margins as monitor_margins_kernel
 from .rooms import (
     G_MPS2,
     TWO_PI,
@@ -707,20 +708,50 @@ def _margins_compiled(
     rollout_target_en: tuple[float, float] | None, g: float,
 ) -> ShiftResult:  # fmt: skip
     """:func:`activation_margins` of a fence without an index by :func:`geofence.margins_kernel.margins`."""
+    has_target = rollout_target_en is not None
+    te, tn = rollout_target_en if rollout_target_en is not None else (0.0, 0.0)
+    r = margins_kernel(
+        *fence.margin_tables(), _envelope_terms(envelope), e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s,
+        bank_rad, wind_extra_mps, has_target, te, tn, g,
+    )  # fmt: skip
+    return _shift_result(fence, e, n, r)
+
+
+def _envelope_terms(envelope: Envelope) -> np.ndarray:
+    """:func:`geofence.margins_kernel.envelope_terms` of ``envelope``, cached by identity."""
     cached = _ENVELOPE_TERMS.get(id(envelope))
     if cached is None or cached[0] is not envelope:
         if len(_ENVELOPE_TERMS) >= _ENVELOPE_TERMS_KEPT:
             _ENVELOPE_TERMS.clear()
         cached = _ENVELOPE_TERMS[id(envelope)] = (envelope, envelope_terms(envelope))
-    has_target = rollout_target_en is not None
-    te, tn = rollout_target_en if rollout_target_en is not None else (0.0, 0.0)
-    r = margins_kernel(
-        *fence.margin_tables(), cached[1], e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad,
-        wind_extra_mps, has_target, te, tn, g,
-    )  # fmt: skip
+    return cached[1]
+
+
+def _shift_result(fence: LocalFence, e: float, n: float, r: tuple) -> ShiftResult:
+    """The :class:`ShiftResult` of a margins kernel's fields at (e, n) (the fence remembers its lateral margin)."""
     fence.remember_margin(e, n, r[1])
     feat, idx, j = fence.element_table()[1][r[4]]
     return ShiftResult(r[0], r[1], r[2], r[3], feat, idx, j, *r[5:])
+
+
+def monitor_margins(
+    fence: LocalFence, e: float, n: float, h: float, ve: float, vn: float, vu: float, ground_speed_mps: float,
+    envelope: Envelope, wind_e: float, wind_n: float, *, h_uncertainty_m: float, v_uncertainty_m: float,
+    latency_s: float, skip_time_s: float, bank_rad: float, wind_extra_mps: float,
+    rollout_target_en: tuple[float, float] | None, g: float = G_MPS2,
+) -> ShiftResult | None:  # fmt: skip
+    """A monitoring unit's step in one compiled call (:func:`geofence.margins_kernel.monitor_margins`), for a
+    fence without an index while :data:`geofence.jit.ACTIVE`: ``None`` when the unit's skip shortcut holds (no
+    element, ceiling or floor within the largest room the state can need over ``skip_time_s``, see
+    :meth:`geofence.unit.GeofenceUnit._far_from_everything`, the reference), else :func:`activation_margins`
+    (the other arguments are its own; ``ground_speed_mps``: the state's)."""
+    has_target = rollout_target_en is not None
+    te, tn = rollout_target_en if rollout_target_en is not None else (0.0, 0.0)
+    far, r = monitor_margins_kernel(
+        *fence.margin_tables(), _envelope_terms(envelope), e, n, h, ground_speed_mps, ve, vn, vu, wind_e, wind_n,
+        wind_extra_mps, skip_time_s, h_uncertainty_m, v_uncertainty_m, latency_s, bank_rad, has_target, te, tn, g,
+    )  # fmt: skip
+    return None if far else _shift_result(fence, e, n, r)
 
 
 def activation_margins_for_state(

@@ -37,6 +37,7 @@ from geofence.rooms import (
     climb_back_drift_m,
     fixed_wing_room_bound_m,
     multirotor_room_m,
+    room_upper_bounds_terms,
     tilt_accel_mps2,
     turn_constants,
     turn_rate_radps,
@@ -44,10 +45,12 @@ from geofence.rooms import (
 )
 from geofence.scan_kernel import lateral_margin_scan, signed_distance_rows
 
-__all__ = ["MarginTables", "envelope_terms", "margins"]
+__all__ = ["MarginTables", "envelope_terms", "margins", "monitor_margins"]
 
 # envelope terms
-FIXED_WING, REACTION_S, MAX_BANK, CRUISE, MIN_SPEED, MAX_SPEED, BRAKING, VERTICAL_ACCEL, MAX_CLIMB, K1, K2 = range(11)
+FIXED_WING, REACTION_S, MAX_BANK, CRUISE, MIN_SPEED, MAX_SPEED, BRAKING, VERTICAL_ACCEL, MAX_CLIMB, K1, K2, MAX_DESCENT = range(
+    12
+)
 # fence scalars
 CEILING, FLOOR, HAS_FLOOR, RECOVERY_E, RECOVERY_N = range(5)
 
@@ -136,17 +139,18 @@ def _vector(L: np.ndarray, k: int) -> np.ndarray:
 
 def envelope_terms(env: Envelope) -> np.ndarray:
     """The envelope's terms :func:`margins` reads (kind, reaction time, bank, speeds, braking, vertical
-    acceleration and climb rate, and the drag law's ``k1, k2``)."""
+    acceleration and climb rate, the drag law's ``k1, k2``, and the descent rate)."""
     k1, k2 = drag_coefficients(env)
     return np.array(
         [
             float(env.kind is PlatformKind.FIXED_WING), env.reaction_time_s, env.max_bank_rad, env.cruise_speed_mps,
             env.min_speed_mps, env.max_speed_mps, env.braking_decel_mps2, env.vertical_accel_mps2,
-            env.max_climb_rate_mps, k1, k2,
+            env.max_climb_rate_mps, k1, k2, env.max_descent_rate_mps,
         ]
     )  # fmt: skip
 
 
+@jitable
 def _margins(
     F: np.ndarray,
     L: np.ndarray,
@@ -297,5 +301,67 @@ def _margins(
     )  # fmt: skip
 
 
+@jitable
+def _far_from_everything(
+    F: np.ndarray, L: np.ndarray, V: np.ndarray, e: float, n: float, h: float, ground_speed: float, ve: float,
+    vn: float, vu: float, wind_e: float, wind_n: float, allowance: float, t_s: float, hu: float, v_unc: float, g: float,
+) -> bool:  # fmt: skip
+    """:meth:`geofence.unit.GeofenceUnit._far_from_everything` on the tables (its reference): no element, ceiling or
+    floor within the largest room the state can need (:func:`geofence.rooms.room_upper_bounds_terms` at the wind
+    speed plus ``allowance`` over the time ``t_s``, plus the uncertainties ``hu`` and ``v_unc``)."""
+    S = _table(F, L, SCALARS, 1)[:, 0]
+    fixed_wing = V[FIXED_WING] != 0.0
+    w = hypot(wind_e, wind_n) + allowance
+    room, vroom = room_upper_bounds_terms(
+        fixed_wing, V[MAX_SPEED], V[MAX_BANK], V[BRAKING], V[VERTICAL_ACCEL], V[MAX_CLIMB], V[MAX_DESCENT], V[K1],
+        V[K2], ground_speed, hypot(ve - wind_e, vn - wind_n), vu, w, t_s, g,
+    )  # fmt: skip
+    if room == math.inf:
+        return False
+    room += hu
+    vroom += v_unc
+    if S[CEILING] - h <= vroom:
+        return False
+    lat = lateral_margin_scan(
+        e, n, _table(F, L, KEEP_IN, 7), _table(F, L, KEEP_OUTS, 7), _vector(L, KEEP_OUT_OFFSETS), _table(F, L, CIRCLES, 3)
+    )
+    if not lat > room:
+        return False
+    if S[HAS_FLOOR] == 0.0 or h - S[FLOOR] > vroom:
+        return True
+    if fixed_wing:  # it circles in a gap while it climbs back: the circle drifts (an upper bound)
+        room += climb_back_drift_m(S[FLOOR] + vroom - h, V[MAX_CLIMB], w)
+    gap_offsets = _vector(L, GAP_OFFSETS)
+    gap_polygons = _table(F, L, GAP_POLYGONS, 7)
+    gd = -math.inf
+    for k in range(gap_offsets.shape[0] - 1):
+        d = signed_distance_rows(gap_polygons[gap_offsets[k] : gap_offsets[k + 1]], e, n)
+        if d > gd:
+            gd = d
+    return gd > room
+
+
+_NOT_NEEDED = (math.inf, math.inf, 0.0, math.inf, -1, 0.0, 0.0, math.inf, 0.0, math.inf, 0, 0.0, math.inf, 0.0, math.inf, 0.0, math.inf, math.inf)  # fmt: skip
+
+
+def _monitor_margins(
+    F: np.ndarray, L: np.ndarray, V: np.ndarray, e: float, n: float, h: float, ground_speed: float, ve: float,
+    vn: float, vu: float, wind_e: float, wind_n: float, allowance: float, far_t_s: float, hu: float, v_unc: float,
+    latency_s: float, bank_rad: float, has_target: bool, target_e: float, target_n: float, g: float,
+) -> tuple[bool, tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]]:  # fmt: skip
+    """A monitoring step's question in one call: ``(far, fields)``: the unit's skip shortcut
+    (:func:`_far_from_everything`, with ``far_t_s`` its time), and unless it holds, :func:`_margins`' fields
+    (``wind_extra_mps`` is ``allowance``); when far, the fields are placeholders (not computed)."""
+    if _far_from_everything(F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, far_t_s, hu, v_unc, g):
+        return True, _NOT_NEEDED
+    return False, _margins(
+        F, L, V, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, allowance, has_target, target_e,
+        target_n, g,
+    )  # fmt: skip
+
+
 margins = numba.njit(cache=True)(_margins) if COMPILED else _margins
 """The compiled :func:`_margins` (the Python function itself without numba)."""
+
+monitor_margins = numba.njit(cache=True)(_monitor_margins) if COMPILED else _monitor_margins
+"""The compiled :func:`_monitor_margins` (the Python function itself without numba)."""

@@ -114,6 +114,7 @@ __all__ = [
     "reaction_arc_m",
     "room_upper_bounds_fast_m",
     "room_upper_bounds_m",
+    "room_upper_bounds_terms",
     "tilt_accel_mps2",
     "trochoid_excursion_m",
     "turn_constants",
@@ -602,26 +603,53 @@ def room_upper_bounds_fast_m(
     ``a_p = g·tan(tilt) + a_w``, ``a = (a_brake - a_w)·max(1 - a_z/g, 0.05)``;
     fixed-wing ``2R + |W|·2pi/omega + (v + |W|)·t``. Vertical:
     ``v_z·t + v_z²/(2·a_z)``. ``tests/test_rooms.py`` holds it to the reference
-    form within 1e-9 relative.
+    form within 1e-9 relative. The arithmetic is :func:`room_upper_bounds_terms`'s.
     """
+    k1, k2 = drag_coefficients(env)
+    return room_upper_bounds_terms(
+        env.kind is PlatformKind.FIXED_WING, env.max_speed_mps, env.max_bank_rad, env.braking_decel_mps2,
+        env.vertical_accel_mps2, env.max_climb_rate_mps, env.max_descent_rate_mps, k1, k2,
+        ground_speed_mps, airspeed_mps, v_up_mps, wind_speed_mps, t_s, g,
+    )  # fmt: skip
+
+
+@jitable
+def room_upper_bounds_terms(
+    fixed_wing: bool,
+    max_speed_mps: float,
+    max_bank_rad: float,
+    braking_decel_mps2: float,
+    vertical_accel_mps2: float,
+    max_climb_rate_mps: float,
+    max_descent_rate_mps: float,
+    k1: float,
+    k2: float,
+    ground_speed_mps: float,
+    airspeed_mps: float,
+    v_up_mps: float,
+    wind_speed_mps: float,
+    t_s: float,
+    g: float,
+) -> tuple[float, float]:
+    """:func:`room_upper_bounds_fast_m` on the envelope's numbers (``k1, k2``: its drag law's
+    :func:`~geofence.dynamics.drag_coefficients`), the one home of its arithmetic (compiled kernels call it)."""
     w = wind_speed_mps
-    if env.kind is PlatformKind.FIXED_WING:
-        v = env.max_speed_mps if env.max_speed_mps > airspeed_mps else airspeed_mps
-        tanb = g * math.tan(env.max_bank_rad)
+    if fixed_wing:
+        v = max_speed_mps if max_speed_mps > airspeed_mps else airspeed_mps
+        tanb = g * math.tan(max_bank_rad)
         lateral = (2.0 * v * v + w * TWO_PI * v) / tanb + (v + w) * t_s
     else:
-        v = env.max_speed_mps if env.max_speed_mps > ground_speed_mps else ground_speed_mps
-        k1, k2 = drag_coefficients(env)
+        v = max_speed_mps if max_speed_mps > ground_speed_mps else ground_speed_mps
         push = (k1 + k2 * w) * w if w > 0.0 else 0.0
-        a = (env.braking_decel_mps2 - push) * max(1.0 - env.vertical_accel_mps2 / g, 0.05)
+        a = (braking_decel_mps2 - push) * max(1.0 - vertical_accel_mps2 / g, 0.05)
         if a > 0.0:
-            a_p = g * math.tan(env.max_bank_rad) + push
+            a_p = g * math.tan(max_bank_rad) + push
             v1 = v + a_p * t_s
             lateral = v * t_s + 0.5 * a_p * t_s * t_s + v1 * v1 / (2.0 * a)
         else:
             lateral = math.inf
-    vz = max(env.max_climb_rate_mps, env.max_descent_rate_mps, abs(v_up_mps))
-    az = env.vertical_accel_mps2
+    vz = max(max_climb_rate_mps, max_descent_rate_mps, abs(v_up_mps))
+    az = vertical_accel_mps2
     if vz <= 0.0:
         return lateral, 0.0
     return lateral, (vz * t_s + vz * vz / (2.0 * az) if az > 0.0 else math.inf)

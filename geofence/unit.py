@@ -44,7 +44,8 @@ from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum
 
-from geofence.boundary_shift import ShiftResult, activation_margins
+from geofence import jit as _jit
+from geofence.boundary_shift import ShiftResult, activation_margins, monitor_margins
 from geofence.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
@@ -88,6 +89,11 @@ REPLAY_WINDOW_S = 2.0
 """How far back the unit keeps its estimates (attitudes) for the dead reckoning to replay from the last fix."""
 DENSITY_REFRESH_M = 100.0
 """The envelope is re-scaled to the air density when the altitude moved this much (while monitoring)."""
+
+
+def _rollout_cell(e: float, n: float) -> tuple[int, int]:
+    """The roll-out target cache's cell of (e, n) (:data:`ROLLOUT_CELL_M` squares)."""
+    return (int(math.floor(e / ROLLOUT_CELL_M)), int(math.floor(n / ROLLOUT_CELL_M)))
 
 
 class Mode(IntEnum):
@@ -237,6 +243,33 @@ class GeofenceUnit:
             wind_extra_mps=self.wind_allowance_mps,
             rollout_target_en=None if self.env.is_multirotor else self._rollout_target(s.east_m, s.north_m),
         )  # fmt: skip
+
+    def _monitor_margins(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> ShiftResult | None:
+        """A predictive unit's monitoring step: ``None`` when :meth:`_far_from_everything` holds, else :meth:`_margins`.
+
+        For a fence without an index, while :data:`geofence.jit.ACTIVE`, one compiled call answers both
+        (:func:`geofence.boundary_shift.monitor_margins`, the same numbers), unless a fixed-wing's roll-out
+        target is not cached for its cell yet (finding it is a route search, made only when the margins are
+        needed: the reference's order).
+        """
+        fence = self.fence
+        env = self.env
+        if _jit.ACTIVE and fence.grid() is None:
+            target = None if env.is_multirotor else self._rollout_cache.get(_rollout_cell(s.east_m, s.north_m))
+            if env.is_multirotor or target is not None:
+                k = self.config.uncertainty_k_sigma
+                extra = self.config.extra_margin_m
+                latency = self._latency_s
+                return monitor_margins(
+                    fence, s.east_m, s.north_m, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, s.ground_speed_mps, env,
+                    self.wind_enu[0], self.wind_enu[1],
+                    h_uncertainty_m=k * sigma_h_m + extra, v_uncertainty_m=k * sigma_v_m + extra, latency_s=latency,
+                    skip_time_s=2.0 * env.reaction_time_s + latency, bank_rad=s.roll_rad,
+                    wind_extra_mps=self.wind_allowance_mps, rollout_target_en=target,
+                )  # fmt: skip
+        if self._far_from_everything(s, h, sigma_h_m, sigma_v_m, dt_s):
+            return None
+        return self._margins(s, h, sigma_h_m, sigma_v_m, dt_s)
 
     def _activation(self, r: ShiftResult) -> float:
         if self.config.trigger is Trigger.REACTIVE:
@@ -415,7 +448,7 @@ class GeofenceUnit:
         Cached per cell of ``ROLLOUT_CELL_M`` (the route's first point changes
         only where the view of the fence's corners changes).
         """
-        key = (int(math.floor(e / ROLLOUT_CELL_M)), int(math.floor(n / ROLLOUT_CELL_M)))
+        key = _rollout_cell(e, n)
         t = self._rollout_cache.get(key)
         if t is None:
             route = self._route(VehicleState(east_m=e, north_m=n), self.fence.recovery_en)
@@ -528,19 +561,19 @@ class GeofenceUnit:
                 return self._land(t_s, est, h, dt_s)
 
         monitoring = mode is Mode.MONITOR or mode is Mode.RECOVERED
-        if (
-            monitoring
-            and self.config.trigger is Trigger.PREDICTIVE
-            and self._far_from_everything(est, h, sigma_h_m, sigma_v_m, dt_s)
-        ):
-            self.activation_margin_m = math.inf  # larger than any room: not computed in detail
-            if mode is Mode.RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
-                self._switch(t_s, Mode.MONITOR, "hand-back complete")
-            return pilot
-        if mode is Mode.OVERRIDE and t_s - self._override_period_start_s < self.config.min_override_s:
+        if monitoring and self.config.trigger is Trigger.PREDICTIVE:
+            found = self._monitor_margins(est, h, sigma_h_m, sigma_v_m, dt_s)
+            if found is None:  # far from everything
+                self.activation_margin_m = math.inf  # larger than any room: not computed in detail
+                if mode is Mode.RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
+                    self._switch(t_s, Mode.MONITOR, "hand-back complete")
+                return pilot
+            r = found
+        elif mode is Mode.OVERRIDE and t_s - self._override_period_start_s < self.config.min_override_s:
             self.activation_margin_m = math.nan  # not needed (nor computed) until the minimum override has passed
             return self.recovery.sticks(est, h, t_s, dt_s)
-        r = self._margins(est, h, sigma_h_m, sigma_v_m, dt_s)
+        else:
+            r = self._margins(est, h, sigma_h_m, sigma_v_m, dt_s)
         self.last = r
         act = self._activation(r)
         self.activation_margin_m = act

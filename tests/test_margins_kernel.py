@@ -10,6 +10,7 @@ platform kinds, every field of the :class:`ShiftResult` must equal the plain-Pyt
 
 import math
 import random
+from dataclasses import replace
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -17,8 +18,11 @@ from test_fence_grid import FRAME, FW, MC, latlon, probe_points, random_fence, r
 from test_lateral_kernel import same_bits
 
 from geofence.boundary_shift import activation_margins
+from geofence.config import parse_geofence
 from geofence.fence import Fence
+from geofence.interface import VehicleState
 from geofence.jit import use_compiled
+from geofence.unit import GeofenceUnit
 
 
 def fence_with_gaps(seed: int, n_vertices: int, n_squares: int, n_circles: int, n_gaps: int) -> Fence:
@@ -107,3 +111,91 @@ def test_compiled_gap_queries_equal_the_polygon_loops(seed, n_gaps):
         finally:
             use_compiled(previous)
         assert repr(got) == repr(ref), (e, n)
+
+
+def _unit_on(fence: Fence, env, seed: int) -> GeofenceUnit:
+    """A predictive unit with a random turbulence forecast and uncertainty, on ``fence``."""
+    rng = random.Random(seed)
+    cfg = parse_geofence(
+        {
+            "fence": {"keep_in": [[47.0, 8.0], [47.0, 8.01], [47.01, 8.01]], "ceiling_m": 100},
+            "wind_prior": {"speed_mps": 0.0, "from_deg": 0.0, "turbulence_sigma_mps": rng.uniform(0.0, 2.0), "gust_mps": 2.0},
+            "extra_margin_m": rng.uniform(0.0, 3.0),
+        },
+        "test",
+    )
+    cfg = replace(cfg, fence=fence)
+    return GeofenceUnit(cfg, fence.to_local(FRAME), env)
+
+
+def monitoring_outcomes(seed: int, n_vertices: int, n_squares: int, n_circles: int, n_gaps: int, floor: str) -> set:
+    """Checks a unit's monitoring steps compiled against the reference (see the property below) on one random
+    fence; returns the ``(platform kind, skipped)`` outcomes met."""
+    if floor == "none":
+        fence = random_fence(seed, n_vertices, n_squares, n_circles)
+    else:
+        fence = fence_with_gaps(seed, n_vertices, n_squares, n_circles, n_gaps)
+        if floor == "wide gap":  # deeper than a multirotor's room: below the floor over it, still far
+            gap = tuple(latlon(x, y) for x, y in ((-120, -120), (120, -120), (120, 120), (-120, 120)))
+            fence = Fence(keep_in=fence.keep_in, ceiling_m=fence.ceiling_m, floor_m=20.0, floor_gaps=(gap,))
+    rng = random.Random(seed)
+    outcomes = set()
+    for env in (MC, FW):
+        unit = _unit_on(fence, env, seed)
+        local = unit.fence
+        assert local.grid() is None
+        points = probe_points(local, rng, 25) + [(rng.uniform(-80, 80), rng.uniform(-80, 80)) for _ in range(25)]
+        for e, n in points:
+            speed, course = rng.uniform(0.0, 1.2 * env.max_speed_mps), rng.uniform(-math.pi, math.pi)
+            h = rng.choice([60.0, 45.0, 30.0, 24.0, 21.0, 19.0, 5.0, 110.0, 118.0, rng.uniform(0.0, 125.0)])
+            s = VehicleState(
+                t_s=1.0, east_m=e, north_m=n, agl_m=h, alt_m=h, v_east_mps=speed * math.sin(course),
+                v_north_mps=speed * math.cos(course), v_up_mps=rng.uniform(-3.0, 3.0), roll_rad=rng.uniform(-0.6, 0.6),
+            )  # fmt: skip
+            w = rng.choice([rng.uniform(0.0, 9.0), 40.0])
+            wd = rng.uniform(-math.pi, math.pi)
+            unit.wind_enu[0], unit.wind_enu[1] = w * math.cos(wd), w * math.sin(wd)
+            unit._latency_s = rng.uniform(0.025, 0.4)
+            sigma_h, sigma_v = rng.uniform(0.0, 3.0), rng.uniform(0.0, 2.0)
+            if env is FW:
+                unit._rollout_target(e, n)  # cached: the compiled call takes it
+            answers = []
+            for on in (True, False):
+                previous = use_compiled(on)
+                try:
+                    answers.append(unit._monitor_margins(s, h, sigma_h, sigma_v, 0.025))
+                finally:
+                    use_compiled(previous)
+            got, ref = answers
+            assert (got is None) == (ref is None), (e, n, h, env.kind)
+            if got is not None:
+                assert same_bits(got, ref), (e, n, h, env.kind)
+            outcomes.add((env.kind, got is None))
+    return outcomes
+
+
+@settings(max_examples=20, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    n_vertices=st.integers(4, 24),
+    n_squares=st.integers(0, 3),
+    n_circles=st.integers(0, 3),
+    n_gaps=st.integers(0, 3),
+    floor=st.sampled_from(["none", "gaps", "wide gap"]),
+)
+def test_a_monitoring_step_is_the_skip_shortcut_then_the_margins(seed, n_vertices, n_squares, n_circles, n_gaps, floor):
+    """A predictive unit's monitoring step in one compiled call (:func:`geofence.boundary_shift.monitor_margins`)
+    answers as the reference does: the skip shortcut (:meth:`GeofenceUnit._far_from_everything`) and, unless it
+    holds, the margins, every field bit for bit; far from everything, near the edges, the ceiling, the floor
+    and its gaps, in winds a multirotor cannot brake against (no bound: never skipped)."""
+    outcomes = monitoring_outcomes(seed, n_vertices, n_squares, n_circles, n_gaps, floor)
+    assert {o for o in outcomes if not o[1]} == {(MC.kind, False), (FW.kind, False)}  # the margins, both kinds
+
+
+def test_the_monitoring_step_skips_where_the_reference_skips():
+    """Both answers of the skip shortcut occur in the property above, for both kinds: over a wide floor gap below
+    the floor (a multirotor) and in the middle of a wide fence, high and low."""
+    seen = set()
+    for seed in range(6):
+        seen |= monitoring_outcomes(seed, 12, 0, 0, 1, ("none", "gaps", "wide gap")[seed % 3])
+    assert {(MC.kind, True), (FW.kind, True), (MC.kind, False), (FW.kind, False)} <= seen
