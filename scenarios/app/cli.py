@@ -484,11 +484,12 @@ def _cmd_run(args) -> int:
     failed = 0
     for sc, spec in zip(scenarios, specs):
         bar = _progress(sc, quiet=args.quiet)
+        on_step, notice = progress_steps(bar)
         try:
-            result = run_scenario(
-                sc, args.out, on_step=bar.update if bar else None, plot=not args.no_plot, scenario_hash=spec.scenario_hash
-            )
+            result = run_scenario(sc, args.out, on_step=on_step, plot=not args.no_plot, scenario_hash=spec.scenario_hash)
         finally:
+            if notice is not None:
+                notice.cancel()
             if bar:
                 bar.close()
         s = result.summary
@@ -708,6 +709,41 @@ def _rounded(value):
     if isinstance(value, (list, tuple)):
         return [_rounded(v) for v in value]
     return value
+
+
+SLOW_START_NOTICE_S = 3.0
+"""A flight whose first step has not ended after this long says why (s)."""
+SLOW_START_NOTICE = (
+    "starting: the first flight after an install compiles the per-step kernels "
+    "(about 15 s, once; later runs load them from the cache)"
+)
+
+
+def progress_steps(bar, notice_after_s: float = SLOW_START_NOTICE_S):
+    """``(on_step, notice)`` for a flight's progress ``bar`` (``(None, None)`` without one).
+
+    If the first step has not ended after ``notice_after_s`` (the first flight after an install compiles the
+    per-step kernels), ``notice`` (a timer, cancelled by the first step) says so above the bar; the bar's
+    clock restarts at the first step, so its time left is the flight's, not the compiler's.
+    """
+    if bar is None:
+        return None, None
+    import threading
+
+    notice = threading.Timer(notice_after_s, bar.write, args=(SLOW_START_NOTICE,), kwargs={"file": bar.fp})
+    notice.daemon = True
+    notice.start()
+    started = False
+
+    def on_step(dt_s: float) -> None:
+        nonlocal started
+        if not started:
+            started = True
+            notice.cancel()
+            bar.reset(total=bar.total)  # the clock starts now: time left from the flight's own pace
+        bar.update(dt_s)
+
+    return on_step, notice
 
 
 def _progress(sc, quiet: bool):
