@@ -140,7 +140,8 @@ def direction_deg(value: Any, where: str) -> float:
 def string(value: Any, where: str, *, choices: Collection[str] | None = None) -> str:
     """A non-empty string, one of ``choices`` if given."""
     if not isinstance(value, str) or not value:
-        raise ConfigError(f"{where}: expected a non-empty string, got {kind(value)} {value!r}")
+        expected = f"one of {', '.join(choices)}" if choices is not None else "a non-empty string"
+        raise ConfigError(f"{where}: expected {expected}, got {kind(value)} {value!r}")
     if choices is not None and value not in choices:
         raise ConfigError(f"{where}: {value!r} is not one of {', '.join(choices)}")
     return value

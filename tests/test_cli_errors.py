@@ -49,8 +49,16 @@ def good_text(**replace):
             "start.lat_deg: must be <= 90",
         ),
         (lambda t: write(t, good_text(**{"duration_s: 240": "duration_s: -5"})), "duration_s: must be > 0"),
+        (
+            lambda t: write(t, good_text(**{"duration_s: 240": "duration_s: 240\nduration_s: 30"})),
+            "line 7, column 1: duplicate key 'duration_s' (first at line 6)",
+        ),
+        (
+            lambda t: write(t, good_text(**{"agl_m: 0": "agl_m: 0, agl_m: 20"})),
+            "duplicate key 'agl_m'",
+        ),
     ],
-    ids=["missing-file", "bad-yaml", "unknown-aircraft", "latitude-123", "negative-duration"],
+    ids=["missing-file", "bad-yaml", "unknown-aircraft", "latitude-123", "negative-duration", "key-twice", "nested-key-twice"],
 )
 def test_bad_input_one_line_exit_2(tmp_path, make, expected):
     _assert_one_line_exit_2(tmp_path, make(tmp_path), expected)

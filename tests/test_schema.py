@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from geofence.validation import ConfigError
-from scenarios.spec.schema import PilotKind, load_scenario, parse_scenario
+from scenarios.spec.schema import PilotKind, load_scenario, parse_scenario, read_document
 
 SHIPPED = sorted((Path(__file__).parents[1] / "scenarios").rglob("*.yaml"))
 
@@ -183,3 +183,17 @@ def test_a_fence_too_small_for_the_platform_says_so_with_the_numbers():
 def test_event_ended_segments_are_validated(segment, problem):
     with pytest.raises(ConfigError, match=re.escape(problem)):
         parse_scenario(with_(pilot={"type": "scripted", "segments": [segment]}), "bad.yaml")
+
+
+def test_a_key_given_twice_is_refused_and_merge_keys_still_merge(tmp_path):
+    """YAML forbids a key twice in one mapping (PyYAML would keep the last silently); ``<<:`` merges are not
+    repeats: the explicit key overrides the merged one."""
+    twice = tmp_path / "twice.yaml"
+    twice.write_text("wind: {speed_mps: 3}\nseed: 1\nwind: {speed_mps: 9}\n")
+    with pytest.raises(
+        ConfigError, match=r"twice.yaml: malformed YAML at line 3, column 1: duplicate key 'wind' \(first at line 1\)"
+    ):
+        read_document(twice)
+    merged = tmp_path / "merged.yaml"
+    merged.write_text("base: &b {speed_mps: 3, from_deg: 90}\nwind: {<<: *b, speed_mps: 9}\n")
+    assert read_document(merged)["wind"] == {"speed_mps": 9, "from_deg": 90}

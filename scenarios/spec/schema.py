@@ -366,14 +366,41 @@ _TOP_KEYS = frozenset(
 )
 
 
+class UniqueKeyLoader(yaml.SafeLoader):
+    """PyYAML's safe loader that refuses a mapping repeating a key (YAML forbids it; PyYAML would keep the last
+    one silently: a second ``wind:`` pasted below the first would replace it without a word). Merge keys
+    (``<<:``) still merge."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        first: dict[Any, yaml.Mark] = {}
+        for key_node, _ in node.value:
+            if key_node.tag == "tag:yaml.org,2002:merge":
+                continue
+            key = self.construct_object(key_node, deep=True)
+            try:
+                seen = first.get(key)
+            except TypeError:  # an unhashable key: the base class says so
+                continue
+            if seen is not None:
+                raise yaml.constructor.ConstructorError(
+                    "while constructing a mapping",
+                    node.start_mark,
+                    f"duplicate key {key!r} (first at line {seen.line + 1})",
+                    key_node.start_mark,
+                )
+            first[key] = key_node.start_mark
+        return super().construct_mapping(node, deep=deep)
+
+
 def read_document(path: str | Path) -> Any:
-    """Read a YAML file; any problem is a one-line :class:`ConfigError` naming the file."""
+    """Read a YAML file; any problem (malformed YAML, a key given twice in one mapping) is a one-line
+    :class:`ConfigError` naming the file."""
     path = Path(path)
     where = str(path)
     if not path.is_file():
         raise ConfigError(f"{where}: no such scenario file")
     try:
-        raw = yaml.safe_load(path.read_text())
+        raw = yaml.load(path.read_text(), Loader=UniqueKeyLoader)  # noqa: S506 - a SafeLoader
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
