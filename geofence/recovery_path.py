@@ -237,12 +237,23 @@ def _segment_clear(ax: float, ay: float, bx: float, by: float, thr: float, edges
     return True
 
 
-def _fan_clear_rows(ox: float, oy: float, q: np.ndarray, thr: float, edges: np.ndarray, circles: np.ndarray) -> np.ndarray:
+FAN_SLACK_M: float = 1e-6
+"""Slack (m) of the fans' early exit: an edge is skipped only when it is this much (plus 1e-9 relative) farther
+from the fan's origin than the segment's length plus the threshold, far beyond any rounding of the tests."""
+
+
+def _fan_clear_rows(
+    ox: float, oy: float, q: np.ndarray, thr: float, edges: np.ndarray, edge_d: np.ndarray, circles: np.ndarray
+) -> np.ndarray:
     """:meth:`RecoveryPlanner._clear_batch`'s verdicts for the segments from (ox, oy) to each row of ``q``: each
-    circle row ``(x, y, r)`` first, then the edge rows ``(cx, cy, dx, dy, ...)`` in the given order, with the
-    same per-edge test (:func:`_edge_blocks`, the vectorised test's arithmetic); a segment leaves at the first
-    element in its way (no bounding-box shortcut, which could differ from the vectorised test where an edge
-    lies on the segment's line)."""
+    circle row ``(x, y, r)`` first, then the edge rows ``(cx, cy, dx, dy, ...)`` in the given order (by their
+    distance ``edge_d`` from the origin, nearest first), with the same per-edge test (:func:`_edge_blocks`, the
+    vectorised test's arithmetic); a segment leaves at the first element in its way, or at the first edge
+    farther from the origin than its length plus ``thr``: every point of the segment is within its length of
+    the origin, so neither that edge nor any after it can cross it or come within ``thr``. An edge whose
+    bounding box is more than ``thr`` from the segment's is skipped. Both shortcuts carry
+    :data:`FAN_SLACK_M` (beyond any rounding of the per-edge test, so the verdicts are the vectorised test's),
+    and spare the far side of a large fence for a short segment."""
     t2 = thr * thr
     out = np.zeros(q.shape[0], np.bool_)
     for i in range(q.shape[0]):
@@ -255,7 +266,19 @@ def _fan_clear_rows(ox: float, oy: float, q: np.ndarray, thr: float, edges: np.n
                 clear = False
                 break
         if clear:
+            reach = math.sqrt((bx - ox) * (bx - ox) + (by - oy) * (by - oy)) + thr
+            slack = FAN_SLACK_M + 1e-9 * reach
+            reach += slack
+            grow = thr + slack
+            xmin = (ox if ox <= bx else bx) - grow
+            xmax = (ox if ox >= bx else bx) + grow
+            ymin = (oy if oy <= by else by) - grow
+            ymax = (oy if oy >= by else by) + grow
             for k in range(edges.shape[0]):
+                if edge_d[k] > reach:
+                    break
+                if edges[k, 5] < xmin or edges[k, 4] > xmax or edges[k, 7] < ymin or edges[k, 6] > ymax:
+                    continue  # the edge's box is more than thr (and the slack) away from the segment's
                 if _edge_blocks(ox, oy, bx, by, edges[k, 0], edges[k, 1], edges[k, 2], edges[k, 3], t2):
                     clear = False
                     break
@@ -807,8 +830,9 @@ class RecoveryPlanner:
         if _jit.ACTIVE and fan_clear is not None:  # compiled: each segment stops at its first blocking element
             o = np.asarray(origin, dtype=float)
             return fan_clear(
-                float(o[0]), float(o[1]), np.ascontiguousarray(q, dtype=float), thr, self._edge_rows[order], self._circle_rows
-            )
+                float(o[0]), float(o[1]), np.ascontiguousarray(q, dtype=float), thr, self._edge_rows[order],
+                np.sqrt(d2[order]), self._circle_rows,
+            )  # fmt: skip
         return self._clear_batch(np.broadcast_to(origin, q.shape), q, thr, edge_order=order)
 
     def _visible_from(self, p: Point, thr: float, dist: list[float] | None = None) -> list[int]:
