@@ -156,6 +156,7 @@ class GeofenceUnit:
         self._vertical_handback_m = min(config.vertical_handback_m, 0.1 * (fence.ceiling_m - lo))
         self._sigma_v_m = 0.0
         self._sigma_h_m = 0.0
+        self._skipped_last = False  # the last monitoring step's skip shortcut held
 
     # -- helpers -------------------------------------------------------------
     def _build_laws(self, env: Envelope) -> None:
@@ -250,26 +251,29 @@ class GeofenceUnit:
         For a fence without an index, while :data:`geofence.jit.ACTIVE`, one compiled call answers both
         (:func:`geofence.boundary_shift.monitor_margins`, the same numbers), unless a fixed-wing's roll-out
         target is not cached for its cell yet (finding it is a route search, made only when the margins are
-        needed: the reference's order).
+        needed: the reference's order). After a step the shortcut answered, the next asks it alone first
+        (far from everything it usually holds again, and alone it is the cheaper call): the same answers.
         """
         fence = self.fence
         env = self.env
-        if _jit.ACTIVE and fence.grid() is None:
+        if not self._skipped_last and _jit.ACTIVE and fence.grid() is None:
             target = None if env.is_multirotor else self._rollout_cache.get(_rollout_cell(s.east_m, s.north_m))
             if env.is_multirotor or target is not None:
                 k = self.config.uncertainty_k_sigma
                 extra = self.config.extra_margin_m
                 latency = self._latency_s
-                return monitor_margins(
+                found = monitor_margins(
                     fence, s.east_m, s.north_m, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, s.ground_speed_mps, env,
                     self.wind_enu[0], self.wind_enu[1],
                     h_uncertainty_m=k * sigma_h_m + extra, v_uncertainty_m=k * sigma_v_m + extra, latency_s=latency,
                     skip_time_s=2.0 * env.reaction_time_s + latency, bank_rad=s.roll_rad,
                     wind_extra_mps=self.wind_allowance_mps, rollout_target_en=target,
                 )  # fmt: skip
-        if self._far_from_everything(s, h, sigma_h_m, sigma_v_m, dt_s):
-            return None
-        return self._margins(s, h, sigma_h_m, sigma_v_m, dt_s)
+                self._skipped_last = found is None
+                return found
+        # far from everything at the last step (or no compiled call): the shortcut alone is the cheaper guess
+        self._skipped_last = self._far_from_everything(s, h, sigma_h_m, sigma_v_m, dt_s)
+        return None if self._skipped_last else self._margins(s, h, sigma_h_m, sigma_v_m, dt_s)
 
     def _activation(self, r: ShiftResult) -> float:
         if self.config.trigger is Trigger.REACTIVE:

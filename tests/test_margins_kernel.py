@@ -161,6 +161,7 @@ def monitoring_outcomes(seed: int, n_vertices: int, n_squares: int, n_circles: i
                 unit._rollout_target(e, n)  # cached: the compiled call takes it
             answers = []
             for on in (True, False):
+                unit._skipped_last = False  # the compiled call (after a skipped step the unit asks the shortcut alone)
                 previous = use_compiled(on)
                 try:
                     answers.append(unit._monitor_margins(s, h, sigma_h, sigma_v, 0.025))
