@@ -43,15 +43,18 @@ def fence_with_gaps(seed: int, n_vertices: int, n_squares: int, n_circles: int, 
     )
 
 
-@settings(max_examples=25, deadline=None)
-@given(
+SMALL_FENCES = dict(
     seed=st.integers(0, 10_000),
     n_vertices=st.integers(4, 24),
     n_squares=st.integers(0, 3),
     n_circles=st.integers(0, 3),
     n_gaps=st.integers(0, 3),
-    floor=st.booleans(),
 )
+"""Random fences a flight scans in full (no index): their shapes, keep-outs and floor gaps."""
+
+
+@settings(max_examples=25, deadline=None)
+@given(**SMALL_FENCES, floor=st.booleans())
 def test_compiled_margins_without_an_index_equal_the_reference(seed, n_vertices, n_squares, n_circles, n_gaps, floor):
     fence = (
         fence_with_gaps(seed, n_vertices, n_squares, n_circles, n_gaps)
@@ -176,14 +179,7 @@ def monitoring_outcomes(seed: int, n_vertices: int, n_squares: int, n_circles: i
 
 
 @settings(max_examples=20, deadline=None)
-@given(
-    seed=st.integers(0, 10_000),
-    n_vertices=st.integers(4, 24),
-    n_squares=st.integers(0, 3),
-    n_circles=st.integers(0, 3),
-    n_gaps=st.integers(0, 3),
-    floor=st.sampled_from(["none", "gaps", "wide gap"]),
-)
+@given(**SMALL_FENCES, floor=st.sampled_from(["none", "gaps", "wide gap"]))
 def test_a_monitoring_step_is_the_skip_shortcut_then_the_margins(seed, n_vertices, n_squares, n_circles, n_gaps, floor):
     """A predictive unit's monitoring step in one compiled call (:func:`geofence.boundary_shift.monitor_margins`)
     answers as the reference does: the skip shortcut (:meth:`GeofenceUnit._far_from_everything`) and, unless it
