@@ -523,7 +523,8 @@ class GeofenceUnit:
         if position_valid and estimate_age_s <= FRESH_ESTIMATE_AGE_S:
             self._last_valid = est
             self._last_horizon = horizon
-            self.dead_reckoning.stop()
+            if self.dead_reckoning.active:
+                self.dead_reckoning.stop()
         elif self._last_valid is not None:
             # fixes are missing: dead reckoning runs from the last fix (in the shadow while the estimator
             # still extrapolates, in charge once it declares the position lost)

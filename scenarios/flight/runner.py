@@ -124,8 +124,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                     position_valid=seen.position_valid,
                     sigma_h_m=seen.sigma_h_m,
                     sigma_v_m=seen.sigma_v_m,
-                    estimate_age_s=own.data_age_s,
-                    turbulence_sigma_mps=own.turbulence_sigma_mps,
+                    estimate_age_s=seen.data_age_s,
+                    turbulence_sigma_mps=seen.turbulence_sigma_mps,
                     horizon=seen.horizon,
                 )
                 mode = unit.mode

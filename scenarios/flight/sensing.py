@@ -49,6 +49,10 @@ class Sensed(NamedTuple):
     sigma_v_m: float
     horizon: FixState | None = None
     """The estimate at its newest fix's time of validity (None with a truth source)."""
+    data_age_s: float = 0.0
+    """Age of the position data behind the estimate, s (0 for a perfect, immediate source)."""
+    turbulence_sigma_mps: float | None = None
+    """The wind estimator's turbulence intensity, m/s 1-sigma (None with a truth source: the unit is told nothing)."""
 
 
 # The chain's state vectors and constants, packed end to end in one float array (a compiled call pays about
@@ -137,20 +141,6 @@ class GeofenceSensing:
             self._turbulence = 0.0
             self._horizon: FixState | None = None
 
-    @property
-    def turbulence_sigma_mps(self) -> float | None:
-        """The wind estimator's turbulence intensity (None with a truth source: the unit is told nothing)."""
-        if self.truth_source:
-            return None
-        return self._turbulence if self.compiled else self.wind.turbulence_sigma_mps
-
-    @property
-    def data_age_s(self) -> float:
-        """Age of the position data behind the estimate (0 for a perfect, immediate source)."""
-        if self.truth_source:
-            return 0.0
-        return self._age if self.compiled else self.estimator.data_age_s
-
     def sense(self, truth: VehicleState, dt_s: float) -> Sensed:
         """The unit's estimate, wind estimate, position validity and sigmas for this step."""
         if self.truth_source:
@@ -159,11 +149,15 @@ class GeofenceSensing:
         if self.compiled:
             return self._sense_compiled(truth, dt_s)
         fix, air, att = self.sensors.sample(truth)
-        est = self.estimator.step(dt_s, fix, air, att)
+        estimator = self.estimator
+        est = estimator.step(dt_s, fix, air, att)
         est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
-        valid = self.estimator.position_valid
+        valid = estimator.position_valid
         wind_en = self.wind.update(est, air.airspeed_mps, dt_s, valid)
-        return Sensed(est, wind_en, valid, self.estimator.sigma_h_m, self.estimator.sigma_v_m, self.estimator.horizon_state())
+        return Sensed(
+            est, wind_en, valid, estimator.sigma_h_m, estimator.sigma_v_m, estimator.horizon_state(),
+            estimator.data_age_s, self.wind.turbulence_sigma_mps,
+        )  # fmt: skip
 
     def _sense_compiled(self, truth: VehicleState, dt_s: float) -> Sensed:
         s = truth
@@ -178,4 +172,4 @@ class GeofenceSensing:
             self._sensor_arrays.refill()  # in place: the pools stay the same array
         est = VehicleState(*fields)
         est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
-        return Sensed(est, (we, wn), valid, sigma_h, sigma_v, self._horizon)
+        return Sensed(est, (we, wn), valid, sigma_h, sigma_v, self._horizon, self._age, self._turbulence)
