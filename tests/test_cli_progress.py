@@ -1,12 +1,17 @@
-"""The ``run`` command's progress bar: a slow first step (the first flight after an install compiles the per-step
-kernels) is explained above the bar, and the bar's clock starts at the first step."""
+"""The progress bars: a slow first step of ``run`` (the first flight after an install compiles the per-step
+kernels) is explained above the bar, and the bar's clock starts at the first step; so is a ``batch`` with no
+flight finished for a while."""
 
 import io
 import time
+from pathlib import Path
 
 from tqdm import tqdm
 
-from scenarios.app.cli import SLOW_START_NOTICE, progress_steps
+from scenarios.app.batch import BATCH_SLOW_START_NOTICE, SLOW_START_NOTICE, discover, plan, run_batch
+from scenarios.app.cli import progress_steps
+
+SHIPPED = Path(__file__).parents[1] / "scenarios"
 
 
 def _bar(out: io.StringIO) -> tqdm:
@@ -39,3 +44,13 @@ def test_a_quick_start_says_nothing():
 
 def test_without_a_bar_there_is_nothing_to_update():
     assert progress_steps(None) == (None, None)
+
+
+def test_a_batch_with_no_flight_finished_after_a_while_says_why(tmp_path, capsys):
+    """``batch``'s progress bar: no flight finished after ``slow_start_s`` (the workers of the first batch after an
+    install compile the per-step kernels) is explained once; the flights still fly."""
+    sc = tmp_path / "s.yaml"
+    sc.write_text((SHIPPED / "multicopter_survey_calm.yaml").read_text().replace("duration_s: 240", "duration_s: 3"))
+    outcome = run_batch(plan(discover([sc])), tmp_path / "out", jobs=1, progress=True, slow_start_s=0.0)
+    assert outcome.flown == 1
+    assert capsys.readouterr().err.count(BATCH_SLOW_START_NOTICE) == 1

@@ -31,6 +31,7 @@ import json
 import os
 import signal
 import sys
+import threading
 import time
 import traceback
 from collections.abc import Callable, Iterable
@@ -207,6 +208,28 @@ def remove_stale_staging(out_dir: Path) -> None:
             p.unlink(missing_ok=True)
 
 
+SLOW_START_NOTICE_S = 3.0
+"""A flight whose first step has not ended after this long says why (s)."""
+SLOW_START_NOTICE = (
+    "starting: the first flight after an install compiles the per-step kernels "
+    "(about 15 s, once; later runs load them from the cache)"
+)
+BATCH_SLOW_START_S = 30.0
+"""A batch with no flight finished after this long says what the first flights after an install do (s)."""
+BATCH_SLOW_START_NOTICE = (
+    "no flight finished yet: the first flights after an install compile the per-step kernels "
+    "(about 15 s in each worker, once; later runs load them from the cache)"
+)
+
+
+def slow_start_notice(bar, after_s: float, message: str = SLOW_START_NOTICE) -> threading.Timer:
+    """A started timer that writes ``message`` above the progress ``bar`` after ``after_s`` unless cancelled."""
+    notice = threading.Timer(after_s, bar.write, args=(message,), kwargs={"file": bar.fp})
+    notice.daemon = True
+    notice.start()
+    return notice
+
+
 def run_batch(
     specs: list[FlightSpec],
     out_dir: Path,
@@ -216,8 +239,10 @@ def run_batch(
     progress: bool = True,
     on_done: Callable[[dict], None] | None = None,
     flight_plots: bool = False,
+    slow_start_s: float = BATCH_SLOW_START_S,
 ) -> BatchOutcome:
-    """Fly every spec not already done in ``out_dir``; see the module docstring."""
+    """Fly every spec not already done in ``out_dir``; see the module docstring. With ``progress``, a batch
+    with no flight finished after ``slow_start_s`` says why it may be (:data:`BATCH_SLOW_START_NOTICE`)."""
     out_dir = Path(out_dir)
     check_unique_names(specs)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -229,8 +254,11 @@ def run_batch(
     t0 = time.perf_counter()
     client = _dask_client(scheduler) if executor == "dask" and todo else None  # refused before any progress is shown
     bar = _bar(len(specs), outcome.skipped, progress)
+    notice = slow_start_notice(bar, slow_start_s, BATCH_SLOW_START_NOTICE) if bar is not None and todo else None
 
     def finished(summary: dict) -> None:
+        if notice is not None:
+            notice.cancel()
         outcome.flown += 1
         if not summary.get("completed"):
             flight = summary.get("flight", "?")
@@ -255,6 +283,8 @@ def run_batch(
     except KeyboardInterrupt:
         outcome.interrupted = True
     finally:
+        if notice is not None:
+            notice.cancel()
         if bar is not None:
             bar.close()
         outcome.wall_time_s = time.perf_counter() - t0

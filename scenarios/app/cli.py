@@ -711,28 +711,19 @@ def _rounded(value):
     return value
 
 
-SLOW_START_NOTICE_S = 3.0
-"""A flight whose first step has not ended after this long says why (s)."""
-SLOW_START_NOTICE = (
-    "starting: the first flight after an install compiles the per-step kernels "
-    "(about 15 s, once; later runs load them from the cache)"
-)
-
-
-def progress_steps(bar, notice_after_s: float = SLOW_START_NOTICE_S):
+def progress_steps(bar, notice_after_s: float | None = None):
     """``(on_step, notice)`` for a flight's progress ``bar`` (``(None, None)`` without one).
 
-    If the first step has not ended after ``notice_after_s`` (the first flight after an install compiles the
+    If the first step has not ended after ``notice_after_s`` (default
+    :data:`scenarios.app.batch.SLOW_START_NOTICE_S`; the first flight after an install compiles the
     per-step kernels), ``notice`` (a timer, cancelled by the first step) says so above the bar; the bar's
     clock restarts at the first step, so its time left is the flight's, not the compiler's.
     """
     if bar is None:
         return None, None
-    import threading
+    from scenarios.app.batch import SLOW_START_NOTICE_S, slow_start_notice
 
-    notice = threading.Timer(notice_after_s, bar.write, args=(SLOW_START_NOTICE,), kwargs={"file": bar.fp})
-    notice.daemon = True
-    notice.start()
+    notice = slow_start_notice(bar, SLOW_START_NOTICE_S if notice_after_s is None else notice_after_s)
     started = False
 
     def on_step(dt_s: float) -> None:
