@@ -87,6 +87,11 @@ FRESH_ESTIMATE_AGE_S = 0.5
 """Dead reckoning starts from the last estimate whose GNSS data was at most this old (not a long extrapolation)."""
 REPLAY_WINDOW_S = 2.0
 """How far back the unit keeps its estimates (attitudes) for the dead reckoning to replay from the last fix."""
+SITTING_MAX_GROUND_SPEED_MPS = 2.0
+"""On the ground and slower than this (m/s), a vehicle is sitting: it breaches nothing where it is, and the unit
+leaves it be (a multirotor that landed, a fixed-wing that stopped). Faster, it is rolling -- a fixed-wing that
+touched down at flying speed inside a floor gap rolls out of it below the floor -- and its margins count: the
+override lifts it off and climbs back above the floor inside the gap."""
 DENSITY_REFRESH_M = 100.0
 """The envelope is re-scaled to the air density when the altitude moved this much (while monitoring)."""
 
@@ -584,7 +589,7 @@ class GeofenceUnit:
         self.activation_margin_m = act
 
         if mode is Mode.MONITOR or mode is Mode.RECOVERED:
-            if act <= 0.0 and not est.on_ground:  # sitting on the ground breaches nothing
+            if act <= 0.0 and not (est.on_ground and est.ground_speed_mps < SITTING_MAX_GROUND_SPEED_MPS):
                 self.activations += 1
                 if impossible:
                     self._start_landing(t_s, est, h, impossible)

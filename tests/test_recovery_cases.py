@@ -15,7 +15,9 @@ WGS-84 at the site) and flown in closed loop with the unit's own sensors:
 * a multirotor landing in a gap in wind (touchdown nearly stopped);
 * a fixed-wing that loses GPS near the boundary (campaign case u_fence-0569: its landing turn
   swung out 170 m across the boundary; the first turn now goes the way the margin scored safe);
-* a multirotor that loses GPS deep inside comes down at its full descent rate, not 1 m/s.
+* a multirotor that loses GPS deep inside comes down at its full descent rate, not 1 m/s;
+* a fixed-wing flown into the ground inside a floor gap at cruise (campaign case floor_gaps-0170):
+  rolling, not sitting, it must not roll out of the gap below the floor.
 """
 
 from __future__ import annotations
@@ -279,3 +281,16 @@ def test_a_multirotor_losing_gps_in_a_hard_brake_dead_reckons_from_its_last_fix(
     k = int(np.searchsorted(c("time_s"), lost.t_s)) + 1
     err = float(np.hypot(c("east_m")[k] - c("est_east_m")[k], c("north_m")[k] - c("est_north_m")[k]))
     assert err < 3.0, f"dead-reckoned position {err:.1f} m off when it took over"  # 6.4 m from the extrapolation
+
+
+def test_a_fixed_wing_touching_down_at_flying_speed_in_a_gap_does_not_roll_out_of_it():
+    """A c172x's pilot descends at cruise into a floor gap and touches down at 48 m/s with cruise power (campaign
+    seed 26112026, floor_gaps-0170). The unit treated any vehicle on the ground as sitting there and let it roll
+    out of the gap below the floor (33 m). Rolling faster than :data:`geofence.unit.SITTING_MAX_GROUND_SPEED_MPS`,
+    its margins count: the override lifts it off and it climbs back above the floor inside the gap."""
+    res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_floor_gaps_0170_touchdown_rollout.yaml"))
+    c = res.recorder.column
+    touchdown = float(c("time_s")[np.argmax(c("agl_m") < 2.0)])
+    assert 20.0 < touchdown < 35.0  # the pilot did fly it into the ground
+    assert any(t.t_s > touchdown and t.to_mode.name == "OVERRIDE" for t in res.unit.transitions)  # acted while rolling
+    assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
