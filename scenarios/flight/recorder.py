@@ -7,6 +7,7 @@ here (the CSV is an edge of the system), everything else SI.
 from __future__ import annotations
 
 import math
+from array import array
 from pathlib import Path
 
 import numpy as np
@@ -55,23 +56,26 @@ _DEG = 180.0 / math.pi
 
 
 class Recorder:
-    """Collects one row per step; :meth:`append` only stores a tuple (the cheapest thing per step).
+    """Collects one row per step into a growing buffer of doubles (``array.array``): a step's values are
+    stored as 8 bytes each, not kept as Python float objects (a flight's rows would be hundreds of thousands
+    of them, and every step would touch new memory).
 
-    The rows become one float array the first time they are read.
+    The buffer is viewed as one float array (rows x :data:`COLUMNS`) when it is read.
     """
 
     def __init__(self, capacity: int = 0):
-        self._rows: list[tuple] = []
+        self._buf = array("d")
+        self._n = 0
         self._array: np.ndarray | None = None
 
     @property
     def n(self) -> int:
-        return len(self._rows)
+        return self._n
 
     @property
     def data(self) -> np.ndarray:
-        if self._array is None or len(self._array) != len(self._rows):
-            self._array = np.array(self._rows, dtype=float).reshape(len(self._rows), len(COLUMNS))
+        if self._array is None or len(self._array) != self._n:  # a copy: a view would pin the buffer's size
+            self._array = np.frombuffer(self._buf, dtype=float).reshape(self._n, len(COLUMNS)).copy()
         return self._array
 
     def append(
@@ -86,7 +90,8 @@ class Recorder:
         wind_est: tuple[float, float] = (math.nan, math.nan),
         activation_margin_m: float = math.nan,
     ) -> None:
-        self._rows.append(
+        self._n += 1
+        self._buf.extend(
             (
                 s.t_s,
                 s.lat_deg,
