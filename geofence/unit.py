@@ -18,6 +18,9 @@ reckoning from its last valid estimate (:mod:`geofence.dead_reckoning`).
   at any time, the unit goes straight to LAND_IN_GAP (the most reachable floor gap,
   downwind preferred). A multirotor flies there at the lowest safe height and aims
   upwind in the gap.
+* A vehicle on the ground slower than :data:`SITTING_MAX_GROUND_SPEED_MPS` is sitting and never
+  triggers; a faster one is rolling (a fixed-wing that touched down at flying speed) and triggers as in
+  the air.
 * Either a lateral or a vertical trigger starts the whole 3-D override
   (lateral goal: the recovery point; vertical goal: a safe height band).
 * The activation margin is the estimated margin to the fence minus the room
