@@ -95,7 +95,7 @@ from .dynamics import drag_coefficients, wind_push_mps2
 from .fence import AltitudeReference, FenceError
 from .fence_grid import GROUPED_FROM_EDGES_PER_GROUP, MULTIROTOR_GROUPED_FROM_EDGES_PER_GROUP, FenceGrid
 from .interface import Envelope, PlatformKind, VehicleState
-from .lateral_kernel import lateral_binding
+from .lateral_kernel import lateral_binding, line_scored_distance
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 from .margins_kernel import envelope_terms
 from .margins_kernel import margins as margins_kernel
@@ -190,17 +190,20 @@ class ShiftResult(NamedTuple):
     vertical_time_to_breach_s: float
 
 
-def _edge_distances(edges: tuple, e: float, n: float) -> tuple[list, float]:
-    """``([(d, nx, ny, feature, index, edge), ...], min d)``: unsigned distance from (e, n) to each edge item."""
+def _edge_distances(edges: tuple, e: float, n: float, n_line: int = 0) -> tuple[list, float]:
+    """``([(d, nx, ny, feature, index, edge), ...], min d)``: unsigned distance from (e, n) to each edge item
+    (the first ``n_line``, a convex keep-in's, scored at :func:`~geofence.lateral_kernel.line_scored_distance`
+    where the foot lies off the edge); ``min d``: the nearest point-segment distance."""
     out = []
     min_d = math.inf
-    for ax, ay, dx, dy, il2, nx, ny, feat, idx, j in edges:
+    for k, (ax, ay, dx, dy, il2, nx, ny, feat, idx, j) in enumerate(edges):
         px, py = e - ax, n - ay
         t = (px * dx + py * dy) * il2
+        off = t < 0.0 or t > 1.0
         t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
         qx, qy = px - t * dx, py - t * dy
         d = math.sqrt(qx * qx + qy * qy)
-        out.append((d, nx, ny, feat, idx, j))
+        out.append((line_scored_distance(d, px, py, nx, ny) if off and k < n_line else d, nx, ny, feat, idx, j))
         if d < min_d:
             min_d = d
     return out, min_d
@@ -540,6 +543,7 @@ def activation_margins(
         and grid is not None
         and bound < math.inf
         and prune_from_edges < GROUPED_REFERENCE
+        and fence.line_scored_edges() == 0  # the groups' bounds are of point-segment distances
         and grid.group_search_pays(
             e, n, bound, GROUPED_FROM_EDGES_PER_GROUP if fixed_wing else MULTIROTOR_GROUPED_FROM_EDGES_PER_GROUP
         )
@@ -563,7 +567,7 @@ def activation_margins(
         lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
             E, ids, lbs, walk, e, n, bound, delta_c, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
             v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
-            k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss,
+            k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, fence.line_scored_edges(),
         )  # fmt: skip
         assert i_bind >= 0  # the nearest element is always a candidate
         feat, idx, j = meta[i_bind]
@@ -624,7 +628,7 @@ def activation_margins(
             lat_margin = fence.lateral_margin_m(e, n, min_d)  # the walk just made gives the nearest element
         else:
             lat_margin = fence.lateral_margin_m(e, n)
-            dists, min_d = _edge_distances(fence.danger_edges(), e, n)
+            dists, min_d = _edge_distances(fence.danger_edges(), e, n, fence.line_scored_edges())
             for i, (ce, cn, r) in enumerate(fence.keep_out_circles):
                 dist = math.hypot(ce - e, cn - n)
                 ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)

@@ -67,7 +67,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from . import jit as _jit
-from .lateral_kernel import element_table, nearest_distance
+from .lateral_kernel import element_table, line_scored_distance, nearest_distance
 from .polygon import BOUNDARY_TOL_M, PolygonIndex
 
 SMALL_FENCE_ELEMENTS: int = 256
@@ -158,7 +158,11 @@ class FenceGrid:
         cell_m: float = DEFAULT_CELL_M,
         prefix_items: int = PREFIX_ITEMS,
         group_length_m: float = GROUP_LENGTH_M,
+        line_edges: int = 0,
     ) -> None:
+        self.line_edges = int(line_edges)
+        """The first ``line_edges`` elements (a convex keep-in's edges) are scored at
+        :func:`~geofence.lateral_kernel.line_scored_distance` where the foot lies off the edge."""
         self.cell_m = float(cell_m)
         self.prefix_items = int(prefix_items)
         self.half_diag_m = self.cell_m * math.sqrt(0.5)
@@ -322,7 +326,8 @@ class FenceGrid:
         """``(items, d_min)``: every element with ``d - reach < d_min``, in element order, and the nearest ``d``.
 
         Items are ``(d, nx, ny, feature, feature_index, edge)`` with the
-        breach-pointing unit normal (for a circle: towards its centre).
+        breach-pointing unit normal (for a circle: towards its centre); the first :attr:`line_edges`
+        elements' ``d`` is the distance a margin scores them at (``d_min`` is the nearest point's).
         """
         cell = self._cell(e, n, reach)
         cx, cy = cell.cx, cell.cy
@@ -339,12 +344,15 @@ class FenceGrid:
             if il2 >= 0.0:  # inline (the per-step walk): _element_distance's arithmetic
                 px, py = e - a, n - b
                 t = (px * c + py * dd) * il2
+                off = t < 0.0 or t > 1.0
                 t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
                 qx, qy = px - t * c, py - t * dd
                 d = math.sqrt(qx * qx + qy * qy)
+                db = line_scored_distance(d, px, py, nx, ny) if off and i < self.line_edges else d
             else:
                 d, nx, ny = _element_distance(e, n, a, b, c, dd, il2, nx, ny)
-            found.append((i, (d, nx, ny, feat, idx, j)))
+                db = d
+            found.append((i, (db, nx, ny, feat, idx, j)))
             if d < best:
                 best = d
         if not stopped and len(rest):
@@ -353,9 +361,14 @@ class FenceGrid:
                 best = min(best, float(ds.min()))
             recs = self._recs
             for i, d in zip(ids.tolist(), ds.tolist()):
+                _, a, b, c, dd, il2, nx, ny, feat, idx, j = recs[i]
+                if i < self.line_edges:
+                    px, py = e - a, n - b
+                    t = (px * c + py * dd) * il2
+                    if t < 0.0 or t > 1.0:
+                        d = line_scored_distance(d, px, py, nx, ny)
                 if d - reach >= best:
                     continue
-                _, a, b, c, dd, il2, nx, ny, feat, idx, j = recs[i]
                 if il2 < 0.0:
                     dist = math.hypot(a - e, b - n)
                     nx, ny = ((a - e) / dist, (b - n) / dist) if dist > 0.0 else (1.0, 0.0)

@@ -33,7 +33,7 @@ from geofence.dynamics import wind_push_mps2
 from geofence.jit import COMPILED, jitable, numba
 from geofence.rooms import multirotor_room_m, reaction_arc_m, trochoid_excursion_m
 
-__all__ = ["element_table", "hypot", "lateral_binding", "nearest_distance"]
+__all__ = ["element_table", "hypot", "lateral_binding", "line_scored_distance", "nearest_distance"]
 
 _DBL_MIN = 2.2250738585072014e-308
 _SPLIT = 134217729.0  # 2**27 + 1, Veltkamp's splitter
@@ -250,17 +250,21 @@ def _walk(
     n: float,
     reach: float,
     delta_c: float,
-) -> tuple[int, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(count, nearest d, f_id, f_d, f_nx, f_ny)``: the first ``count`` rows of the ``f_*`` arrays hold the
-    candidates walked, their distances ``d`` and breach normals (the reference's arithmetic: the
+    n_line: int,
+) -> tuple[int, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(count, nearest d, f_id, f_d, f_nx, f_ny, f_b)``: the first ``count`` rows of the ``f_*`` arrays hold
+    the candidates walked, their distances ``d`` and breach normals (the reference's arithmetic: the
     point-segment distance, a circle's ``hypot - radius`` and the unit normal towards its centre), in ``ids``
     order; with ``walk``, until the bound ``lbs[k] - delta_c - reach`` exceeds the nearest ``d`` found
-    (:meth:`FenceGrid.near`'s stop rule)."""
+    (:meth:`FenceGrid.near`'s stop rule). ``f_b``: the distance each is scored at, ``d`` but for the first
+    ``n_line`` elements (a convex keep-in's edges) whose perpendicular foot lies off the segment, scored at
+    their line distance (:func:`line_scored_distance`)."""
     m = ids.shape[0]
     f_id = np.empty(m, np.int64)
     f_d = np.empty(m)
     f_nx = np.empty(m)
     f_ny = np.empty(m)
+    f_b = np.empty(m)
     cnt = 0
     best = math.inf
     for k in range(m):
@@ -276,12 +280,14 @@ def _walk(
             px = e - a
             py = n - b
             t = (px * c + py * dd) * il2
+            off = t < 0.0 or t > 1.0
             t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
             qx = px - t * c
             qy = py - t * dd
             d = math.sqrt(qx * qx + qy * qy)
             nx = E[i, 5]
             ny = E[i, 6]
+            f_b[cnt] = line_scored_distance(d, px, py, nx, ny) if off and i < n_line else d
         else:
             dist = hypot(a - e, b - n)
             if dist > 0.0:
@@ -291,6 +297,7 @@ def _walk(
                 nx = 1.0
                 ny = 0.0
             d = dist - c
+            f_b[cnt] = d
         f_id[cnt] = i
         f_d[cnt] = d
         f_nx[cnt] = nx
@@ -298,12 +305,29 @@ def _walk(
         cnt += 1
         if d < best:
             best = d
-    return cnt, best, f_id, f_d, f_nx, f_ny
+    return cnt, best, f_id, f_d, f_nx, f_ny, f_b
+
+
+@jitable
+def line_scored_distance(d: float, px: float, py: float, nx: float, ny: float) -> float:
+    """The distance a convex keep-in's edge is scored at from a point whose perpendicular foot lies off the
+    edge: its line distance ``-(p - a)·n`` (``(px, py) = p - a``, ``n`` the outward normal) when positive,
+    else the point-segment distance ``d``.
+
+    A margin scores each edge as the distance minus the manoeuvre's excursion along its normal. Leaving
+    through a segment means reaching its line, which is nearer than the segment when the foot lies off it:
+    a long turn drifting in wind leaves a finely divided circle through an edge far along it (campaign
+    seed 27112026, circle-0169: 829 m to the line, 1,220 m to the segment; 86 m out). Inside a convex
+    keep-in, crossing any edge's line is leaving the fence, so the line distance is exact, and no more
+    pessimistic; inside a concave one it is not (a line can cross the allowed area) and the segment's is kept.
+    """
+    dl = -(px * nx + py * ny)
+    return dl if dl > 0.0 else d
 
 
 def _nearest_distance(E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, delta_c: float, e: float, n: float) -> float:
     """The nearest candidate's ``d`` by :func:`_walk` (reach 0): :meth:`FenceGrid.nearest_distance`."""
-    return _walk(E, ids, lbs, True, e, n, 0.0, delta_c)[1]
+    return _walk(E, ids, lbs, True, e, n, 0.0, delta_c, 0)[1]
 
 
 def _lateral_binding(
@@ -344,6 +368,7 @@ def _lateral_binding(
     a_brake: float,
     arrest_t: float,
     arrest_loss: float,
+    n_line: int,
 ) -> tuple[float, float, int, float, float, float, float, float, float, float]:
     """``(activation, turn sign, element id, room, nx, ny, d, v_n, turn angle, d_min)`` of the binding element.
 
@@ -354,9 +379,11 @@ def _lateral_binding(
     a tie goes to the lowest element id (the reference's first in element order). Element id -1: no
     candidate. The other arguments are :func:`~geofence.boundary_shift.activation_margins`' per-state
     terms under the same names (the other platform kind's are zeros; ``arrest_t, arrest_loss`` its
-    ``climb_arrest``).
+    ``climb_arrest``). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges, scored at
+    :func:`line_scored_distance` (``d`` is then that distance; ``d_min`` stays the nearest point-segment
+    distance).
     """
-    cnt, min_d, f_id, f_d, f_nx, f_ny = _walk(E, ids, lbs, walk, e, n, reach, delta_c)
+    cnt, min_d, f_id, _, f_nx, f_ny, f_d = _walk(E, ids, lbs, walk, e, n, reach, delta_c, n_line)
     # the elements that can bind, in element order
     keep = np.empty(cnt, np.int64)
     nk = 0

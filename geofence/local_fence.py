@@ -30,7 +30,7 @@ from .geodesy import LocalFrame
 from .heights import AltitudeReference, VerticalExtent
 from .lateral_kernel import element_table
 from .margins_kernel import MarginTables
-from .polygon import PolygonIndex, pole_of_inaccessibility
+from .polygon import PolygonIndex, is_convex, pole_of_inaccessibility
 from .scan_kernel import deepest_polygon, lateral_margin_scan, polygon_rows, stacked
 
 if TYPE_CHECKING:
@@ -124,6 +124,7 @@ class LocalFence:
         "_gap_table",
         "_element_table",
         "_scan_table",
+        "_line_edges",
     )
 
     def __init__(
@@ -168,6 +169,7 @@ class LocalFence:
         self._scan_table: tuple | None = None
         self._margin_tables: MarginTables | None = None
         self._gap_table: tuple[np.ndarray, np.ndarray] | None = None
+        self._line_edges: int | None = None
         self.recovery_height_m: float | None
         rp = fence.recovery_point
         if rp is not None:
@@ -200,8 +202,17 @@ class LocalFence:
                 self.keep_in,
                 self.keep_out_polygons,
                 group_length_m=self._group_length_m,
+                line_edges=self.line_scored_edges(),
             )
         return self._grid
+
+    def line_scored_edges(self) -> int:
+        """How many lateral elements, from the first, a margin scores at their line distance where the foot lies
+        off the edge (:func:`geofence.lateral_kernel.line_scored_distance`): the keep-in's edges when it is
+        convex (they come first in :meth:`danger_edges`), else none (cached)."""
+        if self._line_edges is None:
+            self._line_edges = self.keep_in.n if is_convex(self.keep_in.vertices) else 0
+        return self._line_edges
 
     # ---- scalar margins (per-step)
     def lateral_margin_m(self, e: float, n: float, nearest_d: float | None = None) -> float:
@@ -270,8 +281,9 @@ class LocalFence:
             E, _meta, ids, _zeros = self.element_table()
             gap_edges = stacked([element_table(self.gap_edges(i), ()) for i in range(len(self.floor_gaps))], 7)
             self._margin_tables = MarginTables.pack(
-                E, ids, self.scan_tables(), self.gap_table(), gap_edges, self.ceiling_m, self.floor_m, self.recovery_en
-            )
+                E, ids, self.scan_tables(), self.gap_table(), gap_edges, self.ceiling_m, self.floor_m, self.recovery_en,
+                self.line_scored_edges(),
+            )  # fmt: skip
         return self._margin_tables
 
     def gap_table(self) -> tuple[np.ndarray, np.ndarray]:

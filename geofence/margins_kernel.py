@@ -52,7 +52,7 @@ FIXED_WING, REACTION_S, MAX_BANK, CRUISE, MIN_SPEED, MAX_SPEED, BRAKING, VERTICA
     12
 )
 # fence scalars
-CEILING, FLOOR, HAS_FLOOR, RECOVERY_E, RECOVERY_N = range(5)
+CEILING, FLOOR, HAS_FLOOR, RECOVERY_E, RECOVERY_N, LINE_EDGES = range(6)
 
 
 # the tables packed in one float and one int array (two arguments: a compiled call pays per array)
@@ -68,7 +68,7 @@ class MarginTables(NamedTuple):
     Float tables: the lateral elements (:func:`geofence.lateral_kernel.element_table` rows, ``danger_edges``
     then circles), the lateral margin's scan tables (the keep-in's and keep-outs' polygon rows, the circles),
     the floor gaps' polygon rows end to end and their edge elements end to end (normals out of the gap), a
-    zero per element, and ``(ceiling, floor (nan without), has floor, recovery east, recovery north)``.
+    zero per element, and ``(ceiling, floor (nan without), has floor, recovery east, recovery north, line-scored elements)``.
     Int vectors: the element ids in order, the keep-outs', gaps' and gap edges' offsets. ``layout``'s first
     :data:`_HEADER` entries are each part's ``(start, rows)``.
     """
@@ -87,11 +87,13 @@ class MarginTables(NamedTuple):
         ceiling_m: float,
         floor_m: float | None,
         recovery_en: tuple[float, float],
+        line_edges: int = 0,
     ) -> MarginTables:
         """Pack a fence's tables (:meth:`geofence.local_fence.LocalFence.margin_tables` gives them): its element
         table and ids, its scan tables ``(keep-in rows, keep-out rows, their offsets, circles)``, the floor
         gaps' polygon rows and their edge elements (each ``(rows, offsets)``, :func:`geofence.scan_kernel.stacked`),
-        its ceiling and floor (None: none) and recovery point."""
+        its ceiling and floor (None: none), recovery point, and how many elements are scored at their line distance
+        (:meth:`~geofence.local_fence.LocalFence.line_scored_edges`)."""
         ki, ko, ko_off, circles = scan_tables
         re, rn = recovery_en
         floats = [
@@ -99,7 +101,9 @@ class MarginTables(NamedTuple):
             gap_polygons[0],
             gap_edges[0],
             np.zeros((len(ids), 1)),
-            np.array([ceiling_m, math.nan if floor_m is None else floor_m, float(floor_m is not None), re, rn]).reshape(-1, 1),
+            np.array(
+                [ceiling_m, math.nan if floor_m is None else floor_m, float(floor_m is not None), re, rn, float(line_edges)]
+            ).reshape(-1, 1),
         ]  # fmt: skip
         ints = [
             ids,
@@ -236,7 +240,7 @@ def _margins(
     lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
         _table(F, L, ELEMENTS, 7), _vector(L, IDS), _table(F, L, ZEROS, 1)[:, 0], False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
         v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
-        k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss,
+        k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, int(S[LINE_EDGES]),
     )  # fmt: skip
     lat_margin = lateral_margin_scan(
         e, n, _table(F, L, KEEP_IN, 7), _table(F, L, KEEP_OUTS, 7), _vector(L, KEEP_OUT_OFFSETS), _table(F, L, CIRCLES, 3)
@@ -275,7 +279,7 @@ def _margins(
                 g_act = lateral_binding(
                     G, np.arange(cnt), np.zeros(cnt), False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n,
                     extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2,
-                    delta2, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss,
+                    delta2, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, 0,
                 )[0]  # fmt: skip
                 if fixed_wing:  # it circles while it climbs back from the deepest point its descent reaches
                     deepest = h - vertical_arrest_distance_m(-vu, t_r, V[VERTICAL_ACCEL]) - v_unc

@@ -83,6 +83,19 @@ def oriented_ccw(vertices) -> np.ndarray:
     return v[::-1].copy() if signed_area(v) < 0.0 else v.copy()
 
 
+def is_convex(vertices, rel_tol: float = 1e-12) -> bool:
+    """True if every vertex of the simple polygon turns the polygon's way (collinear ones, within ``rel_tol`` of
+    the two edges' lengths product, count as turning it)."""
+    v = oriented_ccw(vertices)
+    a = v
+    b = np.roll(v, -1, axis=0)
+    c = np.roll(v, -2, axis=0)
+    u, w = b - a, c - b
+    cross = u[:, 0] * w[:, 1] - u[:, 1] * w[:, 0]
+    scale = np.hypot(u[:, 0], u[:, 1]) * np.hypot(w[:, 0], w[:, 1])
+    return bool(np.all(cross >= -rel_tol * scale))
+
+
 def centroid(vertices) -> Point:
     """Area centroid (x, y) of a simple polygon, in m."""
     v = as_vertices(vertices)

@@ -1,0 +1,134 @@
+"""Property: inside a convex keep-in, the margin scores each edge at its line distance, so a turn that leaves the
+fence through an edge far along it is seen.
+
+The activation margin scores each edge as its distance from the vehicle less the manoeuvre's excursion along the
+edge's normal. To leave through an edge's segment, the vehicle only has to reach the edge's *line*, which is
+nearer than the segment when the perpendicular foot lies off it. A long turn drifting in strong wind left a finely
+divided circle that way (campaign seed 27112026, circle-0169: a c172x 86 m out). Inside a convex keep-in, crossing
+any edge's line is leaving it, so those edges are scored at their line distance
+(:func:`geofence.lateral_kernel.line_scored_distance`).
+
+Checked here, on random convex keep-ins (ellipses divided into 3 to 400 edges: scanned and indexed), for a
+fixed-wing in winds up to 0.6 of its airspeed: the manoeuvre the margin scores, flown numerically (the reaction
+phase in the current turn, then the turn it chose at the bank limit, in the estimated wind), leaves the fence only
+if the activation margin is negative; and the compiled search equals the Python reference bit for bit, for both
+platform kinds. A concave keep-in keeps the point-segment distance.
+"""
+
+import math
+import random
+
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_fence_grid import FRAME, FW, MC, latlon, random_fence
+from test_lateral_kernel import same_bits
+
+from geofence.boundary_shift import activation_margins
+from geofence.fence import Fence
+from geofence.rooms import turn_constants, turn_rate_radps
+
+G = 9.80665
+
+
+def convex_fence(n_vertices: int, radius_m: float, aspect: float, turn_rad: float) -> Fence:
+    """An ellipse (semi-axes ``radius_m`` and ``aspect * radius_m``, rotated by ``turn_rad``) as ``n_vertices`` edges."""
+    pts = []
+    c, s = math.cos(turn_rad), math.sin(turn_rad)
+    for k in range(n_vertices):
+        a = 2.0 * math.pi * k / n_vertices
+        x, y = radius_m * math.cos(a), aspect * radius_m * math.sin(a)
+        pts.append(latlon(c * x - s * y, s * x + c * y))
+    return Fence(keep_in=tuple(pts), ceiling_m=500.0)
+
+
+def model_path_leaves(local, e, n, ve, vn, we, wn, bank, latency, r, steps: int = 3000) -> float:
+    """The deepest point outside the keep-in (m, > 0: out) of the manoeuvre :func:`activation_margins` scores for a
+    fixed-wing (its reaction phase in the current turn at ``v_turn``, then the turn ``r.turn_sign``,
+    ``r.turn_angle_rad`` at the bank limit), flown in the steady wind ``(we, wn)``."""
+    env = FW
+    vae, van = ve - we, vn - wn
+    psi = math.atan2(van, vae)
+    v = max(math.hypot(vae, van), env.cruise_speed_mps, env.min_speed_mps, 1e-3)
+    _, inv_omega = turn_constants(v, env.max_bank_rad, G)
+    bank_now = max(-env.max_bank_rad, min(env.max_bank_rad, bank))
+    t_fw = env.reaction_time_s + latency + env.reaction_time_s * abs(bank_now) / env.max_bank_rad
+    rot = max(-math.pi, min(math.pi, turn_rate_radps(v, bank_now, G) * t_fw))
+    deepest = -math.inf
+    x, y = e, n
+    phases = ((t_fw, -rot / t_fw), (r.turn_angle_rad * inv_omega, r.turn_sign / inv_omega))
+    for duration, rate in phases:
+        dt = duration / steps
+        for _ in range(steps):
+            x += (v * math.cos(psi + 0.5 * rate * dt) + we) * dt
+            y += (v * math.sin(psi + 0.5 * rate * dt) + wn) * dt
+            psi += rate * dt
+            deepest = max(deepest, -local.lateral_margin_m(x, y))
+    return deepest
+
+
+def leaving_turns(seed: int, n_vertices: int, aspect: float) -> int:
+    """Checks the property below on one random convex keep-in and 12 states; returns how many of the scored
+    manoeuvres left the fence."""
+    rng = random.Random(seed)
+    radius = rng.uniform(4.0, 25.0) * FW.cruise_speed_mps**2 / (G * math.tan(FW.max_bank_rad))  # 4 to 25 turn radii
+    turn = rng.uniform(0.0, math.pi)
+    local = convex_fence(n_vertices, radius, aspect, turn).to_local(FRAME)
+    assert local.line_scored_edges() == n_vertices
+    left = 0
+    for _ in range(12):
+        a, frac = rng.uniform(-math.pi, math.pi), rng.uniform(0.3, 0.97)
+        x, y = frac * radius * math.cos(a), frac * radius * aspect * math.sin(a)
+        e, n = math.cos(turn) * x - math.sin(turn) * y, math.sin(turn) * x + math.cos(turn) * y
+        if local.lateral_margin_m(e, n) <= 0.0:
+            continue
+        speed, course = rng.uniform(FW.cruise_speed_mps, FW.max_speed_mps), rng.uniform(-math.pi, math.pi)
+        w, wd = rng.uniform(0.2, 0.6) * FW.cruise_speed_mps, rng.uniform(-math.pi, math.pi)
+        we, wn = w * math.cos(wd), w * math.sin(wd)
+        ve, vn = speed * math.cos(course) + we, speed * math.sin(course) + wn
+        bank, latency = rng.uniform(-0.5, 0.5), rng.uniform(0.0, 0.3)
+        kw = dict(latency_s=latency, bank_rad=bank)
+        r = activation_margins(local, e, n, 30.0, ve, vn, 0.0, FW, we, wn, **kw)
+        assert same_bits(r, activation_margins(local, e, n, 30.0, ve, vn, 0.0, FW, we, wn, **kw, compiled=False))
+        out = model_path_leaves(local, e, n, ve, vn, we, wn, bank, latency, r)
+        if out > 1e-3:  # the scored manoeuvre leaves the fence: the margin must say so
+            left += 1
+            assert r.lateral_activation_m < 0.0, (seed, e, n, out, r)
+    return left
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    n_vertices=st.sampled_from([3, 5, 8, 24, 60, 150, 309, 400]),
+    aspect=st.floats(0.5, 1.0),
+)
+def test_a_turn_that_leaves_a_convex_keep_in_has_a_negative_margin(seed, n_vertices, aspect):
+    leaving_turns(seed, n_vertices, aspect)
+
+
+def test_the_property_meets_turns_that_leave_the_fence():
+    """The states above include scored manoeuvres that leave the fence: the property is not met vacuously."""
+    assert sum(leaving_turns(s, 309, 0.9) for s in range(8)) > 0
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.sampled_from([4, 30, 309, 1200]))
+def test_convex_keep_ins_compiled_equal_the_reference_for_both_kinds(seed, n_vertices):
+    """Scanned and indexed, both platform kinds, near and far from the edges: every field bit for bit."""
+    rng = random.Random(seed)
+    local = convex_fence(n_vertices, rng.uniform(300.0, 3000.0), rng.uniform(0.3, 1.0), rng.uniform(0.0, 3.0)).to_local(FRAME)
+    for env in (MC, FW):
+        for _ in range(20):
+            a, frac = rng.uniform(-math.pi, math.pi), rng.uniform(0.0, 1.05)
+            e, n = frac * 300.0 * math.cos(a), frac * 300.0 * math.sin(a)
+            course, speed = rng.uniform(-math.pi, math.pi), rng.uniform(0.0, 1.2 * env.max_speed_mps)
+            args = (local, e, n, 30.0, speed * math.cos(course), speed * math.sin(course), 0.0, env)
+            kw = dict(latency_s=0.1, bank_rad=rng.uniform(-0.6, 0.6), wind_extra_mps=rng.uniform(0.0, 3.0))
+            w = (rng.uniform(-12.0, 12.0), rng.uniform(-12.0, 12.0))
+            got = activation_margins(*args, *w, **kw)
+            assert same_bits(got, activation_margins(*args, *w, **kw, compiled=False)), (seed, e, n, env.kind)
+
+
+def test_a_concave_keep_in_keeps_the_segment_distance():
+    local = random_fence(7, 40, 0, 0).to_local(FRAME)
+    assert local.line_scored_edges() == 0
