@@ -17,7 +17,9 @@ WGS-84 at the site) and flown in closed loop with the unit's own sensors:
   swung out 170 m across the boundary; the first turn now goes the way the margin scored safe);
 * a multirotor that loses GPS deep inside comes down at its full descent rate, not 1 m/s;
 * a fixed-wing flown into the ground inside a floor gap at cruise (campaign case floor_gaps-0170):
-  rolling, not sitting, it must not roll out of the gap below the floor.
+  rolling, not sitting, it must not roll out of the gap below the floor;
+* a fixed-wing turning in a wind of half its airspeed inside a circle (campaign case circle-0169): its
+  margin must see the edge far along the circle that the drifting turn leaves through.
 """
 
 from __future__ import annotations
@@ -293,4 +295,15 @@ def test_a_fixed_wing_touching_down_at_flying_speed_in_a_gap_does_not_roll_out_o
     touchdown = float(c("time_s")[np.argmax(c("agl_m") < 2.0)])
     assert 20.0 < touchdown < 35.0  # the pilot did fly it into the ground
     assert any(t.t_s > touchdown and t.to_mode.name == "OVERRIDE" for t in res.unit.transitions)  # acted while rolling
+    assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
+
+
+def test_a_fixed_wing_turning_in_strong_wind_inside_a_circle_stays_in():
+    """A c172x at a 2,751 m site in 26.7 m/s of wind, in a steep turn at full power inside a 1,935 m circle
+    (campaign seed 27112026, circle-0169). Its margin scored each edge at its segment distance: the drifting
+    recovery turn left 86 m through an edge whose segment was 1,220 m away but whose line was 829 m away.
+    Inside a convex keep-in each edge is scored at its line distance: it acts earlier and stays inside."""
+    res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_circle_0169_turn_in_strong_wind.yaml"))
+    assert res.fence is not None and res.fence.line_scored_edges() == 309
+    assert res.summary["activations"] >= 1
     assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
