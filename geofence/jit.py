@@ -15,10 +15,21 @@ their source (numba's ``cache=True``), so later processes load it.
 default) or the plain-Python reference they are tested against;
 :func:`use_compiled` is the named hook that switches it for a process (the
 benchmarks time both side by side).
+
+The machine code is cached in a folder named by a hash of every source the
+kernels compile from (:func:`kernel_sources_stamp`): numba checks a cached
+kernel against its own file only, and a kernel inlines functions from other
+modules (a room formula, the lateral search), so after an edit to one of those
+it would load stale machine code without a word. A changed source is a new
+folder, compiled afresh; the other folders are removed.
 """
 
 from __future__ import annotations
 
+import hashlib
+import os
+import shutil
+from pathlib import Path
 from typing import Any, Callable, TypeVar
 
 F = TypeVar("F", bound=Callable)
@@ -34,6 +45,45 @@ except ImportError:  # pragma: no cover - exercised only where numba is missing
     numba = None
     _register_jitable = None
     COMPILED = False
+
+
+KERNEL_SOURCES = ("geofence/*.py", "wind/*.py", "aircraft/sensor*.py", "scenarios/flight/sensing.py")
+"""The sources (globs from the repository root) the compiled kernels are built from, their inlined functions
+included."""
+
+
+def kernel_sources_stamp(root: Path) -> str:
+    """A hash of the :data:`KERNEL_SOURCES` under ``root`` (their paths and bytes)."""
+    h = hashlib.sha256()
+    for pattern in KERNEL_SOURCES:
+        for path in sorted(root.glob(pattern)):
+            h.update(path.relative_to(root).as_posix().encode())
+            h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def cache_dir_for(root: Path) -> Path | None:
+    """``<root>/.numba-cache/<stamp>``, the tree's folders of other stamps removed (stale machine code: a source
+    has changed since); under the user's cache folder when the tree is not writable (shared by every install,
+    so nothing is removed there); ``None`` when neither can be written (numba then keeps its own default)."""
+    stamp = kernel_sources_stamp(root)
+    for base in (root / ".numba-cache", Path.home() / ".cache" / "geofence-testbed" / "numba"):
+        try:
+            (base / stamp).mkdir(parents=True, exist_ok=True)
+        except OSError:
+            continue
+        if base.parent == root:
+            for other in base.iterdir():
+                if other.name != stamp and other.is_dir():
+                    shutil.rmtree(other, ignore_errors=True)
+        return base / stamp
+    return None
+
+
+if COMPILED and not os.environ.get("NUMBA_CACHE_DIR"):  # a cache folder the user chose is theirs to manage
+    _folder = cache_dir_for(Path(__file__).resolve().parents[1])
+    if _folder is not None:
+        numba.config.CACHE_DIR = str(_folder)
 
 
 def jitable(fn: F) -> F:

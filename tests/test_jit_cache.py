@@ -1,0 +1,45 @@
+"""The compiled kernels' cache folder is named by the sources they are built from (``geofence.jit``): numba checks a
+cached kernel against its own file only, so an edit to a function another module's kernel inlines (a room formula,
+the lateral search) would otherwise load stale machine code without a word."""
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from geofence import jit
+from geofence.jit import KERNEL_SOURCES, cache_dir_for, kernel_sources_stamp
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _copy_sources(to: Path) -> None:
+    for pattern in (*KERNEL_SOURCES, "scenarios/app/cli.py"):
+        for path in ROOT.glob(pattern):
+            target = to / path.relative_to(ROOT)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy(path, target)
+
+
+def test_an_edit_to_any_kernel_source_names_a_new_folder_and_the_old_one_goes(tmp_path):
+    _copy_sources(tmp_path)
+    first = cache_dir_for(tmp_path)
+    assert first is not None and first.name == kernel_sources_stamp(tmp_path) == kernel_sources_stamp(ROOT)
+    (first / "kernel.nbi").write_text("machine code of the old sources")
+    cli = tmp_path / "scenarios" / "app" / "cli.py"
+    cli.write_text(cli.read_text() + "\n# not a kernel source\n")
+    assert cache_dir_for(tmp_path) == first  # the application is not compiled: the cache stays
+    rooms = tmp_path / "geofence" / "rooms.py"  # inlined into other modules' kernels
+    rooms.write_text(rooms.read_text().replace("TWO_PI = 2.0 * math.pi", "TWO_PI = 2.0 * math.pi  # edited"))
+    second = cache_dir_for(tmp_path)
+    assert second is not None and second != first
+    assert not first.exists()  # the stale machine code is gone
+
+
+@pytest.mark.skipif(not jit.COMPILED, reason="numba not installed or disabled")
+def test_this_process_caches_under_its_sources_stamp():
+    import numba
+
+    if Path(numba.config.CACHE_DIR or "").parent.name != ".numba-cache":
+        pytest.skip("NUMBA_CACHE_DIR chosen by the user, or the tree and the home folder are not writable")
+    assert Path(numba.config.CACHE_DIR).name == kernel_sources_stamp(ROOT)
