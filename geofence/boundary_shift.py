@@ -23,7 +23,9 @@ direction ``s`` until the air heading is the wind-corrected heading towards
 the recovery point (a course reversal, ``Delta = pi``, within 1 m of it), then
 fly straight. For each edge it takes the exact maximum of the trochoid
 excursion ``x(theta)`` over that turn
-(:func:`~geofence.rooms.trochoid_excursion_m`) and chooses the direction ``s``
+(:func:`~geofence.rooms.trochoid_excursion_m`), or the reaction arc's farthest
+point when that lies farther (banked away from an edge, the aircraft first
+closes on it: :func:`~geofence.rooms.reaction_arc_gap_m`), and chooses the direction ``s``
 with the larger worst-edge activation margin (both directions are scored
 against *all* edges, so convex corners and narrow corridors are handled).
 Assumed: constant airspeed -- the larger of the current one and cruise, since
@@ -109,6 +111,7 @@ from .rooms import (
     multirotor_room_cone_bound_m,
     multirotor_room_m,
     reaction_arc_cone_bound_m,
+    reaction_arc_gap_m,
     reaction_arc_m,
     tilt_accel_mps2,
     trochoid_excursion_cone_bound_m,
@@ -219,7 +222,7 @@ def _binding_edge_no_turn(near: list) -> tuple[float, tuple | None]:
     ``d - room`` (the first in ``near``'s order on a tie): a multirotor's room is the per-edge ``base``."""
     worst = math.inf
     wk = None
-    for d, nx, ny, feat, idx, j, v_n, _w_n, base, _psi0 in near:
+    for d, nx, ny, feat, idx, j, v_n, _w_n, base, _psi0, _gap in near:
         act = d - base
         if act < worst:
             worst, wk = act, (base, feat, idx, j, nx, ny, d, v_n)
@@ -229,12 +232,14 @@ def _binding_edge_no_turn(near: list) -> tuple[float, tuple | None]:
 def _binding_edge_scan(
     near: list, radius: float, inv_omega: float, v_turn: float, s: float, delta: float
 ) -> tuple[float, tuple | None]:
-    """The fixed-wing's :func:`_binding_edge_no_turn`: room = ``base`` + the trochoid excursion of the turn
-    ``s``, ``delta`` against each edge (the reference form: every edge scored)."""
+    """The fixed-wing's :func:`_binding_edge_no_turn`: room = ``base`` + the larger of the trochoid excursion of
+    the turn ``s``, ``delta`` and the reaction arc's ``gap`` (:func:`~geofence.rooms.reaction_arc_gap_m`)
+    against each edge (the reference form: every edge scored)."""
     worst = math.inf
     wk = None
-    for d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 in near:
-        room = base + trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
+    for d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap in near:
+        ex = trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
+        room = base + (ex if ex >= gap else gap)
         act = d - room
         if act < worst:
             worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)
@@ -253,11 +258,11 @@ def _binding_edge_pruned(
     """
     bounded = []
     for pos, item in enumerate(near):
-        d, w_n, base, psi0 = item[0], item[7], item[8], item[9]
+        d, w_n, base, psi0, gap = item[0], item[7], item[8], item[9], item[10]
         drift = w_n * delta * inv_omega if w_n > 0.0 else 0.0
         ub = radius * (1.0 - s * math.sin(psi0)) + drift
         ub += 1e-6 * (1.0 + radius + drift)  # covers the excursion's round-off
-        bounded.append((d - base - ub, pos))
+        bounded.append((d - base - (ub if ub > gap else gap), pos))
     bounded.sort()
     worst = math.inf
     wk = None
@@ -265,8 +270,9 @@ def _binding_edge_pruned(
     for lb, pos in bounded:
         if lb > worst:
             break
-        d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 = near[pos]
-        room = base + trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
+        d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap = near[pos]
+        ex = trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
+        room = base + (ex if ex >= gap else gap)
         act = d - room
         if act < worst or (act == worst and pos < wpos):
             worst, wk, wpos = act, (room, feat, idx, j, nx, ny, d, v_n), pos
@@ -306,12 +312,14 @@ def _binding_edge_grouped(
     at ``rho = 0``; an edge popped is scored exactly. The search stops when the smallest bound left exceeds the worst activation
     found (strictly: every edge that ties the worst is scored, and the tie keeps the lowest element id, the
     scan's first). ``terms`` caches per group its edges within reach ``(element id, terms_of item)`` across
-    the turn directions; ``turn = (R, 1/omega, V, |W|)``.
+    the turn directions; ``turn = (R, 1/omega, V, |W|, gap_ub)``. An edge's room is its ``base`` plus the larger
+    of the turn's excursion and its reaction arc's ``gap``, so every trochoid bound is taken with ``gap_ub``
+    (at least any edge's gap: ``(V + |W| + extra)·t``) or, for an edge, its own gap.
     """
     heap: list[tuple] = [(lb, 0, g) for lb, g in group_lbs]  # (bound, kind, key[, terms of an edge])
     heapq.heapify(heap)
     pop, push = heapq.heappop, heapq.heappush
-    radius, inv_omega, v_turn, wind_speed = turn
+    radius, inv_omega, v_turn, wind_speed, gap_ub = turn
     worst = math.inf
     wk = None
     wid = -1
@@ -323,7 +331,8 @@ def _binding_edge_grouped(
         if kind == 0:
             lbb, w_n0, sin0, cos0, rho = cones[key]
             psi0 = math.atan2(sin0, cos0)  # only for the groups popped
-            refined = lbb - trochoid_excursion_cone_refined_m(radius, inv_omega, v_turn, w_n0, psi0, rho, wind_speed, s, delta)
+            refined_ub = trochoid_excursion_cone_refined_m(radius, inv_omega, v_turn, w_n0, psi0, rho, wind_speed, s, delta)
+            refined = lbb - (refined_ub if refined_ub > gap_ub else gap_ub)
             push(heap, (refined if refined > lb else lb, 1, key))
         elif kind == 1:
             group = terms.get(key)
@@ -333,10 +342,11 @@ def _binding_edge_grouped(
                 group = terms[key] = list(zip(ids, terms_of([item for _, item in items], min_d)))
             for i, t in group:
                 ub = trochoid_excursion_cone_bound_m(radius, inv_omega, math.sin(t[9]), t[7], 0.0, wind_speed, s, delta)
-                push(heap, (t[0] - t[8] - ub, 2, i, t))
+                push(heap, (t[0] - t[8] - (ub if ub > t[10] else t[10]), 2, i, t))
         else:
-            d, nx, ny, feat, idx, j, v_n, w_n, base, psi0 = entry[3]
-            room = base + trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
+            d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap = entry[3]
+            ex = trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
+            room = base + (ex if ex >= gap else gap)
             act = d - room
             if act < worst or (act == worst and key < wid):
                 worst, wk, wid = act, (room, feat, idx, j, nx, ny, d, v_n), key
@@ -366,7 +376,7 @@ def _binding_edge_grouped_no_turn(
             break
         items = grid.group_items(gid, e, n)
         ids = [i for i, item in items if item[0] - bound < min_d]  # the ones terms_of keeps
-        for i, (d, nx, ny, feat, idx, j, v_n, _w_n, base, _psi0) in zip(ids, terms_of([item for _, item in items], min_d)):
+        for i, (d, nx, ny, feat, idx, j, v_n, _w_n, base, _psi0, _gap) in zip(ids, terms_of([item for _, item in items], min_d)):
             act = d - base
             if act < worst or (act == worst and i < wid):
                 worst, wk, wid = act, (base, feat, idx, j, nx, ny, d, v_n), i
@@ -496,8 +506,8 @@ def activation_margins(
 
     def terms_of(items: list, min_d: float) -> list:
         """Per edge item ``(d, nx, ny, feat, idx, j)`` that can bind (``d - bound < min_d``), its
-        direction-independent part ``(d, nx, ny, feat, idx, j, v_n, w_n, base room, psi0)`` (one call per
-        list: the per-step loop)."""
+        direction-independent part ``(d, nx, ny, feat, idx, j, v_n, w_n, base room, psi0, gap)`` (``gap``: how much
+        farther the reaction arc gets than its end, 0 for a multirotor; one call per list: the per-step loop)."""
         out = []
         for d, nx, ny, feat, idx, j in items:
             if d - bound >= min_d:
@@ -506,6 +516,7 @@ def activation_margins(
             w_n = wind_e * nx + wind_n * ny + extra
             if fixed_wing:
                 base = reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n) + hu
+                gap = reaction_arc_gap_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n)
                 # air heading relative to the normal: angle from n to (ca, sa)
                 psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
             else:
@@ -515,8 +526,8 @@ def activation_margins(
                 push = wind_push_mps2(k1, k2, wspeed, w_n)
                 a_p = (a_tilt if v_air_mc < envelope.max_speed_mps else 0.0) + push
                 base = multirotor_room_m(v_n, speed, t_r, a_p, a_brake - push, climb_arrest) + hu
-                psi0 = 0.0
-            out.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0))
+                psi0 = gap = 0.0
+            out.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap))
         return out
 
     def worst_edge(dists: list, min_d: float):
@@ -602,13 +613,16 @@ def activation_margins(
             cones[gid] = (lb, w_n0, sin0, n0x * ca + n0y * sa, rho)
             cheap.append((lb, gid, sin0, w_n0, rho))
 
-        def group_bounds(s: float, delta: float) -> list:
-            return [
-                (lb - trochoid_excursion_cone_bound_m(radius, inv_omega, sin0, w_n0, rho, wspeed_w, s, delta), gid)
-                for lb, gid, sin0, w_n0, rho in cheap
-            ]
+        gap_ub = (v_turn + wspeed) * t_fw * (1.0 + 1e-9) + 1e-9  # >= any edge's reaction-arc gap
 
-        turn = (radius, inv_omega, v_turn, wspeed_w)
+        def group_bounds(s: float, delta: float) -> list:
+            out = []
+            for lb, gid, sin0, w_n0, rho in cheap:
+                ub = trochoid_excursion_cone_bound_m(radius, inv_omega, sin0, w_n0, rho, wspeed_w, s, delta)
+                out.append((lb - (ub if ub > gap_ub else gap_ub), gid))
+            return out
+
+        turn = (radius, inv_omega, v_turn, wspeed_w, gap_ub)
         terms: dict[int, list] = {}
         best = None
         for s, delta in directions:

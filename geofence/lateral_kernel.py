@@ -31,7 +31,7 @@ import numpy as np
 
 from geofence.dynamics import wind_push_mps2
 from geofence.jit import COMPILED, jitable, numba
-from geofence.rooms import multirotor_room_m, reaction_arc_m, trochoid_excursion_m
+from geofence.rooms import multirotor_room_m, reaction_arc_gap_m, reaction_arc_m, trochoid_excursion_m
 
 __all__ = ["element_table", "hypot", "lateral_binding", "line_scored_distance", "nearest_distance"]
 
@@ -164,6 +164,7 @@ def _fixed_wing_binding(
         return math.inf, 0.0, -1, 0.0, 0.0, 0.0
     done = np.zeros(nk, np.bool_)
     base = np.empty(nk)
+    gap = np.empty(nk)  # how much farther the reaction arc gets than its end (reaction_arc_gap_m)
     psi = np.empty(nk)
     wn = np.empty(nk)
     lb_base = np.empty(nk)  # d - (upper bound of base)
@@ -207,7 +208,8 @@ def _fixed_wing_binding(
             drift = w_n * delta * inv_omega if w_n > 0.0 else 0.0
             ub = radius * (1.0 - s * sinp[q]) + drift
             ub += 1e-6 * (1.0 + radius + drift)  # the excursion's round-off and sin psi0's
-            lbq[q] = lb_base[q] - ub
+            gap_ub = (v_turn + (w_n if w_n > 0.0 else 0.0)) * t_fw * (1.0 + 1e-9) + 1e-9  # >= the arc's farthest
+            lbq[q] = lb_base[q] - (ub if ub > gap_ub else gap_ub)
             if seed < 0 or lbq[q] < lbq[seed]:
                 seed = q
         worst = math.inf
@@ -222,9 +224,11 @@ def _fixed_wing_binding(
                 nx = f_nx[k]
                 ny = f_ny[k]
                 base[q] = reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, wn[q]) + hu
+                gap[q] = reaction_arc_gap_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, wn[q])
                 psi[q] = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
                 done[q] = True
-            room = base[q] + trochoid_excursion_m(radius, inv_omega, v_turn, wn[q], psi[q], s, delta)
+            excursion = trochoid_excursion_m(radius, inv_omega, v_turn, wn[q], psi[q], s, delta)
+            room = base[q] + (excursion if excursion >= gap[q] else gap[q])
             act = f_d[k] - room
             if act < worst or (wq >= 0 and act == worst and f_id[k] < f_id[keep[wq]]):
                 worst = act

@@ -111,6 +111,7 @@ __all__ = [
     "head_on_room_m",
     "multicopter_stopping_distance_m",
     "multirotor_room_m",
+    "reaction_arc_gap_m",
     "reaction_arc_m",
     "room_upper_bounds_fast_m",
     "room_upper_bounds_m",
@@ -297,6 +298,36 @@ def reaction_arc_m(v_air: float, psi0: float, rot: float, omega: float, t: float
         along = (v_air / omega) * (math.sin(psi0 - theta) - math.sin(psi0 - rot - theta))
     d = along + w_n * t
     return d if d > 0.0 else 0.0
+
+
+@jitable
+def reaction_arc_gap_m(v_air: float, psi0: float, rot: float, omega: float, t: float, nx: float, ny: float, w_n: float) -> float:
+    """How much farther along the normal the reaction arc gets than where it ends, m (>= 0).
+
+    The arc of :func:`reaction_arc_m`, as ``u`` runs from 0 to 1: the heading turned by ``-rot·u``, the time
+    ``t·u``. An aircraft heading towards an edge while banked away from it first closes on the edge and then
+    turns away: its farthest point lies inside the arc, where ``d/du = 0``, i.e. ``cos(a - rot·u) =
+    -w_n·t / ((V/omega)·rot)`` with ``a = psi0 - theta_n``. Returns that farthest travel (at least 0) less
+    :func:`reaction_arc_m`; 0 when the arc is straight or the end is the farthest.
+    """
+    end = reaction_arc_m(v_air, psi0, rot, omega, t, nx, ny, w_n)
+    if abs(rot) < 1e-6:
+        return 0.0
+    a = psi0 - math.atan2(ny, nx)
+    arc = v_air / omega
+    c = -w_n * t / (arc * rot)
+    if not -1.0 < c < 1.0:
+        return 0.0
+    best = end
+    root = math.acos(c)
+    for sgn in (1.0, -1.0):
+        for k in range(-2, 3):
+            u = (a - sgn * root - TWO_PI * k) / rot
+            if 0.0 < u < 1.0:
+                x = arc * (math.sin(a) - math.sin(a - rot * u)) + w_n * t * u
+                if x > best:
+                    best = x
+    return best - end
 
 
 def reaction_arc_cone_bound_m(

@@ -43,6 +43,7 @@ def near_lists(draw):
             draw(fl(-20.0, 20.0)),  # w_n
             draw(fl(0.0, 200.0)),  # base
             draw(fl(-math.pi, math.pi, exclude_max=True)),  # psi0
+            draw(st.one_of(st.just(0.0), fl(0.0, 100.0))),  # gap: how much farther the reaction arc gets
         )
         items.append(item)
         if draw(st.booleans()) and draw(st.booleans()):

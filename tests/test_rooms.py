@@ -32,6 +32,7 @@ from geofence.rooms import (
     multirotor_room_cone_bound_m,
     multirotor_room_m,
     reaction_arc_cone_bound_m,
+    reaction_arc_gap_m,
     reaction_arc_m,
     room_upper_bounds_fast_m,
     room_upper_bounds_m,
@@ -331,3 +332,31 @@ def test_head_on_room_is_the_closed_form(env, v, w_toward, w_speed):
     else:
         push = dynamics.wind_push_mps2(*dynamics.drag_coefficients(env), w_speed, w_toward)
         assert room == multicopter_stopping_distance_m(v, env.reaction_time_s, env.braking_decel_mps2, v, push)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    v=st.floats(5.0, 80.0),
+    psi0=st.floats(-math.pi, math.pi),
+    bank=st.floats(-0.8, 0.8),
+    t=st.floats(0.1, 4.0),
+    theta=st.floats(-math.pi, math.pi),
+    w_n=st.floats(-40.0, 40.0),
+)
+def test_the_reaction_arc_gap_is_its_farthest_point_beyond_its_end(v, psi0, bank, t, theta, w_n):
+    """``reaction_arc_m + reaction_arc_gap_m`` is the farthest the reaction arc gets along the normal (the arc sampled
+    finely, the rotation clipped to pi as the margin clips it), and the gap is 0 where the end is the farthest."""
+    omega = turn_rate_radps(v, bank) if abs(bank) > 1e-9 else 1e-12
+    rot = max(-math.pi, min(math.pi, omega * t))
+    nx, ny = math.cos(theta), math.sin(theta)
+    end = reaction_arc_m(v, psi0, rot, omega, t, nx, ny, w_n)
+    gap = reaction_arc_gap_m(v, psi0, rot, omega, t, nx, ny, w_n)
+    assert gap >= 0.0
+    a = psi0 - theta
+    if abs(rot) < 1e-6:
+        sampled = max(0.0, (v * math.cos(a) + w_n) * t)
+    else:
+        sampled = max(
+            max(0.0, (v / omega) * (math.sin(a) - math.sin(a - rot * k / 4000)) + w_n * t * k / 4000) for k in range(4001)
+        )
+    assert end + gap == pytest.approx(sampled, abs=1e-6 * (1.0 + v * t + abs(w_n) * t))
