@@ -104,21 +104,21 @@ from .margins_kernel import margins as margins_kernel
 from .margins_kernel import monitor_margins as monitor_margins_kernel
 from .rooms import (
     G_MPS2,
-    TWO_PI,
     climb_arrest_phase,
     climb_back_drift_m,
+    fixed_wing_reaction_terms,
     fixed_wing_room_bound_m,
+    multirotor_room_bound_m,
     multirotor_room_cone_bound_m,
     multirotor_room_m,
     reaction_arc_cone_bound_m,
     reaction_arc_gap_m,
     reaction_arc_m,
+    rollout_turns,
     tilt_accel_mps2,
     trochoid_excursion_cone_bound_m,
     trochoid_excursion_cone_refined_m,
     trochoid_excursion_m,
-    turn_constants,
-    turn_rate_radps,
     vertical_arrest_distance_m,
     worst_case_lateral_shift_m,
 )
@@ -452,40 +452,18 @@ def activation_margins(
     fixed_wing = envelope.kind is PlatformKind.FIXED_WING
     if fixed_wing:
         vae, van = ve - wind_e, vn - wind_n
-        v_air = math.hypot(vae, van)
-        if v_air > 0.0:
-            psi_abs = math.atan2(van, vae)
-        elif speed > 0.0:
-            psi_abs = math.atan2(vn, ve)
-        else:
-            psi_abs = 0.0
-        v_turn = max(v_air, envelope.cruise_speed_mps, envelope.min_speed_mps, 1e-3)  # the override flies at cruise
-        radius, inv_omega = turn_constants(v_turn, envelope.max_bank_rad, g)
-        # reaction phase: the pilot's current turn goes on, and rolling out of the
-        # current bank costs up to another roll time before the recovery turn starts
-        bank_now = max(-envelope.max_bank_rad, min(envelope.max_bank_rad, bank_rad))
-        t_fw = t_r + envelope.reaction_time_s * (abs(bank_now) / envelope.max_bank_rad if envelope.max_bank_rad > 0 else 0.0)
-        omega_now = turn_rate_radps(v_turn, bank_now, g)  # + = right turn = clockwise
-        rot = max(-math.pi, min(math.pi, omega_now * t_fw))
-        psi_react0 = psi_abs
-        psi_abs = psi_abs - rot
+        # reaction phase: the pilot's current turn goes on, and rolling out of the current bank costs up to
+        # another roll time before the recovery turn starts (at cruise at least: the override flies at cruise)
+        psi_abs, psi_react0, v_turn, radius, inv_omega, t_fw, omega_now, rot = fixed_wing_reaction_terms(
+            math.hypot(vae, van), vae, van, ve, vn, speed, envelope.cruise_speed_mps, envelope.min_speed_mps,
+            envelope.max_bank_rad, envelope.reaction_time_s, t_r, bank_rad, g,
+        )  # fmt: skip
         ca, sa = math.cos(psi_abs), math.sin(psi_abs)
         # roll-out heading: the wind-corrected track to the recovery point
         re, rn = fence.recovery_en if rollout_target_en is None else rollout_target_en
         de, dn = re - e, rn - n
-        dd = math.hypot(de, dn)
-        if dd > 1.0:
-            psi_d = math.atan2(dn, de)
-            psi_f = psi_d
-            wc = (de * wind_n - dn * wind_e) / dd
-            if abs(wc) < v_turn:
-                cand = psi_d - math.asin(wc / v_turn)
-                if v_turn * math.cos(cand - psi_d) + (de * wind_e + dn * wind_n) / dd > 0.0:
-                    psi_f = cand
-            directions: tuple[tuple[float, float], ...] = ((1.0, (psi_f - psi_abs) % TWO_PI), (-1.0, (psi_abs - psi_f) % TWO_PI))
-        else:
-            # at the recovery point the direction to it is undefined: a course reversal
-            directions = ((1.0, math.pi), (-1.0, math.pi))
+        s1, delta1, s2, delta2 = rollout_turns(de, dn, math.hypot(de, dn), wind_e, wind_n, v_turn, psi_abs)
+        directions: tuple[tuple[float, float], ...] = ((s1, delta1), (s2, delta2))
         # no edge farther than min_d + bound can bind (bound >= any room, turns <= 2 pi)
         bound = fixed_wing_room_bound_m(radius, inv_omega, speed, wspeed, t_fw) + hu
     else:
@@ -497,12 +475,8 @@ def activation_margins(
         climb_arrest = climb_arrest_phase(vu, envelope.vertical_accel_mps2, g)
         directions = ((0.0, 0.0),)
         radius = inv_omega = v_turn = 0.0  # no turn
-        # no edge farther than min_d + bound can bind: bound >= the room against any edge (the largest
-        # closing speed, push and pilot acceleration, the weakest braking; the room grows with each)
-        push_max = wind_push_mps2(k1, k2, wspeed, wspeed)
-        a_p_max = a_tilt + push_max
-        room_max = multirotor_room_m(speed, speed, t_r, max(a_p_max, 0.0), a_brake - push_max, climb_arrest)
-        bound = (room_max + hu) * (1.0 + 1e-9) + 1e-6
+        # no edge farther than min_d + bound can bind
+        bound = multirotor_room_bound_m(speed, t_r, a_tilt, k1, k2, wspeed, a_brake, climb_arrest, hu)
 
     def terms_of(items: list, min_d: float) -> list:
         """Per edge item ``(d, nx, ny, feat, idx, j)`` that can bind (``d - bound < min_d``), its

@@ -27,20 +27,19 @@ from typing import NamedTuple
 
 import numpy as np
 
-from geofence.dynamics import drag_coefficients, wind_push_mps2
+from geofence.dynamics import drag_coefficients
 from geofence.interface import Envelope, PlatformKind
 from geofence.jit import COMPILED, jitable, numba
 from geofence.lateral_kernel import hypot, lateral_binding
 from geofence.rooms import (
-    TWO_PI,
     climb_arrest_phase,
     climb_back_drift_m,
+    fixed_wing_reaction_terms,
     fixed_wing_room_bound_m,
-    multirotor_room_m,
+    multirotor_room_bound_m,
+    rollout_turns,
     room_upper_bounds_terms,
     tilt_accel_mps2,
-    turn_constants,
-    turn_rate_radps,
     vertical_arrest_distance_m,
 )
 from geofence.scan_kernel import lateral_margin_scan, signed_distance_rows
@@ -194,36 +193,13 @@ def _margins(
     k1 = k2 = a_pilot = a_brake = arrest_t = arrest_loss = 0.0
     if fixed_wing:
         vae, van = ve - wind_e, vn - wind_n
-        v_air = hypot(vae, van)
-        if v_air > 0.0:
-            psi_abs = math.atan2(van, vae)
-        elif speed > 0.0:
-            psi_abs = math.atan2(vn, ve)
-        else:
-            psi_abs = 0.0
-        v_turn = max(v_air, V[CRUISE], V[MIN_SPEED], 1e-3)
-        radius, inv_omega = turn_constants(v_turn, max_bank, g)
-        bank_now = max(-max_bank, min(max_bank, bank_rad))
-        t_fw = t_r + V[REACTION_S] * (abs(bank_now) / max_bank if max_bank > 0 else 0.0)
-        omega_now = turn_rate_radps(v_turn, bank_now, g)
-        rot = max(-math.pi, min(math.pi, omega_now * t_fw))
-        psi_react0 = psi_abs
-        psi_abs = psi_abs - rot
+        psi_abs, psi_react0, v_turn, radius, inv_omega, t_fw, omega_now, rot = fixed_wing_reaction_terms(
+            hypot(vae, van), vae, van, ve, vn, speed, V[CRUISE], V[MIN_SPEED], max_bank, V[REACTION_S], t_r, bank_rad, g
+        )
         ca, sa = math.cos(psi_abs), math.sin(psi_abs)
         re, rn = (target_e, target_n) if has_target else (S[RECOVERY_E], S[RECOVERY_N])
         de, dn = re - e, rn - n
-        dd = hypot(de, dn)
-        if dd > 1.0:
-            psi_d = math.atan2(dn, de)
-            psi_f = psi_d
-            wc = (de * wind_n - dn * wind_e) / dd
-            if abs(wc) < v_turn:
-                cand = psi_d - math.asin(wc / v_turn)
-                if v_turn * math.cos(cand - psi_d) + (de * wind_e + dn * wind_n) / dd > 0.0:
-                    psi_f = cand
-            s1, delta1, s2, delta2 = 1.0, (psi_f - psi_abs) % TWO_PI, -1.0, (psi_abs - psi_f) % TWO_PI
-        else:
-            s1, delta1, s2, delta2 = 1.0, math.pi, -1.0, math.pi
+        s1, delta1, s2, delta2 = rollout_turns(de, dn, hypot(de, dn), wind_e, wind_n, v_turn, psi_abs)
         bound = fixed_wing_room_bound_m(radius, inv_omega, speed, wspeed, t_fw) + hu
     else:
         a_tilt = tilt_accel_mps2(max_bank, g)
@@ -231,10 +207,7 @@ def _margins(
         v_air_mc = hypot(ve - wind_e, vn - wind_n)
         a_brake = V[BRAKING]
         arrest_t, arrest_loss = climb_arrest_phase(vu, V[VERTICAL_ACCEL], g)
-        push_max = wind_push_mps2(k1, k2, wspeed, wspeed)
-        a_p_max = a_tilt + push_max
-        room_max = multirotor_room_m(speed, speed, t_r, max(a_p_max, 0.0), a_brake - push_max, (arrest_t, arrest_loss))
-        bound = (room_max + hu) * (1.0 + 1e-9) + 1e-6
+        bound = multirotor_room_bound_m(speed, t_r, a_tilt, k1, k2, wspeed, a_brake, (arrest_t, arrest_loss), hu)
         a_pilot = a_tilt if v_air_mc < V[MAX_SPEED] else 0.0
 
     lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(

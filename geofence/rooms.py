@@ -107,15 +107,18 @@ __all__ = [
     "trochoid_excursion_cone_bound_m",
     "trochoid_excursion_cone_refined_m",
     "fixed_wing_room_from_velocity_m",
+    "fixed_wing_reaction_terms",
     "fixed_wing_room_m",
     "head_on_room_m",
     "multicopter_stopping_distance_m",
+    "multirotor_room_bound_m",
     "multirotor_room_m",
     "reaction_arc_gap_m",
     "reaction_arc_m",
     "room_upper_bounds_fast_m",
     "room_upper_bounds_m",
     "room_upper_bounds_terms",
+    "rollout_turns",
     "tilt_accel_mps2",
     "trochoid_excursion_m",
     "turn_constants",
@@ -301,6 +304,54 @@ def reaction_arc_m(v_air: float, psi0: float, rot: float, omega: float, t: float
 
 
 @jitable
+def fixed_wing_reaction_terms(
+    v_air: float, vae: float, van: float, ve: float, vn: float, speed: float, cruise_mps: float, min_speed_mps: float,
+    max_bank_rad: float, reaction_s: float, t_r: float, bank_rad: float, g: float,
+) -> tuple[float, float, float, float, float, float, float, float]:  # fmt: skip
+    """The per-state terms of the fixed-wing manoeuvre a margin scores: ``(psi, psi_react0, v_turn, R, 1/omega,
+    t_fw, omega_now, rot)``.
+
+    The air heading ``psi_react0`` (rad, ENU; of the air velocity ``(vae, van)`` of magnitude ``v_air``, else of
+    the ground velocity); the turn speed ``v_turn`` (the override flies at cruise, so at least that) and its turn
+    constants at the bank limit; the reaction time ``t_fw`` (``t_r`` plus rolling out of the current bank, up to
+    another ``reaction_s``); the current turn's rate ``omega_now`` (+ = clockwise) and rotation ``rot`` over it
+    (within ±pi); ``psi`` the heading where the recovery turn starts. The caller computes ``v_air`` (its
+    ``hypot``: CPython's in Python, :func:`geofence.lateral_kernel.hypot` compiled)."""
+    if v_air > 0.0:
+        psi = math.atan2(van, vae)
+    elif speed > 0.0:
+        psi = math.atan2(vn, ve)
+    else:
+        psi = 0.0
+    v_turn = max(v_air, cruise_mps, min_speed_mps, 1e-3)
+    radius, inv_omega = turn_constants(v_turn, max_bank_rad, g)
+    bank_now = max(-max_bank_rad, min(max_bank_rad, bank_rad))
+    t_fw = t_r + reaction_s * (abs(bank_now) / max_bank_rad if max_bank_rad > 0 else 0.0)
+    omega_now = turn_rate_radps(v_turn, bank_now, g)
+    rot = max(-math.pi, min(math.pi, omega_now * t_fw))
+    return psi - rot, psi, v_turn, radius, inv_omega, t_fw, omega_now, rot
+
+
+@jitable
+def rollout_turns(
+    de: float, dn: float, dd: float, wind_e: float, wind_n: float, v_turn: float, psi: float
+) -> tuple[float, float, float, float]:
+    """``(1, delta_left, -1, delta_right)``: the turns from air heading ``psi`` to the wind-corrected heading
+    whose track leads to the roll-out target ``(de, dn)`` away (``dd`` its length, the caller's ``hypot``); a
+    course reversal either way within 1 m of it, where the direction is undefined."""
+    if not dd > 1.0:
+        return 1.0, math.pi, -1.0, math.pi
+    psi_d = math.atan2(dn, de)
+    psi_f = psi_d
+    wc = (de * wind_n - dn * wind_e) / dd
+    if abs(wc) < v_turn:
+        cand = psi_d - math.asin(wc / v_turn)
+        if v_turn * math.cos(cand - psi_d) + (de * wind_e + dn * wind_n) / dd > 0.0:
+            psi_f = cand
+    return 1.0, (psi_f - psi) % TWO_PI, -1.0, (psi - psi_f) % TWO_PI
+
+
+@jitable
 def reaction_arc_gap_m(v_air: float, psi0: float, rot: float, omega: float, t: float, nx: float, ny: float, w_n: float) -> float:
     """How much farther along the normal the reaction arc gets than where it ends, m (>= 0).
 
@@ -385,6 +436,21 @@ def fixed_wing_room_from_velocity_m(
     if v == 0.0:
         return 0.0
     return fixed_wing_room_m(v, bank_rad, math.atan2(vat, van), wind_normal, reaction_time_s, g)
+
+
+@jitable
+def multirotor_room_bound_m(
+    speed_mps: float, t_s: float, a_tilt: float, k1: float, k2: float, wind_speed_mps: float, a_brake: float,
+    climb_arrest: tuple[float, float], hu: float,
+) -> float:  # fmt: skip
+    """Upper bound of a multirotor's room against any edge, plus ``hu``, m: :func:`multirotor_room_m` head-on at
+    the ground speed, with the largest pilot acceleration and wind push (:func:`~geofence.dynamics.wind_push_mps2`
+    at ``|W|``, its drag law ``k1, k2``) and the weakest braking; a relative slack covers round-off (the room
+    grows with each, so no edge farther than the nearest plus this bound can bind)."""
+    push_max = wind_push_mps2(k1, k2, wind_speed_mps, wind_speed_mps)
+    a_p_max = a_tilt + push_max
+    room_max = multirotor_room_m(speed_mps, speed_mps, t_s, max(a_p_max, 0.0), a_brake - push_max, climb_arrest)
+    return (room_max + hu) * (1.0 + 1e-9) + 1e-6
 
 
 @jitable

@@ -19,6 +19,7 @@ import geofence.boundary_shift as bs
 from geofence.fence import Fence
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind
+from geofence.rooms import turn_constants
 
 
 def fl(lo: float, hi: float, exclude_max: bool = False) -> st.SearchStrategy[float]:
@@ -60,7 +61,7 @@ def near_lists(draw):
     delta=fl(0.0, 2.0 * math.pi),
 )
 def test_pruned_equals_scan(near, v, bank, s, delta):
-    radius, inv_omega = bs.turn_constants(v, bank)
+    radius, inv_omega = turn_constants(v, bank)
     ref = bs._binding_edge_scan(near, radius, inv_omega, v, s, delta)
     got = bs._binding_edge_pruned(near, radius, inv_omega, v, s, delta)
     assert got == ref
