@@ -42,7 +42,7 @@ from geofence.rooms import (
     tilt_accel_mps2,
     vertical_arrest_distance_m,
 )
-from geofence.scan_kernel import lateral_margin_scan, signed_distance_rows
+from geofence.scan_kernel import deepest_polygon, lateral_margin_scan
 
 __all__ = ["MarginTables", "envelope_terms", "margins", "monitor_margins"]
 
@@ -237,12 +237,8 @@ def _margins(
         gap_offsets = _vector(L, GAP_OFFSETS)
         n_gaps = gap_offsets.shape[0] - 1
         if n_gaps > 0:
-            gap_polygons = _table(F, L, GAP_POLYGONS, 7)
-            gi, gd = -1, -math.inf  # the gap the point is deepest inside (LocalFence.best_gap)
-            for k in range(n_gaps):
-                d = signed_distance_rows(gap_polygons[gap_offsets[k] : gap_offsets[k + 1]], e, n)
-                if d > gd:
-                    gi, gd = k, d
+            # the gap the point is deepest inside (LocalFence.best_gap)
+            gi, gd = deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), gap_offsets)
             if gd > f_m:  # the gap-aware floor margin (LocalFence.floor_margin_m)
                 f_m = gd
             if gd > 0.0:  # over a gap: staying inside it (laterally) also keeps the floor
@@ -308,14 +304,7 @@ def _far_from_everything(
         return True
     if fixed_wing:  # it circles in a gap while it climbs back: the circle drifts (an upper bound)
         room += climb_back_drift_m(S[FLOOR] + vroom - h, V[MAX_CLIMB], w)
-    gap_offsets = _vector(L, GAP_OFFSETS)
-    gap_polygons = _table(F, L, GAP_POLYGONS, 7)
-    gd = -math.inf
-    for k in range(gap_offsets.shape[0] - 1):
-        d = signed_distance_rows(gap_polygons[gap_offsets[k] : gap_offsets[k + 1]], e, n)
-        if d > gd:
-            gd = d
-    return gd > room
+    return deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), _vector(L, GAP_OFFSETS))[1] > room
 
 
 _NOT_NEEDED = (math.inf, math.inf, 0.0, math.inf, -1, 0.0, 0.0, math.inf, 0.0, math.inf, 0, 0.0, math.inf, 0.0, math.inf, 0.0, math.inf, math.inf)  # fmt: skip

@@ -63,7 +63,7 @@ class Recorder:
     The buffer is viewed as one float array (rows x :data:`COLUMNS`) when it is read.
     """
 
-    def __init__(self, capacity: int = 0):
+    def __init__(self) -> None:
         self._buf = array("d")
         self._n = 0
         self._array: np.ndarray | None = None

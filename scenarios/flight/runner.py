@@ -81,7 +81,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     frames_per_step = max(1, round(1.0 / (scenario.control_rate_hz * platform.dt_s)))
     dt_s = frames_per_step * platform.dt_s
     n_steps = int(math.ceil(scenario.duration_s / dt_s))
-    recorder = Recorder(n_steps + 1)
+    recorder = Recorder()
 
     truth = platform.truth()
     t0 = truth.t_s
