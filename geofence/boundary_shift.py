@@ -40,24 +40,6 @@ heading straight at an edge a reversal needs ``2R`` sideways -- if that
 exceeds the room, the activation margin is negative at the recovery point
 itself, which is what :func:`check_shift_feasible` reports for the whole fence.
 
-Dense fences: the group search
-------------------------------
-With a fence index whose groups of consecutive edges hold several edges
-(:mod:`geofence.fence_grid`), a fixed-wing's binding edge is found group by
-group (:func:`_binding_edge_grouped`): a group's activation is at least its
-distance bound less the room bounds over its normal cone
-(:func:`~geofence.rooms.reaction_arc_cone_bound_m`,
-:func:`~geofence.rooms.trochoid_excursion_cone_bound_m` and, refined,
-:func:`~geofence.rooms.trochoid_excursion_cone_refined_m`); groups and edges
-are visited best first and a group is expanded only when its bound is at most
-the worst activation found, so the binding edge, its room and the tie order
-(the first edge in element order) are those of the full scan.
-A multirotor's room grows with the closing speed and the wind push, so it is
-bounded over a cone by the room at their largest values there
-(:func:`~geofence.rooms.multirotor_room_cone_bound_m`); its groups are
-expanded best first and each expanded group's edges are scored exactly
-(:func:`_binding_edge_grouped_no_turn`).
-
 Multirotor: the manoeuvre scored
 --------------------------------
 The worst-case pilot (:func:`~geofence.rooms.multirotor_room_m`): until the
@@ -85,7 +67,6 @@ position covariance (conservative in every direction), vertically
 
 from __future__ import annotations
 
-import heapq
 import math
 from dataclasses import dataclass
 from typing import NamedTuple, Sequence
@@ -95,9 +76,8 @@ import numpy as np
 from . import jit as _jit
 from .dynamics import drag_coefficients, wind_push_mps2
 from .fence import AltitudeReference, FenceError
-from .fence_grid import GROUPED_FROM_EDGES_PER_GROUP, MULTIROTOR_GROUPED_FROM_EDGES_PER_GROUP, FenceGrid
 from .interface import Envelope, PlatformKind, VehicleState
-from .lateral_kernel import lateral_binding, line_scored_distance
+from .lateral_kernel import edge_scored, lateral_binding
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 from .margins_kernel import envelope_terms
 from .margins_kernel import margins as margins_kernel
@@ -109,15 +89,11 @@ from .rooms import (
     fixed_wing_reaction_terms,
     fixed_wing_room_bound_m,
     multirotor_room_bound_m,
-    multirotor_room_cone_bound_m,
     multirotor_room_m,
-    reaction_arc_cone_bound_m,
     reaction_arc_gap_m,
     reaction_arc_m,
     rollout_turns,
     tilt_accel_mps2,
-    trochoid_excursion_cone_bound_m,
-    trochoid_excursion_cone_refined_m,
     trochoid_excursion_m,
     vertical_arrest_distance_m,
     worst_case_lateral_shift_m,
@@ -194,19 +170,14 @@ class ShiftResult(NamedTuple):
 
 
 def _edge_distances(edges: tuple, e: float, n: float, n_line: int = 0) -> tuple[list, float]:
-    """``([(d, nx, ny, feature, index, edge), ...], min d)``: unsigned distance from (e, n) to each edge item
-    (the first ``n_line``, a convex keep-in's, scored at :func:`~geofence.lateral_kernel.line_scored_distance`
-    where the foot lies off the edge); ``min d``: the nearest point-segment distance."""
+    """``([(d, ux, uy, feature, index, edge), ...], min d)``: each edge item's scored distance from (e, n) and
+    the direction it is scored along (:func:`~geofence.lateral_kernel.edge_scored`; the first ``n_line`` are a
+    convex keep-in's); ``min d``: the nearest point-segment distance."""
     out = []
     min_d = math.inf
     for k, (ax, ay, dx, dy, il2, nx, ny, feat, idx, j) in enumerate(edges):
-        px, py = e - ax, n - ay
-        t = (px * dx + py * dy) * il2
-        off = t < 0.0 or t > 1.0
-        t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
-        qx, qy = px - t * dx, py - t * dy
-        d = math.sqrt(qx * qx + qy * qy)
-        out.append((line_scored_distance(d, px, py, nx, ny) if off and k < n_line else d, nx, ny, feat, idx, j))
+        d, db, ux, uy = edge_scored(e - ax, n - ay, dx, dy, il2, nx, ny, k < n_line)
+        out.append((db, ux, uy, feat, idx, j))
         if d < min_d:
             min_d = d
     return out, min_d
@@ -276,110 +247,6 @@ def _binding_edge_pruned(
         act = d - room
         if act < worst or (act == worst and pos < wpos):
             worst, wk, wpos = act, (room, feat, idx, j, nx, ny, d, v_n), pos
-    return worst, wk
-
-
-GROUPED_REFERENCE = 10**6
-"""``prune_from_edges`` at or above this also turns the group search off (the reference: every edge scored)."""
-
-
-def _binding_edge_grouped(
-    grid: FenceGrid,
-    e: float,
-    n: float,
-    min_d: float,
-    bound: float,
-    group_lbs: list,
-    cones: dict,
-    terms: dict,
-    terms_of,
-    turn: tuple,
-    s: float,
-    delta: float,
-    beat: float,
-) -> tuple[float, tuple | None]:
-    """A fixed-wing's :func:`_binding_edge_scan` answer over the elements with ``d - bound < min_d`` (bit for
-    bit), from groups of edges, best first; or, once the worst activation found is at most ``beat`` (another
-    turn direction's, which wins the tie), that worst (this direction loses).
-
-    ``group_lbs``: ``(lower bound of the activation of every element of the group, gid)``
-    (:meth:`FenceGrid.groups_near`'s distance bound less room bounds over the group's normal cone:
-    :func:`~geofence.rooms.reaction_arc_cone_bound_m` + :func:`~geofence.rooms.trochoid_excursion_cone_bound_m`).
-    A heap holds them by lower bound; a group popped first gets the tighter
-    :func:`~geofence.rooms.trochoid_excursion_cone_refined_m` bound (``cones[gid] = (distance bound - reaction
-    bound, w_n0, sin and cos of the heading from n0, rho)``) and goes back; a group popped with its final
-    bound is expanded into its edges, each pushed with :func:`~geofence.rooms.trochoid_excursion_cone_bound_m`
-    at ``rho = 0``; an edge popped is scored exactly. The search stops when the smallest bound left exceeds the worst activation
-    found (strictly: every edge that ties the worst is scored, and the tie keeps the lowest element id, the
-    scan's first). ``terms`` caches per group its edges within reach ``(element id, terms_of item)`` across
-    the turn directions; ``turn = (R, 1/omega, V, |W|, gap_ub)``. An edge's room is its ``base`` plus the larger
-    of the turn's excursion and its reaction arc's ``gap``, so every trochoid bound is taken with ``gap_ub``
-    (at least any edge's gap: ``(V + |W| + extra)·t``) or, for an edge, its own gap.
-    """
-    heap: list[tuple] = [(lb, 0, g) for lb, g in group_lbs]  # (bound, kind, key[, terms of an edge])
-    heapq.heapify(heap)
-    pop, push = heapq.heappop, heapq.heappush
-    radius, inv_omega, v_turn, wind_speed, gap_ub = turn
-    worst = math.inf
-    wk = None
-    wid = -1
-    while heap:
-        entry = pop(heap)
-        lb, kind, key = entry[0], entry[1], entry[2]
-        if lb > worst:
-            break
-        if kind == 0:
-            lbb, w_n0, sin0, cos0, rho = cones[key]
-            psi0 = math.atan2(sin0, cos0)  # only for the groups popped
-            refined_ub = trochoid_excursion_cone_refined_m(radius, inv_omega, v_turn, w_n0, psi0, rho, wind_speed, s, delta)
-            refined = lbb - (refined_ub if refined_ub > gap_ub else gap_ub)
-            push(heap, (refined if refined > lb else lb, 1, key))
-        elif kind == 1:
-            group = terms.get(key)
-            if group is None:
-                items = grid.group_items(key, e, n)
-                ids = [i for i, item in items if item[0] - bound < min_d]  # the ones terms_of keeps
-                group = terms[key] = list(zip(ids, terms_of([item for _, item in items], min_d)))
-            for i, t in group:
-                ub = trochoid_excursion_cone_bound_m(radius, inv_omega, math.sin(t[9]), t[7], 0.0, wind_speed, s, delta)
-                push(heap, (t[0] - t[8] - (ub if ub > t[10] else t[10]), 2, i, t))
-        else:
-            d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap = entry[3]
-            ex = trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
-            room = base + (ex if ex >= gap else gap)
-            act = d - room
-            if act < worst or (act == worst and key < wid):
-                worst, wk, wid = act, (room, feat, idx, j, nx, ny, d, v_n), key
-        if worst <= beat:
-            break
-    return worst, wk
-
-
-def _binding_edge_grouped_no_turn(
-    grid: FenceGrid, e: float, n: float, min_d: float, bound: float, group_lbs: list, terms_of
-) -> tuple[float, tuple | None]:
-    """A multirotor's :func:`_binding_edge_no_turn` answer over the elements with ``d - bound < min_d`` (bit for
-    bit), from groups of edges, best first.
-
-    ``group_lbs``: ``(lower bound of the activation of every element of the group, gid)``
-    (:meth:`FenceGrid.groups_near`'s distance bound less :func:`~geofence.rooms.multirotor_room_cone_bound_m`
-    over the group's normal cone and the uncertainty). Groups are expanded in order of that bound, every
-    element scored exactly (its room costs about what a bound of it would), until the bound exceeds the worst
-    activation found (strictly: every element that ties the worst is scored, and the tie keeps the lowest
-    element id, the scan's first).
-    """
-    worst = math.inf
-    wk = None
-    wid = -1
-    for lb, gid in sorted(group_lbs):
-        if lb > worst:
-            break
-        items = grid.group_items(gid, e, n)
-        ids = [i for i, item in items if item[0] - bound < min_d]  # the ones terms_of keeps
-        for i, (d, nx, ny, feat, idx, j, v_n, _w_n, base, _psi0, _gap) in zip(ids, terms_of([item for _, item in items], min_d)):
-            act = d - base
-            if act < worst or (act == worst and i < wid):
-                worst, wk, wid = act, (base, feat, idx, j, nx, ny, d, v_n), i
     return worst, wk
 
 
@@ -520,20 +387,8 @@ def activation_margins(
         return best
 
     # the binding lateral element: one compiled call (lateral_kernel), or the Python reference below (the
-    # full scan, the index's walk, or its group search on dense fences), which it equals bit for bit
+    # full scan or the index's walk), which it equals bit for bit
     grid = fence.grid()
-    grouped = None  # the index, where its groups of edges are searched
-    if (
-        not compiled
-        and grid is not None
-        and bound < math.inf
-        and prune_from_edges < GROUPED_REFERENCE
-        and fence.line_scored_edges() == 0  # the groups' bounds are of point-segment distances
-        and grid.group_search_pays(
-            e, n, bound, GROUPED_FROM_EDGES_PER_GROUP if fixed_wing else MULTIROTOR_GROUPED_FROM_EDGES_PER_GROUP
-        )
-    ):
-        grouped = grid
     if compiled:
         E, meta, all_ids, zeros = fence.element_table()
         if grid is not None and bound < math.inf:  # the index's walk
@@ -557,59 +412,6 @@ def activation_margins(
         assert i_bind >= 0  # the nearest element is always a candidate
         feat, idx, j = meta[i_bind]
         lat_margin = fence.lateral_margin_m(e, n, min_d)  # min_d: the exact nearest element, walked or scanned
-    elif grouped is not None and not fixed_wing:
-        # dense fence: groups of consecutive edges, the room bounded over their normal cones (the same answer)
-        min_d, groups = grouped.groups_near(e, n, bound)
-        lat_margin = fence.lateral_margin_m(e, n, min_d)
-        a_pilot = a_tilt if v_air_mc < envelope.max_speed_mps else 0.0
-        group_lbs = []
-        for lb, gid, n0x, n0y, rho in groups:
-            room_ub = multirotor_room_cone_bound_m(
-                ve * n0x + vn * n0y, wind_e * n0x + wind_n * n0y + extra, rho, speed, wspeed, t_r, a_pilot,
-                k1, k2, a_brake, climb_arrest,
-            ) + hu  # fmt: skip
-            group_lbs.append((lb - room_ub, gid))
-        lat_act, binding = _binding_edge_grouped_no_turn(grouped, e, n, min_d, bound, group_lbs, terms_of)
-        assert binding is not None  # a group holds the nearest element
-        room, feat, idx, j, nx, ny, d_edge, v_n = binding
-        s_best, turn_angle = 0.0, 0.0
-    elif grouped is not None:
-        # dense fence: groups of consecutive edges, bounded over their normal cones (the same answer)
-        min_d, groups = grouped.groups_near(e, n, bound)
-        lat_margin = fence.lateral_margin_m(e, n, min_d)
-        wspeed_w = math.hypot(wind_e, wind_n)  # |W|, the cone's wind term
-        cones: dict[int, tuple] = {}
-        cheap = []
-        for lb, gid, n0x, n0y, rho in groups:
-            w_n0 = wind_e * n0x + wind_n * n0y + extra
-            lb -= reaction_arc_cone_bound_m(v_turn, psi_react0, rot, omega_now, t_fw, n0x, n0y, w_n0, rho, wspeed_w) + hu
-            sin0 = n0x * sa - n0y * ca
-            cones[gid] = (lb, w_n0, sin0, n0x * ca + n0y * sa, rho)
-            cheap.append((lb, gid, sin0, w_n0, rho))
-
-        gap_ub = (v_turn + wspeed) * t_fw * (1.0 + 1e-9) + 1e-9  # >= any edge's reaction-arc gap
-
-        def group_bounds(s: float, delta: float) -> list:
-            out = []
-            for lb, gid, sin0, w_n0, rho in cheap:
-                ub = trochoid_excursion_cone_bound_m(radius, inv_omega, sin0, w_n0, rho, wspeed_w, s, delta)
-                out.append((lb - (ub if ub > gap_ub else gap_ub), gid))
-            return out
-
-        turn = (radius, inv_omega, v_turn, wspeed_w, gap_ub)
-        terms: dict[int, list] = {}
-        best = None
-        for s, delta in directions:
-            worst, wk = _binding_edge_grouped(
-                grouped, e, n, min_d, bound, group_bounds(s, delta), cones, terms, terms_of, turn, s, delta,
-                -math.inf if best is None else best[0],
-            )  # fmt: skip
-            if best is None or worst > best[0]:
-                best = (worst, s, wk, delta)
-        assert best is not None  # a group holds the nearest element
-        lat_act, s_best, binding, turn_angle = best
-        assert binding is not None
-        room, feat, idx, j, nx, ny, d_edge, v_n = binding
     else:
         if grid is not None and bound < math.inf:
             dists, min_d = grid.near(e, n, bound)

@@ -34,40 +34,23 @@ crossing parity is counted over the edges of one horizontal row strip (the
 only edges that can straddle the point's latitude line), with the same test
 as :meth:`geofence.polygon.PolygonIndex.signed_distance`.
 
-Groups (for dense boundaries): when the fence is loaded, each polygon's edges
-are cut into chains of consecutive edges (at most ``GROUP_LENGTH_M`` long and
-``GROUP_MAX_EDGES`` edges), and each circle is a group of its own. A group
-holds a bounding circle and a box of its end points (a lower bound of every
-element's distance) and a normal cone: a unit ``n0`` and ``rho = max |n_i -
-n0|``. Cells also list the groups, and :meth:`FenceGrid.groups_near` returns
-the exact nearest distance and the groups within reach with their bounds;
-:func:`geofence.boundary_shift.activation_margins` bounds each group's rooms
-over its cone (:mod:`geofence.rooms`) and expands a group into its edges
-(:meth:`FenceGrid.group_items`) only when that bound could beat the worst
-activation found. The per-step cost then depends on the groups within reach
-more than on the vertex density; the fence is searched group by group
-when its groups hold at least ``GROUPED_FROM_EDGES_PER_GROUP`` elements on
-average (a sparse fence's groups are single edges).
-
 The per-step walk runs compiled where numba is installed
 (:func:`geofence.lateral_kernel.lateral_binding` over :meth:`FenceGrid.candidates`,
-:meth:`FenceGrid.nearest_distance`); :meth:`FenceGrid.near`, its tuple
-prefix and the group search are the plain-Python reference it is tested
-against. ``tests/test_fence_grid.py`` compares every answer with the full
-scan on random fences and states (next to corners, inside keep-outs,
-outside); and, for the group search, on dense ragged fences.
+:meth:`FenceGrid.nearest_distance`); :meth:`FenceGrid.near` and its tuple
+prefix are the plain-Python reference it is tested against.
+``tests/test_fence_grid.py`` compares every answer with the full scan on
+random fences and states (next to corners, inside keep-outs, outside).
 """
 
 from __future__ import annotations
 
 import math
-from itertools import chain
 from typing import NamedTuple, Sequence
 
 import numpy as np
 
 from . import jit as _jit
-from .lateral_kernel import element_table, line_scored_distance, nearest_distance
+from .lateral_kernel import edge_scored, element_table, nearest_distance
 from .polygon import BOUNDARY_TOL_M, PolygonIndex
 
 SMALL_FENCE_ELEMENTS: int = 256
@@ -93,26 +76,7 @@ MAX_CACHED_CANDIDATES: int = 4_000_000
 """Candidates (all cells together) kept before the table is cleared: a cell far inside a 100,000-vertex fence
 can hold most of its elements, and scattered queries (an inradius search) visit thousands of cells."""
 
-GROUP_LENGTH_M: float = 24.0
-"""Longest chain of consecutive edges one group holds (m): a dense boundary is searched group by group."""
-
-GROUP_MAX_EDGES: int = 64
-"""Most edges one group holds."""
-
-GROUPED_FROM_EDGES_PER_GROUP: float = 2.0
-"""The activation search goes group by group (:meth:`FenceGrid.groups_near`) when the groups hold at least this
-many elements on average; a sparse fence's groups are single edges and the element walk is cheaper."""
-
-MULTIROTOR_GROUPED_FROM_EDGES_PER_GROUP: float = 40.0
-"""The same for a multirotor, whose room is cheap beside the group search's overhead: measured side by side
-(``bench/fence_scale.py``, near an edge), its group search loses at 10,000 vertices (2 m edges, about a dozen
-per group: 27 -> 29 us) and wins at 100,000 (0.2 m edges: 164 -> 91 us)."""
-
-GROUP_SLACK_M: float = 1e-6
-"""Added to a group's radius: covers the round-off of the distances its bound is compared with."""
-
 Item = tuple  # (d, nx, ny, feature, feature_index, edge): the ``dists`` format of activation_margins
-Group = tuple  # (lb, gid, n0x, n0y, rho): a group's distance lower bound from the query point and its normal cone
 
 
 class _Cell(NamedTuple):
@@ -135,8 +99,6 @@ class _Cell(NamedTuple):
     """The keep-out polygons whose bounding box meets the cell."""
     prefix: list
     """The first ``prefix_items`` candidates as Python tuples, built when the Python walk first asks."""
-    groups: list
-    """The cell's groups, listed when the group search first asks (:meth:`FenceGrid._cell_groups`)."""
 
 
 class FenceGrid:
@@ -157,12 +119,10 @@ class FenceGrid:
         keep_outs: Sequence[PolygonIndex],
         cell_m: float = DEFAULT_CELL_M,
         prefix_items: int = PREFIX_ITEMS,
-        group_length_m: float = GROUP_LENGTH_M,
         line_edges: int = 0,
     ) -> None:
         self.line_edges = int(line_edges)
-        """The first ``line_edges`` elements (a convex keep-in's edges) are scored at
-        :func:`~geofence.lateral_kernel.line_scored_distance` where the foot lies off the edge."""
+        """The first ``line_edges`` elements are a convex keep-in's edges (:func:`~geofence.lateral_kernel.edge_scored`)."""
         self.cell_m = float(cell_m)
         self.prefix_items = int(prefix_items)
         self.half_diag_m = self.cell_m * math.sqrt(0.5)
@@ -188,54 +148,6 @@ class FenceGrid:
         self._cells: dict[tuple[int, int], _Cell] = {}
         self._cached = 0
         self._rows = _RowStrips(keep_in)
-        self._build_groups(edges, circles, group_length_m)
-        self.grouped = self.n_elements >= GROUPED_FROM_EDGES_PER_GROUP * len(self._groups)
-        self._memo_en: tuple[float, float] | None = None
-        self._memo_items: dict[int, list] = {}
-
-    def _build_groups(self, edges: Sequence[tuple], circles: Sequence[tuple], length_m: float) -> None:
-        """Chains of consecutive edges of one polygon (at most ``length_m`` long and ``GROUP_MAX_EDGES`` edges),
-        then one group per circle. Per group: element ids ``[i0, i1)``, a bounding circle ``(cx, cy, r)`` of its
-        edges' end points (so of the edges) and its normal cone: a unit ``n0`` and ``rho = max |n_i - n0|``
-        (a circle's normal can point anywhere: ``rho = 2``)."""
-        spans = []
-        i = 0
-        s = len(edges)
-        while i < s:
-            feat, idx = edges[i][7], edges[i][8]
-            j, length = i, 0.0
-            while j < s and j - i < GROUP_MAX_EDGES and edges[j][7] == feat and edges[j][8] == idx:
-                seg = math.hypot(edges[j][2], edges[j][3])
-                if j > i and length + seg > length_m:
-                    break
-                length += seg
-                j += 1
-            spans.append((i, j))
-            i = j
-        groups = []
-        for i0, i1 in spans:
-            pts = [(a[0], a[1]) for a in edges[i0:i1]] + [(a[0] + a[2], a[1] + a[3]) for a in edges[i0:i1]]
-            xs, ys = [p[0] for p in pts], [p[1] for p in pts]
-            cx, cy = 0.5 * (min(xs) + max(xs)), 0.5 * (min(ys) + max(ys))
-            r = max(math.hypot(x - cx, y - cy) for x, y in pts) + GROUP_SLACK_M
-            sx, sy = sum(a[5] for a in edges[i0:i1]), sum(a[6] for a in edges[i0:i1])
-            norm = math.hypot(sx, sy)
-            if norm > 1e-9 * (i1 - i0):
-                n0x, n0y = sx / norm, sy / norm
-                rho = max(math.hypot(a[5] - n0x, a[6] - n0y) for a in edges[i0:i1]) + 1e-12
-            else:  # normals that cancel: no cone
-                n0x, n0y, rho = 1.0, 0.0, 2.0
-            # the box: the end points' extent along n0 and along its tangent (-n0y, n0x), about the centre
-            po = [(x - cx) * n0x + (y - cy) * n0y for x, y in pts]
-            pt = [(y - cy) * n0x - (x - cx) * n0y for x, y in pts]
-            sl = GROUP_SLACK_M
-            groups.append((i0, i1, cx, cy, r, n0x, n0y, min(rho, 2.0), min(po) - sl, max(po) + sl, min(pt) - sl, max(pt) + sl))
-        for k, (ce, cn, cr) in enumerate(circles):
-            rr = cr + GROUP_SLACK_M
-            groups.append((s + k, s + k + 1, ce, cn, rr, 1.0, 0.0, 2.0, -rr, rr, -rr, rr))
-        self._groups = groups
-        g = np.array([[x[2], x[3], x[4]] for x in groups], dtype=float).reshape(-1, 3)
-        self._gx, self._gy, self._gr = (g[:, k].copy() for k in range(3))
 
     # ---- cells
     def _segment_distances(self, x: float, y: float, which) -> np.ndarray:
@@ -271,31 +183,13 @@ class FenceGrid:
         kb = self._ko_bbox
         lo_x, lo_y, hi_x, hi_y = key[0] * c, key[1] * c, (key[0] + 1) * c, (key[1] + 1) * c
         ko = tuple(np.flatnonzero((kb[:, 0] <= hi_x) & (kb[:, 2] >= lo_x) & (kb[:, 1] <= hi_y) & (kb[:, 3] >= lo_y)).tolist())
-        cell = _Cell(built_for, cx, cy, sel, d[sel], u, ki_state, ko, [], [])
+        cell = _Cell(built_for, cx, cy, sel, d[sel], u, ki_state, ko, [])
         if len(self._cells) >= MAX_CELLS or self._cached + len(sel) > MAX_CACHED_CANDIDATES:
             self._cells.clear()
             self._cached = 0
         self._cells[key] = cell
         self._cached += len(sel)
         return cell
-
-    def _cell_groups(self, cell: _Cell) -> tuple:
-        """``(prefix, rest ids, rest bounds, per group)``: the groups that can hold one of the cell's candidates,
-        sorted by the lower bound of their elements' distance from the centre (kept as the elements are; listed
-        once per cell, the first time the group search asks), and how many of the cell's candidates they hold on
-        average."""
-        slot = cell.groups
-        if not slot:
-            built_for, cx, cy, u = cell.built_for, cell.cx, cell.cy, cell.u
-            gd = np.hypot(self._gx - cx, self._gy - cy) - self._gr
-            gsel = np.flatnonzero(gd <= u + built_for + self.half_diag_m)
-            gsel = gsel[np.argsort(gd[gsel], kind="stable")]
-            groups = self._groups
-            gcands = tuple((float(gd[g]), g) + groups[g][2:] for g in gsel[: self.prefix_items].tolist())
-            grest = gsel[self.prefix_items :]
-            n_elements = len(cell.ids)
-            slot.append((gcands, grest, gd[grest], n_elements / max(len(gsel), 1)))
-        return slot[0]
 
     def _prefix(self, cell: _Cell) -> tuple:
         """The cell's first ``prefix_items`` candidates as ready tuples ``(d(c),) + record`` (built once)."""
@@ -304,11 +198,6 @@ class FenceGrid:
             k, recs = self.prefix_items, self._recs
             slot.append(tuple((lb,) + recs[i] for lb, i in zip(cell.lbs[:k].tolist(), cell.ids[:k].tolist())))
         return slot[0]
-
-    def group_search_pays(self, e: float, n: float, reach: float, min_per_group: float = GROUPED_FROM_EDGES_PER_GROUP) -> bool:
-        """Whether the groups within reach of (e, n)'s cell hold at least ``min_per_group`` elements on average
-        (else the group search only adds its bounds: a sparse stretch, single-edge groups)."""
-        return self.grouped and self._cell_groups(self._cell(e, n, reach))[3] >= min_per_group
 
     def _rest(self, e: float, n: float, rest: np.ndarray, rest_lb: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
         """``(ids, d)`` of the candidates past a cell's tuple prefix whose lower bound is within ``limit``
@@ -325,9 +214,9 @@ class FenceGrid:
     def near(self, e: float, n: float, reach: float) -> tuple[list[Item], float]:
         """``(items, d_min)``: every element with ``d - reach < d_min``, in element order, and the nearest ``d``.
 
-        Items are ``(d, nx, ny, feature, feature_index, edge)`` with the
-        breach-pointing unit normal (for a circle: towards its centre); the first :attr:`line_edges`
-        elements' ``d`` is the distance a margin scores them at (``d_min`` is the nearest point's).
+        Items are ``(d, ux, uy, feature, feature_index, edge)``: the distance a margin scores the element at and
+        the unit direction it scores along (an edge's :func:`~geofence.lateral_kernel.edge_scored`; a circle's
+        ``hypot - radius`` and the direction to its centre); ``d_min`` is the nearest point's distance.
         """
         cell = self._cell(e, n, reach)
         cx, cy = cell.cx, cell.cy
@@ -341,16 +230,10 @@ class FenceGrid:
             if lb - delta - reach > best:
                 stopped = True
                 break
-            if il2 >= 0.0:  # inline (the per-step walk): _element_distance's arithmetic
-                px, py = e - a, n - b
-                t = (px * c + py * dd) * il2
-                off = t < 0.0 or t > 1.0
-                t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
-                qx, qy = px - t * c, py - t * dd
-                d = math.sqrt(qx * qx + qy * qy)
-                db = line_scored_distance(d, px, py, nx, ny) if off and i < self.line_edges else d
+            if il2 >= 0.0:
+                d, db, nx, ny = edge_scored(e - a, n - b, c, dd, il2, nx, ny, i < self.line_edges)
             else:
-                d, nx, ny = _element_distance(e, n, a, b, c, dd, il2, nx, ny)
+                d, nx, ny = _circle_distance(e, n, a, b, c)
                 db = d
             found.append((i, (db, nx, ny, feat, idx, j)))
             if d < best:
@@ -362,16 +245,12 @@ class FenceGrid:
             recs = self._recs
             for i, d in zip(ids.tolist(), ds.tolist()):
                 _, a, b, c, dd, il2, nx, ny, feat, idx, j = recs[i]
-                if i < self.line_edges:
-                    px, py = e - a, n - b
-                    t = (px * c + py * dd) * il2
-                    if t < 0.0 or t > 1.0:
-                        d = line_scored_distance(d, px, py, nx, ny)
+                if il2 >= 0.0:
+                    d, d, nx, ny = edge_scored(e - a, n - b, c, dd, il2, nx, ny, i < self.line_edges)
                 if d - reach >= best:
                     continue
                 if il2 < 0.0:
-                    dist = math.hypot(a - e, b - n)
-                    nx, ny = ((a - e) / dist, (b - n) / dist) if dist > 0.0 else (1.0, 0.0)
+                    _, nx, ny = _circle_distance(e, n, a, b, c)
                 found.append((i, (d, nx, ny, feat, idx, j)))
         found.sort()
         return [f[1] for f in found], best
@@ -436,83 +315,12 @@ class FenceGrid:
             return m if m < -BOUNDARY_TOL_M else None
         return best if best > BOUNDARY_TOL_M else None
 
-    def group_items(self, gid: int, e: float, n: float) -> list:
-        """The elements of group ``gid`` at (e, n): ``(id, (d, nx, ny, feature, feature_index, edge))`` in element
-        order, ``d`` with :meth:`near`'s arithmetic (remembered for the last point asked)."""
-        if self._memo_en != (e, n):
-            self._memo_en = (e, n)
-            self._memo_items = {}
-        else:
-            items = self._memo_items.get(gid)
-            if items is not None:
-                return items
-        i0, i1 = self._groups[gid][:2]
-        items = []
-        for i, a, b, c, dd, il2, nx, ny, feat, idx, j in self._recs[i0:i1]:
-            d, nx, ny = _element_distance(e, n, a, b, c, dd, il2, nx, ny)
-            items.append((i, (d, nx, ny, feat, idx, j)))
-        self._memo_items[gid] = items
-        return items
 
-    def groups_near(self, e: float, n: float, reach: float) -> tuple[float, list[Group]]:
-        """``(d_min, groups)``: the nearest element's ``d`` (exact, as :meth:`near`'s) and every group that can
-        hold an element with ``d - reach < d_min``, as ``(lb, gid, n0x, n0y, rho)`` with ``lb`` at most the ``d``
-        of each of its elements: the distance to the group's bounding circle or, if larger, to its box
-        (:meth:`_build_groups`), less the slack.
-
-        The cell's groups are walked in order of their circle bound from the cell centre; a group is expanded
-        (:meth:`group_items`) while its bound is below the nearest ``d`` found, so ``d_min`` is exact.
-        """
-        cell = self._cell(e, n, reach)
-        cx, cy = cell.cx, cell.cy
-        gcands, grest, grest_lb, _ = self._cell_groups(cell)
-        delta = math.hypot(e - cx, n - cy) + GROUP_SLACK_M
-        best = math.inf
-        found = []
-        for gd, g, gx, gy, gr, n0x, n0y, rho, o_lo, o_hi, t_lo, t_hi in chain(gcands, self._rest_groups(grest, grest_lb)):
-            if gd - delta > best + reach:
-                break
-            px, py = e - gx, n - gy
-            lb = math.sqrt(px * px + py * py) - gr
-            po = px * n0x + py * n0y
-            pt = py * n0x - px * n0y
-            do = o_lo - po if po < o_lo else (po - o_hi if po > o_hi else 0.0)
-            dt = t_lo - pt if pt < t_lo else (pt - t_hi if pt > t_hi else 0.0)
-            if do > 0.0 or dt > 0.0:
-                box = math.sqrt(do * do + dt * dt) - GROUP_SLACK_M
-                if box > lb:
-                    lb = box
-            if lb >= best + reach:
-                continue
-            if lb < best:
-                for _, it in self.group_items(g, e, n):
-                    if it[0] < best:
-                        best = it[0]
-            found.append((lb, g, n0x, n0y, rho))
-        limit = best + reach
-        return best, [f for f in found if f[0] < limit]
-
-    def _rest_groups(self, grest: np.ndarray, grest_lb: np.ndarray):
-        """The cell's group candidates past its tuple prefix, in the same order and format."""
-        groups = self._groups
-        for gd, g in zip(grest_lb.tolist(), grest.tolist()):
-            yield (gd, g) + groups[g][2:]
-
-
-def _element_distance(
-    e: float, n: float, a: float, b: float, c: float, dd: float, il2: float, nx: float, ny: float
-) -> tuple[float, float, float]:
-    """``(d, nx, ny)`` of one element record from (e, n): an edge's point-segment distance (its normal as
-    given) or a circle's ``hypot - radius`` and the unit normal towards its centre (``il2 < 0``)."""
-    if il2 >= 0.0:
-        px, py = e - a, n - b
-        t = (px * c + py * dd) * il2
-        t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
-        qx, qy = px - t * c, py - t * dd
-        return math.sqrt(qx * qx + qy * qy), nx, ny
-    dist = math.hypot(a - e, b - n)
-    nx, ny = ((a - e) / dist, (b - n) / dist) if dist > 0.0 else (1.0, 0.0)
-    return dist - c, nx, ny
+def _circle_distance(e: float, n: float, ce: float, cn: float, r: float) -> tuple[float, float, float]:
+    """``(d, ux, uy)`` of a circle from (e, n): ``hypot - radius`` and the unit direction to its centre."""
+    dist = math.hypot(ce - e, cn - n)
+    ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
+    return dist - r, ux, uy
 
 
 class _RowStrips:

@@ -33,7 +33,7 @@ from geofence.dynamics import wind_push_mps2
 from geofence.jit import COMPILED, jitable, numba
 from geofence.rooms import multirotor_room_m, reaction_arc_gap_m, reaction_arc_m, trochoid_excursion_m
 
-__all__ = ["element_table", "hypot", "lateral_binding", "line_scored_distance", "nearest_distance"]
+__all__ = ["edge_scored", "element_table", "hypot", "lateral_binding", "nearest_distance"]
 
 _DBL_MIN = 2.2250738585072014e-308
 _SPLIT = 134217729.0  # 2**27 + 1, Veltkamp's splitter
@@ -257,12 +257,11 @@ def _walk(
     n_line: int,
 ) -> tuple[int, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(count, nearest d, f_id, f_d, f_nx, f_ny, f_b)``: the first ``count`` rows of the ``f_*`` arrays hold
-    the candidates walked, their distances ``d`` and breach normals (the reference's arithmetic: the
-    point-segment distance, a circle's ``hypot - radius`` and the unit normal towards its centre), in ``ids``
-    order; with ``walk``, until the bound ``lbs[k] - delta_c - reach`` exceeds the nearest ``d`` found
-    (:meth:`FenceGrid.near`'s stop rule). ``f_b``: the distance each is scored at, ``d`` but for the first
-    ``n_line`` elements (a convex keep-in's edges) whose perpendicular foot lies off the segment, scored at
-    their line distance (:func:`line_scored_distance`)."""
+    the candidates walked, their distances ``d`` and the unit directions they are scored along (the
+    reference's arithmetic: an edge's :func:`edge_scored`, the first ``n_line`` being a convex keep-in's; a
+    circle's ``hypot - radius`` and the direction to its centre), in ``ids`` order; with ``walk``, until the
+    bound ``lbs[k] - delta_c - reach`` exceeds the nearest ``d`` found (:meth:`FenceGrid.near`'s stop rule).
+    ``f_b``: the distance each is scored at (:func:`edge_scored`'s)."""
     m = ids.shape[0]
     f_id = np.empty(m, np.int64)
     f_d = np.empty(m)
@@ -281,17 +280,8 @@ def _walk(
         dd = E[i, 3]
         il2 = E[i, 4]
         if il2 >= 0.0:
-            px = e - a
-            py = n - b
-            t = (px * c + py * dd) * il2
-            off = t < 0.0 or t > 1.0
-            t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
-            qx = px - t * c
-            qy = py - t * dd
-            d = math.sqrt(qx * qx + qy * qy)
-            nx = E[i, 5]
-            ny = E[i, 6]
-            f_b[cnt] = line_scored_distance(d, px, py, nx, ny) if off and i < n_line else d
+            d, db, nx, ny = edge_scored(e - a, n - b, c, dd, il2, E[i, 5], E[i, 6], i < n_line)
+            f_b[cnt] = db
         else:
             dist = hypot(a - e, b - n)
             if dist > 0.0:
@@ -313,20 +303,43 @@ def _walk(
 
 
 @jitable
-def line_scored_distance(d: float, px: float, py: float, nx: float, ny: float) -> float:
-    """The distance a convex keep-in's edge is scored at from a point whose perpendicular foot lies off the
-    edge: its line distance ``-(p - a)·n`` (``(px, py) = p - a``, ``n`` the outward normal) when positive,
-    else the point-segment distance ``d``.
+def edge_scored(
+    px: float, py: float, dx: float, dy: float, il2: float, nx: float, ny: float, line: bool
+) -> tuple[float, float, float, float]:
+    """``(d, scored d, ux, uy)`` of an edge from a point: its point-segment distance ``d``, the distance the
+    margins score it at and the unit direction they score the manoeuvre's excursion along.
 
-    A margin scores each edge as the distance minus the manoeuvre's excursion along its normal. Leaving
-    through a segment means reaching its line, which is nearer than the segment when the foot lies off it:
-    a long turn drifting in wind leaves a finely divided circle through an edge far along it (campaign
-    seed 27112026, circle-0169: 829 m to the line, 1,220 m to the segment; 86 m out). Inside a convex
-    keep-in, crossing any edge's line is leaving the fence, so the line distance is exact, and no more
-    pessimistic; inside a concave one it is not (a line can cross the allowed area) and the segment's is kept.
+    ``(px, py) = p - a`` (``a`` the edge's start), ``(dx, dy) = b - a``, ``il2 = 1/|b - a|²``, ``(nx, ny)`` the
+    breach-pointing unit normal. ``line``: the edge is a convex keep-in's.
+
+    A margin scores an element as a distance less the manoeuvre's excursion along one direction; it is sound
+    when the whole element lies at least that distance away along that direction, for then the manoeuvre must
+    reach that far to touch it. Where the perpendicular foot lies on the segment that is the normal and ``d``.
+    Where it lies off the segment, the normal with ``d`` is not sound: a turn drifting in wind leaves through
+    the segment far along it, or heads straight at its end, with less excursion along the normal than ``d``
+    (campaign seed 27112026, circle-0169: 86 m out of a divided circle; a U-shaped keep-in's inner corner and
+    a keep-out's corner the same way, found by ``tests/test_edge_scoring.py``). Two sound choices remain:
+
+    * the direction to the segment's nearest point (its end) and ``d``: the nearest point of a convex set, so
+      every point of the segment lies at least ``d`` along that direction; it treats the end as a point;
+    * the normal and the line distance ``-(p - a)·n``, when positive: the whole segment lies on its line.
+      Inside a convex keep-in, crossing any edge's line is leaving the fence, so this is the exact rule there
+      (``line``), and no more pessimistic.
     """
-    dl = -(px * nx + py * ny)
-    return dl if dl > 0.0 else d
+    t = (px * dx + py * dy) * il2
+    off = t < 0.0 or t > 1.0
+    t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
+    qx = px - t * dx
+    qy = py - t * dy
+    d = math.sqrt(qx * qx + qy * qy)
+    if off:
+        if line:
+            dl = -(px * nx + py * ny)
+            if dl > 0.0:
+                return d, dl, nx, ny
+        if d > 0.0:
+            return d, d, -qx / d, -qy / d
+    return d, d, nx, ny
 
 
 def _nearest_distance(E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, delta_c: float, e: float, n: float) -> float:
@@ -383,9 +396,9 @@ def _lateral_binding(
     a tie goes to the lowest element id (the reference's first in element order). Element id -1: no
     candidate. The other arguments are :func:`~geofence.boundary_shift.activation_margins`' per-state
     terms under the same names (the other platform kind's are zeros; ``arrest_t, arrest_loss`` its
-    ``climb_arrest``). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges, scored at
-    :func:`line_scored_distance` (``d`` is then that distance; ``d_min`` stays the nearest point-segment
-    distance).
+    ``climb_arrest``). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges. Each edge is
+    scored by :func:`edge_scored` (``d``, ``nx, ny``: its scored distance and direction; ``d_min`` stays the
+    nearest point-segment distance).
     """
     cnt, min_d, f_id, _, f_nx, f_ny, f_d = _walk(E, ids, lbs, walk, e, n, reach, delta_c, n_line)
     # the elements that can bind, in element order

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from . import jit as _jit
-from .fence_grid import GROUP_LENGTH_M, SMALL_FENCE_ELEMENTS, FenceGrid
+from .fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame
 from .heights import AltitudeReference, VerticalExtent
 from .lateral_kernel import element_table
@@ -117,7 +117,6 @@ class LocalFence:
         "_gap_edges",
         "_grid",
         "_use_index",
-        "_group_length_m",
         "_memo_en",
         "_memo_margin_m",
         "_margin_tables",
@@ -127,14 +126,10 @@ class LocalFence:
         "_line_edges",
     )
 
-    def __init__(
-        self, fence: Fence, frame: LocalFrame, *, index: bool | None = None, group_length_m: float = GROUP_LENGTH_M
-    ) -> None:
+    def __init__(self, fence: Fence, frame: LocalFrame, *, index: bool | None = None) -> None:
         """``index``: answer the per-step lateral queries from a :class:`~geofence.fence_grid.FenceGrid`
         (``None``: when the fence has at least :data:`~geofence.fence_grid.SMALL_FENCE_ELEMENTS` elements;
-        ``False``: always the full scan, the reference the index is tested against); ``group_length_m``: the
-        index's longest chain of edges searched as one group (:data:`~geofence.fence_grid.GROUP_LENGTH_M`)."""
-        self._group_length_m = group_length_m
+        ``False``: always the full scan, the reference the index is tested against)."""
         self.fence = fence
         self.frame = frame
         self._grid: FenceGrid | None = None
@@ -201,14 +196,13 @@ class LocalFence:
                 FEATURE_KEEP_OUT_CIRCLE,
                 self.keep_in,
                 self.keep_out_polygons,
-                group_length_m=self._group_length_m,
                 line_edges=self.line_scored_edges(),
             )
         return self._grid
 
     def line_scored_edges(self) -> int:
         """How many lateral elements, from the first, a margin scores at their line distance where the foot lies
-        off the edge (:func:`geofence.lateral_kernel.line_scored_distance`): the keep-in's edges when it is
+        off the edge (:func:`geofence.lateral_kernel.edge_scored`): the keep-in's edges when it is
         convex (they come first in :meth:`danger_edges`), else none (cached)."""
         if self._line_edges is None:
             self._line_edges = self.keep_in.n if is_convex(self.keep_in.vertices) else 0

@@ -103,9 +103,6 @@ __all__ = [
     "course_reversal_time_s",
     "envelope_turn_radius_m",
     "fixed_wing_room_bound_m",
-    "reaction_arc_cone_bound_m",
-    "trochoid_excursion_cone_bound_m",
-    "trochoid_excursion_cone_refined_m",
     "fixed_wing_room_from_velocity_m",
     "fixed_wing_reaction_terms",
     "fixed_wing_room_m",
@@ -206,51 +203,6 @@ def trochoid_excursion_m(
                 best = x
             theta += TWO_PI
     return best if best > 0.0 else 0.0
-
-
-def trochoid_excursion_cone_bound_m(
-    radius: float, inv_omega: float, sin_psi0: float, w: float, rho: float, wind_speed: float, s: float, delta: float
-) -> float:
-    """Upper bound (m) of :func:`trochoid_excursion_m` of the turn ``s``, ``delta`` against every unit normal ``n``
-    of a cone ``|n - n0| <= rho``, in O(1): ``R·min(1 + rho - s·sin psi0, c) + max(w + |W|·rho, 0)·delta/omega``
-    with the chord factor ``c = 2·sin(min(delta, pi)/2)`` (+ round-off).
-
-    ``sin_psi0 = n0 x h`` (``n0x·h_n - n0y·h_e``, ``h`` the unit air heading: the sine of the heading measured
-    from ``n0``, no angle needed), ``w = W·n0 + extra`` the wind towards ``n0`` and ``wind_speed = |W|`` (m/s).
-    ``rho = 0`` bounds one edge. Proof: ``x(theta) = A(theta)·n + w_n·theta/omega`` where ``A`` is the
-    air-relative turn displacement, ``A·n = s·R·[sin(psi + s·theta) - sin psi]`` (``psi`` the heading from
-    ``n``). That is at most ``R·(1 - s·sin psi)`` (the sine is at most 1) and at most ``|A(theta)| =
-    2R·sin(theta/2) <= R·c`` (a chord of the circle); the drift is at most ``max(w_n, 0)·delta/omega``. No
-    angle enters but through ``sin psi``, so no wrap. For ``n`` in the cone, ``sin psi = n x h >= n0 x h -
-    |n - n0|·|h|``, so ``-s·sin psi <= -s·sin_psi0 + rho``, and ``W·n <= W·n0 + |W|·rho``. The excursion is
-    clipped at 0, which the bound (>= 0) covers. ``1e-6·(1 + R + drift)`` covers the excursion's round-off.
-    """
-    wn = w + wind_speed * rho
-    drift = wn * delta * inv_omega if wn > 0.0 else 0.0
-    k = 1.0 + rho - s * sin_psi0
-    c = 2.0 * math.sin(0.5 * delta) if delta < math.pi else 2.0
-    ub = radius * (k if k < c else c) + drift
-    return ub + 1e-6 * (1.0 + radius + drift)
-
-
-def trochoid_excursion_cone_refined_m(
-    radius: float, inv_omega: float, v: float, w: float, psi0: float, rho: float, wind_speed: float, s: float, delta: float
-) -> float:
-    """Upper bound (m) of :func:`trochoid_excursion_m` over the cone ``|n - n0| <= rho``, tighter than
-    :func:`trochoid_excursion_cone_bound_m` (one exact excursion): the excursion against ``n0`` plus
-    ``(R·c + |W|·delta/omega)·rho``, ``c = 2·sin(min(delta, pi)/2)`` (+ round-off).
-
-    ``w = W·n0 + extra``, ``psi0`` the air heading from ``n0`` (any representative mod 2 pi: the function
-    of the heading is periodic, its interior maxima taken at ``psi = s·psi*`` mod 2 pi), ``wind_speed = |W|``.
-    Proof: ``x_n(theta) = (A(theta) + W·theta/omega)·n + extra·theta/omega`` (``A`` the air-relative turn
-    displacement, ``|A(theta)| = 2R·sin(theta/2) <= R·c``), so ``x_n(theta) - x_n0(theta) =
-    (A + W·theta/omega)·(n - n0) <= (R·c + |W|·delta/omega)·rho`` for every ``theta in [0, delta]``; take the
-    maximum over ``theta`` (and the clip at 0) on both sides.
-    """
-    c = 2.0 * math.sin(0.5 * delta) if delta < math.pi else 2.0
-    grow = (radius * c + wind_speed * delta * inv_omega) * rho
-    ub = trochoid_excursion_m(radius, inv_omega, v, w, psi0, s, delta) + grow
-    return ub + 1e-6 * (1.0 + ub)
 
 
 def turn_excursion_m(
@@ -381,32 +333,6 @@ def reaction_arc_gap_m(v_air: float, psi0: float, rot: float, omega: float, t: f
     return best - end
 
 
-def reaction_arc_cone_bound_m(
-    v_air: float,
-    psi0: float,
-    rot: float,
-    omega: float,
-    t: float,
-    n0x: float,
-    n0y: float,
-    w_n0: float,
-    rho: float,
-    wind_speed: float,
-) -> float:
-    """Upper bound (m) of :func:`reaction_arc_m` against every unit normal ``n`` with ``|n - n0| <= rho``:
-    ``reaction_arc_m(.., n0, w_n0) + (v_air + |W|)·t·rho`` (+ round-off).
-
-    ``w_n0 = W·n0 + extra`` (the wind towards ``n0``, m/s, with the allowance), ``wind_speed = |W|`` (m/s); the
-    other arguments as :func:`reaction_arc_m`'s. Proof: the reaction travel is ``max(0, D·n + w_n·t)`` with
-    ``D`` the air-relative displacement of the reaction phase (an arc or a straight line of length
-    ``v_air·t``, so ``|D| <= v_air·t``) and ``w_n = W·n + extra``. For ``n`` in the cone
-    ``D·n = D·n0 + D·(n - n0) <= D·n0 + |D|·rho`` and ``W·n <= W·n0 + |W|·rho``, and
-    ``max(0, x + y) <= max(0, x) + y`` for ``y >= 0``. Vector terms only: no heading angle is compared.
-    """
-    ub = reaction_arc_m(v_air, psi0, rot, omega, t, n0x, n0y, w_n0) + (v_air + wind_speed) * t * rho
-    return ub + 1e-6 * (1.0 + ub)
-
-
 def fixed_wing_room_m(
     airspeed_mps: float, bank_rad: float, psi0_rad: float, wind_normal_mps: float, reaction_time_s: float, g: float = G_MPS2
 ) -> float:
@@ -527,37 +453,6 @@ def multirotor_room_m(
     base = (v_n * t_s if v_n > 0.0 else 0.0) + 0.5 * a_pilot_mps2 * t_s * t_s
     v1 = speed_mps + a_pilot_mps2 * t_s
     return base + braking_room_m(v_n1, v1 if v1 > v_n1 else v_n1, a_brake_mps2, climb_arrest)
-
-
-def multirotor_room_cone_bound_m(
-    v_n0: float,
-    w_n0: float,
-    rho: float,
-    speed_mps: float,
-    wind_speed_mps: float,
-    t_s: float,
-    a_tilt_mps2: float,
-    k1: float,
-    k2: float,
-    a_brake_mps2: float,
-    climb_arrest: tuple[float, float],
-) -> float:
-    """Upper bound (m) of :func:`multirotor_room_m` against every unit normal ``n`` of a cone ``|n - n0| <= rho``.
-
-    ``v_n0 = v·n0`` the closing speed and ``w_n0 = W·n0 + extra`` the wind towards ``n0`` (m/s), ground speed
-    ``speed_mps = |v|`` and ``wind_speed_mps`` the wind speed the push is computed with (``|W| + extra``, at
-    least ``|W|``);
-    ``a_tilt_mps2`` the pilot's acceleration before the push (0 above max airspeed), ``(k1, k2)`` the drag
-    coefficients, ``a_brake_mps2`` the braking deceleration before the push, ``climb_arrest`` as
-    :func:`climb_arrest_phase`. Proof: the room grows with the closing speed ``v_n`` (every term, and the
-    braking from ``v_n1 = v_n + a_p·t``, is non-decreasing in it) and with the push (a larger pilot
-    acceleration, a weaker braking); ``v·n <= v·n0 + |v|·rho`` and ``W·n <= W·n0 + |W|·rho`` on the cone (the
-    push's own wind speed is ``wind_speed_mps``). ``1e-6·(1 + room)`` covers round-off.
-    """
-    w_n = w_n0 + wind_speed_mps * rho
-    push = wind_push_mps2(k1, k2, wind_speed_mps, w_n)
-    room = multirotor_room_m(v_n0 + speed_mps * rho, speed_mps, t_s, a_tilt_mps2 + push, a_brake_mps2 - push, climb_arrest)
-    return room + 1e-6 * (1.0 + room)
 
 
 def multicopter_stopping_distance_m(

@@ -3,12 +3,12 @@
 On random fences (noisy star-shaped keep-ins of 40-600 vertices, keep-out squares and circles) and
 random states (next to vertices and edges, inside keep-outs, outside the keep-in, far inside), the
 indexed :meth:`LocalFence.lateral_margin_m` and :func:`activation_margins` equal the full scan
-(``index=False``) bit for bit, for a multirotor and a fixed-wing in wind. The same for the group search
-(edge chains bounded over their normal cones) on random dense ragged fences (keep-ins of 1,500-4,000
-vertices a metre or two apart with jagged noise and notches, keep-out squares whose sides are cut into
-short edges, circles) and states next to vertices, inside keep-outs and around them: equal to the reference
-(``prune_from_edges`` huge) and the full scan, with the default groups and longer ones (these are the
-Python branches, ``compiled=False``; ``tests/test_lateral_kernel.py`` holds the compiled search to them).
+(``index=False``) bit for bit, for a multirotor and a fixed-wing in wind. The same on random dense ragged
+fences (keep-ins of 1,500-4,000 vertices a metre or two apart with jagged noise and notches, keep-out squares
+whose sides are cut into short edges, circles) and states next to vertices, inside keep-outs and around them:
+the index's walk with the pruned search equals the reference (``prune_from_edges`` huge) and the full scan
+(these are the Python branches, ``compiled=False``; ``tests/test_lateral_kernel.py`` holds the compiled search
+to them).
 """
 
 import math
@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 from aircraft.profile import load_profile
 from geofence.boundary_shift import activation_margins
 from geofence.fence import Fence, KeepOutCircle
-from geofence.fence_grid import GROUP_LENGTH_M, SMALL_FENCE_ELEMENTS, FenceGrid
+from geofence.fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
 from geofence.geodesy import LocalFrame
 from geofence.local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 
@@ -272,13 +272,11 @@ def dense_states(local, rng: random.Random, count: int):
     n_vertices=st.integers(1500, 4000),
     n_squares=st.integers(0, 12),
     n_circles=st.integers(0, 4),
-    group_length_m=st.sampled_from([None, 60.0, 200.0]),
 )
-def test_group_search_equals_the_reference(seed, n_vertices, n_squares, n_circles, group_length_m):
+def test_dense_fences_indexed_equal_the_reference(seed, n_vertices, n_squares, n_circles):
     fence = dense_fence(seed, n_vertices, n_squares, n_circles)
-    indexed = LocalFence(fence, FRAME, index=True, group_length_m=group_length_m or GROUP_LENGTH_M)
+    indexed = LocalFence(fence, FRAME, index=True)
     scan = fence.to_local(FRAME, index=False)
-    assert indexed.grid().grouped
     rng = random.Random(seed)
     for e, n in dense_states(indexed, rng, 60):
         for env in (FW, MC):

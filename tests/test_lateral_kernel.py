@@ -109,11 +109,10 @@ def test_compiled_margins_equal_the_reference(seed, n_vertices, n_squares, n_cir
 
 @settings(max_examples=8, deadline=None)
 @given(seed=st.integers(0, 10_000), n_vertices=st.integers(1500, 4000), n_squares=st.integers(0, 12), n_circles=st.integers(0, 4))
-def test_compiled_margins_on_dense_fences_equal_the_group_search(seed, n_vertices, n_squares, n_circles):
+def test_compiled_margins_on_dense_fences_equal_the_reference(seed, n_vertices, n_squares, n_circles):
     local = dense_fence(seed, n_vertices, n_squares, n_circles).to_local(FRAME, index=True)
-    assert local.grid().grouped
     rng = random.Random(seed)
-    _assert_compiled_equals_reference(local, list(dense_states(local, rng, 40)), rng)  # the reference: groups
+    _assert_compiled_equals_reference(local, list(dense_states(local, rng, 40)), rng)
 
 
 def _square(cx: float, cy: float, s: float) -> tuple:

@@ -6,13 +6,14 @@ edge's normal. To leave through an edge's segment, the vehicle only has to reach
 nearer than the segment when the perpendicular foot lies off it. A long turn drifting in strong wind left a finely
 divided circle that way (campaign seed 27112026, circle-0169: a c172x 86 m out). Inside a convex keep-in, crossing
 any edge's line is leaving it, so those edges are scored at their line distance
-(:func:`geofence.lateral_kernel.line_scored_distance`).
+(:func:`geofence.lateral_kernel.edge_scored`). ``tests/test_edge_scoring.py`` holds the same property on concave
+keep-ins and keep-outs.
 
 Checked here, on random convex keep-ins (ellipses divided into 3 to 400 edges: scanned and indexed), for a
 fixed-wing in winds up to 0.6 of its airspeed: the manoeuvre the margin scores, flown numerically (the reaction
 phase in the current turn, then the turn it chose at the bank limit, in the estimated wind), leaves the fence only
 if the activation margin is negative; and the compiled search equals the Python reference bit for bit, for both
-platform kinds. A concave keep-in keeps the point-segment distance. The property found a second gap, now closed:
+platform kinds. The property found a second gap, now closed:
 the reaction phase was scored where it ends, not at its farthest point.
 """
 
@@ -42,11 +43,11 @@ def convex_fence(n_vertices: int, radius_m: float, aspect: float, turn_rad: floa
     return Fence(keep_in=tuple(pts), ceiling_m=500.0)
 
 
-def model_path_leaves(local, e, n, ve, vn, we, wn, bank, latency, r, steps: int = 3000) -> float:
-    """The deepest point outside the keep-in (m, > 0: out) of the manoeuvre :func:`activation_margins` scores for a
-    fixed-wing (its reaction phase in the current turn at ``v_turn``, then the turn ``r.turn_sign``,
-    ``r.turn_angle_rad`` at the bank limit), flown in the steady wind ``(we, wn)``: every point of it."""
-    env = FW
+def model_path_leaves(local, e, n, ve, vn, we, wn, bank, latency, r, steps: int = 3000, env=FW) -> float:
+    """The deepest point outside the allowed area (m, > 0: out) of the manoeuvre :func:`activation_margins` scores
+    for a fixed-wing of envelope ``env`` (its reaction phase in the current turn at ``v_turn``, then the turn
+    ``r.turn_sign``, ``r.turn_angle_rad`` at the bank limit), flown in the steady wind ``(we, wn)``: every point
+    of it."""
     vae, van = ve - we, vn - wn
     psi = math.atan2(van, vae)
     v = max(math.hypot(vae, van), env.cruise_speed_mps, env.min_speed_mps, 1e-3)

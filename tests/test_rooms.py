@@ -29,16 +29,12 @@ from geofence.rooms import (
     fixed_wing_room_m,
     head_on_room_m,
     multicopter_stopping_distance_m,
-    multirotor_room_cone_bound_m,
     multirotor_room_m,
-    reaction_arc_cone_bound_m,
     reaction_arc_gap_m,
     reaction_arc_m,
     room_upper_bounds_fast_m,
     room_upper_bounds_m,
     tilt_accel_mps2,
-    trochoid_excursion_cone_bound_m,
-    trochoid_excursion_cone_refined_m,
     trochoid_excursion_m,
     turn_constants,
     turn_radius_m,
@@ -176,69 +172,6 @@ def test_fixed_wing_bound_bounds_every_turn(v, bank, psi0, bank_frac, t, normal_
     room = reaction_arc_m(v_turn, psi0, omega_now * t, omega_now, t, nx, ny, w_n)
     room += trochoid_excursion_m(r_turn, inv_turn, v_turn, w_n, wrap_pi(psi0 - normal_angle), s, delta)
     assert room <= fixed_wing_room_bound_m(radius, inv_omega, v, wind, t) * (1 + 1e-12) + 1e-9
-
-
-def _in_cone(theta0: float, rho: float, frac: float) -> tuple[float, float, float]:
-    """A unit normal ``(nx, ny)`` at ``theta0 + phi`` with ``|n - n0| = 2·sin(|phi|/2) <= rho`` (``frac`` in [-1, 1])."""
-    alpha = 2.0 * math.asin(min(rho / 2.0, 1.0))
-    th = theta0 + frac * alpha
-    return math.cos(th), math.sin(th), th
-
-
-@settings(max_examples=400, deadline=None)
-@given(
-    speeds, banks, angles, st.floats(-1.0, 1.0), st.floats(0.0, 3.0), angles, st.floats(0.0, 2.0), st.floats(-1.0, 1.0),
-    angles, st.floats(0.0, 15.0), st.floats(0.0, 4.0), st.sampled_from([1.0, -1.0]), st.floats(0.0, 2.5 * math.pi),
-    angles,
-)  # fmt: skip
-def test_fixed_wing_cone_bounds_bound_every_normal_of_the_cone(
-    v, bank, psi_react, bank_frac, t, theta0, rho, frac, wind_dir, wind, extra, s, delta, heading
-):
-    """Reaction travel and turn excursion against any normal ``|n - n0| <= rho`` are at most the cone bounds."""
-    radius, inv_omega = turn_constants(v, bank)
-    omega_now = turn_rate_radps(v, bank * bank_frac) if bank_frac else 0.0
-    rot = max(-math.pi, min(math.pi, omega_now * t))
-    n0x, n0y = math.cos(theta0), math.sin(theta0)
-    nx, ny, _ = _in_cone(theta0, rho, frac)
-    we, wn = wind * math.cos(wind_dir), wind * math.sin(wind_dir)
-    w_n, w_n0 = we * nx + wn * ny + extra, we * n0x + wn * n0y + extra
-    react = reaction_arc_m(v, psi_react, rot, omega_now, t, nx, ny, w_n)
-    assert react <= reaction_arc_cone_bound_m(v, psi_react, rot, omega_now, t, n0x, n0y, w_n0, rho, wind)
-    ca, sa = math.cos(heading), math.sin(heading)
-    psi = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)  # as activation_margins computes it
-    exc = trochoid_excursion_m(radius, inv_omega, v, w_n, psi, s, delta)
-    sin0 = n0x * sa - n0y * ca
-    assert exc <= trochoid_excursion_cone_bound_m(radius, inv_omega, sin0, w_n0, rho, wind, s, delta)
-    psi0 = math.atan2(sin0, n0x * ca + n0y * sa)
-    for rep in (psi0, psi0 + TWO_PI, psi0 - TWO_PI):  # any representative of the heading from n0
-        assert exc <= trochoid_excursion_cone_refined_m(radius, inv_omega, v, w_n0, rep, rho, wind, s, delta)
-
-
-@settings(max_examples=400, deadline=None)
-@given(
-    angles, st.floats(0.0, 20.0), angles, st.floats(0.0, 2.0), st.floats(-1.0, 1.0), angles, st.floats(0.0, 15.0),
-    st.floats(0.0, 4.0), st.floats(0.0, 2.0), st.floats(0.0, 8.0), st.floats(0.5, 10.0), st.floats(0.0, 3.0),
-    st.booleans(),
-)  # fmt: skip
-def test_multirotor_cone_bound_bounds_every_normal_of_the_cone(
-    heading, speed, theta0, rho, frac, wind_dir, wind, extra, t_r, a_tilt, a_brake, v_up, over_max_speed
-):
-    """The room against any normal ``|n - n0| <= rho`` is at most the cone bound (as activation_margins calls both)."""
-    k1, k2 = 0.25, 0.02
-    ve, vn = speed * math.cos(heading), speed * math.sin(heading)
-    we, wn = wind * math.cos(wind_dir), wind * math.sin(wind_dir)
-    wspeed = wind + extra
-    a_p0 = 0.0 if over_max_speed else a_tilt
-    arrest = climb_arrest_phase(v_up, 3.0)
-    n0x, n0y = math.cos(theta0), math.sin(theta0)
-    nx, ny, _ = _in_cone(theta0, rho, frac)
-    w_n = we * nx + wn * ny + extra
-    push = (k1 + k2 * wspeed) * w_n if w_n > 0.0 else 0.0
-    room = multirotor_room_m(ve * nx + vn * ny, speed, t_r, a_p0 + push, a_brake - push, arrest)
-    bound = multirotor_room_cone_bound_m(
-        ve * n0x + vn * n0y, we * n0x + wn * n0y + extra, rho, speed, wspeed, t_r, a_p0, k1, k2, a_brake, arrest
-    )
-    assert room <= bound
 
 
 # ------------------------------------------------------------------ multirotor fast forms
