@@ -231,6 +231,7 @@ class FixedWingRecovery:
         self.turned_rad = 0.0
         self._last_yaw = 0.0
         self.orbit_radius_m = 1.5 * turn_radius_m(env.cruise_speed_mps, env.max_bank_rad)
+        self._throttle = airspeed_to_stick(env.cruise_speed_mps, env)  # the override flies at cruise
 
     @property
     def lookahead_m(self) -> float:
@@ -267,7 +268,7 @@ class FixedWingRecovery:
     def sticks(self, s: VehicleState, h: float, t_s: float, dt_s: float) -> StickCommand:
         env = self.env
         pitch = climb_rate_to_stick(altitude_to_climb_rate(self.goal_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S), env)
-        throttle = airspeed_to_stick(env.cruise_speed_mps, env)
+        throttle = self._throttle
         target = self.route.lookahead_point(s.east_m, s.north_m, self.lookahead_m)
         if self.turning:
             self.turned_rad += abs(wrap_pi(s.yaw_rad - self._last_yaw))

@@ -437,8 +437,7 @@ class RecoveryPath:
             cum.append(cum[-1] + math.hypot(bx - ax, by - ay))
         self.cum_m = cum
         self.length_m = cum[-1]
-        self._pts_rows = np.array(self.points, dtype=np.float64).reshape(-1, 2)  # the compiled follower's arrays
-        self._cum_rows = np.array(cum, dtype=np.float64)
+        self._rows: tuple[np.ndarray, np.ndarray] | None = None  # the compiled follower's arrays, when it first asks
         self.goal_en = (float(goal_en[0]), float(goal_en[1]))
         self.reached_goal = reached_goal
         self.first_leg_floor_m = first_leg_floor_m
@@ -446,6 +445,13 @@ class RecoveryPath:
 
     def __repr__(self) -> str:
         return f"RecoveryPath({len(self.points)} points, {self.length_m:.1f} m, reached_goal={self.reached_goal})"
+
+    def _arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """The points and their arc lengths as the compiled follower's arrays (built on first use: a route planned
+        only for its first point, a fixed-wing's roll-out target, never needs them)."""
+        if self._rows is None:
+            self._rows = (np.array(self.points, dtype=np.float64).reshape(-1, 2), np.array(self.cum_m, dtype=np.float64))
+        return self._rows
 
     def point_at(self, s_m: float) -> Point:
         """The path point at arc length ``s_m`` (clamped to the path)."""
@@ -480,7 +486,7 @@ class RecoveryPath:
         thr = self._exact_chord_threshold(e, n)
         if thr is not None and path_project is not None:
             planner = self.planner
-            return path_project(self._pts_rows, self._cum_rows, s0, e, n, thr, planner._edge_rows, planner._circle_rows)
+            return path_project(*self._arrays(), s0, e, n, thr, planner._edge_rows, planner._circle_rows)
         cands = []
         for i in range(len(pts) - 1):
             if cum[i + 1] < s0:
@@ -528,7 +534,7 @@ class RecoveryPath:
         if thr is not None and path_lookahead is not None:
             planner = self.planner
             s, ce, cn = path_lookahead(
-                self._pts_rows, self._cum_rows, self.progress_m, e, n, lookahead_m, thr, planner._edge_rows, planner._circle_rows
+                *self._arrays(), self.progress_m, e, n, lookahead_m, thr, planner._edge_rows, planner._circle_rows
             )
             if s > self.progress_m:
                 self.progress_m = s

@@ -144,6 +144,10 @@ class GeofenceUnit:
         self._latency_s = 0.0
         self._planners: dict[float, RecoveryPlanner] = {}
         self._rollout_cache: dict[tuple[int, int], tuple[float, float]] = {}
+        self._agl = fence.altitude_reference is AltitudeReference.AGL
+        self._clearances: tuple[float, ...] = ()
+        self._clearances_for: tuple = ()  # (sigma_h, envelope) the clearances were computed for
+        self._scanned = fence.grid() is None  # the compiled monitoring step takes a fence without an index
         self._build_laws(envelope)
         self._mode_since_s = 0.0
         self._strong_wind_since_s: float | None = None
@@ -170,6 +174,7 @@ class GeofenceUnit:
     def _build_laws(self, env: Envelope) -> None:
         """The guidance laws and dead reckoning for envelope ``env``."""
         self.env = env
+        self._multirotor = env.is_multirotor
         config = self.config
         self.recovery: SeedPDRecovery | MultirotorVelocityRecovery | FixedWingRecovery
         if env.is_multirotor:
@@ -197,7 +202,8 @@ class GeofenceUnit:
         self._mode_since_s = t_s
 
     def height(self, s: VehicleState) -> float:
-        return s.agl_m if self.fence.altitude_reference is AltitudeReference.AGL else s.alt_m
+        """The height of ``s`` in the fence's altitude reference (m)."""
+        return s.agl_m if self._agl else s.alt_m
 
     @property
     def wind_allowance_mps(self) -> float:
@@ -262,17 +268,18 @@ class GeofenceUnit:
         needed: the reference's order). After a step the shortcut answered, the next asks it alone first
         (far from everything it usually holds again, and alone it is the cheaper call): the same answers.
         """
-        fence = self.fence
-        env = self.env
-        if not self._skipped_last and _jit.ACTIVE and fence.grid() is None:
-            target = None if env.is_multirotor else self._rollout_cache.get(_rollout_cell(s.east_m, s.north_m))
-            if env.is_multirotor or target is not None:
+        if not self._skipped_last and self._scanned and _jit.ACTIVE:
+            multirotor = self._multirotor
+            target = None if multirotor else self._rollout_cache.get(_rollout_cell(s.east_m, s.north_m))
+            if multirotor or target is not None:
+                env = self.env
                 k = self.config.uncertainty_k_sigma
                 extra = self.config.extra_margin_m
                 latency = self._latency_s
+                wind = self.wind_enu
                 found = monitor_margins(
-                    fence, s.east_m, s.north_m, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, s.ground_speed_mps, env,
-                    self.wind_enu[0], self.wind_enu[1],
+                    self.fence, s.east_m, s.north_m, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, s.ground_speed_mps, env,
+                    wind[0], wind[1],
                     h_uncertainty_m=k * sigma_h_m + extra, v_uncertainty_m=k * sigma_v_m + extra, latency_s=latency,
                     skip_time_s=2.0 * env.reaction_time_s + latency, bank_rad=s.roll_rad,
                     wind_extra_mps=self.wind_allowance_mps, rollout_target_en=target,
@@ -398,12 +405,16 @@ class GeofenceUnit:
         the estimate, and half of the halved clearance is tried before giving up.
         """
         env = self.env
-        hu = self.config.uncertainty_k_sigma * self._sigma_h_m + self.config.extra_margin_m
-        if env.is_multirotor:
-            c = ROUTE_CLEARANCE_MULTIROTOR_M + hu
-        else:
-            c = envelope_turn_radius_m(env) + hu
-        return tuple(float(math.ceil(x)) for x in (c, 0.5 * c, 0.25 * c))
+        key = (self._sigma_h_m, env)
+        if key != self._clearances_for:
+            hu = self.config.uncertainty_k_sigma * self._sigma_h_m + self.config.extra_margin_m
+            if env.is_multirotor:
+                c = ROUTE_CLEARANCE_MULTIROTOR_M + hu
+            else:
+                c = envelope_turn_radius_m(env) + hu
+            self._clearances = tuple(float(math.ceil(x)) for x in (c, 0.5 * c, 0.25 * c))
+            self._clearances_for = key
+        return self._clearances
 
     def _route(self, s: VehicleState, goal_en: tuple[float, float]) -> Route:
         """A route from the estimate to ``goal_en`` inside the allowed area (:mod:`geofence.recovery_path`).
