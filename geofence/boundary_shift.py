@@ -85,9 +85,9 @@ from .margins_kernel import monitor_margins as monitor_margins_kernel
 from .rooms import (
     G_MPS2,
     climb_arrest_phase,
-    climb_back_drift_m,
     fixed_wing_reaction_terms,
     fixed_wing_room_bound_m,
+    gap_circle_turn_rad,
     multirotor_room_bound_m,
     multirotor_room_m,
     reaction_arc_gap_m,
@@ -134,11 +134,12 @@ class ShiftResult(NamedTuple):
     Lateral: ``lateral_margin_m`` is the plain margin at the position; the
     threatened constraint is the edge (or circle) with the smallest
     ``distance - room``: its ``feature`` / ``feature_index`` / ``edge`` (-1 for
-    a circle), breach-pointing normal ``normal_e/normal_n``, unsigned distance
-    ``edge_distance_m``, required ``lateral_shift_m`` (room incl. reaction and
+    a circle), the unit direction it is scored along ``normal_e/normal_n`` (its breach-pointing normal, or
+    towards its nearest point where that is an edge's end: :func:`~geofence.lateral_kernel.edge_scored`),
+    the distance it is scored at ``edge_distance_m``, required ``lateral_shift_m`` (room incl. reaction and
     uncertainty) and ``lateral_activation_m = edge_distance_m -
     lateral_shift_m`` (capped at ``lateral_margin_m`` once breached).
-    ``closing_speed_mps`` is the ground speed along that normal,
+    ``closing_speed_mps`` is the ground speed along that direction,
     ``time_to_breach_s = edge_distance_m / closing_speed`` (``inf`` when not
     closing, 0 when breached). ``turn_sign``: the turn direction scored best
     (+1 left, -1 right; 0 for a multirotor) and ``turn_angle_rad`` the turn
@@ -297,10 +298,10 @@ def activation_margins(
     floor *or* the vehicle stays inside the gap it is over, so the floor
     activation is the larger of the vertical arrest margin (gaps ignored) and
     the lateral activation margin against the gap's edges. A fixed-wing cannot
-    hover: it stays inside the gap by circling, and the circle drifts with the
-    wind while it climbs back above the floor, so its gap room also holds that
-    drift from the deepest point its descent reaches
-    (:func:`geofence.rooms.climb_back_drift_m`).
+    hover: the override keeps it circling at the bank limit, the way it turns,
+    until it has climbed back above the floor from the deepest point its
+    descent reaches, and the circle drifts with the wind: its gap room is that
+    whole circling turn (:func:`geofence.rooms.gap_circle_turn_rad`).
     Plain-Python scalar code for the per-step loop.
     """
     if compiled is None:
@@ -371,11 +372,12 @@ def activation_margins(
             out.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap))
         return out
 
-    def worst_edge(dists: list, min_d: float):
-        """(activation, turn sign, (room, feature, index, edge, nx, ny, d, v_n), delta) of the binding edge."""
+    def worst_edge(dists: list, min_d: float, turns: tuple = directions):
+        """(activation, turn sign, (room, feature, index, edge, nx, ny, d, v_n), delta) of the binding edge, the
+        best of ``turns`` (``(sign, angle)`` each)."""
         near = terms_of(dists, min_d)
         best = None
-        for s, delta in directions:
+        for s, delta in turns:
             if not fixed_wing:
                 worst, wk = _binding_edge_no_turn(near)
             elif len(near) < prune_from_edges:
@@ -446,10 +448,11 @@ def activation_margins(
             gi, gd = fence.best_gap(e, n)
             if gd > 0.0:  # over a gap: staying inside it (laterally) also keeps the floor
                 gdists, gmin = _edge_distances(fence.gap_edges(gi), e, n)
-                g_act = worst_edge(gdists, gmin)[0]
-                if fixed_wing:  # it circles while it climbs back from the deepest point its descent reaches
+                turns = directions
+                if fixed_wing:  # it circles, the way it turns, until it has climbed back from its deepest point
                     deepest = h - vertical_arrest_distance_m(-vu, t_r, envelope.vertical_accel_mps2) - v_uncertainty_m
-                    g_act -= climb_back_drift_m(fence.floor_m - deepest, envelope.max_climb_rate_mps, wspeed)
+                    turns = ((s_best, gap_circle_turn_rad(fence.floor_m - deepest, envelope.max_climb_rate_mps, inv_omega)),)
+                g_act = worst_edge(gdists, gmin, turns)[0]
                 if g_act > gd:
                     g_act = gd
                 if g_act > f_act:

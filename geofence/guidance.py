@@ -21,7 +21,11 @@ sticks every step. They see only the estimate and the :class:`Envelope`.
   (wind-corrected) -- but never turn further than the scored turn plus a
   tolerance (the manoeuvre that was checked is the one that is flown) -- then
   follow the route and orbit its end; arrest climb/descent toward the goal
-  height; cruise airspeed.
+  height; cruise airspeed. With ``hold_below_m`` set (below the floor inside a
+  gap) it keeps circling at the bank limit the way it turned, climbing at its
+  limit, until above that height: the circle the margins scored
+  (:func:`geofence.rooms.gap_circle_turn_rad`); a straight leg to the route
+  would leave the gap below the floor.
 * :class:`LandingGuidance`: go to a landing point (a floor gap) and descend;
   a multirotor descends only while nearly stopped over it
   (``TOUCHDOWN_MAX_GROUND_SPEED_MPS``), a fixed-wing spirals down over it.
@@ -230,6 +234,7 @@ class FixedWingRecovery:
         self.turn_limit_rad = math.inf
         self.turned_rad = 0.0
         self._last_yaw = 0.0
+        self.hold_below_m: float | None = None
         self.orbit_radius_m = 1.5 * turn_radius_m(env.cruise_speed_mps, env.max_bank_rad)
         self._throttle = airspeed_to_stick(env.cruise_speed_mps, env)  # the override flies at cruise
 
@@ -256,6 +261,7 @@ class FixedWingRecovery:
         self.turn_limit_rad = turn_limit_rad + ROLL_OUT_TOLERANCE_RAD
         self.turned_rad = 0.0
         self._last_yaw = s.yaw_rad
+        self.hold_below_m = hold_below_m
 
     def _heading_to(self, s: VehicleState, target: tuple[float, float]) -> float:
         """Air heading whose ground track points at ``target`` (wind triangle at the current airspeed)."""
@@ -267,8 +273,13 @@ class FixedWingRecovery:
 
     def sticks(self, s: VehicleState, h: float, t_s: float, dt_s: float) -> StickCommand:
         env = self.env
-        pitch = climb_rate_to_stick(altitude_to_climb_rate(self.goal_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S), env)
         throttle = self._throttle
+        if self.hold_below_m is not None:
+            if h < self.hold_below_m:  # circling inside the gap, climbing at the limit
+                self._last_yaw = s.yaw_rad
+                return StickCommand(roll=-float(self.turn_sign), pitch=1.0, yaw=0.0, throttle=throttle)
+            self.hold_below_m = None
+        pitch = climb_rate_to_stick(altitude_to_climb_rate(self.goal_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S), env)
         target = self.route.lookahead_point(s.east_m, s.north_m, self.lookahead_m)
         if self.turning:
             self.turned_rad += abs(wrap_pi(s.yaw_rad - self._last_yaw))

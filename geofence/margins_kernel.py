@@ -36,6 +36,7 @@ from geofence.rooms import (
     climb_back_drift_m,
     fixed_wing_reaction_terms,
     fixed_wing_room_bound_m,
+    gap_circle_turn_rad,
     multirotor_room_bound_m,
     rollout_turns,
     room_upper_bounds_terms,
@@ -245,14 +246,16 @@ def _margins(
                 edge_offsets = _vector(L, GAP_EDGE_OFFSETS)
                 G = _table(F, L, GAP_EDGES, 7)[edge_offsets[gi] : edge_offsets[gi + 1]]
                 cnt = G.shape[0]
+                g1, gd1, g2, gd2 = s1, delta1, s2, delta2
+                if fixed_wing:  # it circles, the way it turns, until it has climbed back from its deepest point
+                    deepest = h - vertical_arrest_distance_m(-vu, t_r, V[VERTICAL_ACCEL]) - v_unc
+                    g1 = g2 = s_best
+                    gd1 = gd2 = gap_circle_turn_rad(floor - deepest, V[MAX_CLIMB], inv_omega)
                 g_act = lateral_binding(
                     G, np.arange(cnt), np.zeros(cnt), False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n,
-                    extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2,
-                    delta2, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, 0,
+                    extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, g1, gd1, g2,
+                    gd2, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, 0,
                 )[0]  # fmt: skip
-                if fixed_wing:  # it circles while it climbs back from the deepest point its descent reaches
-                    deepest = h - vertical_arrest_distance_m(-vu, t_r, V[VERTICAL_ACCEL]) - v_unc
-                    g_act -= climb_back_drift_m(floor - deepest, V[MAX_CLIMB], wspeed)
                 if g_act > gd:
                     g_act = gd
                 if g_act > f_act:

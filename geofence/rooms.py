@@ -103,6 +103,7 @@ __all__ = [
     "course_reversal_time_s",
     "envelope_turn_radius_m",
     "fixed_wing_room_bound_m",
+    "gap_circle_turn_rad",
     "fixed_wing_room_from_velocity_m",
     "fixed_wing_reaction_terms",
     "fixed_wing_room_m",
@@ -503,6 +504,20 @@ def climb_back_drift_m(depth_below_floor_m: float, climb_rate_mps: float, wind_s
     if depth_below_floor_m <= 0.0:
         return 0.0
     return wind_speed_mps * depth_below_floor_m / max(climb_rate_mps, 0.1)
+
+
+@jitable
+def gap_circle_turn_rad(depth_below_floor_m: float, climb_rate_mps: float, inv_omega: float) -> float:
+    """The turn (rad) a fixed-wing below the floor inside a floor gap flies while it climbs back above the floor.
+
+    It cannot hover: the override keeps it circling at the bank limit, the way it turned, for
+    ``depth / climb rate`` seconds (``inv_omega``: the turn's ``1/omega``, s), and the circle drifts with the
+    wind meanwhile. Scored as one turn of this angle (:func:`trochoid_excursion_m`, the drift included),
+    every point of the circle, not only the turn to its roll-out heading. 0 when it is not below the floor.
+    """
+    if depth_below_floor_m <= 0.0:
+        return 0.0
+    return depth_below_floor_m / max(climb_rate_mps, 0.1) / inv_omega
 
 
 # --------------------------------------------------------------------------- envelope-level rooms

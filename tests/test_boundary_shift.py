@@ -19,7 +19,9 @@ from geofence.rooms import (
     course_reversal_time_s,
     fixed_wing_room_from_velocity_m,
     fixed_wing_room_m,
+    gap_circle_turn_rad,
     multicopter_stopping_distance_m,
+    turn_constants,
     turn_excursion_m,
     turn_radius_m,
     turn_rate_radps,
@@ -315,22 +317,72 @@ def test_shifted_fence_vanishes_vertically():
         check_shift_feasible(thin, MC, 0.0)
 
 
-def test_a_fixed_wing_deep_in_a_gap_needs_room_for_the_drift_of_its_climb_back():
-    """A fixed-wing circles inside a gap while it climbs back above the floor; the circle drifts with the wind.
-
-    Floor 40 m, a 400 m gap, the vehicle in its middle descending at 2 m/s. 10 m deeper means 10 m more
-    to climb back at 3 m/s: in 8 m/s wind 8 x 10 / 3 m more drift, so a floor activation that much
-    smaller; in calm air, or for a multirotor (it holds its position while it climbs), no change.
-    """
+def _gap_fence(gap_half_m: float, floor_m: float = 40.0):
     fr = LocalFrame(47.4, 8.5, 0.0)
-    gap = [list(fr.to_geodetic(x, y, 0.0)[:2]) for x, y in ((-200, -200), (200, -200), (200, 200), (-200, 200))]
-    lf = square_fence(1500.0, ceiling_m=600.0, floor_m=40.0, floor_gaps=[gap])
+    h = gap_half_m
+    gap = [list(fr.to_geodetic(x, y, 0.0)[:2]) for x, y in ((-h, -h), (h, -h), (h, h), (-h, h))]
+    return square_fence(1500.0, ceiling_m=600.0, floor_m=floor_m, floor_gaps=[gap])
+
+
+def _circle_leaves_gap(lf, e, n, h, ve, vn, vu, we, wn, r, steps: int = 2000) -> float:
+    """The deepest point outside the gap (m, > 0: out) of the circle the margins score for a fixed-wing below the
+    floor in it: its reaction (straight, not banked), then the turn ``r.turn_sign`` at the bank limit for as long
+    as the climb back from its deepest point takes (:func:`gap_circle_turn_rad`), in the wind ``(we, wn)``."""
+    env = FW
+    vae, van = ve - we, vn - wn
+    psi = math.atan2(van, vae)
+    v = max(math.hypot(vae, van), env.cruise_speed_mps, env.min_speed_mps)
+    _, inv_omega = turn_constants(v, env.max_bank_rad)
+    deepest = h - vertical_arrest_distance_m(-vu, env.reaction_time_s, env.vertical_accel_mps2)
+    angle = gap_circle_turn_rad(lf.floor_m - deepest, env.max_climb_rate_mps, inv_omega)
+    gap = lf.floor_gaps[0]
+    x, y, worst = e, n, -math.inf
+    for duration, rate in ((env.reaction_time_s, 0.0), (angle * inv_omega, r.turn_sign / inv_omega)):
+        dt = duration / steps
+        for _ in range(steps):
+            x += (v * math.cos(psi + 0.5 * rate * dt) + we) * dt
+            y += (v * math.sin(psi + 0.5 * rate * dt) + wn) * dt
+            psi += rate * dt
+            worst = max(worst, -gap.signed_distance(x, y))  # + outside
+    return worst
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.floats(60.0, 300.0), st.floats(-0.8, 0.8), st.floats(-0.8, 0.8), st.floats(5.0, 38.0), st.floats(-math.pi, math.pi),
+    st.floats(0.0, 12.0), st.floats(-math.pi, math.pi), st.floats(0.0, 3.0),
+)  # fmt: skip
+def test_a_fixed_wing_below_the_floor_in_a_gap_is_scored_on_its_whole_climb_back_circle(half, fx, fy, h, course, w, wd, sink):
+    """Below the floor inside a gap, a fixed-wing cannot hover: the override keeps it circling at the bank limit
+    until it has climbed back above the floor, and the circle drifts with the wind. That whole circle, flown
+    numerically, leaves the gap only if the floor activation is negative (where its descent cannot be arrested
+    above the floor). It was scored as the turn to its roll-out heading plus a drift: a J3Cub that
+    flew that turn, then straight for the route, left a 300 m gap 1.1 m below the floor (a campaign attack)."""
+    lf = _gap_fence(half)
+    e, n = fx * half, fy * half
+    speed = FW.cruise_speed_mps
+    we, wn = w * math.cos(wd), w * math.sin(wd)
+    ve, vn = speed * math.cos(course) + we, speed * math.sin(course) + wn
+    r = activation_margins(lf, e, n, h, ve, vn, -sink, FW, we, wn)
+    arrest_ok = h - lf.floor_m - vertical_arrest_distance_m(sink, FW.reaction_time_s, FW.vertical_accel_mps2) >= 0.0
+    if r.vertical_activation_m >= 0.0 and not arrest_ok:
+        assert _circle_leaves_gap(lf, e, n, h, ve, vn, -sink, we, wn, r) <= 1e-6, (half, e, n, h, r)
+
+
+def test_the_climb_back_circle_is_longer_the_deeper_it_starts():
+    """10 m deeper is 10 m more to climb: the circle turns farther, so the floor activation is no larger; a
+    multirotor holds its position while it climbs, so its activation does not change."""
+    lf = _gap_fence(200.0)
 
     def floor_act(env, h, wind_e):
         vn = env.cruise_speed_mps if env is FW else 0.0
         return activation_margins(lf, 0.0, 0.0, h, 0.0, vn, -2.0, env, wind_e, 0.0).vertical_activation_m
 
-    assert floor_act(FW, 30.0, 8.0) - floor_act(FW, 20.0, 8.0) == pytest.approx(8.0 * 10.0 / FW.max_climb_rate_mps)
-    assert floor_act(FW, 30.0, 0.0) == pytest.approx(floor_act(FW, 20.0, 0.0))
+    for wind in (0.0, 8.0):
+        assert floor_act(FW, 20.0, wind) <= floor_act(FW, 30.0, wind)
+    assert floor_act(FW, 20.0, 8.0) < floor_act(FW, 30.0, 8.0) - 8.0 * 10.0 / FW.max_climb_rate_mps + 2.0 * turn_radius_m(
+        FW.cruise_speed_mps, FW.max_bank_rad
+    )
     assert floor_act(MC, 30.0, 8.0) == pytest.approx(floor_act(MC, 20.0, 8.0))
+    assert gap_circle_turn_rad(0.0, 3.0, 1.0) == 0.0 and gap_circle_turn_rad(-5.0, 3.0, 1.0) == 0.0
     assert climb_back_drift_m(0.0, 3.0, 8.0) == 0.0 and climb_back_drift_m(-5.0, 3.0, 8.0) == 0.0
