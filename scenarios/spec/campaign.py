@@ -970,6 +970,11 @@ def family_floor_gaps(rng: np.random.Generator, ctx: CaseContext):
         options += [Attack.GAP_DESCENT_DASH, Attack.GAP_TAKEOFF]
         weights += [2, 2]
     attack = _pick(rng, options, weights)
+    if attack is Attack.DESCEND and not ctx.multirotor and rng.random() < 0.5:
+        # a fixed-wing below the floor inside a gap, then a dash at its edge: it cannot hover, so the override
+        # must circle inside the gap until it has climbed back (a draw made only for a fixed-wing's descent: every
+        # other case of a seed is unchanged)
+        attack = Attack.GAP_DESCENT_DASH
     if attack is Attack.GAP_TAKEOFF:
         gap_half = max(rng.uniform(0.5, 1.0) * ctx.room_m, 10.0)  # small: about one stop
     elif attack is Attack.GAP_DESCENT_DASH:
