@@ -26,7 +26,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_fence_grid import FRAME, FW, MC, latlon, random_fence
-from test_line_scored_edges import model_path_leaves
+from test_line_scored_edges import model_path_leaves, random_flight
 
 from geofence.boundary_shift import activation_margins
 from geofence.dynamics import envelope_at_density, isa_density_ratio
@@ -80,11 +80,7 @@ def leaving_turns(seed: int, kind: str) -> int:
         e, n = rng.uniform(v[:, 0].min(), v[:, 0].max()), rng.uniform(v[:, 1].min(), v[:, 1].max())
         if local.lateral_margin_m(e, n) <= 0.0:
             continue
-        speed, course = rng.uniform(env.cruise_speed_mps, env.max_speed_mps), rng.uniform(-math.pi, math.pi)
-        w, wd = rng.uniform(0.2, 0.7) * env.cruise_speed_mps, rng.uniform(-math.pi, math.pi)
-        we, wn = w * math.cos(wd), w * math.sin(wd)
-        ve, vn = speed * math.cos(course) + we, speed * math.sin(course) + wn
-        bank, latency = rng.uniform(-0.5, 0.5), rng.uniform(0.0, 0.3)
+        ve, vn, we, wn, bank, latency = random_flight(rng, env, 0.7)
         r = activation_margins(local, e, n, 30.0, ve, vn, 0.0, env, we, wn, latency_s=latency, bank_rad=bank)
         out = model_path_leaves(local, e, n, ve, vn, we, wn, bank, latency, r, steps=600, env=env)
         if out > 1e-3:  # the scored manoeuvre leaves: the margin must say so

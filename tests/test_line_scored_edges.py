@@ -68,6 +68,15 @@ def model_path_leaves(local, e, n, ve, vn, we, wn, bank, latency, r, steps: int 
     return deepest
 
 
+def random_flight(rng: random.Random, env, max_wind_fraction: float) -> tuple[float, ...]:
+    """``(ve, vn, wind_e, wind_n, bank, latency)``: a fixed-wing between cruise and max airspeed on any course, in a
+    wind of 0.2 to ``max_wind_fraction`` of its cruise speed from anywhere, banked up to 0.5 rad, 0 to 0.3 s late."""
+    speed, course = rng.uniform(env.cruise_speed_mps, env.max_speed_mps), rng.uniform(-math.pi, math.pi)
+    w, wd = rng.uniform(0.2, max_wind_fraction) * env.cruise_speed_mps, rng.uniform(-math.pi, math.pi)
+    we, wn = w * math.cos(wd), w * math.sin(wd)
+    return speed * math.cos(course) + we, speed * math.sin(course) + wn, we, wn, rng.uniform(-0.5, 0.5), rng.uniform(0.0, 0.3)
+
+
 def leaving_turns(seed: int, n_vertices: int, aspect: float) -> int:
     """Checks the property below on one random convex keep-in and 12 states; returns how many of the scored
     manoeuvres left the fence."""
@@ -83,11 +92,7 @@ def leaving_turns(seed: int, n_vertices: int, aspect: float) -> int:
         e, n = math.cos(turn) * x - math.sin(turn) * y, math.sin(turn) * x + math.cos(turn) * y
         if local.lateral_margin_m(e, n) <= 0.0:
             continue
-        speed, course = rng.uniform(FW.cruise_speed_mps, FW.max_speed_mps), rng.uniform(-math.pi, math.pi)
-        w, wd = rng.uniform(0.2, 0.6) * FW.cruise_speed_mps, rng.uniform(-math.pi, math.pi)
-        we, wn = w * math.cos(wd), w * math.sin(wd)
-        ve, vn = speed * math.cos(course) + we, speed * math.sin(course) + wn
-        bank, latency = rng.uniform(-0.5, 0.5), rng.uniform(0.0, 0.3)
+        ve, vn, we, wn, bank, latency = random_flight(rng, FW, 0.6)
         kw = dict(latency_s=latency, bank_rad=bank)
         r = activation_margins(local, e, n, 30.0, ve, vn, 0.0, FW, we, wn, **kw)
         assert same_bits(r, activation_margins(local, e, n, 30.0, ve, vn, 0.0, FW, we, wn, **kw, compiled=False))
