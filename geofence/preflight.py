@@ -23,7 +23,11 @@ What "on paper" means (the autopilot's flight, idealised):
   (a trochoid over the ground; the outside of the turn, where it sweeps toward
   the fence); sampled every 10 deg of heading;
 * **fixed-wing loiters**: the orbit (clockwise, as the autopilot flies it) at
-  ``max(radius, 1.5 R)`` around the loiter point, sampled every 10 deg;
+  ``max(radius, 1.5 R)`` around the loiter point, sampled every 10 deg; the
+  last waypoint is one too: after its mission a fixed-wing orbits it (as
+  ArduPlane and PX4 loiter at the last waypoint). Unchecked, a Tern's orbit
+  after an L-fence mission took it within the activation margin of a wall
+  (campaign seed 1122026, ``l_fence-0163``: overridden though it passed);
 * a multirotor brakes to a stop at each waypoint; it is checked at full
   planned speed right up to the waypoint (conservative).
 
@@ -337,6 +341,6 @@ def check_route(
             score(turns, RoutePart.TURN, i + 1, b.label or str(i + 1))
     if not env.is_multirotor:
         for i, wp in enumerate(wps):
-            if wp.loiter_radius_m > 0.0:
+            if wp.loiter_radius_m > 0.0 or i == len(wps) - 1:  # the last: the orbit after the mission
                 score([(w, _loiter_samples(env, wp, speed_mps, w)) for w in winds], RoutePart.LOITER, i, wp.label or str(i))
     return findings

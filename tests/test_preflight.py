@@ -73,6 +73,21 @@ def test_fixed_wing_turns_and_loiters_are_checked():
     assert check_route(f, FW, square(250.0, 80.0), 16.0, wind_en=(0.0, 5.0)) == []
 
 
+def test_a_fixed_wing_is_checked_on_its_orbit_after_the_mission():
+    """After its last waypoint a fixed-wing orbits it (``max(radius, 1.5 R)``). A mission that ends 1.5 R from a wall
+    passes its legs, but the orbit meets the activation boundary: a loiter finding at the last waypoint. A
+    multirotor holds its last point instead: no finding there. (Campaign seed 1122026, ``l_fence-0163``: a Tern
+    overridden after an L-fence mission that had passed the check.)"""
+    f = fence(half=600.0, ceiling=150.0)
+    r = 16.0**2 / (9.80665 * math.tan(math.radians(40)))
+    end = 600.0 - 1.6 * r
+    wps = [PlannedWaypoint(-300.0, 0.0, 80.0), PlannedWaypoint(0.0, 0.0, 80.0), PlannedWaypoint(end, 0.0, 80.0, "end")]
+    out = check_route(f, FW, wps, 16.0)
+    assert [(x.part, x.index) for x in out] == [(RoutePart.LOITER, 2)] and "keep_in" in out[0].reason
+    assert check_route(f, FW, wps[:2], 16.0) == []  # ending in the middle: its orbit fits
+    assert not [x for x in check_route(f, MC, wps, 5.3) if x.part is RoutePart.LOITER]
+
+
 def test_an_expected_wind_beyond_authority_is_the_one_finding():
     """Mean 8 m/s + one sigma 2.8 m/s >= 90 % of the F450RD's 10.3 m/s: the unit would land at once."""
     route = square(150.0, 30.0)
