@@ -158,6 +158,7 @@ class GeofenceUnit:
         self.estimate: VehicleState | None = None
         """The state the unit acted on last (its estimate, or its dead reckoning)."""
         self._override_period_start_s = 0.0
+        self._climb_back_to_m: float | None = None  # the override's climb-back height, below the floor in a gap
         lo = (
             fence.floor_m
             if fence.floor_m is not None
@@ -505,6 +506,7 @@ class GeofenceUnit:
         hold = floor + VERTICAL_CLEARANCE_M if floor is not None and self._below_floor_in_gap(s, h) else None
         goal_h = self._goal_height(max(h, hold) if hold is not None else h)
         self.recovery.start(s, route, goal_h, h, t_s, r.turn_sign, r.turn_angle_rad, hold)
+        self._climb_back_to_m = hold
         self._override_period_start_s = t_s
         self._switch(t_s, Mode.OVERRIDE, reason)
 
@@ -636,6 +638,13 @@ class GeofenceUnit:
         return self.recovery.sticks(est, h, t_s, dt_s)
 
     def _handback_ok(self, s: VehicleState, r: ShiftResult, act: float) -> bool:
+        if self._climb_back_to_m is not None:
+            # below the floor in a gap the override climbs back first, and hands back only above it: its margins
+            # there may be wide at one heading and not at the next (a J3Cub circling 14 m below the floor was
+            # handed back, the pilot's dash re-activated it a step later with the other turn, and it left the gap)
+            if self.height(s) < self._climb_back_to_m:
+                return False
+            self._climb_back_to_m = None
         re, rn = self.fence.recovery_en
         at_point = math.hypot(re - s.east_m, rn - s.north_m) <= self.config.recovery_radius_m
         # each axis against its own hysteresis: the vertical goal height leaves only the vertical one
