@@ -307,3 +307,30 @@ def test_a_fixed_wing_turning_in_strong_wind_inside_a_circle_stays_in():
     assert res.fence is not None and res.fence.line_scored_edges() == 309
     assert res.summary["activations"] >= 1
     assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
+
+
+def test_a_fixed_wing_below_the_floor_in_a_gap_circles_until_it_has_climbed_back():
+    """A J3Cub 12 m below the floor inside a floor gap dashes for its edge (a campaign attack). The override turned
+    to its route's roll-out heading and then flew straight for the route, still below the floor: out of the gap
+    1.1 m below it. It now circles at the bank limit, climbing, until above the floor, then follows its route."""
+    res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_gap_dash_0086_circle_until_climbed.yaml"))
+    c = res.recorder.column
+    assert res.fence is not None and res.fence.floor_m is not None
+    below = (c("geofence_mode") == 1) & (c("agl_m") < res.fence.floor_m)
+    assert below.any()  # the override acted below the floor
+    assert np.all(np.abs(c("cmd_roll")[below]) == 1.0)  # ... circling at the bank limit all the while
+    assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
+
+
+def test_an_override_below_the_floor_hands_back_only_above_it():
+    """A J3Cub in 14 m/s of wind dashes for a gap's edge 13 m below the floor. The circling override handed back
+    while still below it (its margins were wide at that heading), the pilot's dash re-activated it a step later
+    with the other turn, and it left the gap 3 m below the floor. It hands back only above its climb-back height."""
+    res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_gap_dash_0215_no_handback_below_floor.yaml"))
+    assert res.fence is not None and res.fence.floor_m is not None
+    c = res.recorder.column
+    t, agl = c("time_s"), c("agl_m")
+    for tr in res.unit.transitions:
+        if tr.to_mode.name == "RECOVERED":
+            assert agl[np.searchsorted(t, tr.t_s)] >= res.fence.floor_m, tr
+    assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
