@@ -31,6 +31,7 @@ from test_line_scored_edges import model_path_leaves, random_flight
 from geofence.boundary_shift import activation_margins
 from geofence.dynamics import envelope_at_density, isa_density_ratio
 from geofence.fence import Fence, KeepOutCircle
+from geofence.lateral_kernel import edge_scored
 
 G = 9.80665
 
@@ -152,3 +153,18 @@ def test_heading_straight_at_a_corner_needs_the_room_of_a_wall(keep_out):
         )
     assert other.edge_distance_m == pytest.approx(d, abs=1e-6)
     assert at_corner.lateral_activation_m == pytest.approx(other.lateral_activation_m, abs=1e-6)
+
+
+def test_edge_scored_by_hand():
+    """The edge from (0, 0) to (10, 0), its breach-pointing normal (0, 1) (the point below it is inside)."""
+    edge = (10.0, 0.0, 1.0 / 100.0, 0.0, 1.0)  # (dx, dy, 1/len², nx, ny)
+    # the foot on the segment: the normal, the perpendicular distance
+    assert edge_scored(5.0 - 0.0, -3.0 - 0.0, *edge, False) == (3.0, 3.0, 0.0, 1.0)
+    # the foot off the segment, beyond its end (10, 0): the direction to that end, the distance to it
+    d, db, ux, uy = edge_scored(13.0, -4.0, *edge, False)
+    assert (d, db) == (5.0, 5.0) and (ux, uy) == pytest.approx((-0.6, 0.8))
+    # a convex keep-in's edge: the line distance along the normal, where it is positive
+    assert edge_scored(13.0, -4.0, *edge, True) == (5.0, 4.0, 0.0, 1.0)
+    # ... and beyond its line (outside that convex keep-in): the direction to the end again
+    d, db, ux, uy = edge_scored(13.0, 4.0, *edge, True)
+    assert (d, db) == (5.0, 5.0) and (ux, uy) == pytest.approx((-0.6, -0.8))
