@@ -77,7 +77,7 @@ from . import jit as _jit
 from .dynamics import drag_coefficients, wind_push_mps2
 from .fence import AltitudeReference, FenceError
 from .interface import Envelope, PlatformKind, VehicleState
-from .lateral_kernel import edge_scored, lateral_binding
+from .lateral_kernel import circle_scored, edge_scored, lateral_binding
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 from .margins_kernel import envelope_terms
 from .margins_kernel import margins as margins_kernel
@@ -234,7 +234,8 @@ def _binding_edge_pruned(
         drift = w_n * delta * inv_omega if w_n > 0.0 else 0.0
         ub = radius * (1.0 - s * math.sin(psi0)) + drift
         ub += 1e-6 * (1.0 + radius + drift)  # covers the excursion's round-off
-        bounded.append((d - base - (ub if ub > gap else gap), pos))
+        gap_ub = gap * (1.0 + 1e-9) + 1e-9  # and the gap's: (d - base) - gap can round above d - (base + gap)
+        bounded.append((d - base - (ub if ub > gap_ub else gap_ub), pos))
     bounded.sort()
     worst = math.inf
     wk = None
@@ -422,9 +423,7 @@ def activation_margins(
             lat_margin = fence.lateral_margin_m(e, n)
             dists, min_d = _edge_distances(fence.danger_edges(), e, n, fence.line_scored_edges())
             for i, (ce, cn, r) in enumerate(fence.keep_out_circles):
-                dist = math.hypot(ce - e, cn - n)
-                ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
-                d = dist - r
+                d, ux, uy = circle_scored(e, n, ce, cn, r)
                 dists.append((d, ux, uy, FEATURE_KEEP_OUT_CIRCLE, i, -1))
                 if d < min_d:
                     min_d = d

@@ -50,7 +50,7 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from . import jit as _jit
-from .lateral_kernel import edge_scored, element_table, nearest_distance
+from .lateral_kernel import circle_scored, edge_scored, element_table, nearest_distance
 from .polygon import BOUNDARY_TOL_M, PolygonIndex
 
 SMALL_FENCE_ELEMENTS: int = 256
@@ -233,7 +233,7 @@ class FenceGrid:
             if il2 >= 0.0:
                 d, db, nx, ny = edge_scored(e - a, n - b, c, dd, il2, nx, ny, i < self.line_edges)
             else:
-                d, nx, ny = _circle_distance(e, n, a, b, c)
+                d, nx, ny = circle_scored(e, n, a, b, c)
                 db = d
             found.append((i, (db, nx, ny, feat, idx, j)))
             if d < best:
@@ -246,11 +246,11 @@ class FenceGrid:
             for i, d in zip(ids.tolist(), ds.tolist()):
                 _, a, b, c, dd, il2, nx, ny, feat, idx, j = recs[i]
                 if il2 >= 0.0:
-                    d, d, nx, ny = edge_scored(e - a, n - b, c, dd, il2, nx, ny, i < self.line_edges)
+                    _, d, nx, ny = edge_scored(e - a, n - b, c, dd, il2, nx, ny, i < self.line_edges)
                 if d - reach >= best:
                     continue
                 if il2 < 0.0:
-                    _, nx, ny = _circle_distance(e, n, a, b, c)
+                    _, nx, ny = circle_scored(e, n, a, b, c)
                 found.append((i, (d, nx, ny, feat, idx, j)))
         found.sort()
         return [f[1] for f in found], best
@@ -314,13 +314,6 @@ class FenceGrid:
         if m < math.inf:
             return m if m < -BOUNDARY_TOL_M else None
         return best if best > BOUNDARY_TOL_M else None
-
-
-def _circle_distance(e: float, n: float, ce: float, cn: float, r: float) -> tuple[float, float, float]:
-    """``(d, ux, uy)`` of a circle from (e, n): ``hypot - radius`` and the unit direction to its centre."""
-    dist = math.hypot(ce - e, cn - n)
-    ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
-    return dist - r, ux, uy
 
 
 class _RowStrips:

@@ -33,7 +33,7 @@ from geofence.dynamics import wind_push_mps2
 from geofence.jit import COMPILED, jitable, numba
 from geofence.rooms import multirotor_room_m, reaction_arc_gap_m, reaction_arc_m, trochoid_excursion_m
 
-__all__ = ["edge_scored", "element_table", "hypot", "lateral_binding", "nearest_distance"]
+__all__ = ["circle_scored", "edge_scored", "element_table", "hypot", "lateral_binding", "nearest_distance"]
 
 _DBL_MIN = 2.2250738585072014e-308
 _SPLIT = 134217729.0  # 2**27 + 1, Veltkamp's splitter
@@ -255,16 +255,14 @@ def _walk(
     reach: float,
     delta_c: float,
     n_line: int,
-) -> tuple[int, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(count, nearest d, f_id, f_d, f_nx, f_ny, f_b)``: the first ``count`` rows of the ``f_*`` arrays hold
-    the candidates walked, their distances ``d`` and the unit directions they are scored along (the
+) -> tuple[int, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(count, nearest d, f_id, f_b, f_nx, f_ny)``: the first ``count`` rows of the ``f_*`` arrays hold the
+    candidates walked, the distances they are scored at and the unit directions they are scored along (the
     reference's arithmetic: an edge's :func:`edge_scored`, the first ``n_line`` being a convex keep-in's; a
-    circle's ``hypot - radius`` and the direction to its centre), in ``ids`` order; with ``walk``, until the
-    bound ``lbs[k] - delta_c - reach`` exceeds the nearest ``d`` found (:meth:`FenceGrid.near`'s stop rule).
-    ``f_b``: the distance each is scored at (:func:`edge_scored`'s)."""
+    circle's :func:`circle_scored`), in ``ids`` order; with ``walk``, until the bound ``lbs[k] - delta_c -
+    reach`` exceeds the nearest point-segment or circle distance found (:meth:`FenceGrid.near`'s stop rule)."""
     m = ids.shape[0]
     f_id = np.empty(m, np.int64)
-    f_d = np.empty(m)
     f_nx = np.empty(m)
     f_ny = np.empty(m)
     f_b = np.empty(m)
@@ -293,13 +291,12 @@ def _walk(
             d = dist - c
             f_b[cnt] = d
         f_id[cnt] = i
-        f_d[cnt] = d
         f_nx[cnt] = nx
         f_ny[cnt] = ny
         cnt += 1
         if d < best:
             best = d
-    return cnt, best, f_id, f_d, f_nx, f_ny, f_b
+    return cnt, best, f_id, f_b, f_nx, f_ny
 
 
 @jitable
@@ -340,6 +337,15 @@ def edge_scored(
         if d > 0.0:
             return d, d, -qx / d, -qy / d
     return d, d, nx, ny
+
+
+def circle_scored(e: float, n: float, ce: float, cn: float, r: float) -> tuple[float, float, float]:
+    """``(d, ux, uy)`` of a keep-out circle from (e, n): ``hypot - radius`` (negative inside) and the unit direction
+    to its centre, along which the margins score it; the Python reference's (``math.hypot``; the compiled walk
+    does the same with :func:`hypot`, CPython's algorithm)."""
+    dist = math.hypot(ce - e, cn - n)
+    ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
+    return dist - r, ux, uy
 
 
 def _nearest_distance(E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, delta_c: float, e: float, n: float) -> float:
@@ -400,7 +406,7 @@ def _lateral_binding(
     scored by :func:`edge_scored` (``d``, ``nx, ny``: its scored distance and direction; ``d_min`` stays the
     nearest point-segment distance).
     """
-    cnt, min_d, f_id, _, f_nx, f_ny, f_d = _walk(E, ids, lbs, walk, e, n, reach, delta_c, n_line)
+    cnt, min_d, f_id, f_d, f_nx, f_ny = _walk(E, ids, lbs, walk, e, n, reach, delta_c, n_line)
     # the elements that can bind, in element order
     keep = np.empty(cnt, np.int64)
     nk = 0
