@@ -84,6 +84,8 @@ class Route(Protocol):
 
     def lookahead_point(self, e: float, n: float, lookahead_m: float) -> tuple[float, float]: ...
 
+    def rollout_point(self, e: float, n: float, lookahead_m: float) -> tuple[float, float]: ...
+
     def remaining_m(self, e: float, n: float) -> float: ...
 
 
@@ -94,6 +96,9 @@ class StraightRoute:
         self.points = [(end_e, end_n)]
 
     def lookahead_point(self, e: float, n: float, lookahead_m: float) -> tuple[float, float]:
+        return self.points[-1]
+
+    def rollout_point(self, e: float, n: float, lookahead_m: float) -> tuple[float, float]:
         return self.points[-1]
 
     def remaining_m(self, e: float, n: float) -> float:
@@ -255,7 +260,7 @@ class FixedWingRecovery:
     ) -> None:
         self.route = route
         self.goal_h = goal_h
-        target = route.lookahead_point(s.east_m, s.north_m, self.lookahead_m)
+        target = route.rollout_point(s.east_m, s.north_m, self.lookahead_m)
         self.turn_sign = turn_sign if turn_sign else (1 if wrap_pi(self._heading_to(s, target) - s.yaw_rad) < 0 else -1)
         self.turning = True
         self.turn_limit_rad = turn_limit_rad + ROLL_OUT_TOLERANCE_RAD
@@ -280,21 +285,24 @@ class FixedWingRecovery:
                 return StickCommand(roll=-float(self.turn_sign), pitch=1.0, yaw=0.0, throttle=throttle)
             self.hold_below_m = None
         pitch = climb_rate_to_stick(altitude_to_climb_rate(self.goal_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S), env)
-        target = self.route.lookahead_point(s.east_m, s.north_m, self.lookahead_m)
+        route = self.route
         if self.turning:
             self.turned_rad += abs(wrap_pi(s.yaw_rad - self._last_yaw))
             self._last_yaw = s.yaw_rad
-            # roll out on the carrot's heading, or once the scored turn is used up (commit: no re-aiming past it)
+            # roll out heading for the route a turn ahead (the turn the margin scored), or once the scored turn
+            # is used up (commit: no re-aiming past it)
+            rollout = route.rollout_point(s.east_m, s.north_m, self.lookahead_m)
             if (
-                abs(wrap_pi(self._heading_to(s, target) - s.yaw_rad)) < ROLL_OUT_TOLERANCE_RAD
+                abs(wrap_pi(self._heading_to(s, rollout) - s.yaw_rad)) < ROLL_OUT_TOLERANCE_RAD
                 or self.turned_rad >= self.turn_limit_rad
             ):
                 self.turning = False
             else:
                 # turn_sign +1 = left (counter-clockwise) = negative roll stick
                 return StickCommand(roll=-float(self.turn_sign), pitch=pitch, yaw=0.0, throttle=throttle)
-        ge, gn = self.route.points[-1]
-        if self.route.remaining_m(s.east_m, s.north_m) > 1.2 * self.orbit_radius_m:
+        target = route.lookahead_point(s.east_m, s.north_m, self.lookahead_m)
+        ge, gn = route.points[-1]
+        if route.remaining_m(s.east_m, s.north_m) > 1.2 * self.orbit_radius_m:
             course_cmd = math.atan2(target[0] - s.east_m, target[1] - s.north_m)
         else:
             course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, ge, gn, self.orbit_radius_m, clockwise=self.turn_sign < 0)

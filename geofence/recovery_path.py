@@ -520,6 +520,18 @@ class RecoveryPath:
         """Path length (m) left from the projection of (e, n) (see :meth:`project`) to the end."""
         return max(0.0, self.length_m - self.project(e, n))
 
+    def rollout_point(self, e: float, n: float, lookahead_m: float) -> Point:
+        """Where a fixed-wing's recovery turn from (e, n) rolls out towards: ``lookahead_m`` along the path past
+        the projection of (e, n) (:meth:`project`), with no chord test. Does not change ``progress_m``.
+
+        The turn ends heading for the path a turn's length ahead, not for a point near the vehicle: a vertex
+        a few metres away, or behind it, would have the turn swing round with every step (the margin scores
+        this turn, :func:`geofence.boundary_shift.activation_margins`, and the guidance flies it,
+        :class:`geofence.guidance.FixedWingRecovery`). After the roll-out the guidance follows
+        :meth:`lookahead_point`'s carrot, which does test its chord.
+        """
+        return self.point_at(self.project(e, n) + lookahead_m)
+
     def lookahead_point(self, e: float, n: float, lookahead_m: float) -> Point:
         """The carrot for a vehicle at (e, n): ``lookahead_m`` along the path past its projection.
 

@@ -467,17 +467,22 @@ class GeofenceUnit:
         return None if found is None else (found[1], found[0].en)
 
     def _rollout_target(self, e: float, n: float) -> tuple[float, float]:
-        """Where a fixed-wing's recovery turn rolls out towards from (e, n): the first point of its route.
+        """Where a fixed-wing's recovery turn rolls out towards from (e, n): the point its guidance rolls out on,
+        :attr:`FixedWingRecovery.lookahead_m` along its route (:meth:`RecoveryPath.rollout_point`).
 
-        Cached per cell of ``ROLLOUT_CELL_M`` (the route's first point changes
-        only where the view of the fence's corners changes).
+        The margin scores the turn the override flies. Not the route's first point: a vehicle passing a
+        vertex of its route a few metres away saw the direction to it, and with it the scored turn, swing
+        round within a step (a Tern in a corridor narrower than its turn was handed back with a margin of
+        31 m, had none 0.25 s later, turned away from the corridor towards a vertex behind it and left by
+        23 m; campaign seed 3122026). Cached per cell of ``ROLLOUT_CELL_M``.
         """
         key = _rollout_cell(e, n)
         t = self._rollout_cache.get(key)
         if t is None:
+            recovery = self.recovery
+            assert isinstance(recovery, FixedWingRecovery)
             route = self._route(VehicleState(east_m=e, north_m=n), self.fence.recovery_en)
-            pts = route.points
-            t = pts[1] if len(pts) >= 2 else pts[-1]
+            t = route.rollout_point(e, n, recovery.lookahead_m)
             if len(self._rollout_cache) > 20000:
                 self._rollout_cache.clear()
             self._rollout_cache[key] = t

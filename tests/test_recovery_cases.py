@@ -334,3 +334,15 @@ def test_an_override_below_the_floor_hands_back_only_above_it():
         if tr.to_mode.name == "RECOVERED":
             assert agl[np.searchsorted(t, tr.t_s)] >= res.fence.floor_m, tr
     assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
+
+
+def test_a_fixed_wing_in_a_corridor_rolls_out_towards_its_route_ahead():
+    """A Tern in a corridor narrower than its turn (campaign seed 3122026, corridor-0455). Its margin scored the turn
+    towards its route's first point: a vertex a few metres behind it once it had passed it. Handed back with a
+    margin of 31 m, re-activated 0.25 s later, it turned away from the corridor and left by 23 m. The turn rolls
+    out towards the route a turn's length ahead (:meth:`RecoveryPath.rollout_point`), in the margin and the
+    guidance alike: it turns into the corridor and stays inside."""
+    res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_corridor_0455_rollout_ahead.yaml"))
+    assert res.summary["activations"] >= 1
+    assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
+

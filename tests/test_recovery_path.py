@@ -358,6 +358,14 @@ def test_random_fences_paths_are_admissible(lf, c, data):
             assert lf.lateral_margin_array(sample_segment((e, n), q)).min() >= floor
             if m_v >= c - 1e-9:
                 assert lf.lateral_margin_m(*q) >= c - SLACK_M
+            # a fixed-wing's roll-out point: the path a lookahead past the projection, in the free space past the
+            # first leg, however near a vertex the vehicle is (no chord test: no fallback to a vertex behind it)
+            look = data.draw(st.floats(5.0, 300.0))
+            s_proj = p.project(e, n)
+            r = p.rollout_point(e, n, look)
+            assert r == p.point_at(s_proj + look)
+            if len(p.points) > 2 and s_proj + look >= p.cum_m[1] and lf.lateral_margin_m(*p.points[-1]) >= c - SLACK_M:
+                assert lf.lateral_margin_m(*r) >= c - SLACK_M
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
