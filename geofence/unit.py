@@ -77,6 +77,7 @@ RECOVERED_HOLD_S = 1.0
 WIND_BEYOND_AUTHORITY_PERSIST_S = 3.0
 TERMINATE_BELOW_AGL_M = 8.0
 LANDING_EDGE_MARGIN_M = 2.0
+"""A multirotor descends to land only this far (m) inside, beyond its estimate's uncertainty margin ``k·σ_h``."""
 ROUTE_CLEARANCE_MULTIROTOR_M = 3.0
 """Lateral clearance (beyond k·σ_h) a multirotor's recovery route keeps from every boundary."""
 ROLLOUT_CELL_M = 10.0
@@ -351,7 +352,7 @@ class GeofenceUnit:
         if fence.floor_m is None or not fence.floor_gaps:
             if self.env.is_multirotor:
                 # without a position source, dead reckoning drifts: land only where there is room for it
-                need = LANDING_EDGE_MARGIN_M if self._position_valid else self.dead_reckoning_room_m(s.agl_m)
+                need = self._landing_edge_margin_m() if self._position_valid else self.dead_reckoning_room_m(s.agl_m)
                 if fence.lateral_margin_m(s.east_m, s.north_m) > need:
                     return s.east_m, s.north_m
                 found = self._point_with_room(s, need)
@@ -377,8 +378,8 @@ class GeofenceUnit:
     def _upwind_in_gap(self, ge: float, gn: float, r_in_m: float) -> tuple[float, float]:
         """Where in a gap (inscribed circle centre ``ge, gn``, radius ``r_in_m``) a multirotor aims its landing.
 
-        Upwind of the centre, by up to the inscribed radius less the landing edge margin and 1 m, in
-        proportion to the wind up to half the max speed: a vehicle that cannot stop in the wind drifts
+        Upwind of the centre, by up to the inscribed radius less the landing edge margin
+        (:meth:`_landing_edge_margin_m`) and 1 m, in proportion to the wind up to half the max speed: a vehicle that cannot stop in the wind drifts
         downwind while it descends, and then has the whole gap to drift across instead of half of it.
         A fixed-wing spirals over the centre.
         """
@@ -388,7 +389,7 @@ class GeofenceUnit:
         w = math.hypot(we, wn)
         if w < 1e-6:
             return ge, gn
-        offset = max(r_in_m - LANDING_EDGE_MARGIN_M - 1.0, 0.0) * min(1.0, w / (0.5 * max(self.env.max_speed_mps, 1.0)))
+        offset = max(r_in_m - self._landing_edge_margin_m() - 1.0, 0.0) * min(1.0, w / (0.5 * max(self.env.max_speed_mps, 1.0)))
         return ge - offset * we / w, gn - offset * wn / w
 
     # -- routes inside the fence ------------------------------------------------
@@ -662,12 +663,21 @@ class GeofenceUnit:
         lateral_ok = lateral >= self.config.handback_margin_m and r.closing_speed_mps <= 0.0
         return vertical_ok and (lateral_ok or at_point)
 
+    def _landing_edge_margin_m(self) -> float:
+        """How far inside the keep-in, or inside a floor gap, a multirotor's estimate must be to descend there (m):
+        :data:`LANDING_EDGE_MARGIN_M` beyond the estimate's uncertainty margin ``k·σ_h + extra`` (the one every
+        activation margin adds). Without it an F450RD aimed 3 m inside a gap's upwind edge, its estimate 3.2 m
+        off (k·σ_h 4.6 m), touched down 0.5 m outside the gap (campaign seed 3122026, ``floor_gaps-0143``)."""
+        return LANDING_EDGE_MARGIN_M + self.config.uncertainty_k_sigma * self._sigma_h_m + self.config.extra_margin_m
+
     def _safe_to_descend(self, s: VehicleState) -> bool:
-        """Over ground where landing is allowed, with room to spare (2 m, or inside a gap by 2 m)."""
+        """Over ground where landing is allowed, with room to spare (:meth:`_landing_edge_margin_m` inside the
+        keep-in, and inside a gap below a floor)."""
         fence = self.fence
-        if fence.lateral_margin_m(s.east_m, s.north_m) < LANDING_EDGE_MARGIN_M:
+        need = self._landing_edge_margin_m()
+        if fence.lateral_margin_m(s.east_m, s.north_m) < need:
             return False
-        return fence.floor_m is None or fence.gap_distance_m(s.east_m, s.north_m) >= LANDING_EDGE_MARGIN_M
+        return fence.floor_m is None or fence.gap_distance_m(s.east_m, s.north_m) >= need
 
     def _finish_below_floor(self, s: VehicleState, h: float) -> bool:
         """Below the floor in a gap, drifting toward its edge: is touching down the quicker way out?
