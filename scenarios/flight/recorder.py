@@ -1,4 +1,4 @@
-"""Flight recording: preallocated per-step arrays, written to CSV once at the end.
+"""Flight recording: one row of doubles per step in a preallocated buffer, written to CSV once at the end.
 
 One row per outer-loop step. Column names carry their units; angles are in deg
 here (the CSV is an edge of the system), everything else SI.
@@ -7,7 +7,7 @@ here (the CSV is an edge of the system), everything else SI.
 from __future__ import annotations
 
 import math
-from array import array
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -53,18 +53,26 @@ COLUMNS = (
 )
 COLUMN_INDEX = {name: i for i, name in enumerate(COLUMNS)}
 _DEG = 180.0 / math.pi
+_ROW = struct.Struct(f"{len(COLUMNS)}d")
+"""One row as native doubles (the layout numpy reads back as float64)."""
+_ROW_BYTES = _ROW.size
+_pack_row = _ROW.pack_into
 
 
 class Recorder:
-    """Collects one row per step into a growing buffer of doubles (``array.array``): a step's values are
-    stored as 8 bytes each, not kept as Python float objects (a flight's rows would be hundreds of thousands
-    of them, and every step would touch new memory).
+    """Collects one row per step into a buffer of doubles (a ``bytearray``): a step's values are stored as
+    8 bytes each, not kept as Python float objects (a flight's rows would be hundreds of thousands of them,
+    and every step would touch new memory).
+
+    A row is written by one ``struct.pack_into`` straight from :meth:`append`'s arguments (``array.extend``
+    from a tuple costs three times as much: it converts and appends one item at a time). ``capacity_rows``:
+    the rows to make room for up front (the runner knows its step count); the buffer doubles beyond it.
 
     The buffer is viewed as one float array (rows x :data:`COLUMNS`) when it is read.
     """
 
-    def __init__(self) -> None:
-        self._buf = array("d")
+    def __init__(self, capacity_rows: int = 1024) -> None:
+        self._buf = bytearray(_ROW.size * max(1, capacity_rows))
         self._n = 0
         self._array: np.ndarray | None = None
 
@@ -75,7 +83,8 @@ class Recorder:
     @property
     def data(self) -> np.ndarray:
         if self._array is None or len(self._array) != self._n:  # a copy: a view would pin the buffer's size
-            self._array = np.frombuffer(self._buf, dtype=float).reshape(self._n, len(COLUMNS)).copy()
+            rows = np.frombuffer(self._buf, dtype=float, count=self._n * len(COLUMNS))
+            self._array = rows.reshape(self._n, len(COLUMNS)).copy()
         return self._array
 
     def append(
@@ -90,45 +99,50 @@ class Recorder:
         wind_est: tuple[float, float] = (math.nan, math.nan),
         activation_margin_m: float = math.nan,
     ) -> None:
-        self._n += 1
-        self._buf.extend(
-            (
-                s.t_s,
-                s.lat_deg,
-                s.lon_deg,
-                s.alt_m,
-                s.east_m,
-                s.north_m,
-                s.up_m,
-                s.agl_m,
-                s.v_east_mps,
-                s.v_north_mps,
-                s.v_up_mps,
-                math.hypot(s.v_east_mps, s.v_north_mps),
-                s.airspeed_mps,
-                s.roll_rad * _DEG,
-                s.pitch_rad * _DEG,
-                s.yaw_rad * _DEG,
-                wind_enu[0],
-                wind_enu[1],
-                wind_enu[2],
-                pilot.roll,
-                pilot.pitch,
-                pilot.yaw,
-                pilot.throttle,
-                cmd.roll,
-                cmd.pitch,
-                cmd.yaw,
-                cmd.throttle,
-                mode,
-                item,
-                est.east_m if est is not None else math.nan,
-                est.north_m if est is not None else math.nan,
-                est.agl_m if est is not None else math.nan,
-                wind_est[0],
-                wind_est[1],
-                activation_margin_m,
-            )
+        n = self._n
+        offset = n * _ROW_BYTES
+        buf = self._buf
+        if offset == len(buf):
+            buf.extend(bytes(len(buf)))  # (no array views it: :attr:`data` copies)
+        self._n = n + 1
+        _pack_row(
+            buf,
+            offset,
+            s.t_s,
+            s.lat_deg,
+            s.lon_deg,
+            s.alt_m,
+            s.east_m,
+            s.north_m,
+            s.up_m,
+            s.agl_m,
+            s.v_east_mps,
+            s.v_north_mps,
+            s.v_up_mps,
+            math.hypot(s.v_east_mps, s.v_north_mps),
+            s.airspeed_mps,
+            s.roll_rad * _DEG,
+            s.pitch_rad * _DEG,
+            s.yaw_rad * _DEG,
+            wind_enu[0],
+            wind_enu[1],
+            wind_enu[2],
+            pilot.roll,
+            pilot.pitch,
+            pilot.yaw,
+            pilot.throttle,
+            cmd.roll,
+            cmd.pitch,
+            cmd.yaw,
+            cmd.throttle,
+            mode,
+            item,
+            est.east_m if est is not None else math.nan,
+            est.north_m if est is not None else math.nan,
+            est.agl_m if est is not None else math.nan,
+            wind_est[0],
+            wind_est[1],
+            activation_margin_m,
         )
 
     @property
