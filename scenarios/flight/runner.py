@@ -81,7 +81,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     frames_per_step = max(1, round(1.0 / (scenario.control_rate_hz * platform.dt_s)))
     dt_s = frames_per_step * platform.dt_s
     n_steps = int(math.ceil(scenario.duration_s / dt_s))
-    recorder = Recorder()
+    recorder = Recorder(n_steps + 1)
 
     truth = platform.truth()
     t0 = truth.t_s
@@ -98,57 +98,58 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     wind_told = False
     finished_at = None
     mode = Mode.MONITOR
+    monitor, recovered, land_in_gap = Mode.MONITOR, Mode.RECOVERED, Mode.LAND_IN_GAP
     step = 0
     # faster than this is a numerical blow-up (e.g. a ground-contact explosion), not flight
     diverged_above_mps = 5.0 * env.max_speed_mps + 50.0
+    # the per-step calls, bound once (a method lookup per call and step is measurable at this rate)
+    truth_now, set_wind, latch, advance = platform.truth, platform.set_wind_enu, platform.command, platform.step
+    pilot_sticks, notice_control, record = pilot.command, pilot.notice_control, recorder.append
     loop0 = time.perf_counter()
     try:
         for step in range(n_steps + 1):
-            truth = platform.truth()
-            truth.t_s -= t0
+            truth = truth_now()
+            t = truth.t_s = truth.t_s - t0
             if abs(truth.v_east_mps) + abs(truth.v_north_mps) + abs(truth.v_up_mps) > diverged_above_mps:
                 raise FloatingPointError(
-                    f"JSBSim state of {scenario.aircraft} diverged (speed beyond {diverged_above_mps:.0f} m/s) at t={truth.t_s:.2f} s"
+                    f"JSBSim state of {scenario.aircraft} diverged (speed beyond {diverged_above_mps:.0f} m/s) at t={t:.2f} s"
                 )
-            w = sample_wind(truth.t_s, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)
-            platform.set_wind_enu(*w)
-            cmd_in = pilot.command(truth)
+            w = sample_wind(t, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)
+            set_wind(*w)
+            cmd_in = pilot_sticks(truth)
             if unit is not None and own is not None:
-                seen = own.sense(truth, dt_s)
+                est, wind_en, valid, sigma_h, sigma_v, horizon, age, turbulence = own.sense(truth, dt_s)
                 cmd = unit.update(
-                    truth.t_s,
-                    seen.estimate,
+                    t,
+                    est,
                     cmd_in,
                     dt_s,
-                    wind_en=seen.wind_en,
-                    position_valid=seen.position_valid,
-                    sigma_h_m=seen.sigma_h_m,
-                    sigma_v_m=seen.sigma_v_m,
-                    estimate_age_s=seen.data_age_s,
-                    turbulence_sigma_mps=seen.turbulence_sigma_mps,
-                    horizon=seen.horizon,
+                    wind_en=wind_en,
+                    position_valid=valid,
+                    sigma_h_m=sigma_h,
+                    sigma_v_m=sigma_v,
+                    estimate_age_s=age,
+                    turbulence_sigma_mps=turbulence,
+                    horizon=horizon,
                 )
                 mode = unit.mode
-                pilot.notice_control(mode in (Mode.MONITOR, Mode.RECOVERED))  # the pilot feels the sticks come back
-                if unit.activations and not wind_told:
-                    notify_first_activation(sampler, truth.t_s)  # gusts timed from the first override
+                notice_control(mode == monitor or mode == recovered)  # the pilot feels the sticks come back
+                if not wind_told and unit.activations:
+                    notify_first_activation(sampler, t)  # gusts timed from the first override
                     wind_told = True
-                recorder.append(
-                    truth, w, cmd_in, cmd, int(mode), pilot.items_reached, unit.estimate, seen.wind_en, unit.activation_margin_m
-                )
+                record(truth, w, cmd_in, cmd, mode, pilot.items_reached, unit.estimate, wind_en, unit.activation_margin_m)
             else:
                 cmd = cmd_in
-                recorder.append(truth, w, cmd_in, cmd, int(mode), pilot.items_reached)
-            platform.command(cmd)
-            ended_by_geofence = mode >= Mode.LAND_IN_GAP and truth.on_ground  # landed in a gap / terminated
-            if (pilot.finished or ended_by_geofence) and finished_at is None:
-                finished_at = truth.t_s
-            tail = 0.0 if ended_by_geofence else TAIL_AFTER_FINISH_S  # after a touchdown in a gap: stop at once
-            if finished_at is not None and truth.t_s - finished_at >= tail:
-                break
+                record(truth, w, cmd_in, cmd, mode, pilot.items_reached)
+            latch(cmd)
+            ended_by_geofence = mode >= land_in_gap and truth.on_ground  # landed in a gap / terminated
+            if finished_at is None and (pilot.finished or ended_by_geofence):
+                finished_at = t
+            if finished_at is not None and t - finished_at >= (0.0 if ended_by_geofence else TAIL_AFTER_FINISH_S):
+                break  # (after a touchdown in a gap: at once)
             if step == n_steps:
                 break
-            platform.step(frames_per_step)
+            advance(frames_per_step)
             if on_step is not None:
                 on_step(dt_s)
     except FloatingPointError as exc:
