@@ -27,7 +27,12 @@ What "on paper" means (the autopilot's flight, idealised):
   last waypoint is one too: after its mission a fixed-wing orbits it (as
   ArduPlane and PX4 loiter at the last waypoint). Unchecked, a Tern's orbit
   after an L-fence mission took it within the activation margin of a wall
-  (campaign seed 1122026, ``l_fence-0163``: overridden though it passed);
+  (campaign seed 1122026, ``l_fence-0163``: overridden though it passed); it joins that orbit from the
+  waypoint itself, outward along the autopilot's vector field (:func:`geofence.control_laws.orbit_course_rad`,
+  its default gain), so the join is checked too: every 10 deg at 0.25, 0.5, 0.75 and 0.9 of the radius, on
+  the field's course there (any arrival direction). Unchecked, a Tern 27 m out from its last waypoint,
+  heading nearly straight out at 18.5 m/s, was overridden 1.5 s after its mission though it passed
+  (campaign seed 4122026, ``floor_gaps-0080``);
 * a multirotor brakes to a stop at each waypoint; it is checked at full
   planned speed right up to the waypoint (conservative).
 
@@ -52,6 +57,7 @@ from enum import Enum
 from typing import Sequence
 
 from geofence.boundary_shift import activation_margins
+from geofence.control_laws import orbit_course_rad
 from geofence.dynamics import return_not_assured
 from geofence.interface import Envelope
 from geofence.local_fence import LocalFence
@@ -216,6 +222,26 @@ def _loiter_samples(env, wp: PlannedWaypoint, speed: float, wind_en) -> list[_Sa
     return out
 
 
+ORBIT_JOIN_RADII = (0.25, 0.5, 0.75, 0.9)
+"""Where (fractions of the orbit's radius) the join from the last waypoint out to its orbit is checked."""
+
+
+def _orbit_join_samples(env, wp: PlannedWaypoint, speed: float, wind_en) -> list[_Sample]:
+    """The join from a waypoint out onto its clockwise orbit: the vector field's course at points inside the
+    circle, every 10 deg at each of :data:`ORBIT_JOIN_RADII` (the arrival direction is not known here)."""
+    r = max(wp.loiter_radius_m, 1.5 * envelope_turn_radius_m(env, speed))
+    out = []
+    k = int(round(2.0 * math.pi / HEADING_STEP_RAD))
+    for frac in ORBIT_JOIN_RADII:
+        for i in range(k):
+            a = 2.0 * math.pi * i / k
+            e, n = wp.east_m + frac * r * math.cos(a), wp.north_m + frac * r * math.sin(a)
+            compass, _ = orbit_course_rad(e, n, wp.east_m, wp.north_m, r)  # clockwise from north
+            ve, vn = _ground_velocity(env, speed, 0.5 * math.pi - compass, wind_en)
+            out.append(_Sample(e, n, wp.height_m, ve, vn, 0.0))
+    return out
+
+
 def winds_to_check(
     forecast_en: tuple[float, float],
     estimate_error_mps: float = 0.0,
@@ -341,6 +367,13 @@ def check_route(
             score(turns, RoutePart.TURN, i + 1, b.label or str(i + 1))
     if not env.is_multirotor:
         for i, wp in enumerate(wps):
-            if wp.loiter_radius_m > 0.0 or i == len(wps) - 1:  # the last: the orbit after the mission
-                score([(w, _loiter_samples(env, wp, speed_mps, w)) for w in winds], RoutePart.LOITER, i, wp.label or str(i))
+            last = i == len(wps) - 1
+            if wp.loiter_radius_m > 0.0 or last:  # the last: the orbit after the mission, joined from the waypoint
+                orbit = []
+                for w in winds:
+                    samples = _loiter_samples(env, wp, speed_mps, w)
+                    if last:
+                        samples += _orbit_join_samples(env, wp, speed_mps, w)
+                    orbit.append((w, samples))
+                score(orbit, RoutePart.LOITER, i, wp.label or str(i))
     return findings

@@ -221,3 +221,19 @@ def test_the_check_adds_the_units_latency_and_it_matches_the_sensors():
     sc = load_scenario(REPO / "scenarios" / "geofence_multicopter_adversarial_wind.yaml")
     s = sc.sensors
     assert latency_bound_s(sc) == pytest.approx(1.0 / sc.control_rate_hz + s.gps_latency_s + 1.0 / s.gps_rate_hz)
+
+
+def test_the_join_from_the_last_waypoint_out_to_its_orbit_is_checked():
+    """After its mission a fixed-wing joins the last waypoint's orbit from the waypoint itself, outward along the
+    autopilot's vector field. Campaign seed 4122026, ``floor_gaps-0080``: a Tern's mission passed the check (the
+    orbit alone fits) and was overridden 1.5 s after its last waypoint, 27 m out and heading nearly straight out
+    at 18.5 m/s. The check now flags it, at the last waypoint; and the flight was in fact overridden."""
+    from scenarios.flight.runner import fly
+    from scenarios.spec.preflight import preflight_findings
+    from scenarios.spec.schema import load_scenario
+
+    sc = load_scenario(REPO / "tests" / "data" / "campaign_floor_gaps_0080_orbit_join.yaml")
+    out = preflight_findings(sc)
+    assert out and all(x.part is RoutePart.LOITER and x.index == 3 for x in out), out
+    res = fly(sc)
+    assert res.summary["mission_finished"] and res.summary["activations"] >= 1
