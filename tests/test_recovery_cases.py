@@ -19,7 +19,10 @@ WGS-84 at the site) and flown in closed loop with the unit's own sensors:
 * a fixed-wing flown into the ground inside a floor gap at cruise (campaign case floor_gaps-0170):
   rolling, not sitting, it must not roll out of the gap below the floor;
 * a fixed-wing turning in a wind of half its airspeed inside a circle (campaign case circle-0169): its
-  margin must see the edge far along the circle that the drifting turn leaves through.
+  margin must see the edge far along the circle that the drifting turn leaves through;
+* fixed-wings below the floor in a gap (floor_gaps-0086, -0215): circle, climb, hand back only above it;
+* a Tern in a corridor narrower than its turn (corridor-0455): it rolls out towards its route ahead;
+* a multirotor landing in a gap with its estimate metres off (floor_gaps-0143): it keeps k·σ_h from the edge.
 """
 
 from __future__ import annotations
