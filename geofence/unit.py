@@ -379,9 +379,9 @@ class GeofenceUnit:
         """Where in a gap (inscribed circle centre ``ge, gn``, radius ``r_in_m``) a multirotor aims its landing.
 
         Upwind of the centre, by up to the inscribed radius less the landing edge margin
-        (:meth:`_landing_edge_margin_m`) and 1 m, in proportion to the wind up to half the max speed: a vehicle that cannot stop in the wind drifts
-        downwind while it descends, and then has the whole gap to drift across instead of half of it.
-        A fixed-wing spirals over the centre.
+        (:meth:`_landing_edge_margin_m`) and 1 m, in proportion to the wind up to half the max speed: a
+        vehicle that cannot stop in the wind drifts downwind while it descends, and then has the whole gap
+        to drift across instead of half of it. A fixed-wing spirals over the centre.
         """
         if not self.env.is_multirotor:
             return ge, gn
