@@ -100,6 +100,7 @@ from .rooms import (
 )
 
 __all__ = [
+    "CompiledMargins",
     "ShiftFeasibility",
     "ShiftResult",
     "activation_margins",
@@ -504,13 +505,9 @@ def _margins_compiled(
     rollout_target_en: tuple[float, float] | None, g: float,
 ) -> ShiftResult:  # fmt: skip
     """:func:`activation_margins` of a fence without an index by :func:`geofence.margins_kernel.margins`."""
-    has_target = rollout_target_en is not None
-    te, tn = rollout_target_en if rollout_target_en is not None else (0.0, 0.0)
-    r = margins_kernel(
-        *fence.margin_tables(), _envelope_terms(envelope), e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s,
-        bank_rad, wind_extra_mps, has_target, te, tn, g,
-    )  # fmt: skip
-    return _shift_result(fence, e, n, r)
+    return CompiledMargins(fence, _envelope_terms(envelope)).margins(
+        e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps, rollout_target_en, g
+    )
 
 
 def _envelope_terms(envelope: Envelope) -> np.ndarray:
@@ -523,11 +520,67 @@ def _envelope_terms(envelope: Envelope) -> np.ndarray:
     return cached[1]
 
 
-def _shift_result(fence: LocalFence, e: float, n: float, r: tuple) -> ShiftResult:
-    """The :class:`ShiftResult` of a margins kernel's fields at (e, n) (the fence remembers its lateral margin)."""
-    fence.remember_margin(e, n, r[1])
-    feat, idx, j = fence.element_table()[1][r[4]]
-    return ShiftResult(r[0], r[1], r[2], r[3], feat, idx, j, *r[5:])
+class CompiledMargins:
+    """The compiled margins of one fence without an index and one envelope, their tables bound once.
+
+    :meth:`margins` is :func:`activation_margins` and :meth:`monitor` is :func:`monitor_margins` (the same
+    numbers: :func:`geofence.margins_kernel.margins` and :func:`~geofence.margins_kernel.monitor_margins`), with
+    positional arguments and the fence's tables and the envelope's terms looked up at construction, not per call:
+    the unit asks one of them every step (:class:`geofence.unit.GeofenceUnit` keeps one per envelope).
+    ``envelope``: an :class:`Envelope`, or its :func:`~geofence.margins_kernel.envelope_terms` already made.
+    """
+
+    __slots__ = ("fence", "_tables", "_terms", "_meta")
+
+    def __init__(self, fence: LocalFence, envelope: Envelope | np.ndarray):
+        self.fence = fence
+        self._tables = fence.margin_tables()
+        self._terms = envelope if isinstance(envelope, np.ndarray) else _envelope_terms(envelope)
+        self._meta = fence.element_table()[1]
+
+    def margins(
+        self, e: float, n: float, h: float, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float,
+        v_unc: float, latency_s: float, bank_rad: float, wind_extra_mps: float,
+        rollout_target_en: tuple[float, float] | None, g: float = G_MPS2,
+    ) -> ShiftResult:  # fmt: skip
+        """:func:`activation_margins` (``hu``, ``v_unc``: its ``h_uncertainty_m``, ``v_uncertainty_m``)."""
+        F, L = self._tables
+        if rollout_target_en is None:
+            r = margins_kernel(
+                F, L, self._terms, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps,
+                False, 0.0, 0.0, g,
+            )  # fmt: skip
+        else:
+            r = margins_kernel(
+                F, L, self._terms, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps,
+                True, rollout_target_en[0], rollout_target_en[1], g,
+            )  # fmt: skip
+        return self._result(e, n, r)
+
+    def monitor(
+        self, e: float, n: float, h: float, ve: float, vn: float, vu: float, ground_speed_mps: float, wind_e: float,
+        wind_n: float, hu: float, v_unc: float, latency_s: float, skip_time_s: float, bank_rad: float,
+        wind_extra_mps: float, rollout_target_en: tuple[float, float] | None, g: float = G_MPS2,
+    ) -> ShiftResult | None:  # fmt: skip
+        """:func:`monitor_margins`: ``None`` when the unit's skip shortcut holds, else :meth:`margins`."""
+        F, L = self._tables
+        if rollout_target_en is None:
+            far, r = monitor_margins_kernel(
+                F, L, self._terms, e, n, h, ground_speed_mps, ve, vn, vu, wind_e, wind_n, wind_extra_mps, skip_time_s,
+                hu, v_unc, latency_s, bank_rad, False, 0.0, 0.0, g,
+            )  # fmt: skip
+        else:
+            far, r = monitor_margins_kernel(
+                F, L, self._terms, e, n, h, ground_speed_mps, ve, vn, vu, wind_e, wind_n, wind_extra_mps, skip_time_s,
+                hu, v_unc, latency_s, bank_rad, True, rollout_target_en[0], rollout_target_en[1], g,
+            )  # fmt: skip
+        return None if far else self._result(e, n, r)
+
+    def _result(self, e: float, n: float, r: tuple) -> ShiftResult:
+        """The :class:`ShiftResult` of a margins kernel's fields at (e, n) (the fence remembers its lateral margin;
+        ``tuple.__new__``: a named tuple's generated constructor costs twice as much)."""
+        self.fence.remember_margin(e, n, r[1])
+        return tuple.__new__(ShiftResult, r[:4] + self._meta[r[4]] + r[5:])
 
 
 def monitor_margins(
@@ -540,14 +593,12 @@ def monitor_margins(
     fence without an index while :data:`geofence.jit.ACTIVE`: ``None`` when the unit's skip shortcut holds (no
     element, ceiling or floor within the largest room the state can need over ``skip_time_s``, see
     :meth:`geofence.unit.GeofenceUnit._far_from_everything`, the reference), else :func:`activation_margins`
-    (the other arguments are its own; ``ground_speed_mps``: the state's)."""
-    has_target = rollout_target_en is not None
-    te, tn = rollout_target_en if rollout_target_en is not None else (0.0, 0.0)
-    far, r = monitor_margins_kernel(
-        *fence.margin_tables(), _envelope_terms(envelope), e, n, h, ground_speed_mps, ve, vn, vu, wind_e, wind_n,
-        wind_extra_mps, skip_time_s, h_uncertainty_m, v_uncertainty_m, latency_s, bank_rad, has_target, te, tn, g,
+    (the other arguments are its own; ``ground_speed_mps``: the state's). :meth:`CompiledMargins.monitor` with
+    its tables bound once."""
+    return CompiledMargins(fence, envelope).monitor(
+        e, n, h, ve, vn, vu, ground_speed_mps, wind_e, wind_n, h_uncertainty_m, v_uncertainty_m, latency_s,
+        skip_time_s, bank_rad, wind_extra_mps, rollout_target_en, g,
     )  # fmt: skip
-    return None if far else _shift_result(fence, e, n, r)
 
 
 def activation_margins_for_state(

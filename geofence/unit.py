@@ -48,7 +48,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 from geofence import jit as _jit
-from geofence.boundary_shift import ShiftResult, activation_margins, monitor_margins
+from geofence.boundary_shift import CompiledMargins, ShiftResult, activation_margins
 from geofence.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
@@ -148,7 +148,7 @@ class GeofenceUnit:
         self._agl = fence.altitude_reference is AltitudeReference.AGL
         self._clearances: tuple[float, ...] = ()
         self._clearances_for: tuple = ()  # (sigma_h, envelope) the clearances were computed for
-        self._scanned = fence.grid() is None  # the compiled monitoring step takes a fence without an index
+        self._compiled: CompiledMargins | None = None  # the compiled margins of a fence without an index
         self._build_laws(envelope)
         self._mode_since_s = 0.0
         self._strong_wind_since_s: float | None = None
@@ -177,6 +177,8 @@ class GeofenceUnit:
         """The guidance laws and dead reckoning for envelope ``env``."""
         self.env = env
         self._multirotor = env.is_multirotor
+        if self.fence.grid() is None:
+            self._compiled = CompiledMargins(self.fence, env)
         config = self.config
         self.recovery: SeedPDRecovery | MultirotorVelocityRecovery | FixedWingRecovery
         if env.is_multirotor:
@@ -252,39 +254,45 @@ class GeofenceUnit:
     def _margins(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> ShiftResult:
         k = self.config.uncertainty_k_sigma
         extra = self.config.extra_margin_m
+        target = None if self._multirotor else self._rollout_target(s.east_m, s.north_m)
+        if self._compiled is not None and _jit.ACTIVE:  # activation_margins' compiled call, its tables bound
+            wind = self.wind_enu
+            return self._compiled.margins(
+                s.east_m, s.north_m, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, wind[0], wind[1],
+                k * sigma_h_m + extra, k * sigma_v_m + extra, self._latency_s, s.roll_rad, self.wind_allowance_mps,
+                target,
+            )  # fmt: skip
         return activation_margins(
             self.fence, s.east_m, s.north_m, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, self.env,
             self.wind_enu[0], self.wind_enu[1],
             h_uncertainty_m=k * sigma_h_m + extra, v_uncertainty_m=k * sigma_v_m + extra, latency_s=self._latency_s,
             bank_rad=s.roll_rad,
             wind_extra_mps=self.wind_allowance_mps,
-            rollout_target_en=None if self.env.is_multirotor else self._rollout_target(s.east_m, s.north_m),
+            rollout_target_en=target,
         )  # fmt: skip
 
     def _monitor_margins(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> ShiftResult | None:
         """A predictive unit's monitoring step: ``None`` when :meth:`_far_from_everything` holds, else :meth:`_margins`.
 
         For a fence without an index, while :data:`geofence.jit.ACTIVE`, one compiled call answers both
-        (:func:`geofence.boundary_shift.monitor_margins`, the same numbers), unless a fixed-wing's roll-out
+        (:meth:`geofence.boundary_shift.CompiledMargins.monitor`, the same numbers), unless a fixed-wing's roll-out
         target is not cached for its cell yet (finding it is a route search, made only when the margins are
         needed: the reference's order). After a step the shortcut answered, the next asks it alone first
         (far from everything it usually holds again, and alone it is the cheaper call): the same answers.
         """
-        if not self._skipped_last and self._scanned and _jit.ACTIVE:
-            multirotor = self._multirotor
-            target = None if multirotor else self._rollout_cache.get(_rollout_cell(s.east_m, s.north_m))
-            if multirotor or target is not None:
-                env = self.env
+        compiled = self._compiled
+        if not self._skipped_last and compiled is not None and _jit.ACTIVE:
+            e, n = s.east_m, s.north_m
+            target = None if self._multirotor else self._rollout_cache.get(_rollout_cell(e, n))
+            if target is not None or self._multirotor:
                 k = self.config.uncertainty_k_sigma
                 extra = self.config.extra_margin_m
                 latency = self._latency_s
                 wind = self.wind_enu
-                found = monitor_margins(
-                    self.fence, s.east_m, s.north_m, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, s.ground_speed_mps, env,
-                    wind[0], wind[1],
-                    h_uncertainty_m=k * sigma_h_m + extra, v_uncertainty_m=k * sigma_v_m + extra, latency_s=latency,
-                    skip_time_s=2.0 * env.reaction_time_s + latency, bank_rad=s.roll_rad,
-                    wind_extra_mps=self.wind_allowance_mps, rollout_target_en=target,
+                found = compiled.monitor(
+                    e, n, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, s.ground_speed_mps, wind[0], wind[1],
+                    k * sigma_h_m + extra, k * sigma_v_m + extra, latency, 2.0 * self.env.reaction_time_s + latency,
+                    s.roll_rad, self.wind_allowance_mps, target,
                 )  # fmt: skip
                 self._skipped_last = found is None
                 return found
