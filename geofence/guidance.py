@@ -88,6 +88,10 @@ class Route(Protocol):
 
     def remaining_m(self, e: float, n: float) -> float: ...
 
+    def follow(self, e: float, n: float, lookahead_m: float) -> tuple[tuple[float, float], float]:
+        """``(lookahead_point(e, n, lookahead_m), remaining_m(e, n))``, in that order."""
+        ...
+
 
 class StraightRoute:
     """A route of one straight leg to ``end`` (ENU m): no planner, or no admissible path."""
@@ -104,6 +108,10 @@ class StraightRoute:
     def remaining_m(self, e: float, n: float) -> float:
         end = self.points[-1]
         return math.hypot(end[0] - e, end[1] - n)
+
+    def follow(self, e: float, n: float, lookahead_m: float) -> tuple[tuple[float, float], float]:
+        end = self.points[-1]
+        return end, math.hypot(end[0] - e, end[1] - n)
 
 
 BRAKE_DONE_MPS = 1.0
@@ -156,11 +164,10 @@ class MultirotorVelocityRecovery:
         elif not self.braking:
             self.hold_below_m = None
             lookahead = max(3.0, self.speed_mps)
-            ce, cn = self.route.lookahead_point(s.east_m, s.north_m, lookahead)
+            (ce, cn), rem = self.route.follow(s.east_m, s.north_m, lookahead)
             de, dn = ce - s.east_m, cn - s.north_m
             d = math.hypot(de, dn)
             if d > 1e-6:
-                rem = self.route.remaining_m(s.east_m, s.north_m)
                 v = min(self.speed_mps, 0.8 * rem, math.sqrt(2.0 * 0.5 * env.braking_decel_mps2 * rem))
                 ve, vn = v * de / d, v * dn / d
         roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve, vn, s.yaw_rad, dt_s)
@@ -300,9 +307,9 @@ class FixedWingRecovery:
             else:
                 # turn_sign +1 = left (counter-clockwise) = negative roll stick
                 return StickCommand(roll=-float(self.turn_sign), pitch=pitch, yaw=0.0, throttle=throttle)
-        target = route.lookahead_point(s.east_m, s.north_m, self.lookahead_m)
+        target, remaining = route.follow(s.east_m, s.north_m, self.lookahead_m)
         ge, gn = route.points[-1]
-        if route.remaining_m(s.east_m, s.north_m) > 1.2 * self.orbit_radius_m:
+        if remaining > 1.2 * self.orbit_radius_m:
             course_cmd = math.atan2(target[0] - s.east_m, target[1] - s.north_m)
         else:
             course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, ge, gn, self.orbit_radius_m, clockwise=self.turn_sign < 0)

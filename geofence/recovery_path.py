@@ -363,6 +363,7 @@ def _path_project(
     return s0
 
 
+@jitable
 def _path_lookahead(
     pts: np.ndarray,
     cum: np.ndarray,
@@ -389,6 +390,41 @@ def _path_lookahead(
     return s, ce, cn
 
 
+def _path_rollout(
+    pts: np.ndarray,
+    cum: np.ndarray,
+    s0: float,
+    e: float,
+    n: float,
+    lookahead_m: float,
+    thr: float,
+    edges: np.ndarray,
+    circles: np.ndarray,
+) -> tuple[float, float]:
+    """:meth:`RecoveryPath.rollout_point` on the path's arrays for a vehicle whose chords are tested exactly (see
+    :func:`_path_project`): the point ``lookahead_m`` past its projection."""
+    return _path_point_at(pts, cum, _path_project(pts, cum, s0, e, n, thr, edges, circles) + lookahead_m)
+
+
+def _path_follow(
+    pts: np.ndarray,
+    cum: np.ndarray,
+    s0: float,
+    e: float,
+    n: float,
+    lookahead_m: float,
+    thr: float,
+    edges: np.ndarray,
+    circles: np.ndarray,
+) -> tuple[float, float, float, float]:
+    """``(progress after, carrot east, carrot north, projection after)``: :meth:`RecoveryPath.follow` on the path's
+    arrays for a vehicle whose chords are tested exactly (see :func:`_path_project`): :func:`_path_lookahead`, the
+    progress advanced to its projection, then the projection from there (:meth:`RecoveryPath.remaining_m`'s)."""
+    s, ce, cn = _path_lookahead(pts, cum, s0, e, n, lookahead_m, thr, edges, circles)
+    progress = s if s > s0 else s0
+    return progress, ce, cn, _path_project(pts, cum, progress, e, n, thr, edges, circles)
+
+
 segment_clear = numba.njit(cache=True)(_segment_clear) if COMPILED else None
 """The compiled :func:`_segment_clear` (``None`` without numba: :meth:`RecoveryPlanner._clear_one` loops)."""
 
@@ -400,6 +436,12 @@ path_project = numba.njit(cache=True)(_path_project) if COMPILED else None
 
 path_lookahead = numba.njit(cache=True)(_path_lookahead) if COMPILED else None
 """The compiled :func:`_path_lookahead` (``None`` without numba: :meth:`RecoveryPath.lookahead_point` loops)."""
+
+path_rollout = numba.njit(cache=True)(_path_rollout) if COMPILED else None
+"""The compiled :func:`_path_rollout` (``None`` without numba: :meth:`RecoveryPath.rollout_point` loops)."""
+
+path_follow = numba.njit(cache=True)(_path_follow) if COMPILED else None
+"""The compiled :func:`_path_follow` (``None`` without numba: :meth:`RecoveryPath.follow` loops)."""
 
 
 # ----------------------------------------------------------------------------- results
@@ -530,7 +572,28 @@ class RecoveryPath:
         :class:`geofence.guidance.FixedWingRecovery`). After the roll-out the guidance follows
         :meth:`lookahead_point`'s carrot, which does test its chord.
         """
+        thr = self._exact_chord_threshold(e, n) if len(self.points) > 1 else None
+        if thr is not None and path_rollout is not None:
+            planner = self.planner
+            return path_rollout(
+                *self._arrays(), self.progress_m, e, n, lookahead_m, thr, planner._edge_rows, planner._circle_rows
+            )
         return self.point_at(self.project(e, n) + lookahead_m)
+
+    def follow(self, e: float, n: float, lookahead_m: float) -> tuple[Point, float]:
+        """``(carrot, remaining)``: :meth:`lookahead_point` (which advances ``progress_m``), then :meth:`remaining_m`
+        from the advanced progress; a route follower's step in one compiled call (:data:`path_follow`) as
+        :meth:`project` is compiled."""
+        thr = self._exact_chord_threshold(e, n)
+        if thr is not None and path_follow is not None:
+            planner = self.planner
+            progress, ce, cn, s = path_follow(
+                *self._arrays(), self.progress_m, e, n, lookahead_m, thr, planner._edge_rows, planner._circle_rows
+            )
+            self.progress_m = progress
+            return (ce, cn), max(0.0, self.length_m - s)
+        carrot = self.lookahead_point(e, n, lookahead_m)
+        return carrot, self.remaining_m(e, n)
 
     def lookahead_point(self, e: float, n: float, lookahead_m: float) -> Point:
         """The carrot for a vehicle at (e, n): ``lookahead_m`` along the path past its projection.

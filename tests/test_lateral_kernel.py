@@ -25,7 +25,7 @@ from geofence.boundary_shift import activation_margins
 from geofence.fence import Fence, KeepOutCircle
 from geofence.jit import COMPILED, numba, use_compiled
 from geofence.lateral_kernel import hypot
-from geofence.recovery_path import RecoveryPlanner, path_lookahead, path_project, segment_clear
+from geofence.recovery_path import RecoveryPlanner, path_follow, path_lookahead, path_project, path_rollout, segment_clear
 from scenarios.flight.runner import fly
 from scenarios.spec.schema import load_scenario
 
@@ -185,18 +185,26 @@ def test_compiled_segment_test_equals_the_loop(seed, n_vertices, n_squares, n_ci
 @needs_numba
 def test_the_compiled_paths_are_the_ones_taken():
     assert segment_clear is not None and path_project is not None and path_lookahead is not None
+    assert path_rollout is not None and path_follow is not None
 
 
 def _follow_both_ways(path, e: float, n: float, lookahead_m: float) -> tuple:
-    """``(carrot, progress after, remaining)`` compiled, and the same on the reference, from the same progress."""
+    """``(carrot, progress after, remaining, projection, roll-out point)`` compiled, and the same on the reference,
+    from the same progress; asserts that :meth:`RecoveryPath.follow` (one compiled call) gives the carrot, the
+    progress and the remaining length of the separate calls, bit for bit, both ways."""
     start = path.progress_m
     out = []
     for on in (True, False):
-        path.progress_m = start
         previous = use_compiled(on)
         try:
+            path.progress_m = start
+            rollout = path.rollout_point(e, n, lookahead_m)
             carrot = path.lookahead_point(e, n, lookahead_m)
-            out.append((carrot, path.progress_m, path.remaining_m(e, n), path.project(e, n)))
+            out.append((carrot, path.progress_m, path.remaining_m(e, n), path.project(e, n), rollout))
+            after = path.progress_m
+            path.progress_m = start
+            carrot, remaining = path.follow(e, n, lookahead_m)
+            assert same_bits([*carrot, path.progress_m, remaining], [*out[-1][0], after, out[-1][2]])
         finally:
             use_compiled(previous)
     return out[0], out[1]
@@ -207,7 +215,7 @@ def _follow_both_ways(path, e: float, n: float, lookahead_m: float) -> tuple:
 @given(seed=st.integers(0, 10_000), n_vertices=st.integers(4, 120), n_squares=st.integers(0, 25), n_circles=st.integers(0, 6))
 def test_compiled_route_following_equals_the_reference(seed, n_vertices, n_squares, n_circles):
     """A vehicle following a planned route (:meth:`RecoveryPath.lookahead_point`, :meth:`~RecoveryPath.remaining_m`,
-    :meth:`~RecoveryPath.project`) round keep-outs, off it, short of it and past corners: the compiled follower's
+    :meth:`~RecoveryPath.project`, :meth:`~RecoveryPath.follow`, :meth:`~RecoveryPath.rollout_point`) round keep-outs, off it, short of it and past corners: the compiled follower's
     carrot, progress and remaining length equal the reference's bit for bit at every step, and carrots that
     would cut a corner (the next vertex or the projection instead) occur."""
     local = random_fence(seed, n_vertices, n_squares, n_circles).to_local(FRAME)
@@ -224,7 +232,12 @@ def test_compiled_route_following_equals_the_reference(seed, n_vertices, n_squar
             e, n = e + rng.gauss(0.0, 4.0), n + rng.gauss(0.0, 4.0)
             lookahead = rng.choice((5.0, 30.0, 120.0))
             compiled, ref = _follow_both_ways(path, e, n, lookahead)
-            assert same_bits([*compiled[0], *compiled[1:]], [*ref[0], *ref[1:]]), (start, e, n, lookahead)
+            assert same_bits([*compiled[0], *compiled[1:4], *compiled[4]], [*ref[0], *ref[1:4], *ref[4]]), (
+                start,
+                e,
+                n,
+                lookahead,
+            )
             steps += 1
             cut += ref[0] != path.point_at(ref[1] + lookahead)
     if n_squares + n_circles > 10 and steps >= 300:  # round many keep-outs some carrots would cut a corner
