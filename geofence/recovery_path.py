@@ -100,7 +100,7 @@ from __future__ import annotations
 import heapq
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Sequence
+from typing import TYPE_CHECKING, Callable, Sequence
 
 import numpy as np
 
@@ -108,6 +108,7 @@ from . import jit as _jit
 from .jit import COMPILED, jitable, numba
 from .lateral_kernel import hypot
 from .polygon import pole_of_inaccessibility
+from .scan_kernel import lateral_margin_scan
 
 if TYPE_CHECKING:  # pragma: no cover
     from .local_fence import LocalFence
@@ -442,6 +443,17 @@ path_rollout = numba.njit(cache=True)(_path_rollout) if COMPILED else None
 
 path_follow = numba.njit(cache=True)(_path_follow) if COMPILED else None
 """The compiled :func:`_path_follow` (``None`` without numba: :meth:`RecoveryPath.follow` loops)."""
+
+
+def _margin_function(fence: "LocalFence") -> Callable[[float, float], float]:
+    """``fence.lateral_margin_m`` as a function of ``(e, n)`` for a search that asks it at many points (a safe
+    point's polylabel): for a fence without an index, while :data:`geofence.jit.ACTIVE`, the compiled scan with
+    its tables bound (:meth:`~geofence.local_fence.LocalFence.lateral_margin_scan_m`'s number, without the
+    per-call lookups)."""
+    if fence.grid() is not None or not _jit.ACTIVE:
+        return fence.lateral_margin_m
+    ki, ko, offsets, circles = fence.scan_tables()
+    return lambda e, n: lateral_margin_scan(e, n, ki, ko, offsets, circles)
 
 
 # ----------------------------------------------------------------------------- results
@@ -794,7 +806,7 @@ class RecoveryPlanner:
             if any(self._clear_one((k.east_m, k.north_m), (x, y), 0.7 * r) for k in kept):
                 continue
             px, py, pr = pole_of_inaccessibility(
-                f.lateral_margin_m, (x - h, y - h, x + h, y + h), precision_m=max(0.01, 1e-3 * h), max_cells=400
+                _margin_function(f), (x - h, y - h, x + h, y + h), precision_m=max(0.01, 1e-3 * h), max_cells=400
             )
             if pr < r:
                 px, py, pr = x, y, r
