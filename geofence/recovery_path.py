@@ -391,39 +391,122 @@ def _path_lookahead(
     return s, ce, cn
 
 
-def _path_rollout(
-    pts: np.ndarray,
-    cum: np.ndarray,
+def follower_tables(edges: np.ndarray, circles: np.ndarray, scan: tuple | None) -> tuple[np.ndarray, np.ndarray]:
+    """A planner's tables for the compiled route follower, packed in one float and one int array (a compiled call
+    pays for every array it takes): its edge rows ``(cx, cy, dx, dy, xmin, xmax, ymin, ymax)`` and circle rows
+    ``(x, y, r)`` (:func:`_segment_clear`'s), and for a fence without an index its scan tables ``scan`` (the
+    keep-in's rows, the keep-outs' rows and offsets, the circles: ``LocalFence.scan_tables``), with which the
+    follower finds the chord threshold itself; ``None``: none (the caller gives the threshold). Int array:
+    ``(edges, circles, keep-in rows, keep-out rows, scan circles, has scan, keep-out offsets...)``."""
+    ki, ko, offsets, scan_circles = (
+        scan if scan is not None else (np.zeros((0, 7)), np.zeros((0, 7)), np.zeros(1), np.zeros((0, 3)))
+    )
+    floats = np.concatenate([t.ravel() for t in (edges, circles, ki, ko, scan_circles)]).astype(np.float64)
+    layout = [len(edges), len(circles), len(ki), len(ko), len(scan_circles), int(scan is not None), *offsets]
+    return floats, np.array(layout, dtype=np.int64)
+
+
+@jitable
+def _follower_tables(
+    P: np.ndarray, Q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(edges, circles, keep_in, keep_outs, offsets, scan_circles)`` of :func:`follower_tables`' packed arrays."""
+    o = 0
+    edges = P[o : o + 8 * Q[0]].reshape(Q[0], 8)
+    o += 8 * Q[0]
+    circles = P[o : o + 3 * Q[1]].reshape(Q[1], 3)
+    o += 3 * Q[1]
+    keep_in = P[o : o + 7 * Q[2]].reshape(Q[2], 7)
+    o += 7 * Q[2]
+    keep_outs = P[o : o + 7 * Q[3]].reshape(Q[3], 7)
+    o += 7 * Q[3]
+    scan_circles = P[o : o + 3 * Q[4]].reshape(Q[4], 3)
+    return edges, circles, keep_in, keep_outs, Q[6:], scan_circles
+
+
+@jitable
+def _route_arrays(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(points, arc lengths)`` of a route's packed array (:meth:`RecoveryPath._arrays`: the points' rows, then
+    their arc lengths)."""
+    k = R.shape[0] // 3
+    return R[: 2 * k].reshape(k, 2), R[2 * k :]
+
+
+def _route_project(R: np.ndarray, P: np.ndarray, Q: np.ndarray, s0: float, e: float, n: float, thr: float) -> float:
+    """:func:`_path_project` on a route's and its planner's packed arrays."""
+    pts, cum = _route_arrays(R)
+    edges, circles, _ki, _ko, _off, _sc = _follower_tables(P, Q)
+    return _path_project(pts, cum, s0, e, n, thr, edges, circles)
+
+
+def _route_lookahead(
+    R: np.ndarray, P: np.ndarray, Q: np.ndarray, s0: float, e: float, n: float, lookahead_m: float, thr: float
+) -> tuple[float, float, float]:
+    """:func:`_path_lookahead` on a route's and its planner's packed arrays."""
+    pts, cum = _route_arrays(R)
+    edges, circles, _ki, _ko, _off, _sc = _follower_tables(P, Q)
+    return _path_lookahead(pts, cum, s0, e, n, lookahead_m, thr, edges, circles)
+
+
+@jitable
+def _chord_threshold(thr: float, e: float, n: float, clearance_m: float, P: np.ndarray, Q: np.ndarray) -> float:
+    """``thr``, or when it is NaN, :meth:`RecoveryPath._exact_chord_threshold`'s ``min(margin, c) - EPS_M`` at (e, n)
+    with the margin by the fence's compiled scan (its tables packed in ``P, Q``: the number
+    ``LocalFence.lateral_margin_m`` gives a fence without an index)."""
+    if thr == thr:
+        return thr
+    _edges, _circles, keep_in, keep_outs, offsets, scan_circles = _follower_tables(P, Q)
+    m = lateral_margin_scan(e, n, keep_in, keep_outs, offsets, scan_circles)
+    return (clearance_m if clearance_m < m else m) - EPS_M
+
+
+def _route_rollout(
+    R: np.ndarray,
+    P: np.ndarray,
+    Q: np.ndarray,
     s0: float,
     e: float,
     n: float,
     lookahead_m: float,
     thr: float,
-    edges: np.ndarray,
-    circles: np.ndarray,
-) -> tuple[float, float]:
-    """:meth:`RecoveryPath.rollout_point` on the path's arrays for a vehicle whose chords are tested exactly (see
-    :func:`_path_project`): the point ``lookahead_m`` past its projection."""
-    return _path_point_at(pts, cum, _path_project(pts, cum, s0, e, n, thr, edges, circles) + lookahead_m)
+    clearance_m: float,
+) -> tuple[float, float, float]:
+    """``(thr, east, north)``: :meth:`RecoveryPath.rollout_point` on a route's and its planner's packed arrays for a
+    vehicle whose chords are tested exactly (see :func:`_path_project`), the point ``lookahead_m`` past its
+    projection; ``thr`` NaN: found from the fence's scan (:func:`_chord_threshold`), and returned; when it is not
+    positive, nothing else is computed (the Python methods answer)."""
+    thr = _chord_threshold(thr, e, n, clearance_m, P, Q)
+    if not thr > 0.0:
+        return thr, 0.0, 0.0
+    pts, cum = _route_arrays(R)
+    edges, circles, _ki, _ko, _off, _sc = _follower_tables(P, Q)
+    ce, cn = _path_point_at(pts, cum, _path_project(pts, cum, s0, e, n, thr, edges, circles) + lookahead_m)
+    return thr, ce, cn
 
 
-def _path_follow(
-    pts: np.ndarray,
-    cum: np.ndarray,
+def _route_follow(
+    R: np.ndarray,
+    P: np.ndarray,
+    Q: np.ndarray,
     s0: float,
     e: float,
     n: float,
     lookahead_m: float,
     thr: float,
-    edges: np.ndarray,
-    circles: np.ndarray,
-) -> tuple[float, float, float, float]:
-    """``(progress after, carrot east, carrot north, projection after)``: :meth:`RecoveryPath.follow` on the path's
-    arrays for a vehicle whose chords are tested exactly (see :func:`_path_project`): :func:`_path_lookahead`, the
-    progress advanced to its projection, then the projection from there (:meth:`RecoveryPath.remaining_m`'s)."""
+    clearance_m: float,
+) -> tuple[float, float, float, float, float]:
+    """``(thr, progress after, carrot east, carrot north, projection after)``: :meth:`RecoveryPath.follow` on a
+    route's and its planner's packed arrays for a vehicle whose chords are tested exactly (see
+    :func:`_path_project`): :func:`_path_lookahead`, the progress advanced to its projection, then the projection
+    from there (:meth:`RecoveryPath.remaining_m`'s); ``thr`` as :func:`_route_rollout` takes and returns it."""
+    thr = _chord_threshold(thr, e, n, clearance_m, P, Q)
+    if not thr > 0.0:
+        return thr, s0, 0.0, 0.0, 0.0
+    pts, cum = _route_arrays(R)
+    edges, circles, _ki, _ko, _off, _sc = _follower_tables(P, Q)
     s, ce, cn = _path_lookahead(pts, cum, s0, e, n, lookahead_m, thr, edges, circles)
     progress = s if s > s0 else s0
-    return progress, ce, cn, _path_project(pts, cum, progress, e, n, thr, edges, circles)
+    return thr, progress, ce, cn, _path_project(pts, cum, progress, e, n, thr, edges, circles)
 
 
 segment_clear = numba.njit(cache=True)(_segment_clear) if COMPILED else None
@@ -432,17 +515,17 @@ segment_clear = numba.njit(cache=True)(_segment_clear) if COMPILED else None
 fan_clear = numba.njit(cache=True)(_fan_clear_rows) if COMPILED else None
 """The compiled :func:`_fan_clear_rows` (``None`` without numba: :meth:`RecoveryPlanner._fan_clear` vectorises)."""
 
-path_project = numba.njit(cache=True)(_path_project) if COMPILED else None
-"""The compiled :func:`_path_project` (``None`` without numba: :meth:`RecoveryPath.project` loops)."""
+path_project = numba.njit(cache=True)(_route_project) if COMPILED else None
+"""The compiled :func:`_route_project` (``None`` without numba: :meth:`RecoveryPath.project` loops)."""
 
-path_lookahead = numba.njit(cache=True)(_path_lookahead) if COMPILED else None
-"""The compiled :func:`_path_lookahead` (``None`` without numba: :meth:`RecoveryPath.lookahead_point` loops)."""
+path_lookahead = numba.njit(cache=True)(_route_lookahead) if COMPILED else None
+"""The compiled :func:`_route_lookahead` (``None`` without numba: :meth:`RecoveryPath.lookahead_point` loops)."""
 
-path_rollout = numba.njit(cache=True)(_path_rollout) if COMPILED else None
-"""The compiled :func:`_path_rollout` (``None`` without numba: :meth:`RecoveryPath.rollout_point` loops)."""
+path_rollout = numba.njit(cache=True)(_route_rollout) if COMPILED else None
+"""The compiled :func:`_route_rollout` (``None`` without numba: :meth:`RecoveryPath.rollout_point` loops)."""
 
-path_follow = numba.njit(cache=True)(_path_follow) if COMPILED else None
-"""The compiled :func:`_path_follow` (``None`` without numba: :meth:`RecoveryPath.follow` loops)."""
+path_follow = numba.njit(cache=True)(_route_follow) if COMPILED else None
+"""The compiled :func:`_route_follow` (``None`` without numba: :meth:`RecoveryPath.follow` loops)."""
 
 
 def _margin_function(fence: "LocalFence") -> Callable[[float, float], float]:
@@ -491,7 +574,7 @@ class RecoveryPath:
             cum.append(cum[-1] + math.hypot(bx - ax, by - ay))
         self.cum_m = cum
         self.length_m = cum[-1]
-        self._rows: tuple[np.ndarray, np.ndarray] | None = None  # the compiled follower's arrays, when it first asks
+        self._rows: np.ndarray | None = None  # the compiled follower's array, when it first asks
         self.goal_en = (float(goal_en[0]), float(goal_en[1]))
         self.reached_goal = reached_goal
         self.first_leg_floor_m = first_leg_floor_m
@@ -500,11 +583,11 @@ class RecoveryPath:
     def __repr__(self) -> str:
         return f"RecoveryPath({len(self.points)} points, {self.length_m:.1f} m, reached_goal={self.reached_goal})"
 
-    def _arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        """The points and their arc lengths as the compiled follower's arrays (built on first use: a route planned
-        only for its first point, a fixed-wing's roll-out target, never needs them)."""
+    def _arrays(self) -> np.ndarray:
+        """The points and their arc lengths packed as the compiled follower's array (the points' rows, then the arc
+        lengths: :func:`_route_arrays`), built on first use."""
         if self._rows is None:
-            self._rows = (np.array(self.points, dtype=np.float64).reshape(-1, 2), np.array(self.cum_m, dtype=np.float64))
+            self._rows = np.array([c for p in self.points for c in p] + self.cum_m, dtype=np.float64)
         return self._rows
 
     def point_at(self, s_m: float) -> Point:
@@ -540,7 +623,7 @@ class RecoveryPath:
         thr = self._exact_chord_threshold(e, n)
         if thr is not None and path_project is not None:
             planner = self.planner
-            return path_project(*self._arrays(), s0, e, n, thr, planner._edge_rows, planner._circle_rows)
+            return path_project(self._arrays(), *planner._follower, s0, e, n, thr)
         cands = []
         for i in range(len(pts) - 1):
             if cum[i + 1] < s0:
@@ -584,28 +667,38 @@ class RecoveryPath:
         :class:`geofence.guidance.FixedWingRecovery`). After the roll-out the guidance follows
         :meth:`lookahead_point`'s carrot, which does test its chord.
         """
-        thr = self._exact_chord_threshold(e, n) if len(self.points) > 1 else None
-        if thr is not None and path_rollout is not None:
-            planner = self.planner
-            return path_rollout(
-                *self._arrays(), self.progress_m, e, n, lookahead_m, thr, planner._edge_rows, planner._circle_rows
-            )
+        if len(self.points) > 1 and path_rollout is not None:
+            args = self._kernel_arguments(e, n)
+            if args is not None:
+                thr, ce, cn = path_rollout(self._arrays(), *args[0], self.progress_m, e, n, lookahead_m, *args[1])
+                if thr > 0.0:
+                    return (ce, cn)
         return self.point_at(self.project(e, n) + lookahead_m)
 
     def follow(self, e: float, n: float, lookahead_m: float) -> tuple[Point, float]:
         """``(carrot, remaining)``: :meth:`lookahead_point` (which advances ``progress_m``), then :meth:`remaining_m`
         from the advanced progress; a route follower's step in one compiled call (:data:`path_follow`) as
         :meth:`project` is compiled."""
-        thr = self._exact_chord_threshold(e, n)
-        if thr is not None and path_follow is not None:
-            planner = self.planner
-            progress, ce, cn, s = path_follow(
-                *self._arrays(), self.progress_m, e, n, lookahead_m, thr, planner._edge_rows, planner._circle_rows
-            )
-            self.progress_m = progress
-            return (ce, cn), max(0.0, self.length_m - s)
+        if path_follow is not None:
+            args = self._kernel_arguments(e, n)
+            if args is not None:
+                thr, progress, ce, cn, s = path_follow(self._arrays(), *args[0], self.progress_m, e, n, lookahead_m, *args[1])
+                if thr > 0.0:
+                    self.progress_m = progress
+                    return (ce, cn), max(0.0, self.length_m - s)
         carrot = self.lookahead_point(e, n, lookahead_m)
         return carrot, self.remaining_m(e, n)
+
+    def _kernel_arguments(self, e: float, n: float) -> tuple | None:
+        """``((P, Q), (thr, clearance))``: the planner's packed tables (:func:`follower_tables`) and the chord
+        threshold of :data:`path_rollout` and :data:`path_follow` for a vehicle at (e, n). For a fence without an
+        index ``thr`` is NaN: the compiled call finds :meth:`_exact_chord_threshold` itself (one call less per step).
+        None: the Python methods (not :data:`geofence.jit.ACTIVE`, or no positive threshold)."""
+        planner = self.planner
+        if planner._follower_scans:
+            return (planner._follower, (math.nan, planner.clearance_m)) if _jit.ACTIVE else None
+        thr = self._exact_chord_threshold(e, n)
+        return None if thr is None else (planner._follower, (thr, planner.clearance_m))
 
     def lookahead_point(self, e: float, n: float, lookahead_m: float) -> Point:
         """The carrot for a vehicle at (e, n): ``lookahead_m`` along the path past its projection.
@@ -620,9 +713,7 @@ class RecoveryPath:
         thr = self._exact_chord_threshold(e, n)
         if thr is not None and path_lookahead is not None:
             planner = self.planner
-            s, ce, cn = path_lookahead(
-                *self._arrays(), self.progress_m, e, n, lookahead_m, thr, planner._edge_rows, planner._circle_rows
-            )
+            s, ce, cn = path_lookahead(self._arrays(), *planner._follower, self.progress_m, e, n, lookahead_m, thr)
             if s > self.progress_m:
                 self.progress_m = s
             return (ce, cn)
@@ -673,6 +764,11 @@ class RecoveryPlanner:
         self._ebox = self._edge_rows[:, 4:]  # xmin, xmax, ymin, ymax
         self._circles = tuple((float(x), float(y), float(r)) for x, y, r in fence.keep_out_circles)
         self._circle_rows = np.array(self._circles, dtype=float).reshape(-1, 3)
+        # the compiled follower's tables; with the fence's scan tables (no index) it finds the chord threshold itself
+        self._follower_scans = fence.grid() is None
+        self._follower = follower_tables(
+            self._edge_rows, self._circle_rows, fence.scan_tables() if self._follower_scans else None
+        )
         self._cc, self._cr = self._circle_rows[:, :2], self._circle_rows[:, 2]
         # a fixed shuffled edge order spreads each chunk over the whole fence (earlier rejection)
         self._perm = np.random.default_rng(12345).permutation(len(a))
