@@ -305,8 +305,9 @@ class FixedWingRecovery:
             ):
                 self.turning = False
             else:
-                # turn_sign +1 = left (counter-clockwise) = negative roll stick
-                return StickCommand(roll=-float(self.turn_sign), pitch=pitch, yaw=0.0, throttle=throttle)
+                # turn_sign +1 = left (counter-clockwise) = negative roll stick (roll, pitch, yaw, throttle; a named
+                # tuple's generated constructor with keywords costs three times tuple.__new__)
+                return tuple.__new__(StickCommand, (-float(self.turn_sign), pitch, 0.0, throttle))
         target, remaining = route.follow(s.east_m, s.north_m, self.lookahead_m)
         ge, gn = route.points[-1]
         if remaining > 1.2 * self.orbit_radius_m:
@@ -314,7 +315,7 @@ class FixedWingRecovery:
         else:
             course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, ge, gn, self.orbit_radius_m, clockwise=self.turn_sign < 0)
         roll = bank_stick_for_course(s, course_cmd, env, COURSE_GAIN_PER_S)
-        return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=throttle)
+        return tuple.__new__(StickCommand, (roll, pitch, 0.0, throttle))
 
 
 class LandingGuidance:

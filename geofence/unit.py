@@ -113,6 +113,12 @@ class Mode(IntEnum):
     TERMINATE = 4
 
 
+# the modes as module constants for the per-step code (a global is read in a tenth of an enum class attribute's time)
+_MONITOR, _OVERRIDE, _RECOVERED, _LAND_IN_GAP, _TERMINATE = (
+    Mode.MONITOR, Mode.OVERRIDE, Mode.RECOVERED, Mode.LAND_IN_GAP, Mode.TERMINATE,
+)  # fmt: skip
+
+
 @dataclass(frozen=True)
 class Transition:
     t_s: float
@@ -149,6 +155,7 @@ class GeofenceUnit:
         self._clearances: tuple[float, ...] = ()
         self._clearances_for: tuple = ()  # (sigma_h, envelope) the clearances were computed for
         self._compiled: CompiledMargins | None = None  # the compiled margins of a fence without an index
+        self._predictive = config.trigger is Trigger.PREDICTIVE
         self._build_laws(envelope)
         self._mode_since_s = 0.0
         self._strong_wind_since_s: float | None = None
@@ -300,10 +307,10 @@ class GeofenceUnit:
         self._skipped_last = self._far_from_everything(s, h, sigma_h_m, sigma_v_m, dt_s)
         return None if self._skipped_last else self._margins(s, h, sigma_h_m, sigma_v_m, dt_s)
 
-    def _activation(self, r: ShiftResult) -> float:
-        if self.config.trigger is Trigger.REACTIVE:
-            return min(r.lateral_margin_m, r.ceiling_margin_m, r.floor_margin_m) - self.config.extra_margin_m
-        return r.activation_margin_m
+    def _reactive_activation(self, r: ShiftResult) -> float:
+        """``trigger: reactive``'s activation margin: the plain margin (act on the line); a predictive unit's is
+        ``r.activation_margin_m``."""
+        return min(r.lateral_margin_m, r.ceiling_margin_m, r.floor_margin_m) - self.config.extra_margin_m
 
     @staticmethod
     def _outside(r: ShiftResult) -> bool:
@@ -581,11 +588,11 @@ class GeofenceUnit:
         self._sigma_v_m = sigma_v_m
         if math.isfinite(sigma_h_m):
             self._sigma_h_m = sigma_h_m
-        h = self.height(est)
+        h = est.agl_m if self._agl else est.alt_m  # self.height(est)
         mode = self.mode
-        if mode is Mode.MONITOR and position_valid:
+        if mode is _MONITOR and position_valid:
             self._scale_to_density(est.alt_m)
-        if mode is Mode.LAND_IN_GAP or mode is Mode.TERMINATE:
+        if mode is _LAND_IN_GAP or mode is _TERMINATE:
             return self._land(t_s, est, h, dt_s)
         if not position_valid:
             self._start_landing(t_s, est, h, "position source lost")
@@ -600,25 +607,25 @@ class GeofenceUnit:
                 self._start_landing(t_s, est, h, impossible)
                 return self._land(t_s, est, h, dt_s)
 
-        monitoring = mode is Mode.MONITOR or mode is Mode.RECOVERED
-        if monitoring and self.config.trigger is Trigger.PREDICTIVE:
+        monitoring = mode is _MONITOR or mode is _RECOVERED
+        if monitoring and self._predictive:
             found = self._monitor_margins(est, h, sigma_h_m, sigma_v_m, dt_s)
             if found is None:  # far from everything
                 self.activation_margin_m = math.inf  # larger than any room: not computed in detail
-                if mode is Mode.RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
+                if mode is _RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
                     self._switch(t_s, Mode.MONITOR, "hand-back complete")
                 return pilot
             r = found
-        elif mode is Mode.OVERRIDE and t_s - self._override_period_start_s < self.config.min_override_s:
+        elif mode is _OVERRIDE and t_s - self._override_period_start_s < self.config.min_override_s:
             self.activation_margin_m = math.nan  # not needed (nor computed) until the minimum override has passed
             return self.recovery.sticks(est, h, t_s, dt_s)
         else:
             r = self._margins(est, h, sigma_h_m, sigma_v_m, dt_s)
         self.last = r
-        act = self._activation(r)
+        act = r.activation_margin_m if self._predictive else self._reactive_activation(r)
         self.activation_margin_m = act
 
-        if mode is Mode.MONITOR or mode is Mode.RECOVERED:
+        if monitoring:
             if act <= 0.0 and not (est.on_ground and est.ground_speed_mps < SITTING_MAX_GROUND_SPEED_MPS):
                 self.activations += 1
                 if impossible:
@@ -626,7 +633,7 @@ class GeofenceUnit:
                     return self._land(t_s, est, h, dt_s)
                 self._start_override(t_s, est, h, r, self._trigger_reason(r))
             else:
-                if mode is Mode.RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
+                if mode is _RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
                     self._switch(t_s, Mode.MONITOR, "hand-back complete")
                 return pilot
 
