@@ -42,6 +42,13 @@ SUSTAINED_TURBULENCE_SIGMAS = 1.0
 """How many turbulence sigmas the sustained wind of a return allows for (see :func:`return_not_assured`)."""
 
 
+def return_wind_limits(turbulence_sigma_mps: float, env: Envelope) -> tuple[float, float]:
+    """``(allowance, limit)`` of :func:`return_not_assured` (m/s): return is assured while the mean wind plus
+    ``allowance`` (the sustained turbulence) stays below ``limit`` (a fraction of the max speed). The unit
+    computes them once per envelope and tests every step's wind against them."""
+    return SUSTAINED_TURBULENCE_SIGMAS * max(turbulence_sigma_mps, 0.0), RETURN_IMPOSSIBLE_WIND_FRACTION * env.max_speed_mps
+
+
 def return_not_assured(mean_wind_mps: float, turbulence_sigma_mps: float, env: Envelope) -> str | None:
     """Why the platform cannot be sure to fly back against the wind, or None.
 
@@ -54,8 +61,8 @@ def return_not_assured(mean_wind_mps: float, turbulence_sigma_mps: float, env: E
     speed. A discrete gust is not part of it: it passes in seconds, and the room of every margin
     allows for it.
     """
-    allowance = SUSTAINED_TURBULENCE_SIGMAS * max(turbulence_sigma_mps, 0.0)
-    if mean_wind_mps + allowance < RETURN_IMPOSSIBLE_WIND_FRACTION * env.max_speed_mps:
+    allowance, limit = return_wind_limits(turbulence_sigma_mps, env)
+    if mean_wind_mps + allowance < limit:
         return None
     what = f"wind {mean_wind_mps:.1f} m/s"
     if allowance > 0.0:

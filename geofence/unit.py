@@ -52,7 +52,7 @@ from geofence.boundary_shift import CompiledMargins, ShiftResult, activation_mar
 from geofence.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
-from geofence.dynamics import envelope_at_density, isa_density_ratio, return_not_assured
+from geofence.dynamics import envelope_at_density, isa_density_ratio, return_not_assured, return_wind_limits
 from geofence.fence import AltitudeReference
 from geofence.guidance import (
     FixedWingRecovery,
@@ -102,7 +102,7 @@ DENSITY_REFRESH_M = 100.0
 
 def _rollout_cell(e: float, n: float) -> tuple[int, int]:
     """The roll-out target cache's cell of (e, n) (:data:`ROLLOUT_CELL_M` squares)."""
-    return (int(math.floor(e / ROLLOUT_CELL_M)), int(math.floor(n / ROLLOUT_CELL_M)))
+    return (math.floor(e / ROLLOUT_CELL_M), math.floor(n / ROLLOUT_CELL_M))  # (math.floor of a float is an int)
 
 
 class Mode(IntEnum):
@@ -156,6 +156,8 @@ class GeofenceUnit:
         self._clearances_for: tuple = ()  # (sigma_h, envelope) the clearances were computed for
         self._compiled: CompiledMargins | None = None  # the compiled margins of a fence without an index
         self._predictive = config.trigger is Trigger.PREDICTIVE
+        self._estimated_turbulence = config.turbulence_source is TurbulenceSource.ESTIMATE
+        self._forecast_allowance_mps = config.wind_allowance_mps(config.turbulence_sigma_mps)
         self._build_laws(envelope)
         self._mode_since_s = 0.0
         self._strong_wind_since_s: float | None = None
@@ -198,11 +200,11 @@ class GeofenceUnit:
         turn_r = envelope_turn_radius_m(env)
         self.landing = LandingGuidance(env, spiral_radius_m=max(1.2 * turn_r, 10.0), wind_enu=self.wind_enu)
         self.dead_reckoning = DeadReckoning(env)
+        self._return_wind_limits = return_wind_limits(config.turbulence_sigma_mps, env)
 
     def _scale_to_density(self, alt_m: float) -> None:
-        """Scale the envelope to the ISA density at ``alt_m`` (AMSL), while monitoring, when it moved > 100 m."""
-        if self._density_alt_m is not None and abs(alt_m - self._density_alt_m) < DENSITY_REFRESH_M:
-            return
+        """Scale the envelope to the ISA density at ``alt_m`` (AMSL); :meth:`update` asks it while monitoring, when
+        the altitude moved :data:`DENSITY_REFRESH_M` or more since the last time."""
         self._density_alt_m = alt_m
         self._build_laws(envelope_at_density(self.base_envelope, isa_density_ratio(alt_m)))
         self._rollout_cache.clear()  # the route clearances follow the (true-airspeed) turn radius
@@ -220,11 +222,9 @@ class GeofenceUnit:
     def wind_allowance_mps(self) -> float:
         """Turbulence and gust allowance added to the wind in every margin: ``k·σ + gust`` (σ: the forecast's,
         or with ``turbulence_source: estimate`` the larger of it and the unit's own estimate)."""
-        cfg = self.config
-        sigma = cfg.turbulence_sigma_mps
-        if cfg.turbulence_source is TurbulenceSource.ESTIMATE and self._turbulence_est_mps > sigma:
-            sigma = self._turbulence_est_mps
-        return cfg.wind_allowance_mps(sigma)
+        if self._estimated_turbulence and self._turbulence_est_mps > self.config.turbulence_sigma_mps:
+            return self.config.wind_allowance_mps(self._turbulence_est_mps)
+        return self._forecast_allowance_mps
 
     def _far_from_everything(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> bool:
         """Cheap pre-check: no edge, ceiling or floor is within the largest room this state could need.
@@ -590,14 +590,21 @@ class GeofenceUnit:
             self._sigma_h_m = sigma_h_m
         h = est.agl_m if self._agl else est.alt_m  # self.height(est)
         mode = self.mode
-        if mode is _MONITOR and position_valid:
+        if (
+            mode is _MONITOR
+            and position_valid
+            and (self._density_alt_m is None or not abs(est.alt_m - self._density_alt_m) < DENSITY_REFRESH_M)
+        ):  # never scaled, or the altitude moved (not "<": a NaN altitude rescales)
             self._scale_to_density(est.alt_m)
         if mode is _LAND_IN_GAP or mode is _TERMINATE:
             return self._land(t_s, est, h, dt_s)
         if not position_valid:
             self._start_landing(t_s, est, h, "position source lost")
             return self._land(t_s, est, h, dt_s)
-        impossible = self._return_impossible()
+        we, wn = self.wind_enu
+        allowance, limit = self._return_wind_limits
+        # return_not_assured's test against its limits (computed once per envelope); its message only when it fails
+        impossible = None if math.hypot(we, wn) + allowance < limit else self._return_impossible()
         if impossible is None:
             self._strong_wind_since_s = None
         else:
