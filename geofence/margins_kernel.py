@@ -155,7 +155,7 @@ def envelope_terms(env: Envelope) -> np.ndarray:
 
 
 @jitable
-def _margins(
+def _margins_at(
     F: np.ndarray,
     L: np.ndarray,
     V: np.ndarray,
@@ -176,12 +176,14 @@ def _margins(
     target_e: float,
     target_n: float,
     g: float,
+    lat_margin: float,
 ) -> tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]:  # fmt: skip
     """:func:`~geofence.boundary_shift.activation_margins` without an index: ``(activation, lateral margin, lateral
     shift, lateral activation, element id, nx, ny, edge distance, closing speed, time to breach, turn sign,
     turn angle, ceiling margin, ceiling shift, floor margin, floor shift, vertical activation, vertical time to
     breach)``; the arguments are the reference's (``h_uncertainty_m`` is ``hu``, ``v_uncertainty_m`` ``v_unc``;
-    ``has_target``: a ``rollout_target_en`` is given). ``F, L``: a fence's packed :class:`MarginTables`."""
+    ``has_target``: a ``rollout_target_en`` is given). ``F, L``: a fence's packed :class:`MarginTables`. ``lat_margin``: the lateral margin at (e, n) when the
+    caller has it (:func:`_lateral_margin`), NaN: not yet."""
     S = _table(F, L, SCALARS, 1)[:, 0]
     fixed_wing = V[FIXED_WING] != 0.0
     t_r = V[REACTION_S] + latency_s
@@ -216,9 +218,8 @@ def _margins(
         v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
         k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, int(S[LINE_EDGES]),
     )  # fmt: skip
-    lat_margin = lateral_margin_scan(
-        e, n, _table(F, L, KEEP_IN, 7), _table(F, L, KEEP_OUTS, 7), _vector(L, KEEP_OUT_OFFSETS), _table(F, L, CIRCLES, 3)
-    )
+    if lat_margin != lat_margin:
+        lat_margin = _lateral_margin(F, L, e, n)
     if lat_margin < lat_act:
         lat_act = lat_margin
     if lat_margin <= 0.0:
@@ -278,13 +279,52 @@ def _margins(
 
 
 @jitable
+def _lateral_margin(F: np.ndarray, L: np.ndarray, e: float, n: float) -> float:
+    """The lateral margin at (e, n): :func:`geofence.scan_kernel.lateral_margin_scan` on the packed tables."""
+    return lateral_margin_scan(
+        e, n, _table(F, L, KEEP_IN, 7), _table(F, L, KEEP_OUTS, 7), _vector(L, KEEP_OUT_OFFSETS), _table(F, L, CIRCLES, 3)
+    )
+
+
+@jitable
+def _margins(
+    F: np.ndarray,
+    L: np.ndarray,
+    V: np.ndarray,
+    e: float,
+    n: float,
+    h: float,
+    ve: float,
+    vn: float,
+    vu: float,
+    wind_e: float,
+    wind_n: float,
+    hu: float,
+    v_unc: float,
+    latency_s: float,
+    bank_rad: float,
+    wind_extra_mps: float,
+    has_target: bool,
+    target_e: float,
+    target_n: float,
+    g: float,
+) -> tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]:  # fmt: skip
+    """:func:`~geofence.boundary_shift.activation_margins` without an index (:func:`_margins_at`, the lateral
+    margin not yet known)."""
+    return _margins_at(
+        F, L, V, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps, has_target,
+        target_e, target_n, g, math.nan,
+    )  # fmt: skip
+
+
+@jitable
 def _far_from_everything(
     F: np.ndarray, L: np.ndarray, V: np.ndarray, e: float, n: float, h: float, ground_speed: float, ve: float,
     vn: float, vu: float, wind_e: float, wind_n: float, allowance: float, t_s: float, hu: float, v_unc: float, g: float,
-) -> bool:  # fmt: skip
+) -> tuple[bool, float]:  # fmt: skip
     """:meth:`geofence.unit.GeofenceUnit._far_from_everything` on the tables (its reference): no element, ceiling or
     floor within the largest room the state can need (:func:`geofence.rooms.room_upper_bounds_terms` at the wind
-    speed plus ``allowance`` over the time ``t_s``, plus the uncertainties ``hu`` and ``v_unc``)."""
+    speed plus ``allowance`` over the time ``t_s``, plus the uncertainties ``hu`` and ``v_unc``), and the lateral margin at (e, n) when it was computed (else NaN)."""
     S = _table(F, L, SCALARS, 1)[:, 0]
     fixed_wing = V[FIXED_WING] != 0.0
     w = hypot(wind_e, wind_n) + allowance
@@ -293,21 +333,19 @@ def _far_from_everything(
         V[K2], ground_speed, hypot(ve - wind_e, vn - wind_n), vu, w, t_s, g,
     )  # fmt: skip
     if room == math.inf:
-        return False
+        return False, math.nan
     room += hu
     vroom += v_unc
     if S[CEILING] - h <= vroom:
-        return False
-    lat = lateral_margin_scan(
-        e, n, _table(F, L, KEEP_IN, 7), _table(F, L, KEEP_OUTS, 7), _vector(L, KEEP_OUT_OFFSETS), _table(F, L, CIRCLES, 3)
-    )
+        return False, math.nan
+    lat = _lateral_margin(F, L, e, n)
     if not lat > room:
-        return False
+        return False, lat
     if S[HAS_FLOOR] == 0.0 or h - S[FLOOR] > vroom:
-        return True
+        return True, lat
     if fixed_wing:  # it circles in a gap while it climbs back: the circle drifts (an upper bound)
         room += climb_back_drift_m(S[FLOOR] + vroom - h, V[MAX_CLIMB], w)
-    return deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), _vector(L, GAP_OFFSETS))[1] > room
+    return deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), _vector(L, GAP_OFFSETS))[1] > room, lat
 
 
 _NOT_NEEDED = (math.inf, math.inf, 0.0, math.inf, -1, 0.0, 0.0, math.inf, 0.0, math.inf, 0, 0.0, math.inf, 0.0, math.inf, 0.0, math.inf, math.inf)  # fmt: skip
@@ -319,13 +357,17 @@ def _monitor_margins(
     latency_s: float, bank_rad: float, has_target: bool, target_e: float, target_n: float, g: float,
 ) -> tuple[bool, tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]]:  # fmt: skip
     """A monitoring step's question in one call: ``(far, fields)``: the unit's skip shortcut
-    (:func:`_far_from_everything`, with ``far_t_s`` its time), and unless it holds, :func:`_margins`' fields
+    (:func:`_far_from_everything`, with ``far_t_s`` its time), and unless it holds, :func:`_margins`' fields (with
+    the lateral margin the shortcut computed)
     (``wind_extra_mps`` is ``allowance``); when far, the fields are placeholders (not computed)."""
-    if _far_from_everything(F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, far_t_s, hu, v_unc, g):
+    far, lat = _far_from_everything(
+        F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, far_t_s, hu, v_unc, g
+    )  # fmt: skip
+    if far:
         return True, _NOT_NEEDED
-    return False, _margins(
+    return False, _margins_at(
         F, L, V, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, allowance, has_target, target_e,
-        target_n, g,
+        target_n, g, lat,
     )  # fmt: skip
 
 
