@@ -36,6 +36,8 @@ from geofence.rooms import multirotor_room_m, reaction_arc_gap_m, reaction_arc_m
 __all__ = ["circle_scored", "edge_scored", "element_table", "hypot", "lateral_binding", "nearest_distance"]
 
 _DBL_MIN = 2.2250738585072014e-308
+FIXED_WING_SCRATCH_ROWS = 8
+"""The scratch rows :func:`_fixed_wing_binding` takes (its per-element terms)."""
 _SPLIT = 134217729.0  # 2**27 + 1, Veltkamp's splitter
 
 
@@ -139,7 +141,14 @@ def _multirotor_binding(
 
 @jitable
 def _fixed_wing_binding(
-    f_d: np.ndarray, f_nx: np.ndarray, f_ny: np.ndarray, f_id: np.ndarray, keep: np.ndarray, state: tuple, turn: tuple
+    f_d: np.ndarray,
+    f_nx: np.ndarray,
+    f_ny: np.ndarray,
+    f_id: np.ndarray,
+    keep: np.ndarray,
+    state: tuple,
+    turn: tuple,
+    W: np.ndarray,
 ) -> tuple[float, float, int, float, float, float]:
     """``(activation, turn sign, position in keep, room, turn angle, v_n)`` of a fixed-wing's binding element
     over ``keep``: per turn ``(s1, delta1)``, ``(s2, delta2)`` the smallest ``d - base - excursion`` (the lowest
@@ -155,20 +164,23 @@ def _fixed_wing_binding(
     smallest bound, every element whose bound is at most the smallest activation found so far is scored; a
     bound is at most its activation, so every element that can tie the smallest is scored exactly.
     ``state = (ve, vn, wind_e, wind_n, extra, hu)``, ``turn = (v_turn, psi_react0, rot, omega_now, t_fw, sa,
-    ca, radius, inv_omega, s1, delta1, s2, delta2)``: :func:`_lateral_binding`'s arguments.
+    ca, radius, inv_omega, s1, delta1, s2, delta2)``: :func:`_lateral_binding`'s arguments. ``W``: scratch, at
+    least :data:`FIXED_WING_SCRATCH_ROWS` rows of ``keep``'s length (its rows are the per-element terms below).
     """
     ve, vn, wind_e, wind_n, extra, hu = state
     v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2 = turn
     nk = keep.shape[0]
     if nk == 0:
         return math.inf, 0.0, -1, 0.0, 0.0, 0.0
-    done = np.zeros(nk, np.bool_)
-    base = np.empty(nk)
-    gap = np.empty(nk)  # how much farther the reaction arc gets than its end (reaction_arc_gap_m)
-    psi = np.empty(nk)
-    wn = np.empty(nk)
-    lb_base = np.empty(nk)  # d - (upper bound of base)
-    sinp = np.empty(nk)  # sin psi0, to round-off
+    done = W[0]  # the exact terms below are computed (non-zero)
+    done[:nk] = 0.0
+    base = W[1]
+    gap = W[2]  # how much farther the reaction arc gets than its end (reaction_arc_gap_m)
+    psi = W[3]
+    wn = W[4]
+    lb_base = W[5]  # d - (upper bound of base)
+    sinp = W[6]  # sin psi0, to round-off
+    lbq = W[7]  # a turn's lower bound of the activation
     straight = abs(rot) < 1e-6
     sp = math.sin(psi_react0)
     cp = math.cos(psi_react0)
@@ -198,7 +210,6 @@ def _fixed_wing_binding(
     b_q = -1
     b_room = 0.0
     b_delta = 0.0
-    lbq = np.empty(nk)
     for di in range(2):
         s = s1 if di == 0 else s2
         delta = delta1 if di == 0 else delta2
@@ -220,13 +231,13 @@ def _fixed_wing_binding(
             if r >= 0 and (q == seed or lbq[q] > worst):
                 continue
             k = keep[q]
-            if not done[q]:
+            if done[q] == 0.0:
                 nx = f_nx[k]
                 ny = f_ny[k]
                 base[q] = reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, wn[q]) + hu
                 gap[q] = reaction_arc_gap_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, wn[q])
                 psi[q] = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
-                done[q] = True
+                done[q] = 1.0
             excursion = trochoid_excursion_m(radius, inv_omega, v_turn, wn[q], psi[q], s, delta)
             room = base[q] + (excursion if excursion >= gap[q] else gap[q])
             act = f_d[k] - room
@@ -255,17 +266,18 @@ def _walk(
     reach: float,
     delta_c: float,
     n_line: int,
-) -> tuple[int, float, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(count, nearest d, f_id, f_b, f_nx, f_ny)``: the first ``count`` rows of the ``f_*`` arrays hold the
-    candidates walked, the distances they are scored at and the unit directions they are scored along (the
-    reference's arithmetic: an edge's :func:`edge_scored`, the first ``n_line`` being a convex keep-in's; a
-    circle's :func:`circle_scored`), in ``ids`` order; with ``walk``, until the bound ``lbs[k] - delta_c -
-    reach`` exceeds the nearest point-segment or circle distance found (:meth:`FenceGrid.near`'s stop rule)."""
+    f_id: np.ndarray,
+    f_b: np.ndarray,
+    f_nx: np.ndarray,
+    f_ny: np.ndarray,
+) -> tuple[int, float]:
+    """``(count, nearest d)``: the first ``count`` entries of ``f_id, f_b, f_nx, f_ny`` (the caller's, at least
+    ``ids``' length) are set to the candidates walked, the distances they are scored at and the unit
+    directions they are scored along (the reference's arithmetic: an edge's :func:`edge_scored`, the first
+    ``n_line`` being a convex keep-in's; a circle's :func:`circle_scored`), in ``ids`` order; with ``walk``,
+    until the bound ``lbs[k] - delta_c - reach`` exceeds the nearest point-segment or circle distance found
+    (:meth:`FenceGrid.near`'s stop rule)."""
     m = ids.shape[0]
-    f_id = np.empty(m, np.int64)
-    f_nx = np.empty(m)
-    f_ny = np.empty(m)
-    f_b = np.empty(m)
     cnt = 0
     best = math.inf
     for k in range(m):
@@ -296,7 +308,7 @@ def _walk(
         cnt += 1
         if d < best:
             best = d
-    return cnt, best, f_id, f_b, f_nx, f_ny
+    return cnt, best
 
 
 @jitable
@@ -350,7 +362,9 @@ def circle_scored(e: float, n: float, ce: float, cn: float, r: float) -> tuple[f
 
 def _nearest_distance(E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, delta_c: float, e: float, n: float) -> float:
     """The nearest candidate's ``d`` by :func:`_walk` (reach 0): :meth:`FenceGrid.nearest_distance`."""
-    return _walk(E, ids, lbs, True, e, n, 0.0, delta_c, 0)[1]
+    m = ids.shape[0]
+    W = np.empty((3, m))
+    return _walk(E, ids, lbs, True, e, n, 0.0, delta_c, 0, np.empty(m, np.int64), W[0], W[1], W[2])[1]
 
 
 def _lateral_binding(
@@ -405,10 +419,20 @@ def _lateral_binding(
     ``climb_arrest``). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges. Each edge is
     scored by :func:`edge_scored` (``d``, ``nx, ny``: its scored distance and direction; ``d_min`` stays the
     nearest point-segment distance).
+
+    Its per-element arrays are rows of two scratch arrays allocated once per call (an allocation costs about as
+    much as scoring an element).
     """
-    cnt, min_d, f_id, f_d, f_nx, f_ny = _walk(E, ids, lbs, walk, e, n, reach, delta_c, n_line)
+    m = ids.shape[0]
+    I = np.empty((2, m), np.int64)  # noqa: E741
+    W = np.empty((3 + FIXED_WING_SCRATCH_ROWS, m))
+    f_id = I[0]
+    f_d = W[0]
+    f_nx = W[1]
+    f_ny = W[2]
+    cnt, min_d = _walk(E, ids, lbs, walk, e, n, reach, delta_c, n_line, f_id, f_d, f_nx, f_ny)
     # the elements that can bind, in element order
-    keep = np.empty(cnt, np.int64)
+    keep = I[1]
     nk = 0
     for k in range(cnt):
         if f_d[k] - reach < min_d:
@@ -418,7 +442,7 @@ def _lateral_binding(
     state = (ve, vn, wind_e, wind_n, extra, hu)
     if fixed_wing:
         turn = (v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2)
-        b_act, b_s, b_q, b_room, b_delta, t_vn = _fixed_wing_binding(f_d, f_nx, f_ny, f_id, keep, state, turn)
+        b_act, b_s, b_q, b_room, b_delta, t_vn = _fixed_wing_binding(f_d, f_nx, f_ny, f_id, keep, state, turn, W[3:])
     else:
         brake = (k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss)
         b_act, b_s, b_q, b_room, b_delta, t_vn = _multirotor_binding(f_d, f_nx, f_ny, f_id, keep, state, brake)
