@@ -737,11 +737,12 @@ class RecoveryPath:
 class RecoveryPlanner:
     """Shortest admissible routes inside a :class:`LocalFence` with lateral clearance ``clearance_m`` (> 0).
 
-    Built once per fence and clearance (the visibility graph and the safe
-    points are precomputed); :meth:`plan`, :meth:`nearest_safe_point` and
+    Built once per fence and clearance; :meth:`plan`, :meth:`nearest_safe_point` and
     :meth:`safe_point_with_radius` answer at activation time. See the module
-    docstring for the guarantee. ``lazy``: build the graph lazily (``None``:
-    from :data:`LAZY_MIN_NODES` nodes on); the routes are the same either way.
+    docstring for the guarantee. The graph's nodes (corner nodes and safe points) and, unless ``lazy``, its
+    edges are built on the first question that needs them (:meth:`_build_graph`): a route whose straight
+    segment is clear needs none (most of a convex fence's). ``lazy``: find each node's edges on its first
+    use (``None``: from :data:`LAZY_MIN_NODES` nodes on); the routes are the same either way.
     """
 
     def __init__(self, fence: "LocalFence", clearance_m: float, *, lazy: bool | None = None) -> None:
@@ -772,12 +773,22 @@ class RecoveryPlanner:
         self._cc, self._cr = self._circle_rows[:, :2], self._circle_rows[:, 2]
         # a fixed shuffled edge order spreads each chunk over the whole fence (earlier rejection)
         self._perm = np.random.default_rng(12345).permutation(len(a))
-        # ---- nodes
+        self._lazy_choice = lazy
+        self._graph_built = False
+
+    def _build_graph(self) -> None:
+        """The graph's nodes (corner nodes and safe points), their normal cones and, unless lazy, its edges: once,
+        on the first question that needs them (:attr:`nodes` asks)."""
+        if self._graph_built:
+            return
+        self._graph_built = True
+        fence = self.fence
+        lazy = self._lazy_choice
         corner = [p for p in self._corner_nodes() if fence.lateral_margin_m(p[0], p[1]) >= self._thr]
         self._safe = self._find_safe_points()
         self._safe_index = list(range(len(corner), len(corner) + len(self._safe)))
         nodes = [(p[0], p[1]) for p in corner] + [sp.en for sp in self._safe]
-        self.nodes = nodes
+        self._node_list = nodes
         self._nodes = np.array(nodes, dtype=float).reshape(-1, 2)
         # normal cones (n1 -> n2 counter-clockwise) of the corner nodes; safe points: no cone
         cones = np.array([p[2:] for p in corner] + [(0.0, 0.0, 0.0, 0.0)] * len(self._safe), dtype=float)
@@ -801,8 +812,15 @@ class RecoveryPlanner:
             self._adj = list(adj)
 
     @property
+    def nodes(self) -> list[Point]:
+        """The graph's nodes: the corner nodes, then the safe points (built on first use)."""
+        self._build_graph()
+        return self._node_list
+
+    @property
     def graph_edge_count(self) -> int:
         """Graph edges found so far: all of them, or for a lazy graph those of the nodes expanded."""
+        self._build_graph()
         found = sum(len(x) for x in self._adj if x is not None)
         return found // 2 if not self._lazy else found
 
@@ -1252,6 +1270,7 @@ class RecoveryPlanner:
                 direct = self._certified(s, g, m_s)
             if direct:
                 return RecoveryPath(self, [s, g], goal, True, floor)
+        self._build_graph()
         if self._lazy and g is not None:
             gx, gy = g
             goal_nodes = {i: math.hypot(self.nodes[i][0] - gx, self.nodes[i][1] - gy) for i in self._visible_from(g, self._thr)}
@@ -1290,6 +1309,7 @@ class RecoveryPlanner:
         the free space (clearance >= c); at most 12. Lobes narrower than a grid
         cell can be missed.
         """
+        self._build_graph()
         return list(self._safe)
 
     def nearest_safe_point(self, start_en: Point) -> tuple[SafePoint, RecoveryPath] | None:
@@ -1336,6 +1356,7 @@ class RecoveryPlanner:
         return sp, path
 
     def _best_safe(self, start_en: Point, need: float) -> tuple[SafePoint, RecoveryPath] | None:
+        self._build_graph()
         want = [(k, sp) for k, sp in zip(self._safe_index, self._safe) if sp.clearance_m >= need]
         if not want:
             return None
