@@ -775,6 +775,7 @@ class RecoveryPlanner:
         self._perm = np.random.default_rng(12345).permutation(len(a))
         self._lazy_choice = lazy
         self._graph_built = False
+        self._goal_margin: tuple[Point, float] | None = None  # the last goal :meth:`plan` was asked and its margin
 
     def _build_graph(self) -> None:
         """The graph's nodes (corner nodes and safe points), their normal cones and, unless lazy, its edges: once,
@@ -1249,7 +1250,9 @@ class RecoveryPlanner:
         s = (float(start_en[0]), float(start_en[1]))
         goal = (float(goal_en[0]), float(goal_en[1]))
         g: Point | None = goal
-        if self.fence.lateral_margin_m(goal[0], goal[1]) < self._thr:
+        if self._goal_margin is None or self._goal_margin[0] != goal:  # a unit asks for the same goal every time
+            self._goal_margin = (goal, self.fence.lateral_margin_m(goal[0], goal[1]))
+        if self._goal_margin[1] < self._thr:
             g = self._push_into_free(goal[0], goal[1])
             if g is None:
                 if not self.nodes:

@@ -433,17 +433,17 @@ class GeofenceUnit:
             self._clearances_for = key
         return self._clearances
 
-    def _route(self, s: VehicleState, goal_en: tuple[float, float]) -> Route:
-        """A route from the estimate to ``goal_en`` inside the allowed area (:mod:`geofence.recovery_path`).
+    def _route(self, start_en: tuple[float, float], goal_en: tuple[float, float]) -> Route:
+        """A route from ``start_en`` (the estimate's position) to ``goal_en`` inside the allowed area
+        (:mod:`geofence.recovery_path`).
 
         The largest clearance that reaches the goal wins; failing all, the
         partial route that ends nearest it; with no admissible first leg at
         all, the straight line (the only thing left to fly).
         """
-        start = (s.east_m, s.north_m)
         partial = None
         for c in self._route_clearances():
-            path = self._planner(c).plan(start, goal_en)
+            path = self._planner(c).plan(start_en, goal_en)
             if path is None:
                 continue
             if path.reached_goal and len(path.points) >= 2:
@@ -462,7 +462,7 @@ class GeofenceUnit:
                 found = self._point_with_room(s, orbit_r)
                 if found is not None:
                     return found
-        return self._route(s, goal), goal
+        return self._route((s.east_m, s.north_m), goal), goal
 
     def dead_reckoning_room_m(self, agl_m: float) -> float:
         """How far inside a multirotor without a position source must be to descend from ``agl_m`` (m).
@@ -497,7 +497,7 @@ class GeofenceUnit:
         if t is None:
             recovery = self.recovery
             assert isinstance(recovery, FixedWingRecovery)
-            route = self._route(VehicleState(east_m=e, north_m=n), self.fence.recovery_en)
+            route = self._route((e, n), self.fence.recovery_en)
             t = route.rollout_point(e, n, recovery.lookahead_m)
             if len(self._rollout_cache) > 20000:
                 self._rollout_cache.clear()
@@ -518,7 +518,7 @@ class GeofenceUnit:
         # (a fixed-wing keeps its height until its spiral)
         low = self.env.is_multirotor and self.fence.floor_m is not None
         cruise_h = self._goal_height(-math.inf if low else h)
-        self.landing.start(pe, pn, cruise_h, self._route(s, (pe, pn)), turn_sign)
+        self.landing.start(pe, pn, cruise_h, self._route((s.east_m, s.north_m), (pe, pn)), turn_sign)
         self._switch(t_s, Mode.LAND_IN_GAP, reason + f"; landing at ({pe:.0f}, {pn:.0f}) m ENU")
 
     def _start_override(self, t_s: float, s: VehicleState, h: float, r: ShiftResult, reason: str) -> None:
