@@ -43,7 +43,7 @@ from geofence.rooms import (
     tilt_accel_mps2,
     vertical_arrest_distance_m,
 )
-from geofence.scan_kernel import deepest_polygon, lateral_margin_scan
+from geofence.scan_kernel import deepest_polygon, lateral_margin_scan, rows_view
 
 __all__ = ["MarginTables", "envelope_terms", "margins", "monitor_margins"]
 
@@ -130,8 +130,14 @@ class MarginTables(NamedTuple):
 @jitable
 def _table(F: np.ndarray, L: np.ndarray, k: int, cols: int) -> np.ndarray:
     """Float table ``k`` (``cols`` columns) of a packed :class:`MarginTables`."""
+    return rows_view(F, L[2 * k], L[2 * k + 1], cols)
+
+
+@jitable
+def _column(F: np.ndarray, L: np.ndarray, k: int) -> np.ndarray:
+    """Float table ``k`` of a packed :class:`MarginTables`, of one column, as a vector."""
     start = L[2 * k]
-    return F[start : start + L[2 * k + 1] * cols].reshape(L[2 * k + 1], cols)
+    return F[start : start + L[2 * k + 1]]
 
 
 @jitable
@@ -184,7 +190,7 @@ def _margins_at(
     breach)``; the arguments are the reference's (``h_uncertainty_m`` is ``hu``, ``v_uncertainty_m`` ``v_unc``;
     ``has_target``: a ``rollout_target_en`` is given). ``F, L``: a fence's packed :class:`MarginTables`. ``lat_margin``: the lateral margin at (e, n) when the
     caller has it (:func:`_lateral_margin`), NaN: not yet."""
-    S = _table(F, L, SCALARS, 1)[:, 0]
+    S = _column(F, L, SCALARS)
     fixed_wing = V[FIXED_WING] != 0.0
     t_r = V[REACTION_S] + latency_s
     speed = hypot(ve, vn)
@@ -214,7 +220,7 @@ def _margins_at(
         a_pilot = a_tilt if v_air_mc < V[MAX_SPEED] else 0.0
 
     lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
-        _table(F, L, ELEMENTS, 7), _vector(L, IDS), _table(F, L, ZEROS, 1)[:, 0], False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
+        _table(F, L, ELEMENTS, 7), _vector(L, IDS), _column(F, L, ZEROS), False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
         v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
         k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, int(S[LINE_EDGES]),
     )  # fmt: skip
@@ -325,7 +331,7 @@ def _far_from_everything(
     """:meth:`geofence.unit.GeofenceUnit._far_from_everything` on the tables (its reference): no element, ceiling or
     floor within the largest room the state can need (:func:`geofence.rooms.room_upper_bounds_terms` at the wind
     speed plus ``allowance`` over the time ``t_s``, plus the uncertainties ``hu`` and ``v_unc``), and the lateral margin at (e, n) when it was computed (else NaN)."""
-    S = _table(F, L, SCALARS, 1)[:, 0]
+    S = _column(F, L, SCALARS)
     fixed_wing = V[FIXED_WING] != 0.0
     w = hypot(wind_e, wind_n) + allowance
     room, vroom = room_upper_bounds_terms(

@@ -108,7 +108,7 @@ from . import jit as _jit
 from .jit import COMPILED, jitable, numba
 from .lateral_kernel import hypot
 from .polygon import pole_of_inaccessibility
-from .scan_kernel import lateral_margin_scan
+from .scan_kernel import lateral_margin_scan, rows_view
 
 if TYPE_CHECKING:  # pragma: no cover
     from .local_fence import LocalFence
@@ -412,15 +412,15 @@ def _follower_tables(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(edges, circles, keep_in, keep_outs, offsets, scan_circles)`` of :func:`follower_tables`' packed arrays."""
     o = 0
-    edges = P[o : o + 8 * Q[0]].reshape(Q[0], 8)
+    edges = rows_view(P, o, Q[0], 8)
     o += 8 * Q[0]
-    circles = P[o : o + 3 * Q[1]].reshape(Q[1], 3)
+    circles = rows_view(P, o, Q[1], 3)
     o += 3 * Q[1]
-    keep_in = P[o : o + 7 * Q[2]].reshape(Q[2], 7)
+    keep_in = rows_view(P, o, Q[2], 7)
     o += 7 * Q[2]
-    keep_outs = P[o : o + 7 * Q[3]].reshape(Q[3], 7)
+    keep_outs = rows_view(P, o, Q[3], 7)
     o += 7 * Q[3]
-    scan_circles = P[o : o + 3 * Q[4]].reshape(Q[4], 3)
+    scan_circles = rows_view(P, o, Q[4], 3)
     return edges, circles, keep_in, keep_outs, Q[6:], scan_circles
 
 
@@ -429,7 +429,7 @@ def _route_arrays(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(points, arc lengths)`` of a route's packed array (:meth:`RecoveryPath._arrays`: the points' rows, then
     their arc lengths)."""
     k = R.shape[0] // 3
-    return R[: 2 * k].reshape(k, 2), R[2 * k :]
+    return rows_view(R, 0, k, 2), R[2 * k :]
 
 
 def _route_project(R: np.ndarray, P: np.ndarray, Q: np.ndarray, s0: float, e: float, n: float, thr: float) -> float:
