@@ -324,14 +324,17 @@ def _path_project(
     """:meth:`RecoveryPath.project` on the path's arrays, for a vehicle whose chords are tested exactly: its
     margin exceeds ``thr + EPS_M`` (``thr = min(margin, c) - EPS_M > 0``, :meth:`RecoveryPlanner.chord_ok`'s
     first branch). The same candidates in the same arithmetic, taken nearest first in the order Python sorts
-    their tuples (the first of equal ones, as the stable sort), the first four at most."""
+    their tuples (the first of equal ones, as the stable sort), the first four at most. The candidates' arrays
+    are rows of one scratch array (one allocation, not five: compiled, each costs about as much as a candidate)."""
     k = pts.shape[0]
     if k == 1:
         return 0.0
-    cd = np.empty(k - 1)
-    cs = np.empty(k - 1)
-    cx = np.empty(k - 1)
-    cy = np.empty(k - 1)
+    C = np.empty((5, k - 1))
+    cd = C[0]  # distance
+    cs = C[1]  # arc length
+    cx = C[2]
+    cy = C[3]
+    used = C[4]  # taken (non-zero)
     c = 0
     for i in range(k - 1):
         if cum[i + 1] < s0:
@@ -352,13 +355,13 @@ def _path_project(
         cx[c] = px
         cy[c] = py
         c += 1
-    used = np.zeros(c, np.bool_)
+    used[:c] = 0.0
     for _ in range(min(4, c)):
         b = -1
         for j in range(c):
-            if not used[j] and (b < 0 or _lex_less(cd[j], cs[j], cx[j], cy[j], cd[b], cs[b], cx[b], cy[b])):
+            if used[j] == 0.0 and (b < 0 or _lex_less(cd[j], cs[j], cx[j], cy[j], cd[b], cs[b], cx[b], cy[b])):
                 b = j
-        used[b] = True
+        used[b] = 1.0
         if cd[b] <= EPS_M or _segment_clear(e, n, cx[b], cy[b], thr, edges, circles):
             return cs[b]
     return s0
@@ -449,13 +452,21 @@ def _route_lookahead(
 
 
 @jitable
-def _chord_threshold(thr: float, e: float, n: float, clearance_m: float, P: np.ndarray, Q: np.ndarray) -> float:
+def _chord_threshold(
+    thr: float,
+    e: float,
+    n: float,
+    clearance_m: float,
+    keep_in: np.ndarray,
+    keep_outs: np.ndarray,
+    offsets: np.ndarray,
+    scan_circles: np.ndarray,
+) -> float:
     """``thr``, or when it is NaN, :meth:`RecoveryPath._exact_chord_threshold`'s ``min(margin, c) - EPS_M`` at (e, n)
-    with the margin by the fence's compiled scan (its tables packed in ``P, Q``: the number
+    with the margin by the fence's compiled scan (its tables, :func:`_follower_tables`' last four: the number
     ``LocalFence.lateral_margin_m`` gives a fence without an index)."""
     if thr == thr:
         return thr
-    _edges, _circles, keep_in, keep_outs, offsets, scan_circles = _follower_tables(P, Q)
     m = lateral_margin_scan(e, n, keep_in, keep_outs, offsets, scan_circles)
     return (clearance_m if clearance_m < m else m) - EPS_M
 
@@ -475,11 +486,11 @@ def _route_rollout(
     vehicle whose chords are tested exactly (see :func:`_path_project`), the point ``lookahead_m`` past its
     projection; ``thr`` NaN: found from the fence's scan (:func:`_chord_threshold`), and returned; when it is not
     positive, nothing else is computed (the Python methods answer)."""
-    thr = _chord_threshold(thr, e, n, clearance_m, P, Q)
+    edges, circles, keep_in, keep_outs, offsets, scan_circles = _follower_tables(P, Q)
+    thr = _chord_threshold(thr, e, n, clearance_m, keep_in, keep_outs, offsets, scan_circles)
     if not thr > 0.0:
         return thr, 0.0, 0.0
     pts, cum = _route_arrays(R)
-    edges, circles, _ki, _ko, _off, _sc = _follower_tables(P, Q)
     ce, cn = _path_point_at(pts, cum, _path_project(pts, cum, s0, e, n, thr, edges, circles) + lookahead_m)
     return thr, ce, cn
 
@@ -499,11 +510,11 @@ def _route_follow(
     route's and its planner's packed arrays for a vehicle whose chords are tested exactly (see
     :func:`_path_project`): :func:`_path_lookahead`, the progress advanced to its projection, then the projection
     from there (:meth:`RecoveryPath.remaining_m`'s); ``thr`` as :func:`_route_rollout` takes and returns it."""
-    thr = _chord_threshold(thr, e, n, clearance_m, P, Q)
+    edges, circles, keep_in, keep_outs, offsets, scan_circles = _follower_tables(P, Q)
+    thr = _chord_threshold(thr, e, n, clearance_m, keep_in, keep_outs, offsets, scan_circles)
     if not thr > 0.0:
         return thr, s0, 0.0, 0.0, 0.0
     pts, cum = _route_arrays(R)
-    edges, circles, _ki, _ko, _off, _sc = _follower_tables(P, Q)
     s, ce, cn = _path_lookahead(pts, cum, s0, e, n, lookahead_m, thr, edges, circles)
     progress = s if s > s0 else s0
     return thr, progress, ce, cn, _path_project(pts, cum, progress, e, n, thr, edges, circles)
