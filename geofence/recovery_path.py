@@ -681,7 +681,8 @@ class RecoveryPath:
         if len(self.points) > 1 and path_rollout is not None:
             args = self._kernel_arguments(e, n)
             if args is not None:
-                thr, ce, cn = path_rollout(self._arrays(), *args[0], self.progress_m, e, n, lookahead_m, *args[1])
+                P, Q, thr, c = args
+                thr, ce, cn = path_rollout(self._arrays(), P, Q, self.progress_m, e, n, lookahead_m, thr, c)
                 if thr > 0.0:
                     return (ce, cn)
         return self.point_at(self.project(e, n) + lookahead_m)
@@ -693,7 +694,8 @@ class RecoveryPath:
         if path_follow is not None:
             args = self._kernel_arguments(e, n)
             if args is not None:
-                thr, progress, ce, cn, s = path_follow(self._arrays(), *args[0], self.progress_m, e, n, lookahead_m, *args[1])
+                P, Q, thr, c = args
+                thr, progress, ce, cn, s = path_follow(self._arrays(), P, Q, self.progress_m, e, n, lookahead_m, thr, c)
                 if thr > 0.0:
                     self.progress_m = progress
                     return (ce, cn), max(0.0, self.length_m - s)
@@ -701,15 +703,16 @@ class RecoveryPath:
         return carrot, self.remaining_m(e, n)
 
     def _kernel_arguments(self, e: float, n: float) -> tuple | None:
-        """``((P, Q), (thr, clearance))``: the planner's packed tables (:func:`follower_tables`) and the chord
+        """``(P, Q, thr, clearance)``: the planner's packed tables (:func:`follower_tables`) and the chord
         threshold of :data:`path_rollout` and :data:`path_follow` for a vehicle at (e, n). For a fence without an
-        index ``thr`` is NaN: the compiled call finds :meth:`_exact_chord_threshold` itself (one call less per step).
-        None: the Python methods (not :data:`geofence.jit.ACTIVE`, or no positive threshold)."""
+        index ``thr`` is NaN: the compiled call finds :meth:`_exact_chord_threshold` itself (one call less per step;
+        the planner keeps these arguments made). None: the Python methods (not :data:`geofence.jit.ACTIVE`, or no
+        positive threshold)."""
         planner = self.planner
         if planner._follower_scans:
-            return (planner._follower, (math.nan, planner.clearance_m)) if _jit.ACTIVE else None
+            return planner._follower_scan_arguments if _jit.ACTIVE else None
         thr = self._exact_chord_threshold(e, n)
-        return None if thr is None else (planner._follower, (thr, planner.clearance_m))
+        return None if thr is None else (*planner._follower, thr, planner.clearance_m)
 
     def lookahead_point(self, e: float, n: float, lookahead_m: float) -> Point:
         """The carrot for a vehicle at (e, n): ``lookahead_m`` along the path past its projection.
@@ -781,6 +784,7 @@ class RecoveryPlanner:
         self._follower = follower_tables(
             self._edge_rows, self._circle_rows, fence.scan_tables() if self._follower_scans else None
         )
+        self._follower_scan_arguments = (*self._follower, math.nan, c)  # RecoveryPath._kernel_arguments' (no index)
         self._cc, self._cr = self._circle_rows[:, :2], self._circle_rows[:, 2]
         # a fixed shuffled edge order spreads each chunk over the whole fence (earlier rejection)
         self._perm = np.random.default_rng(12345).permutation(len(a))
