@@ -6,7 +6,7 @@ and by the testbed's mission autopilot alike (they are the stick semantics of
 
 * horizontal acceleration demand (ENU, m/s²) -> multirotor tilt sticks;
 * climb-rate demand (m/s) -> climb-rate stick (multirotor throttle, fixed-wing pitch);
-* turn-rate demand (rad/s) -> fixed-wing bank stick (coordinated turn);
+* course error (rad) -> fixed-wing sticks (:func:`fixed_wing_sticks`: bank of a coordinated turn);
 * airspeed demand (m/s) -> fixed-wing throttle stick;
 * :class:`VelocityController`: a multirotor PI ground-velocity loop on top of
   the tilt mapping, and :func:`approach_velocity` (stop at a point without
@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 
 from geofence.dynamics import G_MPS2, drag_coefficients
-from geofence.interface import Envelope, VehicleState
+from geofence.interface import Envelope, StickCommand, VehicleState
 
 
 def clip(x: float, lo: float, hi: float) -> float:
@@ -61,20 +61,26 @@ def altitude_to_climb_rate(target_m: float, height_m: float, env: Envelope, gain
     return clip(gain_per_s * (target_m - height_m), -env.max_descent_rate_mps, env.max_climb_rate_mps)
 
 
-def bank_stick_for_turn_rate(turn_rate_radps: float, ground_speed_mps: float, env: Envelope) -> float:
-    """Coordinated turn: bank = atan(V·ω/g), as a fraction of the bank limit (+ right)."""
-    bank = math.atan(max(ground_speed_mps, 1.0) * turn_rate_radps / G_MPS2)
-    return clip(bank / env.max_bank_rad, -1.0, 1.0)
-
-
 def course_error_rad(s: VehicleState, course_cmd_rad: float) -> float:
     """The commanded course minus the ground course, the short way (-pi, pi]: + turns right."""
     return wrap_pi(course_cmd_rad - ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad))
 
 
-def bank_stick_for_course(s: VehicleState, course_cmd_rad: float, env: Envelope, gain_per_s: float) -> float:
-    """Fixed-wing course law: turn rate = gain · course error (ground course), flown as a coordinated bank."""
-    return bank_stick_for_turn_rate(gain_per_s * course_error_rad(s, course_cmd_rad), s.ground_speed_mps, env)
+def fixed_wing_sticks(
+    s: VehicleState, course_err_rad: float, course_gain_per_s: float, pitch_stick: float, throttle_stick: float, env: Envelope
+) -> StickCommand:
+    """Fixed-wing course law: turn rate ω = gain · course error, flown as a coordinated bank (+ right).
+
+    Bank = atan(V·ω/g) (V the ground speed, at least 1 m/s), as a fraction of the bank limit; the climb-rate
+    (pitch) and throttle sticks are the caller's. Yaw stick 0. One function, one call: it runs every step of
+    every fixed-wing flight (the pilot's navigator and the geofence's recovery guidance alike).
+    """
+    v = s.ground_speed_mps
+    if v < 1.0:
+        v = 1.0
+    roll = clip(math.atan(v * (course_gain_per_s * course_err_rad) / G_MPS2) / env.max_bank_rad, -1.0, 1.0)
+    # (roll, pitch, yaw, throttle): tuple.__new__ costs a third of the named tuple's generated constructor
+    return tuple.__new__(StickCommand, (roll, pitch_stick, 0.0, throttle_stick))
 
 
 def airspeed_to_stick(airspeed_mps: float, env: Envelope) -> float:

@@ -44,9 +44,10 @@ from geofence.control_laws import (
     airspeed_to_stick,
     altitude_to_climb_rate,
     approach_velocity,
-    bank_stick_for_course,
     climb_rate_to_stick,
     clip,
+    course_error_rad,
+    fixed_wing_sticks,
     ground_course_rad,
     orbit_course_rad,
     wrap_pi,
@@ -314,8 +315,7 @@ class FixedWingRecovery:
             course_cmd = math.atan2(target[0] - s.east_m, target[1] - s.north_m)
         else:
             course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, ge, gn, self.orbit_radius_m, clockwise=self.turn_sign < 0)
-        roll = bank_stick_for_course(s, course_cmd, env, COURSE_GAIN_PER_S)
-        return tuple.__new__(StickCommand, (roll, pitch, 0.0, throttle))
+        return fixed_wing_sticks(s, course_error_rad(s, course_cmd), COURSE_GAIN_PER_S, pitch, throttle, env)
 
 
 class LandingGuidance:
@@ -402,14 +402,13 @@ class LandingGuidance:
         else:
             course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, pe, pn, self.spiral_radius_m)
         course = ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad)
-        if self.turn_sign and abs(wrap_pi(course_cmd - course)) > ROLL_OUT_TOLERANCE_RAD:
-            roll = -float(self.turn_sign)  # the committed first turn (+1 left = negative roll stick)
-        else:
-            self.turn_sign = 0
-            roll = bank_stick_for_course(s, course_cmd, env, COURSE_GAIN_PER_S)
         climb = (
             -env.max_descent_rate_mps if over else altitude_to_climb_rate(self.cruise_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S)
         )
-        return StickCommand(
-            roll=roll, pitch=climb_rate_to_stick(climb, env), yaw=0.0, throttle=airspeed_to_stick(env.min_speed_mps, env)
-        )
+        pitch, throttle = climb_rate_to_stick(climb, env), airspeed_to_stick(env.min_speed_mps, env)
+        course_err = wrap_pi(course_cmd - course)
+        if self.turn_sign and abs(course_err) > ROLL_OUT_TOLERANCE_RAD:
+            # the committed first turn (+1 left = negative roll stick)
+            return StickCommand(roll=-float(self.turn_sign), pitch=pitch, yaw=0.0, throttle=throttle)
+        self.turn_sign = 0
+        return fixed_wing_sticks(s, course_err, COURSE_GAIN_PER_S, pitch, throttle, env)

@@ -22,7 +22,7 @@ LAND_SLOW_BELOW_AGL_M = 3.0
 LAND_FINAL_DESCENT_MPS = 0.5
 TURN_COMMIT_RAD = math.radians(150.0)
 """A fixed-wing's course change of more than this keeps the direction it began in (autopilots' L1 guidance
-does the same near a reversal; see :meth:`FixedWingNavigator.bank_stick_for_course`)."""
+does the same near a reversal; see :meth:`FixedWingNavigator.course_error_rad`)."""
 LAND_DESCENT_MPS = 1.5
 
 

@@ -26,10 +26,9 @@ from geofence.control_laws import (
     airspeed_to_stick,
     altitude_to_climb_rate,
     approach_velocity,
-    bank_stick_for_course,
-    bank_stick_for_turn_rate,
     climb_rate_to_stick,
     course_error_rad,
+    fixed_wing_sticks,
     orbit_course_rad,
     yaw_stick_for_heading,
 )
@@ -119,17 +118,17 @@ class FixedWingNavigator:
         v = self.env.cruise_speed_mps if airspeed_mps is None else airspeed_mps
         return v * v / (G_MPS2 * math.tan(self.env.max_bank_rad))
 
-    def bank_stick_for_course(self, s: VehicleState, course_cmd_rad: float) -> float:
-        """Coordinated-turn law: commanded turn rate proportional to course error -> bank.
+    def course_error_rad(self, s: VehicleState, course_cmd_rad: float) -> float:
+        """The course error the course law turns through (+ right): the short way, or with ``turn_commit_rad`` ...
 
-        With ``turn_commit_rad`` a turn of more than that keeps its direction. A course reversal's error
+        ... a turn of more than that keeps its direction. A course reversal's error
         sits near 180 deg, where the short way flips with every change of the track (in a strong wind the
         track swings with the crab angle); without the commitment the aircraft rolls one way, then the
         other, and flies on in between.
         """
-        if self.turn_commit_rad is None:
-            return bank_stick_for_course(s, course_cmd_rad, self.env, self.k_course)
         err = course_error_rad(s, course_cmd_rad)
+        if self.turn_commit_rad is None:
+            return err
         if abs(err) > self.turn_commit_rad:
             if self._turn_sign * err < 0.0:
                 err += math.copysign(2.0 * math.pi, self._turn_sign)  # the long way: the way it is turning
@@ -137,7 +136,7 @@ class FixedWingNavigator:
                 self._turn_sign = math.copysign(1.0, err)
         else:
             self._turn_sign = 0.0
-        return bank_stick_for_turn_rate(self.k_course * err, s.ground_speed_mps, self.env)
+        return err
 
     def course_on_line(self, s: VehicleState, e0: float, n0: float, e1: float, n1: float) -> tuple[float, float, float]:
         """Vector-field course to follow the line p0 -> p1.
@@ -174,11 +173,13 @@ class FixedWingNavigator:
         ``climb_stick`` given: that climb-rate (pitch) stick instead of the altitude hold (``target_up_m`` unused).
         """
         env = self.env
-        roll = self.bank_stick_for_course(s, course_cmd_rad)
+        if self.turn_commit_rad is None:  # the short way (the method's answer, one call fewer per step)
+            course_err = course_error_rad(s, course_cmd_rad)
+        else:
+            course_err = self.course_error_rad(s, course_cmd_rad)
         if climb_stick is None:
             climb_stick = climb_rate_to_stick(altitude_to_climb_rate(target_up_m, s.up_m, env, self.kh), env)
         if airspeed_mps != self._airspeed_demand:
             self._airspeed_demand = airspeed_mps
             self._throttle_stick = airspeed_to_stick(airspeed_mps, env)
-        # (positional: cheaper than keywords on the per-step path)
-        return StickCommand(roll, climb_stick, 0.0, self._throttle_stick)
+        return fixed_wing_sticks(s, course_err, self.k_course, climb_stick, self._throttle_stick, env)
