@@ -35,3 +35,11 @@ def test_rows_read_back_as_appended_across_the_buffer_growing():
 def test_an_empty_recorder_has_no_rows():
     rec = Recorder()
     assert rec.n == 0 and rec.data.shape == (0, len(COLUMNS))
+
+
+def test_a_day_long_flight_does_not_reserve_its_whole_buffer_up_front():
+    """A 24-hour scenario at 40 Hz asks for 3.5 million rows: the recorder reserves at most PREALLOCATED_ROWS_MAX."""
+    from scenarios.flight.recorder import PREALLOCATED_ROWS_MAX
+
+    rec = Recorder(capacity_rows=24 * 3600 * 40 + 1)
+    assert len(rec._buf) == PREALLOCATED_ROWS_MAX * len(COLUMNS) * 8

@@ -57,6 +57,10 @@ _ROW = struct.Struct(f"{len(COLUMNS)}d")
 """One row as native doubles (the layout numpy reads back as float64)."""
 _ROW_BYTES = _ROW.size
 _pack_row = _ROW.pack_into
+PREALLOCATED_ROWS_MAX = 1 << 16
+"""At most this many rows are made room for up front (18 MB; 27 min at 40 Hz): a 24-hour scenario would otherwise
+zero-fill about 1 GB before its first step, and a flight that ends early would never use it. Beyond, the buffer
+doubles as it fills."""
 
 
 class Recorder:
@@ -66,13 +70,14 @@ class Recorder:
 
     A row is written by one ``struct.pack_into`` straight from :meth:`append`'s arguments (``array.extend``
     from a tuple costs three times as much: it converts and appends one item at a time). ``capacity_rows``:
-    the rows to make room for up front (the runner knows its step count); the buffer doubles beyond it.
+    the rows to make room for up front (the runner knows its step count; at most :data:`PREALLOCATED_ROWS_MAX`); the
+    buffer doubles beyond it.
 
     The buffer is viewed as one float array (rows x :data:`COLUMNS`) when it is read.
     """
 
     def __init__(self, capacity_rows: int = 1024) -> None:
-        self._buf = bytearray(_ROW.size * max(1, capacity_rows))
+        self._buf = bytearray(_ROW.size * max(1, min(capacity_rows, PREALLOCATED_ROWS_MAX)))
         self._n = 0
         self._array: np.ndarray | None = None
 
