@@ -545,16 +545,11 @@ class CompiledMargins:
     ) -> ShiftResult:  # fmt: skip
         """:func:`activation_margins` (``hu``, ``v_unc``: its ``h_uncertainty_m``, ``v_uncertainty_m``)."""
         F, L = self._tables
-        if rollout_target_en is None:
-            r = margins_kernel(
-                F, L, self._terms, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps,
-                False, 0.0, 0.0, g,
-            )  # fmt: skip
-        else:
-            r = margins_kernel(
-                F, L, self._terms, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps,
-                True, rollout_target_en[0], rollout_target_en[1], g,
-            )  # fmt: skip
+        has, te, tn = (False, 0.0, 0.0) if rollout_target_en is None else (True, *rollout_target_en)
+        r = margins_kernel(
+            F, L, self._terms, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps,
+            has, te, tn, g, math.nan,
+        )  # fmt: skip
         return self._result(e, n, r)
 
     def monitor(
@@ -564,16 +559,11 @@ class CompiledMargins:
     ) -> ShiftResult | None:  # fmt: skip
         """:func:`monitor_margins`: ``None`` when the unit's skip shortcut holds, else :meth:`margins`."""
         F, L = self._tables
-        if rollout_target_en is None:
-            far, r = monitor_margins_kernel(
-                F, L, self._terms, e, n, h, ground_speed_mps, ve, vn, vu, wind_e, wind_n, wind_extra_mps, skip_time_s,
-                hu, v_unc, latency_s, bank_rad, False, 0.0, 0.0, g,
-            )  # fmt: skip
-        else:
-            far, r = monitor_margins_kernel(
-                F, L, self._terms, e, n, h, ground_speed_mps, ve, vn, vu, wind_e, wind_n, wind_extra_mps, skip_time_s,
-                hu, v_unc, latency_s, bank_rad, True, rollout_target_en[0], rollout_target_en[1], g,
-            )  # fmt: skip
+        has, te, tn = (False, 0.0, 0.0) if rollout_target_en is None else (True, *rollout_target_en)
+        far, r = monitor_margins_kernel(
+            F, L, self._terms, e, n, h, ground_speed_mps, ve, vn, vu, wind_e, wind_n, wind_extra_mps, skip_time_s,
+            hu, v_unc, latency_s, bank_rad, has, te, tn, g,
+        )  # fmt: skip
         return None if far else self._result(e, n, r)
 
     def _result(self, e: float, n: float, r: tuple) -> ShiftResult:

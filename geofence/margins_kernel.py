@@ -161,7 +161,7 @@ def envelope_terms(env: Envelope) -> np.ndarray:
 
 
 @jitable
-def _margins_at(
+def _margins(
     F: np.ndarray,
     L: np.ndarray,
     V: np.ndarray,
@@ -188,8 +188,8 @@ def _margins_at(
     shift, lateral activation, element id, nx, ny, edge distance, closing speed, time to breach, turn sign,
     turn angle, ceiling margin, ceiling shift, floor margin, floor shift, vertical activation, vertical time to
     breach)``; the arguments are the reference's (``h_uncertainty_m`` is ``hu``, ``v_uncertainty_m`` ``v_unc``;
-    ``has_target``: a ``rollout_target_en`` is given). ``F, L``: a fence's packed :class:`MarginTables`. ``lat_margin``: the lateral margin at (e, n) when the
-    caller has it (:func:`_lateral_margin`), NaN: not yet."""
+    ``has_target``: a ``rollout_target_en`` is given). ``F, L``: a fence's packed :class:`MarginTables`.
+    ``lat_margin``: the lateral margin at (e, n) when the caller has it (:func:`_lateral_margin`), NaN: not yet."""
     S = _column(F, L, SCALARS)
     fixed_wing = V[FIXED_WING] != 0.0
     t_r = V[REACTION_S] + latency_s
@@ -293,37 +293,6 @@ def _lateral_margin(F: np.ndarray, L: np.ndarray, e: float, n: float) -> float:
 
 
 @jitable
-def _margins(
-    F: np.ndarray,
-    L: np.ndarray,
-    V: np.ndarray,
-    e: float,
-    n: float,
-    h: float,
-    ve: float,
-    vn: float,
-    vu: float,
-    wind_e: float,
-    wind_n: float,
-    hu: float,
-    v_unc: float,
-    latency_s: float,
-    bank_rad: float,
-    wind_extra_mps: float,
-    has_target: bool,
-    target_e: float,
-    target_n: float,
-    g: float,
-) -> tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]:  # fmt: skip
-    """:func:`~geofence.boundary_shift.activation_margins` without an index (:func:`_margins_at`, the lateral
-    margin not yet known)."""
-    return _margins_at(
-        F, L, V, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps, has_target,
-        target_e, target_n, g, math.nan,
-    )  # fmt: skip
-
-
-@jitable
 def _far_from_everything(
     F: np.ndarray, L: np.ndarray, V: np.ndarray, e: float, n: float, h: float, ground_speed: float, ve: float,
     vn: float, vu: float, wind_e: float, wind_n: float, allowance: float, t_s: float, hu: float, v_unc: float, g: float,
@@ -371,7 +340,7 @@ def _monitor_margins(
     )  # fmt: skip
     if far:
         return True, _NOT_NEEDED
-    return False, _margins_at(
+    return False, _margins(
         F, L, V, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, allowance, has_target, target_e,
         target_n, g, lat,
     )  # fmt: skip

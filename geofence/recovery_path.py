@@ -471,6 +471,16 @@ def _chord_threshold(
     return (clearance_m if clearance_m < m else m) - EPS_M
 
 
+@jitable
+def _follower_start(
+    P: np.ndarray, Q: np.ndarray, thr: float, e: float, n: float, clearance_m: float
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """``(thr, edges, circles)``: a compiled follower step's start, the planner's packed tables unpacked and the
+    chord threshold found where it is NaN (:func:`_chord_threshold`)."""
+    edges, circles, keep_in, keep_outs, offsets, scan_circles = _follower_tables(P, Q)
+    return _chord_threshold(thr, e, n, clearance_m, keep_in, keep_outs, offsets, scan_circles), edges, circles
+
+
 def _route_rollout(
     R: np.ndarray,
     P: np.ndarray,
@@ -486,8 +496,7 @@ def _route_rollout(
     vehicle whose chords are tested exactly (see :func:`_path_project`), the point ``lookahead_m`` past its
     projection; ``thr`` NaN: found from the fence's scan (:func:`_chord_threshold`), and returned; when it is not
     positive, nothing else is computed (the Python methods answer)."""
-    edges, circles, keep_in, keep_outs, offsets, scan_circles = _follower_tables(P, Q)
-    thr = _chord_threshold(thr, e, n, clearance_m, keep_in, keep_outs, offsets, scan_circles)
+    thr, edges, circles = _follower_start(P, Q, thr, e, n, clearance_m)
     if not thr > 0.0:
         return thr, 0.0, 0.0
     pts, cum = _route_arrays(R)
@@ -510,8 +519,7 @@ def _route_follow(
     route's and its planner's packed arrays for a vehicle whose chords are tested exactly (see
     :func:`_path_project`): :func:`_path_lookahead`, the progress advanced to its projection, then the projection
     from there (:meth:`RecoveryPath.remaining_m`'s); ``thr`` as :func:`_route_rollout` takes and returns it."""
-    edges, circles, keep_in, keep_outs, offsets, scan_circles = _follower_tables(P, Q)
-    thr = _chord_threshold(thr, e, n, clearance_m, keep_in, keep_outs, offsets, scan_circles)
+    thr, edges, circles = _follower_start(P, Q, thr, e, n, clearance_m)
     if not thr > 0.0:
         return thr, s0, 0.0, 0.0, 0.0
     pts, cum = _route_arrays(R)
