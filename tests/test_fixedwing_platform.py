@@ -9,15 +9,18 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 
 import pytest
 
+from aircraft.factory import build_platform
 from aircraft.fixedwing import FixedWingPlatform
 from aircraft.jsbsim_model import FT_TO_M, OWN_MODELS
 from aircraft.profile import load_profile
 from geofence.dynamics import isa_density_ratio
 from geofence.geodesy import LocalFrame
 from geofence.interface import StickCommand
+from wind.config import parse_wind, wind_from_config
 
 G = 9.80665
 FRAME = LocalFrame(47.0, 8.0, 400.0)
@@ -240,3 +243,35 @@ def test_a_piston_engine_is_leaned_for_altitude_and_climbs_at_a_high_site(model)
     for _ in range(150):
         p.step(n)
     assert p.truth().up_m - h0 > 10.0  # 15 s at full climb stick
+
+
+def _throttle_in_turbulence(profile) -> list[float]:
+    """The throttle position, every 40 Hz step for 10 s, of ``profile`` holding cruise at a 2,639 m site in moderate
+    turbulence (a J3Cub's floor-gap campaign case)."""
+    field = wind_from_config(parse_wind({"speed_mps": 2.0, "from_deg": 25.0, "turbulence": {"severity": "moderate"}}), seed=7)
+    p = build_platform(profile)
+    p.reset(LocalFrame(-27.66, 132.74, 2639.0), -27.66, 132.74, 50.0, 0.0, p.envelope.cruise_speed_mps)
+    p.command(StickCommand(roll=0.0, pitch=0.0, yaw=0.0, throttle=0.0))
+    out, t = [], 0.0
+    for _ in range(400):
+        s = p.truth()
+        p.set_wind_enu(*field.sample(t, s.east_m, s.north_m, s.agl_m, s.airspeed_mps))
+        p.step(3)
+        t += 0.025
+        out.append(p.model.fdm["fcs/throttle-pos-norm"])
+    return out
+
+
+def test_the_j3cub_airspeed_loop_does_not_chatter_in_turbulence():
+    """With a derivative gain on the turbulent airspeed (``fc/speed-kd: 0.3``, the J3Cub's until stop 26) the throttle
+    went 0 <-> 1 every other step and the engine gave about half its power. The shipped profile holds it steady."""
+
+    def flips(thr):
+        return sum(abs(a - b) > 0.5 for a, b in zip(thr, thr[1:]))
+
+    shipped = load_profile("J3Cub")
+    steady = _throttle_in_turbulence(shipped)
+    assert flips(steady) <= 4, flips(steady)
+    chattering = _throttle_in_turbulence(replace(shipped, gains={**shipped.gains, "fc/speed-kd": 0.3}))
+    assert flips(chattering) > 100  # the old gain: the test can tell
+    assert sum(chattering) < 0.8 * sum(steady)  # ... and it cost power
