@@ -100,7 +100,7 @@ from __future__ import annotations
 import heapq
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable, Sequence
+from typing import TYPE_CHECKING, Callable, Iterator, Sequence
 
 import numpy as np
 
@@ -236,6 +236,158 @@ def _segment_clear(ax: float, ay: float, bx: float, by: float, thr: float, edges
         if _pt_seg_d2(cx, cy, ax, ay, bx, by) < rr * rr:
             return False
     return True
+
+
+@jitable
+def _tangent_at(c0: float, c1: float, c2: float, c3: float, corner: bool, dx: float, dy: float) -> bool:
+    """:meth:`RecoveryPlanner._tangent` for one node (its cone ``c0..c3``) and one direction, in its arithmetic."""
+    if not corner:
+        return True
+    px = -dy
+    py = dx
+    tol = -1e-9 * math.hypot(px, py)
+    s1 = c0 * py - c1 * px
+    s2 = px * c3 - py * c2
+    return (s1 >= tol and s2 >= tol) or (s1 <= -tol and s2 <= -tol)
+
+
+@jitable
+def _tangent_row(i: int, nodes: np.ndarray, cones: np.ndarray, is_corner: np.ndarray) -> np.ndarray:
+    """The nodes ``j != i`` whose straight edge to node ``i`` is tangent at both ends (:meth:`RecoveryPlanner._tangent`
+    leaving ``i`` along ``nodes[j] - nodes[i]`` and leaving ``j`` along its negation): the candidates of ``i``'s
+    graph edges, ascending."""
+    n = nodes.shape[0]
+    out = np.empty(n, np.int64)
+    m = 0
+    xi = nodes[i, 0]
+    yi = nodes[i, 1]
+    for j in range(n):
+        if j == i:
+            continue
+        dx = nodes[j, 0] - xi
+        dy = nodes[j, 1] - yi
+        if _tangent_at(cones[i, 0], cones[i, 1], cones[i, 2], cones[i, 3], is_corner[i], dx, dy) and _tangent_at(
+            cones[j, 0], cones[j, 1], cones[j, 2], cones[j, 3], is_corner[j], -dx, -dy
+        ):
+            out[m] = j
+            m += 1
+    return out[:m]
+
+
+SEGMENT_GRID_MIN_EDGES: int = 2000
+"""From this many boundary edges on, a planner files its edges and circles in a uniform grid
+(:func:`segment_grid`) and its compiled segment test walks the cells along the segment
+(:func:`_segment_clear_grid`) instead of looping over every edge: an airspace-scale route search tests hundreds
+of first legs per plan."""
+
+SEGMENT_GRID_SLACK_M: float = 0.5
+"""Slack (m) of the grid's filing and walking, far beyond any rounding: an element is filed in every cell within
+the grid's reach plus this of its bounding box, and the walk visits every cell within this of the segment."""
+
+
+def segment_grid(
+    edges: np.ndarray, circles: np.ndarray, reach_m: float, cell_m: float
+) -> tuple[float, float, float, int, int, np.ndarray, np.ndarray]:
+    """The uniform grid of :func:`_segment_clear_grid`: ``(x0, y0, cell_m, nx, ny, start, items)``.
+
+    Cell ``(i, j)`` (column ``i`` east from ``x0``, row ``j`` north from ``y0``) lists, in
+    ``items[start[j * nx + i]:start[j * nx + i + 1]]``, every edge row (its index) and circle (``len(edges)`` plus
+    its index) whose bounding box, grown by ``reach_m`` (the largest test distance the grid answers for) and
+    :data:`SEGMENT_GRID_SLACK_M`, overlaps the cell.
+    """
+    grow = reach_m + SEGMENT_GRID_SLACK_M
+    boxes = [edges[:, 4:8]]
+    if len(circles):
+        x, y, r = circles[:, 0], circles[:, 1], circles[:, 2]
+        boxes.append(np.column_stack([x - r, x + r, y - r, y + r]))
+    box = np.concatenate(boxes)  # xmin, xmax, ymin, ymax
+    x0, y0 = float(box[:, 0].min() - grow), float(box[:, 2].min() - grow)
+    nx = int((box[:, 1].max() + grow - x0) // cell_m) + 1
+    ny = int((box[:, 3].max() + grow - y0) // cell_m) + 1
+    i0 = ((box[:, 0] - grow - x0) // cell_m).astype(np.int64)
+    i1 = ((box[:, 1] + grow - x0) // cell_m).astype(np.int64)
+    j0 = ((box[:, 2] - grow - y0) // cell_m).astype(np.int64)
+    j1 = ((box[:, 3] + grow - y0) // cell_m).astype(np.int64)
+    ni, nj = i1 - i0 + 1, j1 - j0 + 1
+    count = ni * nj
+    owner = np.repeat(np.arange(len(box)), count)
+    k = np.arange(int(count.sum())) - np.repeat(np.cumsum(count) - count, count)  # index within the owner's block
+    cells = (np.repeat(j0, count) + k // np.repeat(ni, count)) * nx + np.repeat(i0, count) + k % np.repeat(ni, count)
+    order = np.argsort(cells, kind="stable")
+    start = np.zeros(nx * ny + 1, np.int64)
+    np.cumsum(np.bincount(cells, minlength=nx * ny), out=start[1:])
+    return x0, y0, float(cell_m), nx, ny, start, owner[order].astype(np.int64)
+
+
+@jitable
+def _segment_clear_grid(
+    ax: float, ay: float, bx: float, by: float, thr: float, edges: np.ndarray, circles: np.ndarray, x0: float,
+    y0: float, cell: float, nx: int, ny: int, start: np.ndarray, items: np.ndarray,
+) -> bool:  # fmt: skip
+    """:func:`_segment_clear`'s verdict from the elements filed in the cells along a-b (``thr`` at most the
+    grid's reach, :func:`segment_grid`), walked from a's end: the same tests, in the same arithmetic, of every
+    element that can block (within ``thr`` of a point of the segment, it is filed in that point's cell), some
+    others, and a few twice."""
+    t2 = thr * thr
+    xmin = (ax if ax <= bx else bx) - thr
+    xmax = (ax if ax >= bx else bx) + thr
+    ymin = (ay if ay <= by else by) - thr
+    ymax = (ay if ay >= by else by) + thr
+    sl = SEGMENT_GRID_SLACK_M
+    n_edges = edges.shape[0]
+    lo_x = ax if ax <= bx else bx
+    hi_x = ax if ax >= bx else bx
+    ia = min(max(int((ax - x0) // cell), 0), nx - 1)
+    ib = min(max(int((bx - x0) // cell), 0), nx - 1)
+    di = 1 if ib >= ia else -1
+    for i in range(ia, ib + di, di):
+        # the segment's part in column i (its y-range, with the slack)
+        c0 = x0 + i * cell
+        u0 = c0 if c0 > lo_x else lo_x
+        u1 = c0 + cell if c0 + cell < hi_x else hi_x
+        if bx != ax:
+            ya = ay + (u0 - ax) * (by - ay) / (bx - ax)
+            yb = ay + (u1 - ax) * (by - ay) / (bx - ax)
+        else:
+            ya, yb = ay, by
+        ylo = (ya if ya <= yb else yb) - sl
+        yhi = (ya if ya >= yb else yb) + sl
+        ja = min(max(int((ylo - y0) // cell), 0), ny - 1)
+        jb = min(max(int((yhi - y0) // cell), 0), ny - 1)
+        if by < ay:
+            ja, jb = jb, ja
+        dj = 1 if jb >= ja else -1
+        for j in range(ja, jb + dj, dj):
+            c = j * nx + i
+            for p in range(start[c], start[c + 1]):
+                k = items[p]
+                if k < n_edges:
+                    if edges[k, 5] < xmin or edges[k, 4] > xmax or edges[k, 7] < ymin or edges[k, 6] > ymax:
+                        continue
+                    if _edge_blocks(ax, ay, bx, by, edges[k, 0], edges[k, 1], edges[k, 2], edges[k, 3], t2):
+                        return False
+                else:
+                    k -= n_edges
+                    cx = circles[k, 0]
+                    cy = circles[k, 1]
+                    rr = circles[k, 2] + thr
+                    if cx + rr < xmin + thr or cx - rr > xmax - thr or cy + rr < ymin + thr or cy - rr > ymax - thr:
+                        continue
+                    if _pt_seg_d2(cx, cy, ax, ay, bx, by) < rr * rr:
+                        return False
+    return True
+
+
+@jitable
+def _fan_clear_grid(
+    ox: float, oy: float, q: np.ndarray, thr: float, edges: np.ndarray, circles: np.ndarray, x0: float, y0: float,
+    cell: float, nx: int, ny: int, start: np.ndarray, items: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """:func:`_fan_clear_rows`' verdicts by :func:`_segment_clear_grid`, segment by segment (the same verdicts)."""
+    out = np.zeros(q.shape[0], np.bool_)
+    for i in range(q.shape[0]):
+        out[i] = _segment_clear_grid(ox, oy, q[i, 0], q[i, 1], thr, edges, circles, x0, y0, cell, nx, ny, start, items)
+    return out
 
 
 FAN_SLACK_M: float = 1e-6
@@ -531,6 +683,15 @@ def _route_follow(
 segment_clear = numba.njit(cache=True)(_segment_clear) if COMPILED else None
 """The compiled :func:`_segment_clear` (``None`` without numba: :meth:`RecoveryPlanner._clear_one` loops)."""
 
+segment_clear_grid = numba.njit(cache=True)(_segment_clear_grid) if COMPILED else None
+
+fan_clear_grid = numba.njit(cache=True)(_fan_clear_grid) if COMPILED else None
+"""The compiled :func:`_fan_clear_grid` (``None`` without numba)."""
+
+tangent_row = numba.njit(cache=True)(_tangent_row) if COMPILED else None
+"""The compiled :func:`_tangent_row` (``None`` without numba: :meth:`RecoveryPlanner._neighbours` vectorises)."""
+"""The compiled :func:`_segment_clear_grid` (``None`` without numba)."""
+
 fan_clear = numba.njit(cache=True)(_fan_clear_rows) if COMPILED else None
 """The compiled :func:`_fan_clear_rows` (``None`` without numba: :meth:`RecoveryPlanner._fan_clear` vectorises)."""
 
@@ -764,10 +925,12 @@ class RecoveryPlanner:
     docstring for the guarantee. The graph's nodes (corner nodes and safe points) and, unless ``lazy``, its
     edges are built on the first question that needs them (:meth:`_build_graph`): a route whose straight
     segment is clear needs none (most of a convex fence's). ``lazy``: find each node's edges on its first
-    use (``None``: from :data:`LAZY_MIN_NODES` nodes on); the routes are the same either way.
+    use (``None``: from :data:`LAZY_MIN_NODES` nodes on); the routes are the same either way. ``grid``: file the
+    edges in a grid for the compiled segment tests (:func:`segment_grid`; ``None``: from
+    :data:`SEGMENT_GRID_MIN_EDGES` edges on); the same verdicts either way.
     """
 
-    def __init__(self, fence: "LocalFence", clearance_m: float, *, lazy: bool | None = None) -> None:
+    def __init__(self, fence: "LocalFence", clearance_m: float, *, lazy: bool | None = None, grid: bool | None = None) -> None:
         c = float(clearance_m)
         if not (c > 0.0 and math.isfinite(c)):
             raise ValueError(f"clearance_m must be finite and > 0, got {clearance_m!r}")
@@ -798,7 +961,15 @@ class RecoveryPlanner:
         self._perm = np.random.default_rng(12345).permutation(len(a))
         self._lazy_choice = lazy
         self._graph_built = False
+        self._grid: tuple | None = None  # the segment test's grid (:meth:`_segment_grid`; (): none)
+        self._grid_choice = grid
         self._goal_margin: tuple[Point, float] | None = None  # the last goal :meth:`plan` was asked and its margin
+
+    def prepare(self) -> None:
+        """Build the graph's nodes (and, unless lazy, its edges) and the segment grid now, not at the first question
+        that needs them."""
+        self._build_graph()
+        self._segment_grid()
 
     def _build_graph(self) -> None:
         """The graph's nodes (corner nodes and safe points), their normal cones and, unless lazy, its edges: once,
@@ -820,6 +991,7 @@ class RecoveryPlanner:
         self._is_corner = np.arange(len(nodes)) < len(corner)
         nn = len(nodes)
         self._visible_cache: dict[tuple[float, float, float], tuple[int, ...]] = {}
+        self._goal_nodes: dict[Point, dict[int, float]] = {}  # plan's goal -> the nodes that see it and how far
         self._lazy = nn >= LAZY_MIN_NODES if lazy is None else bool(lazy)
         self._adj: list[list[tuple[int, float]] | None] = [None if self._lazy else [] for _ in nodes]
         if nn >= 2 and not self._lazy:
@@ -853,9 +1025,11 @@ class RecoveryPlanner:
         row = self._adj[i]
         if row is None:
             d = self._nodes - self._nodes[i]
-            idx = np.arange(len(self.nodes))
-            keep = (idx != i) & self._tangent(np.full(len(idx), i), d) & self._tangent(idx, -d)
-            jj = idx[keep]
+            if _jit.ACTIVE and tangent_row is not None:
+                jj = tangent_row(i, self._nodes, self._cones, self._is_corner)
+            else:
+                idx = np.arange(len(self.nodes))
+                jj = idx[(idx != i) & self._tangent(np.full(len(idx), i), d) & self._tangent(idx, -d)]
             ok = self._fan_clear(self._nodes[i], self._nodes[jj], self._thr)
             jj = jj[ok]
             w = np.hypot(d[jj, 0], d[jj, 1])
@@ -969,17 +1143,34 @@ class RecoveryPlanner:
         return in_cone | ~self._is_corner[idx]
 
     # ------------------------------------------------------------------ exact segment tests
+    def _segment_grid(self) -> tuple | None:
+        """The grid of the compiled segment test (:func:`segment_grid`, reach: the clearance; cells of the
+        clearance, at least 25 m), made on first use; ``None`` without one (the planner's ``grid`` argument; by
+        default from :data:`SEGMENT_GRID_MIN_EDGES` edges on)."""
+        if self._grid is None:
+            choice = self._grid_choice
+            if not len(self._edge_rows) or not (len(self._edge_rows) >= SEGMENT_GRID_MIN_EDGES if choice is None else choice):
+                self._grid = ()
+            else:
+                c = self.clearance_m
+                self._grid = segment_grid(self._edge_rows, self._circle_rows, c, max(c, 25.0))
+        return self._grid or None
+
     def _clear_one(self, p: Point, q: Point, thr: float, *, vector_from: int | None = None) -> bool:
         """Exact: with ``margin(p) >= thr > 0`` (caller's duty), is ``margin >= thr`` all along p-q?
 
         ``vector_from``: from this many boundary edges in the segment's bounding box on, they are tested
         by :func:`_edges_block_np` (the same arithmetic, vectorized; ``None``: :data:`VECTOR_FROM_EDGES`); a
         huge value loops over them in Python (the reference). ``None`` while :data:`geofence.jit.ACTIVE`:
-        the compiled loop (:data:`segment_clear`, the same verdict).
+        the compiled loop (:data:`segment_clear`, the same verdict; with the planner's grid, from its cells
+        along the segment, :data:`segment_clear_grid`).
         """
         ax, ay = p
         bx, by = q
         if vector_from is None and _jit.ACTIVE and segment_clear is not None:
+            grid = self._segment_grid()
+            if grid is not None and thr <= self.clearance_m and segment_clear_grid is not None:
+                return segment_clear_grid(ax, ay, bx, by, thr, self._edge_rows, self._circle_rows, *grid)
             return segment_clear(ax, ay, bx, by, thr, self._edge_rows, self._circle_rows)
         t2 = thr * thr
         xmin, xmax = min(ax, bx) - thr, max(ax, bx) + thr
@@ -1054,6 +1245,14 @@ class RecoveryPlanner:
         """
         if len(q) == 0:
             return np.zeros(0, dtype=bool)
+        if _jit.ACTIVE and fan_clear_grid is not None and thr <= self.clearance_m:
+            grid = self._segment_grid()
+            if grid is not None:  # compiled: each segment walks the grid's cells from the origin
+                o = np.asarray(origin, dtype=float)
+                return fan_clear_grid(
+                    float(o[0]), float(o[1]), np.ascontiguousarray(q, dtype=float), thr, self._edge_rows,
+                    self._circle_rows, *grid,
+                )  # fmt: skip
         reach = float(np.sqrt(((q - origin) ** 2).sum(axis=1).max())) + thr
         d2 = _pt_seg_d2_np(origin, self._ea, self._eb)
         near = np.flatnonzero(d2 <= reach * reach)
@@ -1181,18 +1380,30 @@ class RecoveryPlanner:
         if goal is not None and goal_nodes is not None and extra and self._clear_one(extra[0], goal, self._thr):
             goal_nodes = {**goal_nodes, nn: math.hypot(extra[0][0] - goal[0], extra[0][1] - goal[1])}
         # first legs
+        lazy = self._lazy
+        untested: Iterator[tuple[list, list, list]] | None = None  # lazy first legs: (keys, lengths, nodes) chunks
+        thr = self._thr
         if in_free or m_s - EPS_M > 0.0:
             thr = self._thr if in_free else m_s - EPS_M
-            cand = self._visible_from(s, thr)
-            if extra and self._clear_one(s, extra[0], thr):
-                cand.append(nn)
-            first = cand
+            if lazy and nn:
+                # a first leg to a node is tested only when its key comes up: the same search (the straight leg is
+                # the shortest way to its node, so its key is the node's best), without a fan to every node
+                first = [nn] if extra and self._clear_one(s, extra[0], thr) else []
+                P = self._nodes
+                leg = np.hypot(P[:, 0] - s[0], P[:, 1] - s[1])
+                keys = leg + np.hypot(P[:, 0] - goal[0], P[:, 1] - goal[1]) if goal is not None else leg
+                untested = _by_key_in_chunks(keys, leg)
+            else:
+                cand = self._visible_from(s, thr)
+                if extra and self._clear_one(s, extra[0], thr):
+                    cand.append(nn)
+                first = cand
         else:
-            order = sorted(range(len(allpts)), key=lambda i: math.hypot(allpts[i][0] - s[0], allpts[i][1] - s[1]))
+            order_ = sorted(range(len(allpts)), key=lambda i: math.hypot(allpts[i][0] - s[0], allpts[i][1] - s[1]))
             if extra:
-                order.remove(nn)
-                order.insert(0, nn)
-            first = [i for i in order[:32] if self._certified(s, allpts[i], m_s)]
+                order_.remove(nn)
+                order_.insert(0, nn)
+            first = [i for i in order_[:32] if self._certified(s, allpts[i], m_s)]
         dist = [math.inf] * len(allpts)
         pred = [-1] * len(allpts)
         heap = []
@@ -1200,7 +1411,6 @@ class RecoveryPlanner:
             d = math.hypot(allpts[i][0] - s[0], allpts[i][1] - s[1])
             dist[i] = d
             heap.append((d, i))
-        lazy = self._lazy
         if lazy and goal is not None:  # A*: keys are distance + straight line to the goal (consistent)
             gx, gy = goal
 
@@ -1215,10 +1425,36 @@ class RecoveryPlanner:
         heapq.heapify(open_)
         extra_adj = None
         best_goal = math.inf
-        while open_:
-            key, d, i = heapq.heappop(open_)
-            if d > dist[i]:
-                continue
+        u_key: list[float] = []
+        u_leg: list[float] = []
+        u_node: list[int] = []
+        u = nu = 0
+        while True:
+            if u == nu and untested is not None:  # the next chunk of untested first legs, by key
+                chunk = next(untested, None)
+                if chunk is None:
+                    untested = None
+                else:
+                    u_key, u_leg, u_node = chunk
+                    u, nu = 0, len(u_key)
+            if u < nu and (not open_ or u_key[u] < open_[0][0]):  # the next untested first leg comes first
+                key, d, i = u_key[u], u_leg[u], u_node[u]
+                u += 1
+                if goal_nodes is not None and key >= best_goal:
+                    break  # (as below)
+                if d >= dist[i]:
+                    continue  # reached as short already
+                if not self._clear_one(s, allpts[i], thr):
+                    continue
+                dist[i] = d
+                pred[i] = -1
+                first.append(i)
+            elif open_:
+                key, d, i = heapq.heappop(open_)
+                if d > dist[i]:
+                    continue
+            else:
+                break
             if lazy:
                 if goal_nodes is not None and key >= best_goal:
                     break  # no open node can shorten the best route found to the goal
@@ -1298,8 +1534,14 @@ class RecoveryPlanner:
                 return RecoveryPath(self, [s, g], goal, True, floor)
         self._build_graph()
         if self._lazy and g is not None:
-            gx, gy = g
-            goal_nodes = {i: math.hypot(self.nodes[i][0] - gx, self.nodes[i][1] - gy) for i in self._visible_from(g, self._thr)}
+            goal_nodes = self._goal_nodes.get(g)  # a unit asks for the same goal every time
+            if goal_nodes is None:
+                gx, gy = g
+                nodes = self.nodes
+                goal_nodes = {i: math.hypot(nodes[i][0] - gx, nodes[i][1] - gy) for i in self._visible_from(g, self._thr)}
+                if len(self._goal_nodes) >= 16:
+                    self._goal_nodes.pop(next(iter(self._goal_nodes)))
+                self._goal_nodes[g] = goal_nodes
             ctx = self._search(s, goal=g, goal_nodes=goal_nodes)
         else:
             ctx = self._search(s)
@@ -1395,6 +1637,26 @@ class RecoveryPlanner:
             return None
         k, sp = best
         return sp, RecoveryPath(self, self._path_to(ctx, k, None), sp.en, True, ctx["floor"])
+
+
+def _by_key_in_chunks(keys: np.ndarray, leg: np.ndarray, first: int = 64) -> Iterator[tuple[list, list, list]]:
+    """``(keys, legs, nodes)`` lists in ascending key order (ties by node index, as a stable sort), a chunk at a
+    time (the first ``first`` smallest, then twice as many each time): a search that stops early sorts a few."""
+    n = len(keys)
+    rest = np.arange(n)
+    k = first
+    while len(rest):
+        if len(rest) > k:
+            kth = np.partition(keys[rest], k)[k]
+            take = keys[rest] < kth
+            if not take.any():  # (k + 1 or more tied at the smallest key)
+                take = keys[rest] <= kth
+            chunk, rest = rest[take], rest[~take]
+        else:
+            chunk, rest = rest, rest[:0]
+        chunk = chunk[np.argsort(keys[chunk], kind="stable")]
+        yield keys[chunk].tolist(), leg[chunk].tolist(), chunk.tolist()
+        k *= 2
 
 
 # ----------------------------------------------------------------------------- numpy kernels

@@ -414,6 +414,11 @@ class GeofenceUnit:
             p = self._planners[clearance_m] = RecoveryPlanner(self.fence, clearance_m)
         return p
 
+    def prepare_routes(self) -> None:
+        """Build the recovery-route planner of the current clearance and its graph now (otherwise the first route
+        search builds it, mid-flight: about half a second for a 10,000-vertex fence with 500 keep-outs)."""
+        self._planner(self._route_clearances()[0]).prepare()
+
     def _route_clearances(self) -> tuple[float, ...]:
         """Lateral clearances to try, largest first (m, rounded up to whole metres so planners can be reused).
 

@@ -12,6 +12,7 @@ vectorizes gives the same points, bit for bit.
 import math
 import random
 
+import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -118,3 +119,84 @@ def test_routes_are_the_same_with_and_without_the_vectorized_test(seed, n_vertic
             assert got is None
         else:
             assert got.points == r.points and got.reached_goal == r.reached_goal and got.first_leg_floor_m == r.first_leg_floor_m
+
+
+def _segment(rng: random.Random, lf) -> tuple[tuple[float, float], tuple[float, float]]:
+    p = _point(rng, lf)
+    u = rng.random()
+    if u < 0.05:
+        return p, p
+    if u < 0.5:  # short segments: most of them clear
+        a, r = rng.uniform(0, 2 * math.pi), rng.uniform(1.0, 80.0)
+        return p, (p[0] + r * math.cos(a), p[1] + r * math.sin(a))
+    if u < 0.6:  # axis-parallel, along a column or a row of the grid
+        r = rng.uniform(-900.0, 900.0)
+        return p, ((p[0] + r, p[1]) if rng.random() < 0.5 else (p[0], p[1] + r))
+    if u < 0.65:  # far outside the fence (and the grid)
+        return (p[0] + 5000.0, p[1] - 3000.0), (p[0] + 5200.0, p[1] + 4000.0)
+    return p, _point(rng, lf)
+
+
+@settings(max_examples=15, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    n_vertices=st.integers(270, 700),
+    n_squares=st.integers(0, 20),
+    n_circles=st.integers(0, 4),
+    clearance_m=st.floats(1.0, 90.0),
+)
+def test_grid_segment_test_equals_the_loop(seed, n_vertices, n_squares, n_circles, clearance_m):
+    """The airspace-scale segment test walks the cells of a grid (:func:`geofence.recovery_path.segment_grid`)
+    along the segment: for any threshold up to the grid's reach (the clearance) it must give the full loop's
+    verdict, segment by segment and as a fan from one origin."""
+    lf = _fence(seed, n_vertices, n_squares, n_circles)
+    planner = rp.RecoveryPlanner(lf, clearance_m, grid=True)
+    grid = planner._segment_grid()
+    assert grid is not None
+    E, C = planner._edge_rows, planner._circle_rows
+    rng = random.Random(seed + 3)
+    origin = _point(rng, lf)
+    fan, fan_thr = [], rng.uniform(1e-9, clearance_m - 1e-9)
+    for _ in range(150):
+        p, q = _segment(rng, lf)
+        thr = rng.choice([1e-9, 0.01, clearance_m - 1e-9, rng.uniform(0.1, clearance_m)])
+        thr = min(thr, clearance_m)
+        ref = rp._segment_clear(p[0], p[1], q[0], q[1], thr, E, C)
+        assert rp._segment_clear_grid(p[0], p[1], q[0], q[1], thr, E, C, *grid) is ref, (p, q, thr)
+        if rp.segment_clear_grid is not None:
+            assert rp.segment_clear_grid(p[0], p[1], q[0], q[1], thr, E, C, *grid) is ref, (p, q, thr)
+        fan.append(q)
+    q = np.array(fan)
+    ref = np.array([rp._segment_clear(origin[0], origin[1], x, y, fan_thr, E, C) for x, y in fan])
+    assert (rp._fan_clear_grid(origin[0], origin[1], q, fan_thr, E, C, *grid) == ref).all()
+    if rp.fan_clear_grid is not None:
+        assert (rp.fan_clear_grid(origin[0], origin[1], q, fan_thr, E, C, *grid) == ref).all()
+
+
+@settings(max_examples=6, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(270, 500), n_squares=st.integers(0, 15))
+def test_routes_are_the_same_with_and_without_the_grid(seed, n_vertices, n_squares):
+    """A lazy planner with the grid and one without plan the same routes, bit for bit (same verdicts, same search)."""
+    lf = _fence(seed, n_vertices, n_squares, 1)
+    with_grid = rp.RecoveryPlanner(lf, 8.0, lazy=True, grid=True)
+    without = rp.RecoveryPlanner(lf, 8.0, lazy=True, grid=False)
+    rng = random.Random(seed + 4)
+    goal = lf.recovery_en
+    for s in [_point(rng, lf) for _ in range(6)]:
+        a, b = with_grid.plan(s, goal), without.plan(s, goal)
+        assert (a is None) == (b is None)
+        if a is not None and b is not None:
+            assert a.points == b.points and a.reached_goal == b.reached_goal
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    keys=st.lists(st.sampled_from([0.0, 1.0, 2.5, 7.0]) | st.floats(0.0, 1e4), min_size=0, max_size=400),
+    first=st.integers(1, 70),
+)
+def test_first_legs_come_in_stable_key_order(keys, first):
+    """The lazy search's untested first legs arrive, chunk after chunk, in a stable sort's order (ties by node)."""
+    k = np.array(keys, dtype=float)
+    leg = k * 0.5
+    got = [i for chunk in rp._by_key_in_chunks(k, leg, first) for i in chunk[2]]
+    assert got == np.argsort(k, kind="stable").tolist()

@@ -399,9 +399,10 @@ def test_random_fences_graph_edges_and_safe_points(lf, c, data):
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
 @given(fences(), st.floats(3.0, 30.0), st.data())
 def test_lazy_graph_gives_the_eager_graphs_routes(lf, c, data):
-    """The airspace-scale lazy graph (A* / first-target stops) finds routes as short as the full graph's."""
+    """The airspace-scale lazy graph (A* with first legs tested as their keys come up / first-target stops; with
+    or without the segment grid) finds routes as short as the full graph's."""
     eager, _ = _planner(lf, c)
-    lazy = RecoveryPlanner(lf, c, lazy=True)
+    lazy = RecoveryPlanner(lf, c, lazy=True, grid=data.draw(st.booleans()))
     assert lazy.nodes == eager.nodes and lazy.graph_edge_count <= eager.graph_edge_count
     x0, y0, x1, y1 = lf.keep_in.bbox
     for _ in range(3):
