@@ -228,14 +228,23 @@ def _segment_clear(ax: float, ay: float, bx: float, by: float, thr: float, edges
         if _edge_blocks(ax, ay, bx, by, cx, cy, dx, dy, t2):
             return False
     for k in range(circles.shape[0]):
-        cx = circles[k, 0]
-        cy = circles[k, 1]
-        rr = circles[k, 2] + thr
-        if cx + rr < xmin + thr or cx - rr > xmax - thr or cy + rr < ymin + thr or cy - rr > ymax - thr:
-            continue
-        if _pt_seg_d2(cx, cy, ax, ay, bx, by) < rr * rr:
+        if _circle_blocks(ax, ay, bx, by, thr, xmin, xmax, ymin, ymax, circles, k):
             return False
     return True
+
+
+@jitable
+def _circle_blocks(
+    ax: float, ay: float, bx: float, by: float, thr: float, xmin: float, xmax: float, ymin: float, ymax: float,
+    circles: np.ndarray, k: int,
+) -> bool:  # fmt: skip
+    """Does circle row ``k`` come within ``thr`` of a-b (``xmin..ymax``: a-b's bounding box grown by ``thr``)?"""
+    cx = circles[k, 0]
+    cy = circles[k, 1]
+    rr = circles[k, 2] + thr
+    if cx + rr < xmin + thr or cx - rr > xmax - thr or cy + rr < ymin + thr or cy - rr > ymax - thr:
+        return False
+    return _pt_seg_d2(cx, cy, ax, ay, bx, by) < rr * rr
 
 
 @jitable
@@ -366,15 +375,8 @@ def _segment_clear_grid(
                         continue
                     if _edge_blocks(ax, ay, bx, by, edges[k, 0], edges[k, 1], edges[k, 2], edges[k, 3], t2):
                         return False
-                else:
-                    k -= n_edges
-                    cx = circles[k, 0]
-                    cy = circles[k, 1]
-                    rr = circles[k, 2] + thr
-                    if cx + rr < xmin + thr or cx - rr > xmax - thr or cy + rr < ymin + thr or cy - rr > ymax - thr:
-                        continue
-                    if _pt_seg_d2(cx, cy, ax, ay, bx, by) < rr * rr:
-                        return False
+                elif _circle_blocks(ax, ay, bx, by, thr, xmin, xmax, ymin, ymax, circles, k - n_edges):
+                    return False
     return True
 
 

@@ -81,15 +81,7 @@ def test_vectorized_segment_test_equals_the_loop(seed, n_vertices, n_squares, n_
     assert len(planner._edges) > rp.BBOX_PREFILTER_EDGES
     rng = random.Random(seed + 1)
     for _ in range(150):
-        p = _point(rng, lf)
-        u = rng.random()
-        if u < 0.05:
-            q = p
-        elif u < 0.5:  # short segments: most of them clear
-            a, r = rng.uniform(0, 2 * math.pi), rng.uniform(1.0, 80.0)
-            q = (p[0] + r * math.cos(a), p[1] + r * math.sin(a))
-        else:
-            q = _point(rng, lf)
+        p, q = _segment(rng, lf)
         thr = rng.choice([1e-9, 0.01, rng.uniform(0.1, 10.0), rng.uniform(0.1, 60.0)])
         ref = planner._clear_one(p, q, thr, vector_from=NEVER)
         for vf in (0, 1, rp.VECTOR_FROM_EDGES):
