@@ -392,6 +392,117 @@ def _fan_clear_grid(
     return out
 
 
+@jitable
+def _key_less(keys: np.ndarray, a: int, b: int) -> bool:
+    """Is ``(keys[a], a)`` before ``(keys[b], b)``: ascending key, ties by index (a stable sort's order)."""
+    return keys[a] < keys[b] or (keys[a] == keys[b] and a < b)
+
+
+@jitable
+def _key_sift_down(heap: np.ndarray, keys: np.ndarray, pos: int, size: int) -> None:
+    """Restore the binary min-heap ``heap[:size]`` of indices (ordered by :func:`_key_less`) below ``pos``."""
+    while True:
+        child = 2 * pos + 1
+        if child >= size:
+            return
+        if child + 1 < size and _key_less(keys, heap[child + 1], heap[child]):
+            child += 1
+        if not _key_less(keys, heap[child], heap[pos]):
+            return
+        heap[child], heap[pos] = heap[pos], heap[child]
+        pos = child
+
+
+@jitable
+def _lazy_astar(
+    sx: float, sy: float, gx: float, gy: float, thr: float, node_thr: float, P: np.ndarray, cones: np.ndarray,
+    is_corner: np.ndarray, goal_d: np.ndarray, edges: np.ndarray, circles: np.ndarray, x0: float, y0: float,
+    cell: float, nx: int, ny: int, start: np.ndarray, items: np.ndarray, row_start: np.ndarray, row_len: np.ndarray,
+    store_j: np.ndarray, store_w: np.ndarray, used: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, int, float]:  # fmt: skip
+    """:meth:`RecoveryPlanner._search` of a lazy graph with a segment grid, from a start (sx, sy) in the free space
+    towards the goal (gx, gy), in one compiled call: ``(dist, pred, first legs found, best route length)``
+    (``first legs found`` -1: the edge store is full, grow it and call again).
+
+    The same search step for step: first legs taken in key order (a heap of node indices by
+    :func:`_key_less`, the stable sort's order) and tested as their key comes up, the open nodes in a heap of
+    ``(key, distance, node)``, the same stops. ``goal_d``: each node's straight length to the goal, infinite
+    where it does not see it. A node's graph edges (:meth:`RecoveryPlanner._neighbours`' candidates and tests,
+    at ``node_thr``) are found on its first expansion and kept in ``row_start``/``row_len`` (-1: not yet)
+    over ``store_j``/``store_w`` (``used[0]`` entries filled), across calls.
+    """
+    n = P.shape[0]
+    dist = np.full(n, np.inf)
+    pred = np.full(n, -1, np.int64)
+    leg = np.empty(n)
+    keys = np.empty(n)
+    for i in range(n):  # (square roots, as the Python search's numpy: the same bits, a fifth of hypot's time)
+        ex = P[i, 0] - sx
+        ey = P[i, 1] - sy
+        fx = P[i, 0] - gx
+        fy = P[i, 1] - gy
+        leg[i] = math.sqrt(ex * ex + ey * ey)
+        keys[i] = leg[i] + math.sqrt(fx * fx + fy * fy)
+    cand = np.arange(n)
+    size = n
+    for pos in range(n // 2 - 1, -1, -1):
+        _key_sift_down(cand, keys, pos, size)
+    open_ = [(0.0, 0.0, 0)]
+    open_.pop()
+    best_goal = np.inf
+    n_first = 0
+    while True:
+        if size > 0 and (len(open_) == 0 or keys[cand[0]] < open_[0][0]):  # the next untested first leg first
+            i = cand[0]
+            size -= 1
+            cand[0] = cand[size]
+            _key_sift_down(cand, keys, 0, size)
+            key = keys[i]
+            d = leg[i]
+            if key >= best_goal:
+                break
+            if d >= dist[i]:
+                continue
+            if not _segment_clear_grid(sx, sy, P[i, 0], P[i, 1], thr, edges, circles, x0, y0, cell, nx, ny, start, items):
+                continue
+            dist[i] = d
+            pred[i] = -1
+            n_first += 1
+        elif len(open_) > 0:
+            key, d, i = heapq.heappop(open_)
+            if d > dist[i]:
+                continue
+        else:
+            break
+        if key >= best_goal:
+            break  # no open node can shorten the best route found to the goal
+        if goal_d[i] < np.inf:
+            best_goal = min(best_goal, d + goal_d[i])
+        if row_start[i] < 0:  # node i's graph edges, found on its first expansion
+            jj = _tangent_row(i, P, cones, is_corner)
+            ok = _fan_clear_grid(P[i, 0], P[i, 1], P[jj], node_thr, edges, circles, x0, y0, cell, nx, ny, start, items)
+            jj = jj[ok]
+            m = jj.shape[0]
+            if used[0] + m > store_j.shape[0]:
+                return dist, pred, -1, best_goal
+            at = used[0]
+            for k in range(m):
+                store_j[at + k] = jj[k]
+                store_w[at + k] = np.hypot(P[jj[k], 0] - P[i, 0], P[jj[k], 1] - P[i, 1])
+            row_start[i] = at
+            row_len[i] = m
+            used[0] = at + m
+        at = row_start[i]
+        for k in range(at, at + row_len[i]):
+            j = store_j[k]
+            nd = d + store_w[k]
+            if nd < dist[j]:
+                dist[j] = nd
+                pred[j] = i
+                heapq.heappush(open_, (nd + hypot(P[j, 0] - gx, P[j, 1] - gy), nd, j))
+    return dist, pred, n_first, best_goal
+
+
 FAN_SLACK_M: float = 1e-6
 """Slack (m) of the fans' early exit: an edge is skipped only when it is this much (plus 1e-9 relative) farther
 from the fan's origin than the segment's length plus the threshold, far beyond any rounding of the tests."""
@@ -689,6 +800,9 @@ segment_clear_grid = numba.njit(cache=True)(_segment_clear_grid) if COMPILED els
 
 fan_clear_grid = numba.njit(cache=True)(_fan_clear_grid) if COMPILED else None
 """The compiled :func:`_fan_clear_grid` (``None`` without numba)."""
+
+lazy_astar = numba.njit(cache=True)(_lazy_astar) if COMPILED else None
+"""The compiled :func:`_lazy_astar` (``None`` without numba: :meth:`RecoveryPlanner._search` in Python)."""
 
 tangent_row = numba.njit(cache=True)(_tangent_row) if COMPILED else None
 """The compiled :func:`_tangent_row` (``None`` without numba: :meth:`RecoveryPlanner._neighbours` vectorises)."""
@@ -994,6 +1108,9 @@ class RecoveryPlanner:
         nn = len(nodes)
         self._visible_cache: dict[tuple[float, float, float], tuple[int, ...]] = {}
         self._goal_nodes: dict[Point, dict[int, float]] = {}  # plan's goal -> the nodes that see it and how far
+        self._goal_d: dict[Point, np.ndarray] = {}  # the same as an array (infinite: not seen), the last goal's
+        # a lazy graph's edges as found, as arrays (:meth:`_edge_store`): the compiled search's, and the Python's
+        self._store: tuple[np.ndarray, ...] | None = None
         self._lazy = nn >= LAZY_MIN_NODES if lazy is None else bool(lazy)
         self._adj: list[list[tuple[int, float]] | None] = [None if self._lazy else [] for _ in nodes]
         if nn >= 2 and not self._lazy:
@@ -1023,21 +1140,61 @@ class RecoveryPlanner:
         return found // 2 if not self._lazy else found
 
     def _neighbours(self, i: int) -> list[tuple[int, float]]:
-        """Node ``i``'s graph edges ``(j, length)``: precomputed, or for a lazy graph found on first use."""
+        """Node ``i``'s graph edges ``(j, length)``: precomputed, or for a lazy graph found on first use (by this
+        method or by the compiled search, :func:`_lazy_astar`: one edge store for both, :meth:`_edge_store`)."""
         row = self._adj[i]
         if row is None:
-            d = self._nodes - self._nodes[i]
-            if _jit.ACTIVE and tangent_row is not None:
-                jj = tangent_row(i, self._nodes, self._cones, self._is_corner)
+            row_start, row_len, store_j, store_w, _ = self._edge_store()
+            at = int(row_start[i])
+            if at >= 0:  # found by the compiled search
+                row = list(zip(store_j[at : at + row_len[i]].tolist(), store_w[at : at + row_len[i]].tolist()))
             else:
-                idx = np.arange(len(self.nodes))
-                jj = idx[(idx != i) & self._tangent(np.full(len(idx), i), d) & self._tangent(idx, -d)]
-            ok = self._fan_clear(self._nodes[i], self._nodes[jj], self._thr)
-            jj = jj[ok]
-            w = np.hypot(d[jj, 0], d[jj, 1])
-            row = list(zip(jj.tolist(), w.tolist()))
+                d = self._nodes - self._nodes[i]
+                if _jit.ACTIVE and tangent_row is not None:
+                    jj = tangent_row(i, self._nodes, self._cones, self._is_corner)
+                else:
+                    idx = np.arange(len(self.nodes))
+                    jj = idx[(idx != i) & self._tangent(np.full(len(idx), i), d) & self._tangent(idx, -d)]
+                ok = self._fan_clear(self._nodes[i], self._nodes[jj], self._thr)
+                jj = jj[ok]
+                w = np.hypot(d[jj, 0], d[jj, 1])
+                self._store_row(i, jj, w)
+                row = list(zip(jj.tolist(), w.tolist()))
             self._adj[i] = row
         return row
+
+    def _edge_store(self) -> tuple[np.ndarray, ...]:
+        """The lazy graph's edges as arrays, ``(row_start, row_len, store_j, store_w, used)``: node ``i``'s edges are
+        ``store_j[row_start[i]:][:row_len[i]]`` (other nodes) and ``store_w`` (lengths), ``row_start[i]`` -1 until
+        found; ``used[0]`` entries filled. :func:`_lazy_astar` fills it in place."""
+        if self._store is None:
+            n = len(self.nodes)
+            room = 1 << 16
+            self._store = (
+                np.full(n, -1, np.int64), np.zeros(n, np.int64), np.empty(room, np.int64), np.empty(room),
+                np.zeros(1, np.int64),
+            )  # fmt: skip
+        return self._store
+
+    def _grow_edge_store(self, need: int) -> None:
+        """Room for ``need`` more edges in :meth:`_edge_store` (at least twice the room it had)."""
+        row_start, row_len, store_j, store_w, used = self._edge_store()
+        filled = int(used[0])
+        room = max(2 * len(store_j), filled + need)
+        j, w = np.empty(room, np.int64), np.empty(room)
+        j[:filled], w[:filled] = store_j[:filled], store_w[:filled]
+        self._store = (row_start, row_len, j, w, used)
+
+    def _store_row(self, i: int, jj: np.ndarray, w: np.ndarray) -> None:
+        """File node ``i``'s edges (found in Python) in :meth:`_edge_store`."""
+        if int(self._edge_store()[4][0]) + len(jj) > len(self._edge_store()[2]):
+            self._grow_edge_store(len(jj))
+        row_start, row_len, store_j, store_w, used = self._edge_store()
+        at = int(used[0])
+        store_j[at : at + len(jj)] = jj
+        store_w[at : at + len(jj)] = w
+        row_start[i], row_len[i] = at, len(jj)
+        used[0] = at + len(jj)
 
     # ------------------------------------------------------------------ construction
     def _corner_nodes(self) -> list[tuple[float, float, float, float, float, float]]:
@@ -1379,6 +1536,17 @@ class RecoveryPlanner:
             if x is not None:
                 extra.append(x)
         allpts = nodes + extra
+        if (
+            in_free
+            and self._lazy
+            and goal is not None
+            and goal_nodes is not None
+            and targets is None
+            and _jit.ACTIVE
+            and lazy_astar is not None
+            and self._segment_grid() is not None
+        ):
+            return self._search_compiled(s, goal, goal_nodes, m_s, allpts)
         if goal is not None and goal_nodes is not None and extra and self._clear_one(extra[0], goal, self._thr):
             goal_nodes = {**goal_nodes, nn: math.hypot(extra[0][0] - goal[0], extra[0][1] - goal[1])}
         # first legs
@@ -1392,8 +1560,13 @@ class RecoveryPlanner:
                 # the shortest way to its node, so its key is the node's best), without a fan to every node
                 first = [nn] if extra and self._clear_one(s, extra[0], thr) else []
                 P = self._nodes
-                leg = np.hypot(P[:, 0] - s[0], P[:, 1] - s[1])
-                keys = leg + np.hypot(P[:, 0] - goal[0], P[:, 1] - goal[1]) if goal is not None else leg
+                ex, ey = P[:, 0] - s[0], P[:, 1] - s[1]
+                leg = np.sqrt(ex * ex + ey * ey)
+                if goal is not None:
+                    fx, fy = P[:, 0] - goal[0], P[:, 1] - goal[1]
+                    keys = leg + np.sqrt(fx * fx + fy * fy)
+                else:
+                    keys = leg
                 untested = _by_key_in_chunks(keys, leg)
             else:
                 cand = self._visible_from(s, thr)
@@ -1490,6 +1663,29 @@ class RecoveryPlanner:
             "first": set(first),
         }
 
+    def _search_compiled(self, s: Point, goal: Point, goal_nodes: dict[int, float], m_s: float, allpts: list[Point]):
+        """:meth:`_search`'s A* from a start in the free space, in one compiled call (:func:`_lazy_astar`, the same
+        search); its context carries ``dist`` and ``pred`` as arrays, ``first`` as the count of first legs."""
+        goal_d = self._goal_d.get(goal)
+        if goal_d is None:
+            goal_d = np.full(len(self._node_list), math.inf)
+            for i, d in goal_nodes.items():
+                goal_d[i] = d
+            self._goal_d = {goal: goal_d}
+        grid = self._segment_grid()
+        assert grid is not None and lazy_astar is not None  # (the caller's conditions)
+        while True:
+            row_start, row_len, store_j, store_w, used = self._edge_store()
+            dist, pred, n_first, _ = lazy_astar(
+                s[0], s[1], goal[0], goal[1], self._thr, self._thr, self._nodes, self._cones, self._is_corner, goal_d,
+                self._edge_rows, self._circle_rows, *grid, row_start, row_len, store_j, store_w, used,
+            )  # fmt: skip
+            if n_first >= 0:
+                break
+            self._grow_edge_store(len(self._node_list))  # the edge store is full: more room, and search again
+        return {"s": s, "m_s": m_s, "in_free": True, "floor": self.clearance_m, "pts": allpts, "dist": dist,
+                "pred": pred, "first": n_first}  # fmt: skip
+
     def _path_to(self, ctx, i: int, end: Point | None) -> list[Point]:
         chain = []
         while i != -1:
@@ -1553,7 +1749,12 @@ class RecoveryPlanner:
             return None
         dist, pts = ctx["dist"], ctx["pts"]
         best_i, best_d = -1, math.inf
-        if g is not None:
+        if isinstance(dist, np.ndarray) and g is not None:  # the compiled search's: the same choice, vectorised
+            total = dist + self._goal_d[g]  # (the first smallest, as the loop below keeps it)
+            k = int(np.argmin(total))
+            if total[k] < math.inf:
+                best_i = k
+        elif g is not None:
             vis = [i for i in self._visible_from(g, self._thr) if dist[i] < math.inf]
             if len(pts) > len(self.nodes) and dist[-1] < math.inf and self._clear_one(pts[-1], g, self._thr):
                 vis.append(len(pts) - 1)

@@ -19,6 +19,7 @@ from hypothesis import strategies as st
 import geofence.recovery_path as rp
 from geofence.fence import Fence, KeepOutCircle
 from geofence.geodesy import LocalFrame
+from geofence.jit import use_compiled
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 NEVER = 10**9
@@ -192,3 +193,34 @@ def test_first_legs_come_in_stable_key_order(keys, first):
     leg = k * 0.5
     got = [i for chunk in rp._by_key_in_chunks(k, leg, first) for i in chunk[2]]
     assert got == np.argsort(k, kind="stable").tolist()
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(270, 500), n_squares=st.integers(10, 40))
+def test_compiled_search_plans_the_python_searchs_routes(seed, n_vertices, n_squares):
+    """The lazy A* compiled in one call (:func:`geofence.recovery_path._lazy_astar`, a lazy planner with the grid
+    while numba is active) plans the Python search's routes, bit for bit: from starts in the free space whose
+    straight line to the goal is blocked (a search, the compiled call), and from anywhere."""
+    lf = _fence(seed, n_vertices, n_squares, 1)
+    compiled = rp.RecoveryPlanner(lf, 7.0, lazy=True, grid=True)
+    python = rp.RecoveryPlanner(lf, 7.0, lazy=True, grid=True)
+    rng = random.Random(seed + 5)
+    goal = lf.recovery_en
+    points = [_point(rng, lf) for _ in range(200)]
+    thr = compiled.clearance_m - rp.EPS_M
+
+    def searched(p: tuple[float, float]) -> bool:
+        return lf.lateral_margin_m(*p) >= thr and not compiled._clear_one(p, goal, thr)
+
+    starts = [p for p in points if searched(p)][:8] + points[:3]
+    assert len(starts) > 3
+    for s in starts:
+        a = compiled.plan(s, goal)
+        previous = use_compiled(False)
+        try:
+            b = python.plan(s, goal)
+        finally:
+            use_compiled(previous)
+        assert (a is None) == (b is None)
+        if a is not None and b is not None:
+            assert a.points == b.points and a.reached_goal == b.reached_goal, (s, a.points, b.points)
