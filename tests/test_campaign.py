@@ -53,6 +53,9 @@ from geofence.rooms import worst_case_lateral_shift_m
 from geofence.validation import ConfigError
 from scenarios.spec.campaign import (
     BREACH_PUSH_FACTOR,
+    CITY_BUILDINGS,
+    CITY_VERTICES,
+    DEFAULT_FAMILIES,
     MISSION_INSET_ROOMS,
     Attack,
     CampaignError,
@@ -103,7 +106,7 @@ def test_200_generated_cases_validate_and_cover_every_family_and_platform(campai
     cases = manifest["cases"]
     assert manifest["n_cases"] == len(cases) >= 190
     assert len(paths) == 3 * len(cases)
-    assert {c["family"] for c in cases} == {f.value for f in CaseFamily}
+    assert {c["family"] for c in cases} == {f.value for f in DEFAULT_FAMILIES}
     assert {c["platform"] for c in cases} == set(manifest["platforms"])
     assert {"multirotor", "fixed_wing"} <= {c["platform_kind"] for c in cases}
     attacks = {c["attack"] for c in cases}
@@ -228,6 +231,25 @@ def _buildings(fence: dict) -> list[float]:
     return polys + [k["ceiling_m"] for k in fence.get("keep_out_circles", []) if "ceiling_m" in k]
 
 
+def test_city_family_writes_airspace_scale_fences_only_when_asked(tmp_path):
+    """``--families city``: a ragged keep-in of thousands of vertices and tens to hundreds of buildings, sized to
+    the platform (two rooms between buildings), every document validated; never in a default campaign."""
+    assert CaseFamily.CITY not in DEFAULT_FAMILIES and set(DEFAULT_FAMILIES) | {CaseFamily.CITY} == set(CaseFamily)
+    generate_campaign(tmp_path, 4, 2611, families=[CaseFamily.CITY], max_duration_s=60.0)
+    manifest = json.loads((tmp_path / "campaign.json").read_text())
+    assert manifest["families"] == ["city"] and manifest["n_cases"] >= 3
+    for c in manifest["cases"]:
+        sc = load_scenario(tmp_path / c["files"]["predictive"])
+        fence = sc.geofence.fence
+        assert CITY_VERTICES[0] <= len(fence.keep_in) <= CITY_VERTICES[1]
+        assert CITY_BUILDINGS[0] <= len(fence.keep_out_polygons) <= CITY_BUILDINGS[1]
+        local = fence.to_local(LocalFrame(sc.start.lat_deg, sc.start.lon_deg, sc.start.ground_alt_m))
+        room = platform_room_m(load_profile(sc.aircraft))
+        centres = np.array([p.vertices.mean(axis=0) for p in local.keep_out_polygons])
+        gaps = np.hypot(*(centres[:, None, :] - centres[None, :, :]).transpose(2, 0, 1)) + np.eye(len(centres)) * 1e9
+        assert gaps.min() >= 2.0 * room  # (centres: at least the clearance plus the buildings' own sizes apart)
+
+
 def test_keep_out_family_writes_buildings_with_their_own_ceiling():
     cases = generate_cases(24, 3, families=[CaseFamily.KEEP_OUT])
     polygon_buildings = 0
@@ -307,7 +329,7 @@ def test_breach_attempts_cases_validate_and_aim_at_the_keep_in(kind):
 
 
 def test_the_circle_family_takes_over_only_its_own_cases():
-    families = list(CaseFamily)
+    families = list(DEFAULT_FAMILIES)
     assert families[-1] is CaseFamily.CIRCLE
     for i in range(200):
         if i % len(families) == len(families) - 1:
@@ -340,7 +362,7 @@ def test_committed_ci_slice_is_the_generators_output(tmp_path):
     manifest = json.loads((CI_SLICE / "campaign.json").read_text())
     assert len(manifest["cases"]) == CI_CASES
     assert all(c["duration_s"] <= CI_MAX_DURATION_S for c in manifest["cases"])
-    assert len({c["family"] for c in manifest["cases"]}) == len(CaseFamily)
+    assert len({c["family"] for c in manifest["cases"]}) == len(DEFAULT_FAMILIES)
     assert len({c["platform"] for c in manifest["cases"]}) >= 5
 
 

@@ -56,6 +56,12 @@ def test_campaign_generate_and_report_refuse_bad_folders(tmp_path):
     assert len(list((tmp_path / "new").glob("*.yaml"))) == 6
     r = run_cli("campaign", "generate", str(tmp_path / "bad"), "--cases", "2", "--platforms", "F450,Spitfire")
     assert r.returncode == 2 and "'Spitfire'" in r.stderr and "Traceback" not in r.stderr
+    r = run_cli("campaign", "generate", str(tmp_path / "bad2"), "--cases", "2", "--families", "box,towns")
+    assert r.returncode == 2 and r.stderr.strip().splitlines() == [
+        "error: --families: unknown family 'towns' (known: box, l_fence, u_fence, star, acute, corridor, keep_out, "
+        "ceiling, floor_gaps, circle, city)"
+    ]
+    assert not (tmp_path / "bad2").exists() or not any((tmp_path / "bad2").iterdir())
     r = run_cli("campaign", "generate", str(tmp_path / "tern"), "--cases", "2", "--platforms", "Tern")
     assert r.returncode == 0
     assert {

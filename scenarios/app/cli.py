@@ -251,6 +251,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="A,B",
         help="comma-separated platform profiles to draw from (default: every shipped profile)",
     )
+    gen.add_argument(
+        "--families",
+        default=None,
+        metavar="A,B",
+        help="comma-separated case families to take turns (default: all but city; city: airspace-scale fences,"
+        " thousands of vertices and hundreds of buildings, slower to fly)",
+    )
     rep = camp_sub.add_parser(
         "report",
         help="write campaign_report.md from a flown campaign",
@@ -399,7 +406,24 @@ def _cmd_campaign(args) -> int:
                     file=sys.stderr,
                 )
                 return EXIT_BAD_INPUT
-        paths = generate_campaign(args.out, args.cases, args.seed, platforms=platforms, max_duration_s=args.max_duration_s)
+        families = None
+        if args.families is not None:
+            from scenarios.spec.campaign import CaseFamily
+
+            names = [f.strip() for f in args.families.split(",") if f.strip()]
+            known = {f.value: f for f in CaseFamily}
+            unknown = [f for f in names if f not in known]
+            if not names or unknown:
+                print(
+                    f"error: --families: unknown family {unknown[0] if unknown else '(none given)'!r} "
+                    f"(known: {', '.join(known)})",
+                    file=sys.stderr,
+                )
+                return EXIT_BAD_INPUT
+            families = [known[f] for f in names]
+        paths = generate_campaign(
+            args.out, args.cases, args.seed, platforms=platforms, families=families, max_duration_s=args.max_duration_s
+        )
         print(
             f"wrote {len(paths)} scenario files and {args.out / 'campaign.json'}; fly them with: "
             f"geofence-testbed batch {args.out} --out RESULTS"

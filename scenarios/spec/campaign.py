@@ -120,6 +120,10 @@ class CaseFamily(Enum):
     FLOOR_GAPS = "floor_gaps"
     CIRCLE = "circle"
     """A circular keep-in (``keep_in_circle``), flown against with the lateral attacks (head-on is radial)."""
+    CITY = "city"
+    """An airspace-scale fence (:func:`family_city`): a ragged park boundary of thousands of vertices and
+    hundreds of building keep-outs. Not among the :data:`DEFAULT_FAMILIES` (its flights cost more): asked for by
+    name (``campaign generate --families city``)."""
 
 
 class Attack(Enum):
@@ -1044,6 +1048,59 @@ def family_floor_gaps(rng: np.random.Generator, ctx: CaseContext):
     return draft, Plan(p, course, agl, segs, approach, duration), Attack.DESCEND
 
 
+CITY_VERTICES = (2_000, 6_000)
+"""The city family's keep-in vertices (drawn uniformly between): above the planner's lazy-graph and segment-grid
+sizes (:data:`geofence.recovery_path.LAZY_MIN_NODES`, :data:`~geofence.recovery_path.SEGMENT_GRID_MIN_EDGES`)."""
+CITY_BUILDINGS = (40, 300)
+"""The city family's building keep-outs (drawn uniformly between); the park's radius grows to hold them."""
+CITY_BUILDING_SIZE_M = (10.0, 40.0)
+
+
+def family_city(rng: np.random.Generator, ctx: CaseContext):
+    """An airspace-scale fence: a ragged park boundary of :data:`CITY_VERTICES` vertices
+    (:func:`scenarios.airspace.generate.park_boundary_en`, star-shaped, bays and headlands down to metre-scale
+    wiggles), at least twice the lateral families' size, with :data:`CITY_BUILDINGS` building
+    keep-outs (:func:`~scenarios.airspace.generate.place_buildings`: rectangles and hexagons 10-40 m across, at
+    least two rooms apart and from the boundary, none in a meadow of two rooms round the centre), then a
+    lateral attack or a mission. The unit flies it with its fence index, and a fixed-wing's roll-out target
+    and every recovery route come from the lazy route graph searched through the buildings."""
+    from scenarios.airspace.generate import park_boundary_en, place_buildings
+
+    attack = _pick(rng, LATERAL_ATTACKS, LATERAL_WEIGHTS)
+    clearance = max(2.0 * ctx.room_m, 20.0)
+    meadow = 2.0 * ctx.room_m
+    pitch = clearance + CITY_BUILDING_SIZE_M[1]  # the ground one building takes, at the density below, is pitch²/0.25
+    n = int(rng.integers(CITY_BUILDINGS[0], CITY_BUILDINGS[1] + 1))
+    # a radius with room for them (the boundary dips to 0.8 of it) and at least twice the lateral families'
+    r = max(
+        (math.sqrt(n * pitch**2 / (0.25 * math.pi) + (meadow + pitch) ** 2) + clearance) / 0.8,
+        2.0 * ctx.target_inradius_m(rng),
+    )
+    if 2.4 * r > MAX_FENCE_SPAN_M:
+        raise _DoesNotFit
+    boundary = park_boundary_en(rng, int(rng.integers(CITY_VERTICES[0], CITY_VERTICES[1] + 1)), r, float(rng.uniform(0.05, 0.2)))
+    ceiling, agl = _heights(rng, ctx)
+    draft = FenceDraft(boundary, ceiling)
+    if draft.span_m() > MAX_FENCE_SPAN_M:
+        raise _DoesNotFit
+    buildings = place_buildings(
+        rng, boundary, n, size_m=CITY_BUILDING_SIZE_M, clearance_m=clearance, meadow_radius_m=meadow, max_tries=200_000
+    )
+    draft.keep_out_polygons = tuple(buildings)
+    local = draft.local(ctx.frame)
+    if attack is Attack.MISSION:
+        plan = _plan_mission(rng, ctx, local, ctx.frame, agl)
+        if plan is not None:
+            return draft, plan, attack
+        attack = Attack.HEAD_ON
+    if attack is Attack.BREACH_ATTEMPTS:
+        plan = _plan_breach(rng, ctx, draft, local, agl)
+        if plan is not None:
+            return draft, plan, attack
+        attack = Attack.HEAD_ON
+    return draft, _plan_lateral(rng, ctx, local, attack, agl), attack
+
+
 FAMILY_BUILDERS: dict[CaseFamily, Callable[[np.random.Generator, CaseContext], tuple[FenceDraft, Plan, Attack]]] = {
     CaseFamily.CONVEX_BOX: family_box,
     CaseFamily.L_FENCE: family_l,
@@ -1055,7 +1112,11 @@ FAMILY_BUILDERS: dict[CaseFamily, Callable[[np.random.Generator, CaseContext], t
     CaseFamily.CEILING: family_ceiling,
     CaseFamily.FLOOR_GAPS: family_floor_gaps,
     CaseFamily.CIRCLE: family_circle,
+    CaseFamily.CITY: family_city,
 }
+
+DEFAULT_FAMILIES: tuple[CaseFamily, ...] = tuple(f for f in CaseFamily if f is not CaseFamily.CITY)
+"""The families a campaign draws from unless asked for others (every family but :attr:`CaseFamily.CITY`)."""
 
 
 # --------------------------------------------------------------------------- site, wind, faults
@@ -1348,7 +1409,7 @@ def generate_cases(
     bad = [p for p in platforms if p not in known]
     if bad or not platforms:
         raise ConfigError(f"platforms: unknown {bad} (known: {', '.join(known)})" if bad else "platforms: empty")
-    families = list(families) if families is not None else list(CaseFamily)
+    families = list(families) if families is not None else list(DEFAULT_FAMILIES)
     if not families or not all(isinstance(f, CaseFamily) for f in families):
         raise ConfigError(f"families: expected CaseFamily members, got {families!r}")
     cases = []
@@ -1400,7 +1461,7 @@ def generate_campaign(
         "skipped_cases": int(n_cases) - len(cases),
         "max_duration_s": float(max_duration_s),
         "platforms": list(platforms) if platforms is not None else available_profiles(),
-        "families": [f.value for f in (families or list(CaseFamily))],
+        "families": [f.value for f in (families or DEFAULT_FAMILIES)],
         "variants": [v.value for v in Variant],
         "cases": [c.manifest for c in cases],
     }
