@@ -8,9 +8,16 @@ and by the testbed's mission autopilot alike (they are the stick semantics of
 * climb-rate demand (m/s) -> climb-rate stick (multirotor throttle, fixed-wing pitch);
 * course error (rad) -> fixed-wing sticks (:func:`fixed_wing_sticks`: bank of a coordinated turn);
 * airspeed demand (m/s) -> fixed-wing throttle stick;
+* a course onto a circle (:func:`orbit_course_rad`) and the air heading whose ground track points at a target
+  in the wind (:func:`air_heading_to_rad`);
 * :class:`VelocityController`: a multirotor PI ground-velocity loop on top of
   the tilt mapping, and :func:`approach_velocity` (stop at a point without
   overshoot).
+
+The laws of floats are :func:`geofence.jit.jitable`: the compiled fixed-wing recovery step
+(:data:`geofence.guidance.fixed_wing_step`) calls them from the same source. Those taking a state ``s`` or an
+envelope ``env`` read only named float attributes, so compiled code passes a named tuple of those fields;
+:func:`cpython_hypot` is ``math.hypot`` in Python and CPython's algorithm when compiled (the same bits).
 """
 
 from __future__ import annotations
@@ -19,12 +26,30 @@ import math
 
 from geofence.dynamics import G_MPS2, drag_coefficients
 from geofence.interface import Envelope, StickCommand, VehicleState
+from geofence.jit import jitable, numba
 
 
+def cpython_hypot(x: float, y: float) -> float:
+    """``math.hypot(x, y)``; compiled, :func:`geofence.lateral_kernel.hypot` (CPython's algorithm: the C library's
+    ``hypot``, which numba calls for ``math.hypot``, differs in the last bit about once in a hundred calls)."""
+    return math.hypot(x, y)
+
+
+if numba is not None:
+
+    @numba.extending.overload(cpython_hypot)
+    def _cpython_hypot_compiled(x: float, y: float):  # (numba: the implementation's parameters, annotations too)
+        from geofence.lateral_kernel import hypot  # (imported here: lateral_kernel imports this module's users)
+
+        return hypot
+
+
+@jitable
 def clip(x: float, lo: float, hi: float) -> float:
     return lo if x < lo else (hi if x > hi else x)
 
 
+@jitable
 def wrap_pi(angle_rad: float) -> float:
     """Wrap an angle to [-pi, pi)."""
     return (angle_rad + math.pi) % (2.0 * math.pi) - math.pi
@@ -49,6 +74,7 @@ def tilt_sticks_for_accel(accel_east_mps2: float, accel_north_mps2: float, yaw_r
     return clip(roll / env.max_bank_rad, -1.0, 1.0), clip(pitch / env.max_pitch_rad, -1.0, 1.0)
 
 
+@jitable
 def climb_rate_to_stick(v_up_mps: float, env: Envelope) -> float:
     """Climb-rate demand (m/s, + up) -> the climb-rate stick of either platform kind."""
     if v_up_mps >= 0.0:
@@ -56,11 +82,13 @@ def climb_rate_to_stick(v_up_mps: float, env: Envelope) -> float:
     return clip(v_up_mps / env.max_descent_rate_mps, -1.0, 0.0)
 
 
+@jitable
 def altitude_to_climb_rate(target_m: float, height_m: float, env: Envelope, gain_per_s: float) -> float:
     """Proportional altitude law: climb-rate demand in m/s, limited by the envelope."""
     return clip(gain_per_s * (target_m - height_m), -env.max_descent_rate_mps, env.max_climb_rate_mps)
 
 
+@jitable
 def course_error_rad(s: VehicleState, course_cmd_rad: float) -> float:
     """The commanded course minus the ground course, the short way (-pi, pi]: + turns right."""
     return wrap_pi(course_cmd_rad - ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad))
@@ -75,12 +103,18 @@ def fixed_wing_sticks(
     (pitch) and throttle sticks are the caller's. Yaw stick 0. One function, one call: it runs every step of
     every fixed-wing flight (the pilot's navigator and the geofence's recovery guidance alike).
     """
-    v = s.ground_speed_mps
-    if v < 1.0:
-        v = 1.0
-    roll = clip(math.atan(v * (course_gain_per_s * course_err_rad) / G_MPS2) / env.max_bank_rad, -1.0, 1.0)
+    roll = fixed_wing_roll_stick(s.ground_speed_mps, course_err_rad, course_gain_per_s, env)
     # (roll, pitch, yaw, throttle): tuple.__new__ costs a third of the named tuple's generated constructor
     return tuple.__new__(StickCommand, (roll, pitch_stick, 0.0, throttle_stick))
+
+
+@jitable
+def fixed_wing_roll_stick(ground_speed_mps: float, course_err_rad: float, course_gain_per_s: float, env: Envelope) -> float:
+    """:func:`fixed_wing_sticks`' roll stick: ``atan(V·gain·error/g)`` over the bank limit, ``V`` at least 1 m/s."""
+    v = ground_speed_mps
+    if v < 1.0:
+        v = 1.0
+    return clip(math.atan(v * (course_gain_per_s * course_err_rad) / G_MPS2) / env.max_bank_rad, -1.0, 1.0)
 
 
 def airspeed_to_stick(airspeed_mps: float, env: Envelope) -> float:
@@ -97,6 +131,7 @@ def yaw_stick_for_heading(yaw_cmd_rad: float, yaw_rad: float, env: Envelope, gai
     return clip(gain_per_s * wrap_pi(yaw_cmd_rad - yaw_rad) / env.max_yaw_rate_radps, -1.0, 1.0)
 
 
+@jitable
 def ground_course_rad(v_east_mps: float, v_north_mps: float, fallback_rad: float) -> float:
     """Ground course clockwise from north; ``fallback_rad`` (the heading) when nearly stopped."""
     if v_east_mps * v_east_mps + v_north_mps * v_north_mps < 0.25:
@@ -177,11 +212,24 @@ class VelocityController:
         return tilt_sticks_for_accel(ae, an, yaw_rad, self.env)
 
 
+@jitable
 def orbit_course_rad(
     east_m: float, north_m: float, center_e: float, center_n: float, radius_m: float, gain: float = 2.0, clockwise: bool = True
 ) -> tuple[float, float]:
     """Vector-field course onto a circle (Beard & McLain): (course rad, distance from the centre m)."""
-    d = math.hypot(east_m - center_e, north_m - center_n)
+    d = cpython_hypot(east_m - center_e, north_m - center_n)
     bearing = math.atan2(east_m - center_e, north_m - center_n)
     lam = 1.0 if clockwise else -1.0
     return bearing + lam * (0.5 * math.pi + math.atan(gain * (d - radius_m) / radius_m)), d
+
+
+@jitable
+def air_heading_to_rad(
+    s: VehicleState, target_e: float, target_n: float, wind_e: float, wind_n: float, min_speed_mps: float
+) -> float:
+    """Air heading whose ground track from ``s`` points at the target (ENU m): the wind triangle at the current
+    airspeed (at least ``min_speed_mps`` and 1 m/s), wind ``(wind_e, wind_n)`` m/s toward."""
+    course = math.atan2(target_e - s.east_m, target_n - s.north_m)
+    cross = wind_e * math.cos(course) - wind_n * math.sin(course)  # wind component to the right of the course
+    v = max(s.airspeed_mps, min_speed_mps, 1.0)
+    return course - math.asin(clip(cross / v, -1.0, 1.0))

@@ -30,23 +30,36 @@ sticks every step. They see only the estimate and the :class:`Envelope`.
   a multirotor descends only while nearly stopped over it
   (``TOUCHDOWN_MAX_GROUND_SPEED_MPS``), a fixed-wing spirals down over it.
 
+The fixed-wing recovery's step, the override's common path, is also one compiled call
+(:data:`fixed_wing_step`: the route follower's step of :mod:`geofence.recovery_path` and the stick law
+together) while :data:`geofence.jit.ACTIVE` and the route's follower is compiled (a
+:class:`~geofence.recovery_path.RecoveryPath` whose chords are tested exactly); :meth:`FixedWingRecovery.sticks`
+in Python stays the reference, and both take their formulas from one home: the jitable laws below
+(:func:`fixed_wing_recovery_pitch`, :func:`turned_through_rad`, :func:`rolls_out`, :func:`fixed_wing_follow_roll`)
+and those of :mod:`geofence.control_laws`. ``tests/test_guidance_kernel.py`` holds the two equal, bit for bit.
+
 Angles rad, positions ENU m, heights m, speeds m/s.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Protocol
+from typing import NamedTuple, Protocol
 
+import numpy as np
+
+from geofence import jit as _jit
 from geofence.config import SeedPDGains
 from geofence.control_laws import (
     VelocityController,
+    air_heading_to_rad,
     airspeed_to_stick,
     altitude_to_climb_rate,
     approach_velocity,
     climb_rate_to_stick,
     clip,
     course_error_rad,
+    fixed_wing_roll_stick,
     fixed_wing_sticks,
     ground_course_rad,
     orbit_course_rad,
@@ -54,6 +67,8 @@ from geofence.control_laws import (
     yaw_stick_for_heading,
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
+from geofence.jit import COMPILED, jitable, numba
+from geofence.recovery_path import RecoveryPath, _route_arrays, _route_follow, _route_rollout
 from geofence.rooms import turn_radius_m
 
 ALTITUDE_GAIN_PER_S = 1.0
@@ -236,6 +251,58 @@ class SeedPDRecovery:
         )
 
 
+@jitable
+def fixed_wing_recovery_pitch(goal_h: float, h: float, env: Envelope) -> float:
+    """The fixed-wing recovery's pitch (climb-rate) stick: arrest the climb or descent toward ``goal_h``."""
+    return climb_rate_to_stick(altitude_to_climb_rate(goal_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S), env)
+
+
+@jitable
+def turned_through_rad(turned_rad: float, last_yaw_rad: float, yaw_rad: float) -> float:
+    """The recovery turn's heading change so far, ``turned_rad``, after the heading moved to ``yaw_rad``."""
+    return turned_rad + abs(wrap_pi(yaw_rad - last_yaw_rad))
+
+
+@jitable
+def rolls_out(
+    s: VehicleState,
+    rollout_e: float,
+    rollout_n: float,
+    wind_e: float,
+    wind_n: float,
+    min_speed_mps: float,
+    turned_rad: float,
+    turn_limit_rad: float,
+) -> bool:
+    """The recovery turn ends: the air heading points at the roll-out point (the route a turn ahead, wind-corrected)
+    within :data:`ROLL_OUT_TOLERANCE_RAD`, or the scored turn is used up (commit: no re-aiming past it)."""
+    heading = air_heading_to_rad(s, rollout_e, rollout_n, wind_e, wind_n, min_speed_mps)
+    return abs(wrap_pi(heading - s.yaw_rad)) < ROLL_OUT_TOLERANCE_RAD or turned_rad >= turn_limit_rad
+
+
+@jitable
+def fixed_wing_follow_roll(
+    s: VehicleState,
+    ground_speed_mps: float,
+    target_e: float,
+    target_n: float,
+    remaining_m: float,
+    goal_e: float,
+    goal_n: float,
+    orbit_radius_m: float,
+    turn_sign: float,
+    env: Envelope,
+) -> float:
+    """The roll stick after the roll-out: toward the route's carrot (``target``), or, within 1.2 orbit radii of
+    the route's end (``remaining_m`` along it), onto the orbit round its end (clockwise for ``turn_sign < 0``);
+    ``ground_speed_mps``: the state's."""
+    if remaining_m > 1.2 * orbit_radius_m:
+        course_cmd = math.atan2(target_e - s.east_m, target_n - s.north_m)
+    else:
+        course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, goal_e, goal_n, orbit_radius_m, clockwise=turn_sign < 0)
+    return fixed_wing_roll_stick(ground_speed_mps, course_error_rad(s, course_cmd), COURSE_GAIN_PER_S, env)
+
+
 class FixedWingRecovery:
     def __init__(self, env: Envelope, wind_enu: list[float]):
         self.env = env
@@ -250,6 +317,8 @@ class FixedWingRecovery:
         self.hold_below_m: float | None = None
         self.orbit_radius_m = 1.5 * turn_radius_m(env.cruise_speed_mps, env.max_bank_rad)
         self._throttle = airspeed_to_stick(env.cruise_speed_mps, env)  # the override flies at cruise
+        self._path: RecoveryPath | None = None  # the route, when the compiled step can follow it
+        self._constants = np.zeros(FIXED_WING_STEP_CONSTANTS)  # the compiled step's constants (set by start)
 
     @property
     def lookahead_m(self) -> float:
@@ -275,47 +344,154 @@ class FixedWingRecovery:
         self.turned_rad = 0.0
         self._last_yaw = s.yaw_rad
         self.hold_below_m = hold_below_m
+        self._path = route if isinstance(route, RecoveryPath) and fixed_wing_step is not None else None
+        if self._path is not None:
+            env = self.env
+            self._constants = np.array(
+                [
+                    goal_h,
+                    self.lookahead_m,
+                    self.orbit_radius_m,
+                    float(self.turn_sign),
+                    self.turn_limit_rad,
+                    env.max_bank_rad,
+                    env.max_climb_rate_mps,
+                    env.max_descent_rate_mps,
+                    env.min_speed_mps,
+                ]
+            )
 
     def _heading_to(self, s: VehicleState, target: tuple[float, float]) -> float:
         """Air heading whose ground track points at ``target`` (wind triangle at the current airspeed)."""
-        course = math.atan2(target[0] - s.east_m, target[1] - s.north_m)
-        we, wn = self.wind
-        cross = we * math.cos(course) - wn * math.sin(course)  # wind component to the right of the course
-        v = max(s.airspeed_mps, self.env.min_speed_mps, 1.0)
-        return course - math.asin(clip(cross / v, -1.0, 1.0))
+        return air_heading_to_rad(s, target[0], target[1], self.wind[0], self.wind[1], self.env.min_speed_mps)
 
     def sticks(self, s: VehicleState, h: float, t_s: float, dt_s: float) -> StickCommand:
-        env = self.env
         throttle = self._throttle
         if self.hold_below_m is not None:
             if h < self.hold_below_m:  # circling inside the gap, climbing at the limit
                 self._last_yaw = s.yaw_rad
                 return StickCommand(roll=-float(self.turn_sign), pitch=1.0, yaw=0.0, throttle=throttle)
             self.hold_below_m = None
-        pitch = climb_rate_to_stick(altitude_to_climb_rate(self.goal_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S), env)
+        path = self._path
+        if path is not None and _jit.ACTIVE:  # the compiled step (fixed_wing_step), the Python one's floats
+            args = path._kernel_arguments(s.east_m, s.north_m)
+            if args is not None:
+                P, Q, thr, clearance = args
+                wind = self.wind
+                thr, roll, pitch, progress, turning, turned, last_yaw = fixed_wing_step(  # type: ignore[misc]
+                    path._arrays(), P, Q, self._constants, path.progress_m, thr, clearance, s.east_m, s.north_m,
+                    s.v_east_mps, s.v_north_mps, s.yaw_rad, s.airspeed_mps, s.ground_speed_mps, h, wind[0], wind[1],
+                    self.turning, self.turned_rad, self._last_yaw,
+                )  # fmt: skip
+                if thr > 0.0:
+                    path.progress_m = progress
+                    self.turning = turning
+                    self.turned_rad = turned
+                    self._last_yaw = last_yaw
+                    return tuple.__new__(StickCommand, (roll, pitch, 0.0, throttle))
+        env = self.env
+        pitch = fixed_wing_recovery_pitch(self.goal_h, h, env)
         route = self.route
         if self.turning:
-            self.turned_rad += abs(wrap_pi(s.yaw_rad - self._last_yaw))
+            self.turned_rad = turned_through_rad(self.turned_rad, self._last_yaw, s.yaw_rad)
             self._last_yaw = s.yaw_rad
             # roll out heading for the route a turn ahead (the turn the margin scored), or once the scored turn
-            # is used up (commit: no re-aiming past it)
+            # is used up
             rollout = route.rollout_point(s.east_m, s.north_m, self.lookahead_m)
-            if (
-                abs(wrap_pi(self._heading_to(s, rollout) - s.yaw_rad)) < ROLL_OUT_TOLERANCE_RAD
-                or self.turned_rad >= self.turn_limit_rad
-            ):
+            wind = self.wind
+            if rolls_out(s, rollout[0], rollout[1], wind[0], wind[1], env.min_speed_mps, self.turned_rad, self.turn_limit_rad):
                 self.turning = False
             else:
                 # turn_sign +1 = left (counter-clockwise) = negative roll stick (roll, pitch, yaw, throttle; a named
                 # tuple's generated constructor with keywords costs three times tuple.__new__)
                 return tuple.__new__(StickCommand, (-float(self.turn_sign), pitch, 0.0, throttle))
-        target, remaining = route.follow(s.east_m, s.north_m, self.lookahead_m)
+        (te, tn), remaining = route.follow(s.east_m, s.north_m, self.lookahead_m)
         ge, gn = route.points[-1]
-        if remaining > 1.2 * self.orbit_radius_m:
-            course_cmd = math.atan2(target[0] - s.east_m, target[1] - s.north_m)
-        else:
-            course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, ge, gn, self.orbit_radius_m, clockwise=self.turn_sign < 0)
-        return fixed_wing_sticks(s, course_error_rad(s, course_cmd), COURSE_GAIN_PER_S, pitch, throttle, env)
+        roll = fixed_wing_follow_roll(
+            s, s.ground_speed_mps, te, tn, remaining, ge, gn, self.orbit_radius_m, float(self.turn_sign), env
+        )
+        return tuple.__new__(StickCommand, (roll, pitch, 0.0, throttle))
+
+
+class _EnvelopeFloats(NamedTuple):
+    """The :class:`Envelope` fields the fixed-wing recovery's laws read, for compiled code."""
+
+    max_bank_rad: float
+    max_climb_rate_mps: float
+    max_descent_rate_mps: float
+    min_speed_mps: float
+
+
+class _StateFloats(NamedTuple):
+    """The :class:`VehicleState` fields the fixed-wing recovery's laws read, for compiled code."""
+
+    east_m: float
+    north_m: float
+    v_east_mps: float
+    v_north_mps: float
+    yaw_rad: float
+    airspeed_mps: float
+
+
+FIXED_WING_STEP_CONSTANTS = 9
+"""The length of :func:`_fixed_wing_step`'s constants ``K``: goal height, lookahead, orbit radius, turn sign,
+turn limit (rad), then the envelope's bank limit, climb and descent rates and minimum speed."""
+
+
+def _fixed_wing_step(
+    R: np.ndarray,
+    P: np.ndarray,
+    Q: np.ndarray,
+    K: np.ndarray,
+    s0: float,
+    thr: float,
+    clearance_m: float,
+    e: float,
+    n: float,
+    ve: float,
+    vn: float,
+    yaw: float,
+    airspeed: float,
+    ground_speed: float,
+    h: float,
+    wind_e: float,
+    wind_n: float,
+    turning: bool,
+    turned_rad: float,
+    last_yaw: float,
+) -> tuple[float, float, float, float, bool, float, float]:
+    """``(thr, roll, pitch, progress, turning, turned, last yaw)``: :meth:`FixedWingRecovery.sticks` after any
+    hold below a floor, on the route's and its planner's packed arrays (``R``, ``P``, ``Q`` and the chord
+    threshold ``thr``, NaN or not, of :func:`geofence.recovery_path._route_follow`) and the recovery's
+    constants ``K`` (:data:`FIXED_WING_STEP_CONSTANTS`); the state's floats, its ground speed as computed in
+    Python, and the recovery's turn state before the step; the route's progress, the turn state after it.
+    When ``thr`` is not positive the route follower's compiled call does not answer: nothing else counts,
+    and the Python step answers."""
+    # the laws read these fields by name, as they read an Envelope's and a VehicleState's
+    env: Envelope = _EnvelopeFloats(K[5], K[6], K[7], K[8])  # type: ignore[assignment]
+    s: VehicleState = _StateFloats(e, n, ve, vn, yaw, airspeed)  # type: ignore[assignment]
+    pitch = fixed_wing_recovery_pitch(K[0], h, env)
+    if turning:
+        turned_rad = turned_through_rad(turned_rad, last_yaw, yaw)
+        last_yaw = yaw
+        thr, re, rn = _route_rollout(R, P, Q, s0, e, n, K[1], thr, clearance_m)
+        if not thr > 0.0:
+            return thr, 0.0, pitch, s0, turning, turned_rad, last_yaw
+        if not rolls_out(s, re, rn, wind_e, wind_n, env.min_speed_mps, turned_rad, K[4]):
+            return thr, -K[3], pitch, s0, turning, turned_rad, last_yaw
+        turning = False
+    thr, progress, te, tn, s_after = _route_follow(R, P, Q, s0, e, n, K[1], thr, clearance_m)
+    if not thr > 0.0:
+        return thr, 0.0, pitch, s0, turning, turned_rad, last_yaw
+    pts, cum = _route_arrays(R)
+    k = pts.shape[0]
+    remaining = max(0.0, cum[k - 1] - s_after)
+    roll = fixed_wing_follow_roll(s, ground_speed, te, tn, remaining, pts[k - 1, 0], pts[k - 1, 1], K[2], K[3], env)
+    return thr, roll, pitch, progress, turning, turned_rad, last_yaw
+
+
+fixed_wing_step = numba.njit(cache=True)(_fixed_wing_step) if COMPILED else None
+"""The compiled :func:`_fixed_wing_step` (``None`` without numba: :meth:`FixedWingRecovery.sticks` in Python)."""
 
 
 class LandingGuidance:

@@ -746,6 +746,7 @@ def _follower_start(
     return _chord_threshold(thr, e, n, clearance_m, keep_in, keep_outs, offsets, scan_circles), edges, circles
 
 
+@jitable
 def _route_rollout(
     R: np.ndarray,
     P: np.ndarray,
@@ -769,6 +770,7 @@ def _route_rollout(
     return thr, ce, cn
 
 
+@jitable
 def _route_follow(
     R: np.ndarray,
     P: np.ndarray,
