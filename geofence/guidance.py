@@ -44,7 +44,7 @@ Angles rad, positions ENU m, heights m, speeds m/s.
 from __future__ import annotations
 
 import math
-from typing import NamedTuple, Protocol
+from typing import Callable, NamedTuple, Protocol
 
 import numpy as np
 
@@ -68,7 +68,7 @@ from geofence.control_laws import (
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
 from geofence.jit import COMPILED, jitable, numba
-from geofence.recovery_path import RecoveryPath, _route_arrays, _route_follow, _route_rollout
+from geofence.recovery_path import RecoveryPath, route_arrays, route_follow, route_rollout
 from geofence.rooms import turn_radius_m
 
 ALTITUDE_GAIN_PER_S = 1.0
@@ -304,9 +304,11 @@ def fixed_wing_follow_roll(
 
 
 class FixedWingRecovery:
-    def __init__(self, env: Envelope, wind_enu: list[float]):
+    def __init__(self, env: Envelope, wind_enu: list[float], step: Callable | None = None):
+        """``step``: the compiled step to take (default :data:`fixed_wing_step`; a test passes a wrapper)."""
         self.env = env
         self.wind = wind_enu  # shared, updated by the unit
+        self._step = step if step is not None else fixed_wing_step
         self.route: Route = StraightRoute(0.0, 0.0)
         self.goal_h = 0.0
         self.turn_sign = 0
@@ -344,7 +346,7 @@ class FixedWingRecovery:
         self.turned_rad = 0.0
         self._last_yaw = s.yaw_rad
         self.hold_below_m = hold_below_m
-        self._path = route if isinstance(route, RecoveryPath) and fixed_wing_step is not None else None
+        self._path = route if isinstance(route, RecoveryPath) and self._step is not None else None
         if self._path is not None:
             env = self.env
             self._constants = np.array(
@@ -378,7 +380,7 @@ class FixedWingRecovery:
             if args is not None:
                 P, Q, thr, clearance = args
                 wind = self.wind
-                thr, roll, pitch, progress, turning, turned, last_yaw = fixed_wing_step(  # type: ignore[misc]
+                thr, roll, pitch, progress, turning, turned, last_yaw = self._step(  # type: ignore[misc]
                     path._arrays(), P, Q, self._constants, path.progress_m, thr, clearance, s.east_m, s.north_m,
                     s.v_east_mps, s.v_north_mps, s.yaw_rad, s.airspeed_mps, s.ground_speed_mps, h, wind[0], wind[1],
                     self.turning, self.turned_rad, self._last_yaw,
@@ -462,7 +464,7 @@ def _fixed_wing_step(
 ) -> tuple[float, float, float, float, bool, float, float]:
     """``(thr, roll, pitch, progress, turning, turned, last yaw)``: :meth:`FixedWingRecovery.sticks` after any
     hold below a floor, on the route's and its planner's packed arrays (``R``, ``P``, ``Q`` and the chord
-    threshold ``thr``, NaN or not, of :func:`geofence.recovery_path._route_follow`) and the recovery's
+    threshold ``thr``, NaN or not, of :func:`geofence.recovery_path.route_follow`) and the recovery's
     constants ``K`` (:data:`FIXED_WING_STEP_CONSTANTS`); the state's floats, its ground speed as computed in
     Python, and the recovery's turn state before the step; the route's progress, the turn state after it.
     When ``thr`` is not positive the route follower's compiled call does not answer: nothing else counts,
@@ -474,16 +476,16 @@ def _fixed_wing_step(
     if turning:
         turned_rad = turned_through_rad(turned_rad, last_yaw, yaw)
         last_yaw = yaw
-        thr, re, rn = _route_rollout(R, P, Q, s0, e, n, K[1], thr, clearance_m)
+        thr, re, rn = route_rollout(R, P, Q, s0, e, n, K[1], thr, clearance_m)
         if not thr > 0.0:
             return thr, 0.0, pitch, s0, turning, turned_rad, last_yaw
         if not rolls_out(s, re, rn, wind_e, wind_n, env.min_speed_mps, turned_rad, K[4]):
             return thr, -K[3], pitch, s0, turning, turned_rad, last_yaw
         turning = False
-    thr, progress, te, tn, s_after = _route_follow(R, P, Q, s0, e, n, K[1], thr, clearance_m)
+    thr, progress, te, tn, s_after = route_follow(R, P, Q, s0, e, n, K[1], thr, clearance_m)
     if not thr > 0.0:
         return thr, 0.0, pitch, s0, turning, turned_rad, last_yaw
-    pts, cum = _route_arrays(R)
+    pts, cum = route_arrays(R)
     k = pts.shape[0]
     remaining = max(0.0, cum[k - 1] - s_after)
     roll = fixed_wing_follow_roll(s, ground_speed, te, tn, remaining, pts[k - 1, 0], pts[k - 1, 1], K[2], K[3], env)

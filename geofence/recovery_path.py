@@ -693,7 +693,7 @@ def _follower_tables(
 
 
 @jitable
-def _route_arrays(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def route_arrays(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(points, arc lengths)`` of a route's packed array (:meth:`RecoveryPath._arrays`: the points' rows, then
     their arc lengths)."""
     k = R.shape[0] // 3
@@ -702,7 +702,7 @@ def _route_arrays(R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _route_project(R: np.ndarray, P: np.ndarray, Q: np.ndarray, s0: float, e: float, n: float, thr: float) -> float:
     """:func:`_path_project` on a route's and its planner's packed arrays."""
-    pts, cum = _route_arrays(R)
+    pts, cum = route_arrays(R)
     edges, circles, _ki, _ko, _off, _sc = _follower_tables(P, Q)
     return _path_project(pts, cum, s0, e, n, thr, edges, circles)
 
@@ -711,7 +711,7 @@ def _route_lookahead(
     R: np.ndarray, P: np.ndarray, Q: np.ndarray, s0: float, e: float, n: float, lookahead_m: float, thr: float
 ) -> tuple[float, float, float]:
     """:func:`_path_lookahead` on a route's and its planner's packed arrays."""
-    pts, cum = _route_arrays(R)
+    pts, cum = route_arrays(R)
     edges, circles, _ki, _ko, _off, _sc = _follower_tables(P, Q)
     return _path_lookahead(pts, cum, s0, e, n, lookahead_m, thr, edges, circles)
 
@@ -747,7 +747,7 @@ def _follower_start(
 
 
 @jitable
-def _route_rollout(
+def route_rollout(
     R: np.ndarray,
     P: np.ndarray,
     Q: np.ndarray,
@@ -765,13 +765,13 @@ def _route_rollout(
     thr, edges, circles = _follower_start(P, Q, thr, e, n, clearance_m)
     if not thr > 0.0:
         return thr, 0.0, 0.0
-    pts, cum = _route_arrays(R)
+    pts, cum = route_arrays(R)
     ce, cn = _path_point_at(pts, cum, _path_project(pts, cum, s0, e, n, thr, edges, circles) + lookahead_m)
     return thr, ce, cn
 
 
 @jitable
-def _route_follow(
+def route_follow(
     R: np.ndarray,
     P: np.ndarray,
     Q: np.ndarray,
@@ -785,11 +785,11 @@ def _route_follow(
     """``(thr, progress after, carrot east, carrot north, projection after)``: :meth:`RecoveryPath.follow` on a
     route's and its planner's packed arrays for a vehicle whose chords are tested exactly (see
     :func:`_path_project`): :func:`_path_lookahead`, the progress advanced to its projection, then the projection
-    from there (:meth:`RecoveryPath.remaining_m`'s); ``thr`` as :func:`_route_rollout` takes and returns it."""
+    from there (:meth:`RecoveryPath.remaining_m`'s); ``thr`` as :func:`route_rollout` takes and returns it."""
     thr, edges, circles = _follower_start(P, Q, thr, e, n, clearance_m)
     if not thr > 0.0:
         return thr, s0, 0.0, 0.0, 0.0
-    pts, cum = _route_arrays(R)
+    pts, cum = route_arrays(R)
     s, ce, cn = _path_lookahead(pts, cum, s0, e, n, lookahead_m, thr, edges, circles)
     progress = s if s > s0 else s0
     return thr, progress, ce, cn, _path_project(pts, cum, progress, e, n, thr, edges, circles)
@@ -819,11 +819,11 @@ path_project = numba.njit(cache=True)(_route_project) if COMPILED else None
 path_lookahead = numba.njit(cache=True)(_route_lookahead) if COMPILED else None
 """The compiled :func:`_route_lookahead` (``None`` without numba: :meth:`RecoveryPath.lookahead_point` loops)."""
 
-path_rollout = numba.njit(cache=True)(_route_rollout) if COMPILED else None
-"""The compiled :func:`_route_rollout` (``None`` without numba: :meth:`RecoveryPath.rollout_point` loops)."""
+path_rollout = numba.njit(cache=True)(route_rollout) if COMPILED else None
+"""The compiled :func:`route_rollout` (``None`` without numba: :meth:`RecoveryPath.rollout_point` loops)."""
 
-path_follow = numba.njit(cache=True)(_route_follow) if COMPILED else None
-"""The compiled :func:`_route_follow` (``None`` without numba: :meth:`RecoveryPath.follow` loops)."""
+path_follow = numba.njit(cache=True)(route_follow) if COMPILED else None
+"""The compiled :func:`route_follow` (``None`` without numba: :meth:`RecoveryPath.follow` loops)."""
 
 
 def _margin_function(fence: "LocalFence") -> Callable[[float, float], float]:
@@ -883,7 +883,7 @@ class RecoveryPath:
 
     def _arrays(self) -> np.ndarray:
         """The points and their arc lengths packed as the compiled follower's array (the points' rows, then the arc
-        lengths: :func:`_route_arrays`), built on first use."""
+        lengths: :func:`route_arrays`), built on first use."""
         if self._rows is None:
             self._rows = np.array([c for p in self.points for c in p] + self.cum_m, dtype=np.float64)
         return self._rows

@@ -52,7 +52,7 @@ def _random_state(rng: random.Random, e: float, n: float, spread_m: float) -> Ve
     )
 
 
-def _fly_pair(seed: int, dense: bool, steps: int = 120) -> tuple[int, int]:
+def _fly_pair(seed: int, dense: bool, steps: int = 120, kernel=guidance.fixed_wing_step) -> tuple[int, int]:
     """Step a compiled and a Python recovery side by side; ``(steps the kernel answered, orbit-branch steps)``."""
     rng = random.Random(seed)
     fence = random_fence(seed, 300 if dense else rng.randrange(3, 9), rng.randrange(0, 2), rng.randrange(0, 2), dense=dense)
@@ -68,7 +68,15 @@ def _fly_pair(seed: int, dense: bool, steps: int = 120) -> tuple[int, int]:
         return 0, 0
     assert paths[0].points == paths[1].points
     wind = [rng.uniform(-12.0, 12.0), rng.uniform(-12.0, 12.0)]
-    recs = [FixedWingRecovery(FW, wind), FixedWingRecovery(FW, wind)]
+    calls = [0, 0]  # asked, answered (a positive chord threshold)
+
+    def counted(*args):
+        out = kernel(*args)
+        calls[0] += 1
+        calls[1] += out[0] > 0.0
+        return out
+
+    recs = [FixedWingRecovery(FW, wind, step=counted), FixedWingRecovery(FW, wind)]
     s0 = _random_state(rng, *start, 5.0)
     turn_sign = rng.choice([0, 1, -1])
     turn_limit = rng.choice([math.inf, rng.uniform(0.0, 2.0 * math.pi)])
@@ -86,38 +94,25 @@ def _fly_pair(seed: int, dense: bool, steps: int = 120) -> tuple[int, int]:
     start(s0)
     assert recs[0]._path is paths[0]
     orbit = 0
-    calls = [0, 0]  # asked, answered (a positive chord threshold)
-    kernel = guidance.fixed_wing_step
-
-    def counted(*args):
-        out = kernel(*args)
-        calls[0] += 1
-        calls[1] += out[0] > 0.0
-        return out
-
-    guidance.fixed_wing_step = counted
-    try:
-        route = paths[0].points
-        for k in range(steps):
-            p = route[min(len(route) - 1, k * len(route) // steps)]
-            s = _random_state(rng, p[0], p[1], rng.choice([2.0, 60.0, 400.0]))  # on the route, near it, far outside
-            h = rng.uniform(50.0, 110.0)
-            if k % 15 == 14:  # a new override: the turn again
-                start(s)
-            wind[0] += rng.uniform(-0.5, 0.5)  # the unit updates the shared estimate between steps
-            snaps = []
-            for rec, compiled in zip(recs, (True, False)):
-                previous = use_compiled(compiled)
-                try:
-                    cmd = rec.sticks(s, h, 0.025 * k, 0.025)
-                finally:
-                    use_compiled(previous)
-                snaps.append(_snapshot(rec, cmd))
-            assert snaps[0] == snaps[1], f"step {k}: compiled {snaps[0]} != Python {snaps[1]}"
-            if not recs[1].turning and recs[1].hold_below_m is None:
-                orbit += recs[1].route.remaining_m(s.east_m, s.north_m) <= 1.2 * recs[1].orbit_radius_m  # type: ignore[attr-defined]
-    finally:
-        guidance.fixed_wing_step = kernel
+    route = paths[0].points
+    for k in range(steps):
+        p = route[min(len(route) - 1, k * len(route) // steps)]
+        s = _random_state(rng, p[0], p[1], rng.choice([2.0, 60.0, 400.0]))  # on the route, near it, far outside
+        h = rng.uniform(50.0, 110.0)
+        if k % 15 == 14:  # a new override: the turn again
+            start(s)
+        wind[0] += rng.uniform(-0.5, 0.5)  # the unit updates the shared estimate between steps
+        snaps = []
+        for rec, compiled in zip(recs, (True, False)):
+            previous = use_compiled(compiled)
+            try:
+                cmd = rec.sticks(s, h, 0.025 * k, 0.025)
+            finally:
+                use_compiled(previous)
+            snaps.append(_snapshot(rec, cmd))
+        assert snaps[0] == snaps[1], f"step {k}: compiled {snaps[0]} != Python {snaps[1]}"
+        if not recs[1].turning and recs[1].hold_below_m is None:
+            orbit += recs[1].route.remaining_m(s.east_m, s.north_m) <= 1.2 * recs[1].orbit_radius_m  # type: ignore[attr-defined]
     assert calls[0] > 0  # the compiled step was asked (the Python one answered only where it does not)
     return calls[1], orbit
 
@@ -145,17 +140,16 @@ def test_both_branches_are_flown() -> None:
     assert answered > 300 and orbit > 20
 
 
-def test_a_kernel_one_ulp_off_is_caught(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_kernel_one_ulp_off_is_caught() -> None:
     kernel = guidance.fixed_wing_step
 
     def off(*args):
         thr, roll, *rest = kernel(*args)
         return (thr, math.nextafter(roll, math.inf), *rest)
 
-    monkeypatch.setattr(guidance, "fixed_wing_step", off)
     with pytest.raises(AssertionError, match="compiled"):
         for seed in range(12):
-            _fly_pair(seed, dense=False)
+            _fly_pair(seed, dense=False, kernel=off)
 
 
 @settings(max_examples=300, deadline=None)
