@@ -104,6 +104,12 @@ def _sense_step(
 
 _new_tuple = tuple.__new__
 
+_HORIZON = slice(ek.H_T, ek.H_VN + 1)
+"""The fusion horizon's fields in the estimator's state, in :class:`FixState`'s order (read as one slice: a
+generator over the five indices costs three times as much, on every step with a new fix)."""
+if (ek.H_E, ek.H_N, ek.H_VE, ek.H_VN) != tuple(range(ek.H_T + 1, ek.H_T + 5)):
+    raise ImportError("the estimator's horizon fields are no longer adjacent: update sensing._HORIZON")
+
 sense_step: Callable[..., tuple[Any, ...]] = numba.njit(cache=True)(_sense_step) if COMPILED else _sense_step
 """The compiled :func:`_sense_step` (the Python function itself without numba)."""
 
@@ -151,8 +157,7 @@ class GeofenceSensing:
             s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad,
         )  # fmt: skip
         if new_horizon:
-            X = self._X
-            self._horizon = FixState(*(float(X[i]) for i in (ek.H_T, ek.H_E, ek.H_N, ek.H_VE, ek.H_VN)))
+            self._horizon = _new_tuple(FixState, self._X[_HORIZON].tolist())  # (Python floats, as float(X[i]))
         if low:
             self._sensor_arrays.refill()  # in place: the pools stay the same array
         est = VehicleState(*fields)

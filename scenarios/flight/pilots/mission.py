@@ -110,8 +110,7 @@ class MissionAutopilot:
         if self.finished:
             return self._after_mission(s)
         tgt = self._current(s)
-        cmd = self._fly_multirotor(s, tgt) if self.multirotor else self._fly_fixed_wing(s, tgt)
-        return cmd
+        return self._fly_multirotor(s, tgt) if self.multirotor else self._fly_fixed_wing(s, tgt)
 
     def _after_mission(self, s: VehicleState) -> StickCommand:
         if self.landed:
@@ -126,7 +125,8 @@ class MissionAutopilot:
         return self._fw().sticks(s, course, last.up_m, self.speed_mps)
 
     def _fly_multirotor(self, s: VehicleState, tgt: _Target) -> StickCommand:
-        mc = self._mc()
+        mc = self.mc
+        assert mc is not None, "multirotor navigation on a fixed-wing"  # (inline: per step, a call costs more)
         if tgt.kind == "takeoff":
             if s.up_m >= tgt.up_m - 1.0:
                 self._advance(s)
@@ -158,7 +158,8 @@ class MissionAutopilot:
         return mc.sticks_to_point(s, tgt.east_m, tgt.north_m, tgt.up_m, self.speed_mps, self._hold_yaw_rad, self.dt_s)
 
     def _fly_fixed_wing(self, s: VehicleState, tgt: _Target) -> StickCommand:
-        fw = self._fw()
+        fw = self.fw
+        assert fw is not None, "fixed-wing navigation on a multirotor"  # (inline: per step, a call costs more)
         if tgt.kind == "takeoff":  # climb out straight ahead on the start heading
             if s.up_m >= tgt.up_m - 3.0:
                 self._advance(s)

@@ -47,6 +47,7 @@ class ScriptedPilot:
             e, n, _ = frame.to_enu(seg.reach[0], seg.reach[1], frame.h0_m)
             self._reach_en.append((e, n, seg.reach[2]))
         self._index = 0
+        self._last = len(segments) - 1
         self._start_s = 0.0  # nominal start of the current segment (the sum of the earlier durations, or the event time)
         self._in_control = True
         self._overridden = False  # the geofence took the sticks during the current segment
@@ -59,6 +60,9 @@ class ScriptedPilot:
         self._speed_mps = 0.0
         self._v_en = (0.0, 0.0)
         self._v_up = 0.0
+        self._sticks: StickCommand | None = None  # a raw-sticks segment's command (immutable: returned as is)
+        self._climb_stick: float | None = None  # the fixed-wing climb stick (None: hold the height)
+        self._hold_climb = True
         self._segment_index = -1
         self.finished = False  # a script has no goal: it flies until the scenario's duration ends
 
@@ -86,7 +90,7 @@ class ScriptedPilot:
         return False
 
     def _segment_at(self, s: VehicleState) -> tuple[ScriptSegment, int]:
-        last = len(self.segments) - 1
+        last = self._last
         while self._index < last:
             seg = self.segments[self._index]
             if s.t_s >= self._start_s + seg.duration_s:
@@ -103,6 +107,9 @@ class ScriptedPilot:
         """Latch the height and heading to hold, and the segment's fixed demands (once, not every step)."""
         self._hold_up_m = s.up_m
         self._hold_yaw_rad = s.yaw_rad
+        self._sticks = StickCommand(*seg.sticks) if seg.sticks is not None else None
+        self._hold_climb = seg.climb == "hold"
+        self._climb_stick = None if self._hold_climb else _CLIMB_STICK[seg.climb]
         if seg.course_deg is None:  # raw sticks
             return
         env = self.env
@@ -113,19 +120,20 @@ class ScriptedPilot:
         self._v_up = {"hold": 0.0, "max": env.max_climb_rate_mps, "descend": -env.max_descent_rate_mps}[seg.climb]
 
     def command(self, s: VehicleState) -> StickCommand:
-        seg, i = self._segment_at(s)
-        if i != self._segment_index:
-            self._segment_index = i
-            self._start_segment(seg, s)
-        if seg.sticks is not None:
-            return StickCommand(*seg.sticks)
+        # per step: the segment's demands were latched when it started; on the last segment nothing ends
+        if self._index < self._last:
+            self._segment_at(s)
+        if self._index != self._segment_index:
+            self._segment_index = i = self._index
+            self._start_segment(self.segments[i], s)
+        if self._sticks is not None:
+            return self._sticks
         if self.mc is not None:
             vz = self._v_up
-            if seg.climb == "hold":
+            if self._hold_climb:
                 env = self.env
                 vz = max(-env.max_descent_rate_mps, min(env.max_climb_rate_mps, self._hold_up_m - s.up_m))
             ve, vn = self._v_en
             return self.mc.sticks_for_velocity(s, ve, vn, vz, self._hold_yaw_rad, self.dt_s)
         assert self.fw is not None  # not a multirotor
-        climb_stick = None if seg.climb == "hold" else _CLIMB_STICK[seg.climb]
-        return self.fw.sticks(s, self._course_rad, self._hold_up_m, self._speed_mps, climb_stick)
+        return self.fw.sticks(s, self._course_rad, self._hold_up_m, self._speed_mps, self._climb_stick)
