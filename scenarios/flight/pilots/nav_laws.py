@@ -173,7 +173,10 @@ class FixedWingNavigator:
         ``climb_stick`` given: that climb-rate (pitch) stick instead of the altitude hold (``target_up_m`` unused).
         """
         env = self.env
-        course_err = self.course_error_rad(s, course_cmd_rad)
+        if self.turn_commit_rad is None:  # the short way: the law itself (a call fewer per step)
+            course_err = course_error_rad(s, course_cmd_rad)
+        else:
+            course_err = self.course_error_rad(s, course_cmd_rad)
         if climb_stick is None:
             climb_stick = climb_rate_to_stick(altitude_to_climb_rate(target_up_m, s.up_m, env, self.kh), env)
         if airspeed_mps != self._airspeed_demand:
