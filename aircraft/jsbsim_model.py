@@ -235,6 +235,7 @@ class JSBSimModel:
         self._pm = fdm.get_property_manager()
         self._nodes: dict[str, object] = {}
         self.frame: LocalFrame | None = None
+        self._to_enu: Callable[[float, float, float], tuple[float, float, float]] | None = None
         self._ground_m = 0.0
         n = self.node
         self._truth_nodes = tuple(
@@ -309,6 +310,7 @@ class JSBSimModel:
         Set any pre-``run_ic`` controls (e.g. hover throttle) before calling this.
         """
         self.frame = frame
+        self._to_enu = frame.to_enu  # (bound once: truth() runs every step)
         self._ground_m = frame.h0_m if ground_alt_m is None else ground_alt_m
         s = self.set
         s("ic/lat-geod-deg", lat_deg)
@@ -344,8 +346,8 @@ class JSBSimModel:
 
     def truth(self) -> VehicleState:
         """Current truth state (SI, ENU about the reset frame)."""
-        frame = self.frame
-        if frame is None:
+        to_enu = self._to_enu
+        if to_enu is None:
             raise RuntimeError(f"{self.name}: truth() before reset() placed the aircraft")
         # per-step path: one call per property, unrolled (a comprehension over the getters costs a third more)
         get_t, get_lat, get_lon, get_h, get_agl, get_ve, get_vn, get_vd, get_phi, get_theta, get_psi, get_vt, get_wow = (
@@ -355,7 +357,7 @@ class JSBSimModel:
         lat = get_lat()
         lon = get_lon()
         h_m = get_h() * FT_TO_M
-        e, n, u = frame.to_enu(lat, lon, h_m)
+        e, n, u = to_enu(lat, lon, h_m)
         if isnan(h_m) or isnan(e):
             raise FloatingPointError(f"JSBSim state of {self.name} diverged (NaN) at t={t:.2f} s")
         # Positional arguments in VehicleState's field order (checked at import below): with keywords,

@@ -110,45 +110,18 @@ class Recorder:
         if offset == len(buf):
             buf.extend(bytes(len(buf)))  # (no array views it: :attr:`data` copies)
         self._n = n + 1
+        ve, vn = s.v_east_mps, s.v_north_mps
+        if est is None:
+            est_e = est_n = est_agl = math.nan
+        else:
+            est_e, est_n, est_agl = est.east_m, est.north_m, est.agl_m
+        # the sticks and wind tuples unpacked into the call (a tenth cheaper than indexing them one by one)
         _pack_row(
-            buf,
-            offset,
-            s.t_s,
-            s.lat_deg,
-            s.lon_deg,
-            s.alt_m,
-            s.east_m,
-            s.north_m,
-            s.up_m,
-            s.agl_m,
-            s.v_east_mps,
-            s.v_north_mps,
-            s.v_up_mps,
-            math.hypot(s.v_east_mps, s.v_north_mps),
-            s.airspeed_mps,
-            s.roll_rad * _DEG,
-            s.pitch_rad * _DEG,
-            s.yaw_rad * _DEG,
-            wind_enu[0],
-            wind_enu[1],
-            wind_enu[2],
-            pilot.roll,
-            pilot.pitch,
-            pilot.yaw,
-            pilot.throttle,
-            cmd.roll,
-            cmd.pitch,
-            cmd.yaw,
-            cmd.throttle,
-            mode,
-            item,
-            est.east_m if est is not None else math.nan,
-            est.north_m if est is not None else math.nan,
-            est.agl_m if est is not None else math.nan,
-            wind_est[0],
-            wind_est[1],
-            activation_margin_m,
-        )
+            buf, offset,
+            s.t_s, s.lat_deg, s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, ve, vn, s.v_up_mps,
+            math.hypot(ve, vn), s.airspeed_mps, s.roll_rad * _DEG, s.pitch_rad * _DEG, s.yaw_rad * _DEG,
+            *wind_enu, *pilot, *cmd, mode, item, est_e, est_n, est_agl, *wind_est, activation_margin_m,
+        )  # fmt: skip
 
     @property
     def columns(self) -> tuple[str, ...]:
