@@ -49,6 +49,9 @@ class ScriptedPilot:
         self._index = 0
         self._last = len(segments) - 1
         self._start_s = 0.0  # nominal start of the current segment (the sum of the earlier durations, or the event time)
+        # when the current segment may end: its nominal end, and whether an event may end it earlier
+        self._end_s = self._start_s + segments[0].duration_s if segments else 0.0
+        self._on_event = bool(segments) and segments[0].end_on is not None
         self._in_control = True
         self._overridden = False  # the geofence took the sticks during the current segment
         self.mc = MultirotorNavigator(env) if env.is_multirotor else None
@@ -101,7 +104,10 @@ class ScriptedPilot:
                 break
             self._index += 1
             self._overridden = False
-        return self.segments[self._index], self._index
+        seg = self.segments[self._index]
+        self._end_s = self._start_s + seg.duration_s
+        self._on_event = seg.end_on is not None
+        return seg, self._index
 
     def _start_segment(self, seg: ScriptSegment, s: VehicleState) -> None:
         """Latch the height and heading to hold, and the segment's fixed demands (once, not every step)."""
@@ -120,8 +126,9 @@ class ScriptedPilot:
         self._v_up = {"hold": 0.0, "max": env.max_climb_rate_mps, "descend": -env.max_descent_rate_mps}[seg.climb]
 
     def command(self, s: VehicleState) -> StickCommand:
-        # per step: the segment's demands were latched when it started; on the last segment nothing ends
-        if self._index < self._last:
+        # per step: the segment's demands were latched when it started; it ends only at its end time or on its event
+        # (and the last one never)
+        if self._index < self._last and (s.t_s >= self._end_s or self._on_event):
             self._segment_at(s)
         if self._index != self._segment_index:
             self._segment_index = i = self._index
