@@ -171,14 +171,14 @@ class ShiftResult(NamedTuple):
     vertical_time_to_breach_s: float
 
 
-def _edge_distances(edges: tuple, e: float, n: float, n_line: int = 0) -> tuple[list, float]:
+def _edge_distances(edges: tuple, e: float, n: float, n_line: int = 0, free: bool = False) -> tuple[list, float]:
     """``([(d, ux, uy, feature, index, edge), ...], min d)``: each edge item's scored distance from (e, n) and
     the direction it is scored along (:func:`~geofence.lateral_kernel.edge_scored`; the first ``n_line`` are a
-    convex keep-in's); ``min d``: the nearest point-segment distance."""
+    convex keep-in's; ``free``: (e, n) is in the free space); ``min d``: the nearest point-segment distance."""
     out = []
     min_d = math.inf
     for k, (ax, ay, dx, dy, il2, nx, ny, feat, idx, j) in enumerate(edges):
-        d, db, ux, uy = edge_scored(e - ax, n - ay, dx, dy, il2, nx, ny, k < n_line)
+        d, db, ux, uy = edge_scored(e - ax, n - ay, dx, dy, il2, nx, ny, k < n_line, free)
         out.append((db, ux, uy, feat, idx, j))
         if d < min_d:
             min_d = d
@@ -393,6 +393,9 @@ def activation_margins(
     # the binding lateral element: one compiled call (lateral_kernel), or the Python reference below (the
     # full scan or the index's walk), which it equals bit for bit
     grid = fence.grid()
+    # in the free space an edge facing away is scored towards its nearest point (edge_scored); the margin is
+    # remembered for (e, n), so asking it again below costs nothing
+    free = fence.lateral_margin_m(e, n) >= 0.0
     if compiled:
         E, meta, all_ids, zeros = fence.element_table()
         if grid is not None and bound < math.inf:  # the index's walk
@@ -411,18 +414,18 @@ def activation_margins(
         lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
             E, ids, lbs, walk, e, n, bound, delta_c, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
             v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
-            k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, fence.line_scored_edges(),
+            k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, fence.line_scored_edges(), free,
         )  # fmt: skip
         assert i_bind >= 0  # the nearest element is always a candidate
         feat, idx, j = meta[i_bind]
         lat_margin = fence.lateral_margin_m(e, n, min_d)  # min_d: the exact nearest element, walked or scanned
     else:
         if grid is not None and bound < math.inf:
-            dists, min_d = grid.near(e, n, bound)
+            dists, min_d = grid.near(e, n, bound, free)
             lat_margin = fence.lateral_margin_m(e, n, min_d)  # the walk just made gives the nearest element
         else:
             lat_margin = fence.lateral_margin_m(e, n)
-            dists, min_d = _edge_distances(fence.danger_edges(), e, n, fence.line_scored_edges())
+            dists, min_d = _edge_distances(fence.danger_edges(), e, n, fence.line_scored_edges(), free)
             for i, (ce, cn, r) in enumerate(fence.keep_out_circles):
                 d, ux, uy = circle_scored(e, n, ce, cn, r)
                 dists.append((d, ux, uy, FEATURE_KEEP_OUT_CIRCLE, i, -1))
@@ -447,7 +450,7 @@ def activation_margins(
         if fence.floor_gaps:
             gi, gd = fence.best_gap(e, n)
             if gd > 0.0:  # over a gap: staying inside it (laterally) also keeps the floor
-                gdists, gmin = _edge_distances(fence.gap_edges(gi), e, n)
+                gdists, gmin = _edge_distances(fence.gap_edges(gi), e, n, 0, True)  # (inside the gap: free of it)
                 turns = directions
                 if fixed_wing:  # it circles, the way it turns, until it has climbed back from its deepest point
                     deepest = h - vertical_arrest_distance_m(-vu, t_r, envelope.vertical_accel_mps2) - v_uncertainty_m

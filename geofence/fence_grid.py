@@ -211,8 +211,9 @@ class FenceGrid:
         return np.concatenate([seg, circ]), np.concatenate([d_seg, d_circ])
 
     # ---- queries
-    def near(self, e: float, n: float, reach: float) -> tuple[list[Item], float]:
-        """``(items, d_min)``: every element with ``d - reach < d_min``, in element order, and the nearest ``d``.
+    def near(self, e: float, n: float, reach: float, free: bool = False) -> tuple[list[Item], float]:
+        """``(items, d_min)``: every element with ``d - reach < d_min``, in element order, and the nearest ``d``
+        (``free``: (e, n) is in the free space, see :func:`~geofence.lateral_kernel.edge_scored`).
 
         Items are ``(d, ux, uy, feature, feature_index, edge)``: the distance a margin scores the element at and
         the unit direction it scores along (an edge's :func:`~geofence.lateral_kernel.edge_scored`; a circle's
@@ -231,7 +232,7 @@ class FenceGrid:
                 stopped = True
                 break
             if il2 >= 0.0:
-                d, db, nx, ny = edge_scored(e - a, n - b, c, dd, il2, nx, ny, i < self.line_edges)
+                d, db, nx, ny = edge_scored(e - a, n - b, c, dd, il2, nx, ny, i < self.line_edges, free)
             else:
                 d, nx, ny = circle_scored(e, n, a, b, c)
                 db = d
@@ -246,7 +247,7 @@ class FenceGrid:
             for i, d in zip(ids.tolist(), ds.tolist()):
                 _, a, b, c, dd, il2, nx, ny, feat, idx, j = recs[i]
                 if il2 >= 0.0:
-                    _, d, nx, ny = edge_scored(e - a, n - b, c, dd, il2, nx, ny, i < self.line_edges)
+                    _, d, nx, ny = edge_scored(e - a, n - b, c, dd, il2, nx, ny, i < self.line_edges, free)
                 if d - reach >= best:
                     continue
                 if il2 < 0.0:

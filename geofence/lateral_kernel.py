@@ -266,6 +266,7 @@ def _walk(
     reach: float,
     delta_c: float,
     n_line: int,
+    free: bool,
     f_id: np.ndarray,
     f_b: np.ndarray,
     f_nx: np.ndarray,
@@ -290,7 +291,7 @@ def _walk(
         dd = E[i, 3]
         il2 = E[i, 4]
         if il2 >= 0.0:
-            d, db, nx, ny = edge_scored(e - a, n - b, c, dd, il2, E[i, 5], E[i, 6], i < n_line)
+            d, db, nx, ny = edge_scored(e - a, n - b, c, dd, il2, E[i, 5], E[i, 6], i < n_line, free)
             f_b[cnt] = db
         else:
             dist = hypot(a - e, b - n)
@@ -313,13 +314,14 @@ def _walk(
 
 @jitable
 def edge_scored(
-    px: float, py: float, dx: float, dy: float, il2: float, nx: float, ny: float, line: bool
+    px: float, py: float, dx: float, dy: float, il2: float, nx: float, ny: float, line: bool, free: bool
 ) -> tuple[float, float, float, float]:
     """``(d, scored d, ux, uy)`` of an edge from a point: its point-segment distance ``d``, the distance the
     margins score it at and the unit direction they score the manoeuvre's excursion along.
 
     ``(px, py) = p - a`` (``a`` the edge's start), ``(dx, dy) = b - a``, ``il2 = 1/|b - a|²``, ``(nx, ny)`` the
-    breach-pointing unit normal. ``line``: the edge is a convex keep-in's.
+    breach-pointing unit normal. ``line``: the edge is a convex keep-in's. ``free``: the point is in the free
+    space (lateral margin >= 0).
 
     A margin scores an element as a distance less the manoeuvre's excursion along one direction; it is sound
     when the whole element lies at least that distance away along that direction, for then the manoeuvre must
@@ -334,6 +336,14 @@ def edge_scored(
     * the normal and the line distance ``-(p - a)·n``, when positive: the whole segment lies on its line.
       Inside a convex keep-in, crossing any edge's line is leaving the fence, so this is the exact rule there
       (``line``), and no more pessimistic.
+
+    Where the foot lies on the segment but the point is on the segment's breach side (the edge faces away: the
+    far side of a building, seen past its near side), the normal points away from the edge and does not hold
+    it either. From the free space such an edge is scored like an end: along the direction to its nearest
+    point (the foot), which is sound by the same argument. Before, its normal made a phantom wall behind the
+    point, which flipped a fixed-wing's scored turn within a step (campaign seed 2711, city-0058: handed back
+    with a margin of 32 m, re-activated 0.05 s later at -44 m, turned the long way round and entered a
+    building by 1.4 m). From a breached point (inside a keep-out or outside the keep-in) the normal stays.
     """
     t = (px * dx + py * dy) * il2
     off = t < 0.0 or t > 1.0
@@ -348,6 +358,8 @@ def edge_scored(
                 return d, dl, nx, ny
         if d > 0.0:
             return d, d, -qx / d, -qy / d
+    elif free and d > 0.0 and px * nx + py * ny > 0.0:  # faces away from a point in the free space
+        return d, d, -qx / d, -qy / d
     return d, d, nx, ny
 
 
@@ -364,7 +376,7 @@ def _nearest_distance(E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, delta_c: 
     """The nearest candidate's ``d`` by :func:`_walk` (reach 0): :meth:`FenceGrid.nearest_distance`."""
     m = ids.shape[0]
     W = np.empty((3, m))
-    return _walk(E, ids, lbs, True, e, n, 0.0, delta_c, 0, np.empty(m, np.int64), W[0], W[1], W[2])[1]
+    return _walk(E, ids, lbs, True, e, n, 0.0, delta_c, 0, False, np.empty(m, np.int64), W[0], W[1], W[2])[1]
 
 
 def _lateral_binding(
@@ -406,6 +418,7 @@ def _lateral_binding(
     arrest_t: float,
     arrest_loss: float,
     n_line: int,
+    free: bool,
 ) -> tuple[float, float, int, float, float, float, float, float, float, float]:
     """``(activation, turn sign, element id, room, nx, ny, d, v_n, turn angle, d_min)`` of the binding element.
 
@@ -416,7 +429,8 @@ def _lateral_binding(
     a tie goes to the lowest element id (the reference's first in element order). Element id -1: no
     candidate. The other arguments are :func:`~geofence.boundary_shift.activation_margins`' per-state
     terms under the same names (the other platform kind's are zeros; ``arrest_t, arrest_loss`` its
-    ``climb_arrest``). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges. Each edge is
+    ``climb_arrest``). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges; ``free``: the point
+    is in the free space (:func:`edge_scored`). Each edge is
     scored by :func:`edge_scored` (``d``, ``nx, ny``: its scored distance and direction; ``d_min`` stays the
     nearest point-segment distance).
 
@@ -430,7 +444,7 @@ def _lateral_binding(
     f_d = W[0]
     f_nx = W[1]
     f_ny = W[2]
-    cnt, min_d = _walk(E, ids, lbs, walk, e, n, reach, delta_c, n_line, f_id, f_d, f_nx, f_ny)
+    cnt, min_d = _walk(E, ids, lbs, walk, e, n, reach, delta_c, n_line, free, f_id, f_d, f_nx, f_ny)
     # the elements that can bind, in element order
     keep = I[1]
     nk = 0

@@ -219,13 +219,13 @@ def _margins(
         bound = multirotor_room_bound_m(speed, t_r, a_tilt, k1, k2, wspeed, a_brake, (arrest_t, arrest_loss), hu)
         a_pilot = a_tilt if v_air_mc < V[MAX_SPEED] else 0.0
 
+    if lat_margin != lat_margin:
+        lat_margin = _lateral_margin(F, L, e, n)
     lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
         _table(F, L, ELEMENTS, 7), _vector(L, IDS), _column(F, L, ZEROS), False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
         v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
-        k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, int(S[LINE_EDGES]),
+        k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, int(S[LINE_EDGES]), lat_margin >= 0.0,
     )  # fmt: skip
-    if lat_margin != lat_margin:
-        lat_margin = _lateral_margin(F, L, e, n)
     if lat_margin < lat_act:
         lat_act = lat_margin
     if lat_margin <= 0.0:
@@ -261,7 +261,7 @@ def _margins(
                 g_act = lateral_binding(
                     G, np.arange(cnt), np.zeros(cnt), False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n,
                     extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, g1, gd1, g2,
-                    gd2, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, 0,
+                    gd2, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, 0, True,
                 )[0]  # fmt: skip
                 if g_act > gd:
                     g_act = gd

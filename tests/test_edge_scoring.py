@@ -159,12 +159,17 @@ def test_edge_scored_by_hand():
     """The edge from (0, 0) to (10, 0), its breach-pointing normal (0, 1) (the point below it is inside)."""
     edge = (10.0, 0.0, 1.0 / 100.0, 0.0, 1.0)  # (dx, dy, 1/len², nx, ny)
     # the foot on the segment: the normal, the perpendicular distance
-    assert edge_scored(5.0 - 0.0, -3.0 - 0.0, *edge, False) == (3.0, 3.0, 0.0, 1.0)
+    assert edge_scored(5.0 - 0.0, -3.0 - 0.0, *edge, False, True) == (3.0, 3.0, 0.0, 1.0)
     # the foot off the segment, beyond its end (10, 0): the direction to that end, the distance to it
-    d, db, ux, uy = edge_scored(13.0, -4.0, *edge, False)
+    d, db, ux, uy = edge_scored(13.0, -4.0, *edge, False, True)
     assert (d, db) == (5.0, 5.0) and (ux, uy) == pytest.approx((-0.6, 0.8))
     # a convex keep-in's edge: the line distance along the normal, where it is positive
-    assert edge_scored(13.0, -4.0, *edge, True) == (5.0, 4.0, 0.0, 1.0)
+    assert edge_scored(13.0, -4.0, *edge, True, True) == (5.0, 4.0, 0.0, 1.0)
     # ... and beyond its line (outside that convex keep-in): the direction to the end again
-    d, db, ux, uy = edge_scored(13.0, 4.0, *edge, True)
+    d, db, ux, uy = edge_scored(13.0, 4.0, *edge, True, True)
     assert (d, db) == (5.0, 5.0) and (ux, uy) == pytest.approx((-0.6, -0.8))
+    # the foot on the segment, the point on its breach side (the edge faces away: a building's far side):
+    # from the free space, the direction to the foot (back towards the edge), not the normal away from it
+    assert edge_scored(5.0, 3.0, *edge, False, True) == (3.0, 3.0, -0.0, -1.0)
+    # ... from a breached point, the normal as before
+    assert edge_scored(5.0, 3.0, *edge, False, False) == (3.0, 3.0, 0.0, 1.0)

@@ -350,6 +350,17 @@ def test_a_fixed_wing_in_a_corridor_rolls_out_towards_its_route_ahead():
     assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
 
 
+def test_a_fixed_wing_in_a_city_does_not_score_the_far_side_of_a_building():
+    """A Tern among 200 buildings (campaign seed 2711, city-0058): the far side of a building, an edge facing away
+    from it with its foot on the edge, was scored along its normal, a wall behind the vehicle that made the
+    scored turn flip within a step. Handed back with 32 m, re-activated 0.05 s later at -44 m, it turned the
+    long way round into a building (+1.4 m at 48.2 s). From the free space such an edge is scored towards its
+    nearest point (:func:`geofence.lateral_kernel.edge_scored`): it stays out of every building."""
+    res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_city_0058_far_side_of_a_building.yaml"))
+    assert res.summary["activations"] >= 1
+    assert res.summary["max_excursion_m"] < 0.0 and not res.summary["breached_keep_out"], res.summary["max_excursion_m"]
+
+
 def test_a_multirotor_lands_in_a_gap_beyond_its_position_uncertainty():
     """An F450RD in a wind beyond its authority lands in a floor gap (campaign seed 3122026, floor_gaps-0143). It
     aimed 3 m inside the gap's upwind edge and descended wherever its estimate was 2 m inside; the estimate was
