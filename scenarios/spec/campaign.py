@@ -737,21 +737,38 @@ def _lateral_case(
     if draft.span_m() > MAX_FENCE_SPAN_M:
         raise _DoesNotFit
     local = draft.local(frame)
-    if attack is Attack.MISSION:
-        plan = _plan_mission(rng, ctx, local, frame, agl)
-        if plan is not None:
-            return draft, plan, attack
-        attack = Attack.HEAD_ON
-    if attack is Attack.BREACH_ATTEMPTS:
-        plan = _plan_breach(rng, ctx, draft, local, agl, 0 if corner_angle else None)
-        if plan is not None:
-            return draft, plan, attack
-        attack = Attack.HEAD_ON
+    plan, attack = _mission_or_breach(rng, ctx, draft, local, attack, agl, 0 if corner_angle else None)
+    if plan is not None:
+        return draft, plan, attack
     corner = None
     if corner_angle:  # the acute corner is vertex 0 of the unit triangle
         attack = Attack.CORNER if rng.random() < 0.6 else attack
         corner = 0
     return draft, _plan_lateral(rng, ctx, local, attack, agl, corner), attack
+
+
+def _mission_or_breach(
+    rng: np.random.Generator,
+    ctx: CaseContext,
+    draft: FenceDraft,
+    local: LocalFence,
+    attack: Attack,
+    agl: float,
+    breach_vertex: int | None = None,
+) -> tuple[Plan | None, Attack]:
+    """``(plan, attack)`` for a mission or a breach-attempts attack (:func:`_plan_mission`, :func:`_plan_breach`,
+    ``breach_vertex`` its aim), or ``(None, attack)``: another attack, or ``HEAD_ON`` when the plan did not fit."""
+    if attack is Attack.MISSION:
+        plan = _plan_mission(rng, ctx, local, ctx.frame, agl)
+        if plan is not None:
+            return plan, attack
+        attack = Attack.HEAD_ON
+    if attack is Attack.BREACH_ATTEMPTS:
+        plan = _plan_breach(rng, ctx, draft, local, agl, breach_vertex)
+        if plan is not None:
+            return plan, attack
+        attack = Attack.HEAD_ON
+    return None, attack
 
 
 def _pick(rng: np.random.Generator, options: Sequence, weights: Sequence[float]):
@@ -1088,16 +1105,9 @@ def family_city(rng: np.random.Generator, ctx: CaseContext):
     )
     draft.keep_out_polygons = tuple(buildings)
     local = draft.local(ctx.frame)
-    if attack is Attack.MISSION:
-        plan = _plan_mission(rng, ctx, local, ctx.frame, agl)
-        if plan is not None:
-            return draft, plan, attack
-        attack = Attack.HEAD_ON
-    if attack is Attack.BREACH_ATTEMPTS:
-        plan = _plan_breach(rng, ctx, draft, local, agl)
-        if plan is not None:
-            return draft, plan, attack
-        attack = Attack.HEAD_ON
+    plan, attack = _mission_or_breach(rng, ctx, draft, local, attack, agl)
+    if plan is not None:
+        return draft, plan, attack
     return draft, _plan_lateral(rng, ctx, local, attack, agl), attack
 
 
