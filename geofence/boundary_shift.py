@@ -393,9 +393,9 @@ def activation_margins(
     # the binding lateral element: one compiled call (lateral_kernel), or the Python reference below (the
     # full scan or the index's walk), which it equals bit for bit
     grid = fence.grid()
-    # in the free space an edge facing away is scored towards its nearest point (edge_scored); the margin is
-    # remembered for (e, n), so asking it again below costs nothing
-    free = fence.lateral_margin_m(e, n) >= 0.0
+    # in the free space an edge facing away is scored towards its nearest point (edge_scored): the binding is
+    # found as from the free space, and found again from a breached point once the margin says so (rare; the
+    # margin comes from the walk's nearest element, so knowing it first would cost a walk every step)
     if compiled:
         E, meta, all_ids, zeros = fence.element_table()
         if grid is not None and bound < math.inf:  # the index's walk
@@ -411,21 +411,28 @@ def activation_margins(
             s1 = delta1 = s2 = delta2 = psi_react0 = rot = omega_now = t_fw = sa = ca = 0.0  # (radius, v_turn: 0 above)
             a_pilot = a_tilt if v_air_mc < envelope.max_speed_mps else 0.0
             arrest_t, arrest_loss = climb_arrest
-        lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
-            E, ids, lbs, walk, e, n, bound, delta_c, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
-            v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
-            k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, fence.line_scored_edges(), free,
-        )  # fmt: skip
+        free = True
+        while True:
+            lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
+                E, ids, lbs, walk, e, n, bound, delta_c, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
+                v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
+                k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, fence.line_scored_edges(), free,
+            )  # fmt: skip
+            lat_margin = fence.lateral_margin_m(e, n, min_d)  # min_d: the exact nearest element, walked or scanned
+            if lat_margin >= 0.0 or not free:
+                break
+            free = False  # breached: again, the edges facing away scored along their normals
         assert i_bind >= 0  # the nearest element is always a candidate
         feat, idx, j = meta[i_bind]
-        lat_margin = fence.lateral_margin_m(e, n, min_d)  # min_d: the exact nearest element, walked or scanned
     else:
         if grid is not None and bound < math.inf:
-            dists, min_d = grid.near(e, n, bound, free)
+            dists, min_d = grid.near(e, n, bound, True)
             lat_margin = fence.lateral_margin_m(e, n, min_d)  # the walk just made gives the nearest element
+            if lat_margin < 0.0:
+                dists, min_d = grid.near(e, n, bound, False)
         else:
             lat_margin = fence.lateral_margin_m(e, n)
-            dists, min_d = _edge_distances(fence.danger_edges(), e, n, fence.line_scored_edges(), free)
+            dists, min_d = _edge_distances(fence.danger_edges(), e, n, fence.line_scored_edges(), lat_margin >= 0.0)
             for i, (ce, cn, r) in enumerate(fence.keep_out_circles):
                 d, ux, uy = circle_scored(e, n, ce, cn, r)
                 dists.append((d, ux, uy, FEATURE_KEEP_OUT_CIRCLE, i, -1))
