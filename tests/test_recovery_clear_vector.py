@@ -69,13 +69,17 @@ def _point(rng: random.Random, lf) -> tuple[float, float]:
     return rng.uniform(-800, 800), rng.uniform(-800, 800)  # anywhere, also outside the keep-in
 
 
+FENCES = {
+    "seed": st.integers(0, 10_000),
+    "n_vertices": st.integers(270, 700),
+    "n_squares": st.integers(0, 20),
+    "n_circles": st.integers(0, 4),
+}
+"""The random fences of :func:`_fence` the segment tests draw (a few hundred edges: the bounding-box prefilter on)."""
+
+
 @settings(max_examples=15, deadline=None)
-@given(
-    seed=st.integers(0, 10_000),
-    n_vertices=st.integers(270, 700),
-    n_squares=st.integers(0, 20),
-    n_circles=st.integers(0, 4),
-)
+@given(**FENCES)
 def test_vectorized_segment_test_equals_the_loop(seed, n_vertices, n_squares, n_circles):
     lf = _fence(seed, n_vertices, n_squares, n_circles)
     planner = rp.RecoveryPlanner(lf, 5.0, lazy=True)
@@ -131,13 +135,7 @@ def _segment(rng: random.Random, lf) -> tuple[tuple[float, float], tuple[float, 
 
 
 @settings(max_examples=15, deadline=None)
-@given(
-    seed=st.integers(0, 10_000),
-    n_vertices=st.integers(270, 700),
-    n_squares=st.integers(0, 20),
-    n_circles=st.integers(0, 4),
-    clearance_m=st.floats(1.0, 90.0),
-)
+@given(**FENCES, clearance_m=st.floats(1.0, 90.0))
 def test_grid_segment_test_equals_the_loop(seed, n_vertices, n_squares, n_circles, clearance_m):
     """The airspace-scale segment test walks the cells of a grid (:func:`geofence.recovery_path.segment_grid`)
     along the segment: for any threshold up to the grid's reach (the clearance) it must give the full loop's
