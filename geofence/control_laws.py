@@ -24,13 +24,14 @@ from __future__ import annotations
 
 import math
 
+from geofence.cpython_math import hypot
 from geofence.dynamics import G_MPS2, drag_coefficients
 from geofence.interface import Envelope, StickCommand, VehicleState
 from geofence.jit import jitable, numba
 
 
 def cpython_hypot(x: float, y: float) -> float:
-    """``math.hypot(x, y)``; compiled, :func:`geofence.lateral_kernel.hypot` (CPython's algorithm: the C library's
+    """``math.hypot(x, y)``; compiled, :func:`geofence.cpython_math.hypot` (CPython's algorithm: the C library's
     ``hypot``, which numba calls for ``math.hypot``, differs in the last bit about once in a hundred calls)."""
     return math.hypot(x, y)
 
@@ -39,8 +40,6 @@ if numba is not None:
 
     @numba.extending.overload(cpython_hypot)
     def _cpython_hypot_compiled(x: float, y: float):  # (numba: the implementation's parameters, annotations too)
-        from geofence.lateral_kernel import hypot  # (imported here: lateral_kernel imports this module's users)
-
         return hypot
 
 

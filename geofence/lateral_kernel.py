@@ -15,7 +15,7 @@ reference's order: the room formulas are compiled from their one home in
 :mod:`geofence.rooms` and :mod:`geofence.dynamics` (:func:`geofence.jit.jitable`);
 ``sin``, ``atan2``, ``acos`` and ``sqrt`` are the C library's, as in CPython;
 no fused multiply-adds (numba does not contract without ``fastmath``); and
-:func:`hypot` is CPython's own algorithm (which is not the C library's).
+:func:`~geofence.cpython_math.hypot` is CPython's own algorithm (which is not the C library's).
 
 Element table ``E`` (one row per element, in :meth:`LocalFence.danger_edges`
 order then the circles): ``(ax, ay, dx, dy, 1/len², nx, ny)`` for an edge,
@@ -29,16 +29,15 @@ from typing import Sequence
 
 import numpy as np
 
+from geofence.cpython_math import hypot
 from geofence.dynamics import wind_push_mps2
 from geofence.jit import COMPILED, jitable, numba
 from geofence.rooms import multirotor_room_m, reaction_arc_gap_m, reaction_arc_m, trochoid_excursion_m
 
-__all__ = ["circle_scored", "edge_scored", "element_table", "hypot", "lateral_binding", "nearest_distance"]
+__all__ = ["circle_scored", "edge_scored", "element_table", "lateral_binding", "nearest_distance"]
 
-_DBL_MIN = 2.2250738585072014e-308
 FIXED_WING_SCRATCH_ROWS = 8
 """The scratch rows :func:`_fixed_wing_binding` takes (its per-element terms)."""
-_SPLIT = 134217729.0  # 2**27 + 1, Veltkamp's splitter
 
 
 def element_table(edges: Sequence[tuple], circles: Sequence[tuple[float, float, float]]) -> np.ndarray:
@@ -46,65 +45,6 @@ def element_table(edges: Sequence[tuple], circles: Sequence[tuple[float, float, 
     rows = [(ax, ay, dx, dy, il2, nx, ny) for ax, ay, dx, dy, il2, nx, ny, *_ in edges]
     rows += [(ce, cn, r, 0.0, -1.0, 0.0, 0.0) for ce, cn, r in circles]
     return np.array(rows, dtype=np.float64).reshape(-1, 7)
-
-
-@jitable
-def _two_product(x: float, y: float) -> tuple[float, float]:
-    """``(hi, lo)`` with ``hi + lo == x·y`` exactly (Dekker's product with Veltkamp's split)."""
-    hi = x * y
-    c = _SPLIT * x
-    xh = c - (c - x)
-    xl = x - xh
-    c = _SPLIT * y
-    yh = c - (c - y)
-    yl = y - yh
-    lo = ((xh * yh - hi) + xh * yl + xl * yh) + xl * yl
-    return hi, lo
-
-
-@jitable
-def _norm_scaled(ax: float, ay: float, mx: float) -> float:
-    """CPython's ``vector_norm`` for two finite non-negative coordinates with ``mx = max(ax, ay) > 0``."""
-    max_e = math.frexp(mx)[1]
-    scale = math.ldexp(1.0, -max_e)
-    csum = 1.0
-    frac1 = 0.0
-    frac2 = 0.0
-    for v in (ax, ay):
-        v = v * scale  # lossless scaling
-        hi, lo = _two_product(v, v)  # lossless squaring
-        s = csum + hi  # lossless addition (|csum| >= |hi|)
-        frac2 += hi - (s - csum)
-        csum = s
-        frac1 += lo
-    h = math.sqrt(csum - 1.0 + (frac1 + frac2))
-    hi, lo = _two_product(-h, h)
-    s = csum + hi
-    frac2 += hi - (s - csum)
-    csum = s
-    frac1 += lo
-    x = csum - 1.0 + (frac1 + frac2)
-    h += x / (2.0 * h)  # differential correction
-    return h / scale
-
-
-@jitable
-def hypot(x: float, y: float) -> float:
-    """``math.hypot(x, y)`` as CPython 3.11+ computes it (its ``vector_norm``, a corrected square root),
-    so compiled code gets the interpreter's value bit for bit (the C library's ``hypot`` differs in the last
-    bit about once in a hundred calls)."""
-    ax = abs(x)
-    ay = abs(y)
-    if math.isinf(ax) or math.isinf(ay):
-        return math.inf
-    if math.isnan(ax) or math.isnan(ay):
-        return math.nan
-    mx = ax if ax > ay else ay
-    if mx == 0.0:
-        return mx
-    if math.frexp(mx)[1] < -1023:  # subnormal: scale up first, as CPython does
-        return _DBL_MIN * _norm_scaled(ax / _DBL_MIN, ay / _DBL_MIN, mx / _DBL_MIN)
-    return _norm_scaled(ax, ay, mx)
 
 
 @jitable

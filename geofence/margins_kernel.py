@@ -27,10 +27,11 @@ from typing import NamedTuple
 
 import numpy as np
 
+from geofence.cpython_math import hypot
 from geofence.dynamics import drag_coefficients
 from geofence.interface import Envelope, PlatformKind
 from geofence.jit import COMPILED, jitable, numba
-from geofence.lateral_kernel import hypot, lateral_binding
+from geofence.lateral_kernel import lateral_binding
 from geofence.rooms import (
     climb_arrest_phase,
     climb_back_drift_m,

@@ -105,8 +105,8 @@ from typing import TYPE_CHECKING, Callable, Iterator, Sequence
 import numpy as np
 
 from . import jit as _jit
+from .cpython_math import hypot
 from .jit import COMPILED, jitable, numba
-from .lateral_kernel import hypot
 from .polygon import pole_of_inaccessibility
 from .scan_kernel import lateral_margin_scan, rows_view
 

@@ -269,7 +269,7 @@ def fixed_wing_reaction_terms(
     constants at the bank limit; the reaction time ``t_fw`` (``t_r`` plus rolling out of the current bank, up to
     another ``reaction_s``); the current turn's rate ``omega_now`` (+ = clockwise) and rotation ``rot`` over it
     (within ±pi); ``psi`` the heading where the recovery turn starts. The caller computes ``v_air`` (its
-    ``hypot``: CPython's in Python, :func:`geofence.lateral_kernel.hypot` compiled)."""
+    ``hypot``: CPython's in Python, :func:`geofence.cpython_math.hypot` compiled)."""
     if v_air > 0.0:
         psi = math.atan2(van, vae)
     elif speed > 0.0:

@@ -8,7 +8,7 @@ breached points of a large one, as one compiled call over float tables built
 once per fence. The per-polygon Python loops
 (:meth:`geofence.polygon.PolygonIndex.signed_distance`) are the reference:
 the same floats in the same order, CPython's ``hypot``
-(:func:`geofence.lateral_kernel.hypot`), and ``tests/test_lateral_kernel.py``
+(:func:`geofence.cpython_math.hypot`), and ``tests/test_lateral_kernel.py``
 holds the two equal bit for bit.
 """
 
@@ -20,8 +20,8 @@ from typing import Sequence
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
+from geofence.cpython_math import hypot
 from geofence.jit import COMPILED, jitable, numba
-from geofence.lateral_kernel import hypot
 from geofence.polygon import BOUNDARY_TOL_M
 
 __all__ = ["deepest_polygon", "lateral_margin_scan", "polygon_rows", "rows_view", "signed_distance_rows", "stacked"]

@@ -6,7 +6,7 @@ the recovery planner's segment test from :func:`geofence.recovery_path.segment_c
 (``compiled=False``; ``vector_from`` huge) is the reference. On random sparse and dense fences with keep-out
 squares and circles, indexed and scanned, for both platform kinds in wind, at states next to vertices, inside
 keep-outs and outside the keep-in, every field of the result must be equal bit for bit; also where elements
-tie exactly (the first in element order wins), and :func:`geofence.lateral_kernel.hypot` must be CPython's
+tie exactly (the first in element order wins), and :func:`geofence.cpython_math.hypot` must be CPython's
 ``math.hypot`` for every pair of floats.
 """
 
@@ -22,9 +22,9 @@ from hypothesis import strategies as st
 from test_fence_grid import FRAME, FW, MC, dense_fence, dense_states, latlon, probe_points, random_fence, random_margin_call
 
 from geofence.boundary_shift import activation_margins
+from geofence.cpython_math import hypot
 from geofence.fence import Fence, KeepOutCircle
 from geofence.jit import COMPILED, numba, use_compiled
-from geofence.lateral_kernel import hypot
 from geofence.recovery_path import RecoveryPlanner, path_follow, path_lookahead, path_project, path_rollout, segment_clear
 from scenarios.flight.runner import fly
 from scenarios.spec.schema import load_scenario
