@@ -1189,9 +1189,10 @@ class RecoveryPlanner:
 
     def _store_row(self, i: int, jj: np.ndarray, w: np.ndarray) -> None:
         """File node ``i``'s edges (found in Python) in :meth:`_edge_store`."""
-        if int(self._edge_store()[4][0]) + len(jj) > len(self._edge_store()[2]):
-            self._grow_edge_store(len(jj))
         row_start, row_len, store_j, store_w, used = self._edge_store()
+        if int(used[0]) + len(jj) > len(store_j):
+            self._grow_edge_store(len(jj))
+            row_start, row_len, store_j, store_w, used = self._edge_store()
         at = int(used[0])
         store_j[at : at + len(jj)] = jj
         store_w[at : at + len(jj)] = w

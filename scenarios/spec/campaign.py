@@ -77,6 +77,7 @@ from geofence.local_fence import LocalFence
 from geofence.polygon import PolygonIndex
 from geofence.rooms import multicopter_stopping_distance_m, turn_radius_m, worst_case_lateral_shift_m
 from geofence.validation import ConfigError
+from scenarios.airspace.generate import park_boundary_en, place_buildings
 from scenarios.spec.preflight import FORECAST_DIRECTION_ERROR_DEG, FORECAST_SPEED_ERROR
 from scenarios.spec.schema import BREACH_SPEED_LIMIT_MPS, PilotKind
 from wind.config import parse_wind
@@ -1081,8 +1082,6 @@ def family_city(rng: np.random.Generator, ctx: CaseContext):
     least two rooms apart and from the boundary, none in a meadow of two rooms round the centre), then a
     lateral attack or a mission. The unit flies it with its fence index, and a fixed-wing's roll-out target
     and every recovery route come from the lazy route graph searched through the buildings."""
-    from scenarios.airspace.generate import park_boundary_en, place_buildings
-
     attack = _pick(rng, LATERAL_ATTACKS, LATERAL_WEIGHTS)
     clearance = max(2.0 * ctx.room_m, 20.0)
     meadow = 2.0 * ctx.room_m
