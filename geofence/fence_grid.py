@@ -25,6 +25,10 @@ it walks it in order of ``d(c)`` and stops as soon as the lower bound
 element's ``d`` is 1-Lipschitz in ``p``). A step therefore costs
 ``O(elements within reach)``; a new cell costs one ``O(N)`` numpy pass. A
 larger reach than the cell was built for rebuilds it (with 1.5x the reach).
+From :data:`BLOCK_MIN_ELEMENTS` elements on, the ``O(N)`` pass is made once per
+block of 8 x 8 cells, keeping the elements any of its cells can keep (by the
+same Lipschitz argument, :meth:`FenceGrid._block_ids`); a new cell then looks
+at its block's elements only and keeps the same list.
 
 Containment for the lateral margin (inside the keep-in? inside a keep-out?)
 is exact too: each cell records whether it lies wholly inside or outside the
@@ -71,6 +75,16 @@ MAX_CELLS: int = 50_000
 PREFIX_ITEMS: int = 512
 """Candidates a cell keeps as ready Python tuples for the Python walk (:meth:`FenceGrid.near`, built when it first
 asks; it rarely goes further); the rest stay numpy indices."""
+
+BLOCK_CELLS: int = 8
+"""Cells along a side of a block: from :data:`BLOCK_MIN_ELEMENTS` elements on, a new cell looks only at its block's
+elements (:meth:`FenceGrid._block_ids`), and the pass over every element is made once per block."""
+
+BLOCK_MIN_ELEMENTS: int = 2000
+"""From this many elements on, cells are built from their block's elements (:data:`BLOCK_CELLS`)."""
+
+BLOCK_SLACK_M: float = 1e-6
+"""Slack (m) of a block's selection, far beyond the round-off of its distances."""
 
 MAX_CACHED_CANDIDATES: int = 4_000_000
 """Candidates (all cells together) kept before the table is cleared: a cell far inside a 100,000-vertex fence
@@ -120,7 +134,10 @@ class FenceGrid:
         cell_m: float = DEFAULT_CELL_M,
         prefix_items: int = PREFIX_ITEMS,
         line_edges: int = 0,
+        block_min_elements: int = BLOCK_MIN_ELEMENTS,
     ) -> None:
+        self.block_min_elements = int(block_min_elements)
+        """From this many elements on, cells are built from their block's elements (the same cells)."""
         self.line_edges = int(line_edges)
         """The first ``line_edges`` elements are a convex keep-in's edges (:func:`~geofence.lateral_kernel.edge_scored`)."""
         self.cell_m = float(cell_m)
@@ -146,6 +163,7 @@ class FenceGrid:
         kb = np.array([k.bbox for k in keep_outs], dtype=float).reshape(-1, 4)
         self._ko_bbox = kb
         self._cells: dict[tuple[int, int], _Cell] = {}
+        self._blocks: dict[tuple[int, int], tuple[float, np.ndarray]] = {}  # block -> (reach, ids): _block_ids
         self._cached = 0
         self._rows = _RowStrips(keep_in)
 
@@ -158,11 +176,46 @@ class FenceGrid:
         qx, qy = px - t * dx, py - t * dy
         return np.sqrt(qx * qx + qy * qy)
 
-    def _distances_from(self, x: float, y: float) -> np.ndarray:
-        """``d`` of every element from (x, y), vectorised, in element order."""
-        d_seg = self._segment_distances(x, y, slice(None))
-        d_circ = np.hypot(self._ce - x, self._cn - y) - self._cr
+    def _distances_from(self, x: float, y: float, ids: np.ndarray | None = None) -> np.ndarray:
+        """``d`` of every element from (x, y), or of the elements ``ids`` (ascending), vectorised, in element order
+        (element by element the same floats either way)."""
+        if ids is None:
+            d_seg = self._segment_distances(x, y, slice(None))
+            d_circ = np.hypot(self._ce - x, self._cn - y) - self._cr
+        else:
+            s = len(self._ax)
+            k = int(np.searchsorted(ids, s))
+            d_seg = self._segment_distances(x, y, ids[:k])
+            c = ids[k:] - s
+            d_circ = np.hypot(self._ce[c] - x, self._cn[c] - y) - self._cr[c]
         return np.concatenate([d_seg, d_circ])
+
+    def _block_ids(self, key: tuple[int, int], built_for: float) -> np.ndarray:
+        """The elements (ascending ids) every cell of ``key``'s block (:data:`BLOCK_CELLS` cells a side) can keep
+        when built for a reach up to ``built_for``: one pass over every element per block, then each of its cells
+        looks at these only.
+
+        With ``C`` the block's centre, ``H`` its half diagonal, ``c`` a cell's centre (``|c - C| <= H``), ``h``
+        the cell's half diagonal and ``r`` its reach, a cell keeps ``d(c) <= min d(c) + 2h + r``; every ``d`` is
+        1-Lipschitz, so those have ``d(C) <= min d(C) + 2H + 2h + r``, and the keep-in edges a cell's
+        containment looks at (``d(c) <= h + 1e-6``) have ``d(C) <= h + 1e-6 + H``. Kept: both, and
+        :data:`BLOCK_SLACK_M` more, far beyond any rounding. The nearest element from a cell's centre is
+        among them, so the cell's list and bounds are those of the pass over every element."""
+        b = BLOCK_CELLS
+        bkey = (key[0] // b, key[1] // b)
+        blk = self._blocks.get(bkey)
+        if blk is not None and blk[0] >= built_for:
+            return blk[1]
+        reach = max(built_for, 1.5 * blk[0] if blk is not None else 0.0)
+        side = b * self.cell_m
+        big_h = side * math.sqrt(0.5)
+        h = self.half_diag_m
+        d = self._distances_from((bkey[0] + 0.5) * side, (bkey[1] + 0.5) * side)
+        limit = max(float(d.min()) + 2.0 * big_h + 2.0 * h + reach, h + 1e-6 + big_h) + BLOCK_SLACK_M
+        ids = np.flatnonzero(d <= limit)
+        self._blocks[bkey] = (reach, ids)
+        self._cached += len(ids)
+        return ids
 
     def _cell(self, e: float, n: float, reach: float) -> _Cell:
         c = self.cell_m
@@ -173,19 +226,23 @@ class FenceGrid:
         built_for = max(reach, MIN_REACH_M, 1.5 * cell.built_for if cell is not None else 0.0)
         cx, cy = (key[0] + 0.5) * c, (key[1] + 0.5) * c
         h = self.half_diag_m
-        d = self._distances_from(cx, cy)
+        pool = self._block_ids(key, built_for) if self.n_elements >= self.block_min_elements else None
+        d = self._distances_from(cx, cy, pool)
         u = float(d.min()) + h
-        sel = np.flatnonzero(d <= u + built_for + h)
-        sel = sel[np.argsort(d[sel], kind="stable")]
+        at = np.flatnonzero(d <= u + built_for + h)
+        at = at[np.argsort(d[at], kind="stable")]
+        sel = at if pool is None else pool[at]
         # keep-in: wholly inside (+1), wholly outside (-1) or crossed by its boundary (0)
-        d_ki = float(d[: self._keep_in.n].min())  # the keep-in's edges come first
+        n_ki = self._keep_in.n if pool is None else int(np.searchsorted(pool, self._keep_in.n))
+        d_ki = float(d[:n_ki].min()) if n_ki else math.inf  # the keep-in's edges come first
         ki_state = 0 if d_ki <= h + 1e-6 else (1 if self._rows.inside(cx, cy) else -1)
         kb = self._ko_bbox
         lo_x, lo_y, hi_x, hi_y = key[0] * c, key[1] * c, (key[0] + 1) * c, (key[1] + 1) * c
         ko = tuple(np.flatnonzero((kb[:, 0] <= hi_x) & (kb[:, 2] >= lo_x) & (kb[:, 1] <= hi_y) & (kb[:, 3] >= lo_y)).tolist())
-        cell = _Cell(built_for, cx, cy, sel, d[sel], u, ki_state, ko, [])
+        cell = _Cell(built_for, cx, cy, sel, d[at], u, ki_state, ko, [])
         if len(self._cells) >= MAX_CELLS or self._cached + len(sel) > MAX_CACHED_CANDIDATES:
             self._cells.clear()
+            self._blocks.clear()
             self._cached = 0
         self._cells[key] = cell
         self._cached += len(sel)

@@ -32,7 +32,7 @@ import numpy as np
 from geofence.cpython_math import hypot
 from geofence.dynamics import wind_push_mps2
 from geofence.jit import COMPILED, jitable, numba
-from geofence.rooms import multirotor_room_m, reaction_arc_gap_m, reaction_arc_m, trochoid_excursion_m
+from geofence.rooms import multirotor_room_m, reaction_arc_terms_m, trochoid_excursion_m
 
 __all__ = ["circle_scored", "edge_scored", "element_table", "lateral_binding", "nearest_distance"]
 
@@ -94,7 +94,7 @@ def _fixed_wing_binding(
     over ``keep``: per turn ``(s1, delta1)``, ``(s2, delta2)`` the smallest ``d - base - excursion`` (the lowest
     element id on a tie: ``_binding_edge_scan``'s first in element order), the first turn winning a tie.
 
-    Each element's exact terms (the reference's ``terms_of`` arithmetic: ``reaction_arc_m``, the heading
+    Each element's exact terms (the reference's ``terms_of`` arithmetic: ``reaction_arc_m`` and its gap in one call, the heading
     ``psi0`` by ``atan2``) are computed only for the elements whose activation can be the smallest: a
     cheap lower bound without transcendental functions comes first. For a unit normal ``n`` at angle
     ``theta``, ``sin(psi - theta) = sin psi·nx - cos psi·ny`` gives the reaction arc, and
@@ -174,8 +174,8 @@ def _fixed_wing_binding(
             if done[q] == 0.0:
                 nx = f_nx[k]
                 ny = f_ny[k]
-                base[q] = reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, wn[q]) + hu
-                gap[q] = reaction_arc_gap_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, wn[q])
+                end, gap[q] = reaction_arc_terms_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, wn[q])
+                base[q] = end + hu
                 psi[q] = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
                 done[q] = 1.0
             excursion = trochoid_excursion_m(radius, inv_omega, v_turn, wn[q], psi[q], s, delta)

@@ -113,6 +113,7 @@ __all__ = [
     "multirotor_room_m",
     "reaction_arc_gap_m",
     "reaction_arc_m",
+    "reaction_arc_terms_m",
     "room_upper_bounds_fast_m",
     "room_upper_bounds_m",
     "room_upper_bounds_terms",
@@ -247,13 +248,39 @@ def reaction_arc_m(v_air: float, psi0: float, rot: float, omega: float, t: float
     counter-clockwise from east) rotates by ``-rot`` (rad; ``omega`` rad/s, + =
     clockwise); airspeed ``v_air`` and wind along the normal ``w_n`` in m/s.
     """
+    return reaction_arc_terms_m(v_air, psi0, rot, omega, t, nx, ny, w_n)[0]
+
+
+@jitable
+def reaction_arc_terms_m(
+    v_air: float, psi0: float, rot: float, omega: float, t: float, nx: float, ny: float, w_n: float
+) -> tuple[float, float]:
+    """``(reaction_arc_m, reaction_arc_gap_m)`` of the same arguments, the normal's angle and the arc's end found
+    once (the margins ask both of each element they score exactly)."""
     theta = math.atan2(ny, nx)
     if abs(rot) < 1e-6:
         along = v_air * t * math.cos(psi0 - theta)
     else:
         along = (v_air / omega) * (math.sin(psi0 - theta) - math.sin(psi0 - rot - theta))
     d = along + w_n * t
-    return d if d > 0.0 else 0.0
+    end = d if d > 0.0 else 0.0
+    if abs(rot) < 1e-6:
+        return end, 0.0
+    a = psi0 - theta
+    arc = v_air / omega
+    c = -w_n * t / (arc * rot)
+    if not -1.0 < c < 1.0:
+        return end, 0.0
+    best = end
+    root = math.acos(c)
+    for sgn in (1.0, -1.0):
+        for k in range(-2, 3):
+            u = (a - sgn * root - TWO_PI * k) / rot
+            if 0.0 < u < 1.0:
+                x = arc * (math.sin(a) - math.sin(a - rot * u)) + w_n * t * u
+                if x > best:
+                    best = x
+    return end, best - end
 
 
 @jitable
@@ -314,24 +341,7 @@ def reaction_arc_gap_m(v_air: float, psi0: float, rot: float, omega: float, t: f
     -w_n·t / ((V/omega)·rot)`` with ``a = psi0 - theta_n``. Returns that farthest travel (at least 0) less
     :func:`reaction_arc_m`; 0 when the arc is straight or the end is the farthest.
     """
-    end = reaction_arc_m(v_air, psi0, rot, omega, t, nx, ny, w_n)
-    if abs(rot) < 1e-6:
-        return 0.0
-    a = psi0 - math.atan2(ny, nx)
-    arc = v_air / omega
-    c = -w_n * t / (arc * rot)
-    if not -1.0 < c < 1.0:
-        return 0.0
-    best = end
-    root = math.acos(c)
-    for sgn in (1.0, -1.0):
-        for k in range(-2, 3):
-            u = (a - sgn * root - TWO_PI * k) / rot
-            if 0.0 < u < 1.0:
-                x = arc * (math.sin(a) - math.sin(a - rot * u)) + w_n * t * u
-                if x > best:
-                    best = x
-    return best - end
+    return reaction_arc_terms_m(v_air, psi0, rot, omega, t, nx, ny, w_n)[1]
 
 
 def fixed_wing_room_m(

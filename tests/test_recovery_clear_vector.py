@@ -222,3 +222,102 @@ def test_compiled_search_plans_the_python_searchs_routes(seed, n_vertices, n_squ
         assert (a is None) == (b is None)
         if a is not None and b is not None:
             assert a.points == b.points and a.reached_goal == b.reached_goal, (s, a.points, b.points)
+
+
+def _tangent_at_with_root(c0, c1, c2, c3, corner, dx, dy) -> bool:
+    """:func:`geofence.recovery_path._tangent_at` as it was: the tolerance's square root every time."""
+    if not corner:
+        return True
+    px, py = -dy, dx
+    tol = -1e-9 * math.hypot(px, py)
+    s1 = c0 * py - c1 * px
+    s2 = px * c3 - py * c2
+    return (s1 >= tol and s2 >= tol) or (s1 <= -tol and s2 <= -tol)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10**6), scale=st.sampled_from([1e-6, 1.0, 350.0, 1e5]))
+def test_the_tangency_test_without_its_square_root_gives_the_same_verdicts(seed, scale):
+    """The tangency test decides outside the tolerance's band without the square root: the verdicts of the test
+    that takes it every time, for directions anywhere and for directions whose cross products with a cone's
+    normals lie at the tolerance (within a few times 1e-9 of the direction's length), zero and the axes."""
+    rng = random.Random(seed)
+    for _ in range(400):
+        a1 = rng.uniform(-math.pi, math.pi)
+        a2 = a1 + rng.choice([0.0, rng.uniform(0.0, math.pi / 6), rng.uniform(0.0, math.pi)])
+        c = (math.cos(a1), math.sin(a1), math.cos(a2), math.sin(a2))
+        kind = rng.randrange(4)
+        if kind == 0:
+            dx, dy = rng.uniform(-scale, scale), rng.uniform(-scale, scale)
+        elif kind == 3:
+            dx, dy = rng.choice([(0.0, 0.0), (scale, 0.0), (0.0, -scale), (-scale, scale)])
+        else:  # the line's normal p = (-dy, dx) along a cone normal, turned by about the tolerance
+            nx, ny = (c[0], c[1]) if kind == 1 else (c[2], c[3])
+            k = rng.choice([1.0, -1.0]) * rng.choice([0.0, rng.uniform(0.3, 3.0), 1.0, 0.5, 2.0]) * 1e-9
+            length = rng.uniform(0.1, 1.0) * scale
+            sign = rng.choice([1.0, -1.0])
+            px, py = sign * length * (nx - k * ny), sign * length * (ny + k * nx)
+            dx, dy = py, -px
+        for corner in (True, False):
+            assert rp._tangent_at(*c, corner, dx, dy) == _tangent_at_with_root(*c, corner, dx, dy), (c, dx, dy)
+
+
+@settings(max_examples=6, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(270, 500), n_squares=st.integers(5, 30))
+def test_the_whole_graph_built_at_once_is_the_graph_found_node_by_node(seed, n_vertices, n_squares):
+    """:func:`geofence.recovery_path._tangent_pairs` gives every node's tangent candidates (each pair tested once)
+    as :func:`~geofence.recovery_path._tangent_row` finds them node by node, and :meth:`RecoveryPlanner.prepare`
+    files every node's graph edges as a lazy search finds them (the same neighbours, lengths and order)."""
+    lf = _fence(seed, n_vertices, n_squares, 2)
+    whole = rp.RecoveryPlanner(lf, 6.0, lazy=True, grid=True)
+    lazy = rp.RecoveryPlanner(lf, 6.0, lazy=True, grid=True)
+    whole.prepare()
+    lazy._build_graph()
+    nodes = whole._nodes
+    pairs = rp.tangent_pairs or rp._tangent_pairs
+    row = rp.tangent_row or rp._tangent_row
+    ptr, cols = pairs(nodes, whole._cones, whole._is_corner)
+    rng = random.Random(seed)
+    sample = rng.sample(range(len(nodes)), min(60, len(nodes)))
+    for i in sample:
+        assert cols[ptr[i] : ptr[i + 1]].tolist() == row(i, nodes, whole._cones, whole._is_corner).tolist()
+        assert whole._neighbours(i) == lazy._neighbours(i), i
+    assert whole._full_graph and not lazy._full_graph
+
+
+def _length(points) -> float:
+    return sum(math.hypot(b[0] - a[0], b[1] - a[1]) for a, b in zip(points, points[1:]))
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(270, 500), n_squares=st.integers(10, 40))
+def test_routes_by_the_goal_tree_are_the_searchs_shortest_routes(seed, n_vertices, n_squares):
+    """A planner prepared for its goal (its whole graph, and the goal's shortest-route tree) answers a search
+    from the free space by the tree: a route as short as the lazy A*'s over the same graph (to round-off; the
+    same points where no two routes tie), reaching the goal, its first leg clear at the clearance and every
+    later segment admissible. Starts whose straight line to the goal is blocked, and starts anywhere."""
+    lf = _fence(seed, n_vertices, n_squares, 2)
+    tree = rp.RecoveryPlanner(lf, 7.0, lazy=True, grid=True)
+    astar = rp.RecoveryPlanner(lf, 7.0, lazy=True, grid=True)
+    goal = lf.recovery_en
+    tree.prepare(goals=(goal,))
+    assert tree._trees
+    rng = random.Random(seed + 7)
+    thr = tree.clearance_m - rp.EPS_M
+    points = [_point(rng, lf) for _ in range(300)]
+    searched = [p for p in points if lf.lateral_margin_m(*p) >= thr and not tree._clear_one(p, goal, thr)]
+    assert searched
+    same = 0
+    for s in searched[:12] + points[:4]:
+        a, b = tree.plan(s, goal), astar.plan(s, goal)
+        assert (a is None) == (b is None)
+        if a is None or b is None:
+            continue
+        assert a.reached_goal == b.reached_goal
+        la, lb = _length(a.points), _length(b.points)
+        assert abs(la - lb) <= 1e-9 * lb, (s, la, lb)
+        same += a.points == b.points
+        if s in searched:
+            assert tree._clear_one(a.points[0], a.points[1], thr)
+            assert all(tree.admissible(p, q) for p, q in zip(a.points[1:], a.points[2:]))
+    assert same >= 1
