@@ -1508,7 +1508,7 @@ class RecoveryPlanner:
         self._boxes: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self._full_graph = False  # a lazy graph's every row filed (:meth:`prepare`)
         self._trees: dict[Point, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}  # goal -> :meth:`_goal_tree`
-        self._lazy = nn >= LAZY_MIN_NODES if lazy is None else bool(lazy)
+        self._lazy: bool = nn >= LAZY_MIN_NODES if lazy is None else bool(lazy)
         self._adj: list[list[tuple[int, float]] | None] = [None if self._lazy else [] for _ in nodes]
         if nn >= 2 and not self._lazy:
             ii, jj = np.triu_indices(nn, k=1)
