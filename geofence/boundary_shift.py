@@ -540,13 +540,17 @@ class CompiledMargins:
     ``envelope``: an :class:`Envelope`, or its :func:`~geofence.margins_kernel.envelope_terms` already made.
     """
 
-    __slots__ = ("fence", "_tables", "_terms", "_meta")
+    __slots__ = ("fence", "_tables", "_terms", "_meta", "_margins_kernel", "_monitor_kernel")
 
     def __init__(self, fence: LocalFence, envelope: Envelope | np.ndarray):
         self.fence = fence
         self._tables = fence.margin_tables()
         self._terms = envelope if isinstance(envelope, np.ndarray) else _envelope_terms(envelope)
         self._meta = fence.element_table()[1]
+        # the kernels, through numba's dispatcher at their first call, then by their entry points (geofence.jit:
+        # the tables are this object's own, built once)
+        self._margins_kernel = margins_kernel
+        self._monitor_kernel = monitor_margins_kernel
 
     def margins(
         self, e: float, n: float, h: float, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float,
@@ -556,10 +560,13 @@ class CompiledMargins:
         """:func:`activation_margins` (``hu``, ``v_unc``: its ``h_uncertainty_m``, ``v_uncertainty_m``)."""
         F, L = self._tables
         has, te, tn = (False, 0.0, 0.0) if rollout_target_en is None else (True, *rollout_target_en)
-        r = margins_kernel(
+        kernel = self._margins_kernel
+        r = kernel(
             F, L, self._terms, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps,
             has, te, tn, g, math.nan,
         )  # fmt: skip
+        if kernel is margins_kernel:
+            self._margins_kernel = _jit.entry_point(kernel)
         return self._result(e, n, r)
 
     def monitor(
@@ -570,10 +577,13 @@ class CompiledMargins:
         """:func:`monitor_margins`: ``None`` when the unit's skip shortcut holds, else :meth:`margins`."""
         F, L = self._tables
         has, te, tn = (False, 0.0, 0.0) if rollout_target_en is None else (True, *rollout_target_en)
-        far, r = monitor_margins_kernel(
+        kernel = self._monitor_kernel
+        far, r = kernel(
             F, L, self._terms, e, n, h, ground_speed_mps, ve, vn, vu, wind_e, wind_n, wind_extra_mps, skip_time_s,
             hu, v_unc, latency_s, bank_rad, has, te, tn, g,
         )  # fmt: skip
+        if kernel is monitor_margins_kernel:
+            self._monitor_kernel = _jit.entry_point(kernel)
         return None if far else self._result(e, n, r)
 
     def _result(self, e: float, n: float, r: tuple) -> ShiftResult:

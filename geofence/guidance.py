@@ -380,11 +380,14 @@ class FixedWingRecovery:
             if args is not None:
                 P, Q, thr, clearance = args
                 wind = self.wind
-                thr, roll, pitch, progress, turning, turned, last_yaw = self._step(  # type: ignore[misc]
+                step = self._step
+                thr, roll, pitch, progress, turning, turned, last_yaw = step(  # type: ignore[misc]
                     path._arrays(), P, Q, self._constants, path.progress_m, thr, clearance, s.east_m, s.north_m,
                     s.v_east_mps, s.v_north_mps, s.yaw_rad, s.airspeed_mps, s.ground_speed_mps, h, wind[0], wind[1],
                     self.turning, self.turned_rad, self._last_yaw,
                 )  # fmt: skip
+                if step is fixed_wing_step:  # after its first call, by its entry point (geofence.jit: the route's
+                    self._step = _jit.entry_point(step)  # type: ignore[arg-type]  # and the planner's arrays: 1-D, C
                 if thr > 0.0:
                     path.progress_m = progress
                     self.turning = turning

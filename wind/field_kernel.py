@@ -19,10 +19,11 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 from math import sqrt
+from typing import Callable
 
 import numpy as np
 
-from geofence.jit import COMPILED, jitable, numba
+from geofence.jit import COMPILED, entry_point, jitable, numba
 from wind.dryden import FT_M, NORMALS_PER_STEP, POOL_NORMALS, DrydenTurbulence, turbulence_step
 from wind.field import CalmWind, CompositeWind, Vec3, WindField, toward_unit
 from wind.gust import MAX_VELOCITY_DT_S, GustTrain
@@ -232,6 +233,7 @@ class WindArrays:
             F[GUST_HAS_MEAN] = float(gusts.mean_wind is not None)
             gusts.reset()
         self._FZ = np.concatenate((F, Z))
+        self._kernel: Callable = wind_sample
         self.F, self.Z = self._FZ[:N_CONST], self._FZ[N_CONST:]  # views
         self._set_gusts(gusts.gusts if gusts is not None else (), np.zeros(len(gusts.gusts) if gusts is not None else 0))
         self._armed = False
@@ -259,7 +261,10 @@ class WindArrays:
 
     def sample(self, t_s: float, east_m: float, north_m: float, up_m: float, airspeed_mps: float) -> Vec3:
         """The field's ``sample`` (the same numbers)."""
-        e, n, u, low = wind_sample(self._FZ, self.pool, self._GX, t_s, east_m, north_m, up_m, airspeed_mps)
+        kernel = self._kernel
+        e, n, u, low = kernel(self._FZ, self.pool, self._GX, t_s, east_m, north_m, up_m, airspeed_mps)
+        if kernel is wind_sample:  # after its first call, by its entry point (geofence.jit: the arrays are ours,
+            self._kernel = entry_point(kernel)  # the pool rebuilt as it was made: float64, 1-D, C)
         if low and self._rng is not None:
             i = int(self.Z[POOL_IDX])
             self.pool = np.concatenate((self.pool[i:], self._rng.standard_normal(POOL_NORMALS)))
