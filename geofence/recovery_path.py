@@ -152,6 +152,11 @@ VECTOR_FROM_EDGES: int = 24
 NODES_PER_BOX: int = 16
 """About how many graph nodes share a box of the compiled search's first legs (:meth:`RecoveryPlanner._node_boxes`)."""
 
+FULL_GRAPH_MAX_NODES: int = 20_000
+"""Up to this many nodes :meth:`RecoveryPlanner.prepare` files a lazy graph's every edge (every pair of nodes is
+tested for tangency, about 2 s for the 11,300 nodes of the 10,000 + 500 park); a larger graph stays lazy and its
+goals get no shortest-route tree."""
+
 LAZY_MIN_NODES: int = 1500
 """From this many graph nodes on, the graph is built lazily (see the module docstring's Complexity)."""
 
@@ -571,14 +576,35 @@ def _key_sift_up(heap: np.ndarray, keys: np.ndarray, pos: int) -> None:
 
 
 @jitable
+def _key_pop(heap: np.ndarray, keys: np.ndarray, size: int) -> int:
+    """Take the top of the binary min-heap ``heap[:size]`` (of :func:`_key_sift_down`); the heap is then
+    ``heap[:size - 1]``."""
+    top = heap[0]
+    heap[0] = heap[size - 1]
+    _key_sift_down(heap, keys, 0, size - 1)
+    return top
+
+
+@jitable
+def _key_push(heap: np.ndarray, keys: np.ndarray, size: int, i: int) -> None:
+    """Put ``i`` in the binary min-heap ``heap[:size]``; the heap is then ``heap[:size + 1]``."""
+    heap[size] = i
+    _key_sift_up(heap, keys, size)
+
+
+@jitable
+def _box_distance(x: float, y: float, box: np.ndarray, c: int) -> float:
+    """Distance from (x, y) to box ``c`` (``xmin, xmax, ymin, ymax``): at most any of its nodes' (to round-off)."""
+    dx = box[c, 0] - x if box[c, 0] > x else (x - box[c, 1] if x > box[c, 1] else 0.0)
+    dy = box[c, 2] - y if box[c, 2] > y else (y - box[c, 3] if y > box[c, 3] else 0.0)
+    return math.sqrt(dx * dx + dy * dy)
+
+
+@jitable
 def _box_key_bound(sx: float, sy: float, gx: float, gy: float, box: np.ndarray, c: int) -> float:
     """A lower bound of a first leg's key (straight length from the start plus straight length to the goal) over
     the nodes in box ``c`` (``xmin, xmax, ymin, ymax``), below the computed key by more than its round-off."""
-    dx = box[c, 0] - sx if box[c, 0] > sx else (sx - box[c, 1] if sx > box[c, 1] else 0.0)
-    dy = box[c, 2] - sy if box[c, 2] > sy else (sy - box[c, 3] if sy > box[c, 3] else 0.0)
-    fx = box[c, 0] - gx if box[c, 0] > gx else (gx - box[c, 1] if gx > box[c, 1] else 0.0)
-    fy = box[c, 2] - gy if box[c, 2] > gy else (gy - box[c, 3] if gy > box[c, 3] else 0.0)
-    return (math.sqrt(dx * dx + dy * dy) + math.sqrt(fx * fx + fy * fy)) * (1.0 - 1e-12) - 1e-9
+    return (_box_distance(sx, sy, box, c) + _box_distance(gx, gy, box, c)) * (1.0 - 1e-12) - 1e-9
 
 
 @jitable
@@ -633,12 +659,10 @@ def _lazy_astar(
             bound = keys[cand[0]] if size > 0 else np.inf
             if len(open_) > 0 and open_[0][0] < bound:
                 bound = open_[0][0]
-            c = boxes[0]
-            if blb[c] > bound:
+            if blb[boxes[0]] > bound:
                 break
+            c = _key_pop(boxes, blb, n_boxes)
             n_boxes -= 1
-            boxes[0] = boxes[n_boxes]
-            _key_sift_down(boxes, blb, 0, n_boxes)
             for p in range(box_start[c], box_start[c + 1]):
                 i = box_items[p]
                 ex = P[i, 0] - sx  # (square roots, as the Python search's numpy: the same bits)
@@ -647,14 +671,11 @@ def _lazy_astar(
                 fy = P[i, 1] - gy
                 leg[i] = math.sqrt(ex * ex + ey * ey)
                 keys[i] = leg[i] + math.sqrt(fx * fx + fy * fy)
-                cand[size] = i
+                _key_push(cand, keys, size, i)
                 size += 1
-                _key_sift_up(cand, keys, size - 1)
         if size > 0 and (len(open_) == 0 or keys[cand[0]] < open_[0][0]):  # the next untested first leg first
-            i = cand[0]
+            i = _key_pop(cand, keys, size)
             size -= 1
-            cand[0] = cand[size]
-            _key_sift_down(cand, keys, 0, size)
             key = keys[i]
             d = leg[i]
             if key >= best_goal:
@@ -769,9 +790,7 @@ def _tree_first_leg(
     nb = box.shape[0]
     blb = np.empty(nb)
     for c in range(nb):
-        dx = box[c, 0] - sx if box[c, 0] > sx else (sx - box[c, 1] if sx > box[c, 1] else 0.0)
-        dy = box[c, 2] - sy if box[c, 2] > sy else (sy - box[c, 3] if sy > box[c, 3] else 0.0)
-        blb[c] = (math.sqrt(dx * dx + dy * dy) + box_d[c]) * (1.0 - 1e-12) - 1e-9
+        blb[c] = (_box_distance(sx, sy, box, c) + box_d[c]) * (1.0 - 1e-12) - 1e-9
     boxes = np.arange(nb)
     n_boxes = nb
     for pos in range(nb // 2 - 1, -1, -1):
@@ -784,12 +803,10 @@ def _tree_first_leg(
     next_recent = 0
     while True:
         while n_boxes > 0:
-            c = boxes[0]
-            if blb[c] == np.inf or (size > 0 and blb[c] > keys[cand[0]]):
+            if blb[boxes[0]] == np.inf or (size > 0 and blb[boxes[0]] > keys[cand[0]]):
                 break
+            c = _key_pop(boxes, blb, n_boxes)
             n_boxes -= 1
-            boxes[0] = boxes[n_boxes]
-            _key_sift_down(boxes, blb, 0, n_boxes)
             for p in range(box_start[c], box_start[c + 1]):
                 i = box_items[p]
                 if D[i] == np.inf:
@@ -797,15 +814,12 @@ def _tree_first_leg(
                 ex = P[i, 0] - sx
                 ey = P[i, 1] - sy
                 keys[i] = math.sqrt(ex * ex + ey * ey) + D[i]
-                cand[size] = i
+                _key_push(cand, keys, size, i)
                 size += 1
-                _key_sift_up(cand, keys, size - 1)
         if size == 0:
             return -1
-        i = cand[0]
+        i = _key_pop(cand, keys, size)
         size -= 1
-        cand[0] = cand[size]
-        _key_sift_down(cand, keys, 0, size)
         blocked = False
         for r in range(n_recent):  # the elements that blocked the last legs first: nearby legs share them
             if _element_blocks(sx, sy, P[i, 0], P[i, 1], thr, edges, circles, recent[r]):
@@ -1425,12 +1439,14 @@ class RecoveryPlanner:
         self._goal_margin: tuple[Point, float] | None = None  # the last goal :meth:`plan` was asked and its margin
 
     def prepare(self, goals: Sequence[Point] = ()) -> None:
-        """Build the graph (its nodes and edges, a lazy graph's too where it is compiled with a segment grid), the
-        segment grid and the goals' visible nodes now, not at the first question that needs them. The same graph
-        and the same routes: only when the work is done differs."""
+        """Build the graph (its nodes and edges, a lazy graph's too where it is compiled with a segment grid and has
+        at most :data:`FULL_GRAPH_MAX_NODES` nodes), the segment grid and, over a whole graph, the goals' visible
+        nodes and shortest-route trees now, not at the first question that needs them. The same graph and
+        routes as short: only when the work is done differs."""
         self._build_graph()
         grid = self._segment_grid()
-        if self._lazy and grid is not None and _jit.ACTIVE and tangent_pairs is not None and file_rows is not None:
+        whole = len(self._node_list) <= FULL_GRAPH_MAX_NODES and self._lazy and grid is not None and _jit.ACTIVE
+        if whole and tangent_pairs is not None and file_rows is not None and grid is not None:
             ptr, cols = tangent_pairs(self._nodes, self._cones, self._is_corner)
             row_start, row_len, store_j, store_w, used = self._edge_store()
             if int(used[0]) + len(cols) > len(store_j):
@@ -1440,13 +1456,13 @@ class RecoveryPlanner:
                              row_len, store_j, store_w, used)  # fmt: skip
             assert done  # (room for every candidate)
             self._full_graph = True
+        if not (self._full_graph and goal_tree is not None):
+            return  # (a lazy graph's goals find their visible nodes at their first search)
         for goal in goals:
             g = self._free_goal((float(goal[0]), float(goal[1])))
-            if g is not None and self._lazy:
-                goal_nodes = self._goal_nodes_of(g)
-                if self._full_graph and goal_tree is not None:
-                    self._trees[g] = self._goal_tree(goal_nodes)
-                    self._tree_route(g, g, g)  # (loads the compiled query now, not at the first route search)
+            if g is not None:
+                self._trees[g] = self._goal_tree(self._goal_nodes_of(g))
+                self._tree_route(g, g, g)  # (loads the compiled query now, not at the first route search)
 
     def _goal_tree(self, goal_nodes: dict[int, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(D, nxt, box_d)``: :func:`_goal_tree` of a goal seen by ``goal_nodes`` over the whole graph, and each
