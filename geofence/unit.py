@@ -261,10 +261,7 @@ class GeofenceUnit:
     def _margins(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> ShiftResult:
         k = self.config.uncertainty_k_sigma
         extra = self.config.extra_margin_m
-        if self._multirotor:
-            target = None
-        else:  # the cached target, or the method that finds and caches it
-            target = self._rollout_cache.get(_rollout_cell(s.east_m, s.north_m)) or self._rollout_target(s.east_m, s.north_m)
+        target = None if self._multirotor else self._rollout_target(s.east_m, s.north_m)
         if self._compiled is not None and _jit.ACTIVE:  # activation_margins' compiled call, its tables bound
             wind = self.wind_enu
             return self._compiled.margins(
@@ -565,7 +562,7 @@ class GeofenceUnit:
         unseen, so it adds to the reaction time in every margin. ``horizon``: the estimate at its newest
         fix's time of validity, if the estimator gives it: dead reckoning then starts there.
         """
-        self._latency_s = dt_s + (0.0 if estimate_age_s < 0.0 else estimate_age_s)  # (max(age, 0.0), a call less)
+        self._latency_s = dt_s + max(estimate_age_s, 0.0)
         if wind_en is not None:
             self.wind_enu[0], self.wind_enu[1] = wind_en
         if turbulence_sigma_mps is not None:
@@ -592,8 +589,7 @@ class GeofenceUnit:
                 est = reckoned
         # the attitudes of the last REPLAY_WINDOW_S (the dead reckoning replays them from the last fix)
         history.append(est)
-        oldest = t_s - REPLAY_WINDOW_S
-        while history[0].t_s < oldest:
+        while history[0].t_s < t_s - REPLAY_WINDOW_S:
             history.popleft()
         self.estimate = est
         self._sigma_v_m = sigma_v_m
@@ -617,8 +613,7 @@ class GeofenceUnit:
         # return_not_assured's test against its limits (computed once per envelope); its message only when it fails
         impossible = None if math.hypot(we, wn) + allowance < limit else self._return_impossible()
         if impossible is None:
-            if self._strong_wind_since_s is not None:
-                self._strong_wind_since_s = None
+            self._strong_wind_since_s = None
         else:
             if self._strong_wind_since_s is None:
                 self._strong_wind_since_s = t_s
