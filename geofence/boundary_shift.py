@@ -90,8 +90,7 @@ from .rooms import (
     gap_circle_turn_rad,
     multirotor_room_bound_m,
     multirotor_room_m,
-    reaction_arc_gap_m,
-    reaction_arc_m,
+    reaction_arc_terms_m,
     rollout_turns,
     tilt_accel_mps2,
     trochoid_excursion_m,
@@ -359,8 +358,8 @@ def activation_margins(
             v_n = ve * nx + vn * ny
             w_n = wind_e * nx + wind_n * ny + extra
             if fixed_wing:
-                base = reaction_arc_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n) + hu
-                gap = reaction_arc_gap_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n)
+                end, gap = reaction_arc_terms_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n)
+                base = end + hu
                 # air heading relative to the normal: angle from n to (ca, sa)
                 psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
             else:

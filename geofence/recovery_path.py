@@ -463,16 +463,23 @@ def _segment_clear_grid(
 
 
 @jitable
+def _segment_box(ax: float, ay: float, bx: float, by: float, thr: float) -> tuple[float, float, float, float]:
+    """``(xmin, xmax, ymin, ymax)``: a-b's bounding box grown by ``thr``."""
+    return (
+        (ax if ax <= bx else bx) - thr, (ax if ax >= bx else bx) + thr,
+        (ay if ay <= by else by) - thr, (ay if ay >= by else by) + thr,
+    )  # fmt: skip
+
+
+@jitable
 def _element_blocks(
-    ax: float, ay: float, bx: float, by: float, thr: float, edges: np.ndarray, circles: np.ndarray, k: int
-) -> bool:
-    """Does element ``k`` (an edge row, or ``len(edges)`` plus a circle row) come within ``thr`` of a-b?
-    :func:`_segment_blocker_grid`'s test of one element: an element it finds blocking, it finds blocking in the
-    same arithmetic wherever it meets it (every element within ``thr`` is filed along the segment)."""
-    xmin = (ax if ax <= bx else bx) - thr
-    xmax = (ax if ax >= bx else bx) + thr
-    ymin = (ay if ay <= by else by) - thr
-    ymax = (ay if ay >= by else by) + thr
+    ax: float, ay: float, bx: float, by: float, thr: float, box: tuple[float, float, float, float], edges: np.ndarray,
+    circles: np.ndarray, k: int,
+) -> bool:  # fmt: skip
+    """Does element ``k`` (an edge row, or ``len(edges)`` plus a circle row) come within ``thr`` of a-b (``box``:
+    :func:`_segment_box`)? :func:`_segment_blocker_grid`'s test of each element it meets, so an element found
+    blocking anywhere is found blocking by the walk too (every element within ``thr`` is filed along the segment)."""
+    xmin, xmax, ymin, ymax = box
     n_edges = edges.shape[0]
     if k < n_edges:
         if edges[k, 5] < xmin or edges[k, 4] > xmax or edges[k, 7] < ymin or edges[k, 6] > ymax:
@@ -488,13 +495,8 @@ def _segment_blocker_grid(
 ) -> int:  # fmt: skip
     """The first element :func:`_segment_clear_grid`'s walk finds within ``thr`` of a-b (an edge row, or
     ``len(edges)`` plus a circle row); -1: the segment is clear."""
-    t2 = thr * thr
-    xmin = (ax if ax <= bx else bx) - thr
-    xmax = (ax if ax >= bx else bx) + thr
-    ymin = (ay if ay <= by else by) - thr
-    ymax = (ay if ay >= by else by) + thr
+    box = _segment_box(ax, ay, bx, by, thr)
     sl = SEGMENT_GRID_SLACK_M
-    n_edges = edges.shape[0]
     lo_x = ax if ax <= bx else bx
     hi_x = ax if ax >= bx else bx
     ia = min(max(int((ax - x0) // cell), 0), nx - 1)
@@ -520,14 +522,8 @@ def _segment_blocker_grid(
         for j in range(ja, jb + dj, dj):
             c = j * nx + i
             for p in range(start[c], start[c + 1]):
-                k = items[p]
-                if k < n_edges:
-                    if edges[k, 5] < xmin or edges[k, 4] > xmax or edges[k, 7] < ymin or edges[k, 6] > ymax:
-                        continue
-                    if _edge_blocks(ax, ay, bx, by, edges[k, 0], edges[k, 1], edges[k, 2], edges[k, 3], t2):
-                        return int(k)
-                elif _circle_blocks(ax, ay, bx, by, thr, xmin, xmax, ymin, ymax, circles, k - n_edges):
-                    return int(k)
+                if _element_blocks(ax, ay, bx, by, thr, box, edges, circles, items[p]):
+                    return int(items[p])
     return -1
 
 
@@ -821,8 +817,9 @@ def _tree_first_leg(
         i = _key_pop(cand, keys, size)
         size -= 1
         blocked = False
+        box_i = _segment_box(sx, sy, P[i, 0], P[i, 1], thr)
         for r in range(n_recent):  # the elements that blocked the last legs first: nearby legs share them
-            if _element_blocks(sx, sy, P[i, 0], P[i, 1], thr, edges, circles, recent[r]):
+            if _element_blocks(sx, sy, P[i, 0], P[i, 1], thr, box_i, edges, circles, recent[r]):
                 blocked = True
                 break
         if not blocked:  # then the elements filed in the node's own cell: a leg to a node is often blocked there
@@ -830,7 +827,7 @@ def _tree_first_leg(
             cj = min(max(int((P[i, 1] - y0) // cell), 0), ny - 1)
             c = cj * nx + ci
             for p in range(start[c], start[c + 1]):
-                if _element_blocks(sx, sy, P[i, 0], P[i, 1], thr, edges, circles, items[p]):
+                if _element_blocks(sx, sy, P[i, 0], P[i, 1], thr, box_i, edges, circles, items[p]):
                     blocked = True
                     recent[next_recent] = items[p]
                     next_recent = (next_recent + 1) % recent.shape[0]
@@ -1461,15 +1458,25 @@ class RecoveryPlanner:
         for goal in goals:
             g = self._free_goal((float(goal[0]), float(goal[1])))
             if g is not None:
-                self._trees[g] = self._goal_tree(self._goal_nodes_of(g))
+                self._trees[g] = self._goal_tree(g)
                 self._tree_route(g, g, g)  # (loads the compiled query now, not at the first route search)
 
-    def _goal_tree(self, goal_nodes: dict[int, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(D, nxt, box_d)``: :func:`_goal_tree` of a goal seen by ``goal_nodes`` over the whole graph, and each
-        of :meth:`_node_boxes`' smallest ``D``."""
-        goal_d = np.full(len(self._node_list), math.inf)
-        for i, d in goal_nodes.items():
-            goal_d[i] = d
+    def _goal_lengths(self, goal: Point, goal_nodes: dict[int, float]) -> np.ndarray:
+        """``goal_nodes`` (the nodes that see ``goal``, :meth:`_goal_nodes_of`) as an array over every node,
+        infinite where the goal is not seen (the last goal's kept)."""
+        goal_d = self._goal_d.get(goal)
+        if goal_d is None:
+            goal_d = np.full(len(self._node_list), math.inf)
+            for i, d in goal_nodes.items():
+                goal_d[i] = d
+            self._goal_d.clear()
+            self._goal_d[goal] = goal_d
+        return goal_d
+
+    def _goal_tree(self, goal: Point) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(D, nxt, box_d)``: :func:`_goal_tree` of ``goal`` over the whole graph, and each of
+        :meth:`_node_boxes`' smallest ``D``."""
+        goal_d = self._goal_lengths(goal, self._goal_nodes_of(goal))
         row_start, row_len, store_j, store_w, _ = self._edge_store()
         assert goal_tree is not None
         D, nxt = goal_tree(goal_d, row_start, row_len, store_j, store_w)
@@ -2080,12 +2087,7 @@ class RecoveryPlanner:
     def _search_compiled(self, s: Point, goal: Point, goal_nodes: dict[int, float], m_s: float, allpts: list[Point]):
         """:meth:`_search`'s A* from a start in the free space, in one compiled call (:func:`_lazy_astar`, the same
         search); its context carries ``dist`` and ``pred`` as arrays, ``first`` as the count of first legs."""
-        goal_d = self._goal_d.get(goal)
-        if goal_d is None:
-            goal_d = np.full(len(self._node_list), math.inf)
-            for i, d in goal_nodes.items():
-                goal_d[i] = d
-            self._goal_d = {goal: goal_d}
+        goal_d = self._goal_lengths(goal, goal_nodes)
         grid = self._segment_grid()
         assert grid is not None and lazy_astar is not None  # (the caller's conditions)
         while True:
@@ -2181,7 +2183,7 @@ class RecoveryPlanner:
                 return RecoveryPath(self, [s, g], goal, True, floor)
         self._build_graph()
         if self._lazy and g is not None:
-            if in_free and g in self._trees:
+            if in_free:  # a prepared goal's tree answers without a search
                 route = self._tree_route(s, g, goal)
                 if route is not None:
                     return route

@@ -248,7 +248,18 @@ def reaction_arc_m(v_air: float, psi0: float, rot: float, omega: float, t: float
     counter-clockwise from east) rotates by ``-rot`` (rad; ``omega`` rad/s, + =
     clockwise); airspeed ``v_air`` and wind along the normal ``w_n`` in m/s.
     """
-    return reaction_arc_terms_m(v_air, psi0, rot, omega, t, nx, ny, w_n)[0]
+    return _reaction_arc_end_m(v_air, psi0, rot, omega, t, math.atan2(ny, nx), w_n)
+
+
+@jitable
+def _reaction_arc_end_m(v_air: float, psi0: float, rot: float, omega: float, t: float, theta: float, w_n: float) -> float:
+    """:func:`reaction_arc_m` for the normal at ENU angle ``theta``."""
+    if abs(rot) < 1e-6:
+        along = v_air * t * math.cos(psi0 - theta)
+    else:
+        along = (v_air / omega) * (math.sin(psi0 - theta) - math.sin(psi0 - rot - theta))
+    d = along + w_n * t
+    return d if d > 0.0 else 0.0
 
 
 @jitable
@@ -258,12 +269,7 @@ def reaction_arc_terms_m(
     """``(reaction_arc_m, reaction_arc_gap_m)`` of the same arguments, the normal's angle and the arc's end found
     once (the margins ask both of each element they score exactly)."""
     theta = math.atan2(ny, nx)
-    if abs(rot) < 1e-6:
-        along = v_air * t * math.cos(psi0 - theta)
-    else:
-        along = (v_air / omega) * (math.sin(psi0 - theta) - math.sin(psi0 - rot - theta))
-    d = along + w_n * t
-    end = d if d > 0.0 else 0.0
+    end = _reaction_arc_end_m(v_air, psi0, rot, omega, t, theta, w_n)
     if abs(rot) < 1e-6:
         return end, 0.0
     a = psi0 - theta

@@ -415,10 +415,12 @@ class GeofenceUnit:
         return p
 
     def prepare_routes(self) -> None:
-        """Build the recovery-route planner of the current clearance, its whole graph and the recovery point's
-        visible nodes now (otherwise the route searches build them as they go, mid-flight: about half a second
-        for the nodes of a 10,000-vertex fence with 500 keep-outs, then some 25 µs for each node a search first
-        expands). The same routes either way."""
+        """Build the recovery-route planner of the current clearance now, before flight: its graph (every edge,
+        up to :data:`~geofence.recovery_path.FULL_GRAPH_MAX_NODES` nodes) and the recovery point's shortest-route
+        tree, with which a route search there tests a few first legs instead of searching
+        (:meth:`RecoveryPlanner.prepare`). Otherwise the searches build the graph as they go, mid-flight (about
+        half a second for the nodes of a 10,000-vertex fence with 500 keep-outs, then some 25 µs for each node a
+        search first expands). Routes as short either way."""
         self._planner(self._route_clearances()[0]).prepare(goals=(self.fence.recovery_en,))
 
     def _route_clearances(self) -> tuple[float, ...]:
