@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from aircraft.factory import build_platform
@@ -44,6 +45,8 @@ GEOFENCE_CASES = {
     "F450": ROOT / "scenarios" / "geofence_multicopter_adversarial_wind.yaml",
     "Tern": ROOT / "scenarios" / "geofence_fixedwing_adversarial_wind.yaml",
 }
+TARGET = 0.6
+"""Closed loop with the geofence, its sensors and estimators, over bare JSBSim with the flight controller."""
 
 
 def bare_rate(model: str, frames: int, with_fc: bool) -> float:
@@ -68,13 +71,28 @@ def bare_rate(model: str, frames: int, with_fc: bool) -> float:
 def closed_rate(path: Path, seconds: float) -> tuple[float, float]:
     """``(frames/s of the stepping loop, frames/s of the whole flight)``: the loop alone is measured as bare
     JSBSim is (no model loading); the whole flight adds loading the model and the fence and scoring it."""
-    sc = load_scenario(path)
-    from dataclasses import replace
-
-    sc = replace(sc, duration_s=seconds)
-    res = fly(sc)
+    res = fly(replace(load_scenario(path), duration_s=seconds))
     frames = res.summary["jsbsim_frames"]
     return frames / res.summary["loop_wall_time_s"], frames / res.summary["wall_time_s"]
+
+
+def frames_per_step(path: Path) -> int:
+    """JSBSim frames per outer-loop step of a scenario (its control rate against the model's frame rate)."""
+    sc = load_scenario(path)
+    return max(1, round(sc.profile.frame_rate_hz / sc.control_rate_hz))
+
+
+def budget_line(model: str, bare_fps: float, fenced_fps: float, frames: int, target: float = TARGET) -> str:
+    """Where the geofence flight's step goes, from the rates measured: the bare physics of its frames, the
+    rest (everything the loop adds, including the caches the physics loses to it), and what ``target`` allows."""
+    physics_us = 1e6 * frames / bare_fps
+    step_us = 1e6 * frames / fenced_fps
+    allowed_us = physics_us / target
+    return (
+        f"{model}: {frames} frames a step; bare physics {physics_us:.1f} us, the geofence flight's step {step_us:.1f} us"
+        f" ({step_us - physics_us:.1f} us beyond the bare physics); at {target} of bare a step may take"
+        f" {allowed_us:.1f} us ({allowed_us - physics_us:.1f} us beyond)"
+    )
 
 
 def main() -> None:
@@ -92,6 +110,7 @@ def main() -> None:
         f" {'closed/bare':>12s} {'geofence/bare':>14s} {'(Python ref.)':>14s} {'closed/shipped':>15s}"
         f" {'whole flight: closed, +geofence /bare':>38s}"
     )
+    budgets = []
     for model in CASES:
         shipped, bare, closed, fenced, fenced_py, closed_all, fenced_all = [], [], [], [], [], [], []
         for _ in range(args.repeats):
@@ -116,6 +135,10 @@ def main() -> None:
             f"{model:6s} {s:12.0f} {b:12.0f} {c:11.0f} {g:10.0f} {c / b:12.2f} {g / b:14.2f} {gp / b:14.2f}"
             f" {c / s:15.2f} {ca / b:27.2f}, {ga / b:.2f}"
         )
+        budgets.append(budget_line(model, b, g, frames_per_step(GEOFENCE_CASES[model])))
+    print("\nper outer-loop step (from the medians above):")
+    for line in budgets:
+        print("  " + line)
 
 
 if __name__ == "__main__":
