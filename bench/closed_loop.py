@@ -76,12 +76,6 @@ def closed_rate(path: Path, seconds: float) -> tuple[float, float]:
     return frames / res.summary["loop_wall_time_s"], frames / res.summary["wall_time_s"]
 
 
-def frames_per_step(path: Path) -> int:
-    """JSBSim frames per outer-loop step of a scenario (its control rate against the model's frame rate)."""
-    sc = load_scenario(path)
-    return max(1, round(sc.profile.frame_rate_hz / sc.control_rate_hz))
-
-
 def budget_line(model: str, bare_fps: float, fenced_fps: float, frames: int, target: float = TARGET) -> str:
     """Where the geofence flight's step goes, from the rates measured: the bare physics of its frames, the
     rest (everything the loop adds, including the caches the physics loses to it), and what ``target`` allows."""
@@ -135,7 +129,7 @@ def main() -> None:
             f"{model:6s} {s:12.0f} {b:12.0f} {c:11.0f} {g:10.0f} {c / b:12.2f} {g / b:14.2f} {gp / b:14.2f}"
             f" {c / s:15.2f} {ca / b:27.2f}, {ga / b:.2f}"
         )
-        budgets.append(budget_line(model, b, g, frames_per_step(GEOFENCE_CASES[model])))
+        budgets.append(budget_line(model, b, g, load_scenario(GEOFENCE_CASES[model]).frames_per_step))
     print("\nper outer-loop step (from the medians above):")
     for line in budgets:
         print("  " + line)

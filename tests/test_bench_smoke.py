@@ -20,7 +20,8 @@ BENCH = Path(__file__).parents[1] / "bench"
     "script, args, expect",
     [
         ("component_costs.py", ["--calls", "20", "--repeats", "2"], "JSBSim frames"),
-        ("closed_loop.py", ["--seconds", "1", "--repeats", "1"], "closed/bare"),
+        ("closed_loop.py", ["--seconds", "1", "--repeats", "1"], "beyond the bare physics"),
+        ("loop_floor.py", ["--seconds", "1", "--repeats", "1"], "floor + a compiled call"),
         ("fence_scale.py", ["--quick", "--sizes", "4x0,100x0", "--repeats", "1", "--out", "{tmp}/fs.png"], "figure:"),
         ("scoring.py", ["--repeats", "1", "--sizes", "2000"], "samples"),
     ],

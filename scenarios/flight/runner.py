@@ -78,7 +78,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     platform.set_wind_enu(*sample_wind(0.0, 0.0, 0.0, st.agl_m, st.airspeed_mps or env.cruise_speed_mps))
     platform.reset(frame, st.lat_deg, st.lon_deg, st.agl_m, st.heading_deg, st.airspeed_mps)
 
-    frames_per_step = max(1, round(1.0 / (scenario.control_rate_hz * platform.dt_s)))
+    frames_per_step = scenario.frames_per_step  # (the platform's dt_s is 1 / profile.frame_rate_hz)
     dt_s = frames_per_step * platform.dt_s
     n_steps = int(math.ceil(scenario.duration_s / dt_s))
     recorder = Recorder(n_steps + 1)

@@ -341,6 +341,12 @@ class Scenario:
         """The flight's local ENU frame (:attr:`StartConfig.frame`)."""
         return self.start.frame
 
+    @property
+    def frames_per_step(self) -> int:
+        """JSBSim frames per outer-loop step: the model's frame time (``1 / profile.frame_rate_hz``, the
+        platform's ``dt_s``) into the control period, rounded, at least 1."""
+        return max(1, round(1.0 / (self.control_rate_hz * (1.0 / self.profile.frame_rate_hz))))
+
     def local_fence(self) -> LocalFence | None:
         """The geofence's fence in :attr:`frame` (None without a geofence)."""
         return self.geofence.fence.to_local(self.frame) if self.geofence is not None else None
