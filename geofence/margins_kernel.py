@@ -255,15 +255,49 @@ def _margins(
                 G = _table(F, L, GAP_EDGES, 7)[edge_offsets[gi] : edge_offsets[gi + 1]]
                 cnt = G.shape[0]
                 g1, gd1, g2, gd2 = s1, delta1, s2, delta2
+                circle = 0.0
                 if fixed_wing:  # it circles, the way it turns, until it has climbed back from its deepest point
                     deepest = h - vertical_arrest_distance_m(-vu, t_r, V[VERTICAL_ACCEL]) - v_unc
                     g1 = g2 = s_best
-                    gd1 = gd2 = gap_circle_turn_rad(floor - deepest, V[MAX_CLIMB], inv_omega)
+                    gd1 = gd2 = circle = gap_circle_turn_rad(floor - deepest, V[MAX_CLIMB], inv_omega)
+                g_ids = np.arange(cnt)
+                g_lbs = np.zeros(cnt)
                 g_act = lateral_binding(
-                    G, np.arange(cnt), np.zeros(cnt), False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n,
+                    G, g_ids, g_lbs, False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n,
                     extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, g1, gd1, g2,
                     gd2, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, 0, True,
                 )[0]  # fmt: skip
+                if fixed_wing:
+                    # the turn is one for the keep-in and the gap together (activation_margins: the reference)
+                    s_o, delta_o = (s2, delta2) if s_best == s1 else (s1, delta1)
+                    g_o = lateral_binding(
+                        G, g_ids, g_lbs, False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n,
+                        extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s_o, circle,
+                        s_o, circle, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, 0, True,
+                    )[0]  # fmt: skip
+                    gc_best = gd if gd < g_act else g_act
+                    gc_o = gd if gd < g_o else g_o
+                    floor_best = f_act if f_act > gc_best else gc_best
+                    floor_o = f_act if f_act > gc_o else gc_o
+                    ceiling_act = c_m - c_s
+                    now = min(lat_act, floor_best, ceiling_act)
+                    if floor_o > floor_best and min(floor_o, ceiling_act) > now:
+                        o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = lateral_binding(
+                            _table(F, L, ELEMENTS, 7), _vector(L, IDS), _column(F, L, ZEROS), False, e, n, bound, 0.0,
+                            fixed_wing, ve, vn, wind_e, wind_n, extra, hu, v_turn, psi_react0, rot, omega_now, t_fw,
+                            sa, ca, radius, inv_omega, s_o, delta_o, s_o, delta_o, k1, k2, wspeed, speed, a_pilot, t_r,
+                            a_brake, arrest_t, arrest_loss, int(S[LINE_EDGES]), lat_margin >= 0.0,
+                        )  # fmt: skip
+                        if min(o_act if o_act < lat_margin else lat_margin, floor_o, ceiling_act) > now:
+                            lat_act, s_best, i_bind, room = o_act, o_s, o_bind, o_room
+                            nx, ny, d_edge, v_n, turn_angle = o_nx, o_ny, o_d, o_vn, o_angle
+                            if lat_margin < lat_act:
+                                lat_act = lat_margin
+                            if lat_margin <= 0.0:
+                                ttb = 0.0
+                            else:
+                                ttb = d_edge / v_n if v_n > 1e-9 else math.inf
+                            g_act = g_o
                 if g_act > gd:
                     g_act = gd
                 if g_act > f_act:

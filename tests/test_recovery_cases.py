@@ -22,7 +22,9 @@ WGS-84 at the site) and flown in closed loop with the unit's own sensors:
   margin must see the edge far along the circle that the drifting turn leaves through;
 * fixed-wings below the floor in a gap (floor_gaps-0086, -0215): circle, climb, hand back only above it;
 * a Tern in a corridor narrower than its turn (corridor-0455): it rolls out towards its route ahead;
-* a multirotor landing in a gap with its estimate metres off (floor_gaps-0143): it keeps k·σ_h from the edge.
+* a multirotor landing in a gap with its estimate metres off (floor_gaps-0143): it keeps k·σ_h from the edge;
+* a fixed-wing below the floor in a gap, its keep-in's turn leading out of the gap (floor_gaps-0305): the turn
+  is chosen for both.
 """
 
 from __future__ import annotations
@@ -369,4 +371,19 @@ def test_a_multirotor_lands_in_a_gap_beyond_its_position_uncertainty():
     res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_floor_gaps_0143_land_beyond_uncertainty.yaml"))
     assert res.unit is not None and res.unit.mode.name == "LAND_IN_GAP"
     assert not res.summary["landed_outside_gap"]
+    assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
+
+
+def test_a_fixed_wing_below_the_floor_in_a_gap_turns_the_way_its_circle_stays_in_the_gap():
+    """A J3Cub circling 9 m below the floor inside a floor gap, 88 m from its edge (campaign seed 26112029,
+    floor_gaps-0305, 1,280 m site). The margins scored its climb-back circle in the turn that was best for the
+    keep-in, 500 m away; as its heading swept round, that turn flipped to the one leading out of the gap and the
+    floor activation fell from +37 m to -24 m in a step. The override flew that turn, climbing slowly at the
+    site, and left the gap 4.1 m below the floor. The turn is now chosen for the keep-in and the gap together
+    (the other turn is scored, and flown, where it keeps the gap better and the keep-in allows it)."""
+    res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_floor_gaps_0305_gap_turn.yaml"))
+    assert res.fence is not None and res.fence.floor_m is not None
+    c = res.recorder.column
+    below = (c("geofence_mode") == 1) & (c("agl_m") < res.fence.floor_m)
+    assert below.any()  # the override acted below the floor
     assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
