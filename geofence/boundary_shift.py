@@ -302,7 +302,13 @@ def activation_margins(
     hover: the override keeps it circling at the bank limit, the way it turns,
     until it has climbed back above the floor from the deepest point its
     descent reaches, and the circle drifts with the wind: its gap room is that
-    whole circling turn (:func:`geofence.rooms.gap_circle_turn_rad`).
+    whole circling turn (:func:`geofence.rooms.gap_circle_turn_rad`). That turn
+    is one for the keep-in and the gap together: the keep-in's best turn, or
+    the other one where its circle keeps the gap better and its lateral
+    activation allows it (then the result's turn, lateral element and room are
+    that turn's, and the override flies it). Scored in the keep-in's turn
+    alone, a heading sweeping round flipped the circle out of the gap within a
+    step (campaign seed 26112029, floor_gaps-0305).
     Plain-Python scalar code for the per-step loop.
     """
     if compiled is None:
