@@ -237,3 +237,34 @@ def test_the_join_from_the_last_waypoint_out_to_its_orbit_is_checked():
     assert out and all(x.part is RoutePart.LOITER and x.index == 3 for x in out), out
     res = fly(sc)
     assert res.summary["mission_finished"] and res.summary["activations"] >= 1
+
+
+def test_a_near_reversal_is_checked_both_ways_round():
+    """A fixed-wing turning back onto a leg 170 deg from the incoming one may go either way round: the
+    navigator turns the way its course error points when it switches legs, and its vector field's approach
+    angle and the crab move that error by tens of degrees (campaign seed 26112030, corridor-0320: a J3Cub
+    turned left where the check had turned it right, and was overridden in a mission that had passed). With an
+    edge close on the short way's outside the reversal is flagged, and it is flagged the same with the edge on
+    the long way's outside; a 90 deg turn is still checked the short way only."""
+    from geofence.preflight import BOTH_WAYS_ABOVE_RAD, turn_samples
+
+    a, b = PlannedWaypoint(-400.0, 0.0, 80.0), PlannedWaypoint(0.0, 0.0, 80.0)
+    back = PlannedWaypoint(-400.0, -70.0, 80.0)  # 170 deg to the right of the way in (the short way: right)
+    right = turn_samples(FW, a, b, back, 16.0, (0.0, 0.0))
+    left = turn_samples(FW, a, b, back, 16.0, (0.0, 0.0), 1.0)
+    assert max(p.n for p in right) < 1.0 and min(p.n for p in left) > -1.0  # the two ways sweep opposite sides
+    assert math.degrees(math.atan2(left[-1].vn, left[-1].ve)) % 360.0 == pytest.approx(190.0, abs=10.0)
+    assert math.radians(170.0) > BOTH_WAYS_ABOVE_RAD > math.radians(90.0)
+    r = max(p.n for p in left)  # how far the left way sweeps north
+    for edge_north in (r + 8.0, 600.0):  # an edge just beyond the left way's sweep, or far
+        f = parse_geofence(
+            {"fence": {"keep_in": [list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in ((-900.0, -900.0), (900.0, -900.0), (900.0, edge_north), (-900.0, edge_north))], "ceiling_m": 150.0}}  # fmt: skip
+        ).fence.to_local(FRAME)
+        flagged = [x for x in check_route(f, FW, [a, b, back], 16.0) if x.part is RoutePart.TURN]
+        assert bool(flagged) == (edge_north < 600.0), (edge_north, flagged)
+    # a right angle goes the short way only: the same edge beyond its long way's sweep is not flagged
+    c = PlannedWaypoint(0.0, -300.0, 80.0)
+    f = parse_geofence(
+        {"fence": {"keep_in": [list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in ((-900.0, -900.0), (900.0, -900.0), (900.0, r + 8.0), (-900.0, r + 8.0))], "ceiling_m": 150.0}}  # fmt: skip
+    ).fence.to_local(FRAME)
+    assert not [x for x in check_route(f, FW, [a, b, c], 16.0) if x.part is RoutePart.TURN]
