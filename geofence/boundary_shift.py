@@ -77,7 +77,7 @@ from . import jit as _jit
 from .dynamics import drag_coefficients, wind_push_mps2
 from .fence import AltitudeReference, FenceError
 from .interface import Envelope, PlatformKind, VehicleState
-from .lateral_kernel import circle_scored, edge_scored, lateral_binding
+from .lateral_kernel import capped_lateral, circle_scored, edge_scored, lateral_binding
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 from .margins_kernel import envelope_terms
 from .margins_kernel import margins as margins_kernel
@@ -444,12 +444,7 @@ def activation_margins(
                 if d < min_d:
                     min_d = d
         lat_act, s_best, (room, feat, idx, j, nx, ny, d_edge, v_n), turn_angle = worst_edge(dists, min_d)
-    if lat_margin < lat_act:
-        lat_act = lat_margin
-    if lat_margin <= 0.0:
-        ttb = 0.0
-    else:
-        ttb = d_edge / v_n if v_n > 1e-9 else math.inf
+    lat_act, ttb = capped_lateral(lat_act, lat_margin, d_edge, v_n)
 
     # vertical
     c_m = fence.ceiling_m - h
@@ -493,9 +488,7 @@ def activation_margins(
                         if min(o_act if o_act < lat_margin else lat_margin, floor_o, c_m - c_s) > now:
                             lat_act, s_best, room, feat, idx, j = o_act, o_s, o_room, o_feat, o_idx, o_j
                             nx, ny, d_edge, v_n, turn_angle = o_nx, o_ny, o_d, o_vn, o_angle
-                            if lat_margin < lat_act:
-                                lat_act = lat_margin
-                            ttb = 0.0 if lat_margin <= 0.0 else (d_edge / v_n if v_n > 1e-9 else math.inf)
+                            lat_act, ttb = capped_lateral(lat_act, lat_margin, d_edge, v_n)
                             g_act = g_o
                 if g_act > gd:
                     g_act = gd

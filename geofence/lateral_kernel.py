@@ -34,7 +34,7 @@ from geofence.dynamics import wind_push_mps2
 from geofence.jit import COMPILED, jitable, numba
 from geofence.rooms import multirotor_room_m, reaction_arc_terms_m, trochoid_excursion_m
 
-__all__ = ["circle_scored", "edge_scored", "element_table", "lateral_binding", "nearest_distance"]
+__all__ = ["capped_lateral", "circle_scored", "edge_scored", "element_table", "lateral_binding", "nearest_distance"]
 
 FIXED_WING_SCRATCH_ROWS = 8
 """The scratch rows :func:`_fixed_wing_binding` takes (its per-element terms)."""
@@ -301,6 +301,17 @@ def edge_scored(
     elif free and d > 0.0 and px * nx + py * ny > 0.0:  # faces away from a point in the free space
         return d, d, -qx / d, -qy / d
     return d, d, nx, ny
+
+
+@jitable
+def capped_lateral(lat_act: float, lat_margin: float, d_edge: float, v_n: float) -> tuple[float, float]:
+    """``(lateral activation, time to breach)`` of a binding element: its activation no larger than the
+    lateral margin, and 0 s once breached, else its distance over the closing speed (inf when not closing)."""
+    if lat_margin < lat_act:
+        lat_act = lat_margin
+    if lat_margin <= 0.0:
+        return lat_act, 0.0
+    return lat_act, (d_edge / v_n if v_n > 1e-9 else math.inf)
 
 
 def circle_scored(e: float, n: float, ce: float, cn: float, r: float) -> tuple[float, float, float]:

@@ -31,7 +31,7 @@ from geofence.cpython_math import hypot
 from geofence.dynamics import drag_coefficients
 from geofence.interface import Envelope, PlatformKind
 from geofence.jit import COMPILED, jitable, numba
-from geofence.lateral_kernel import lateral_binding
+from geofence.lateral_kernel import capped_lateral, lateral_binding
 from geofence.rooms import (
     climb_arrest_phase,
     climb_back_drift_m,
@@ -227,12 +227,7 @@ def _margins(
         v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
         k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, int(S[LINE_EDGES]), lat_margin >= 0.0,
     )  # fmt: skip
-    if lat_margin < lat_act:
-        lat_act = lat_margin
-    if lat_margin <= 0.0:
-        ttb = 0.0
-    else:
-        ttb = d_edge / v_n if v_n > 1e-9 else math.inf
+    lat_act, ttb = capped_lateral(lat_act, lat_margin, d_edge, v_n)
 
     # vertical
     c_m = S[CEILING] - h
@@ -291,12 +286,7 @@ def _margins(
                         if min(o_act if o_act < lat_margin else lat_margin, floor_o, ceiling_act) > now:
                             lat_act, s_best, i_bind, room = o_act, o_s, o_bind, o_room
                             nx, ny, d_edge, v_n, turn_angle = o_nx, o_ny, o_d, o_vn, o_angle
-                            if lat_margin < lat_act:
-                                lat_act = lat_margin
-                            if lat_margin <= 0.0:
-                                ttb = 0.0
-                            else:
-                                ttb = d_edge / v_n if v_n > 1e-9 else math.inf
+                            lat_act, ttb = capped_lateral(lat_act, lat_margin, d_edge, v_n)
                             g_act = g_o
                 if g_act > gd:
                     g_act = gd
