@@ -239,6 +239,13 @@ def test_the_join_from_the_last_waypoint_out_to_its_orbit_is_checked():
     assert res.summary["mission_finished"] and res.summary["activations"] >= 1
 
 
+def _box(north_m: float):
+    """A keep-in from -900 m to +900 m east and from -900 m to ``north_m`` north, ceiling 150 m."""
+    corners = ((-900.0, -900.0), (900.0, -900.0), (900.0, north_m), (-900.0, north_m))
+    keep_in = [list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in corners]
+    return parse_geofence({"fence": {"keep_in": keep_in, "ceiling_m": 150.0}}).fence.to_local(FRAME)
+
+
 def test_a_near_reversal_is_checked_both_ways_round():
     """A fixed-wing turning back onto a leg 170 deg from the incoming one may go either way round: the
     navigator turns the way its course error points when it switches legs, and its vector field's approach
@@ -257,14 +264,10 @@ def test_a_near_reversal_is_checked_both_ways_round():
     assert math.radians(170.0) > BOTH_WAYS_ABOVE_RAD > math.radians(90.0)
     r = max(p.n for p in left)  # how far the left way sweeps north
     for edge_north in (r + 8.0, 600.0):  # an edge just beyond the left way's sweep, or far
-        f = parse_geofence(
-            {"fence": {"keep_in": [list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in ((-900.0, -900.0), (900.0, -900.0), (900.0, edge_north), (-900.0, edge_north))], "ceiling_m": 150.0}}  # fmt: skip
-        ).fence.to_local(FRAME)
+        f = _box(edge_north)
         flagged = [x for x in check_route(f, FW, [a, b, back], 16.0) if x.part is RoutePart.TURN]
         assert bool(flagged) == (edge_north < 600.0), (edge_north, flagged)
     # a right angle goes the short way only: the same edge beyond its long way's sweep is not flagged
     c = PlannedWaypoint(0.0, -300.0, 80.0)
-    f = parse_geofence(
-        {"fence": {"keep_in": [list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in ((-900.0, -900.0), (900.0, -900.0), (900.0, r + 8.0), (-900.0, r + 8.0))], "ceiling_m": 150.0}}  # fmt: skip
-    ).fence.to_local(FRAME)
+    f = _box(r + 8.0)
     assert not [x for x in check_route(f, FW, [a, b, c], 16.0) if x.part is RoutePart.TURN]
