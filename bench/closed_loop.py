@@ -49,6 +49,21 @@ TARGET = 0.6
 """Closed loop with the geofence, its sensors and estimators, over bare JSBSim with the flight controller."""
 
 
+def positive(kind: type):
+    """An argparse type: a number of ``kind`` above 0 (else argparse's one-line error and exit 2)."""
+
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not value > 0:
+            raise argparse.ArgumentTypeError(f"{text} must be above 0")
+        return value
+
+    return parse
+
+
 def bare_rate(model: str, frames: int, with_fc: bool) -> float:
     platform = build_platform(model)
     sc = load_scenario(CASES[model])
@@ -91,10 +106,10 @@ def budget_line(model: str, bare_fps: float, fenced_fps: float, frames: int, tar
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seconds", type=float, default=60.0, help="simulated seconds per closed-loop run (default 60)")
+    ap.add_argument("--seconds", type=positive(float), default=60.0, help="simulated seconds per closed-loop run (default 60)")
     ap.add_argument(
         "--repeats",
-        type=int,
+        type=positive(int),
         default=9,
         help="interleaved repeats, median reported (default 9: a 60 s flight takes well under a second)",
     )

@@ -39,7 +39,7 @@ from scenarios.flight.runner import fly
 from scenarios.spec.schema import Scenario, load_scenario
 
 sys.path.insert(0, str(Path(__file__).parent))
-from closed_loop import GEOFENCE_CASES, TARGET, bare_rate  # noqa: E402  (one definition of bare and the target)
+from closed_loop import GEOFENCE_CASES, TARGET, bare_rate, positive  # noqa: E402  (one definition of bare and the target)
 
 RECORDED = ("cmd_roll", "cmd_pitch", "cmd_yaw", "cmd_throttle", "wind_east_mps", "wind_north_mps", "wind_up_mps")
 CALL_ITERATIONS = (0, 1000, 2500, 5000, 10000)
@@ -104,8 +104,8 @@ def call_us(call, iterations: int, calls: int = 20000) -> float:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--model", choices=sorted(GEOFENCE_CASES), default="Tern", help="platform (default Tern)")
-    ap.add_argument("--seconds", type=float, default=60.0, help="simulated seconds of the flight (default 60)")
-    ap.add_argument("--repeats", type=int, default=5, help="interleaved repeats, median reported (default 5)")
+    ap.add_argument("--seconds", type=positive(float), default=60.0, help="simulated seconds of the flight (default 60)")
+    ap.add_argument("--repeats", type=positive(int), default=5, help="interleaved repeats, median reported (default 5)")
     args = ap.parse_args()
     sc = replace(load_scenario(GEOFENCE_CASES[args.model]), duration_s=args.seconds)
     rows = recorded_inputs(sc)

@@ -79,7 +79,7 @@ from .fence import AltitudeReference, FenceError
 from .interface import Envelope, PlatformKind, VehicleState
 from .lateral_kernel import capped_lateral, circle_scored, edge_scored, lateral_binding
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
-from .margins_kernel import envelope_terms
+from .margins_kernel import envelope_terms, floor_with_gap_m
 from .margins_kernel import margins as margins_kernel
 from .margins_kernel import monitor_margins as monitor_margins_kernel
 from .rooms import (
@@ -459,41 +459,38 @@ def activation_margins(
             if gd > 0.0:  # over a gap: staying inside it (laterally) also keeps the floor
                 gdists, gmin = _edge_distances(fence.gap_edges(gi), e, n, 0, True)  # (inside the gap: free of it)
                 if not fixed_wing:
-                    g_act = worst_edge(gdists, gmin, directions)[0]
+                    f_act = floor_with_gap_m(f_act, worst_edge(gdists, gmin, directions)[0], gd)
                 else:  # it circles, the way it turns, until it has climbed back from its deepest point
                     deepest = h - vertical_arrest_distance_m(-vu, t_r, envelope.vertical_accel_mps2) - v_uncertainty_m
                     circle = gap_circle_turn_rad(fence.floor_m - deepest, envelope.max_climb_rate_mps, inv_omega)
-                    g_act = worst_edge(gdists, gmin, ((s_best, circle),))[0]
+                    floor_best = floor_with_gap_m(f_act, worst_edge(gdists, gmin, ((s_best, circle),))[0], gd)
                     # the turn is one for the keep-in and the gap together: where the other turn's circle keeps
-                    # the gap better and its lateral activation allows it, it is the one scored (and flown)
-                    (sa1, da1), (sa2, da2) = directions
-                    s_o, delta_o = (sa2, da2) if s_best == sa1 else (sa1, da1)
-                    g_o = worst_edge(gdists, gmin, ((s_o, circle),))[0]
-                    floor_best = f_act if f_act > min(g_act, gd) else min(g_act, gd)
-                    floor_o = f_act if f_act > min(g_o, gd) else min(g_o, gd)
-                    now = min(lat_act, floor_best, c_m - c_s)
-                    if floor_o > floor_best and min(floor_o, c_m - c_s) > now:
-                        # the binding lateral element for the other turn alone (the candidates just scored)
-                        if compiled:
-                            o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = lateral_binding(
-                                E, ids, lbs, walk, e, n, bound, delta_c, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
-                                v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s_o, delta_o, s_o,
-                                delta_o, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss,
-                                fence.line_scored_edges(), free,
-                            )  # fmt: skip
-                            o_feat, o_idx, o_j = meta[o_bind]
-                        else:
-                            o_act, o_s, o_terms, o_angle = worst_edge(dists, min_d, ((s_o, delta_o),))
-                            o_room, o_feat, o_idx, o_j, o_nx, o_ny, o_d, o_vn = o_terms
-                        if min(o_act if o_act < lat_margin else lat_margin, floor_o, c_m - c_s) > now:
-                            lat_act, s_best, room, feat, idx, j = o_act, o_s, o_room, o_feat, o_idx, o_j
-                            nx, ny, d_edge, v_n, turn_angle = o_nx, o_ny, o_d, o_vn, o_angle
-                            lat_act, ttb = capped_lateral(lat_act, lat_margin, d_edge, v_n)
-                            g_act = g_o
-                if g_act > gd:
-                    g_act = gd
-                if g_act > f_act:
-                    f_act = g_act
+                    # the gap better and its lateral activation allows it, it is the one scored (and flown); it
+                    # can raise the floor's activation only below the gap's own room
+                    if floor_best < gd:
+                        (sa1, da1), (sa2, da2) = directions
+                        s_o, delta_o = (sa2, da2) if s_best == sa1 else (sa1, da1)
+                        floor_o = floor_with_gap_m(f_act, worst_edge(gdists, gmin, ((s_o, circle),))[0], gd)
+                        now = min(lat_act, floor_best, c_m - c_s)
+                        if floor_o > floor_best and min(floor_o, c_m - c_s) > now:
+                            # the binding lateral element for the other turn alone (the candidates just scored)
+                            if compiled:
+                                o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = lateral_binding(
+                                    E, ids, lbs, walk, e, n, bound, delta_c, fixed_wing, ve, vn, wind_e, wind_n,
+                                    extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega,
+                                    s_o, delta_o, s_o, delta_o, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t,
+                                    arrest_loss, fence.line_scored_edges(), free,
+                                )  # fmt: skip
+                                o_feat, o_idx, o_j = meta[o_bind]
+                            else:
+                                o_act, o_s, o_terms, o_angle = worst_edge(dists, min_d, ((s_o, delta_o),))
+                                o_room, o_feat, o_idx, o_j, o_nx, o_ny, o_d, o_vn = o_terms
+                            o_lat, o_ttb = capped_lateral(o_act, lat_margin, o_d, o_vn)
+                            if min(o_lat, floor_o, c_m - c_s) > now:
+                                lat_act, ttb, s_best, room, feat, idx, j = o_lat, o_ttb, o_s, o_room, o_feat, o_idx, o_j
+                                nx, ny, d_edge, v_n, turn_angle = o_nx, o_ny, o_d, o_vn, o_angle
+                                floor_best = floor_o
+                    f_act = floor_best
         f_s = f_m - f_act
     v_act = min(c_m - c_s, f_act)
     if c_m <= 0.0 or f_m <= 0.0:

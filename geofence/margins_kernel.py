@@ -232,6 +232,7 @@ def _margins(
     # vertical
     c_m = S[CEILING] - h
     c_s = vertical_arrest_distance_m(vu, t_r, V[VERTICAL_ACCEL]) + v_unc
+    ceiling_act = c_m - c_s
     if S[HAS_FLOOR] == 0.0:
         f_m, f_s, f_act = math.inf, 0.0, math.inf
     else:
@@ -262,19 +263,17 @@ def _margins(
                     extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, g1, gd1, g2,
                     gd2, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, 0, True,
                 )[0]  # fmt: skip
-                if fixed_wing:
-                    # the turn is one for the keep-in and the gap together (activation_margins: the reference)
+                floor_best = floor_with_gap_m(f_act, g_act, gd)
+                if fixed_wing and floor_best < gd:
+                    # the turn is one for the keep-in and the gap together (activation_margins: the reference);
+                    # the other turn's circle can raise the floor's activation only below the gap's own room
                     s_o, delta_o = (s2, delta2) if s_best == s1 else (s1, delta1)
                     g_o = lateral_binding(
                         G, g_ids, g_lbs, False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n,
                         extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s_o, circle,
                         s_o, circle, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, 0, True,
                     )[0]  # fmt: skip
-                    gc_best = gd if gd < g_act else g_act
-                    gc_o = gd if gd < g_o else g_o
-                    floor_best = f_act if f_act > gc_best else gc_best
-                    floor_o = f_act if f_act > gc_o else gc_o
-                    ceiling_act = c_m - c_s
+                    floor_o = floor_with_gap_m(f_act, g_o, gd)
                     now = min(lat_act, floor_best, ceiling_act)
                     if floor_o > floor_best and min(floor_o, ceiling_act) > now:
                         o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = lateral_binding(
@@ -283,17 +282,13 @@ def _margins(
                             sa, ca, radius, inv_omega, s_o, delta_o, s_o, delta_o, k1, k2, wspeed, speed, a_pilot, t_r,
                             a_brake, arrest_t, arrest_loss, int(S[LINE_EDGES]), lat_margin >= 0.0,
                         )  # fmt: skip
-                        if min(o_act if o_act < lat_margin else lat_margin, floor_o, ceiling_act) > now:
-                            lat_act, s_best, i_bind, room = o_act, o_s, o_bind, o_room
+                        o_lat, o_ttb = capped_lateral(o_act, lat_margin, o_d, o_vn)
+                        if min(o_lat, floor_o, ceiling_act) > now:
+                            lat_act, ttb, s_best, i_bind, room = o_lat, o_ttb, o_s, o_bind, o_room
                             nx, ny, d_edge, v_n, turn_angle = o_nx, o_ny, o_d, o_vn, o_angle
-                            lat_act, ttb = capped_lateral(lat_act, lat_margin, d_edge, v_n)
-                            g_act = g_o
-                if g_act > gd:
-                    g_act = gd
-                if g_act > f_act:
-                    f_act = g_act
+                            floor_best = floor_o
+                f_act = floor_best
         f_s = f_m - f_act
-    ceiling_act = c_m - c_s
     v_act = f_act if f_act < ceiling_act else ceiling_act
     if c_m <= 0.0 or f_m <= 0.0:
         vttb = 0.0
@@ -307,6 +302,14 @@ def _margins(
         v_act if v_act < lat_act else lat_act, lat_margin, room, lat_act, i_bind, nx, ny, d_edge, v_n, ttb,
         int(s_best), turn_angle, c_m, c_s, f_m, f_s, v_act, vttb,
     )  # fmt: skip
+
+
+@jitable
+def floor_with_gap_m(floor_act: float, gap_act: float, gap_depth_m: float) -> float:
+    """The floor's activation over a gap (m): the larger of the descent's arrest margin ``floor_act`` and the
+    activation against the gap's edges ``gap_act``, that no larger than how deep inside the gap the point is."""
+    g = gap_depth_m if gap_act > gap_depth_m else gap_act
+    return g if g > floor_act else floor_act
 
 
 @jitable

@@ -179,6 +179,14 @@ def _leg_samples(env, a: PlannedWaypoint, b: PlannedWaypoint, speed: float, wind
     return out
 
 
+def course_change_rad(prev: PlannedWaypoint, wp: PlannedWaypoint, nxt: PlannedWaypoint) -> float:
+    """The route's course change at ``wp`` (rad, + = left, counter-clockwise; in [-pi, pi)): the leg out of it
+    against the leg into it."""
+    c_in = math.atan2(wp.north_m - prev.north_m, wp.east_m - prev.east_m)
+    c_out = math.atan2(nxt.north_m - wp.north_m, nxt.east_m - wp.east_m)
+    return (c_out - c_in + math.pi) % (2.0 * math.pi) - math.pi
+
+
 def turn_samples(
     env, prev: PlannedWaypoint, wp: PlannedWaypoint, nxt: PlannedWaypoint, speed: float, wind_en, sign: float = 0.0
 ) -> list[_Sample]:
@@ -191,8 +199,7 @@ def turn_samples(
     track (air velocity + wind) is the outgoing course; meanwhile the circle drifts with the wind.
     """
     c_in = math.atan2(wp.north_m - prev.north_m, wp.east_m - prev.east_m)
-    c_out = math.atan2(nxt.north_m - wp.north_m, nxt.east_m - wp.east_m)
-    delta = (c_out - c_in + math.pi) % (2.0 * math.pi) - math.pi  # + = left (counter-clockwise)
+    delta = course_change_rad(prev, wp, nxt)
     if abs(delta) < HEADING_STEP_RAD:
         return []
     r = envelope_turn_radius_m(env, speed)
@@ -379,10 +386,7 @@ def check_route(
         score(legs, RoutePart.LEG, i, f"{a.label or i} -> {b.label or i + 1}")
         if not env.is_multirotor and 0 < i + 1 < len(wps) - 1:
             c = wps[i + 2]
-            c_in = math.atan2(b.north_m - a.north_m, b.east_m - a.east_m)
-            c_out = math.atan2(c.north_m - b.north_m, c.east_m - b.east_m)
-            course_change = (c_out - c_in + math.pi) % (2.0 * math.pi) - math.pi
-            signs = (1.0, -1.0) if abs(course_change) > BOTH_WAYS_ABOVE_RAD else (0.0,)
+            signs = (1.0, -1.0) if abs(course_change_rad(a, b, c)) > BOTH_WAYS_ABOVE_RAD else (0.0,)
             turns = [(w, turn_samples(env, a, b, c, speed_mps, w, sign)) for w in winds for sign in signs]
             score(turns, RoutePart.TURN, i + 1, b.label or str(i + 1))
     if not env.is_multirotor:
