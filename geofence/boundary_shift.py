@@ -448,12 +448,13 @@ def activation_margins(
 
     # vertical
     c_m = fence.ceiling_m - h
-    c_s = vertical_arrest_distance_m(vu, t_r, envelope.vertical_accel_mps2) + v_uncertainty_m
+    c_s = vertical_arrest_distance_m(vu, t_r, envelope.vertical_accel_mps2, envelope.max_climb_rate_mps) + v_uncertainty_m
     if fence.floor_m is None:
         f_m, f_s, f_act = math.inf, 0.0, math.inf
     else:
         f_m = fence.floor_margin_m(e, n, h)
-        f_act = h - fence.floor_m - vertical_arrest_distance_m(-vu, t_r, envelope.vertical_accel_mps2) - v_uncertainty_m
+        f_dive = vertical_arrest_distance_m(-vu, t_r, envelope.vertical_accel_mps2, envelope.max_descent_rate_mps)
+        f_act = h - fence.floor_m - f_dive - v_uncertainty_m
         if fence.floor_gaps:
             gi, gd = fence.best_gap(e, n)
             if gd > 0.0:  # over a gap: staying inside it (laterally) also keeps the floor
@@ -461,7 +462,7 @@ def activation_margins(
                 if not fixed_wing:
                     f_act = floor_with_gap_m(f_act, worst_edge(gdists, gmin, directions)[0], gd)
                 else:  # it circles, the way it turns, until it has climbed back from its deepest point
-                    deepest = h - vertical_arrest_distance_m(-vu, t_r, envelope.vertical_accel_mps2) - v_uncertainty_m
+                    deepest = h - f_dive - v_uncertainty_m
                     circle = gap_circle_turn_rad(fence.floor_m - deepest, envelope.max_climb_rate_mps, inv_omega)
                     floor_best = floor_with_gap_m(f_act, worst_edge(gdists, gmin, ((s_best, circle),))[0], gd)
                     # the turn is one for the keep-in and the gap together: where the other turn's circle keeps
@@ -690,8 +691,11 @@ def check_shift_feasible(
             f"{envelope.max_speed_mps:g} m/s in {w:g} m/s wind >= inradius {r:.1f} m of the allowed area"
         )
     t_r, az = envelope.reaction_time_s, envelope.vertical_accel_mps2
-    cs = vertical_arrest_distance_m(abs(envelope.max_climb_rate_mps), t_r, az) + v_uncertainty_m
-    fs = vertical_arrest_distance_m(abs(envelope.max_descent_rate_mps), t_r, az) + v_uncertainty_m
+    cs = vertical_arrest_distance_m(abs(envelope.max_climb_rate_mps), t_r, az, abs(envelope.max_climb_rate_mps)) + v_uncertainty_m
+    fs = (
+        vertical_arrest_distance_m(abs(envelope.max_descent_rate_mps), t_r, az, abs(envelope.max_descent_rate_mps))
+        + v_uncertainty_m
+    )
     if fence.floor_m is not None:
         room = fence.ceiling_m - fence.floor_m
         need = cs + fs

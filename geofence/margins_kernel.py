@@ -231,14 +231,15 @@ def _margins(
 
     # vertical
     c_m = S[CEILING] - h
-    c_s = vertical_arrest_distance_m(vu, t_r, V[VERTICAL_ACCEL]) + v_unc
+    c_s = vertical_arrest_distance_m(vu, t_r, V[VERTICAL_ACCEL], V[MAX_CLIMB]) + v_unc
     ceiling_act = c_m - c_s
     if S[HAS_FLOOR] == 0.0:
         f_m, f_s, f_act = math.inf, 0.0, math.inf
     else:
         floor = S[FLOOR]
         f_m = h - floor
-        f_act = h - floor - vertical_arrest_distance_m(-vu, t_r, V[VERTICAL_ACCEL]) - v_unc
+        f_dive = vertical_arrest_distance_m(-vu, t_r, V[VERTICAL_ACCEL], V[MAX_DESCENT])
+        f_act = h - floor - f_dive - v_unc
         gap_offsets = _vector(L, GAP_OFFSETS)
         n_gaps = gap_offsets.shape[0] - 1
         if n_gaps > 0:
@@ -253,7 +254,7 @@ def _margins(
                 g1, gd1, g2, gd2 = s1, delta1, s2, delta2
                 circle = 0.0
                 if fixed_wing:  # it circles, the way it turns, until it has climbed back from its deepest point
-                    deepest = h - vertical_arrest_distance_m(-vu, t_r, V[VERTICAL_ACCEL]) - v_unc
+                    deepest = h - f_dive - v_unc
                     g1 = g2 = s_best
                     gd1 = gd2 = circle = gap_circle_turn_rad(floor - deepest, V[MAX_CLIMB], inv_omega)
                 g_ids = np.arange(cnt)

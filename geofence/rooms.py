@@ -81,9 +81,11 @@ room.
 
 Vertical
 --------
-Arrest distance ``d = v_z·t_react + v_z²/(2·a_z)`` for a climb towards the
-ceiling (``v_z = v_up > 0``) and a descent towards the floor
-(``v_z = -v_up > 0``); 0 when moving away (:func:`vertical_arrest_distance_m`).
+Arrest distance for a climb towards the ceiling (``v_z = v_up``) and a
+descent towards the floor (``v_z = -v_up``): through the reaction time the
+pilot keeps accelerating that way at ``a_z`` up to the platform's climb or
+descent rate, then the override arrests it at ``a_z``; ``d = v_z·t_react +
+v_z²/(2·a_z)`` once at that rate (:func:`vertical_arrest_distance_m`).
 """
 
 from __future__ import annotations
@@ -497,16 +499,33 @@ def multicopter_stopping_distance_m(
 
 # --------------------------------------------------------------------------- vertical
 @jitable
-def vertical_arrest_distance_m(v_toward_mps: float, reaction_time_s: float, accel_mps2: float) -> float:
-    """``v·t_react + v²/(2·a_z)`` in m for a climb towards the ceiling / descent towards the floor; 0 if moving away.
+def vertical_arrest_distance_m(
+    v_toward_mps: float, reaction_time_s: float, accel_mps2: float, v_max_toward_mps: float = 0.0
+) -> float:
+    """How far towards the ceiling (a climb) or the floor (a descent) the vehicle gets before it is arrested, m (>= 0).
 
-    ``v`` m/s towards the limit, ``t_react`` s, ``a_z`` m/s² (``inf`` when ``a_z <= 0``).
+    ``v`` m/s towards the limit (negative: away), ``t_react`` s, ``a_z`` m/s² (``inf`` when ``a_z <= 0``),
+    ``v_max`` m/s: the platform's largest vertical speed that way. Through the reaction time the pilot keeps
+    accelerating towards the limit at ``a_z``, up to ``v_max`` (as the lateral margins let it keep
+    accelerating towards the edge); then the override arrests it at ``a_z``: ``v_end·...`` as below, or
+    ``v·t_react + v²/(2·a_z)`` when already at ``v_max`` or beyond. Holding the speed through the reaction
+    instead let a pilot who dived again right after a hand-back take a J3Cub 0.06 m below the floor (campaign
+    seed 26112031, floor_gaps-0071: at rest next to the floor the old distance was 0, the dive needs
+    ``a_z·t_react²``, 2.7 m).
     """
-    if v_toward_mps <= 0.0:
-        return 0.0
     if accel_mps2 <= 0.0:
-        return math.inf
-    return v_toward_mps * reaction_time_s + v_toward_mps * v_toward_mps / (2.0 * accel_mps2)
+        return math.inf if v_toward_mps > 0.0 or v_max_toward_mps > 0.0 else 0.0
+    v0 = v_toward_mps
+    t_acc = 0.0
+    if v0 < v_max_toward_mps:  # the pilot accelerates towards the limit until v_max or the override
+        t_acc = (v_max_toward_mps - v0) / accel_mps2
+        if t_acc > reaction_time_s:
+            t_acc = reaction_time_s
+    v_end = v0 + accel_mps2 * t_acc
+    if v_end <= 0.0:  # still moving away when the override acts
+        return 0.0
+    d = v0 * t_acc + 0.5 * accel_mps2 * t_acc * t_acc + v_end * (reaction_time_s - t_acc) + v_end * v_end / (2.0 * accel_mps2)
+    return d if d > 0.0 else 0.0
 
 
 @jitable
@@ -608,7 +627,7 @@ def room_upper_bounds_m(
             multirotor_room_m(v, v, t_s, tilt_accel_mps2(env.max_bank_rad, g) + push, a, (0.0, 0.0)) if a > 0.0 else math.inf
         )
     vz = max(env.max_climb_rate_mps, env.max_descent_rate_mps, abs(v_up_mps))
-    return lateral, vertical_arrest_distance_m(vz, t_s, env.vertical_accel_mps2)
+    return lateral, vertical_arrest_distance_m(vz, t_s, env.vertical_accel_mps2, vz)
 
 
 def room_upper_bounds_fast_m(

@@ -169,6 +169,8 @@ class GeofenceUnit:
         """The state the unit acted on last (its estimate, or its dead reckoning)."""
         self._override_period_start_s = 0.0
         self._climb_back_to_m: float | None = None  # the override's climb-back height, below the floor in a gap
+        self._goal_h_m = math.nan  # the override's goal height (set as it starts)
+        self._goal_short_of_band = False  # that goal is an explicit one or the band's middle (no room by construction)
         lo = (
             fence.floor_m
             if fence.floor_m is not None
@@ -338,18 +340,34 @@ class GeofenceUnit:
         - hyst - arrest]`` (``u``: the vertical uncertainty margin), or the
         middle of the band when that is empty. An explicit recovery height wins.
         """
+        explicit = self._explicit_goal_height_m()
+        if explicit is not None:
+            return explicit
+        band = self._goal_band()
+        if band is not None:
+            return clip(h, band[0], band[1])
+        lo, hi = self._height_limits
+        return 0.5 * (lo + hi) if math.isfinite(lo) else hi - 5.0
+
+    def _explicit_goal_height_m(self) -> float | None:
+        """The recovery point's own height, if the fence gives one."""
         rp = self.fence.fence.recovery_point
-        if rp is not None and len(rp) == 3 and self.fence.recovery_height_m is not None:  # an explicit set-point height
-            return self.fence.recovery_height_m
+        return self.fence.recovery_height_m if rp is not None and len(rp) == 3 else None
+
+    def _goal_band(self) -> tuple[float, float] | None:
+        """The heights where the override's goal leaves room for the hand-back (see :meth:`_goal_height`), or None."""
         lo, hi = self._height_limits
         env = self.env
         u = self.config.uncertainty_k_sigma * self._sigma_v_m + self.config.extra_margin_m + self._vertical_handback_m
         # the altitude hold approaches the goal at about 1 m/s per m: allow one arrest from 1 m/s
-        settle = vertical_arrest_distance_m(1.0, env.reaction_time_s, max(env.vertical_accel_mps2, 0.1)) + 0.5
+        settle = (
+            vertical_arrest_distance_m(
+                1.0, env.reaction_time_s, max(env.vertical_accel_mps2, 0.1), max(env.max_climb_rate_mps, env.max_descent_rate_mps)
+            )
+            + 0.5
+        )
         band_lo, band_hi = lo + u + settle, hi - u - settle
-        if band_lo <= band_hi:
-            return clip(h, band_lo, band_hi)
-        return 0.5 * (lo + hi) if math.isfinite(lo) else hi - 5.0
+        return (band_lo, band_hi) if band_lo <= band_hi else None
 
     def _return_impossible(self) -> str | None:
         """Why return is impossible (or cannot be assured), or None (:func:`geofence.dynamics.return_not_assured`).
@@ -536,6 +554,8 @@ class GeofenceUnit:
         hold = floor + VERTICAL_CLEARANCE_M if floor is not None and self._below_floor_in_gap(s, h) else None
         goal_h = self._goal_height(max(h, hold) if hold is not None else h)
         self.recovery.start(s, route, goal_h, h, t_s, r.turn_sign, r.turn_angle_rad, hold)
+        self._goal_h_m = goal_h
+        self._goal_short_of_band = self._explicit_goal_height_m() is not None or self._goal_band() is None
         self._climb_back_to_m = hold
         self._override_period_start_s = t_s
         self._switch(t_s, Mode.OVERRIDE, reason)
@@ -686,13 +706,40 @@ class GeofenceUnit:
         at_point = math.hypot(re - s.east_m, rn - s.north_m) <= self.config.recovery_radius_m
         # each axis against its own hysteresis: the vertical goal height leaves only the vertical one
         if self.config.trigger is Trigger.PREDICTIVE:
-            vertical_ok = r.vertical_activation_m >= self._vertical_handback_m
+            vertical_ok = r.vertical_activation_m >= self._vertical_handback_at_goal_m()
             lateral = r.lateral_activation_m
         else:
             vertical_ok = min(r.ceiling_margin_m, r.floor_margin_m) > 0.0
             lateral = r.lateral_margin_m - self.config.extra_margin_m
         lateral_ok = lateral >= self.config.handback_margin_m and r.closing_speed_mps <= 0.0
         return vertical_ok and (lateral_ok or at_point)
+
+    def _vertical_handback_at_goal_m(self) -> float:
+        """The vertical hand-back hysteresis the override's goal height allows, m.
+
+        The configured one (at most a tenth of the band), or, where the goal is
+        an explicit recovery height or the middle of a band too thin for
+        :meth:`_goal_height`'s room, half the vertical
+        activation margin the vehicle has at rest at the goal height when that
+        is less: at rest the pilot may still climb or dive at once
+        (:func:`~geofence.rooms.vertical_arrest_distance_m` from 0 m/s), and an
+        explicit recovery height 0.3 m under an indoor ceiling leaves 0.09 m
+        of margin there (the indoor seed quad, 0.11 m of hysteresis: it was
+        never handed back). Half of it keeps the hysteresis against the altitude
+        hold's settling and never re-activates a vehicle resting at its goal.
+        """
+        hyst = self._vertical_handback_m
+        goal = self._goal_h_m
+        if not math.isfinite(goal) or not self._goal_short_of_band:
+            return hyst  # a goal in the band leaves the hysteresis and the settling room by construction
+        env, fence = self.env, self.fence
+        t_r = env.reaction_time_s + self._latency_s
+        a_z = env.vertical_accel_mps2
+        rest = fence.ceiling_m - goal - vertical_arrest_distance_m(0.0, t_r, a_z, env.max_climb_rate_mps)
+        if fence.floor_m is not None:
+            rest = min(rest, goal - fence.floor_m - vertical_arrest_distance_m(0.0, t_r, a_z, env.max_descent_rate_mps))
+        rest -= self.config.uncertainty_k_sigma * self._sigma_v_m + self.config.extra_margin_m
+        return min(hyst, 0.5 * rest) if rest > 0.0 else hyst
 
     def _landing_edge_margin_m(self) -> float:
         """How far inside the keep-in, or inside a floor gap, a multirotor's estimate must be to descend there (m):

@@ -186,6 +186,41 @@ def test_vertical_arrest_closed_form():
     assert vertical_arrest_distance_m(3.0, 0.2, 4.0) == pytest.approx(3.0 * 0.2 + 9.0 / 8.0)
     assert vertical_arrest_distance_m(-3.0, 0.2, 4.0) == 0.0
     assert vertical_arrest_distance_m(3.0, 0.2, 0.0) == math.inf
+    # the pilot keeps accelerating towards the limit through the reaction, up to the platform's rate
+    assert vertical_arrest_distance_m(0.0, 1.0, 2.0, 5.0) == pytest.approx(0.5 * 2.0 + 2.0**2 / 4.0)  # a·t²
+    assert vertical_arrest_distance_m(0.0, 1.0, 2.0, 1.0) == pytest.approx(0.25 + 0.5 + 0.25)  # at the rate after 0.5 s
+    assert vertical_arrest_distance_m(3.0, 0.2, 4.0, 3.0) == pytest.approx(3.0 * 0.2 + 9.0 / 8.0)  # at the rate already
+    assert vertical_arrest_distance_m(-3.0, 1.0, 2.0, 5.0) == 0.0  # still moving away when the override acts
+    assert vertical_arrest_distance_m(-1.0, 1.0, 2.0, 5.0) == pytest.approx(1.0**2 / 4.0)  # back where it started, then 1 m/s
+    assert vertical_arrest_distance_m(-0.5, 1.0, 2.0, 5.0) == pytest.approx(-0.5 + 1.0 + 1.5**2 / 4.0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    v0=st.floats(-5.0, 5.0),
+    t_r=st.floats(0.0, 2.0),
+    a_z=st.floats(0.3, 8.0),
+    v_max=st.floats(0.0, 6.0),
+)
+def test_vertical_arrest_is_the_farthest_point_of_the_worst_pilot(v0, t_r, a_z, v_max):
+    # integrate the worst pilot (accelerating towards the limit at a_z, up to v_max, for t_r) and the
+    # override's arrest at a_z: the farthest point reached towards the limit is the closed form
+    dt = 1e-4
+    x = peak = 0.0
+    v = v0
+    t = 0.0
+    while t < t_r:
+        step = min(dt, t_r - t)
+        a = a_z if v < v_max else 0.0
+        v_next = min(v + a * step, max(v_max, v)) if a > 0.0 else v
+        x += 0.5 * (v + v_next) * step
+        v = v_next
+        peak = max(peak, x)
+        t += step
+    if v > 0.0:
+        peak = max(peak, x + v * v / (2.0 * a_z))
+    d = vertical_arrest_distance_m(v0, t_r, a_z, v_max)
+    assert d == pytest.approx(peak, abs=2e-3 * (1.0 + abs(v0) + v_max))
 
 
 def test_uncertainty_margin():
@@ -214,7 +249,8 @@ def test_multicopter_activation_head_on():
     assert res.lateral_shift_m == pytest.approx(shift)
     assert res.lateral_activation_m == pytest.approx(d - shift, abs=1e-3)
     assert res.time_to_breach_s == pytest.approx(d / v, abs=1e-3)
-    assert res.activation_margin_m == pytest.approx(min(d - shift, 40.0), abs=1e-3)
+    dive = vertical_arrest_distance_m(0.0, t, MC.vertical_accel_mps2, MC.max_descent_rate_mps)  # from rest, the pilot's dive
+    assert res.activation_margin_m == pytest.approx(min(d - shift, 40.0 - dive), abs=1e-3)
     # moving away: no shift, no breach in sight
     away = activation_margins(lf, e, n, 50.0, -v, 0.0, 0.0, MC)
     assert away.time_to_breach_s == math.inf and away.lateral_activation_m == pytest.approx(d, abs=1e-3)
@@ -260,13 +296,13 @@ def test_fixed_wing_turns_away_from_the_near_edge():
 def test_vertical_margins_and_time_to_breach():
     lf = square_fence(200.0)
     res = activation_margins(lf, 0.0, 0.0, 100.0, 0.0, 0.0, 2.0, MC, v_uncertainty_m=1.0)
-    cs = vertical_arrest_distance_m(2.0, MC.reaction_time_s, MC.vertical_accel_mps2) + 1.0
+    cs = vertical_arrest_distance_m(2.0, MC.reaction_time_s, MC.vertical_accel_mps2, MC.max_climb_rate_mps) + 1.0
     assert res.ceiling_margin_m == pytest.approx(20.0) and res.ceiling_shift_m == pytest.approx(cs)
     assert res.vertical_activation_m == pytest.approx(20.0 - cs)
     assert res.vertical_time_to_breach_s == pytest.approx(10.0)
     down = activation_margins(lf, 0.0, 0.0, 20.0, 0.0, 0.0, -2.0, MC)
     assert down.floor_margin_m == pytest.approx(10.0)
-    assert down.floor_shift_m == pytest.approx(vertical_arrest_distance_m(2.0, 0.1, 4.0))
+    assert down.floor_shift_m == pytest.approx(vertical_arrest_distance_m(2.0, 0.1, 4.0, MC.max_descent_rate_mps))
     assert down.vertical_time_to_breach_s == pytest.approx(5.0)
     assert down.activation_margin_m == pytest.approx(10.0 - down.floor_shift_m)
 
@@ -333,7 +369,7 @@ def _circle_leaves_gap(lf, e, n, h, ve, vn, vu, we, wn, r, steps: int = 2000) ->
     psi = math.atan2(van, vae)
     v = max(math.hypot(vae, van), env.cruise_speed_mps, env.min_speed_mps)
     _, inv_omega = turn_constants(v, env.max_bank_rad)
-    deepest = h - vertical_arrest_distance_m(-vu, env.reaction_time_s, env.vertical_accel_mps2)
+    deepest = h - vertical_arrest_distance_m(-vu, env.reaction_time_s, env.vertical_accel_mps2, env.max_descent_rate_mps)
     angle = gap_circle_turn_rad(lf.floor_m - deepest, env.max_climb_rate_mps, inv_omega)
     gap = lf.floor_gaps[0]
     x, y, worst = e, n, -math.inf
@@ -364,7 +400,10 @@ def test_a_fixed_wing_below_the_floor_in_a_gap_is_scored_on_its_whole_climb_back
     we, wn = w * math.cos(wd), w * math.sin(wd)
     ve, vn = speed * math.cos(course) + we, speed * math.sin(course) + wn
     r = activation_margins(lf, e, n, h, ve, vn, -sink, FW, we, wn)
-    arrest_ok = h - lf.floor_m - vertical_arrest_distance_m(sink, FW.reaction_time_s, FW.vertical_accel_mps2) >= 0.0
+    arrest_ok = (
+        h - lf.floor_m - vertical_arrest_distance_m(sink, FW.reaction_time_s, FW.vertical_accel_mps2, FW.max_descent_rate_mps)
+        >= 0.0
+    )
     if r.vertical_activation_m >= 0.0 and not arrest_ok:
         assert _circle_leaves_gap(lf, e, n, h, ve, vn, -sink, we, wn, r) <= 1e-6, (half, e, n, h, r)
 

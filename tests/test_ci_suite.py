@@ -72,7 +72,7 @@ def _vertical_room_m(sc, rate_mps: float) -> float:
     env = sc.profile.envelope
     sigma = math.hypot(sc.sensors.gps_v_bias_m, sc.sensors.gps_v_white_m)
     return (
-        vertical_arrest_distance_m(rate_mps, env.reaction_time_s, env.vertical_accel_mps2)
+        vertical_arrest_distance_m(rate_mps, env.reaction_time_s, env.vertical_accel_mps2, rate_mps)
         + sc.geofence.uncertainty_k_sigma * sigma
     )
 

@@ -228,6 +228,19 @@ def test_ceiling_attempt_breaches_reactive_fence_and_ramp_recorded():
 
 
 @pytest.mark.closed_loop
+def test_predictive_quad_is_handed_back_at_its_recovery_height_under_the_ceiling():
+    # 0.8 m set-point under a 1.1 m ceiling: at rest there a climb through the reaction time needs 0.23 m of
+    # the 0.3 m, less than the 0.11 m hysteresis leaves; the hand-back is judged at the goal's own margin
+    result, pilot = _fly(_short(PREDICTIVE_SCENARIO, attempts=2, directions=("up",)))
+    transitions = result.summary["mode_transitions"]
+    overrides = [i for i, tr in enumerate(transitions) if tr["to"] == "OVERRIDE"]
+    assert overrides and transitions[overrides[0]]["reason"].startswith("vertical")
+    assert all(any(tr["to"] == "RECOVERED" for tr in transitions[i + 1 :]) for i in overrides)
+    assert pilot.finished and result.summary["final_mode"] in ("MONITOR", "RECOVERED")
+    assert result.summary["max_vertical_excursion_m"] < 0.0
+
+
+@pytest.mark.closed_loop
 def test_flight_reproducible_and_schedule_rebuilt_from_items():
     sc = _short(REACTIVE_SCENARIO, attempts=3)
     r1, p1 = _fly(sc)
