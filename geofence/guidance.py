@@ -510,6 +510,7 @@ class LandingGuidance:
         self.cruise_h = 0.0
         self.route: Route = StraightRoute(0.0, 0.0)
         self.turn_sign = 0
+        self.orbit_clockwise = True
 
     def start(self, point_e: float, point_n: float, cruise_h: float, route: Route | None = None, turn_sign: int = 0) -> None:
         """Land at ``(point_e, point_n)``, flying ``route`` there (default: straight) at ``cruise_h``.
@@ -522,6 +523,11 @@ class LandingGuidance:
         self.cruise_h = cruise_h
         self.route = route if route is not None else StraightRoute(point_e, point_n)
         self.turn_sign = turn_sign
+        # The spiral goes on the way the first turn went: a clockwise spiral after a left turn reverses the
+        # turn at once, and a fast fixed-wing flies a turn diameter downwind doing it (campaign seed 26112033,
+        # star-0588: a J3Cub that lost GPS 1.3 s into an override's left turn, 46 m/s over the ground, its
+        # landing point where it was, left by 53.8 m). With no first turn: clockwise.
+        self.orbit_clockwise = turn_sign <= 0
         if self.velocity:
             self.velocity.reset()
 
@@ -581,7 +587,7 @@ class LandingGuidance:
             ce, cn = self.route.lookahead_point(s.east_m, s.north_m, self.spiral_radius_m)
             course_cmd = math.atan2(ce - s.east_m, cn - s.north_m)
         else:
-            course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, pe, pn, self.spiral_radius_m)
+            course_cmd, _ = orbit_course_rad(s.east_m, s.north_m, pe, pn, self.spiral_radius_m, clockwise=self.orbit_clockwise)
         course = ground_course_rad(s.v_east_mps, s.v_north_mps, s.yaw_rad)
         climb = (
             -env.max_descent_rate_mps if over else altitude_to_climb_rate(self.cruise_h, h, env, FIXED_WING_ALTITUDE_GAIN_PER_S)

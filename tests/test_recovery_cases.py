@@ -15,6 +15,7 @@ WGS-84 at the site) and flown in closed loop with the unit's own sensors:
 * a multirotor landing in a gap in wind (touchdown nearly stopped);
 * a fixed-wing that loses GPS near the boundary (campaign case u_fence-0569: its landing turn
   swung out 170 m across the boundary; the first turn now goes the way the margin scored safe);
+* a fixed-wing that loses GPS in an override's turn (star-0588): its landing spiral goes on that way;
 * a multirotor that loses GPS deep inside comes down at its full descent rate, not 1 m/s;
 * a fixed-wing flown into the ground inside a floor gap at cruise (campaign case floor_gaps-0170):
   rolling, not sitting, it must not roll out of the gap below the floor;
@@ -254,6 +255,15 @@ def test_fixed_wing_losing_gps_near_the_boundary_turns_the_safe_way():
     res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_u_fence_0569_gps_outage.yaml"))
     assert any("position source lost" in t.reason for t in res.unit.transitions)
     assert_held(res, "J3Cub landing after a GPS outage")
+
+
+def test_fixed_wing_landing_spiral_goes_on_the_way_its_first_turn_went():
+    # campaign case star-0588 (seed 26112033): a J3Cub dashing downwind at 46 m/s over the ground lost GPS
+    # 1.3 s into an override's left turn; the landing spiral, always clockwise, reversed the turn and flew
+    # 370 m downwind, 53.8 m out of the fence
+    res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_star_0588_gps_outage_orbit.yaml"))
+    assert any("position source lost" in t.reason for t in res.unit.transitions)
+    assert_held(res, "J3Cub spiralling down after a GPS outage in a turn")
 
 
 def test_multirotor_losing_gps_deep_inside_descends_at_its_full_rate():
