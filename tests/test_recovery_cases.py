@@ -16,6 +16,8 @@ WGS-84 at the site) and flown in closed loop with the unit's own sensors:
 * a fixed-wing that loses GPS near the boundary (campaign case u_fence-0569: its landing turn
   swung out 170 m across the boundary; the first turn now goes the way the margin scored safe);
 * a fixed-wing that loses GPS in an override's turn (star-0588): its landing spiral goes on that way;
+* a fixed-wing overridden at the ceiling after a climb its engine could not give (ceiling-0241): its flight
+  controller arrests it;
 * a multirotor that loses GPS deep inside comes down at its full descent rate, not 1 m/s;
 * a fixed-wing flown into the ground inside a floor gap at cruise (campaign case floor_gaps-0170):
   rolling, not sitting, it must not roll out of the gap below the floor;
@@ -264,6 +266,16 @@ def test_fixed_wing_landing_spiral_goes_on_the_way_its_first_turn_went():
     res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_star_0588_gps_outage_orbit.yaml"))
     assert any("position source lost" in t.reason for t in res.unit.transitions)
     assert_held(res, "J3Cub spiralling down after a GPS outage in a turn")
+
+
+def test_fixed_wing_after_a_power_limited_climb_arrests_it_at_the_ceiling():
+    # campaign case ceiling-0241 (seed 26112034): a J3Cub at a 2,538 m site, the pilot asking full climb for
+    # 30 s in moderate turbulence. Its flight controller's climb-rate integrator had wound up for the climb
+    # the engine could not give; overridden at the ceiling, the nose kept rising for 3 s under a full-descent
+    # command and it went 3.1 m over. The integrator now holds at full throttle.
+    res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_ceiling_0241_power_limited_climb.yaml"))
+    assert any(t.reason.startswith("vertical") for t in res.unit.transitions)
+    assert_held(res, "J3Cub overridden at the ceiling after a power-limited climb")
 
 
 def test_multirotor_losing_gps_deep_inside_descends_at_its_full_rate():
