@@ -495,15 +495,8 @@ def flight_summaries(rows: Sequence[Mapping]) -> list[dict]:
 
 
 def offending_flights(rows: Sequence[Mapping], variant: str = "predictive") -> list[Mapping]:
-    """Flights of ``variant`` with a keep-in breach, a keep-out entry or an out-of-gap landing."""
-    bad = []
-    for r in rows:
-        if r.get("variant") != variant or is_error(r):
-            continue
-        o = flight_outcome(r)
-        if o.keep_in_breach or o.keep_out_entry or o.out_of_gap_landing:
-            bad.append(r)
-    return bad
+    """Flights of ``variant`` with a breach: keep-in, keep-out entry, vertical or an out-of-gap landing."""
+    return [r for r in rows if r.get("variant") == variant and not is_error(r) and flight_outcome(r).breach]
 
 
 def describe_flight(r: Mapping) -> str:
@@ -772,11 +765,9 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
     lines += ["## Offending flights", ""]
     for v in ("predictive", "reactive"):
         bad = offending_flights(rows, v)
-        lines.append(f"**{v}** ({len(bad)}: keep-in breach, keep-out entry or out-of-gap landing):")
+        lines.append(f"**{v}** ({len(bad)}: keep-in breach, keep-out entry, vertical breach or out-of-gap landing):")
         lines.append("")
-        lines += [f"- {describe_flight(r)}" for r in sorted(bad, key=lambda r: -num(r.get("max_lateral_excursion_m")))] or [
-            "- none"
-        ]
+        lines += [f"- {describe_flight(r)}" for r in sorted(bad, key=lambda r: -num(r.get("max_excursion_m")))] or ["- none"]
         lines.append("")
     errs = [r for r in rows if is_error(r)]
     lines += [f"## Errors ({len(errs)})", ""]

@@ -600,6 +600,10 @@ def test_counts_breaches_missions_and_errors_on_synthetic_rows():
     assert (twin.flights, twin.errors, twin.scored, twin.breaches, twin.stalled_missions) == (3, 1, 2, 2, 0)
     assert [r["flight"] for r in offending_flights(rows)] == ["box-0002__predictive"]
     assert "keep-in, keep-out" in describe_flight(offending_flights(rows)[0])
+    # a breach of the ceiling or floor alone is an offending flight too (the report lists it)
+    over = campaign_rows([_row("box-0000__predictive", max_vertical_excursion_m=3.1, max_excursion_m=3.1)], SYNTH_MANIFEST)
+    assert [r["flight"] for r in offending_flights(over)] == ["box-0000__predictive"]
+    assert "vertical" in describe_flight(offending_flights(over)[0])
     cmp = unprotected_vs_protected(rows)
     assert cmp["predictive"] == {
         "twin_breached": 2,
@@ -685,4 +689,6 @@ def test_ci_slice_has_no_predictive_breach(tmp_path):
     bad = offending_flights(rows, "predictive")
     for r in bad:
         print("PREDICTIVE BREACH:", describe_flight(r))
-    assert not bad, "predictive keep-in breach / keep-out entry / out-of-gap landing:\n" + "\n".join(map(describe_flight, bad))
+    assert not bad, "predictive keep-in breach / keep-out entry / vertical breach / out-of-gap landing:\n" + "\n".join(
+        map(describe_flight, bad)
+    )
