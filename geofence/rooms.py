@@ -499,16 +499,14 @@ def multicopter_stopping_distance_m(
 
 # --------------------------------------------------------------------------- vertical
 @jitable
-def vertical_arrest_distance_m(
-    v_toward_mps: float, reaction_time_s: float, accel_mps2: float, v_max_toward_mps: float = 0.0
-) -> float:
+def vertical_arrest_distance_m(v_toward_mps: float, reaction_time_s: float, accel_mps2: float, v_max_toward_mps: float) -> float:
     """How far towards the ceiling (a climb) or the floor (a descent) the vehicle gets before it is arrested, m (>= 0).
 
     ``v`` m/s towards the limit (negative: away), ``t_react`` s, ``a_z`` m/s² (``inf`` when ``a_z <= 0``),
     ``v_max`` m/s: the platform's largest vertical speed that way. Through the reaction time the pilot keeps
     accelerating towards the limit at ``a_z``, up to ``v_max`` (as the lateral margins let it keep
-    accelerating towards the edge); then the override arrests it at ``a_z``: ``v_end·...`` as below, or
-    ``v·t_react + v²/(2·a_z)`` when already at ``v_max`` or beyond. Holding the speed through the reaction
+    accelerating towards the edge); then the override arrests it at ``a_z``. Already at ``v_max`` or beyond
+    (or with ``v_max`` 0: no acceleration) that is ``v·t_react + v²/(2·a_z)``. Holding the speed through the reaction
     instead let a pilot who dived again right after a hand-back take a J3Cub 0.06 m below the floor (campaign
     seed 26112031, floor_gaps-0071: at rest next to the floor the old distance was 0, the dive needs
     ``a_z·t_react²``, 2.7 m).

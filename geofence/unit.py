@@ -332,6 +332,9 @@ class GeofenceUnit:
         return f"vertical: ceiling margin {r.ceiling_margin_m:.1f} m, floor margin {r.floor_margin_m:.1f} m, activation {r.vertical_activation_m:.1f} m"
 
     def _goal_height(self, h: float) -> float:
+        return self._goal(h)[0]
+
+    def _goal(self, h: float) -> tuple[float, bool]:
         """Height the override flies to: the nearest one where hand-back is possible.
 
         The vertical activation margin at rest must exceed the hand-back
@@ -339,23 +342,12 @@ class GeofenceUnit:
         the goal is ``h`` clipped to ``[floor + u + hyst + arrest, ceiling - u
         - hyst - arrest]`` (``u``: the vertical uncertainty margin), or the
         middle of the band when that is empty. An explicit recovery height wins.
+        ``(goal, in_band)``: in_band False for an explicit height or the middle of an empty band (the goal then
+        has no room for the hand-back by construction, :meth:`_vertical_handback_at_goal_m`).
         """
-        explicit = self._explicit_goal_height_m()
-        if explicit is not None:
-            return explicit
-        band = self._goal_band()
-        if band is not None:
-            return clip(h, band[0], band[1])
-        lo, hi = self._height_limits
-        return 0.5 * (lo + hi) if math.isfinite(lo) else hi - 5.0
-
-    def _explicit_goal_height_m(self) -> float | None:
-        """The recovery point's own height, if the fence gives one."""
         rp = self.fence.fence.recovery_point
-        return self.fence.recovery_height_m if rp is not None and len(rp) == 3 else None
-
-    def _goal_band(self) -> tuple[float, float] | None:
-        """The heights where the override's goal leaves room for the hand-back (see :meth:`_goal_height`), or None."""
+        if rp is not None and len(rp) == 3 and self.fence.recovery_height_m is not None:  # an explicit set-point height
+            return self.fence.recovery_height_m, False
         lo, hi = self._height_limits
         env = self.env
         u = self.config.uncertainty_k_sigma * self._sigma_v_m + self.config.extra_margin_m + self._vertical_handback_m
@@ -367,7 +359,9 @@ class GeofenceUnit:
             + 0.5
         )
         band_lo, band_hi = lo + u + settle, hi - u - settle
-        return (band_lo, band_hi) if band_lo <= band_hi else None
+        if band_lo <= band_hi:
+            return clip(h, band_lo, band_hi), True
+        return (0.5 * (lo + hi) if math.isfinite(lo) else hi - 5.0), False
 
     def _return_impossible(self) -> str | None:
         """Why return is impossible (or cannot be assured), or None (:func:`geofence.dynamics.return_not_assured`).
@@ -552,10 +546,10 @@ class GeofenceUnit:
         route, _ = self._recovery_goal(s)
         floor = self.fence.floor_m
         hold = floor + VERTICAL_CLEARANCE_M if floor is not None and self._below_floor_in_gap(s, h) else None
-        goal_h = self._goal_height(max(h, hold) if hold is not None else h)
+        goal_h, in_band = self._goal(max(h, hold) if hold is not None else h)
         self.recovery.start(s, route, goal_h, h, t_s, r.turn_sign, r.turn_angle_rad, hold)
         self._goal_h_m = goal_h
-        self._goal_short_of_band = self._explicit_goal_height_m() is not None or self._goal_band() is None
+        self._goal_short_of_band = not in_band
         self._climb_back_to_m = hold
         self._override_period_start_s = t_s
         self._switch(t_s, Mode.OVERRIDE, reason)

@@ -183,9 +183,9 @@ def test_multicopter_braking_closed_form():
 
 
 def test_vertical_arrest_closed_form():
-    assert vertical_arrest_distance_m(3.0, 0.2, 4.0) == pytest.approx(3.0 * 0.2 + 9.0 / 8.0)
-    assert vertical_arrest_distance_m(-3.0, 0.2, 4.0) == 0.0
-    assert vertical_arrest_distance_m(3.0, 0.2, 0.0) == math.inf
+    assert vertical_arrest_distance_m(3.0, 0.2, 4.0, 0.0) == pytest.approx(3.0 * 0.2 + 9.0 / 8.0)
+    assert vertical_arrest_distance_m(-3.0, 0.2, 4.0, 0.0) == 0.0
+    assert vertical_arrest_distance_m(3.0, 0.2, 0.0, 0.0) == math.inf
     # the pilot keeps accelerating towards the limit through the reaction, up to the platform's rate
     assert vertical_arrest_distance_m(0.0, 1.0, 2.0, 5.0) == pytest.approx(0.5 * 2.0 + 2.0**2 / 4.0)  # a·t²
     assert vertical_arrest_distance_m(0.0, 1.0, 2.0, 1.0) == pytest.approx(0.25 + 0.5 + 0.25)  # at the rate after 0.5 s

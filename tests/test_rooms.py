@@ -252,7 +252,7 @@ def test_upper_bound_bounds_the_multirotor_room(env, speed_frac, normal_frac, vu
         climb_arrest_phase(vu, env.vertical_accel_mps2),
     )
     assert room <= lateral * (1 + 1e-12) + 1e-9
-    assert vertical_arrest_distance_m(abs(vu), 0.5 * t, env.vertical_accel_mps2) <= vertical * (1 + 1e-12) + 1e-9
+    assert vertical_arrest_distance_m(abs(vu), 0.5 * t, env.vertical_accel_mps2, 0.0) <= vertical * (1 + 1e-12) + 1e-9
 
 
 # ------------------------------------------------------------------ envelope-level rooms
