@@ -57,6 +57,7 @@ from scenarios.spec.campaign import (
     CITY_VERTICES,
     DEFAULT_FAMILIES,
     MISSION_INSET_ROOMS,
+    RANDOM_VERTICES,
     Attack,
     CampaignError,
     CaseFamily,
@@ -234,7 +235,8 @@ def _buildings(fence: dict) -> list[float]:
 def test_city_family_writes_airspace_scale_fences_only_when_asked(tmp_path):
     """``--families city``: a ragged keep-in of thousands of vertices and tens to hundreds of buildings, sized to
     the platform (two rooms between buildings), every document validated; never in a default campaign."""
-    assert CaseFamily.CITY not in DEFAULT_FAMILIES and set(DEFAULT_FAMILIES) | {CaseFamily.CITY} == set(CaseFamily)
+    assert CaseFamily.CITY not in DEFAULT_FAMILIES
+    assert set(DEFAULT_FAMILIES) | {CaseFamily.CITY, CaseFamily.RANDOM} == set(CaseFamily)
     generate_campaign(tmp_path, 4, 2611, families=[CaseFamily.CITY], max_duration_s=60.0)
     manifest = json.loads((tmp_path / "campaign.json").read_text())
     assert manifest["families"] == ["city"] and manifest["n_cases"] >= 3
@@ -248,6 +250,47 @@ def test_city_family_writes_airspace_scale_fences_only_when_asked(tmp_path):
         centres = np.array([p.vertices.mean(axis=0) for p in local.keep_out_polygons])
         gaps = np.hypot(*(centres[:, None, :] - centres[None, :, :]).transpose(2, 0, 1)) + np.eye(len(centres)) * 1e9
         assert gaps.min() >= 2.0 * room  # (centres: at least the clearance plus the buildings' own sizes apart)
+
+
+def test_random_family_writes_star_shaped_polygons_with_keep_outs_clear_of_the_pole(tmp_path):
+    """``--families random``: a simple keep-in of 5-40 vertices sized like the lateral families,
+    keep-outs (in about half the cases) inside it, clear of its pole and of each other, every document
+    validated; never in a default campaign (published seeds keep their cases)."""
+    assert CaseFamily.RANDOM not in DEFAULT_FAMILIES
+    generate_campaign(tmp_path, 30, 2711, families=[CaseFamily.RANDOM], max_duration_s=60.0)
+    manifest = json.loads((tmp_path / "campaign.json").read_text())
+    assert manifest["families"] == ["random"] and manifest["n_cases"] >= 25
+    with_keep_outs = 0
+    attacks = set()
+    for c in manifest["cases"]:
+        attacks.add(c["attack"])
+        local = case_fence(c)
+        v = local.keep_in.vertices
+        assert RANDOM_VERTICES[0] <= len(v) <= RANDOM_VERTICES[1]
+        e, n, r_in = local.inradius()
+        room = platform_room_m(load_profile(c["platform"]))
+        assert r_in >= 2.9 * room
+        # simple: no two edges that do not share a vertex cross
+        k = len(v)
+        a, b = v, np.roll(v, -1, axis=0)
+
+        def side(p, q, x):
+            return np.sign((q[..., 0] - p[..., 0]) * (x[..., 1] - p[..., 1]) - (q[..., 1] - p[..., 1]) * (x[..., 0] - p[..., 0]))
+
+        for i in range(k):
+            j = np.array([j for j in range(k) if j not in (i, (i - 1) % k, (i + 1) % k)])
+            crosses = (side(a[i], b[i], a[j]) * side(a[i], b[i], b[j]) < 0) & (
+                side(a[j], b[j], a[i]) * side(a[j], b[j], b[i]) < 0
+            )
+            assert not crosses.any(), (c["case_id"], i)
+        outs = [(float(np.mean(p.vertices[:, 0])), float(np.mean(p.vertices[:, 1]))) for p in local.keep_out_polygons]
+        outs += [(ce, cn) for ce, cn, _ in local.keep_out_circles]
+        with_keep_outs += bool(outs)
+        for ce, cn in outs:
+            assert local.keep_in.signed_distance(ce, cn) > 0.0  # inside the keep-in
+        assert local.lateral_margin_m(e, n) > 0.0  # the pole (the default recovery point) is clear of them
+    assert 5 <= with_keep_outs <= 25
+    assert len(attacks) >= 4
 
 
 def test_keep_out_family_writes_buildings_with_their_own_ceiling():

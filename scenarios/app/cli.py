@@ -255,8 +255,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--families",
         default=None,
         metavar="A,B",
-        help="comma-separated case families to take turns (default: all but city; city: airspace-scale fences,"
-        " thousands of vertices and hundreds of buildings, slower to fly)",
+        help="comma-separated case families to take turns (default: all but city and random; city: airspace-scale"
+        " fences, thousands of vertices and hundreds of buildings, slower to fly; random: random polygons of 5-40"
+        " vertices, often with keep-outs in the way back)",
     )
     rep = camp_sub.add_parser(
         "report",

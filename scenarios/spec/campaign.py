@@ -125,6 +125,11 @@ class CaseFamily(Enum):
     """An airspace-scale fence (:func:`family_city`): a ragged park boundary of thousands of vertices and
     hundreds of building keep-outs. Not among the :data:`DEFAULT_FAMILIES` (its flights cost more): asked for by
     name (``campaign generate --families city``)."""
+    RANDOM = "random"
+    """A random polygon (:func:`family_random`): a star-shaped keep-in of 5-40 vertices at random angles and
+    radii (notches, spikes, acute and reflex corners mixed), often with keep-outs scattered in the way back.
+    Not among the :data:`DEFAULT_FAMILIES` (added after campaigns had been published, whose cases keep their
+    families): asked for by name (``campaign generate --families random``)."""
 
 
 class Attack(Enum):
@@ -254,7 +259,7 @@ def _rot(points: np.ndarray, angle_rad: float) -> np.ndarray:
     return points @ np.array([[c, s], [-s, c]])
 
 
-def _scaled(unit: Sequence[Sequence[float]], inradius_m: float, rng: np.random.Generator) -> np.ndarray:
+def _scaled(unit: Sequence[Sequence[float]] | np.ndarray, inradius_m: float, rng: np.random.Generator) -> np.ndarray:
     """A unit shape scaled to ``inradius_m``, centred on its pole, rotated at random."""
     p = np.asarray(unit, dtype=float)
     e, n, r = PolygonIndex(p).inradius(precision_m=1e-3)
@@ -1110,6 +1115,76 @@ def family_city(rng: np.random.Generator, ctx: CaseContext):
     return draft, _plan_lateral(rng, ctx, local, attack, agl), attack
 
 
+RANDOM_VERTICES = (5, 40)
+"""How many vertices a :func:`family_random` keep-in has (inclusive)."""
+RANDOM_KEEP_OUT_PROBABILITY = 0.5
+"""The chance that a :func:`family_random` fence has keep-outs (1 to 3) in it."""
+
+
+def family_random(rng: np.random.Generator, ctx: CaseContext):
+    """A random polygon: :data:`RANDOM_VERTICES` vertices at sorted random angles round a centre (no two closer
+    than a quarter of an even share, so no edge is a sliver), each at a random fraction of the outer radius
+    (the least fraction itself drawn from 0.3-0.8: from a ragged star to a near-convex blob), scaled so its
+    inradius is the lateral families' and turned at random. The polygon is star-shaped about the centre, so it
+    is simple; it mixes notches, spikes, acute and reflex corners the archetype families hold one at a time.
+    With :data:`RANDOM_KEEP_OUT_PROBABILITY`, 1-3 keep-outs (circles or 3-7 sided polygons) sit between the
+    pole and the keep-in edge, where the override's way back runs (one that leaves the allowed area less
+    inradius than the families are sized to is not kept). Then a lateral attack or a mission."""
+    k = int(rng.integers(RANDOM_VERTICES[0], RANDOM_VERTICES[1] + 1))
+    share = 2.0 * math.pi / k
+    gaps = share * (0.25 + rng.dirichlet(np.ones(k)) * k * 0.75)  # each at least a quarter share; they sum to 2 pi
+    angles = np.cumsum(gaps) - gaps[0]
+    lowest = rng.uniform(0.3, 0.8)
+    radii = rng.uniform(lowest, 1.0, k)
+    unit = np.column_stack([radii * np.sin(angles), radii * np.cos(angles)])
+    attack = _pick(rng, LATERAL_ATTACKS, LATERAL_WEIGHTS)
+    r = ctx.target_inradius_m(rng) * (1.6 if attack is Attack.MISSION else 1.0)
+    ceiling, agl = _heights(rng, ctx)
+    draft = FenceDraft(_scaled(unit, r, rng), ceiling)
+    if draft.span_m() > MAX_FENCE_SPAN_M:
+        raise _DoesNotFit
+    frame = ctx.frame
+    local = draft.local(frame)
+    if rng.random() < RANDOM_KEEP_OUT_PROBABILITY:
+        pole = np.array(local.inradius()[:2])
+        # what the allowed area keeps, as the families are sized (ctx.target_inradius_m's least) and as the schema
+        # checks it (a shifted fence that does not vanish)
+        min_inradius = max(3.0 * ctx.room_m, 1.4 * ctx.shift_m)
+        circles: list[tuple[float, float, float]] = []
+        polys: list[np.ndarray] = []
+        for _ in range(int(rng.integers(1, 4))):
+            for _try in range(20):  # a place on a ray from the pole, clear of the pole and of the keep-in edge
+                u = _unit(rng.uniform(0.0, 360.0))
+                reach, _ = _ray_hit(local, pole, _course_deg(u))
+                rad = rng.uniform(0.08, 0.25) * r
+                c = pole + u * rng.uniform(0.3, 0.8) * reach
+                clear = rad + 0.5 * ctx.room_m
+                if float(np.hypot(*(c - pole))) < rad + ctx.room_m or local.lateral_margin_m(float(c[0]), float(c[1])) < clear:
+                    continue
+                if any(float(np.hypot(c[0] - e, c[1] - n)) < rad + q + ctx.room_m for e, n, q in circles) or any(
+                    float(np.hypot(*(c - p.mean(axis=0)))) < rad + float(np.max(np.hypot(*(p - p.mean(axis=0)).T))) + ctx.room_m
+                    for p in polys
+                ):
+                    continue
+                added: list = circles if rng.random() < 0.5 else polys
+                if added is circles:
+                    circles.append((float(c[0]), float(c[1]), float(rad)))
+                else:
+                    m = int(rng.integers(3, 8))
+                    a = np.sort(rng.uniform(0.0, 2.0 * math.pi, m)) if m > 3 else np.array([0.0, 2.1, 4.2]) + rng.uniform(0, 1)
+                    polys.append(np.column_stack([c[0] + rad * np.sin(a), c[1] + rad * np.cos(a)]))
+                draft.keep_out_circles, draft.keep_out_polygons = tuple(circles), tuple(polys)
+                if draft.local(frame).inradius()[2] < min_inradius:  # it took too much of the allowed area: not kept
+                    added.pop()
+                    draft.keep_out_circles, draft.keep_out_polygons = tuple(circles), tuple(polys)
+                break
+        local = draft.local(frame)
+    plan, attack = _mission_or_breach(rng, ctx, draft, local, attack, agl)
+    if plan is not None:
+        return draft, plan, attack
+    return draft, _plan_lateral(rng, ctx, local, attack, agl), attack
+
+
 FAMILY_BUILDERS: dict[CaseFamily, Callable[[np.random.Generator, CaseContext], tuple[FenceDraft, Plan, Attack]]] = {
     CaseFamily.CONVEX_BOX: family_box,
     CaseFamily.L_FENCE: family_l,
@@ -1122,10 +1197,12 @@ FAMILY_BUILDERS: dict[CaseFamily, Callable[[np.random.Generator, CaseContext], t
     CaseFamily.FLOOR_GAPS: family_floor_gaps,
     CaseFamily.CIRCLE: family_circle,
     CaseFamily.CITY: family_city,
+    CaseFamily.RANDOM: family_random,
 }
 
-DEFAULT_FAMILIES: tuple[CaseFamily, ...] = tuple(f for f in CaseFamily if f is not CaseFamily.CITY)
-"""The families a campaign draws from unless asked for others (every family but :attr:`CaseFamily.CITY`)."""
+DEFAULT_FAMILIES: tuple[CaseFamily, ...] = tuple(f for f in CaseFamily if f not in (CaseFamily.CITY, CaseFamily.RANDOM))
+"""The families a campaign draws from unless asked for others (every family but :attr:`CaseFamily.CITY` and
+:attr:`CaseFamily.RANDOM`)."""
 
 
 # --------------------------------------------------------------------------- site, wind, faults
