@@ -510,19 +510,36 @@ class LandingGuidance:
         self.cruise_h = 0.0
         self.route: Route = StraightRoute(0.0, 0.0)
         self.turn_sign = 0
+        self.turn_limit_rad = math.inf
+        self.turned_rad = 0.0
+        self._last_yaw: float | None = None
         self.orbit_clockwise = True
 
-    def start(self, point_e: float, point_n: float, cruise_h: float, route: Route | None = None, turn_sign: int = 0) -> None:
+    def start(
+        self,
+        point_e: float,
+        point_n: float,
+        cruise_h: float,
+        route: Route | None = None,
+        turn_sign: int = 0,
+        turn_limit_rad: float = math.inf,
+    ) -> None:
         """Land at ``(point_e, point_n)``, flying ``route`` there (default: straight) at ``cruise_h``.
 
         ``turn_sign`` (fixed-wing; +1 left, -1 right): the direction of the first turn onto the route,
         at the bank limit -- the one the activation margin scored as safe against every edge (the
         shorter turn is not always: it can swing out across the nearby boundary). 0: the shorter turn.
+        ``turn_limit_rad``: the turn the margin scored; the committed turn ends once the heading has
+        turned that much (and :data:`ROLL_OUT_TOLERANCE_RAD`) either way, as the override's does
+        (:class:`FixedWingRecovery`).
         """
         self.point = (point_e, point_n)
         self.cruise_h = cruise_h
         self.route = route if route is not None else StraightRoute(point_e, point_n)
         self.turn_sign = turn_sign
+        self.turn_limit_rad = turn_limit_rad + ROLL_OUT_TOLERANCE_RAD
+        self.turned_rad = 0.0
+        self._last_yaw = None
         # The spiral goes on the way the first turn went: a clockwise spiral after a left turn reverses the
         # turn at once, and a fast fixed-wing flies a turn diameter downwind doing it (campaign seed 26112033,
         # star-0588: a J3Cub that lost GPS 1.3 s into an override's left turn, 46 m/s over the ground, its
@@ -595,7 +612,10 @@ class LandingGuidance:
         pitch, throttle = climb_rate_to_stick(climb, env), airspeed_to_stick(env.min_speed_mps, env)
         course_err = wrap_pi(course_cmd - course)
         if self.turn_sign and abs(course_err) > ROLL_OUT_TOLERANCE_RAD:
-            # the committed first turn (+1 left = negative roll stick)
-            return StickCommand(roll=-float(self.turn_sign), pitch=pitch, yaw=0.0, throttle=throttle)
+            if self._last_yaw is not None:
+                self.turned_rad = turned_through_rad(self.turned_rad, self._last_yaw, s.yaw_rad)
+            self._last_yaw = s.yaw_rad
+            if self.turned_rad <= self.turn_limit_rad:  # the committed first turn (+1 left = negative roll stick)
+                return StickCommand(roll=-float(self.turn_sign), pitch=pitch, yaw=0.0, throttle=throttle)
         self.turn_sign = 0
         return fixed_wing_sticks(s, course_err, COURSE_GAIN_PER_S, pitch, throttle, env)

@@ -55,6 +55,7 @@ from geofence.dead_reckoning import DeadReckoning
 from geofence.dynamics import envelope_at_density, isa_density_ratio, return_not_assured, return_wind_limits
 from geofence.fence import AltitudeReference
 from geofence.guidance import (
+    ROLL_OUT_TOLERANCE_RAD,
     FixedWingRecovery,
     LandingGuidance,
     MultirotorVelocityRecovery,
@@ -64,7 +65,7 @@ from geofence.guidance import (
 )
 from geofence.interface import Envelope, FixState, StickCommand, VehicleState
 from geofence.local_fence import LocalFence
-from geofence.recovery_path import RecoveryPlanner
+from geofence.recovery_path import Point, RecoveryPlanner
 from geofence.rooms import (
     climb_back_drift_m,
     envelope_turn_radius_m,
@@ -260,10 +261,14 @@ class GeofenceUnit:
             room += climb_back_drift_m(fence.floor_m + vroom - h, env.max_climb_rate_mps, w)
         return fence.best_gap(s.east_m, s.north_m)[1] > room
 
-    def _margins(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> ShiftResult:
+    def _margins(
+        self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float, rollout_target: Point | None = None
+    ) -> ShiftResult:
+        """:func:`activation_margins` of the unit's state; a fixed-wing's turn is scored towards ``rollout_target``
+        (default: where the override's turn rolls out, :meth:`_rollout_target`)."""
         k = self.config.uncertainty_k_sigma
         extra = self.config.extra_margin_m
-        target = None if self._multirotor else self._rollout_target(s.east_m, s.north_m)
+        target = None if self._multirotor else (rollout_target or self._rollout_target(s.east_m, s.north_m))
         if self._compiled is not None and _jit.ACTIVE:  # activation_margins' compiled call, its tables bound
             wind = self.wind_enu
             return self._compiled.margins(
@@ -531,15 +536,40 @@ class GeofenceUnit:
 
     def _start_landing(self, t_s: float, s: VehicleState, h: float, reason: str) -> None:
         pe, pn = self._landing_point(s)
-        turn_sign = 0
-        if not self.env.is_multirotor and not s.on_ground:
-            turn_sign = self._margins(s, h, self._sigma_h_m, self._sigma_v_m, 0.0).turn_sign
+        route = self._route((s.east_m, s.north_m), (pe, pn))
+        turn_sign, turn_limit = 0, math.inf
+        recovery = self.recovery
+        if (
+            self.mode is _OVERRIDE
+            and isinstance(recovery, FixedWingRecovery)
+            and recovery.turning
+            and recovery.turned_rad < recovery.turn_limit_rad
+        ):
+            # A fixed-wing still in its override's turn goes on with that turn, for what is left of the angle
+            # its margin scored when the override began (its guidance's limit holds the roll-out tolerance,
+            # which the landing guidance adds again), and spirals that way. Scored afresh now, the turn is
+            # counted after the current bank's reaction arc: a few degrees the other way, which the guidance
+            # flies at once. A J3Cub whose GPS went out 4.5 s into an override's right turn (campaign seed
+            # 26112038, random-0255) so reversed into a left turn and flew it 310 degrees round to its
+            # route, 50 degrees to the right, out by 51 m.
+            turn_sign = recovery.turn_sign
+            turn_limit = max(recovery.turn_limit_rad - ROLL_OUT_TOLERANCE_RAD - recovery.turned_rad, 0.0)
+        elif not self.env.is_multirotor and not s.on_ground:
+            # Otherwise the first turn is scored as the override's is, towards where the landing's own
+            # guidance rolls out: a turn's length along its route to the landing point (over the point,
+            # where the guidance orbits it: the override's roll-out target), and flown for the angle scored.
+            spiral = self.landing.spiral_radius_m
+            target = None
+            if route.remaining_m(s.east_m, s.north_m) > 2.0 * spiral:
+                target = route.rollout_point(s.east_m, s.north_m, spiral)
+            scored = self._margins(s, h, self._sigma_h_m, self._sigma_v_m, 0.0, target)
+            turn_sign, turn_limit = scored.turn_sign, scored.turn_angle_rad
         # over a floor, a multirotor flies to its gap at the lowest height that is safe everywhere: it has
         # that much less to descend once over the gap, and drifts that much less in a wind it cannot beat
         # (a fixed-wing keeps its height until its spiral)
         low = self.env.is_multirotor and self.fence.floor_m is not None
         cruise_h = self._goal_height(-math.inf if low else h)
-        self.landing.start(pe, pn, cruise_h, self._route((s.east_m, s.north_m), (pe, pn)), turn_sign)
+        self.landing.start(pe, pn, cruise_h, route, turn_sign, turn_limit)
         self._switch(t_s, Mode.LAND_IN_GAP, reason + f"; landing at ({pe:.0f}, {pn:.0f}) m ENU")
 
     def _start_override(self, t_s: float, s: VehicleState, h: float, r: ShiftResult, reason: str) -> None:

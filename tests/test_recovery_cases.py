@@ -16,6 +16,8 @@ WGS-84 at the site) and flown in closed loop with the unit's own sensors:
 * a fixed-wing that loses GPS near the boundary (campaign case u_fence-0569: its landing turn
   swung out 170 m across the boundary; the first turn now goes the way the margin scored safe);
 * a fixed-wing that loses GPS in an override's turn (star-0588): its landing spiral goes on that way;
+* a fixed-wing that loses GPS in an override's turn with its landing point the other way (random-0255): its
+  landing goes on with the override's turn;
 * a fixed-wing overridden at the ceiling after a climb its engine could not give (ceiling-0241): its flight
   controller arrests it;
 * a multirotor that loses GPS deep inside comes down at its full descent rate, not 1 m/s;
@@ -266,6 +268,22 @@ def test_fixed_wing_landing_spiral_goes_on_the_way_its_first_turn_went():
     res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_star_0588_gps_outage_orbit.yaml"))
     assert any("position source lost" in t.reason for t in res.unit.transitions)
     assert_held(res, "J3Cub spiralling down after a GPS outage in a turn")
+
+
+@pytest.mark.parametrize(
+    "case", ["campaign_random_0255_gps_outage_landing_turn.yaml", "campaign_l_fence_0595_gps_fail_in_turn.yaml"]
+)
+def test_fixed_wing_landing_mid_override_goes_on_with_the_overrides_turn(case):
+    # campaign case random-0255 (seed 26112038, --families random): a J3Cub lost GPS 4.5 s into an override's
+    # right turn. The landing's first turn, scored afresh after the right bank's reaction arc, was 3 degrees to
+    # the left; the landing guidance flew that left turn until it faced its route, 50 degrees to the right of
+    # the heading it had: 310 degrees round, out across the edge by 51.4 m. A landing begun in an override's
+    # turn now goes on with that turn for what is left of its scored angle, and spirals that way. l_fence-0595
+    # (seed 26112030): a Tern whose GPS failed in an override's right turn, held by 1.9 m before, by 30 m now.
+    res = fly(load_scenario(Path(__file__).parent / "data" / case))
+    assert any("position source lost" in t.reason for t in res.unit.transitions)
+    assert res.unit.landing.orbit_clockwise  # both overrides turned right
+    assert_held(res, f"{res.summary['aircraft']} landing after a GPS fault in an override's turn")
 
 
 def test_fixed_wing_after_a_power_limited_climb_arrests_it_at_the_ceiling():
