@@ -892,6 +892,13 @@ def family_corridor(rng: np.random.Generator, ctx: CaseContext):
     return draft, _plan_lateral(rng, ctx, local, attack, agl), attack
 
 
+def _keep_out_polygon(rng: np.random.Generator, centre: np.ndarray, radius_m: float, k: int) -> np.ndarray:
+    """A keep-out of ``k`` vertices on a circle round ``centre``: at sorted random angles, or a triangle turned at
+    random (three random angles can make a sliver)."""
+    ang = np.sort(rng.uniform(0.0, 2 * math.pi, k)) if k > 3 else np.array([0.0, 2.1, 4.2]) + rng.uniform(0, 1)
+    return np.column_stack([centre[0] + radius_m * np.sin(ang), centre[1] + radius_m * np.cos(ang)])
+
+
 def family_keep_out(rng: np.random.Generator, ctx: CaseContext):
     r = ctx.target_inradius_m(rng) * 1.5
     a = rng.uniform(1.0, 1.8)
@@ -908,9 +915,7 @@ def family_keep_out(rng: np.random.Generator, ctx: CaseContext):
     if rng.random() < 0.6:
         circles.append((float(off[0]), float(off[1]), float(rad)))
     else:
-        k = int(rng.integers(3, 7))
-        ang = np.sort(rng.uniform(0.0, 2 * math.pi, k)) if k > 3 else np.array([0.0, 2.1, 4.2]) + rng.uniform(0, 1)
-        polys.append(np.column_stack([off[0] + rad * np.sin(ang), off[1] + rad * np.cos(ang)]))
+        polys.append(_keep_out_polygon(rng, off, rad, int(rng.integers(3, 7))))
     draft.keep_out_circles, draft.keep_out_polygons = tuple(circles), tuple(polys)
     # buildings: a keep-out's own ceiling above the flight height (the unit treats it as full height: planning
     # is unchanged); drawn from a child generator so the cases drawn before buildings existed stay as they were
@@ -1170,9 +1175,7 @@ def family_random(rng: np.random.Generator, ctx: CaseContext):
                 if added is circles:
                     circles.append((float(c[0]), float(c[1]), float(rad)))
                 else:
-                    m = int(rng.integers(3, 8))
-                    a = np.sort(rng.uniform(0.0, 2.0 * math.pi, m)) if m > 3 else np.array([0.0, 2.1, 4.2]) + rng.uniform(0, 1)
-                    polys.append(np.column_stack([c[0] + rad * np.sin(a), c[1] + rad * np.cos(a)]))
+                    polys.append(_keep_out_polygon(rng, c, rad, int(rng.integers(3, 8))))
                 draft.keep_out_circles, draft.keep_out_polygons = tuple(circles), tuple(polys)
                 if draft.local(frame).inradius()[2] < min_inradius:  # it took too much of the allowed area: not kept
                     added.pop()
