@@ -59,7 +59,7 @@ def test_campaign_generate_and_report_refuse_bad_folders(tmp_path):
     r = run_cli("campaign", "generate", str(tmp_path / "bad2"), "--cases", "2", "--families", "box,towns")
     assert r.returncode == 2 and r.stderr.strip().splitlines() == [
         "error: --families: unknown family 'towns' (known: box, l_fence, u_fence, star, acute, corridor, keep_out, "
-        "ceiling, floor_gaps, circle, city)"
+        "ceiling, floor_gaps, circle, city, random)"
     ]
     assert not (tmp_path / "bad2").exists() or not any((tmp_path / "bad2").iterdir())
     r = run_cli("campaign", "generate", str(tmp_path / "tern"), "--cases", "2", "--platforms", "Tern")
