@@ -539,31 +539,27 @@ class GeofenceUnit:
         route = self._route((s.east_m, s.north_m), (pe, pn))
         turn_sign, turn_limit = 0, math.inf
         recovery = self.recovery
-        if (
-            self.mode is _OVERRIDE
-            and isinstance(recovery, FixedWingRecovery)
-            and recovery.turning
-            and recovery.turned_rad < recovery.turn_limit_rad
-        ):
-            # A fixed-wing still in its override's turn goes on with that turn, for what is left of the angle
-            # its margin scored when the override began (its guidance's limit holds the roll-out tolerance,
-            # which the landing guidance adds again), and spirals that way. Scored afresh now, the turn is
-            # counted after the current bank's reaction arc: a few degrees the other way, which the guidance
-            # flies at once. A J3Cub whose GPS went out 4.5 s into an override's right turn (campaign seed
-            # 26112038, random-0255) so reversed into a left turn and flew it 310 degrees round to its
-            # route, 50 degrees to the right, out by 51 m.
-            turn_sign = recovery.turn_sign
-            turn_limit = max(recovery.turn_limit_rad - ROLL_OUT_TOLERANCE_RAD - recovery.turned_rad, 0.0)
-        elif not self.env.is_multirotor and not s.on_ground:
-            # Otherwise the first turn is scored as the override's is, towards where the landing's own
-            # guidance rolls out: a turn's length along its route to the landing point (over the point,
-            # where the guidance orbits it: the override's roll-out target), and flown for the angle scored.
-            spiral = self.landing.spiral_radius_m
-            target = None
-            if route.remaining_m(s.east_m, s.north_m) > 2.0 * spiral:
-                target = route.rollout_point(s.east_m, s.north_m, spiral)
-            scored = self._margins(s, h, self._sigma_h_m, self._sigma_v_m, 0.0, target)
-            turn_sign, turn_limit = scored.turn_sign, scored.turn_angle_rad
+        if isinstance(recovery, FixedWingRecovery) and not s.on_ground:
+            if self.mode is _OVERRIDE and recovery.turning and recovery.turned_rad < recovery.turn_limit_rad:
+                # Still in its override's turn: it goes on with that turn, for what is left of the angle its
+                # margin scored when the override began (the guidance's limit holds the roll-out tolerance,
+                # which the landing guidance adds again), and spirals that way. Scored afresh now, the turn is
+                # counted after the current bank's reaction arc: a few degrees the other way, which the
+                # guidance flies at once. A J3Cub whose GPS went out 4.5 s into an override's right turn
+                # (campaign seed 26112038, random-0255) so reversed into a left turn and flew it 310 degrees
+                # round to its route, 50 degrees to the right, out by 51 m.
+                turn_sign = recovery.turn_sign
+                turn_limit = max(recovery.turn_limit_rad - ROLL_OUT_TOLERANCE_RAD - recovery.turned_rad, 0.0)
+            else:
+                # Otherwise the first turn is scored as the override's is, towards where the landing's own
+                # guidance rolls out: a turn's length along its route to the landing point (over the point,
+                # where the guidance orbits it: the override's roll-out target), and flown for the angle scored.
+                spiral = self.landing.spiral_radius_m
+                target = None
+                if route.remaining_m(s.east_m, s.north_m) > 2.0 * spiral:
+                    target = route.rollout_point(s.east_m, s.north_m, spiral)
+                scored = self._margins(s, h, self._sigma_h_m, self._sigma_v_m, 0.0, target)
+                turn_sign, turn_limit = scored.turn_sign, scored.turn_angle_rad
         # over a floor, a multirotor flies to its gap at the lowest height that is safe everywhere: it has
         # that much less to descend once over the gap, and drifts that much less in a wind it cannot beat
         # (a fixed-wing keeps its height until its spiral)
