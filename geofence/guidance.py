@@ -363,6 +363,13 @@ class FixedWingRecovery:
                 ]
             )
 
+    def turn_left_rad(self) -> float | None:
+        """What is left of the first turn its margin scored (rad, the roll-out tolerance not counted), or None
+        once it has rolled out or turned to its limit."""
+        if not self.turning or self.turned_rad >= self.turn_limit_rad:
+            return None
+        return max(self.turn_limit_rad - ROLL_OUT_TOLERANCE_RAD - self.turned_rad, 0.0)
+
     def _heading_to(self, s: VehicleState, target: tuple[float, float]) -> float:
         """Air heading whose ground track points at ``target`` (wind triangle at the current airspeed)."""
         return air_heading_to_rad(s, target[0], target[1], self.wind[0], self.wind[1], self.env.min_speed_mps)

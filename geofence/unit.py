@@ -55,7 +55,6 @@ from geofence.dead_reckoning import DeadReckoning
 from geofence.dynamics import envelope_at_density, isa_density_ratio, return_not_assured, return_wind_limits
 from geofence.fence import AltitudeReference
 from geofence.guidance import (
-    ROLL_OUT_TOLERANCE_RAD,
     FixedWingRecovery,
     LandingGuidance,
     MultirotorVelocityRecovery,
@@ -540,16 +539,15 @@ class GeofenceUnit:
         turn_sign, turn_limit = 0, math.inf
         recovery = self.recovery
         if isinstance(recovery, FixedWingRecovery) and not s.on_ground:
-            if self.mode is _OVERRIDE and recovery.turning and recovery.turned_rad < recovery.turn_limit_rad:
+            left = recovery.turn_left_rad() if self.mode is _OVERRIDE else None
+            if left is not None:
                 # Still in its override's turn: it goes on with that turn, for what is left of the angle its
-                # margin scored when the override began (the guidance's limit holds the roll-out tolerance,
-                # which the landing guidance adds again), and spirals that way. Scored afresh now, the turn is
+                # margin scored when the override began, and spirals that way. Scored afresh now, the turn is
                 # counted after the current bank's reaction arc: a few degrees the other way, which the
                 # guidance flies at once. A J3Cub whose GPS went out 4.5 s into an override's right turn
                 # (campaign seed 26112038, random-0255) so reversed into a left turn and flew it 310 degrees
                 # round to its route, 50 degrees to the right, out by 51 m.
-                turn_sign = recovery.turn_sign
-                turn_limit = max(recovery.turn_limit_rad - ROLL_OUT_TOLERANCE_RAD - recovery.turned_rad, 0.0)
+                turn_sign, turn_limit = recovery.turn_sign, left
             else:
                 # Otherwise the first turn is scored as the override's is, towards where the landing's own
                 # guidance rolls out: a turn's length along its route to the landing point (over the point,

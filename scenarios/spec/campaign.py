@@ -1126,15 +1126,58 @@ RANDOM_KEEP_OUT_PROBABILITY = 0.5
 """The chance that a :func:`family_random` fence has keep-outs (1 to 3) in it."""
 
 
+def _place_keep_outs(rng: np.random.Generator, ctx: CaseContext, draft: FenceDraft, local: LocalFence, r: float) -> None:
+    """Add 1-3 keep-outs to ``draft`` (``local``: its keep-in alone) for :func:`family_random`: each a circle or a
+    3-7-gon of radius 0.08-0.25 ``r`` on a ray from the pole, clear of the pole, the keep-in edge and the others
+    by a room, and kept only if the allowed area keeps the inradius the families are sized to."""
+    frame = ctx.frame
+    pole = np.array(local.inradius()[:2])
+    # what the allowed area keeps, as the families are sized (ctx.target_inradius_m's least) and as the schema
+    # checks it (a shifted fence that does not vanish)
+    min_inradius = max(3.0 * ctx.room_m, 1.4 * ctx.shift_m)
+    circles: list[tuple[float, float, float]] = []
+    polys: list[np.ndarray] = []
+
+    def clear_of_the_others(c: np.ndarray, rad: float) -> bool:
+        if any(float(np.hypot(c[0] - e, c[1] - n)) < rad + q + ctx.room_m for e, n, q in circles):
+            return False
+        for p in polys:
+            mid = p.mean(axis=0)
+            if float(np.hypot(*(c - mid))) < rad + float(np.max(np.hypot(*(p - mid).T))) + ctx.room_m:
+                return False
+        return True
+
+    for _ in range(int(rng.integers(1, 4))):
+        for _try in range(20):  # a place on a ray from the pole, clear of the pole and of the keep-in edge
+            u = _unit(rng.uniform(0.0, 360.0))
+            reach, _ = _ray_hit(local, pole, _course_deg(u))
+            rad = rng.uniform(0.08, 0.25) * r
+            c = pole + u * rng.uniform(0.3, 0.8) * reach
+            near_pole = float(np.hypot(*(c - pole))) < rad + ctx.room_m
+            if near_pole or local.lateral_margin_m(float(c[0]), float(c[1])) < rad + 0.5 * ctx.room_m:
+                continue
+            if not clear_of_the_others(c, rad):
+                continue
+            added: list = circles if rng.random() < 0.5 else polys
+            if added is circles:
+                circles.append((float(c[0]), float(c[1]), float(rad)))
+            else:
+                polys.append(_keep_out_polygon(rng, c, rad, int(rng.integers(3, 8))))
+            draft.keep_out_circles, draft.keep_out_polygons = tuple(circles), tuple(polys)
+            if draft.local(frame).inradius()[2] < min_inradius:  # it took too much of the allowed area: not kept
+                added.pop()
+                draft.keep_out_circles, draft.keep_out_polygons = tuple(circles), tuple(polys)
+            break
+
+
 def family_random(rng: np.random.Generator, ctx: CaseContext):
     """A random polygon: :data:`RANDOM_VERTICES` vertices at sorted random angles round a centre (no two closer
     than a quarter of an even share, so no edge is a sliver), each at a random fraction of the outer radius
     (the least fraction itself drawn from 0.3-0.8: from a ragged star to a near-convex blob), scaled so its
     inradius is the lateral families' and turned at random. The polygon is star-shaped about the centre, so it
     is simple; it mixes notches, spikes, acute and reflex corners the archetype families hold one at a time.
-    With :data:`RANDOM_KEEP_OUT_PROBABILITY`, 1-3 keep-outs (circles or 3-7 sided polygons) sit between the
-    pole and the keep-in edge, where the override's way back runs (one that leaves the allowed area less
-    inradius than the families are sized to is not kept). Then a lateral attack or a mission."""
+    With :data:`RANDOM_KEEP_OUT_PROBABILITY`, keep-outs between the pole and the keep-in edge, where the
+    override's way back runs (:func:`_place_keep_outs`). Then a lateral attack or a mission."""
     k = int(rng.integers(RANDOM_VERTICES[0], RANDOM_VERTICES[1] + 1))
     share = 2.0 * math.pi / k
     gaps = share * (0.25 + rng.dirichlet(np.ones(k)) * k * 0.75)  # each at least a quarter share; they sum to 2 pi
@@ -1151,36 +1194,7 @@ def family_random(rng: np.random.Generator, ctx: CaseContext):
     frame = ctx.frame
     local = draft.local(frame)
     if rng.random() < RANDOM_KEEP_OUT_PROBABILITY:
-        pole = np.array(local.inradius()[:2])
-        # what the allowed area keeps, as the families are sized (ctx.target_inradius_m's least) and as the schema
-        # checks it (a shifted fence that does not vanish)
-        min_inradius = max(3.0 * ctx.room_m, 1.4 * ctx.shift_m)
-        circles: list[tuple[float, float, float]] = []
-        polys: list[np.ndarray] = []
-        for _ in range(int(rng.integers(1, 4))):
-            for _try in range(20):  # a place on a ray from the pole, clear of the pole and of the keep-in edge
-                u = _unit(rng.uniform(0.0, 360.0))
-                reach, _ = _ray_hit(local, pole, _course_deg(u))
-                rad = rng.uniform(0.08, 0.25) * r
-                c = pole + u * rng.uniform(0.3, 0.8) * reach
-                clear = rad + 0.5 * ctx.room_m
-                if float(np.hypot(*(c - pole))) < rad + ctx.room_m or local.lateral_margin_m(float(c[0]), float(c[1])) < clear:
-                    continue
-                if any(float(np.hypot(c[0] - e, c[1] - n)) < rad + q + ctx.room_m for e, n, q in circles) or any(
-                    float(np.hypot(*(c - p.mean(axis=0)))) < rad + float(np.max(np.hypot(*(p - p.mean(axis=0)).T))) + ctx.room_m
-                    for p in polys
-                ):
-                    continue
-                added: list = circles if rng.random() < 0.5 else polys
-                if added is circles:
-                    circles.append((float(c[0]), float(c[1]), float(rad)))
-                else:
-                    polys.append(_keep_out_polygon(rng, c, rad, int(rng.integers(3, 8))))
-                draft.keep_out_circles, draft.keep_out_polygons = tuple(circles), tuple(polys)
-                if draft.local(frame).inradius()[2] < min_inradius:  # it took too much of the allowed area: not kept
-                    added.pop()
-                    draft.keep_out_circles, draft.keep_out_polygons = tuple(circles), tuple(polys)
-                break
+        _place_keep_outs(rng, ctx, draft, local, r)
         local = draft.local(frame)
     plan, attack = _mission_or_breach(rng, ctx, draft, local, attack, agl)
     if plan is not None:
