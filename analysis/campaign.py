@@ -31,8 +31,13 @@ flight** (the flight met a wind whose mean over :data:`SUSTAINED_WIND_WINDOW_S` 
 platform's max speed, :func:`peak_sustained_wind_mps` from its recorded trajectory: for those
 seconds the air moved faster than the vehicle can fly, so no override can hold it; judged on every
 flight alike, breached or not, since the forecast-based class cannot see a tail of the turbulence);
-**GPS fault** (the position source lost or out: dead reckoning drifts with the wind estimate's
-error); else **nominal** (the cases the containment figure is for). Every breach is listed whatever
+**activated at start** (the case's predictive unit found its activation margin already at or below 0 at
+its first step, ``first_activation_s`` 0 in its summary: the start state was inside the activation
+boundary, where the override's guarantee has not begun; the generator prefers a start beyond it and
+cannot always find one, e.g. a fixed-wing in a corridor or wedge narrower than its turn; judged from
+the predictive flight for all three variants of the case); **GPS fault** (the position source lost or
+out: dead reckoning drifts with the wind estimate's error); else **nominal** (the cases the containment
+figure is for). Every breach is listed whatever
 its condition; the headline rate is the nominal one.
 
 For each breached flight the report also gives the strongest wind the vehicle met, averaged over
@@ -199,11 +204,21 @@ def campaign_rows(rows: Iterable[Mapping], manifest: Mapping, batch_dir: str | P
             if traj.is_file():
                 row["peak_sustained_wind_mps"] = peak_sustained_wind_mps(traj)
         out.append(row)
+    committed = {r["case_id"] for r in out if r["variant"] == "predictive" and activated_at_first_step(r)}
+    for r in out:
+        r["activated_at_start"] = r["case_id"] in committed
     return out
 
 
+def activated_at_first_step(row: Mapping) -> bool:
+    """The flight's unit activated at its first step (``first_activation_s`` is 0: the start state was inside the
+    activation boundary); False when it never activated or the summary predates the field."""
+    t = num(row.get("first_activation_s"))
+    return math.isfinite(t) and t <= 0.0
+
+
 # --------------------------------------------------------------------------- per-flight outcome
-CONDITIONS = ("nominal", "GPS fault", "beyond authority", "beyond max speed in flight")
+CONDITIONS = ("nominal", "GPS fault", "activated at start", "beyond authority", "beyond max speed in flight")
 
 
 def met_wind_beyond_max_speed(row: Mapping) -> bool:
@@ -215,7 +230,7 @@ def met_wind_beyond_max_speed(row: Mapping) -> bool:
 
 def condition(row: Mapping) -> str:
     """The flight's condition (module docstring): beyond authority (forecast), beyond max speed in
-    flight, GPS fault, else nominal.
+    flight, activated at start (its case's predictive flight), GPS fault, else nominal.
 
     A manifest written before the authority test counts its cases as within it; a row without a
     recorded wind (no trajectory) is judged by its case alone.
@@ -224,6 +239,8 @@ def condition(row: Mapping) -> str:
         return "beyond authority"
     if met_wind_beyond_max_speed(row):
         return "beyond max speed in flight"
+    if truthy(row.get("activated_at_start")):
+        return "activated at start"
     return "GPS fault" if truthy(row.get("gps_fault")) else "nominal"
 
 
@@ -516,6 +533,7 @@ def describe_flight(r: Mapping) -> str:
         f"vertical {num(r.get('max_vertical_excursion_m')):+.2f} m, {r.get('platform')} {r.get('family')}/{r.get('attack')}, "
         f"wind {num(r.get('wind_speed_mps')):.1f} m/s{', GPS fault' if truthy(r.get('gps_fault')) else ''}"
         f"{'; beyond authority (' + str(r.get('beyond_authority')) + ')' if r.get('beyond_authority') else ''}"
+        f"{'; activated at start (inside the activation boundary)' if truthy(r.get('activated_at_start')) else ''}"
         f"{_sustained_wind_text(r)}, "
         f"activations {r.get('activations')}, final mode {r.get('final_mode')}"
     )
@@ -668,7 +686,8 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
         "",
         "Wind within each platform's authority (mean + one turbulence sigma at the start height below "
         "90 % of its max speed, judged before the flight; and in flight no "
-        f"{SUSTAINED_WIND_WINDOW_S:g} s mean of the wind met above its max speed) and no GPS fault.",
+        f"{SUSTAINED_WIND_WINDOW_S:g} s mean of the wind met above its max speed), a start outside the "
+        "activation boundary (the predictive unit did not activate at its first step) and no GPS fault.",
         "",
     ]
     cases = (manifest or {}).get("cases") or []
@@ -686,7 +705,9 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
         "Beyond authority: a wind the platform cannot fly back against for long; the unit is to land, never "
         "over a forbidden area. Beyond max speed in flight: the flight met a wind whose "
         f"{SUSTAINED_WIND_WINDOW_S:g} s mean exceeded its platform's max speed (judged on every flight from its "
-        "trajectory, breached or not).",
+        "trajectory, breached or not). Activated at start: the case began inside the activation boundary (its "
+        "predictive unit overrode at the first step), where the override's guarantee has not begun: the "
+        "generator prefers a start beyond it and cannot always find one.",
         "",
     ]
     lines += _stats_table(grouped(rows, ("variant", "condition")), ["variant", "condition"]) + [""]

@@ -52,6 +52,7 @@ OTHER_COLUMNS = (
     "geofence",
     "mission_finished",
     "ended_by_geofence",
+    "first_activation_s",
     "mission_progress",
     "waypoints_reached",
     "waypoints_total",

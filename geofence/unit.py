@@ -143,6 +143,9 @@ class GeofenceUnit:
         self.mode = Mode.MONITOR
         self.transitions: list[Transition] = []
         self.activations = 0
+        self.first_activation_s: float | None = None
+        """When the activation margin first reached 0 (s, the time of :meth:`update`), or None: 0 at the first
+        step is a start inside the activation boundary, where the override's guarantee has not begun."""
         self.reactivations = 0
         self.last: ShiftResult | None = None
         self.activation_margin_m = math.inf
@@ -682,6 +685,8 @@ class GeofenceUnit:
         if monitoring:
             if act <= 0.0 and not (est.on_ground and est.ground_speed_mps < SITTING_MAX_GROUND_SPEED_MPS):
                 self.activations += 1
+                if self.first_activation_s is None:
+                    self.first_activation_s = t_s
                 if impossible:
                     self._start_landing(t_s, est, h, impossible)
                     return self._land(t_s, est, h, dt_s)

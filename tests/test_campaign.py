@@ -517,6 +517,34 @@ def test_a_flight_that_met_a_wind_beyond_its_max_speed_is_classed_apart_breached
     )
 
 
+def test_a_case_whose_predictive_unit_activated_at_its_first_step_is_classed_apart_in_every_variant():
+    """box-0002's predictive unit overrode at t = 0 (its start was inside the activation boundary): the case's
+    three flights leave the nominal figure, whatever their own units did; star-0001's first activation came
+    later (nominal), and box-0000's summary predates the field (nominal)."""
+    raw = [dict(r) for r in synthetic_rows()]
+    for r in raw:
+        if r["flight"] == "box-0002__predictive":
+            r["first_activation_s"] = 0.0
+        elif r["flight"] == "star-0001__predictive":
+            r["first_activation_s"] = 12.5
+        r.pop("activated_at_start", None)
+    rows = campaign_rows(raw, SYNTH_MANIFEST)
+    by_flight = {r["flight"]: condition(r) for r in rows}
+    assert {f: c for f, c in by_flight.items() if f.startswith("box-0002")} == {
+        "box-0002__predictive": "activated at start",
+        "box-0002__reactive": "activated at start",
+        "box-0002__unprotected": "activated at start",
+    }
+    assert by_flight["star-0001__predictive"] == "nominal" and by_flight["box-0000__predictive"] == "nominal"
+    text = "\n".join(campaign_report_lines(rows, SYNTH_MANIFEST))
+    assert "| predictive | activated at start | 1 |" in text
+    nominal = text.split("## Nominal conditions")[1].split("## Per variant and condition")[0]
+    assert "| predictive | 2 |" in nominal
+    assert "activated at start (inside the activation boundary)" in describe_flight(
+        next(r for r in rows if r["flight"] == "box-0002__reactive")
+    )
+
+
 # --------------------------------------------------------------------------- report math
 def test_clopper_pearson_matches_known_values_and_the_binomial():
     assert clopper_pearson_upper(0, 1000) == pytest.approx(0.002991, abs=5e-6)

@@ -57,6 +57,7 @@ def assert_fence_held(res):
     # it acted before the line: at the first activation the truth margin was positive
     first = transitions[0]
     assert first["to"] == "OVERRIDE"
+    assert s["first_activation_s"] == first["t_s"] > 0.0  # the first activation, after a start outside the boundary
     t = res.recorder.column("time_s")
     k = int((t >= first["t_s"] - 1e-9).argmax())
     fence = res.fence

@@ -193,6 +193,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         traj = {name: recorder.column(name) for name in SCORED_COLUMNS}
         summary.update(score_flight(traj, fence))
         summary["activations"] = unit.activations
+        first = unit.first_activation_s
+        summary["first_activation_s"] = None if first is None else round(first, 3)  # as the transitions' times
         summary["final_mode"] = unit.mode.name
         summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
     return FlightResult(scenario=scenario, summary=summary, recorder=recorder, frame=frame, pilot=pilot, unit=unit, fence=fence)
