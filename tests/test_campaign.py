@@ -23,6 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from hypothesis import example, given, settings
+from hypothesis import strategies as st
 from scipy.stats import binom, poisson
 
 from aircraft.profile import available_profiles, load_profile
@@ -49,6 +51,7 @@ from analysis.campaign import (
 from geofence.dynamics import return_not_assured
 from geofence.fence import parse_fence
 from geofence.geodesy import LocalFrame
+from geofence.polygon import self_intersections, signed_area
 from geofence.rooms import worst_case_lateral_shift_m
 from geofence.validation import ConfigError
 from scenarios.spec.campaign import (
@@ -67,6 +70,7 @@ from scenarios.spec.campaign import (
     generate_campaign,
     generate_cases,
     platform_room_m,
+    random_simple_polygon,
     wind_authority,
     wind_limit_mps,
 )
@@ -291,6 +295,23 @@ def test_random_family_writes_star_shaped_polygons_with_keep_outs_clear_of_the_p
         assert local.lateral_margin_m(e, n) > 0.0  # the pole (the default recovery point) is clear of them
     assert 5 <= with_keep_outs <= 25
     assert len(attacks) >= 4
+
+
+@settings(max_examples=300, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), k=st.integers(RANDOM_VERTICES[0], RANDOM_VERTICES[1]))
+@example(seed=2332, k=5).via("a first draw that crosses its edges")
+@example(seed=4854, k=6).via("a first draw that crosses its edges")
+def test_random_keep_in_polygons_are_simple_whatever_the_draw(seed, k):
+    """A random family keep-in is a simple polygon of k vertices with no sliver edge, also where an angular gap
+    of pi or more puts an edge on the far side of the centre (5-vertex draws: one in eight; seed 26112703 once
+    stopped on one that crossed its other edges)."""
+    v = random_simple_polygon(np.random.default_rng(seed), k)
+    assert v.shape == (k, 2)
+    assert not self_intersections(v) and signed_area(v) != 0.0
+    angles = np.arctan2(v[:, 0], v[:, 1]) % (2.0 * math.pi)
+    gaps = np.diff(np.append(angles, angles[0] + 2.0 * math.pi))
+    assert gaps.min() >= 0.25 * 2.0 * math.pi / k - 1e-9  # sorted, no two closer than a quarter share
+    assert np.hypot(v[:, 0], v[:, 1]).max() <= 1.0
 
 
 def test_keep_out_family_writes_buildings_with_their_own_ceiling():

@@ -74,7 +74,7 @@ from geofence.dynamics import envelope_at_density, isa_density_ratio, return_not
 from geofence.fence import circle_to_polygon, parse_fence
 from geofence.geodesy import LocalFrame
 from geofence.local_fence import LocalFence
-from geofence.polygon import PolygonIndex
+from geofence.polygon import PolygonIndex, self_intersections
 from geofence.rooms import multicopter_stopping_distance_m, turn_radius_m, worst_case_lateral_shift_m
 from geofence.validation import ConfigError
 from scenarios.airspace.generate import park_boundary_en, place_buildings
@@ -1170,21 +1170,36 @@ def _place_keep_outs(rng: np.random.Generator, ctx: CaseContext, draft: FenceDra
             break
 
 
+def random_simple_polygon(rng: np.random.Generator, k: int) -> np.ndarray:
+    """``k`` vertices (rows east, north; outer radius 1) at sorted random angles round a centre, no two closer
+    than a quarter of an even share (no sliver edge), each at a random fraction of the outer radius (the
+    least fraction itself drawn from 0.3-0.8: from a ragged star to a near-convex blob); a simple polygon.
+
+    While every angular gap is under pi the polygon is star-shaped about the centre, hence simple. A gap of
+    pi or more (one draw in eight with 5 vertices, one in a thousand with 10) puts its edge on the far side
+    of the centre: often still simple (then kept), sometimes across other edges (campaign seed 26112703
+    stopped on such a keep-in), and then the whole polygon is drawn again. A polygon that was simple at its
+    first draw is kept as drawn, so the campaigns that never met a crossing keep their cases.
+    """
+    share = 2.0 * math.pi / k
+    while True:
+        gaps = share * (0.25 + rng.dirichlet(np.ones(k)) * k * 0.75)  # each at least a quarter share; they sum to 2 pi
+        angles = np.cumsum(gaps) - gaps[0]
+        lowest = rng.uniform(0.3, 0.8)
+        radii = rng.uniform(lowest, 1.0, k)
+        unit = np.column_stack([radii * np.sin(angles), radii * np.cos(angles)])
+        if not self_intersections(unit):
+            return unit
+
+
 def family_random(rng: np.random.Generator, ctx: CaseContext):
-    """A random polygon: :data:`RANDOM_VERTICES` vertices at sorted random angles round a centre (no two closer
-    than a quarter of an even share, so no edge is a sliver), each at a random fraction of the outer radius
-    (the least fraction itself drawn from 0.3-0.8: from a ragged star to a near-convex blob), scaled so its
-    inradius is the lateral families' and turned at random. The polygon is star-shaped about the centre, so it
-    is simple; it mixes notches, spikes, acute and reflex corners the archetype families hold one at a time.
+    """A random polygon (:func:`random_simple_polygon`, :data:`RANDOM_VERTICES` vertices) scaled so its inradius is
+    the lateral families' and turned at random: it mixes notches, spikes, acute and reflex corners the archetype
+    families hold one at a time.
     With :data:`RANDOM_KEEP_OUT_PROBABILITY`, keep-outs between the pole and the keep-in edge, where the
     override's way back runs (:func:`_place_keep_outs`). Then a lateral attack or a mission."""
     k = int(rng.integers(RANDOM_VERTICES[0], RANDOM_VERTICES[1] + 1))
-    share = 2.0 * math.pi / k
-    gaps = share * (0.25 + rng.dirichlet(np.ones(k)) * k * 0.75)  # each at least a quarter share; they sum to 2 pi
-    angles = np.cumsum(gaps) - gaps[0]
-    lowest = rng.uniform(0.3, 0.8)
-    radii = rng.uniform(lowest, 1.0, k)
-    unit = np.column_stack([radii * np.sin(angles), radii * np.cos(angles)])
+    unit = random_simple_polygon(rng, k)
     attack = _pick(rng, LATERAL_ATTACKS, LATERAL_WEIGHTS)
     r = ctx.target_inradius_m(rng) * (1.6 if attack is Attack.MISSION else 1.0)
     ceiling, agl = _heights(rng, ctx)
