@@ -96,6 +96,14 @@ SITTING_MAX_GROUND_SPEED_MPS = 2.0
 leaves it be (a multirotor that landed, a fixed-wing that stopped). Faster, it is rolling -- a fixed-wing that
 touched down at flying speed inside a floor gap rolls out of it below the floor -- and its margins count: the
 override lifts it off and climbs back above the floor inside the gap."""
+SLOW_TURN_SHORTFALL = 0.1
+"""A fixed-wing's override flies its first turn at the minimum speed when the turn's scored room exceeds the room
+there is by more than this fraction of it (:meth:`GeofenceUnit._turn_does_not_fit`): a margin that crossed 0
+between two steps lacks a few per cent at most (down to -3.3 m of 79.7 m measured), a start inside the boundary
+13-56 % (seeds 26112701, 26112702)."""
+SLOW_TURN_MAX_WIND_FRACTION = 0.5
+"""... and only in a wind (with its allowance) under this fraction of the minimum speed: slower, the vehicle must
+still make way against it to face its route."""
 DENSITY_REFRESH_M = 100.0
 """The envelope is re-scaled to the air density when the altitude moved this much (while monitoring)."""
 
@@ -569,12 +577,31 @@ class GeofenceUnit:
         self.landing.start(pe, pn, cruise_h, route, turn_sign, turn_limit)
         self._switch(t_s, Mode.LAND_IN_GAP, reason + f"; landing at ({pe:.0f}, {pn:.0f}) m ENU")
 
+    def _turn_does_not_fit(self, h: float, r: ShiftResult) -> bool:
+        """A predictive fixed-wing's first turn lacks more than :data:`SLOW_TURN_SHORTFALL` of its scored room (a start inside
+        the activation boundary, not a boundary crossed between two steps), the edge binds rather than the
+        ceiling or floor, no floor is below, and the wind with its allowance is under
+        :data:`SLOW_TURN_MAX_WIND_FRACTION` of the minimum speed: the override then flies that turn at the
+        minimum speed (:meth:`FixedWingRecovery.start`).
+
+        A Tern at its maximum speed started 20 degrees off the axis of a zigzag corridor narrower than its
+        turn (campaign seed 26112702, corridor-1922), and a J3Cub in an acute wedge without a forecast (seed
+        26112701's acute-0364, its forecast removed), left by 9.9 m and 16.9 m turning at cruise; at the
+        minimum speed both stay inside.
+        """
+        if self._multirotor or not self._predictive or self.fence.floor_m is not None:
+            return False  # (a reactive unit acts on the line by design: every turn of its lacks room)
+        if r.lateral_activation_m > r.vertical_activation_m or r.lateral_activation_m >= -SLOW_TURN_SHORTFALL * r.lateral_shift_m:
+            return False
+        wind = math.hypot(self.wind_enu[0], self.wind_enu[1]) + self.wind_allowance_mps
+        return wind < SLOW_TURN_MAX_WIND_FRACTION * self.env.min_speed_mps
+
     def _start_override(self, t_s: float, s: VehicleState, h: float, r: ShiftResult, reason: str) -> None:
         route, _ = self._recovery_goal(s)
         floor = self.fence.floor_m
         hold = floor + VERTICAL_CLEARANCE_M if floor is not None and self._below_floor_in_gap(s, h) else None
         goal_h, in_band = self._goal(max(h, hold) if hold is not None else h)
-        self.recovery.start(s, route, goal_h, h, t_s, r.turn_sign, r.turn_angle_rad, hold)
+        self.recovery.start(s, route, goal_h, h, t_s, r.turn_sign, r.turn_angle_rad, hold, self._turn_does_not_fit(h, r))
         self._goal_h_m = goal_h
         self._goal_short_of_band = not in_band
         self._climb_back_to_m = hold

@@ -29,7 +29,9 @@ WGS-84 at the site) and flown in closed loop with the unit's own sensors:
 * a Tern in a corridor narrower than its turn (corridor-0455): it rolls out towards its route ahead;
 * a multirotor landing in a gap with its estimate metres off (floor_gaps-0143): it keeps k·σ_h from the edge;
 * a fixed-wing below the floor in a gap, its keep-in's turn leading out of the gap (floor_gaps-0305): the turn
-  is chosen for both.
+  is chosen for both;
+* fixed-wings started inside their activation boundary in a corridor and a wedge narrower than their turn
+  (corridor-1922, acute-0364): a first turn that does not fit is flown at the minimum speed.
 """
 
 from __future__ import annotations
@@ -389,6 +391,18 @@ def test_a_fixed_wing_in_a_corridor_rolls_out_towards_its_route_ahead():
     guidance alike: it turns into the corridor and stays inside."""
     res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_corridor_0455_rollout_ahead.yaml"))
     assert res.summary["activations"] >= 1
+    assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
+
+
+@pytest.mark.parametrize("case", ["campaign_corridor_1922_slow_turn.yaml", "campaign_acute_0364_no_forecast_slow_turn.yaml"])
+def test_a_fixed_wing_started_inside_its_activation_boundary_turns_at_its_minimum_speed(case):
+    """A Tern in a zigzag corridor (campaign seed 26112702, corridor-1922) and a J3Cub in an acute wedge without a
+    forecast (seed 26112701, acute-0364), each at its maximum speed and already inside its activation boundary at
+    the start: no turn fits. Turning at cruise they left by 9.9 m and 16.9 m. A first turn that lacks more than
+    a tenth of its room is flown at the minimum speed (:meth:`GeofenceUnit._turn_does_not_fit`; radius
+    ``V²/(g·tan φ)``, rate ``g·tan φ / V``): both stay inside."""
+    res = fly(load_scenario(Path(__file__).parent / "data" / case))
+    assert res.unit is not None and res.unit.first_activation_s == 0.0  # overridden at the first step
     assert res.summary["max_excursion_m"] < 0.0, res.summary["max_excursion_m"]
 
 
