@@ -577,7 +577,7 @@ class GeofenceUnit:
         self.landing.start(pe, pn, cruise_h, route, turn_sign, turn_limit)
         self._switch(t_s, Mode.LAND_IN_GAP, reason + f"; landing at ({pe:.0f}, {pn:.0f}) m ENU")
 
-    def _turn_does_not_fit(self, h: float, r: ShiftResult) -> bool:
+    def _turn_does_not_fit(self, r: ShiftResult) -> bool:
         """A predictive fixed-wing's first turn lacks more than :data:`SLOW_TURN_SHORTFALL` of its scored room (a start inside
         the activation boundary, not a boundary crossed between two steps), the edge binds rather than the
         ceiling or floor, no floor is below, and the wind with its allowance is under
@@ -601,7 +601,7 @@ class GeofenceUnit:
         floor = self.fence.floor_m
         hold = floor + VERTICAL_CLEARANCE_M if floor is not None and self._below_floor_in_gap(s, h) else None
         goal_h, in_band = self._goal(max(h, hold) if hold is not None else h)
-        self.recovery.start(s, route, goal_h, h, t_s, r.turn_sign, r.turn_angle_rad, hold, self._turn_does_not_fit(h, r))
+        self.recovery.start(s, route, goal_h, h, t_s, r.turn_sign, r.turn_angle_rad, hold, self._turn_does_not_fit(r))
         self._goal_h_m = goal_h
         self._goal_short_of_band = not in_band
         self._climb_back_to_m = hold

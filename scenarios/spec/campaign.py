@@ -126,7 +126,7 @@ class CaseFamily(Enum):
     hundreds of building keep-outs. Not among the :data:`DEFAULT_FAMILIES` (its flights cost more): asked for by
     name (``campaign generate --families city``)."""
     RANDOM = "random"
-    """A random polygon (:func:`family_random`): a star-shaped keep-in of 5-40 vertices at random angles and
+    """A random polygon (:func:`family_random`): a simple keep-in of 5-40 vertices at random angles and
     radii (notches, spikes, acute and reflex corners mixed), often with keep-outs scattered in the way back.
     Not among the :data:`DEFAULT_FAMILIES` (added after campaigns had been published, whose cases keep their
     families): asked for by name (``campaign generate --families random``)."""
