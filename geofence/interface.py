@@ -30,6 +30,7 @@ All sticks at 0 therefore mean "level, hold altitude" on every platform
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import Enum
 from typing import NamedTuple
@@ -133,7 +134,9 @@ class VehicleState:
 
     @property
     def ground_speed_mps(self) -> float:
-        return (self.v_east_mps**2 + self.v_north_mps**2) ** 0.5
+        # math.hypot: the compiled per-step code computes the same bits (geofence.cpython_math.hypot); a power of
+        # 0.5 is the C library's pow in the interpreter and a square root in machine code, a bit apart now and then
+        return math.hypot(self.v_east_mps, self.v_north_mps)
 
 
 class FixState(NamedTuple):
