@@ -617,6 +617,12 @@ class CompiledMargins:
         self.fence.remember_margin(e, n, r[1])
         return tuple.__new__(ShiftResult, r[:4] + self._meta[r[4]] + r[5:])
 
+    def shift_result(self, fields: Sequence[float]) -> ShiftResult:
+        """The :class:`ShiftResult` of a margins kernel's fields stored as floats (the element id and the turn sign
+        back to ints)."""
+        r = tuple(fields)
+        return tuple.__new__(ShiftResult, r[:4] + self._meta[int(r[4])] + r[5:10] + (int(r[10]),) + r[11:])
+
 
 def monitor_margins(
     fence: LocalFence, e: float, n: float, h: float, ve: float, vn: float, vu: float, ground_speed_mps: float,

@@ -51,7 +51,14 @@ except ImportError:  # pragma: no cover - exercised only where numba is missing
     COMPILED = False
 
 
-KERNEL_SOURCES = ("geofence/*.py", "wind/*.py", "aircraft/sensor*.py", "scenarios/flight/sensing.py")
+KERNEL_SOURCES = (
+    "geofence/*.py",
+    "wind/*.py",
+    "aircraft/sensor*.py",
+    "scenarios/flight/sensing.py",
+    "scenarios/flight/recorder.py",
+    "scenarios/flight/step_kernel.py",
+)
 """The sources (globs from the repository root) the compiled kernels are built from, their inlined functions
 included."""
 

@@ -322,7 +322,7 @@ def _lateral_margin(F: np.ndarray, L: np.ndarray, e: float, n: float) -> float:
 
 
 @jitable
-def _far_from_everything(
+def far_from_everything(
     F: np.ndarray, L: np.ndarray, V: np.ndarray, e: float, n: float, h: float, ground_speed: float, ve: float,
     vn: float, vu: float, wind_e: float, wind_n: float, allowance: float, t_s: float, hu: float, v_unc: float, g: float,
 ) -> tuple[bool, float]:  # fmt: skip
@@ -352,7 +352,7 @@ def _far_from_everything(
     return deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), _vector(L, GAP_OFFSETS))[1] > room, lat
 
 
-_NOT_NEEDED = (math.inf, math.inf, 0.0, math.inf, -1, 0.0, 0.0, math.inf, 0.0, math.inf, 0, 0.0, math.inf, 0.0, math.inf, 0.0, math.inf, math.inf)  # fmt: skip
+NOT_NEEDED = (math.inf, math.inf, 0.0, math.inf, -1, 0.0, 0.0, math.inf, 0.0, math.inf, 0, 0.0, math.inf, 0.0, math.inf, 0.0, math.inf, math.inf)  # fmt: skip
 
 
 def _monitor_margins(
@@ -361,14 +361,14 @@ def _monitor_margins(
     latency_s: float, bank_rad: float, has_target: bool, target_e: float, target_n: float, g: float,
 ) -> tuple[bool, tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]]:  # fmt: skip
     """A monitoring step's question in one call: ``(far, fields)``: the unit's skip shortcut
-    (:func:`_far_from_everything`, with ``far_t_s`` its time), and unless it holds, :func:`_margins`' fields (with
+    (:func:`far_from_everything`, with ``far_t_s`` its time), and unless it holds, :func:`_margins`' fields (with
     the lateral margin the shortcut computed)
     (``wind_extra_mps`` is ``allowance``); when far, the fields are placeholders (not computed)."""
-    far, lat = _far_from_everything(
+    far, lat = far_from_everything(
         F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, far_t_s, hu, v_unc, g
     )  # fmt: skip
     if far:
-        return True, _NOT_NEEDED
+        return True, NOT_NEEDED
     return False, _margins(
         F, L, V, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, allowance, has_target, target_e,
         target_n, g, lat,

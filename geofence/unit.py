@@ -47,7 +47,10 @@ from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum
 
+import numpy as np
+
 from geofence import jit as _jit
+from geofence import unit_kernel as _uk
 from geofence.boundary_shift import CompiledMargins, ShiftResult, activation_margins
 from geofence.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource
 from geofence.control_laws import climb_rate_to_stick, clip
@@ -71,31 +74,29 @@ from geofence.rooms import (
     room_upper_bounds_fast_m,
     vertical_arrest_distance_m,
 )
+from geofence.unit_kernel import (  # (their home: the monitoring step's kernel reads them too)
+    DENSITY_REFRESH_M,
+    FRESH_ESTIMATE_AGE_S,
+    RECOVERED_HOLD_S,
+    SITTING_MAX_GROUND_SPEED_MPS,
+    latency_s,
+    rollout_cell,
+)
 from geofence.wind_estimator import WIND_ESTIMATE_ERROR_MPS
 
-RECOVERED_HOLD_S = 1.0
 WIND_BEYOND_AUTHORITY_PERSIST_S = 3.0
 TERMINATE_BELOW_AGL_M = 8.0
 LANDING_EDGE_MARGIN_M = 2.0
 """A multirotor descends to land only this far (m) inside, beyond its estimate's uncertainty margin ``k·σ_h``."""
 ROUTE_CLEARANCE_MULTIROTOR_M = 3.0
 """Lateral clearance (beyond k·σ_h) a multirotor's recovery route keeps from every boundary."""
-ROLLOUT_CELL_M = 10.0
-"""Cell size of the fixed-wing roll-out target cache (m)."""
 VERTICAL_CLEARANCE_M = 2.0
 """Below the floor inside a gap, the override climbs this far above the floor before it moves sideways."""
 DEAD_RECKONING_LANDING_MARGIN_M = 25.0
 """With the position source lost, a multirotor lands in place only this far inside (else at the nearest point that
 is), or farther when its descent takes long (:meth:`GeofenceUnit.dead_reckoning_room_m`)."""
-FRESH_ESTIMATE_AGE_S = 0.5
-"""Dead reckoning starts from the last estimate whose GNSS data was at most this old (not a long extrapolation)."""
 REPLAY_WINDOW_S = 2.0
 """How far back the unit keeps its estimates (attitudes) for the dead reckoning to replay from the last fix."""
-SITTING_MAX_GROUND_SPEED_MPS = 2.0
-"""On the ground and slower than this (m/s), a vehicle is sitting: it breaches nothing where it is, and the unit
-leaves it be (a multirotor that landed, a fixed-wing that stopped). Faster, it is rolling -- a fixed-wing that
-touched down at flying speed inside a floor gap rolls out of it below the floor -- and its margins count: the
-override lifts it off and climbs back above the floor inside the gap."""
 SLOW_TURN_SHORTFALL = 0.1
 """A fixed-wing's override flies its first turn at the minimum speed when the turn's scored room exceeds the room
 there is by more than this fraction of it (:meth:`GeofenceUnit._turn_does_not_fit`): a margin that crossed 0
@@ -104,13 +105,6 @@ between two steps lacks a few per cent at most (down to -3.3 m of 79.7 m measure
 SLOW_TURN_MAX_WIND_FRACTION = 0.5
 """... and only in a wind (with its allowance) under this fraction of the minimum speed: slower, the vehicle must
 still make way against it to face its route."""
-DENSITY_REFRESH_M = 100.0
-"""The envelope is re-scaled to the air density when the altitude moved this much (while monitoring)."""
-
-
-def _rollout_cell(e: float, n: float) -> tuple[int, int]:
-    """The roll-out target cache's cell of (e, n) (:data:`ROLLOUT_CELL_M` squares)."""
-    return (math.floor(e / ROLLOUT_CELL_M), math.floor(n / ROLLOUT_CELL_M))  # (math.floor of a float is an int)
 
 
 class Mode(IntEnum):
@@ -155,7 +149,8 @@ class GeofenceUnit:
         """When the activation margin first reached 0 (s, the time of :meth:`update`), or None: 0 at the first
         step is a start inside the activation boundary, where the override's guarantee has not begun."""
         self.reactivations = 0
-        self.last: ShiftResult | None = None
+        self._last: ShiftResult | None = None
+        self._last_fields: tuple[CompiledMargins, list[float]] | None = None  # (fields not made a ShiftResult yet)
         self.activation_margin_m = math.inf
         self.wind_enu = [config.wind_prior_enu[0], config.wind_prior_enu[1]]
         self._turbulence_est_mps = 0.0
@@ -307,7 +302,7 @@ class GeofenceUnit:
         compiled = self._compiled
         if not self._skipped_last and compiled is not None and _jit.ACTIVE:
             e, n = s.east_m, s.north_m
-            target = None if self._multirotor else self._rollout_cache.get(_rollout_cell(e, n))
+            target = None if self._multirotor else self._rollout_cache.get(rollout_cell(e, n))
             if target is not None or self._multirotor:
                 k = self.config.uncertainty_k_sigma
                 extra = self.config.extra_margin_m
@@ -526,9 +521,9 @@ class GeofenceUnit:
         vertex of its route a few metres away saw the direction to it, and with it the scored turn, swing
         round within a step (a Tern in a corridor narrower than its turn was handed back with a margin of
         31 m, had none 0.25 s later, turned away from the corridor towards a vertex behind it and left by
-        23 m; campaign seed 3122026). Cached per cell of ``ROLLOUT_CELL_M``.
+        23 m; campaign seed 3122026). Cached per cell of :data:`geofence.unit_kernel.ROLLOUT_CELL_M`.
         """
-        key = _rollout_cell(e, n)
+        key = rollout_cell(e, n)
         t = self._rollout_cache.get(key)
         if t is None:
             recovery = self.recovery
@@ -608,31 +603,23 @@ class GeofenceUnit:
         self._override_period_start_s = t_s
         self._switch(t_s, Mode.OVERRIDE, reason)
 
-    # -- the per-step entry point ---------------------------------------------
-    def update(
+    # -- the per-step entry points --------------------------------------------
+    def _take_estimate(
         self,
         t_s: float,
         est: VehicleState,
-        pilot: StickCommand,
         dt_s: float,
-        wind_en: tuple[float, float] | None = None,
-        position_valid: bool = True,
-        sigma_h_m: float = 0.0,
-        sigma_v_m: float = 0.0,
-        turbulence_sigma_mps: float | None = None,
-        estimate_age_s: float = 0.0,
-        horizon: FixState | None = None,
-    ) -> StickCommand:
-        """One step: returns the sticks to send to the flight controller (the pilot's, or the override's).
-
-        ``turbulence_sigma_mps``: the wind estimator's current estimate of the
-        turbulence intensity (m/s, 1-sigma), if it has one. ``estimate_age_s``:
-        the age of the position data behind the estimate (a GNSS fix's latency
-        plus the time since it): the vehicle may have accelerated for that long
-        unseen, so it adds to the reaction time in every margin. ``horizon``: the estimate at its newest
-        fix's time of validity, if the estimator gives it: dead reckoning then starts there.
-        """
-        self._latency_s = dt_s + max(estimate_age_s, 0.0)
+        wind_en: tuple[float, float] | None,
+        position_valid: bool,
+        sigma_h_m: float,
+        sigma_v_m: float,
+        turbulence_sigma_mps: float | None,
+        estimate_age_s: float,
+        horizon: FixState | None,
+    ) -> VehicleState:
+        """A step's inputs taken in (:meth:`update`'s arguments): the state the unit acts on, its estimate or, with the
+        position lost, its dead reckoning (run in the shadow while fixes are only missing)."""
+        self._latency_s = latency_s(dt_s, estimate_age_s)
         if wind_en is not None:
             self.wind_enu[0], self.wind_enu[1] = wind_en
         if turbulence_sigma_mps is not None:
@@ -665,6 +652,159 @@ class GeofenceUnit:
         self._sigma_v_m = sigma_v_m
         if math.isfinite(sigma_h_m):
             self._sigma_h_m = sigma_h_m
+        return est
+
+    # -- the monitoring step on arrays (geofence.unit_kernel) ----------------------------------------------------------
+    @property
+    def monitors_compiled(self) -> bool:
+        """A predictive unit whose margins are compiled (a fence without an index, :data:`geofence.jit.ACTIVE`): its
+        monitoring steps can be taken by :func:`geofence.unit_kernel.monitor_pass` (see :meth:`monitor_ready`)."""
+        return self._predictive and self._compiled is not None and _jit.ACTIVE
+
+    def monitor_ready(self) -> bool:
+        """Whether :func:`geofence.unit_kernel.monitor_pass` can take the next step: a predictive unit monitoring
+        (``MONITOR`` or ``RECOVERED``), its margins compiled (a fence without an index), not dead-reckoning.
+        Asked again after every step :meth:`update` takes."""
+        mode = self.mode
+        return (
+            self._predictive
+            and (mode is _MONITOR or mode is _RECOVERED)
+            and self._compiled is not None
+            and _jit.ACTIVE
+            and not self.dead_reckoning.active
+        )
+
+    def pack_monitor(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Fill ``U`` (:data:`geofence.unit_kernel.N_UNIT` floats) with what the monitoring step reads; returns its
+        compiled margins' tables and envelope terms ``(F, L, V)``. Valid until the next :meth:`update`."""
+        cfg = self.config
+        compiled = self._compiled
+        assert compiled is not None
+        U[_uk.K_SIGMA] = cfg.uncertainty_k_sigma
+        U[_uk.EXTRA] = cfg.extra_margin_m
+        U[_uk.REACTION_S] = self.env.reaction_time_s
+        U[_uk.FORECAST_ALLOWANCE] = self._forecast_allowance_mps
+        U[_uk.ESTIMATED_TURBULENCE] = float(self._estimated_turbulence)
+        U[_uk.FORECAST_SIGMA] = cfg.turbulence_sigma_mps
+        U[_uk.TURBULENCE_K] = cfg.turbulence_k_sigma
+        U[_uk.GUST] = cfg.gust_mps
+        U[_uk.RETURN_ALLOWANCE], U[_uk.RETURN_LIMIT] = self._return_wind_limits
+        U[_uk.AGL] = float(self._agl)
+        U[_uk.MULTIROTOR] = float(self._multirotor)
+        U[_uk.DENSITY_ALT] = math.nan if self._density_alt_m is None else self._density_alt_m
+        U[_uk.MODE] = float(self.mode)
+        U[_uk.MONITOR_MODE] = float(Mode.MONITOR)
+        U[_uk.MODE_SINCE] = self._mode_since_s
+        U[_uk.SIGMA_H] = self._sigma_h_m  # (a pass keeps it only where finite)
+        U[_uk.PASSES] = U[_uk.HAS_MARGINS] = U[_uk.HORIZON_MOVED] = 0.0
+        U[_uk.HAS_TARGETS] = 0.0
+        est = self.estimate
+        if not self._multirotor and est is not None:  # the roll-out targets cached round the estimate's cell
+            ce, cn = rollout_cell(est.east_m, est.north_m)
+            U[_uk.HAS_TARGETS], U[_uk.CELL_E], U[_uk.CELL_N] = 1.0, ce, cn
+            cache = self._rollout_cache
+            reach = _uk.TARGET_CELLS
+            k = _uk.TARGETS0
+            for dn in range(-reach, reach + 1):
+                for de in range(-reach, reach + 1):
+                    target = cache.get((ce + de, cn + dn))
+                    if target is None:
+                        U[k] = 0.0
+                    else:
+                        U[k], U[k + 1], U[k + 2] = 1.0, target[0], target[1]
+                    k += 3
+        F, L = compiled._tables
+        return F, L, compiled._terms
+
+    def history_rows(self, dt_s: float) -> int:
+        """Rows a ring of estimates needs to hold the unit's history (:data:`REPLAY_WINDOW_S`) at steps of ``dt_s``."""
+        return math.ceil(REPLAY_WINDOW_S / dt_s) + 4
+
+    def take_in_passes(self, U: np.ndarray, H: np.ndarray, horizon: FixState | None) -> None:
+        """Take in the steps :func:`geofence.unit_kernel.monitor_pass` let through since the last time, as
+        :meth:`update` would have taken them one by one (what :func:`geofence.unit_kernel.record_pass` kept in ``U``
+        and the ring ``H``, :meth:`history_rows` long); ``horizon``: the fusion horizon before them (the sensing
+        chain's). Then none are pending."""
+        passes = int(U[_uk.PASSES])
+        if passes == 0:
+            return
+        rows = min(passes, len(H))
+        end = int(U[_uk.RING_NEXT])
+        history = self._history
+        est = None
+        for i in range(end - rows, end):  # oldest to newest
+            fields = H[i % len(H)].tolist()
+            est = VehicleState(*fields[:15])
+            est.on_ground = fields[15] != 0.0
+            history.append(est)
+        t_s = U[_uk.LAST_T]
+        while history[0].t_s < t_s - REPLAY_WINDOW_S:
+            history.popleft()
+        self.estimate = self._last_valid = est
+        if U[_uk.HORIZON_MOVED] != 0.0:
+            horizon = FixState(*U[_uk.HORIZON0 : _uk.HORIZON0 + 5].tolist())
+        self._last_horizon = horizon
+        self._latency_s = float(U[_uk.LATENCY])
+        self.wind_enu[0], self.wind_enu[1] = float(U[_uk.WIND_E]), float(U[_uk.WIND_N])
+        self._turbulence_est_mps = float(U[_uk.TURBULENCE_EST])
+        self._position_valid = True
+        self._sigma_v_m, self._sigma_h_m = float(U[_uk.SIGMA_V]), float(U[_uk.SIGMA_H])
+        self._strong_wind_since_s = None
+        self._skipped_last = U[_uk.FAR] != 0.0
+        self.activation_margin_m = float(U[_uk.ACTIVATION])
+        if U[_uk.HAS_MARGINS] != 0.0:
+            compiled = self._compiled
+            assert compiled is not None  # (the compiled step runs only where it is)
+            fields = U[_uk.MARGINS0 : _uk.MARGINS0 + 18].tolist()
+            self.fence.remember_margin(float(U[_uk.MARGINS_E]), float(U[_uk.MARGINS_N]), fields[1])
+            self._last = None
+            self._last_fields = (compiled, fields)
+        U[_uk.PASSES] = U[_uk.HAS_MARGINS] = U[_uk.HORIZON_MOVED] = 0.0
+
+    def complete_hand_back(self, t_s: float) -> None:
+        """``RECOVERED`` held long enough: back to ``MONITOR``."""
+        self._switch(t_s, Mode.MONITOR, "hand-back complete")
+
+    @property
+    def last(self) -> ShiftResult | None:
+        """The margins of the last step that computed them (None before any)."""
+        if self._last_fields is not None:
+            compiled, fields = self._last_fields
+            self._last = compiled.shift_result(fields)
+            self._last_fields = None
+        return self._last
+
+    @last.setter
+    def last(self, r: ShiftResult | None) -> None:
+        self._last = r
+        self._last_fields = None
+
+    def update(
+        self,
+        t_s: float,
+        est: VehicleState,
+        pilot: StickCommand,
+        dt_s: float,
+        wind_en: tuple[float, float] | None = None,
+        position_valid: bool = True,
+        sigma_h_m: float = 0.0,
+        sigma_v_m: float = 0.0,
+        turbulence_sigma_mps: float | None = None,
+        estimate_age_s: float = 0.0,
+        horizon: FixState | None = None,
+    ) -> StickCommand:
+        """One step: returns the sticks to send to the flight controller (the pilot's, or the override's).
+
+        ``turbulence_sigma_mps``: the wind estimator's current estimate of the
+        turbulence intensity (m/s, 1-sigma), if it has one. ``estimate_age_s``:
+        the age of the position data behind the estimate (a GNSS fix's latency
+        plus the time since it): the vehicle may have accelerated for that long
+        unseen, so it adds to the reaction time in every margin. ``horizon``: the estimate at its newest
+        fix's time of validity, if the estimator gives it: dead reckoning then starts there.
+        """
+        est = self._take_estimate(
+            t_s, est, dt_s, wind_en, position_valid, sigma_h_m, sigma_v_m, turbulence_sigma_mps, estimate_age_s, horizon
+        )  # fmt: skip
         h = est.agl_m if self._agl else est.alt_m  # self.height(est)
         mode = self.mode
         if (
@@ -697,7 +837,7 @@ class GeofenceUnit:
             if found is None:  # far from everything
                 self.activation_margin_m = math.inf  # larger than any room: not computed in detail
                 if mode is _RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
-                    self._switch(t_s, Mode.MONITOR, "hand-back complete")
+                    self.complete_hand_back(t_s)
                 return pilot
             r = found
         elif mode is _OVERRIDE and t_s - self._override_period_start_s < self.config.min_override_s:
@@ -720,7 +860,7 @@ class GeofenceUnit:
                 self._start_override(t_s, est, h, r, self._trigger_reason(r))
             else:
                 if mode is _RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
-                    self._switch(t_s, Mode.MONITOR, "hand-back complete")
+                    self.complete_hand_back(t_s)
                 return pilot
 
         # OVERRIDE

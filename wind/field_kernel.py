@@ -265,11 +265,22 @@ class WindArrays:
         e, n, u, low = kernel(self._FZ, self.pool, self._GX, t_s, east_m, north_m, up_m, airspeed_mps)
         if kernel is wind_sample:  # after its first call, by its entry point (geofence.jit: the arrays are ours,
             self._kernel = entry_point(kernel)  # the pool rebuilt as it was made: float64, 1-D, C)
-        if low and self._rng is not None:
+        if low:
+            self.refill()
+        return (e, n, u)
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`wind_sample`'s arrays ``(FZ, pool, GX)``, for a caller whose own compiled step samples the field
+        (:mod:`scenarios.flight.step_kernel`). The pool is a new array after :meth:`refill`, the gust table after
+        :meth:`first_activation`: ask again after either."""
+        return self._FZ, self.pool, self._GX
+
+    def refill(self) -> None:
+        """The turbulence's next block of noise, after a sample said its pool runs low (the pool is a new array)."""
+        if self._rng is not None:
             i = int(self.Z[POOL_IDX])
             self.pool = np.concatenate((self.pool[i:], self._rng.standard_normal(POOL_NORMALS)))
             self.Z[POOL_IDX] = 0.0
-        return (e, n, u)
 
     def first_activation(self, t_s: float) -> None:
         """:meth:`GustTrain.first_activation`: the activation-timed gusts join the schedule, onsets from ``t_s``."""

@@ -9,6 +9,10 @@ frames in between, with the flight controller inside JSBSim):
     cmd, mode = geofence.filter(...) if a geofence is configured, else cmd_in
     platform.command(cmd); recorder.append(...); platform.step(frames_per_step)
 
+While a predictive unit monitors, the wind sample, the unit's sensing and update and the
+recorder's row are one compiled call (:class:`scenarios.flight.step_kernel.FlightStep`,
+where numba is active): the same numbers as the separate calls, bit for bit.
+
 The run stops at ``duration_s`` or two seconds after the pilot finished its
 mission. Files: ``<out>/<scenario>/trajectory.csv`` and ``summary.json`` (see
 :func:`write_result`: the folder is replaced as a whole).
@@ -35,6 +39,7 @@ from geofence.unit import GeofenceUnit, Mode
 from scenarios.flight.pilots import Pilot, build_pilot
 from scenarios.flight.recorder import Recorder
 from scenarios.flight.sensing import GeofenceSensing
+from scenarios.flight.step_kernel import FlightStep
 from scenarios.spec.preflight import findings_summary, preflight_findings
 from scenarios.spec.schema import PilotKind, Scenario
 from wind.config import wind_from_config
@@ -59,6 +64,8 @@ class FlightResult:
     pilot: Pilot
     unit: GeofenceUnit | None = None
     fence: LocalFence | None = None
+    compiled_steps: int = 0
+    """Steps whose wind, sensing, unit and row were one compiled call (:mod:`scenarios.flight.step_kernel`)."""
 
 
 def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> FlightResult:
@@ -105,6 +112,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     # the per-step calls, bound once (a method lookup per call and step is measurable at this rate)
     truth_now, set_wind, latch, advance = platform.truth, platform.set_wind_enu, platform.command, platform.step
     pilot_sticks, notice_control, record = pilot.command, pilot.notice_control, recorder.append
+    # while the unit monitors, a step's wind, sensing, unit and row in one compiled call (the same numbers)
+    fused = FlightStep.build(unit, own, wind_arrays, isinstance(wind, CalmWind), recorder, dt_s)
     loop0 = time.perf_counter()
     try:
         for step in range(n_steps + 1):
@@ -114,33 +123,45 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                 raise FloatingPointError(
                     f"JSBSim state of {scenario.aircraft} diverged (speed beyond {diverged_above_mps:.0f} m/s) at t={t:.2f} s"
                 )
-            w = sample_wind(t, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)
-            set_wind(*w)
-            cmd_in = pilot_sticks(truth)
-            if unit is not None and own is not None:
-                est, wind_en, valid, sigma_h, sigma_v, horizon, age, turbulence = own.sense(truth, dt_s)
-                cmd = unit.update(
-                    t,
-                    est,
-                    cmd_in,
-                    dt_s,
-                    wind_en=wind_en,
-                    position_valid=valid,
-                    sigma_h_m=sigma_h,
-                    sigma_v_m=sigma_v,
-                    estimate_age_s=age,
-                    turbulence_sigma_mps=turbulence,
-                    horizon=horizon,
-                )
+            if fused is not None and fused.ready:
+                cmd_in = pilot_sticks(truth)
+                w, cmd = fused.step(truth, t, cmd_in, pilot.items_reached)  # (its row recorded)
+                set_wind(*w)
+            else:
+                w = sample_wind(t, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)
+                set_wind(*w)
+                cmd_in = pilot_sticks(truth)
+                if unit is not None and own is not None:
+                    est, wind_en, valid, sigma_h, sigma_v, horizon, age, turbulence = own.sense(truth, dt_s)
+                    cmd = unit.update(
+                        t,
+                        est,
+                        cmd_in,
+                        dt_s,
+                        wind_en=wind_en,
+                        position_valid=valid,
+                        sigma_h_m=sigma_h,
+                        sigma_v_m=sigma_v,
+                        estimate_age_s=age,
+                        turbulence_sigma_mps=turbulence,
+                        horizon=horizon,
+                    )
+                    record(
+                        truth, w, cmd_in, cmd, unit.mode, pilot.items_reached, unit.estimate, wind_en, unit.activation_margin_m
+                    )
+                    if fused is not None:
+                        fused.refresh()
+                else:
+                    cmd = cmd_in
+                    record(truth, w, cmd_in, cmd, mode, pilot.items_reached)
+            if unit is not None:
                 mode = unit.mode
                 notice_control(mode == monitor or mode == recovered)  # the pilot feels the sticks come back
                 if not wind_told and unit.activations:
                     notify_first_activation(sampler, t)  # gusts timed from the first override
+                    if fused is not None:
+                        fused.wind_changed()
                     wind_told = True
-                record(truth, w, cmd_in, cmd, mode, pilot.items_reached, unit.estimate, wind_en, unit.activation_margin_m)
-            else:
-                cmd = cmd_in
-                record(truth, w, cmd_in, cmd, mode, pilot.items_reached)
             latch(cmd)
             ended_by_geofence = mode >= land_in_gap and truth.on_ground  # landed in a gap / terminated
             if finished_at is None and (pilot.finished or ended_by_geofence):
@@ -154,6 +175,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                 on_step(dt_s)
     except FloatingPointError as exc:
         error = str(exc)
+    if fused is not None:
+        fused.finish()  # the unit takes in the steps the compiled call let through
 
     loop_wall = time.perf_counter() - loop0
     wall = time.perf_counter() - wall0
@@ -197,7 +220,10 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         summary["first_activation_s"] = None if first is None else round(first, 3)  # as the transitions' times
         summary["final_mode"] = unit.mode.name
         summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
-    return FlightResult(scenario=scenario, summary=summary, recorder=recorder, frame=frame, pilot=pilot, unit=unit, fence=fence)
+    return FlightResult(
+        scenario=scenario, summary=summary, recorder=recorder, frame=frame, pilot=pilot, unit=unit, fence=fence,
+        compiled_steps=0 if fused is None else fused.calls,
+    )  # fmt: skip
 
 
 def write_result(

@@ -104,6 +104,8 @@ def _sense_step(
 
 _new_tuple = tuple.__new__
 
+HORIZON_IN_P = slice(_X0 + ek.H_T, _X0 + ek.H_VN + 1)
+"""The fusion horizon's fields in the chain's packed array (for a caller's compiled step that runs the chain)."""
 _HORIZON = slice(ek.H_T, ek.H_VN + 1)
 """The fusion horizon's fields in the estimator's state, in :class:`FixState`'s order (read as one slice: a
 generator over the five indices costs three times as much, on every step with a new fix)."""
@@ -161,14 +163,31 @@ class GeofenceSensing:
         )  # fmt: skip
         if kernel is sense_step:  # after its first call, by its entry point (geofence.jit: the arrays are ours)
             self._kernel = jit.entry_point(kernel)
+        horizon = self.stepped(new_horizon, low)
+        est = VehicleState(*fields)
+        est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
+        # (tuple.__new__: Sensed's own constructor is a Python function, at twice the cost per step)
+        return _new_tuple(Sensed, (est, (we, wn), valid, sigma_h, sigma_v, horizon, age, turbulence))
+
+    def kernel_arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The compiled chain's arrays ``(P, pools, idx)`` (:func:`sense_step`'s first three arguments), for a caller
+        whose own compiled step runs the chain (:mod:`scenarios.flight.step_kernel`); the same arrays all flight."""
+        P, pools, idx = self._args
+        return P, pools, idx
+
+    @property
+    def horizon(self) -> FixState | None:
+        """The newest fusion horizon the chain gave (None before its first fix)."""
+        return self._horizon
+
+    def stepped(self, new_horizon: bool, low: bool) -> FixState | None:
+        """After a compiled step of the chain (:meth:`sense`'s, or a caller's that runs it): keep the fusion horizon
+        when it moved (``new_horizon``), refill the noise pools when they run ``low``; returns the horizon."""
         if new_horizon:
             self._horizon = _new_tuple(FixState, self._X[_HORIZON].tolist())  # (Python floats, as float(X[i]))
         if low:
             self._sensor_arrays.refill()  # in place: the pools stay the same array
-        est = VehicleState(*fields)
-        est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
-        # (tuple.__new__: Sensed's own constructor is a Python function, at twice the cost per step)
-        return _new_tuple(Sensed, (est, (we, wn), valid, sigma_h, sigma_v, self._horizon, age, turbulence))
+        return self._horizon
 
     def _sense_reference(self, truth: VehicleState, dt_s: float) -> Sensed:
         """:meth:`sense` with the truth as the source, or through the reference objects."""

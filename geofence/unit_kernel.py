@@ -1,0 +1,204 @@
+"""The geofence unit's monitoring step on arrays: :meth:`geofence.unit.GeofenceUnit.update` while it passes the
+pilot's sticks through, as a function a compiled per-step kernel calls.
+
+One question: given this step's estimate (the sensing chain's numbers), does a predictive unit that monitors
+(``MONITOR`` or ``RECOVERED``) keep passing the sticks through, and with which margins? The answer is
+:data:`PASS` (and the margins), :data:`PASS_HANDBACK` (pass, and ``RECOVERED``'s hold is over: back to
+``MONITOR``) or :data:`UNIT`: anything else (an activation, a stale or lost position, an envelope to re-scale to
+the air density, a wind beyond authority, a roll-out target not cached for this cell), which the unit's own
+:meth:`~geofence.unit.GeofenceUnit.update` then answers from the same estimate. The unit packs what the step
+reads in one float array (:meth:`~geofence.unit.GeofenceUnit.pack_monitor`, layout below) and applies a pass
+with :meth:`~geofence.unit.GeofenceUnit.passed`. ``update`` is the reference: the same tests in the same order
+on the same numbers (``tests/test_flight_step.py`` flies flights both ways and compares their bytes).
+
+It also owns the few constants both read: when an estimate is fresh, when the envelope is re-scaled, when a
+vehicle on the ground is sitting, the hand-back hold and the roll-out target cache's cells.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from geofence.config import wind_allowance_mps
+from geofence.cpython_math import hypot
+from geofence.jit import jitable
+from geofence.margins_kernel import NOT_NEEDED, far_from_everything, monitor_margins
+
+RECOVERED_HOLD_S = 1.0
+"""After a hand-back the unit stays ``RECOVERED`` this long (s) before ``MONITOR``."""
+ROLLOUT_CELL_M = 10.0
+"""Cell size of the fixed-wing roll-out target cache (m)."""
+FRESH_ESTIMATE_AGE_S = 0.5
+"""Dead reckoning starts from the last estimate whose GNSS data was at most this old (not a long extrapolation)."""
+SITTING_MAX_GROUND_SPEED_MPS = 2.0
+"""On the ground and slower than this (m/s), a vehicle is sitting: it breaches nothing where it is, and the unit
+leaves it be (a multirotor that landed, a fixed-wing that stopped). Faster, it is rolling -- a fixed-wing that
+touched down at flying speed inside a floor gap rolls out of it below the floor -- and its margins count: the
+override lifts it off and climbs back above the floor inside the gap."""
+DENSITY_REFRESH_M = 100.0
+"""The envelope is re-scaled to the air density when the altitude moved this much (while monitoring)."""
+
+# the answers
+PASS = 0
+PASS_HANDBACK = 1
+UNIT = 2
+
+# the unit's packed numbers (GeofenceUnit.pack_monitor), each a float
+K_SIGMA = 0  # uncertainty_k_sigma
+EXTRA = 1  # extra_margin_m
+REACTION_S = 2  # the (density-scaled) envelope's reaction time
+FORECAST_ALLOWANCE = 3  # the forecast's wind allowance, m/s
+ESTIMATED_TURBULENCE = 4  # 1: turbulence_source estimate
+FORECAST_SIGMA = 5  # turbulence_sigma_mps
+TURBULENCE_K = 6  # turbulence_k_sigma
+GUST = 7  # gust_mps
+RETURN_ALLOWANCE = 8  # return_wind_limits
+RETURN_LIMIT = 9
+AGL = 10  # 1: the fence's heights are AGL
+MULTIROTOR = 11  # 1: no roll-out target
+DENSITY_ALT = 12  # the altitude the envelope was scaled at (NaN: never)
+MODE = 13  # the unit's mode, as a number
+MONITOR_MODE = 14  # MONITOR's number (any other mode packed is RECOVERED)
+MODE_SINCE = 15  # when the mode began, s
+HAS_TARGETS = 16  # 1: the roll-out targets cached round cell (CELL_E, CELL_N) follow from TARGETS0
+CELL_E = 17
+CELL_N = 18
+TARGETS0 = 19  # (has, east, north) of each cell within TARGET_CELLS of that one, row by row from the south-west
+TARGET_CELLS = 2
+"""The cached roll-out targets packed reach this many cells round the estimate's (5 x 5 cells): a vehicle crossing
+into a neighbouring cell still finds its target without the unit (at 30 m/s a 10 m cell lasts 13 steps)."""
+_SIDE = 2 * TARGET_CELLS + 1
+# what the passes leave for the unit to take in (GeofenceUnit.take_in_passes): written by record_pass
+PASSES = TARGETS0 + 3 * _SIDE * _SIDE  # passes since the unit last took them in
+RING_NEXT = PASSES + 1  # the estimates' ring's row the next pass writes
+LAST_T = PASSES + 2  # the last pass's time, s
+LATENCY = PASSES + 3
+WIND_E = PASSES + 4  # the wind estimate
+WIND_N = PASSES + 5
+TURBULENCE_EST = PASSES + 6
+SIGMA_V = PASSES + 7
+SIGMA_H = PASSES + 8  # the last finite one (packed: the unit's)
+FAR = PASSES + 9  # 1: the last pass's skip shortcut held
+ACTIVATION = PASSES + 10  # the last pass's activation margin (inf: far)
+HAS_MARGINS = PASSES + 11  # 1: a pass computed margins: the last such pass's position and fields follow
+MARGINS_E = PASSES + 12
+MARGINS_N = PASSES + 13
+MARGINS0 = PASSES + 14  # 18 fields (geofence.margins_kernel._margins)
+HORIZON_MOVED = MARGINS0 + 18  # 1: a pass brought a new fusion horizon, its FixState fields follow
+HORIZON0 = HORIZON_MOVED + 1  # 5 fields
+N_UNIT = HORIZON0 + 5
+RING_COLUMNS = 16
+"""A ring row: the estimate's 15 fields in :class:`~geofence.interface.VehicleState`'s order, then ``on_ground``."""
+
+
+@jitable
+def rollout_cell(e: float, n: float) -> tuple[int, int]:
+    """The roll-out target cache's cell of (e, n) (:data:`ROLLOUT_CELL_M` squares)."""
+    return math.floor(e / ROLLOUT_CELL_M), math.floor(n / ROLLOUT_CELL_M)  # (math.floor of a float is an int)
+
+
+@jitable
+def latency_s(dt_s: float, estimate_age_s: float) -> float:
+    """The unit's reaction latency beyond its envelope's (s): the step, and the age of the position data behind the
+    estimate (the vehicle may have accelerated that long unseen)."""
+    return dt_s + (0.0 if 0.0 > estimate_age_s else estimate_age_s)  # (max(age, 0.0), the value Python picks)
+
+
+@jitable
+def monitor_pass(
+    U: np.ndarray, F: np.ndarray, L: np.ndarray, V: np.ndarray, t_s: float, dt_s: float, alt: float, e: float,
+    n: float, agl: float, ve: float, vn: float, vu: float, roll: float, on_ground: bool, wind_e: float, wind_n: float,
+    position_valid: bool, sigma_h_m: float, sigma_v_m: float, estimate_age_s: float, turbulence_sigma_mps: float,
+    g: float,
+) -> tuple[int, bool, tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]]:  # fmt: skip
+    """``(answer, far, margins)`` of a monitoring step (see the module): ``far`` when the skip shortcut held
+    (margins not computed), else the margins' fields (:func:`geofence.margins_kernel.monitor_margins`). ``U``: the
+    unit's packed numbers; ``F, L, V``: its compiled margins' tables and envelope terms; the rest are
+    :meth:`~geofence.unit.GeofenceUnit.update`'s arguments, the estimate's fields among them."""
+    if not (position_valid and estimate_age_s <= FRESH_ESTIMATE_AGE_S):
+        return UNIT, False, NOT_NEEDED
+    recovered = U[MODE] != U[MONITOR_MODE]
+    if not recovered and not abs(alt - U[DENSITY_ALT]) < DENSITY_REFRESH_M:  # (NaN: never scaled)
+        return UNIT, False, NOT_NEEDED
+    if not hypot(wind_e, wind_n) + U[RETURN_ALLOWANCE] < U[RETURN_LIMIT]:
+        return UNIT, False, NOT_NEEDED
+    if U[ESTIMATED_TURBULENCE] != 0.0 and turbulence_sigma_mps > U[FORECAST_SIGMA]:
+        allowance = wind_allowance_mps(U[TURBULENCE_K], turbulence_sigma_mps, U[GUST])
+    else:
+        allowance = U[FORECAST_ALLOWANCE]
+    latency = latency_s(dt_s, estimate_age_s)
+    k_sigma, extra = U[K_SIGMA], U[EXTRA]
+    hu, v_unc = k_sigma * sigma_h_m + extra, k_sigma * sigma_v_m + extra
+    skip_time_s = 2.0 * U[REACTION_S] + latency
+    ground_speed = hypot(ve, vn)
+    h = agl if U[AGL] != 0.0 else alt
+    has_target = False
+    target_e = target_n = 0.0
+    if U[MULTIROTOR] == 0.0:  # the roll-out target of the estimate's cell, if the unit has it cached
+        cell_e, cell_n = rollout_cell(e, n)
+        de, dn = cell_e - U[CELL_E], cell_n - U[CELL_N]
+        if U[HAS_TARGETS] != 0.0 and abs(de) <= TARGET_CELLS and abs(dn) <= TARGET_CELLS:
+            k = TARGETS0 + 3 * (int(dn + TARGET_CELLS) * _SIDE + int(de + TARGET_CELLS))
+            if U[k] != 0.0:
+                has_target = True
+                target_e, target_n = U[k + 1], U[k + 2]
+        if not has_target:  # not needed far from everything; else the unit finds it (a route search)
+            far_only = far_from_everything(
+                F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, skip_time_s, hu, v_unc, g
+            )[0]  # fmt: skip
+            if not far_only:
+                return UNIT, False, NOT_NEEDED
+            return (PASS_HANDBACK if recovered and t_s - U[MODE_SINCE] >= RECOVERED_HOLD_S else PASS), True, NOT_NEEDED
+    far, r = monitor_margins(
+        F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, skip_time_s, hu, v_unc, latency, roll,
+        has_target, target_e, target_n, g,
+    )  # fmt: skip
+    if not far and r[0] <= 0.0 and not (on_ground and ground_speed < SITTING_MAX_GROUND_SPEED_MPS):
+        return UNIT, False, r  # an activation: the unit starts its override
+    if recovered and t_s - U[MODE_SINCE] >= RECOVERED_HOLD_S:
+        return PASS_HANDBACK, far, r
+    return PASS, far, r
+
+
+@jitable
+def record_pass(
+    U: np.ndarray, H: np.ndarray, t_s: float, est: tuple, on_ground: bool, dt_s: float, wind_e: float, wind_n: float,
+    sigma_h_m: float, sigma_v_m: float, estimate_age_s: float, turbulence_sigma_mps: float, far: bool, margins: tuple,
+    new_horizon: bool, horizon: np.ndarray,
+) -> None:  # fmt: skip
+    """Keep what a pass (a step :func:`monitor_pass` let through) changes in the unit, for it to take in later
+    (:meth:`~geofence.unit.GeofenceUnit.take_in_passes`): the estimate in the ring ``H`` (the unit's history of the
+    last seconds), the inputs it keeps, the margins, the fusion horizon when it moved (``horizon``: its fields)."""
+    row = int(U[RING_NEXT])
+    for k in range(15):
+        H[row, k] = est[k]
+    H[row, 15] = on_ground
+    U[RING_NEXT] = row + 1 if row + 1 < H.shape[0] else 0
+    U[PASSES] += 1.0
+    U[LAST_T] = t_s
+    U[LATENCY] = latency_s(dt_s, estimate_age_s)
+    U[WIND_E], U[WIND_N], U[TURBULENCE_EST], U[SIGMA_V] = wind_e, wind_n, turbulence_sigma_mps, sigma_v_m
+    if math.isfinite(sigma_h_m):
+        U[SIGMA_H] = sigma_h_m
+    U[FAR] = far
+    U[ACTIVATION] = margins[0]  # (inf when far)
+    if not far:
+        U[HAS_MARGINS], U[MARGINS_E], U[MARGINS_N] = 1.0, est[4], est[5]
+        m = MARGINS0  # (one by one: two of the fields are ints)
+        U[m], U[m + 1], U[m + 2], U[m + 3], U[m + 4], U[m + 5] = (
+            margins[0],
+            margins[1],
+            margins[2],
+            margins[3],
+            margins[4],
+            margins[5],
+        )
+        U[m + 6], U[m + 7], U[m + 8], U[m + 9], U[m + 10] = margins[6], margins[7], margins[8], margins[9], margins[10]
+        U[m + 11], U[m + 12], U[m + 13], U[m + 14] = margins[11], margins[12], margins[13], margins[14]
+        U[m + 15], U[m + 16], U[m + 17] = margins[15], margins[16], margins[17]
+    if new_horizon:
+        U[HORIZON_MOVED] = 1.0
+        for k in range(5):
+            U[HORIZON0 + k] = horizon[k]

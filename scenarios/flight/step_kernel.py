@@ -1,0 +1,243 @@
+"""A monitoring step of the closed loop in one compiled call: the wind field, the unit's sensing chain, its
+monitoring step and the recorder's row.
+
+While the geofence unit monitors (it passes the pilot's sticks through, most of a flight), the runner's step is
+one call of :func:`flight_step` instead of four calls and the Python between them: it samples the wind
+(:func:`wind.field_kernel.wind_sample`), runs the unit's sensors, estimator and wind estimator
+(:func:`scenarios.flight.sensing.sense_step`), asks the unit's monitoring step
+(:func:`geofence.unit_kernel.monitor_pass`) and, on a pass, writes the step's row
+(:func:`scenarios.flight.recorder.write_row`). Anything else (an activation, a position lost, ...) is answered
+by the unit's own :meth:`~geofence.unit.GeofenceUnit.update` from the same estimate, and the runner records
+that row itself. Each part is the compiled form of a reference the flight takes without numba, so a flight
+flown either way records the same bytes (``tests/test_flight_step.py``; :func:`use_flight_step` is the
+named hook that switches this path off).
+
+:class:`FlightStep` holds the arrays, asks :meth:`~geofence.unit.GeofenceUnit.monitor_ready` after every step
+the unit took itself, and applies a pass to the Python objects (:meth:`~geofence.unit.GeofenceUnit.passed`,
+:meth:`~scenarios.flight.sensing.GeofenceSensing.stepped`).
+"""
+
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import numpy as np
+
+from geofence import jit
+from geofence.dynamics import G_MPS2
+from geofence.interface import FixState, StickCommand, VehicleState
+from geofence.jit import COMPILED, numba
+from geofence.unit import GeofenceUnit
+from geofence.unit_kernel import (
+    HORIZON_MOVED,
+    MODE,
+    MONITOR_MODE,
+    N_UNIT,
+    PASS,
+    PASS_HANDBACK,
+    RING_COLUMNS,
+    UNIT,
+    monitor_pass,
+    record_pass,
+)
+from scenarios.flight.recorder import Recorder, write_row
+from scenarios.flight.sensing import HORIZON_IN_P, GeofenceSensing, sense_step
+from wind.field_kernel import WindArrays, wind_sample
+
+# what a step the unit answers itself needs (UNIT), one float array
+EST0 = 0  # the estimate's 15 fields (VehicleState's order, on_ground apart)
+WIND_EST_E, WIND_EST_N, VALID, SIGMA_H, SIGMA_V, NEW_HORIZON, AGE, TURBULENCE = range(15, 23)
+N_OUT = 23
+WIND_LOW, SENSE_LOW = 1, 2
+"""The flags a step returns: the wind field's noise pool runs low, the sensors' pools run low."""
+_H0, _H1 = HORIZON_IN_P.start, HORIZON_IN_P.stop
+
+
+def _flight_step(
+    FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
+    F: np.ndarray, L: np.ndarray, V: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray,
+    row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float, up: float, agl: float,
+    ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool,
+    p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
+) -> tuple[int, float, float, float, int]:  # fmt: skip
+    """One monitoring step from the truth's fields and the pilot's sticks: ``(the unit's answer, the wind sampled
+    (east, north, up), flags)`` (:func:`geofence.unit_kernel.monitor_pass`'s answer; the flags: :data:`WIND_LOW`,
+    :data:`SENSE_LOW`). On a pass the unit's ring ``H`` and numbers ``U`` keep it
+    (:func:`geofence.unit_kernel.record_pass`) and row ``row`` of ``T`` records it; else ``O`` holds what the
+    unit's own step needs (the layout above). The arrays: the wind field's (:meth:`WindArrays.arrays`), the
+    sensing chain's (:meth:`GeofenceSensing.kernel_arrays`), the unit's margins tables, envelope terms and packed
+    numbers (:meth:`GeofenceUnit.pack_monitor`)."""
+    w_e, w_n, w_u, w_low = wind_sample(FZ, wind_pool, GX, t, e, n, agl, airspeed)
+    est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence, s_low = sense_step(
+        P, pools, idx, dt_s, t, lat, lon, alt, ve, vn, vu, airspeed, roll, pitch, yaw
+    )  # fmt: skip
+    flags = (WIND_LOW if w_low else 0) + (SENSE_LOW if s_low else 0)
+    answer, far, r = monitor_pass(
+        U, F, L, V, t, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11], on_ground, we, wn,
+        valid, sigma_h, sigma_v, age, turbulence, G_MPS2,
+    )  # fmt: skip
+    if answer == UNIT:
+        for k in range(15):
+            Out[EST0 + k] = est[k]
+        Out[WIND_EST_E], Out[WIND_EST_N], Out[VALID], Out[SIGMA_H], Out[SIGMA_V] = we, wn, valid, sigma_h, sigma_v
+        Out[NEW_HORIZON], Out[AGE], Out[TURBULENCE] = new_horizon, age, turbulence
+        return answer, w_e, w_n, w_u, flags
+    record_pass(
+        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, far, r, new_horizon, P[_H0:_H1]
+    )  # fmt: skip
+    mode = U[MODE] if answer == PASS else U[MONITOR_MODE]  # (a completed hand-back is recorded as MONITOR)
+    write_row(
+        T, int(row), t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, w_e, w_n, w_u, p_roll,
+        p_pitch, p_yaw, p_throttle, p_roll, p_pitch, p_yaw, p_throttle, mode, item, est[4], est[5], est[7], we, wn,
+        r[0],
+    )  # fmt: skip
+    return answer, w_e, w_n, w_u, flags
+
+
+flight_step: Callable[..., tuple[int, float, float, float, int]] = (
+    numba.njit(cache=True)(_flight_step) if COMPILED else _flight_step
+)
+"""The compiled :func:`_flight_step` (the Python function itself without numba)."""
+
+ENABLED = True
+"""Runners build a :class:`FlightStep` where they can (set by :func:`use_flight_step`)."""
+
+
+def use_flight_step(on: bool) -> bool:
+    """Let the runner take monitoring steps in one compiled call (``True``, the default where numba is active) or
+    always through the separate objects (``False``), for flights started from now on; returns the previous
+    setting."""
+    global ENABLED
+    previous = ENABLED
+    ENABLED = bool(on)
+    return previous
+
+
+class FlightStep:
+    """The runner's monitoring steps in one compiled call each (see the module), for one flight.
+
+    Built by :meth:`build` where every part has its compiled form; :attr:`ready` says whether the unit's next step
+    can be taken this way (:meth:`GeofenceUnit.monitor_ready`), and :meth:`step` takes it. The unit takes in the
+    steps let through when it next answers one itself, at a hand-back, and at :meth:`finish`.
+    """
+
+    def __init__(self, unit: GeofenceUnit, sensing: GeofenceSensing, wind: WindArrays, recorder: Recorder, dt_s: float) -> None:
+        self.unit = unit
+        self.sensing = sensing
+        self.wind = wind
+        self.recorder = recorder
+        self.dt_s = dt_s
+        self._U = np.zeros(N_UNIT)
+        self._H = np.zeros((unit.history_rows(dt_s), RING_COLUMNS))
+        self._O = np.zeros(N_OUT)
+        self._kernel: Callable[..., tuple[int, float, float, float, int]] = flight_step
+        self._sense_args = sensing.kernel_arrays()
+        self._wind_args = wind.arrays()
+        self._tables: tuple[np.ndarray, np.ndarray, np.ndarray] = (self._O, self._O, self._O)
+        self.ready = False
+        self.calls = 0
+        """Steps taken by the compiled call so far (the unit answered some of them itself)."""
+        self.refresh()
+
+    @classmethod
+    def build(
+        cls,
+        unit: GeofenceUnit | None,
+        sensing: GeofenceSensing | None,
+        wind: WindArrays | None,
+        calm: bool,
+        recorder: Recorder,
+        dt_s: float,
+    ) -> FlightStep | None:
+        """A :class:`FlightStep` for this flight, or None where a part has no compiled form here: numba not active
+        (or :func:`use_flight_step` off), no unit or not one that :attr:`~GeofenceUnit.monitors_compiled`, the sensing
+        chain not compiled (a truth source), the wind field not as arrays (``wind``: the runner's, None when the
+        field has no array form or is ``calm``)."""
+        if not (ENABLED and jit.ACTIVE) or unit is None or not unit.monitors_compiled:
+            return None
+        if sensing is None or not sensing.compiled:
+            return None
+        if wind is None:
+            if not calm:
+                return None
+            wind = WindArrays(None, None, None)  # calm: zeros
+        return cls(unit, sensing, wind, recorder, dt_s)
+
+    def refresh(self) -> None:
+        """Ask the unit again whether it is ready, and pack its numbers (after every step it took itself, and every
+        step the runner took without this call: the wind field may have refilled its noise pool)."""
+        unit = self.unit
+        self.ready = unit.monitor_ready()
+        if self.ready:
+            self._tables = unit.pack_monitor(self._U)
+            self._wind_args = self.wind.arrays()
+
+    def wind_changed(self) -> None:
+        """The wind field's arrays were replaced (its gust table, at the first activation)."""
+        self._wind_args = self.wind.arrays()
+
+    def finish(self) -> None:
+        """The unit takes in the steps let through so far (at the end of the flight; the sensing chain's horizon
+        too)."""
+        self._take_in(False)
+
+    def _take_in(self, new_horizon: bool) -> FixState | None:
+        """The unit takes in the passes so far; the sensing chain keeps its newest fusion horizon (``new_horizon``:
+        it moved at this step). Returns that horizon."""
+        sensing = self.sensing
+        before = sensing.horizon
+        moved = new_horizon or self._U[HORIZON_MOVED] != 0.0
+        self.unit.take_in_passes(self._U, self._H, before)
+        return sensing.stepped(moved, False)
+
+    def step(
+        self, truth: VehicleState, t_s: float, pilot: StickCommand, item: int
+    ) -> tuple[tuple[float, float, float], StickCommand]:
+        """One step from the truth (its ``t_s``: ``t``) and the pilot's sticks: ``(the wind sampled, the sticks to
+        send)``; the step's row is recorded either way."""
+        s = truth
+        FZ, wind_pool, GX = self._wind_args
+        P, pools, idx = self._sense_args
+        F, L, V = self._tables
+        recorder = self.recorder
+        T, row = recorder.next_row()
+        kernel = self._kernel
+        answer, w_e, w_n, w_u, flags = kernel(
+            FZ, wind_pool, GX, P, pools, idx, F, L, V, self._U, self._H, T, self._O, float(row), self.dt_s, t_s,
+            s.lat_deg, s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps,
+            s.v_up_mps, s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, pilot[0], pilot[1], pilot[2],
+            pilot[3], float(item),
+        )  # fmt: skip
+        if kernel is flight_step:  # after its first call, by its entry point (geofence.jit: the arrays are ours)
+            self._kernel = jit.entry_point(kernel)
+        self.calls += 1
+        if flags:
+            if flags & WIND_LOW:
+                self.wind.refill()
+                self._wind_args = self.wind.arrays()
+            if flags & SENSE_LOW:
+                self.sensing.stepped(False, True)
+        w = (w_e, w_n, w_u)
+        if answer == PASS:
+            recorder.commit_row()
+            return w, pilot
+        unit = self.unit
+        if answer == PASS_HANDBACK:
+            recorder.commit_row()
+            self._take_in(False)
+            unit.complete_hand_back(t_s)
+            self.refresh()
+            return w, pilot
+        # the unit answers this step itself, from the same estimate
+        o: list[Any] = self._O.tolist()
+        horizon = self._take_in(o[NEW_HORIZON] != 0.0)
+        est = VehicleState(*o[EST0 : EST0 + 15])
+        est.on_ground = s.on_ground  # touchdown switch / the flight controller's land detector
+        wind_en = (o[WIND_EST_E], o[WIND_EST_N])
+        cmd = unit.update(
+            t_s, est, pilot, self.dt_s, wind_en=wind_en, position_valid=o[VALID] != 0.0, sigma_h_m=o[SIGMA_H],
+            sigma_v_m=o[SIGMA_V], estimate_age_s=o[AGE], turbulence_sigma_mps=o[TURBULENCE], horizon=horizon,
+        )  # fmt: skip
+        recorder.append(truth, w, pilot, cmd, unit.mode, item, unit.estimate, wind_en, unit.activation_margin_m)
+        self.refresh()
+        return w, cmd
