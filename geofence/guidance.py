@@ -312,6 +312,7 @@ class FixedWingRecovery:
         self.env = env
         self.wind = wind_enu  # shared, updated by the unit
         self._step = step if step is not None else fixed_wing_step
+        self._own_step = step is None and fixed_wing_step is not None  # (a caller's compiled step may take it)
         self.route: Route = StraightRoute(0.0, 0.0)
         self.goal_h = 0.0
         self.turn_sign = 0
@@ -388,6 +389,35 @@ class FixedWingRecovery:
     def _heading_to(self, s: VehicleState, target: tuple[float, float]) -> float:
         """Air heading whose ground track points at ``target`` (wind triangle at the current airspeed)."""
         return air_heading_to_rad(s, target[0], target[1], self.wind[0], self.wind[1], self.env.min_speed_mps)
+
+    def compiled_step(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, float] | None:
+        """The arrays and chord arguments its compiled step (:data:`fixed_wing_step`) takes for a route that needs no
+        per-position argument (a fence without an index: :meth:`RecoveryPath._kernel_arguments`), ``(R, P, Q, K, thr,
+        clearance)``, for a caller's compiled step; None where :meth:`sticks` must answer (circling up in a floor
+        gap, no compiled route, numba not active). With :meth:`step_state` and :meth:`set_step_state` a caller
+        steps it as :meth:`sticks` does."""
+        path = self._path
+        if self.hold_below_m is not None or path is None or not self._own_step:
+            return None
+        args = path.constant_kernel_arguments()
+        if args is None:
+            return None
+        P, Q, thr, clearance = args
+        return path._arrays(), P, Q, self._constants, thr, clearance
+
+    def step_state(self) -> tuple[float, bool, float, float, float, float]:
+        """``(route progress, turning, turned, last yaw, throttle while turning, throttle after)``: what its step
+        reads besides the state (see :meth:`compiled_step`)."""
+        assert self._path is not None
+        return self._path.progress_m, self.turning, self.turned_rad, self._last_yaw, self._turn_throttle, self._throttle
+
+    def set_step_state(self, progress_m: float, turning: bool, turned_rad: float, last_yaw_rad: float) -> None:
+        """Take in a caller's steps (see :meth:`compiled_step`): the route's progress and the turn's state after them."""
+        assert self._path is not None
+        self._path.progress_m = progress_m
+        self.turning = turning
+        self.turned_rad = turned_rad
+        self._last_yaw = last_yaw_rad
 
     def sticks(self, s: VehicleState, h: float, t_s: float, dt_s: float) -> StickCommand:
         """The override's sticks: its first turn at the bank limit, then the route, at cruise; a first turn that does

@@ -1341,6 +1341,12 @@ class RecoveryPath:
         carrot = self.lookahead_point(e, n, lookahead_m)
         return carrot, self.remaining_m(e, n)
 
+    def constant_kernel_arguments(self) -> tuple | None:
+        """:meth:`_kernel_arguments` where they do not depend on the position (a fence without an index, while
+        :data:`geofence.jit.ACTIVE`), else None."""
+        planner = self.planner
+        return planner._follower_scan_arguments if planner._follower_scans and _jit.ACTIVE else None
+
     def _kernel_arguments(self, e: float, n: float) -> tuple | None:
         """``(P, Q, thr, clearance)``: the planner's packed tables (:func:`follower_tables`) and the chord
         threshold of :data:`path_rollout` and :data:`path_follow` for a vehicle at (e, n). For a fence without an

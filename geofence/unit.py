@@ -688,15 +688,9 @@ class GeofenceUnit:
         U[_uk.FORECAST_SIGMA] = cfg.turbulence_sigma_mps
         U[_uk.TURBULENCE_K] = cfg.turbulence_k_sigma
         U[_uk.GUST] = cfg.gust_mps
-        U[_uk.RETURN_ALLOWANCE], U[_uk.RETURN_LIMIT] = self._return_wind_limits
-        U[_uk.AGL] = float(self._agl)
         U[_uk.MULTIROTOR] = float(self._multirotor)
         U[_uk.DENSITY_ALT] = math.nan if self._density_alt_m is None else self._density_alt_m
-        U[_uk.MODE] = float(self.mode)
-        U[_uk.MONITOR_MODE] = float(Mode.MONITOR)
-        U[_uk.MODE_SINCE] = self._mode_since_s
-        U[_uk.SIGMA_H] = self._sigma_h_m  # (a pass keeps it only where finite)
-        U[_uk.PASSES] = U[_uk.HAS_MARGINS] = U[_uk.HORIZON_MOVED] = 0.0
+        self._pack_kept(U)
         U[_uk.HAS_TARGETS] = 0.0
         est = self.estimate
         if not self._multirotor and est is not None:  # the roll-out targets cached round the estimate's cell
@@ -716,15 +710,58 @@ class GeofenceUnit:
         F, L = compiled._tables
         return F, L, compiled._terms
 
+    def _pack_kept(self, U: np.ndarray) -> None:
+        """What the unit keeps that a compiled step may leave as it is (then taken in unchanged), and no step
+        pending."""
+        U[_uk.MODE] = float(self.mode)
+        U[_uk.MONITOR_MODE] = float(Mode.MONITOR)
+        U[_uk.MODE_SINCE] = self._mode_since_s
+        U[_uk.RETURN_ALLOWANCE], U[_uk.RETURN_LIMIT] = self._return_wind_limits
+        U[_uk.AGL] = float(self._agl)
+        U[_uk.SIGMA_H] = self._sigma_h_m  # (a step keeps it only where finite)
+        U[_uk.FAR] = float(self._skipped_last)
+        U[_uk.ACTIVATION] = self.activation_margin_m
+        U[_uk.PASSES] = U[_uk.HAS_MARGINS] = U[_uk.HORIZON_MOVED] = U[_uk.RECOVERY_MOVED] = 0.0
+
+    def override_ready(self) -> bool:
+        """Whether :func:`geofence.unit_kernel.override_pass` can take the next step: a fixed-wing override (of a unit
+        that :attr:`monitors_compiled`) whose recovery has its compiled step (:meth:`FixedWingRecovery.compiled_step`),
+        not dead-reckoning. Asked again after every step :meth:`update` takes."""
+        recovery = self.recovery
+        return (
+            self.mode is _OVERRIDE
+            and self.monitors_compiled
+            and isinstance(recovery, FixedWingRecovery)
+            and not self.dead_reckoning.active
+            and recovery.compiled_step() is not None
+        )
+
+    def pack_override(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Fill ``U`` with what an override step reads (see :meth:`override_ready`); returns its recovery's compiled
+        step's arrays ``(R, P, Q, K)``. Valid until the next :meth:`update`."""
+        recovery = self.recovery
+        assert isinstance(recovery, FixedWingRecovery)
+        arrays = recovery.compiled_step()
+        assert arrays is not None
+        R, P, Q, K, thr, clearance = arrays
+        self._pack_kept(U)
+        U[_uk.PERIOD_START], U[_uk.MIN_OVERRIDE] = self._override_period_start_s, self.config.min_override_s
+        U[_uk.THR], U[_uk.CLEARANCE] = thr, clearance
+        progress, turning, turned, last_yaw, turn_throttle, throttle = recovery.step_state()
+        U[_uk.PROGRESS], U[_uk.TURNING], U[_uk.TURNED], U[_uk.LAST_YAW] = progress, float(turning), turned, last_yaw
+        U[_uk.TURN_THROTTLE], U[_uk.THROTTLE] = turn_throttle, throttle
+        return R, P, Q, K
+
     def history_rows(self, dt_s: float) -> int:
         """Rows a ring of estimates needs to hold the unit's history (:data:`REPLAY_WINDOW_S`) at steps of ``dt_s``."""
         return math.ceil(REPLAY_WINDOW_S / dt_s) + 4
 
     def take_in_passes(self, U: np.ndarray, H: np.ndarray, horizon: FixState | None) -> None:
-        """Take in the steps :func:`geofence.unit_kernel.monitor_pass` let through since the last time, as
-        :meth:`update` would have taken them one by one (what :func:`geofence.unit_kernel.record_pass` kept in ``U``
-        and the ring ``H``, :meth:`history_rows` long); ``horizon``: the fusion horizon before them (the sensing
-        chain's). Then none are pending."""
+        """Take in the steps compiled calls took since the last time (the passes of
+        :func:`geofence.unit_kernel.monitor_pass`, the override steps of :func:`geofence.unit_kernel.override_pass`),
+        as :meth:`update` would have taken them one by one: what :func:`geofence.unit_kernel.record_pass` kept in
+        ``U`` and the ring ``H`` (:meth:`history_rows` long), and the recovery's state. ``horizon``: the fusion
+        horizon before them (the sensing chain's). Then none are pending."""
         passes = int(U[_uk.PASSES])
         if passes == 0:
             return
@@ -759,7 +796,11 @@ class GeofenceUnit:
             self.fence.remember_margin(float(U[_uk.MARGINS_E]), float(U[_uk.MARGINS_N]), fields[1])
             self._last = None
             self._last_fields = (compiled, fields)
-        U[_uk.PASSES] = U[_uk.HAS_MARGINS] = U[_uk.HORIZON_MOVED] = 0.0
+        if U[_uk.RECOVERY_MOVED] != 0.0:
+            recovery = self.recovery
+            assert isinstance(recovery, FixedWingRecovery)
+            recovery.set_step_state(float(U[_uk.PROGRESS]), U[_uk.TURNING] != 0.0, float(U[_uk.TURNED]), float(U[_uk.LAST_YAW]))
+        U[_uk.PASSES] = U[_uk.HAS_MARGINS] = U[_uk.HORIZON_MOVED] = U[_uk.RECOVERY_MOVED] = 0.0
 
     def complete_hand_back(self, t_s: float) -> None:
         """``RECOVERED`` held long enough: back to ``MONITOR``."""

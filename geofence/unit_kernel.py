@@ -1,15 +1,20 @@
-"""The geofence unit's monitoring step on arrays: :meth:`geofence.unit.GeofenceUnit.update` while it passes the
-pilot's sticks through, as a function a compiled per-step kernel calls.
+"""The geofence unit's steps on arrays: :meth:`geofence.unit.GeofenceUnit.update` while it passes the pilot's
+sticks through, and while a fixed-wing override flies its minimum period, as functions a compiled per-step
+kernel calls.
 
-One question: given this step's estimate (the sensing chain's numbers), does a predictive unit that monitors
-(``MONITOR`` or ``RECOVERED``) keep passing the sticks through, and with which margins? The answer is
-:data:`PASS` (and the margins), :data:`PASS_HANDBACK` (pass, and ``RECOVERED``'s hold is over: back to
-``MONITOR``) or :data:`UNIT`: anything else (an activation, a stale or lost position, an envelope to re-scale to
-the air density, a wind beyond authority, a roll-out target not cached for this cell), which the unit's own
-:meth:`~geofence.unit.GeofenceUnit.update` then answers from the same estimate. The unit packs what the step
-reads in one float array (:meth:`~geofence.unit.GeofenceUnit.pack_monitor`, layout below) and applies a pass
-with :meth:`~geofence.unit.GeofenceUnit.passed`. ``update`` is the reference: the same tests in the same order
-on the same numbers (``tests/test_flight_step.py`` flies flights both ways and compares their bytes).
+One question each. :func:`monitor_pass`: given this step's estimate (the sensing chain's numbers), does a
+predictive unit that monitors (``MONITOR`` or ``RECOVERED``) keep passing the sticks through, and with which
+margins? The answer is :data:`PASS` (and the margins), :data:`PASS_HANDBACK` (pass, and ``RECOVERED``'s hold is
+over: back to ``MONITOR``) or :data:`UNIT`: anything else (an activation, a stale or lost position, an envelope
+to re-scale to the air density, a wind beyond authority, a roll-out target not cached for this cell near a
+boundary), which the unit's own :meth:`~geofence.unit.GeofenceUnit.update` then answers from the same estimate.
+:func:`override_pass`: which sticks does a fixed-wing override send at this step of its minimum period
+(:data:`OVERRIDE_STEP`), or must the unit answer (:data:`UNIT`)? The unit packs what a step reads in one float
+array (:meth:`~geofence.unit.GeofenceUnit.pack_monitor`, :meth:`~geofence.unit.GeofenceUnit.pack_override`,
+layout below); :func:`record_pass` keeps what each step taken so changes, and the unit takes it in before it
+answers a step again (:meth:`~geofence.unit.GeofenceUnit.take_in_passes`). ``update`` is the reference: the
+same tests in the same order on the same numbers (``tests/test_flight_step.py`` flies flights both ways and
+compares their bytes).
 
 It also owns the few constants both read: when an estimate is fresh, when the envelope is re-scaled, when a
 vehicle on the ground is sitting, the hand-back hold and the roll-out target cache's cells.
@@ -23,6 +28,7 @@ import numpy as np
 
 from geofence.config import wind_allowance_mps
 from geofence.cpython_math import hypot
+from geofence.guidance import fixed_wing_step
 from geofence.jit import jitable
 from geofence.margins_kernel import NOT_NEEDED, far_from_everything, monitor_margins
 
@@ -44,6 +50,7 @@ DENSITY_REFRESH_M = 100.0
 PASS = 0
 PASS_HANDBACK = 1
 UNIT = 2
+OVERRIDE_STEP = 3  # (override_pass) the override's sticks, by its compiled step
 
 # the unit's packed numbers (GeofenceUnit.pack_monitor), each a float
 K_SIGMA = 0  # uncertainty_k_sigma
@@ -88,7 +95,19 @@ MARGINS_N = PASSES + 13
 MARGINS0 = PASSES + 14  # 18 fields (geofence.margins_kernel._margins)
 HORIZON_MOVED = MARGINS0 + 18  # 1: a pass brought a new fusion horizon, its FixState fields follow
 HORIZON0 = HORIZON_MOVED + 1  # 5 fields
-N_UNIT = HORIZON0 + 5
+# a fixed-wing override's step (GeofenceUnit.pack_override; the recovery's state written back by override_pass)
+PERIOD_START = HORIZON0 + 5  # the override period's start, s
+MIN_OVERRIDE = PERIOD_START + 1  # min_override_s
+THR = PERIOD_START + 2  # the route follower's chord threshold argument (NaN: found by the call)
+CLEARANCE = PERIOD_START + 3
+TURN_THROTTLE = PERIOD_START + 4  # the throttle stick while the first turn lasts
+THROTTLE = PERIOD_START + 5  # and after it
+PROGRESS = PERIOD_START + 6  # the route's progress, m
+TURNING = PERIOD_START + 7  # 1: the first turn lasts
+TURNED = PERIOD_START + 8  # how far it has turned, rad
+LAST_YAW = PERIOD_START + 9
+RECOVERY_MOVED = PERIOD_START + 10  # 1: override steps moved the recovery's state (the four above)
+N_UNIT = RECOVERY_MOVED + 1
 RING_COLUMNS = 16
 """A ring row: the estimate's 15 fields in :class:`~geofence.interface.VehicleState`'s order, then ``on_ground``."""
 
@@ -165,12 +184,14 @@ def monitor_pass(
 @jitable
 def record_pass(
     U: np.ndarray, H: np.ndarray, t_s: float, est: tuple, on_ground: bool, dt_s: float, wind_e: float, wind_n: float,
-    sigma_h_m: float, sigma_v_m: float, estimate_age_s: float, turbulence_sigma_mps: float, far: bool, margins: tuple,
-    new_horizon: bool, horizon: np.ndarray,
+    sigma_h_m: float, sigma_v_m: float, estimate_age_s: float, turbulence_sigma_mps: float, monitoring: bool,
+    far: bool, margins: tuple, new_horizon: bool, horizon: np.ndarray,
 ) -> None:  # fmt: skip
-    """Keep what a pass (a step :func:`monitor_pass` let through) changes in the unit, for it to take in later
+    """Keep what a step the unit did not answer itself changes in it (a pass :func:`monitor_pass` let through, or
+    with ``monitoring`` false an override step :func:`override_pass` took), for it to take in later
     (:meth:`~geofence.unit.GeofenceUnit.take_in_passes`): the estimate in the ring ``H`` (the unit's history of the
-    last seconds), the inputs it keeps, the margins, the fusion horizon when it moved (``horizon``: its fields)."""
+    last seconds), the inputs it keeps, a pass's margins (an override step has none: NaN), the fusion horizon when
+    it moved (``horizon``: its fields)."""
     row = int(U[RING_NEXT])
     for k in range(15):
         H[row, k] = est[k]
@@ -182,9 +203,12 @@ def record_pass(
     U[WIND_E], U[WIND_N], U[TURBULENCE_EST], U[SIGMA_V] = wind_e, wind_n, turbulence_sigma_mps, sigma_v_m
     if math.isfinite(sigma_h_m):
         U[SIGMA_H] = sigma_h_m
-    U[FAR] = far
-    U[ACTIVATION] = margins[0]  # (inf when far)
-    if not far:
+    if not monitoring:
+        U[ACTIVATION] = math.nan  # (not needed, nor computed, until the minimum override has passed)
+    else:
+        U[FAR] = far
+        U[ACTIVATION] = margins[0]  # (inf when far)
+    if monitoring and not far:
         U[HAS_MARGINS], U[MARGINS_E], U[MARGINS_N] = 1.0, est[4], est[5]
         m = MARGINS0  # (one by one: two of the fields are ints)
         U[m], U[m + 1], U[m + 2], U[m + 3], U[m + 4], U[m + 5] = (
@@ -202,3 +226,36 @@ def record_pass(
         U[HORIZON_MOVED] = 1.0
         for k in range(5):
             U[HORIZON0 + k] = horizon[k]
+
+
+@jitable
+def override_pass(
+    U: np.ndarray, R: np.ndarray, P: np.ndarray, Q: np.ndarray, K: np.ndarray, t_s: float, alt: float, e: float,
+    n: float, agl: float, ve: float, vn: float, yaw: float, airspeed: float, wind_e: float, wind_n: float,
+    position_valid: bool, estimate_age_s: float,
+) -> tuple[int, float, float, float]:  # fmt: skip
+    """``(answer, roll, pitch, throttle)`` of a fixed-wing override's step within its minimum override period:
+    :data:`OVERRIDE_STEP` and the sticks of :meth:`~geofence.guidance.FixedWingRecovery.sticks` (its compiled step
+    :data:`~geofence.guidance.fixed_wing_step` on the arrays ``R, P, Q, K`` of
+    :meth:`~geofence.guidance.FixedWingRecovery.compiled_step`; the recovery's state moves on in ``U``), or
+    :data:`UNIT` (a stale or lost position, a wind beyond authority, the period over, a route the compiled step
+    does not answer): :meth:`~geofence.unit.GeofenceUnit.update`'s path for such a step, the same tests in its
+    order."""
+    if not (position_valid and estimate_age_s <= FRESH_ESTIMATE_AGE_S):
+        return UNIT, 0.0, 0.0, 0.0
+    if not hypot(wind_e, wind_n) + U[RETURN_ALLOWANCE] < U[RETURN_LIMIT]:
+        return UNIT, 0.0, 0.0, 0.0
+    if not t_s - U[PERIOD_START] < U[MIN_OVERRIDE]:
+        return UNIT, 0.0, 0.0, 0.0
+    h = agl if U[AGL] != 0.0 else alt
+    turning = U[TURNING] != 0.0
+    throttle = U[TURN_THROTTLE] if turning else U[THROTTLE]
+    thr, roll, pitch, progress, turning, turned, last_yaw = fixed_wing_step(  # type: ignore[misc]  # (None: no numba)
+        R, P, Q, K, U[PROGRESS], U[THR], U[CLEARANCE], e, n, ve, vn, yaw, airspeed, hypot(ve, vn), h, wind_e, wind_n,
+        turning, U[TURNED], U[LAST_YAW],
+    )  # fmt: skip
+    if not thr > 0.0:
+        return UNIT, 0.0, 0.0, 0.0
+    U[PROGRESS], U[TURNING], U[TURNED], U[LAST_YAW] = progress, turning, turned, last_yaw
+    U[RECOVERY_MOVED] = 1.0
+    return OVERRIDE_STEP, roll, pitch, throttle

@@ -9,9 +9,10 @@ frames in between, with the flight controller inside JSBSim):
     cmd, mode = geofence.filter(...) if a geofence is configured, else cmd_in
     platform.command(cmd); recorder.append(...); platform.step(frames_per_step)
 
-While a predictive unit monitors, the wind sample, the unit's sensing and update and the
-recorder's row are one compiled call (:class:`scenarios.flight.step_kernel.FlightStep`,
-where numba is active): the same numbers as the separate calls, bit for bit.
+While a predictive unit monitors (and while a fixed-wing override flies its minimum period), the
+wind sample, the unit's sensing and update and the recorder's row are one compiled call
+(:class:`scenarios.flight.step_kernel.FlightStep`, where numba is active): the same numbers as
+the separate calls, bit for bit.
 
 The run stops at ``duration_s`` or two seconds after the pilot finished its
 mission. Files: ``<out>/<scenario>/trajectory.csv`` and ``summary.json`` (see

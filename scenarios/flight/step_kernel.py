@@ -1,24 +1,26 @@
-"""A monitoring step of the closed loop in one compiled call: the wind field, the unit's sensing chain, its
-monitoring step and the recorder's row.
+"""A step of the closed loop in one compiled call: the wind field, the unit's sensing chain, its monitoring step
+(or a fixed-wing override's step) and the recorder's row.
 
 While the geofence unit monitors (it passes the pilot's sticks through, most of a flight), the runner's step is
 one call of :func:`flight_step` instead of four calls and the Python between them: it samples the wind
 (:func:`wind.field_kernel.wind_sample`), runs the unit's sensors, estimator and wind estimator
 (:func:`scenarios.flight.sensing.sense_step`), asks the unit's monitoring step
 (:func:`geofence.unit_kernel.monitor_pass`) and, on a pass, writes the step's row
-(:func:`scenarios.flight.recorder.write_row`). Anything else (an activation, a position lost, ...) is answered
-by the unit's own :meth:`~geofence.unit.GeofenceUnit.update` from the same estimate, and the runner records
-that row itself. Each part is the compiled form of a reference the flight takes without numba, so a flight
-flown either way records the same bytes (``tests/test_flight_step.py``; :func:`use_flight_step` is the
-named hook that switches this path off).
+(:func:`scenarios.flight.recorder.write_row`). While a fixed-wing override flies its minimum period,
+:func:`override_flight_step` does the same with the override's step (:func:`geofence.unit_kernel.override_pass`).
+Anything else (an activation, a position lost, ...) is answered by the unit's own
+:meth:`~geofence.unit.GeofenceUnit.update` from the same estimate, and the runner records that row itself. Each
+part is the compiled form of a reference the flight takes without numba, so a flight flown either way records the
+same bytes (``tests/test_flight_step.py``; :func:`use_flight_step` is the named hook that switches this path off).
 
-:class:`FlightStep` holds the arrays, asks :meth:`~geofence.unit.GeofenceUnit.monitor_ready` after every step
-the unit took itself, and applies a pass to the Python objects (:meth:`~geofence.unit.GeofenceUnit.passed`,
-:meth:`~scenarios.flight.sensing.GeofenceSensing.stepped`).
+:class:`FlightStep` holds the arrays, asks :meth:`~geofence.unit.GeofenceUnit.monitor_ready` and
+:meth:`~geofence.unit.GeofenceUnit.override_ready` after every step the unit took itself, and has the unit take in
+the steps taken for it (:meth:`~geofence.unit.GeofenceUnit.take_in_passes`) before it answers one again.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Any, Callable
 
 import numpy as np
@@ -26,18 +28,21 @@ import numpy as np
 from geofence import jit
 from geofence.dynamics import G_MPS2
 from geofence.interface import FixState, StickCommand, VehicleState
-from geofence.jit import COMPILED, numba
+from geofence.jit import COMPILED, jitable, numba
+from geofence.margins_kernel import NOT_NEEDED
 from geofence.unit import GeofenceUnit
 from geofence.unit_kernel import (
     HORIZON_MOVED,
     MODE,
     MONITOR_MODE,
     N_UNIT,
+    OVERRIDE_STEP,
     PASS,
     PASS_HANDBACK,
     RING_COLUMNS,
     UNIT,
     monitor_pass,
+    override_pass,
     record_pass,
 )
 from scenarios.flight.recorder import Recorder, write_row
@@ -51,6 +56,7 @@ N_OUT = 23
 WIND_LOW, SENSE_LOW = 1, 2
 """The flags a step returns: the wind field's noise pool runs low, the sensors' pools run low."""
 _H0, _H1 = HORIZON_IN_P.start, HORIZON_IN_P.stop
+_new_tuple = tuple.__new__
 
 
 def _flight_step(
@@ -77,13 +83,10 @@ def _flight_step(
         valid, sigma_h, sigma_v, age, turbulence, G_MPS2,
     )  # fmt: skip
     if answer == UNIT:
-        for k in range(15):
-            Out[EST0 + k] = est[k]
-        Out[WIND_EST_E], Out[WIND_EST_N], Out[VALID], Out[SIGMA_H], Out[SIGMA_V] = we, wn, valid, sigma_h, sigma_v
-        Out[NEW_HORIZON], Out[AGE], Out[TURBULENCE] = new_horizon, age, turbulence
+        _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
         return answer, w_e, w_n, w_u, flags
     record_pass(
-        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, far, r, new_horizon, P[_H0:_H1]
+        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, True, far, r, new_horizon, P[_H0:_H1]
     )  # fmt: skip
     mode = U[MODE] if answer == PASS else U[MONITOR_MODE]  # (a completed hand-back is recorded as MONITOR)
     write_row(
@@ -93,6 +96,56 @@ def _flight_step(
     )  # fmt: skip
     return answer, w_e, w_n, w_u, flags
 
+
+@jitable
+def _for_the_unit(
+    Out: np.ndarray, est: tuple, we: float, wn: float, valid: bool, sigma_h: float, sigma_v: float, new_horizon: bool,
+    age: float, turbulence: float,
+) -> None:  # fmt: skip
+    """What a step the unit answers itself needs, into ``Out`` (the layout above)."""
+    for k in range(15):
+        Out[EST0 + k] = est[k]
+    Out[WIND_EST_E], Out[WIND_EST_N], Out[VALID], Out[SIGMA_H], Out[SIGMA_V] = we, wn, valid, sigma_h, sigma_v
+    Out[NEW_HORIZON], Out[AGE], Out[TURBULENCE] = new_horizon, age, turbulence
+
+
+def _override_flight_step(
+    FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
+    R: np.ndarray, PR: np.ndarray, QR: np.ndarray, K: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray,
+    Out: np.ndarray, row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float,
+    up: float, agl: float, ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
+    on_ground: bool, p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
+) -> tuple[int, float, float, float, int, float, float, float]:  # fmt: skip
+    """:func:`_flight_step` for a fixed-wing override's step (:func:`geofence.unit_kernel.override_pass`, on its
+    recovery's arrays ``R, PR, QR, K``): ``(answer, wind (east, north, up), flags, roll, pitch, throttle)``, the
+    sticks the override sends on :data:`~geofence.unit_kernel.OVERRIDE_STEP`; its row recorded then."""
+    w_e, w_n, w_u, w_low = wind_sample(FZ, wind_pool, GX, t, e, n, agl, airspeed)
+    est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence, s_low = sense_step(
+        P, pools, idx, dt_s, t, lat, lon, alt, ve, vn, vu, airspeed, roll, pitch, yaw
+    )  # fmt: skip
+    flags = (WIND_LOW if w_low else 0) + (SENSE_LOW if s_low else 0)
+    answer, c_roll, c_pitch, c_throttle = override_pass(
+        U, R, PR, QR, K, t, est[3], est[4], est[5], est[7], est[8], est[9], est[13], est[14], we, wn, valid, age
+    )  # fmt: skip
+    if answer == UNIT:
+        _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
+        return answer, w_e, w_n, w_u, flags, 0.0, 0.0, 0.0
+    record_pass(
+        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, False, False, NOT_NEEDED,
+        new_horizon, P[_H0:_H1],
+    )  # fmt: skip
+    write_row(
+        T, int(row), t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, w_e, w_n, w_u, p_roll,
+        p_pitch, p_yaw, p_throttle, c_roll, c_pitch, 0.0, c_throttle, U[MODE], item, est[4], est[5], est[7], we, wn,
+        math.nan,
+    )  # fmt: skip
+    return answer, w_e, w_n, w_u, flags, c_roll, c_pitch, c_throttle
+
+
+override_flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float]] = (
+    numba.njit(cache=True)(_override_flight_step) if COMPILED else _override_flight_step
+)
+"""The compiled :func:`_override_flight_step` (the Python function itself without numba)."""
 
 flight_step: Callable[..., tuple[int, float, float, float, int]] = (
     numba.njit(cache=True)(_flight_step) if COMPILED else _flight_step
@@ -114,11 +167,12 @@ def use_flight_step(on: bool) -> bool:
 
 
 class FlightStep:
-    """The runner's monitoring steps in one compiled call each (see the module), for one flight.
+    """The runner's steps in one compiled call each (see the module), for one flight.
 
     Built by :meth:`build` where every part has its compiled form; :attr:`ready` says whether the unit's next step
-    can be taken this way (:meth:`GeofenceUnit.monitor_ready`), and :meth:`step` takes it. The unit takes in the
-    steps let through when it next answers one itself, at a hand-back, and at :meth:`finish`.
+    can be taken this way (:meth:`GeofenceUnit.monitor_ready`: a monitoring step; :meth:`GeofenceUnit.override_ready`:
+    a fixed-wing override's), and :meth:`step` takes it. The unit takes in the steps taken so when it next answers
+    one itself, at a hand-back, and at :meth:`finish`.
     """
 
     def __init__(self, unit: GeofenceUnit, sensing: GeofenceSensing, wind: WindArrays, recorder: Recorder, dt_s: float) -> None:
@@ -131,12 +185,14 @@ class FlightStep:
         self._H = np.zeros((unit.history_rows(dt_s), RING_COLUMNS))
         self._O = np.zeros(N_OUT)
         self._kernel: Callable[..., tuple[int, float, float, float, int]] = flight_step
+        self._override_kernel: Callable[..., tuple[int, float, float, float, int, float, float, float]] = override_flight_step
         self._sense_args = sensing.kernel_arrays()
         self._wind_args = wind.arrays()
-        self._tables: tuple[np.ndarray, np.ndarray, np.ndarray] = (self._O, self._O, self._O)
+        self._tables: tuple[np.ndarray, ...] = ()
         self.ready = False
+        self._override = False
         self.calls = 0
-        """Steps taken by the compiled call so far (the unit answered some of them itself)."""
+        """Steps taken by a compiled call so far (the unit answered some of them itself)."""
         self.refresh()
 
     @classmethod
@@ -164,26 +220,32 @@ class FlightStep:
         return cls(unit, sensing, wind, recorder, dt_s)
 
     def refresh(self) -> None:
-        """Ask the unit again whether it is ready, and pack its numbers (after every step it took itself, and every
-        step the runner took without this call: the wind field may have refilled its noise pool)."""
+        """Ask the unit again whether a compiled call can take its next step, and pack its numbers (after every step
+        it took itself, and every step the runner took without this call: the wind field may have refilled its
+        noise pool)."""
         unit = self.unit
-        self.ready = unit.monitor_ready()
-        if self.ready:
+        if unit.monitor_ready():
+            self.ready, self._override = True, False
             self._tables = unit.pack_monitor(self._U)
-            self._wind_args = self.wind.arrays()
+        elif unit.override_ready():
+            self.ready, self._override = True, True
+            self._tables = unit.pack_override(self._U)
+        else:
+            self.ready = False
+            return
+        self._wind_args = self.wind.arrays()
 
     def wind_changed(self) -> None:
         """The wind field's arrays were replaced (its gust table, at the first activation)."""
         self._wind_args = self.wind.arrays()
 
     def finish(self) -> None:
-        """The unit takes in the steps let through so far (at the end of the flight; the sensing chain's horizon
-        too)."""
+        """The unit takes in the steps taken so far (at the end of the flight; the sensing chain's horizon too)."""
         self._take_in(False)
 
     def _take_in(self, new_horizon: bool) -> FixState | None:
-        """The unit takes in the passes so far; the sensing chain keeps its newest fusion horizon (``new_horizon``:
-        it moved at this step). Returns that horizon."""
+        """The unit takes in the steps taken so far; the sensing chain keeps its newest fusion horizon
+        (``new_horizon``: it moved at this step). Returns that horizon."""
         sensing = self.sensing
         before = sensing.horizon
         moved = new_horizon or self._U[HORIZON_MOVED] != 0.0
@@ -198,18 +260,32 @@ class FlightStep:
         s = truth
         FZ, wind_pool, GX = self._wind_args
         P, pools, idx = self._sense_args
-        F, L, V = self._tables
         recorder = self.recorder
         T, row = recorder.next_row()
-        kernel = self._kernel
-        answer, w_e, w_n, w_u, flags = kernel(
-            FZ, wind_pool, GX, P, pools, idx, F, L, V, self._U, self._H, T, self._O, float(row), self.dt_s, t_s,
-            s.lat_deg, s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps,
-            s.v_up_mps, s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, pilot[0], pilot[1], pilot[2],
-            pilot[3], float(item),
-        )  # fmt: skip
-        if kernel is flight_step:  # after its first call, by its entry point (geofence.jit: the arrays are ours)
-            self._kernel = jit.entry_point(kernel)
+        sticks = pilot
+        if self._override:
+            R, PR, QR, K = self._tables
+            override = self._override_kernel
+            answer, w_e, w_n, w_u, flags, roll, pitch, throttle = override(
+                FZ, wind_pool, GX, P, pools, idx, R, PR, QR, K, self._U, self._H, T, self._O, float(row), self.dt_s,
+                t_s, s.lat_deg, s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps,
+                s.v_up_mps, s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, pilot[0], pilot[1],
+                pilot[2], pilot[3], float(item),
+            )  # fmt: skip
+            if override is override_flight_step:  # after its first call, by its entry point (the arrays are ours)
+                self._override_kernel = jit.entry_point(override)
+            sticks = _new_tuple(StickCommand, (roll, pitch, 0.0, throttle))
+        else:
+            F, L, V = self._tables
+            kernel = self._kernel
+            answer, w_e, w_n, w_u, flags = kernel(
+                FZ, wind_pool, GX, P, pools, idx, F, L, V, self._U, self._H, T, self._O, float(row), self.dt_s, t_s,
+                s.lat_deg, s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps,
+                s.v_up_mps, s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, pilot[0], pilot[1],
+                pilot[2], pilot[3], float(item),
+            )  # fmt: skip
+            if kernel is flight_step:  # after its first call, by its entry point (geofence.jit: the arrays are ours)
+                self._kernel = jit.entry_point(kernel)
         self.calls += 1
         if flags:
             if flags & WIND_LOW:
@@ -218,9 +294,9 @@ class FlightStep:
             if flags & SENSE_LOW:
                 self.sensing.stepped(False, True)
         w = (w_e, w_n, w_u)
-        if answer == PASS:
+        if answer == PASS or answer == OVERRIDE_STEP:
             recorder.commit_row()
-            return w, pilot
+            return w, sticks
         unit = self.unit
         if answer == PASS_HANDBACK:
             recorder.commit_row()
