@@ -111,6 +111,19 @@ def wind_allowance_mps(k_sigma: float, sigma_mps: float, gust_mps: float) -> flo
     return k_sigma * sigma_mps + gust_mps
 
 
+@jitable
+def allowance_in_use_mps(
+    estimated: bool, sigma_estimate_mps: float, sigma_forecast_mps: float, k_sigma: float, gust_mps: float,
+    forecast_allowance_mps: float,
+) -> float:  # fmt: skip
+    """The wind allowance a unit adds in its margins now (m/s): the forecast's (``forecast_allowance_mps``, its
+    :func:`wind_allowance_mps`), or with ``turbulence_source: estimate`` (``estimated``) the one of the unit's own
+    turbulence estimate where that is the larger sigma."""
+    if estimated and sigma_estimate_mps > sigma_forecast_mps:
+        return wind_allowance_mps(k_sigma, sigma_estimate_mps, gust_mps)
+    return forecast_allowance_mps
+
+
 class GeofenceConfigError(ConfigError):
     """A bad ``geofence:`` block; the message is one line naming the field."""
 

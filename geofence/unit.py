@@ -52,7 +52,7 @@ import numpy as np
 from geofence import jit as _jit
 from geofence import unit_kernel as _uk
 from geofence.boundary_shift import CompiledMargins, ShiftResult, activation_margins
-from geofence.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource
+from geofence.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource, allowance_in_use_mps
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
 from geofence.dynamics import envelope_at_density, isa_density_ratio, return_not_assured, return_wind_limits
@@ -230,9 +230,11 @@ class GeofenceUnit:
     def wind_allowance_mps(self) -> float:
         """Turbulence and gust allowance added to the wind in every margin: ``k·σ + gust`` (σ: the forecast's,
         or with ``turbulence_source: estimate`` the larger of it and the unit's own estimate)."""
-        if self._estimated_turbulence and self._turbulence_est_mps > self.config.turbulence_sigma_mps:
-            return self.config.wind_allowance_mps(self._turbulence_est_mps)
-        return self._forecast_allowance_mps
+        cfg = self.config
+        return allowance_in_use_mps(
+            self._estimated_turbulence, self._turbulence_est_mps, cfg.turbulence_sigma_mps, cfg.turbulence_k_sigma,
+            cfg.gust_mps, self._forecast_allowance_mps,
+        )  # fmt: skip
 
     def _far_from_everything(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> bool:
         """Cheap pre-check: no edge, ceiling or floor is within the largest room this state could need.
@@ -666,13 +668,7 @@ class GeofenceUnit:
         (``MONITOR`` or ``RECOVERED``), its margins compiled (a fence without an index), not dead-reckoning.
         Asked again after every step :meth:`update` takes."""
         mode = self.mode
-        return (
-            self._predictive
-            and (mode is _MONITOR or mode is _RECOVERED)
-            and self._compiled is not None
-            and _jit.ACTIVE
-            and not self.dead_reckoning.active
-        )
+        return (mode is _MONITOR or mode is _RECOVERED) and self.monitors_compiled and not self.dead_reckoning.active
 
     def pack_monitor(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Fill ``U`` (:data:`geofence.unit_kernel.N_UNIT` floats) with what the monitoring step reads; returns its

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from geofence.config import wind_allowance_mps
+from geofence.config import allowance_in_use_mps
 from geofence.cpython_math import hypot
 from geofence.guidance import fixed_wing_step
 from geofence.jit import jitable
@@ -126,6 +126,12 @@ def latency_s(dt_s: float, estimate_age_s: float) -> float:
 
 
 @jitable
+def _pass(U: np.ndarray, recovered: bool, t_s: float) -> int:
+    """A pass's answer: :data:`PASS_HANDBACK` once ``RECOVERED`` has held :data:`RECOVERED_HOLD_S`, else :data:`PASS`."""
+    return PASS_HANDBACK if recovered and t_s - U[MODE_SINCE] >= RECOVERED_HOLD_S else PASS
+
+
+@jitable
 def monitor_pass(
     U: np.ndarray, F: np.ndarray, L: np.ndarray, V: np.ndarray, t_s: float, dt_s: float, alt: float, e: float,
     n: float, agl: float, ve: float, vn: float, vu: float, roll: float, on_ground: bool, wind_e: float, wind_n: float,
@@ -143,10 +149,10 @@ def monitor_pass(
         return UNIT, False, NOT_NEEDED
     if not hypot(wind_e, wind_n) + U[RETURN_ALLOWANCE] < U[RETURN_LIMIT]:
         return UNIT, False, NOT_NEEDED
-    if U[ESTIMATED_TURBULENCE] != 0.0 and turbulence_sigma_mps > U[FORECAST_SIGMA]:
-        allowance = wind_allowance_mps(U[TURBULENCE_K], turbulence_sigma_mps, U[GUST])
-    else:
-        allowance = U[FORECAST_ALLOWANCE]
+    allowance = allowance_in_use_mps(
+        U[ESTIMATED_TURBULENCE] != 0.0, turbulence_sigma_mps, U[FORECAST_SIGMA], U[TURBULENCE_K], U[GUST],
+        U[FORECAST_ALLOWANCE],
+    )  # fmt: skip
     latency = latency_s(dt_s, estimate_age_s)
     k_sigma, extra = U[K_SIGMA], U[EXTRA]
     hu, v_unc = k_sigma * sigma_h_m + extra, k_sigma * sigma_v_m + extra
@@ -169,16 +175,14 @@ def monitor_pass(
             )[0]  # fmt: skip
             if not far_only:
                 return UNIT, False, NOT_NEEDED
-            return (PASS_HANDBACK if recovered and t_s - U[MODE_SINCE] >= RECOVERED_HOLD_S else PASS), True, NOT_NEEDED
+            return _pass(U, recovered, t_s), True, NOT_NEEDED
     far, r = monitor_margins(
         F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, skip_time_s, hu, v_unc, latency, roll,
         has_target, target_e, target_n, g,
     )  # fmt: skip
     if not far and r[0] <= 0.0 and not (on_ground and ground_speed < SITTING_MAX_GROUND_SPEED_MPS):
         return UNIT, False, r  # an activation: the unit starts its override
-    if recovered and t_s - U[MODE_SINCE] >= RECOVERED_HOLD_S:
-        return PASS_HANDBACK, far, r
-    return PASS, far, r
+    return _pass(U, recovered, t_s), far, r
 
 
 @jitable

@@ -65,26 +65,24 @@ def _flight_step(
     row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float, up: float, agl: float,
     ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool,
     p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
-) -> tuple[int, float, float, float, int]:  # fmt: skip
+) -> tuple[int, float, float, float, int, float, float, float]:  # fmt: skip
     """One monitoring step from the truth's fields and the pilot's sticks: ``(the unit's answer, the wind sampled
-    (east, north, up), flags)`` (:func:`geofence.unit_kernel.monitor_pass`'s answer; the flags: :data:`WIND_LOW`,
-    :data:`SENSE_LOW`). On a pass the unit's ring ``H`` and numbers ``U`` keep it
-    (:func:`geofence.unit_kernel.record_pass`) and row ``row`` of ``T`` records it; else ``O`` holds what the
-    unit's own step needs (the layout above). The arrays: the wind field's (:meth:`WindArrays.arrays`), the
-    sensing chain's (:meth:`GeofenceSensing.kernel_arrays`), the unit's margins tables, envelope terms and packed
-    numbers (:meth:`GeofenceUnit.pack_monitor`)."""
-    w_e, w_n, w_u, w_low = wind_sample(FZ, wind_pool, GX, t, e, n, agl, airspeed)
-    est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence, s_low = sense_step(
-        P, pools, idx, dt_s, t, lat, lon, alt, ve, vn, vu, airspeed, roll, pitch, yaw
+    (east, north, up), flags, 0, 0, 0)`` (:func:`geofence.unit_kernel.monitor_pass`'s answer; the flags:
+    :data:`WIND_LOW`, :data:`SENSE_LOW`; :func:`_override_flight_step`'s tuple, without sticks). On a pass the
+    unit's ring ``H`` and numbers ``U`` keep it (:func:`geofence.unit_kernel.record_pass`) and row ``row`` of
+    ``T`` records it; else ``Out`` holds what the unit's own step needs (the layout above). The arrays: the wind
+    field's (:meth:`WindArrays.arrays`), the sensing chain's (:meth:`GeofenceSensing.kernel_arrays`), the unit's
+    margins tables, envelope terms and packed numbers (:meth:`GeofenceUnit.pack_monitor`)."""
+    w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _wind_and_sensing(
+        FZ, wind_pool, GX, P, pools, idx, dt_s, t, lat, lon, alt, e, n, agl, ve, vn, vu, airspeed, roll, pitch, yaw
     )  # fmt: skip
-    flags = (WIND_LOW if w_low else 0) + (SENSE_LOW if s_low else 0)
     answer, far, r = monitor_pass(
         U, F, L, V, t, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11], on_ground, we, wn,
         valid, sigma_h, sigma_v, age, turbulence, G_MPS2,
     )  # fmt: skip
     if answer == UNIT:
         _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
-        return answer, w_e, w_n, w_u, flags
+        return answer, w_e, w_n, w_u, flags, 0.0, 0.0, 0.0
     record_pass(
         U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, True, far, r, new_horizon, P[_H0:_H1]
     )  # fmt: skip
@@ -94,7 +92,23 @@ def _flight_step(
         p_pitch, p_yaw, p_throttle, p_roll, p_pitch, p_yaw, p_throttle, mode, item, est[4], est[5], est[7], we, wn,
         r[0],
     )  # fmt: skip
-    return answer, w_e, w_n, w_u, flags
+    return answer, w_e, w_n, w_u, flags, 0.0, 0.0, 0.0
+
+
+@jitable
+def _wind_and_sensing(
+    FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
+    dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float, agl: float, ve: float, vn: float,
+    vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
+) -> tuple:  # fmt: skip
+    """Every step's start: the wind sampled at the truth, and the unit's sensing chain: ``(wind east, north, up,
+    flags, then the chain's estimate, wind estimate, validity, sigmas, new horizon, data age, turbulence)``."""
+    w_e, w_n, w_u, w_low = wind_sample(FZ, wind_pool, GX, t, e, n, agl, airspeed)
+    est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence, s_low = sense_step(
+        P, pools, idx, dt_s, t, lat, lon, alt, ve, vn, vu, airspeed, roll, pitch, yaw
+    )  # fmt: skip
+    flags = (WIND_LOW if w_low else 0) + (SENSE_LOW if s_low else 0)
+    return w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence
 
 
 @jitable
@@ -119,11 +133,9 @@ def _override_flight_step(
     """:func:`_flight_step` for a fixed-wing override's step (:func:`geofence.unit_kernel.override_pass`, on its
     recovery's arrays ``R, PR, QR, K``): ``(answer, wind (east, north, up), flags, roll, pitch, throttle)``, the
     sticks the override sends on :data:`~geofence.unit_kernel.OVERRIDE_STEP`; its row recorded then."""
-    w_e, w_n, w_u, w_low = wind_sample(FZ, wind_pool, GX, t, e, n, agl, airspeed)
-    est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence, s_low = sense_step(
-        P, pools, idx, dt_s, t, lat, lon, alt, ve, vn, vu, airspeed, roll, pitch, yaw
+    w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _wind_and_sensing(
+        FZ, wind_pool, GX, P, pools, idx, dt_s, t, lat, lon, alt, e, n, agl, ve, vn, vu, airspeed, roll, pitch, yaw
     )  # fmt: skip
-    flags = (WIND_LOW if w_low else 0) + (SENSE_LOW if s_low else 0)
     answer, c_roll, c_pitch, c_throttle = override_pass(
         U, R, PR, QR, K, t, est[3], est[4], est[5], est[7], est[8], est[9], est[13], est[14], we, wn, valid, age
     )  # fmt: skip
@@ -147,7 +159,7 @@ override_flight_step: Callable[..., tuple[int, float, float, float, int, float, 
 )
 """The compiled :func:`_override_flight_step` (the Python function itself without numba)."""
 
-flight_step: Callable[..., tuple[int, float, float, float, int]] = (
+flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float]] = (
     numba.njit(cache=True)(_flight_step) if COMPILED else _flight_step
 )
 """The compiled :func:`_flight_step` (the Python function itself without numba)."""
@@ -184,13 +196,13 @@ class FlightStep:
         self._U = np.zeros(N_UNIT)
         self._H = np.zeros((unit.history_rows(dt_s), RING_COLUMNS))
         self._O = np.zeros(N_OUT)
-        self._kernel: Callable[..., tuple[int, float, float, float, int]] = flight_step
-        self._override_kernel: Callable[..., tuple[int, float, float, float, int, float, float, float]] = override_flight_step
+        self._dispatcher: Callable[..., tuple[int, float, float, float, int, float, float, float]] = flight_step
+        self._kernel = self._dispatcher  # the mode's kernel, by its entry point after its first call
+        self._entry_points: dict[Callable, Callable] = {}
         self._sense_args = sensing.kernel_arrays()
         self._wind_args = wind.arrays()
         self._tables: tuple[np.ndarray, ...] = ()
         self.ready = False
-        self._override = False
         self.calls = 0
         """Steps taken by a compiled call so far (the unit answered some of them itself)."""
         self.refresh()
@@ -225,14 +237,16 @@ class FlightStep:
         noise pool)."""
         unit = self.unit
         if unit.monitor_ready():
-            self.ready, self._override = True, False
+            self._dispatcher = flight_step
             self._tables = unit.pack_monitor(self._U)
         elif unit.override_ready():
-            self.ready, self._override = True, True
+            self._dispatcher = override_flight_step
             self._tables = unit.pack_override(self._U)
         else:
             self.ready = False
             return
+        self.ready = True
+        self._kernel = self._entry_points.get(self._dispatcher, self._dispatcher)
         self._wind_args = self.wind.arrays()
 
     def wind_changed(self) -> None:
@@ -262,30 +276,15 @@ class FlightStep:
         P, pools, idx = self._sense_args
         recorder = self.recorder
         T, row = recorder.next_row()
-        sticks = pilot
-        if self._override:
-            R, PR, QR, K = self._tables
-            override = self._override_kernel
-            answer, w_e, w_n, w_u, flags, roll, pitch, throttle = override(
-                FZ, wind_pool, GX, P, pools, idx, R, PR, QR, K, self._U, self._H, T, self._O, float(row), self.dt_s,
-                t_s, s.lat_deg, s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps,
-                s.v_up_mps, s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, pilot[0], pilot[1],
-                pilot[2], pilot[3], float(item),
-            )  # fmt: skip
-            if override is override_flight_step:  # after its first call, by its entry point (the arrays are ours)
-                self._override_kernel = jit.entry_point(override)
-            sticks = _new_tuple(StickCommand, (roll, pitch, 0.0, throttle))
-        else:
-            F, L, V = self._tables
-            kernel = self._kernel
-            answer, w_e, w_n, w_u, flags = kernel(
-                FZ, wind_pool, GX, P, pools, idx, F, L, V, self._U, self._H, T, self._O, float(row), self.dt_s, t_s,
-                s.lat_deg, s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps,
-                s.v_up_mps, s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, pilot[0], pilot[1],
-                pilot[2], pilot[3], float(item),
-            )  # fmt: skip
-            if kernel is flight_step:  # after its first call, by its entry point (geofence.jit: the arrays are ours)
-                self._kernel = jit.entry_point(kernel)
+        kernel = self._kernel
+        answer, w_e, w_n, w_u, flags, roll, pitch, throttle = kernel(
+            FZ, wind_pool, GX, P, pools, idx, *self._tables, self._U, self._H, T, self._O, float(row), self.dt_s,
+            t_s, s.lat_deg, s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps,
+            s.v_up_mps, s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, pilot[0], pilot[1],
+            pilot[2], pilot[3], float(item),
+        )  # fmt: skip
+        if kernel is self._dispatcher and kernel not in self._entry_points:  # after its first call, by its entry
+            self._kernel = self._entry_points[kernel] = jit.entry_point(kernel)  # point (geofence.jit: our arrays)
         self.calls += 1
         if flags:
             if flags & WIND_LOW:
@@ -294,9 +293,12 @@ class FlightStep:
             if flags & SENSE_LOW:
                 self.sensing.stepped(False, True)
         w = (w_e, w_n, w_u)
-        if answer == PASS or answer == OVERRIDE_STEP:
+        if answer == PASS:
             recorder.commit_row()
-            return w, sticks
+            return w, pilot
+        if answer == OVERRIDE_STEP:
+            recorder.commit_row()
+            return w, _new_tuple(StickCommand, (roll, pitch, 0.0, throttle))
         unit = self.unit
         if answer == PASS_HANDBACK:
             recorder.commit_row()
