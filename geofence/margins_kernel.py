@@ -352,6 +352,9 @@ def far_from_everything(
     return deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), _vector(L, GAP_OFFSETS))[1] > room, lat
 
 
+# the positions of a few of _margins' fields (the others by ShiftResult's order, the element id unpacked)
+ACTIVATION_FIELD, LATERAL_MARGIN_FIELD, LATERAL_ACTIVATION_FIELD, CLOSING_FIELD = 0, 1, 3, 8
+CEILING_MARGIN_FIELD, FLOOR_MARGIN_FIELD, VERTICAL_ACTIVATION_FIELD = 12, 14, 16
 NOT_NEEDED = (math.inf, math.inf, 0.0, math.inf, -1, 0.0, 0.0, math.inf, 0.0, math.inf, 0, 0.0, math.inf, 0.0, math.inf, 0.0, math.inf, math.inf)  # fmt: skip
 
 

@@ -81,6 +81,7 @@ from geofence.unit_kernel import (  # (their home: the monitoring step's kernel 
     SITTING_MAX_GROUND_SPEED_MPS,
     latency_s,
     rollout_cell,
+    vertical_handback_m,
 )
 from geofence.wind_estimator import WIND_ESTIMATE_ERROR_MPS
 
@@ -673,9 +674,17 @@ class GeofenceUnit:
     def pack_monitor(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Fill ``U`` (:data:`geofence.unit_kernel.N_UNIT` floats) with what the monitoring step reads; returns its
         compiled margins' tables and envelope terms ``(F, L, V)``. Valid until the next :meth:`update`."""
-        cfg = self.config
         compiled = self._compiled
         assert compiled is not None
+        self._pack_margins_inputs(U)
+        self._pack_kept(U)
+        self._pack_targets(U)
+        F, L = compiled._tables
+        return F, L, compiled._terms
+
+    def _pack_margins_inputs(self, U: np.ndarray) -> None:
+        """What a compiled step's margins read besides the estimate: the configuration's and envelope's numbers."""
+        cfg = self.config
         U[_uk.K_SIGMA] = cfg.uncertainty_k_sigma
         U[_uk.EXTRA] = cfg.extra_margin_m
         U[_uk.REACTION_S] = self.env.reaction_time_s
@@ -686,7 +695,10 @@ class GeofenceUnit:
         U[_uk.GUST] = cfg.gust_mps
         U[_uk.MULTIROTOR] = float(self._multirotor)
         U[_uk.DENSITY_ALT] = math.nan if self._density_alt_m is None else self._density_alt_m
-        self._pack_kept(U)
+
+    def _pack_targets(self, U: np.ndarray) -> None:
+        """The fixed-wing roll-out targets cached round the estimate's cell (:data:`geofence.unit_kernel.TARGET_CELLS`
+        each way; none for a multirotor)."""
         U[_uk.HAS_TARGETS] = 0.0
         est = self.estimate
         if not self._multirotor and est is not None:  # the roll-out targets cached round the estimate's cell
@@ -703,8 +715,6 @@ class GeofenceUnit:
                     else:
                         U[k], U[k + 1], U[k + 2] = 1.0, target[0], target[1]
                     k += 3
-        F, L = compiled._tables
-        return F, L, compiled._terms
 
     def _pack_kept(self, U: np.ndarray) -> None:
         """What the unit keeps that a compiled step may leave as it is (then taken in unchanged), and no step
@@ -732,21 +742,37 @@ class GeofenceUnit:
             and recovery.compiled_step() is not None
         )
 
-    def pack_override(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Fill ``U`` with what an override step reads (see :meth:`override_ready`); returns its recovery's compiled
-        step's arrays ``(R, P, Q, K)``. Valid until the next :meth:`update`."""
+    def pack_override(self, U: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Fill ``U`` with what an override step reads (see :meth:`override_ready`); returns its compiled margins'
+        tables and envelope terms and its recovery's compiled step's arrays ``(F, L, V, R, P, Q, K)``. Valid until
+        the next :meth:`update`."""
         recovery = self.recovery
-        assert isinstance(recovery, FixedWingRecovery)
+        compiled = self._compiled
+        assert isinstance(recovery, FixedWingRecovery) and compiled is not None
         arrays = recovery.compiled_step()
         assert arrays is not None
         R, P, Q, K, thr, clearance = arrays
+        self._pack_margins_inputs(U)
         self._pack_kept(U)
+        self._pack_targets(U)
         U[_uk.PERIOD_START], U[_uk.MIN_OVERRIDE] = self._override_period_start_s, self.config.min_override_s
+        self._pack_hand_back(U)
         U[_uk.THR], U[_uk.CLEARANCE] = thr, clearance
         progress, turning, turned, last_yaw, turn_throttle, throttle = recovery.step_state()
         U[_uk.PROGRESS], U[_uk.TURNING], U[_uk.TURNED], U[_uk.LAST_YAW] = progress, float(turning), turned, last_yaw
         U[_uk.TURN_THROTTLE], U[_uk.THROTTLE] = turn_throttle, throttle
-        return R, P, Q, K
+        F, L = compiled._tables
+        return F, L, compiled._terms, R, P, Q, K
+
+    def _pack_hand_back(self, U: np.ndarray) -> None:
+        """What the hand-back test reads (:meth:`_handback_ok`; :func:`geofence.unit_kernel.override_pass` after the
+        minimum override period)."""
+        cfg, fence = self.config, self.fence
+        U[_uk.HANDBACK_MARGIN], U[_uk.RECOVERY_RADIUS] = cfg.handback_margin_m, cfg.recovery_radius_m
+        U[_uk.RECOVERY_E], U[_uk.RECOVERY_N] = fence.recovery_en
+        U[_uk.CLIMB_BACK] = math.nan if self._climb_back_to_m is None else self._climb_back_to_m
+        U[_uk.VERTICAL_HYSTERESIS], U[_uk.GOAL_H] = self._vertical_handback_m, self._goal_short_of_band_h_m()
+        U[_uk.CEILING_M], U[_uk.FLOOR_M] = fence.ceiling_m, math.nan if fence.floor_m is None else fence.floor_m
 
     def history_rows(self, dt_s: float) -> int:
         """Rows a ring of estimates needs to hold the unit's history (:data:`REPLAY_WINDOW_S`) at steps of ``dt_s``."""
@@ -955,18 +981,20 @@ class GeofenceUnit:
         never handed back). Half of it keeps the hysteresis against the altitude
         hold's settling and never re-activates a vehicle resting at its goal.
         """
-        hyst = self._vertical_handback_m
+        env, fence, cfg = self.env, self.fence, self.config
+        return vertical_handback_m(
+            self._vertical_handback_m, self._goal_short_of_band_h_m(), fence.ceiling_m,
+            math.nan if fence.floor_m is None else fence.floor_m, env.reaction_time_s + self._latency_s,
+            env.vertical_accel_mps2, env.max_climb_rate_mps, env.max_descent_rate_mps,
+            cfg.uncertainty_k_sigma * self._sigma_v_m + cfg.extra_margin_m,
+        )  # fmt: skip
+
+    def _goal_short_of_band_h_m(self) -> float:
+        """The override's goal height where it is short of the band (an explicit recovery height, or the middle of a
+        band too thin for :meth:`_goal_height`'s room), else NaN: a goal in the band leaves the hysteresis and the
+        settling room by construction."""
         goal = self._goal_h_m
-        if not math.isfinite(goal) or not self._goal_short_of_band:
-            return hyst  # a goal in the band leaves the hysteresis and the settling room by construction
-        env, fence = self.env, self.fence
-        t_r = env.reaction_time_s + self._latency_s
-        a_z = env.vertical_accel_mps2
-        rest = fence.ceiling_m - goal - vertical_arrest_distance_m(0.0, t_r, a_z, env.max_climb_rate_mps)
-        if fence.floor_m is not None:
-            rest = min(rest, goal - fence.floor_m - vertical_arrest_distance_m(0.0, t_r, a_z, env.max_descent_rate_mps))
-        rest -= self.config.uncertainty_k_sigma * self._sigma_v_m + self.config.extra_margin_m
-        return min(hyst, 0.5 * rest) if rest > 0.0 else hyst
+        return goal if math.isfinite(goal) and self._goal_short_of_band else math.nan
 
     def _landing_edge_margin_m(self) -> float:
         """How far inside the keep-in, or inside a floor gap, a multirotor's estimate must be to descend there (m):

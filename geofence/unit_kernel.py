@@ -1,6 +1,5 @@
 """The geofence unit's steps on arrays: :meth:`geofence.unit.GeofenceUnit.update` while it passes the pilot's
-sticks through, and while a fixed-wing override flies its minimum period, as functions a compiled per-step
-kernel calls.
+sticks through, and while a fixed-wing override flies, as functions a compiled per-step kernel calls.
 
 One question each. :func:`monitor_pass`: given this step's estimate (the sensing chain's numbers), does a
 predictive unit that monitors (``MONITOR`` or ``RECOVERED``) keep passing the sticks through, and with which
@@ -8,8 +7,9 @@ margins? The answer is :data:`PASS` (and the margins), :data:`PASS_HANDBACK` (pa
 over: back to ``MONITOR``) or :data:`UNIT`: anything else (an activation, a stale or lost position, an envelope
 to re-scale to the air density, a wind beyond authority, a roll-out target not cached for this cell near a
 boundary), which the unit's own :meth:`~geofence.unit.GeofenceUnit.update` then answers from the same estimate.
-:func:`override_pass`: which sticks does a fixed-wing override send at this step of its minimum period
-(:data:`OVERRIDE_STEP`), or must the unit answer (:data:`UNIT`)? The unit packs what a step reads in one float
+:func:`override_pass`: which sticks does a fixed-wing override send at this step (:data:`OVERRIDE_STEP`; after
+its minimum override period, with its margins: it is not outside and may not hand back yet), or must the unit
+answer (:data:`UNIT`: a re-activation, a possible hand-back, a lost position, ...)? The unit packs what a step reads in one float
 array (:meth:`~geofence.unit.GeofenceUnit.pack_monitor`, :meth:`~geofence.unit.GeofenceUnit.pack_override`,
 layout below); :func:`record_pass` keeps what each step taken so changes, and the unit takes it in before it
 answers a step again (:meth:`~geofence.unit.GeofenceUnit.take_in_passes`). ``update`` is the reference: the
@@ -17,7 +17,8 @@ same tests in the same order on the same numbers (``tests/test_flight_step.py`` 
 compares their bytes).
 
 It also owns the few constants both read: when an estimate is fresh, when the envelope is re-scaled, when a
-vehicle on the ground is sitting, the hand-back hold and the roll-out target cache's cells.
+vehicle on the ground is sitting, the hand-back hold and the roll-out target cache's cells; and the formula of
+the vertical hand-back hysteresis at an override's goal (:func:`vertical_handback_m`).
 """
 
 from __future__ import annotations
@@ -30,7 +31,23 @@ from geofence.config import allowance_in_use_mps
 from geofence.cpython_math import hypot
 from geofence.guidance import fixed_wing_step
 from geofence.jit import jitable
-from geofence.margins_kernel import NOT_NEEDED, far_from_everything, monitor_margins
+from geofence.margins_kernel import (
+    ACTIVATION_FIELD,
+    CEILING_MARGIN_FIELD,
+    CLOSING_FIELD,
+    FLOOR_MARGIN_FIELD,
+    LATERAL_ACTIVATION_FIELD,
+    LATERAL_MARGIN_FIELD,
+    NOT_NEEDED,
+    VERTICAL_ACTIVATION_FIELD,
+    far_from_everything,
+    margins,
+    monitor_margins,
+)
+from geofence.margins_kernel import MAX_CLIMB as TERM_MAX_CLIMB  # (the envelope terms' positions)
+from geofence.margins_kernel import MAX_DESCENT as TERM_MAX_DESCENT
+from geofence.margins_kernel import VERTICAL_ACCEL as TERM_VERTICAL_ACCEL
+from geofence.rooms import vertical_arrest_distance_m
 
 RECOVERED_HOLD_S = 1.0
 """After a hand-back the unit stays ``RECOVERED`` this long (s) before ``MONITOR``."""
@@ -107,7 +124,17 @@ TURNING = PERIOD_START + 7  # 1: the first turn lasts
 TURNED = PERIOD_START + 8  # how far it has turned, rad
 LAST_YAW = PERIOD_START + 9
 RECOVERY_MOVED = PERIOD_START + 10  # 1: override steps moved the recovery's state (the four above)
-N_UNIT = RECOVERY_MOVED + 1
+# after the minimum override period: the hand-back's numbers (GeofenceUnit._handback_ok)
+HANDBACK_MARGIN = PERIOD_START + 11  # handback_margin_m
+RECOVERY_E = PERIOD_START + 12  # the fence's recovery point
+RECOVERY_N = PERIOD_START + 13
+RECOVERY_RADIUS = PERIOD_START + 14  # recovery_radius_m
+CLIMB_BACK = PERIOD_START + 15  # the height the override climbs back to before it may hand back (NaN: none)
+VERTICAL_HYSTERESIS = PERIOD_START + 16  # the unit's vertical hand-back hysteresis, m
+GOAL_H = PERIOD_START + 17  # the override's goal height where it is short of the band (NaN: in the band)
+CEILING_M = PERIOD_START + 18
+FLOOR_M = PERIOD_START + 19  # (NaN: no floor)
+N_UNIT = FLOOR_M + 1
 RING_COLUMNS = 16
 """A ring row: the estimate's 15 fields in :class:`~geofence.interface.VehicleState`'s order, then ``on_ground``."""
 
@@ -123,6 +150,20 @@ def latency_s(dt_s: float, estimate_age_s: float) -> float:
     """The unit's reaction latency beyond its envelope's (s): the step, and the age of the position data behind the
     estimate (the vehicle may have accelerated that long unseen)."""
     return dt_s + (0.0 if 0.0 > estimate_age_s else estimate_age_s)  # (max(age, 0.0), the value Python picks)
+
+
+@jitable
+def cached_target(U: np.ndarray, e: float, n: float) -> tuple[bool, float, float]:
+    """``(found, east, north)``: the roll-out target cached for the cell of (e, n) among those packed in ``U``
+    (:data:`TARGET_CELLS` round the cell packed at ``CELL_E, CELL_N``; not found: the unit finds it)."""
+    if U[HAS_TARGETS] != 0.0:
+        cell_e, cell_n = rollout_cell(e, n)
+        de, dn = cell_e - U[CELL_E], cell_n - U[CELL_N]
+        if abs(de) <= TARGET_CELLS and abs(dn) <= TARGET_CELLS:
+            k = TARGETS0 + 3 * (int(dn + TARGET_CELLS) * _SIDE + int(de + TARGET_CELLS))
+            if U[k] != 0.0:
+                return True, U[k + 1], U[k + 2]
+    return False, 0.0, 0.0
 
 
 @jitable
@@ -162,13 +203,7 @@ def monitor_pass(
     has_target = False
     target_e = target_n = 0.0
     if U[MULTIROTOR] == 0.0:  # the roll-out target of the estimate's cell, if the unit has it cached
-        cell_e, cell_n = rollout_cell(e, n)
-        de, dn = cell_e - U[CELL_E], cell_n - U[CELL_N]
-        if U[HAS_TARGETS] != 0.0 and abs(de) <= TARGET_CELLS and abs(dn) <= TARGET_CELLS:
-            k = TARGETS0 + 3 * (int(dn + TARGET_CELLS) * _SIDE + int(de + TARGET_CELLS))
-            if U[k] != 0.0:
-                has_target = True
-                target_e, target_n = U[k + 1], U[k + 2]
+        has_target, target_e, target_n = cached_target(U, e, n)
         if not has_target:  # not needed far from everything; else the unit finds it (a route search)
             far_only = far_from_everything(
                 F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, skip_time_s, hu, v_unc, g
@@ -188,14 +223,15 @@ def monitor_pass(
 @jitable
 def record_pass(
     U: np.ndarray, H: np.ndarray, t_s: float, est: tuple, on_ground: bool, dt_s: float, wind_e: float, wind_n: float,
-    sigma_h_m: float, sigma_v_m: float, estimate_age_s: float, turbulence_sigma_mps: float, monitoring: bool,
-    far: bool, margins: tuple, new_horizon: bool, horizon: np.ndarray,
+    sigma_h_m: float, sigma_v_m: float, estimate_age_s: float, turbulence_sigma_mps: float, far: bool,
+    activation_m: float, has_margins: bool, margins: tuple, new_horizon: bool, horizon: np.ndarray,
 ) -> None:  # fmt: skip
     """Keep what a step the unit did not answer itself changes in it (a pass :func:`monitor_pass` let through, or
-    with ``monitoring`` false an override step :func:`override_pass` took), for it to take in later
+    an override step :func:`override_pass` took), for it to take in later
     (:meth:`~geofence.unit.GeofenceUnit.take_in_passes`): the estimate in the ring ``H`` (the unit's history of the
-    last seconds), the inputs it keeps, a pass's margins (an override step has none: NaN), the fusion horizon when
-    it moved (``horizon``: its fields)."""
+    last seconds), the inputs it keeps, whether the skip shortcut held (``far``), the activation margin (inf: far,
+    NaN: not needed), the margins when the step computed them (``has_margins``), the fusion horizon when it moved
+    (``horizon``: its fields)."""
     row = int(U[RING_NEXT])
     for k in range(15):
         H[row, k] = est[k]
@@ -207,12 +243,9 @@ def record_pass(
     U[WIND_E], U[WIND_N], U[TURBULENCE_EST], U[SIGMA_V] = wind_e, wind_n, turbulence_sigma_mps, sigma_v_m
     if math.isfinite(sigma_h_m):
         U[SIGMA_H] = sigma_h_m
-    if not monitoring:
-        U[ACTIVATION] = math.nan  # (not needed, nor computed, until the minimum override has passed)
-    else:
-        U[FAR] = far
-        U[ACTIVATION] = margins[0]  # (inf when far)
-    if monitoring and not far:
+    U[FAR] = far
+    U[ACTIVATION] = activation_m
+    if has_margins:
         U[HAS_MARGINS], U[MARGINS_E], U[MARGINS_N] = 1.0, est[4], est[5]
         m = MARGINS0  # (one by one: two of the fields are ints)
         U[m], U[m + 1], U[m + 2], U[m + 3], U[m + 4], U[m + 5] = (
@@ -234,32 +267,101 @@ def record_pass(
 
 @jitable
 def override_pass(
-    U: np.ndarray, R: np.ndarray, P: np.ndarray, Q: np.ndarray, K: np.ndarray, t_s: float, alt: float, e: float,
-    n: float, agl: float, ve: float, vn: float, yaw: float, airspeed: float, wind_e: float, wind_n: float,
-    position_valid: bool, estimate_age_s: float,
-) -> tuple[int, float, float, float]:  # fmt: skip
-    """``(answer, roll, pitch, throttle)`` of a fixed-wing override's step within its minimum override period:
-    :data:`OVERRIDE_STEP` and the sticks of :meth:`~geofence.guidance.FixedWingRecovery.sticks` (its compiled step
-    :data:`~geofence.guidance.fixed_wing_step` on the arrays ``R, P, Q, K`` of
+    U: np.ndarray, F: np.ndarray, L: np.ndarray, V: np.ndarray, R: np.ndarray, P: np.ndarray, Q: np.ndarray,
+    K: np.ndarray, t_s: float, dt_s: float, alt: float, e: float, n: float, agl: float, ve: float, vn: float,
+    vu: float, roll: float, yaw: float, airspeed: float, wind_e: float, wind_n: float, position_valid: bool,
+    sigma_h_m: float, sigma_v_m: float, estimate_age_s: float, turbulence_sigma_mps: float, g: float,
+) -> tuple[int, float, float, float, float, bool, tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]]:  # fmt: skip
+    """``(answer, roll, pitch, throttle, activation margin, has margins, margins)`` of a fixed-wing override's
+    step: :data:`OVERRIDE_STEP` and the sticks of :meth:`~geofence.guidance.FixedWingRecovery.sticks` (its compiled
+    step :data:`~geofence.guidance.fixed_wing_step` on the arrays ``R, P, Q, K`` of
     :meth:`~geofence.guidance.FixedWingRecovery.compiled_step`; the recovery's state moves on in ``U``), or
-    :data:`UNIT` (a stale or lost position, a wind beyond authority, the period over, a route the compiled step
-    does not answer): :meth:`~geofence.unit.GeofenceUnit.update`'s path for such a step, the same tests in its
-    order."""
+    :data:`UNIT` (a stale or lost position, a wind beyond authority, a route the compiled step does not answer).
+    Within the minimum override period the margins are not needed (activation NaN, ``has margins`` false); after
+    it they are computed (``F, L, V``: the compiled margins' tables and envelope terms, the roll-out target from
+    those packed in ``U``), and a step that re-activates (still outside) or may hand back is the unit's
+    (:data:`UNIT`; so is one whose roll-out target is not packed): :meth:`~geofence.unit.GeofenceUnit.update`'s path
+    for an override step, the same tests in its order."""
     if not (position_valid and estimate_age_s <= FRESH_ESTIMATE_AGE_S):
-        return UNIT, 0.0, 0.0, 0.0
+        return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
     if not hypot(wind_e, wind_n) + U[RETURN_ALLOWANCE] < U[RETURN_LIMIT]:
-        return UNIT, 0.0, 0.0, 0.0
-    if not t_s - U[PERIOD_START] < U[MIN_OVERRIDE]:
-        return UNIT, 0.0, 0.0, 0.0
+        return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
     h = agl if U[AGL] != 0.0 else alt
+    activation = math.nan  # (not needed, nor computed, until the minimum override has passed)
+    has_margins = False
+    r = NOT_NEEDED
+    if not t_s - U[PERIOD_START] < U[MIN_OVERRIDE]:
+        has_target, target_e, target_n = cached_target(U, e, n)
+        if not has_target:
+            return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
+        k_sigma, extra = U[K_SIGMA], U[EXTRA]
+        allowance = allowance_in_use_mps(
+            U[ESTIMATED_TURBULENCE] != 0.0, turbulence_sigma_mps, U[FORECAST_SIGMA], U[TURBULENCE_K], U[GUST],
+            U[FORECAST_ALLOWANCE],
+        )  # fmt: skip
+        latency = latency_s(dt_s, estimate_age_s)
+        r = margins(
+            F, L, V, e, n, h, ve, vn, vu, wind_e, wind_n, k_sigma * sigma_h_m + extra, k_sigma * sigma_v_m + extra,
+            latency, roll, allowance, True, target_e, target_n, g, math.nan,
+        )  # fmt: skip
+        if r[LATERAL_MARGIN_FIELD] < 0.0 or r[CEILING_MARGIN_FIELD] < 0.0 or r[FLOOR_MARGIN_FIELD] < 0.0:
+            return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED  # still outside: the unit re-activates
+        if not _no_hand_back(U, V, r, e, n, h, latency, sigma_v_m):
+            return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED  # the unit's hand-back test
+        activation, has_margins = r[ACTIVATION_FIELD], True
     turning = U[TURNING] != 0.0
     throttle = U[TURN_THROTTLE] if turning else U[THROTTLE]
-    thr, roll, pitch, progress, turning, turned, last_yaw = fixed_wing_step(  # type: ignore[misc]  # (None: no numba)
+    thr, c_roll, c_pitch, progress, turning, turned, last_yaw = fixed_wing_step(  # type: ignore[misc]  # (None: no numba)
         R, P, Q, K, U[PROGRESS], U[THR], U[CLEARANCE], e, n, ve, vn, yaw, airspeed, hypot(ve, vn), h, wind_e, wind_n,
         turning, U[TURNED], U[LAST_YAW],
     )  # fmt: skip
     if not thr > 0.0:
-        return UNIT, 0.0, 0.0, 0.0
+        return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
     U[PROGRESS], U[TURNING], U[TURNED], U[LAST_YAW] = progress, turning, turned, last_yaw
     U[RECOVERY_MOVED] = 1.0
-    return OVERRIDE_STEP, roll, pitch, throttle
+    return OVERRIDE_STEP, c_roll, c_pitch, throttle, activation, has_margins, r
+
+
+@jitable
+def _no_hand_back(
+    U: np.ndarray, V: np.ndarray, r: tuple, e: float, n: float, h: float, latency: float, sigma_v_m: float
+) -> bool:  # fmt: skip
+    """Sure that :meth:`~geofence.unit.GeofenceUnit._handback_ok` fails on these margins and changes nothing (else
+    the unit tests it): a climb back above the floor still below its height, or the vertical hysteresis not met
+    (:func:`vertical_handback_m`), or neither the lateral one (the margin at least ``handback_margin_m``, not
+    closing) nor the recovery point reached."""
+    climb_back = U[CLIMB_BACK]
+    if climb_back == climb_back:  # (not NaN) the override climbs back above the floor first
+        if h < climb_back:
+            return True
+        return False  # (the unit clears it, then tests the rest)
+    hysteresis = vertical_handback_m(
+        U[VERTICAL_HYSTERESIS], U[GOAL_H], U[CEILING_M], U[FLOOR_M], U[REACTION_S] + latency,
+        V[TERM_VERTICAL_ACCEL], V[TERM_MAX_CLIMB], V[TERM_MAX_DESCENT], U[K_SIGMA] * sigma_v_m + U[EXTRA],
+    )  # fmt: skip
+    if not r[VERTICAL_ACTIVATION_FIELD] >= hysteresis:
+        return True
+    lateral_ok = r[LATERAL_ACTIVATION_FIELD] >= U[HANDBACK_MARGIN] and r[CLOSING_FIELD] <= 0.0
+    return not lateral_ok and not hypot(U[RECOVERY_E] - e, U[RECOVERY_N] - n) <= U[RECOVERY_RADIUS]
+
+
+@jitable
+def vertical_handback_m(
+    hysteresis_m: float, goal_h_m: float, ceiling_m: float, floor_m: float, reaction_s: float, accel_mps2: float,
+    max_climb_mps: float, max_descent_mps: float, uncertainty_m: float,
+) -> float:  # fmt: skip
+    """The vertical hand-back hysteresis an override's goal height allows, m (see
+    :meth:`geofence.unit.GeofenceUnit._vertical_handback_at_goal_m`): ``hysteresis_m``, or where the goal
+    ``goal_h_m`` is short of the band (NaN: it is not) half the vertical activation margin at rest there when that
+    is less (``floor_m`` NaN: none; ``reaction_s``: with the latency; ``uncertainty_m``: ``k·σ_v + extra``)."""
+    if not math.isfinite(goal_h_m):
+        return hysteresis_m
+    rest = ceiling_m - goal_h_m - vertical_arrest_distance_m(0.0, reaction_s, accel_mps2, max_climb_mps)
+    if floor_m == floor_m:  # (not NaN)
+        below = goal_h_m - floor_m - vertical_arrest_distance_m(0.0, reaction_s, accel_mps2, max_descent_mps)
+        rest = below if below < rest else rest  # (min(rest, below))
+    rest -= uncertainty_m
+    if not rest > 0.0:
+        return hysteresis_m
+    half = 0.5 * rest
+    return half if half < hysteresis_m else hysteresis_m  # (min(hysteresis_m, half))

@@ -9,7 +9,7 @@ frames in between, with the flight controller inside JSBSim):
     cmd, mode = geofence.filter(...) if a geofence is configured, else cmd_in
     platform.command(cmd); recorder.append(...); platform.step(frames_per_step)
 
-While a predictive unit monitors (and while a fixed-wing override flies its minimum period), the
+While a predictive unit monitors (and while a fixed-wing override flies), the
 wind sample, the unit's sensing and update and the recorder's row are one compiled call
 (:class:`scenarios.flight.step_kernel.FlightStep`, where numba is active): the same numbers as
 the separate calls, bit for bit.
@@ -223,7 +223,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
     return FlightResult(
         scenario=scenario, summary=summary, recorder=recorder, frame=frame, pilot=pilot, unit=unit, fence=fence,
-        compiled_steps=0 if fused is None else fused.calls,
+        compiled_steps=0 if fused is None else fused.steps,
     )  # fmt: skip
 
 

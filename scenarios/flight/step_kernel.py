@@ -6,7 +6,7 @@ one call of :func:`flight_step` instead of four calls and the Python between the
 (:func:`wind.field_kernel.wind_sample`), runs the unit's sensors, estimator and wind estimator
 (:func:`scenarios.flight.sensing.sense_step`), asks the unit's monitoring step
 (:func:`geofence.unit_kernel.monitor_pass`) and, on a pass, writes the step's row
-(:func:`scenarios.flight.recorder.write_row`). While a fixed-wing override flies its minimum period,
+(:func:`scenarios.flight.recorder.write_row`). While a fixed-wing override flies,
 :func:`override_flight_step` does the same with the override's step (:func:`geofence.unit_kernel.override_pass`).
 Anything else (an activation, a position lost, ...) is answered by the unit's own
 :meth:`~geofence.unit.GeofenceUnit.update` from the same estimate, and the runner records that row itself. Each
@@ -20,7 +20,6 @@ the steps taken for it (:meth:`~geofence.unit.GeofenceUnit.take_in_passes`) befo
 
 from __future__ import annotations
 
-import math
 from typing import Any, Callable
 
 import numpy as np
@@ -29,9 +28,9 @@ from geofence import jit
 from geofence.dynamics import G_MPS2
 from geofence.interface import FixState, StickCommand, VehicleState
 from geofence.jit import COMPILED, jitable, numba
-from geofence.margins_kernel import NOT_NEEDED
 from geofence.unit import GeofenceUnit
 from geofence.unit_kernel import (
+    FAR,
     HORIZON_MOVED,
     MODE,
     MONITOR_MODE,
@@ -84,7 +83,8 @@ def _flight_step(
         _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
         return answer, w_e, w_n, w_u, flags, 0.0, 0.0, 0.0
     record_pass(
-        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, True, far, r, new_horizon, P[_H0:_H1]
+        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, far, r[0], not far, r, new_horizon,
+        P[_H0:_H1],
     )  # fmt: skip
     mode = U[MODE] if answer == PASS else U[MONITOR_MODE]  # (a completed hand-back is recorded as MONITOR)
     write_row(
@@ -125,31 +125,34 @@ def _for_the_unit(
 
 def _override_flight_step(
     FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
-    R: np.ndarray, PR: np.ndarray, QR: np.ndarray, K: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray,
+    F: np.ndarray, L: np.ndarray, V: np.ndarray, R: np.ndarray, PR: np.ndarray, QR: np.ndarray, K: np.ndarray,
+    U: np.ndarray, H: np.ndarray, T: np.ndarray,
     Out: np.ndarray, row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float,
     up: float, agl: float, ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
     on_ground: bool, p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
 ) -> tuple[int, float, float, float, int, float, float, float]:  # fmt: skip
-    """:func:`_flight_step` for a fixed-wing override's step (:func:`geofence.unit_kernel.override_pass`, on its
-    recovery's arrays ``R, PR, QR, K``): ``(answer, wind (east, north, up), flags, roll, pitch, throttle)``, the
-    sticks the override sends on :data:`~geofence.unit_kernel.OVERRIDE_STEP`; its row recorded then."""
+    """:func:`_flight_step` for a fixed-wing override's step (:func:`geofence.unit_kernel.override_pass`, on the
+    unit's margins tables ``F, L, V`` and its recovery's arrays ``R, PR, QR, K``): ``(answer, wind (east, north,
+    up), flags, roll, pitch, throttle)``, the sticks the override sends on
+    :data:`~geofence.unit_kernel.OVERRIDE_STEP`; its row recorded then."""
     w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _wind_and_sensing(
         FZ, wind_pool, GX, P, pools, idx, dt_s, t, lat, lon, alt, e, n, agl, ve, vn, vu, airspeed, roll, pitch, yaw
     )  # fmt: skip
-    answer, c_roll, c_pitch, c_throttle = override_pass(
-        U, R, PR, QR, K, t, est[3], est[4], est[5], est[7], est[8], est[9], est[13], est[14], we, wn, valid, age
+    answer, c_roll, c_pitch, c_throttle, activation, has_margins, r = override_pass(
+        U, F, L, V, R, PR, QR, K, t, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11], est[13],
+        est[14], we, wn, valid, sigma_h, sigma_v, age, turbulence, G_MPS2,
     )  # fmt: skip
     if answer == UNIT:
         _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
         return answer, w_e, w_n, w_u, flags, 0.0, 0.0, 0.0
     record_pass(
-        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, False, False, NOT_NEEDED,
-        new_horizon, P[_H0:_H1],
+        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, U[FAR] != 0.0, activation,
+        has_margins, r, new_horizon, P[_H0:_H1],
     )  # fmt: skip
     write_row(
         T, int(row), t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, w_e, w_n, w_u, p_roll,
         p_pitch, p_yaw, p_throttle, c_roll, c_pitch, 0.0, c_throttle, U[MODE], item, est[4], est[5], est[7], we, wn,
-        math.nan,
+        activation,
     )  # fmt: skip
     return answer, w_e, w_n, w_u, flags, c_roll, c_pitch, c_throttle
 
@@ -203,8 +206,8 @@ class FlightStep:
         self._wind_args = wind.arrays()
         self._tables: tuple[np.ndarray, ...] = ()
         self.ready = False
-        self.calls = 0
-        """Steps taken by a compiled call so far (the unit answered some of them itself)."""
+        self.steps = 0
+        """Steps a compiled call answered so far (not counting those it left to the unit)."""
         self.refresh()
 
     @classmethod
@@ -285,7 +288,6 @@ class FlightStep:
         )  # fmt: skip
         if kernel is self._dispatcher and kernel not in self._entry_points:  # after its first call, by its entry
             self._kernel = self._entry_points[kernel] = jit.entry_point(kernel)  # point (geofence.jit: our arrays)
-        self.calls += 1
         if flags:
             if flags & WIND_LOW:
                 self.wind.refill()
@@ -294,13 +296,16 @@ class FlightStep:
                 self.sensing.stepped(False, True)
         w = (w_e, w_n, w_u)
         if answer == PASS:
+            self.steps += 1
             recorder.commit_row()
             return w, pilot
         if answer == OVERRIDE_STEP:
+            self.steps += 1
             recorder.commit_row()
             return w, _new_tuple(StickCommand, (roll, pitch, 0.0, throttle))
         unit = self.unit
         if answer == PASS_HANDBACK:
+            self.steps += 1
             recorder.commit_row()
             self._take_in(False)
             unit.complete_hand_back(t_s)
