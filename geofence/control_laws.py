@@ -99,8 +99,7 @@ def fixed_wing_sticks(
     """Fixed-wing course law: turn rate ω = gain · course error, flown as a coordinated bank (+ right).
 
     Bank = atan(V·ω/g) (V the ground speed, at least 1 m/s), as a fraction of the bank limit; the climb-rate
-    (pitch) and throttle sticks are the caller's. Yaw stick 0. One function, one call: it runs every step of
-    every fixed-wing flight (the pilot's navigator and the geofence's recovery guidance alike).
+    (pitch) and throttle sticks are the caller's. Yaw stick 0.
     """
     roll = fixed_wing_roll_stick(s.ground_speed_mps, course_err_rad, course_gain_per_s, env)
     # (roll, pitch, yaw, throttle): tuple.__new__ costs a third of the named tuple's generated constructor

@@ -58,6 +58,8 @@ KERNEL_SOURCES = (
     "scenarios/flight/sensing.py",
     "scenarios/flight/recorder.py",
     "scenarios/flight/step_kernel.py",
+    "scenarios/flight/pilots/law_kernel.py",
+    "scenarios/flight/pilots/nav_laws.py",
 )
 """The sources (globs from the repository root) the compiled kernels are built from, their inlined functions
 included."""

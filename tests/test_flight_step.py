@@ -75,6 +75,9 @@ CASES = {
     "fixed-wing slow first turn": (DATA / "campaign_corridor_1922_slow_turn.yaml", 30.0),
     # fixed-wing overrides that climb back above the floor in a gap before they may hand back, and hand-backs
     "fixed-wing climbs back above the floor": (DATA / "campaign_floor_gaps_0030_climb_back.yaml", None),
+    # raw-sticks segments (the pilot's law array holds them), a fixed-wing's and a multirotor's
+    "fixed-wing raw sticks": (ROOT / "scenarios" / "campaign_ci" / "u_fence-0002__predictive.yaml", 40.0),
+    "multirotor raw sticks": (ROOT / "scenarios" / "campaign_ci" / "u_fence-0011__predictive.yaml", 40.0),
     # roll-out targets of many cells (route searches), a floor with gaps
     "floor gaps mission": (ROOT / "scenarios" / "campaign_ci" / "floor_gaps-0008__predictive.yaml", 60.0),
 }

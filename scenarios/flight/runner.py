@@ -37,7 +37,7 @@ from geofence import jit
 from geofence.geodesy import LocalFrame
 from geofence.local_fence import LocalFence
 from geofence.unit import GeofenceUnit, Mode
-from scenarios.flight.pilots import Pilot, build_pilot
+from scenarios.flight.pilots import CompiledLawPilot, Pilot, build_pilot
 from scenarios.flight.recorder import Recorder
 from scenarios.flight.sensing import GeofenceSensing
 from scenarios.flight.step_kernel import FlightStep
@@ -113,8 +113,14 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     # the per-step calls, bound once (a method lookup per call and step is measurable at this rate)
     truth_now, set_wind, latch, advance = platform.truth, platform.set_wind_enu, platform.command, platform.step
     pilot_sticks, notice_control, record = pilot.command, pilot.notice_control, recorder.append
-    # while the unit monitors, a step's wind, sensing, unit and row in one compiled call (the same numbers)
-    fused = FlightStep.build(unit, own, wind_arrays, isinstance(wind, CalmWind), recorder, dt_s)
+    # while the unit monitors, a step's wind, sensing, unit and row in one compiled call (the same numbers), and the
+    # pilot's law where it has a compiled form (then its decisions alone before the call)
+    law_pilot = pilot if isinstance(pilot, CompiledLawPilot) else None
+    pilot_decide = pilot_sticks if law_pilot is None else law_pilot.decide
+    fused = FlightStep.build(
+        unit, own, wind_arrays, isinstance(wind, CalmWind), recorder, dt_s,
+        None if law_pilot is None else law_pilot.law_array(),
+    )  # fmt: skip
     loop0 = time.perf_counter()
     try:
         for step in range(n_steps + 1):
@@ -125,8 +131,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                     f"JSBSim state of {scenario.aircraft} diverged (speed beyond {diverged_above_mps:.0f} m/s) at t={t:.2f} s"
                 )
             if fused is not None and fused.ready:
-                cmd_in = pilot_sticks(truth)
-                w, cmd = fused.step(truth, t, cmd_in, pilot.items_reached)  # (its row recorded)
+                w, cmd = fused.step(truth, t, pilot_decide(truth), pilot.items_reached)  # (its row recorded)
                 set_wind(*w)
             else:
                 w = sample_wind(t, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)

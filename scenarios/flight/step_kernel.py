@@ -44,6 +44,8 @@ from geofence.unit_kernel import (
     override_pass,
     record_pass,
 )
+from scenarios.flight.pilots.law_kernel import GIVEN, law_array, law_sticks
+from scenarios.flight.pilots.law_kernel import KIND as LAW_KIND
 from scenarios.flight.recorder import Recorder, write_row
 from scenarios.flight.sensing import HORIZON_IN_P, GeofenceSensing, sense_step
 from wind.field_kernel import WindArrays, wind_sample
@@ -56,22 +58,27 @@ WIND_LOW, SENSE_LOW = 1, 2
 """The flags a step returns: the wind field's noise pool runs low, the sensors' pools run low."""
 _H0, _H1 = HORIZON_IN_P.start, HORIZON_IN_P.stop
 _new_tuple = tuple.__new__
+_NO_STICKS = (0.0, 0.0, 0.0, 0.0)
 
 
 def _flight_step(
     FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
     F: np.ndarray, L: np.ndarray, V: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray,
-    row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float, up: float, agl: float,
-    ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool,
-    p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
-) -> tuple[int, float, float, float, int, float, float, float]:  # fmt: skip
-    """One monitoring step from the truth's fields and the pilot's sticks: ``(the unit's answer, the wind sampled
-    (east, north, up), flags, 0, 0, 0)`` (:func:`geofence.unit_kernel.monitor_pass`'s answer; the flags:
-    :data:`WIND_LOW`, :data:`SENSE_LOW`; :func:`_override_flight_step`'s tuple, without sticks). On a pass the
-    unit's ring ``H`` and numbers ``U`` keep it (:func:`geofence.unit_kernel.record_pass`) and row ``row`` of
-    ``T`` records it; else ``Out`` holds what the unit's own step needs (the layout above). The arrays: the wind
-    field's (:meth:`WindArrays.arrays`), the sensing chain's (:meth:`GeofenceSensing.kernel_arrays`), the unit's
-    margins tables, envelope terms and packed numbers (:meth:`GeofenceUnit.pack_monitor`)."""
+    A: np.ndarray, row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float,
+    up: float, agl: float, ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
+    on_ground: bool, p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
+) -> tuple[int, float, float, float, int, float, float, float, float]:  # fmt: skip
+    """One monitoring step from the truth's fields and the pilot's: ``(the unit's answer, the wind sampled (east,
+    north, up), flags, the pilot's sticks (roll, pitch, yaw, throttle))`` (:func:`geofence.unit_kernel.monitor_pass`'s
+    answer; the flags: :data:`WIND_LOW`, :data:`SENSE_LOW`). The pilot's sticks are its law's
+    (:func:`scenarios.flight.pilots.law_kernel.law_sticks` on its law array ``A``), or where that has none this
+    step, those passed in (``p_roll`` ...). On a pass the unit's ring ``H`` and numbers ``U`` keep it
+    (:func:`geofence.unit_kernel.record_pass`) and row ``row`` of ``T`` records it; else ``Out`` holds what the
+    unit's own step needs (the layout above). The arrays: the wind field's (:meth:`WindArrays.arrays`), the sensing
+    chain's (:meth:`GeofenceSensing.kernel_arrays`), the unit's margins tables, envelope terms and packed numbers
+    (:meth:`GeofenceUnit.pack_monitor`)."""
+    if A[LAW_KIND] != GIVEN:
+        p_roll, p_pitch, p_yaw, p_throttle = law_sticks(A, ve, vn, yaw, up)
     w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _wind_and_sensing(
         FZ, wind_pool, GX, P, pools, idx, dt_s, t, lat, lon, alt, e, n, agl, ve, vn, vu, airspeed, roll, pitch, yaw
     )  # fmt: skip
@@ -81,7 +88,7 @@ def _flight_step(
     )  # fmt: skip
     if answer == UNIT:
         _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
-        return answer, w_e, w_n, w_u, flags, 0.0, 0.0, 0.0
+        return answer, w_e, w_n, w_u, flags, p_roll, p_pitch, p_yaw, p_throttle
     record_pass(
         U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, far, r[0], not far, r, new_horizon,
         P[_H0:_H1],
@@ -92,7 +99,7 @@ def _flight_step(
         p_pitch, p_yaw, p_throttle, p_roll, p_pitch, p_yaw, p_throttle, mode, item, est[4], est[5], est[7], we, wn,
         r[0],
     )  # fmt: skip
-    return answer, w_e, w_n, w_u, flags, 0.0, 0.0, 0.0
+    return answer, w_e, w_n, w_u, flags, p_roll, p_pitch, p_yaw, p_throttle
 
 
 @jitable
@@ -126,15 +133,16 @@ def _for_the_unit(
 def _override_flight_step(
     FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
     F: np.ndarray, L: np.ndarray, V: np.ndarray, R: np.ndarray, PR: np.ndarray, QR: np.ndarray, K: np.ndarray,
-    U: np.ndarray, H: np.ndarray, T: np.ndarray,
-    Out: np.ndarray, row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float,
-    up: float, agl: float, ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
-    on_ground: bool, p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
-) -> tuple[int, float, float, float, int, float, float, float]:  # fmt: skip
+    U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, A: np.ndarray, row: float, dt_s: float, t: float,
+    lat: float, lon: float, alt: float, e: float, n: float, up: float, agl: float, ve: float, vn: float, vu: float,
+    airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool, p_roll: float, p_pitch: float,
+    p_yaw: float, p_throttle: float, item: float,
+) -> tuple[int, float, float, float, int, float, float, float, float]:  # fmt: skip
     """:func:`_flight_step` for a fixed-wing override's step (:func:`geofence.unit_kernel.override_pass`, on the
-    unit's margins tables ``F, L, V`` and its recovery's arrays ``R, PR, QR, K``): ``(answer, wind (east, north,
-    up), flags, roll, pitch, throttle)``, the sticks the override sends on
-    :data:`~geofence.unit_kernel.OVERRIDE_STEP`; its row recorded then."""
+    unit's margins tables ``F, L, V`` and its recovery's arrays ``R, PR, QR, K``): the same tuple, its sticks the
+    override's on :data:`~geofence.unit_kernel.OVERRIDE_STEP` (its row recorded then), else the pilot's."""
+    if A[LAW_KIND] != GIVEN:
+        p_roll, p_pitch, p_yaw, p_throttle = law_sticks(A, ve, vn, yaw, up)
     w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _wind_and_sensing(
         FZ, wind_pool, GX, P, pools, idx, dt_s, t, lat, lon, alt, e, n, agl, ve, vn, vu, airspeed, roll, pitch, yaw
     )  # fmt: skip
@@ -144,7 +152,7 @@ def _override_flight_step(
     )  # fmt: skip
     if answer == UNIT:
         _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
-        return answer, w_e, w_n, w_u, flags, 0.0, 0.0, 0.0
+        return answer, w_e, w_n, w_u, flags, p_roll, p_pitch, p_yaw, p_throttle
     record_pass(
         U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, U[FAR] != 0.0, activation,
         has_margins, r, new_horizon, P[_H0:_H1],
@@ -154,15 +162,15 @@ def _override_flight_step(
         p_pitch, p_yaw, p_throttle, c_roll, c_pitch, 0.0, c_throttle, U[MODE], item, est[4], est[5], est[7], we, wn,
         activation,
     )  # fmt: skip
-    return answer, w_e, w_n, w_u, flags, c_roll, c_pitch, c_throttle
+    return answer, w_e, w_n, w_u, flags, c_roll, c_pitch, 0.0, c_throttle
 
 
-override_flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float]] = (
+override_flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = (
     numba.njit(cache=True)(_override_flight_step) if COMPILED else _override_flight_step
 )
 """The compiled :func:`_override_flight_step` (the Python function itself without numba)."""
 
-flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float]] = (
+flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = (
     numba.njit(cache=True)(_flight_step) if COMPILED else _flight_step
 )
 """The compiled :func:`_flight_step` (the Python function itself without numba)."""
@@ -190,7 +198,10 @@ class FlightStep:
     one itself, at a hand-back, and at :meth:`finish`.
     """
 
-    def __init__(self, unit: GeofenceUnit, sensing: GeofenceSensing, wind: WindArrays, recorder: Recorder, dt_s: float) -> None:
+    def __init__(
+        self, unit: GeofenceUnit, sensing: GeofenceSensing, wind: WindArrays, recorder: Recorder, dt_s: float,
+        pilot_law: np.ndarray | None = None,
+    ) -> None:  # fmt: skip
         self.unit = unit
         self.sensing = sensing
         self.wind = wind
@@ -199,7 +210,8 @@ class FlightStep:
         self._U = np.zeros(N_UNIT)
         self._H = np.zeros((unit.history_rows(dt_s), RING_COLUMNS))
         self._O = np.zeros(N_OUT)
-        self._dispatcher: Callable[..., tuple[int, float, float, float, int, float, float, float]] = flight_step
+        self._A = law_array() if pilot_law is None else pilot_law  # (kind GIVEN: the pilot's sticks passed in)
+        self._dispatcher: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = flight_step
         self._kernel = self._dispatcher  # the mode's kernel, by its entry point after its first call
         self._entry_points: dict[Callable, Callable] = {}
         self._sense_args = sensing.kernel_arrays()
@@ -219,11 +231,14 @@ class FlightStep:
         calm: bool,
         recorder: Recorder,
         dt_s: float,
+        pilot_law: np.ndarray | None = None,
     ) -> FlightStep | None:
         """A :class:`FlightStep` for this flight, or None where a part has no compiled form here: numba not active
         (or :func:`use_flight_step` off), no unit or not one that :attr:`~GeofenceUnit.monitors_compiled`, the sensing
         chain not compiled (a truth source), the wind field not as arrays (``wind``: the runner's, None when the
-        field has no array form or is ``calm``)."""
+        field has no array form or is ``calm``). ``pilot_law``: the pilot's law array where it has one
+        (:mod:`scenarios.flight.pilots.law_kernel`; :meth:`step` then takes no sticks where its kind is not
+        ``GIVEN``)."""
         if not (ENABLED and jit.ACTIVE) or unit is None or not unit.monitors_compiled:
             return None
         if sensing is None or not sensing.compiled:
@@ -232,7 +247,7 @@ class FlightStep:
             if not calm:
                 return None
             wind = WindArrays(None, None, None)  # calm: zeros
-        return cls(unit, sensing, wind, recorder, dt_s)
+        return cls(unit, sensing, wind, recorder, dt_s, pilot_law)
 
     def refresh(self) -> None:
         """Ask the unit again whether a compiled call can take its next step, and pack its numbers (after every step
@@ -270,21 +285,22 @@ class FlightStep:
         return sensing.stepped(moved, False)
 
     def step(
-        self, truth: VehicleState, t_s: float, pilot: StickCommand, item: int
+        self, truth: VehicleState, t_s: float, pilot: StickCommand | None, item: int
     ) -> tuple[tuple[float, float, float], StickCommand]:
-        """One step from the truth (its ``t_s``: ``t``) and the pilot's sticks: ``(the wind sampled, the sticks to
-        send)``; the step's row is recorded either way."""
+        """One step from the truth (its ``t_s``: ``t``) and the pilot's sticks (None: its law array flies them):
+        ``(the wind sampled, the sticks to send)``; the step's row is recorded either way."""
         s = truth
         FZ, wind_pool, GX = self._wind_args
         P, pools, idx = self._sense_args
         recorder = self.recorder
         T, row = recorder.next_row()
         kernel = self._kernel
-        answer, w_e, w_n, w_u, flags, roll, pitch, throttle = kernel(
-            FZ, wind_pool, GX, P, pools, idx, *self._tables, self._U, self._H, T, self._O, float(row), self.dt_s,
-            t_s, s.lat_deg, s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps,
-            s.v_up_mps, s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, pilot[0], pilot[1],
-            pilot[2], pilot[3], float(item),
+        p = _NO_STICKS if pilot is None else pilot
+        answer, w_e, w_n, w_u, flags, roll, pitch, yaw, throttle = kernel(
+            FZ, wind_pool, GX, P, pools, idx, *self._tables, self._U, self._H, T, self._O, self._A, float(row),
+            self.dt_s, t_s, s.lat_deg, s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps,
+            s.v_north_mps, s.v_up_mps, s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, p[0], p[1],
+            p[2], p[3], float(item),
         )  # fmt: skip
         if kernel is self._dispatcher and kernel not in self._entry_points:  # after its first call, by its entry
             self._kernel = self._entry_points[kernel] = jit.entry_point(kernel)  # point (geofence.jit: our arrays)
@@ -295,14 +311,16 @@ class FlightStep:
             if flags & SENSE_LOW:
                 self.sensing.stepped(False, True)
         w = (w_e, w_n, w_u)
+        if answer == OVERRIDE_STEP:
+            self.steps += 1
+            recorder.commit_row()
+            return w, _new_tuple(StickCommand, (roll, pitch, yaw, throttle))
+        if pilot is None:  # the pilot's sticks, by its law
+            pilot = _new_tuple(StickCommand, (roll, pitch, yaw, throttle))
         if answer == PASS:
             self.steps += 1
             recorder.commit_row()
             return w, pilot
-        if answer == OVERRIDE_STEP:
-            self.steps += 1
-            recorder.commit_row()
-            return w, _new_tuple(StickCommand, (roll, pitch, 0.0, throttle))
         unit = self.unit
         if answer == PASS_HANDBACK:
             self.steps += 1

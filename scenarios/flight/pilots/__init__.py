@@ -8,12 +8,17 @@
   (the same attempts from an orbit).
 
 All answer ``command(state) -> StickCommand`` and report progress as
-``items_reached`` / ``items_total`` and ``finished``.
+``items_reached`` / ``items_total`` and ``finished``. A pilot whose law has a compiled form
+(:class:`CompiledLawPilot`: the scripted pilot) also splits a step into its decisions (``decide``) and its law's
+array (``law_array``, :mod:`scenarios.flight.pilots.law_kernel`), which the compiled step of the closed loop
+flies.
 """
 
 from __future__ import annotations
 
-from typing import Protocol
+from typing import Protocol, runtime_checkable
+
+import numpy as np
 
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, StickCommand, VehicleState
@@ -33,6 +38,17 @@ class Pilot(Protocol):
 
     def notice_control(self, in_control: bool) -> None:
         """Whether the pilot's sticks fly the aircraft this step (False while the geofence overrides them)."""
+
+
+@runtime_checkable
+class CompiledLawPilot(Protocol):
+    """A pilot whose law has a compiled form: ``decide(state)`` takes a step's decisions and returns the sticks
+    where its law has no compiled form this step, else None (``law_array()`` then flies the step, the same
+    sticks ``command`` returns)."""
+
+    def decide(self, state: VehicleState) -> StickCommand | None: ...
+
+    def law_array(self) -> np.ndarray: ...
 
 
 def build_pilot(scenario: Scenario, frame: LocalFrame, env: Envelope, start: VehicleState, dt_s: float) -> Pilot:

@@ -9,7 +9,9 @@ floats throughout: they run on the simulation's per-step path.
   approach) -> PI velocity loop -> tilt sticks; altitude -> climb-rate stick.
 * :class:`FixedWingNavigator`: straight-line and orbit vector fields
   (Beard & McLain, *Small Unmanned Aircraft*, ch. 10) -> commanded course ->
-  bank stick; altitude -> climb-rate stick; airspeed -> throttle stick.
+  bank stick; altitude -> climb-rate stick; airspeed -> throttle stick. Its law of a course error
+  (:func:`course_law_sticks`) is :func:`geofence.jit.jitable`: a pilot's compiled law
+  (:mod:`scenarios.flight.pilots.law_kernel`) flies the same function.
 
 Angles are rad, courses and headings clockwise from north, positions ENU m.
 The stick mappings themselves are the shared primitives of
@@ -28,13 +30,28 @@ from geofence.control_laws import (
     approach_velocity,
     climb_rate_to_stick,
     course_error_rad,
-    fixed_wing_sticks,
+    fixed_wing_roll_stick,
     orbit_course_rad,
     yaw_stick_for_heading,
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
+from geofence.jit import jitable
 
 _TWO_OVER_PI = 2.0 / math.pi
+
+
+@jitable
+def course_law_sticks(
+    ground_speed_mps: float, course_err_rad: float, up_m: float, target_up_m: float, climb_stick: float,
+    altitude_gain_per_s: float, course_gain_per_s: float, env: Envelope,
+) -> tuple[float, float]:  # fmt: skip
+    """``(roll, pitch)`` sticks of :meth:`FixedWingNavigator.sticks` for a course error: the coordinated bank of
+    :func:`~geofence.control_laws.fixed_wing_roll_stick`, and the climb stick ``climb_stick`` or, where it is NaN,
+    the altitude hold of ``target_up_m`` from ``up_m``. ``env``: an :class:`Envelope` or a named tuple of the
+    fields it reads (bank limit, climb and descent rates)."""
+    if climb_stick != climb_stick:  # (NaN) hold the height
+        climb_stick = climb_rate_to_stick(altitude_to_climb_rate(target_up_m, up_m, env, altitude_gain_per_s), env)
+    return fixed_wing_roll_stick(ground_speed_mps, course_err_rad, course_gain_per_s, env), climb_stick
 
 
 class MultirotorNavigator:
@@ -178,9 +195,11 @@ class FixedWingNavigator:
             course_err = course_error_rad(s, course_cmd_rad)
         else:
             course_err = self.course_error_rad(s, course_cmd_rad)
-        if climb_stick is None:
-            climb_stick = climb_rate_to_stick(altitude_to_climb_rate(target_up_m, s.up_m, env, self.kh), env)
         if airspeed_mps != self._airspeed_demand:
             self._airspeed_demand = airspeed_mps
             self._throttle_stick = airspeed_to_stick(airspeed_mps, env)
-        return fixed_wing_sticks(s, course_err, self.k_course, climb_stick, self._throttle_stick, env)
+        roll, pitch = course_law_sticks(
+            s.ground_speed_mps, course_err, s.up_m, target_up_m, math.nan if climb_stick is None else climb_stick,
+            self.kh, self.k_course, env,
+        )  # fmt: skip
+        return tuple.__new__(StickCommand, (roll, pitch, 0.0, self._throttle_stick))

@@ -10,8 +10,12 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
+from geofence.control_laws import airspeed_to_stick
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, StickCommand, VehicleState
+from scenarios.flight.pilots import law_kernel as lk
 from scenarios.flight.pilots.nav_laws import FixedWingNavigator, MultirotorNavigator
 from scenarios.spec.schema import ScriptSegment, SegmentEnd
 
@@ -24,6 +28,10 @@ class ScriptedPilot:
     ``handback``: the geofence overrode the pilot during the segment and has handed control back (the pilot
     notices it through :meth:`notice_control`, as a pilot feels the sticks come back); ``reach``: the vehicle
     is within the radius of a point. After an event the later segments keep their durations from that moment.
+
+    A raw-sticks segment and a fixed-wing's course are flown by its law array (:meth:`law_array`,
+    :mod:`scenarios.flight.pilots.law_kernel`), which a compiled step of the closed loop flies itself after
+    :meth:`decide`; a multirotor's velocity loop is its navigator's.
     """
 
     def __init__(
@@ -67,6 +75,8 @@ class ScriptedPilot:
         self._climb_stick: float | None = None  # the fixed-wing climb stick (None: hold the height)
         self._hold_climb = True
         self._segment_index = -1
+        self._law = lk.law_array()  # the current segment's law, where it has a compiled form (else GIVEN)
+        self._law_flies = False  # (its kind is not GIVEN)
         self.finished = False  # a script has no goal: it flies until the scenario's duration ends
 
     @property
@@ -116,6 +126,15 @@ class ScriptedPilot:
         self._sticks = StickCommand(*seg.sticks) if seg.sticks is not None else None
         self._hold_climb = seg.climb == "hold"
         self._climb_stick = None if self._hold_climb else _CLIMB_STICK[seg.climb]
+        law = self._law
+        law[lk.KIND] = lk.GIVEN
+        self._latch_course(seg)
+        if self._sticks is not None:  # raw sticks (they win)
+            lk.hold_sticks(law, *self._sticks)
+        self._law_flies = law[lk.KIND] != lk.GIVEN
+
+    def _latch_course(self, seg: ScriptSegment) -> None:
+        """A course segment's demands (none for raw sticks), in the law array where it flies them."""
         if seg.course_deg is None:  # raw sticks
             return
         env = self.env
@@ -124,8 +143,21 @@ class ScriptedPilot:
         # multirotor: the ground velocity (E, N) and the climb rate (unless "hold": see command)
         self._v_en = (self._speed_mps * math.sin(self._course_rad), self._speed_mps * math.cos(self._course_rad))
         self._v_up = {"hold": 0.0, "max": env.max_climb_rate_mps, "descend": -env.max_descent_rate_mps}[seg.climb]
+        fw = self.fw
+        if fw is not None and fw.turn_commit_rad is None:  # (FixedWingNavigator.sticks the short way)
+            lk.fly_course(
+                self._law, self._course_rad, self._hold_up_m, self._climb_stick,
+                airspeed_to_stick(self._speed_mps, env), fw.kh, fw.k_course, env,
+            )  # fmt: skip
 
-    def command(self, s: VehicleState) -> StickCommand:
+    def law_array(self) -> np.ndarray:
+        """The current segment's law (:mod:`scenarios.flight.pilots.law_kernel`; kind ``GIVEN`` where its law has no
+        compiled form), rewritten in place when a segment starts (in :meth:`decide`)."""
+        return self._law
+
+    def decide(self, s: VehicleState) -> StickCommand | None:
+        """This step's decisions (a segment that ends, the next one's demands latched): the sticks where the
+        segment's law has no compiled form (:meth:`command`'s), else None: :meth:`law_array` flies this step."""
         # per step: the segment's demands were latched when it started; it ends only at its end time or on its event
         # (and the last one never)
         if self._index < self._last and (s.t_s >= self._end_s or self._on_event):
@@ -133,8 +165,8 @@ class ScriptedPilot:
         if self._index != self._segment_index:
             self._segment_index = i = self._index
             self._start_segment(self.segments[i], s)
-        if self._sticks is not None:
-            return self._sticks
+        if self._law_flies:
+            return None
         if self.mc is not None:
             vz = self._v_up
             if self._hold_climb:
@@ -143,4 +175,14 @@ class ScriptedPilot:
             ve, vn = self._v_en
             return self.mc.sticks_for_velocity(s, ve, vn, vz, self._hold_yaw_rad, self.dt_s)
         assert self.fw is not None  # not a multirotor
+        return self.fw.sticks(s, self._course_rad, self._hold_up_m, self._speed_mps, self._climb_stick)
+
+    def command(self, s: VehicleState) -> StickCommand:
+        sticks = self.decide(s)
+        if sticks is not None:
+            return sticks
+        # the law array's sticks, by the objects (law_kernel.law_sticks flies the same functions)
+        if self._sticks is not None:  # a raw-sticks segment
+            return self._sticks
+        assert self.fw is not None  # a fixed-wing's course
         return self.fw.sticks(s, self._course_rad, self._hold_up_m, self._speed_mps, self._climb_stick)

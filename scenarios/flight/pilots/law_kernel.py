@@ -1,0 +1,101 @@
+"""A pilot's law on arrays: the sticks a pilot flies at a step, from the truth's fields and the demands it latched,
+for the compiled step of the closed loop (:mod:`scenarios.flight.step_kernel`).
+
+One question: which sticks does the pilot send at this step? A pilot that has a compiled form of its law keeps
+its demands in one float array (layout below), written when they change (a scripted pilot: when a segment
+starts); :func:`law_sticks` answers from them. Its kinds:
+
+* :data:`GIVEN`: no compiled law this step: the pilot's own sticks are passed in (a pilot without one, a
+  multirotor's velocity loop, whose integrator lives in its navigator);
+* :data:`HELD_STICKS`: the sticks in the array (a raw-sticks segment);
+* :data:`FIXED_WING_COURSE`: :meth:`~scenarios.flight.pilots.nav_laws.FixedWingNavigator.sticks` the short way:
+  a course, flown at an airspeed's throttle stick, holding a height or at a climb stick
+  (:func:`~scenarios.flight.pilots.nav_laws.course_law_sticks`, the same function in Python).
+
+The pilot's own ``command`` answers through its objects (the navigator, on the same functions), so a step flown
+either way sends the same sticks (``tests/test_flight_step.py``, ``tests/test_pilot_law.py``).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from geofence.control_laws import course_error_rad, cpython_hypot
+from geofence.interface import Envelope
+from geofence.jit import jitable
+from scenarios.flight.pilots.nav_laws import course_law_sticks
+
+# the kinds (KIND)
+GIVEN = 0.0
+HELD_STICKS = 1.0
+FIXED_WING_COURSE = 2.0
+
+# the array's layout
+KIND = 0
+ROLL, PITCH, YAW, THROTTLE = 1, 2, 3, 4  # HELD_STICKS: the sticks; FIXED_WING_COURSE: THROTTLE, its throttle stick
+COURSE = 5  # FIXED_WING_COURSE: the course, rad clockwise from north
+HOLD_UP = 6  # the height to hold, m up (where CLIMB_STICK is NaN)
+CLIMB_STICK = 7  # the climb (pitch) stick, or NaN: hold HOLD_UP
+ALTITUDE_GAIN = 8  # the navigator's gains, 1/s
+COURSE_GAIN = 9
+MAX_BANK = 10  # the envelope's bank limit (rad), climb and descent rates (m/s)
+MAX_CLIMB = 11
+MAX_DESCENT = 12
+N_LAW = 13
+
+
+class _LawEnvelope(NamedTuple):
+    """The :class:`Envelope` fields :func:`course_law_sticks` reads, for compiled code."""
+
+    max_bank_rad: float
+    max_climb_rate_mps: float
+    max_descent_rate_mps: float
+
+
+class _LawState(NamedTuple):
+    """The :class:`VehicleState` fields :func:`course_error_rad` reads, for compiled code."""
+
+    v_east_mps: float
+    v_north_mps: float
+    yaw_rad: float
+
+
+def law_array() -> np.ndarray:
+    """A pilot's law array, of kind :data:`GIVEN`."""
+    return np.zeros(N_LAW)
+
+
+def hold_sticks(A: np.ndarray, roll: float, pitch: float, yaw: float, throttle: float) -> None:
+    """Make ``A`` fly these sticks (:data:`HELD_STICKS`)."""
+    A[KIND], A[ROLL], A[PITCH], A[YAW], A[THROTTLE] = HELD_STICKS, roll, pitch, yaw, throttle
+
+
+def fly_course(
+    A: np.ndarray, course_rad: float, hold_up_m: float, climb_stick: float | None, throttle_stick: float,
+    altitude_gain_per_s: float, course_gain_per_s: float, env: Envelope,
+) -> None:  # fmt: skip
+    """Make ``A`` fly a course (:data:`FIXED_WING_COURSE`): at ``throttle_stick``, holding ``hold_up_m`` or, given,
+    at ``climb_stick``; the navigator's gains and the envelope's limits."""
+    A[KIND], A[COURSE], A[HOLD_UP] = FIXED_WING_COURSE, course_rad, hold_up_m
+    A[CLIMB_STICK] = np.nan if climb_stick is None else climb_stick
+    A[THROTTLE], A[ALTITUDE_GAIN], A[COURSE_GAIN] = throttle_stick, altitude_gain_per_s, course_gain_per_s
+    A[MAX_BANK], A[MAX_CLIMB], A[MAX_DESCENT] = env.max_bank_rad, env.max_climb_rate_mps, env.max_descent_rate_mps
+
+
+@jitable
+def law_sticks(A: np.ndarray, ve: float, vn: float, yaw: float, up: float) -> tuple[float, float, float, float]:
+    """``(roll, pitch, yaw, throttle)`` of the law in ``A`` at the truth's velocity (east, north), heading and
+    height (m up); :data:`GIVEN` has none (zeros: the caller passes the pilot's)."""
+    kind = A[KIND]
+    if kind == FIXED_WING_COURSE:
+        env = _LawEnvelope(A[MAX_BANK], A[MAX_CLIMB], A[MAX_DESCENT])
+        err = course_error_rad(_LawState(ve, vn, yaw), A[COURSE])
+        roll, pitch = course_law_sticks(
+            cpython_hypot(ve, vn), err, up, A[HOLD_UP], A[CLIMB_STICK], A[ALTITUDE_GAIN], A[COURSE_GAIN], env
+        )  # fmt: skip
+        return roll, pitch, 0.0, A[THROTTLE]
+    if kind == HELD_STICKS:
+        return A[ROLL], A[PITCH], A[YAW], A[THROTTLE]
+    return 0.0, 0.0, 0.0, 0.0
