@@ -43,7 +43,6 @@ fence's altitude reference (AGL or AMSL).
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
 from enum import IntEnum
 
@@ -56,6 +55,7 @@ from geofence.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSo
 from geofence.control_laws import climb_rate_to_stick, clip
 from geofence.dead_reckoning import DeadReckoning
 from geofence.dynamics import envelope_at_density, isa_density_ratio, return_not_assured, return_wind_limits
+from geofence.estimate_history import EstimateHistory, state_of_row
 from geofence.fence import AltitudeReference
 from geofence.guidance import (
     FixedWingRecovery,
@@ -171,7 +171,7 @@ class GeofenceUnit:
         self._position_valid = True
         self._last_valid: VehicleState | None = None
         self._last_horizon: FixState | None = None
-        self._history: deque[VehicleState] = deque()
+        self._history = EstimateHistory()
         self.estimate: VehicleState | None = None
         """The state the unit acted on last (its estimate, or its dead reckoning)."""
         self._override_period_start_s = 0.0
@@ -640,7 +640,7 @@ class GeofenceUnit:
             wind = (self.wind_enu[0], self.wind_enu[1])
             if not self.dead_reckoning.active:
                 fix = self._last_horizon
-                if fix is not None and history and history[0].t_s <= fix.t_s:
+                if fix is not None and history.first_t_s() <= fix.t_s:
                     self.dead_reckoning.start_at_fix(fix, history, wind)
                 else:
                     self.dead_reckoning.start(self._last_valid)
@@ -649,8 +649,7 @@ class GeofenceUnit:
                 est = reckoned
         # the attitudes of the last REPLAY_WINDOW_S (the dead reckoning replays them from the last fix)
         history.append(est)
-        while history[0].t_s < t_s - REPLAY_WINDOW_S:
-            history.popleft()
+        history.trim(t_s - REPLAY_WINDOW_S)
         self.estimate = est
         self._sigma_v_m = sigma_v_m
         if math.isfinite(sigma_h_m):
@@ -790,16 +789,12 @@ class GeofenceUnit:
         rows = min(passes, len(H))
         end = int(U[_uk.RING_NEXT])
         history = self._history
-        est = None
-        for i in range(end - rows, end):  # oldest to newest
-            fields = H[i % len(H)].tolist()
-            est = VehicleState(*fields[:15])
-            est.on_ground = fields[15] != 0.0
-            history.append(est)
-        t_s = U[_uk.LAST_T]
-        while history[0].t_s < t_s - REPLAY_WINDOW_S:
-            history.popleft()
-        self.estimate = self._last_valid = est
+        start = end - rows
+        # oldest to newest, a copy (the ring is written on)
+        block = H[start:end].copy() if start >= 0 else np.concatenate((H[start:], H[:end]))
+        history.extend_rows(block)  # (states again only when dead reckoning replays them)
+        history.trim(U[_uk.LAST_T] - REPLAY_WINDOW_S)
+        self.estimate = self._last_valid = state_of_row(block[-1].tolist())
         if U[_uk.HORIZON_MOVED] != 0.0:
             horizon = FixState(*U[_uk.HORIZON0 : _uk.HORIZON0 + 5].tolist())
         self._last_horizon = horizon
