@@ -217,6 +217,8 @@ class FlightStep:
         self._sense_args = sensing.kernel_arrays()
         self._wind_args = wind.arrays()
         self._tables: tuple[np.ndarray, ...] = ()
+        self._lead: tuple[np.ndarray, ...] = ()  # the kernel's leading arrays, bound once (see _bind)
+        self._first_call = True  # the kernel's entry point is not known yet
         self.ready = False
         self.steps = 0
         """Steps a compiled call answered so far (not counting those it left to the unit)."""
@@ -265,11 +267,19 @@ class FlightStep:
             return
         self.ready = True
         self._kernel = self._entry_points.get(self._dispatcher, self._dispatcher)
+        self._first_call = self._dispatcher not in self._entry_points
         self._wind_args = self.wind.arrays()
+        self._bind()
 
     def wind_changed(self) -> None:
         """The wind field's arrays were replaced (its gust table, at the first activation)."""
         self._wind_args = self.wind.arrays()
+        self._bind()
+
+    def _bind(self) -> None:
+        """The kernel's leading arguments in one tuple: the wind field's, the sensing chain's, the mode's tables and
+        the unit's numbers and ring (after any of them is replaced)."""
+        self._lead = (*self._wind_args, *self._sense_args, *self._tables, self._U, self._H)
 
     def finish(self) -> None:
         """The unit takes in the steps taken so far (at the end of the flight; the sensing chain's horizon too)."""
@@ -290,24 +300,22 @@ class FlightStep:
         """One step from the truth (its ``t_s``: ``t``) and the pilot's sticks (None: its law array flies them):
         ``(the wind sampled, the sticks to send)``; the step's row is recorded either way."""
         s = truth
-        FZ, wind_pool, GX = self._wind_args
-        P, pools, idx = self._sense_args
         recorder = self.recorder
         T, row = recorder.next_row()
         kernel = self._kernel
         p = _NO_STICKS if pilot is None else pilot
         answer, w_e, w_n, w_u, flags, roll, pitch, yaw, throttle = kernel(
-            FZ, wind_pool, GX, P, pools, idx, *self._tables, self._U, self._H, T, self._O, self._A, float(row),
-            self.dt_s, t_s, s.lat_deg, s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps,
-            s.v_north_mps, s.v_up_mps, s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, p[0], p[1],
-            p[2], p[3], float(item),
+            *self._lead, T, self._O, self._A, float(row), self.dt_s, t_s, s.lat_deg, s.lon_deg, s.alt_m, s.east_m,
+            s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps, s.v_up_mps, s.airspeed_mps, s.roll_rad,
+            s.pitch_rad, s.yaw_rad, s.on_ground, p[0], p[1], p[2], p[3], float(item),
         )  # fmt: skip
-        if kernel is self._dispatcher and kernel not in self._entry_points:  # after its first call, by its entry
-            self._kernel = self._entry_points[kernel] = jit.entry_point(kernel)  # point (geofence.jit: our arrays)
+        if self._first_call:  # after its first call, by its entry point (geofence.jit: the arrays are ours)
+            self._kernel = self._entry_points[kernel] = jit.entry_point(kernel)
+            self._first_call = False
         if flags:
             if flags & WIND_LOW:
                 self.wind.refill()
-                self._wind_args = self.wind.arrays()
+                self.wind_changed()
             if flags & SENSE_LOW:
                 self.sensing.stepped(False, True)
         w = (w_e, w_n, w_u)
