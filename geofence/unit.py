@@ -448,17 +448,18 @@ class GeofenceUnit:
         search first expands). Routes as short either way."""
         self._planner(self._route_clearances()[0]).prepare(goals=(self.fence.recovery_en,))
 
-    def _route_clearances(self) -> tuple[float, ...]:
+    def _route_clearances(self, sigma_h_m: float | None = None) -> tuple[float, ...]:
         """Lateral clearances to try, largest first (m, rounded up to whole metres so planners can be reused).
 
         A fixed-wing wants its turn radius, a multirotor a few metres; both add
-        the position uncertainty margin ``k·σ_h``, since the route is flown on
+        the position uncertainty margin ``k·σ_h`` (``sigma_h_m``, default the unit's), since the route is flown on
         the estimate, and half of the halved clearance is tried before giving up.
         """
         env = self.env
-        key = (self._sigma_h_m, env)
+        sigma = self._sigma_h_m if sigma_h_m is None else sigma_h_m
+        key = (sigma, env)
         if key != self._clearances_for:
-            hu = self.config.uncertainty_k_sigma * self._sigma_h_m + self.config.extra_margin_m
+            hu = self.config.uncertainty_k_sigma * sigma + self.config.extra_margin_m
             if env.is_multirotor:
                 c = ROUTE_CLEARANCE_MULTIROTOR_M + hu
             else:
@@ -467,16 +468,16 @@ class GeofenceUnit:
             self._clearances_for = key
         return self._clearances
 
-    def _route(self, start_en: tuple[float, float], goal_en: tuple[float, float]) -> Route:
+    def _route(self, start_en: tuple[float, float], goal_en: tuple[float, float], sigma_h_m: float | None = None) -> Route:
         """A route from ``start_en`` (the estimate's position) to ``goal_en`` inside the allowed area
-        (:mod:`geofence.recovery_path`).
+        (:mod:`geofence.recovery_path`), with the clearances of :meth:`_route_clearances` (``sigma_h_m``).
 
         The largest clearance that reaches the goal wins; failing all, the
         partial route that ends nearest it; with no admissible first leg at
         all, the straight line (the only thing left to fly).
         """
         partial = None
-        for c in self._route_clearances():
+        for c in self._route_clearances(sigma_h_m):
             path = self._planner(c).plan(start_en, goal_en)
             if path is None:
                 continue
@@ -516,7 +517,7 @@ class GeofenceUnit:
         found = self._planner(self._route_clearances()[0]).safe_point_with_radius((s.east_m, s.north_m), radius_m)
         return None if found is None else (found[1], found[0].en)
 
-    def _rollout_target(self, e: float, n: float) -> tuple[float, float]:
+    def _rollout_target(self, e: float, n: float, sigma_h_m: float | None = None) -> tuple[float, float]:
         """Where a fixed-wing's recovery turn rolls out towards from (e, n): the point its guidance rolls out on,
         :attr:`FixedWingRecovery.lookahead_m` along its route (:meth:`RecoveryPath.rollout_point`).
 
@@ -524,14 +525,15 @@ class GeofenceUnit:
         vertex of its route a few metres away saw the direction to it, and with it the scored turn, swing
         round within a step (a Tern in a corridor narrower than its turn was handed back with a margin of
         31 m, had none 0.25 s later, turned away from the corridor towards a vertex behind it and left by
-        23 m; campaign seed 3122026). Cached per cell of :data:`geofence.unit_kernel.ROLLOUT_CELL_M`.
+        23 m; campaign seed 3122026). Cached per cell of :data:`geofence.unit_kernel.ROLLOUT_CELL_M`; found with
+        the route clearances of ``sigma_h_m`` (default the unit's, :meth:`_route_clearances`).
         """
         key = rollout_cell(e, n)
         t = self._rollout_cache.get(key)
         if t is None:
             recovery = self.recovery
             assert isinstance(recovery, FixedWingRecovery)
-            route = self._route((e, n), self.fence.recovery_en)
+            route = self._route((e, n), self.fence.recovery_en, sigma_h_m)
             t = route.rollout_point(e, n, recovery.lookahead_m)
             if len(self._rollout_cache) > 20000:
                 self._rollout_cache.clear()
@@ -677,7 +679,7 @@ class GeofenceUnit:
         assert compiled is not None
         self._pack_margins_inputs(U)
         self._pack_kept(U)
-        self._pack_targets(U)
+        self._pack_estimate_targets(U)
         F, L = compiled._tables
         return F, L, compiled._terms
 
@@ -695,25 +697,39 @@ class GeofenceUnit:
         U[_uk.MULTIROTOR] = float(self._multirotor)
         U[_uk.DENSITY_ALT] = math.nan if self._density_alt_m is None else self._density_alt_m
 
-    def _pack_targets(self, U: np.ndarray) -> None:
-        """The fixed-wing roll-out targets cached round the estimate's cell (:data:`geofence.unit_kernel.TARGET_CELLS`
-        each way; none for a multirotor)."""
-        U[_uk.HAS_TARGETS] = 0.0
+    def _pack_estimate_targets(self, U: np.ndarray) -> None:
+        """The fixed-wing roll-out targets cached round the estimate's cell (:meth:`_pack_targets`; none for a
+        multirotor, or before an estimate)."""
         est = self.estimate
-        if not self._multirotor and est is not None:  # the roll-out targets cached round the estimate's cell
-            ce, cn = rollout_cell(est.east_m, est.north_m)
-            U[_uk.HAS_TARGETS], U[_uk.CELL_E], U[_uk.CELL_N] = 1.0, ce, cn
-            cache = self._rollout_cache
-            reach = _uk.TARGET_CELLS
-            k = _uk.TARGETS0
-            for dn in range(-reach, reach + 1):
-                for de in range(-reach, reach + 1):
-                    target = cache.get((ce + de, cn + dn))
-                    if target is None:
-                        U[k] = 0.0
-                    else:
-                        U[k], U[k + 1], U[k + 2] = 1.0, target[0], target[1]
-                    k += 3
+        if self._multirotor or est is None:
+            U[_uk.HAS_TARGETS] = 0.0
+        else:
+            self._pack_targets(U, est.east_m, est.north_m)
+
+    def find_rollout_target(self, U: np.ndarray, e: float, n: float, sigma_h_m: float) -> None:
+        """Find the roll-out target of the cell of (e, n) where none is cached (a route search, as :meth:`update`
+        would for margins there, with the step's ``sigma_h_m``, or where it is not finite the last finite one,
+        which ``U`` keeps with the passes not yet taken in), and pack the targets round it in ``U``: a compiled
+        step that answered :data:`~geofence.unit_kernel.NEED_TARGET` is asked again."""
+        self._rollout_target(e, n, sigma_h_m if math.isfinite(sigma_h_m) else float(U[_uk.SIGMA_H]))
+        self._pack_targets(U, e, n)
+
+    def _pack_targets(self, U: np.ndarray, e: float, n: float) -> None:
+        """The fixed-wing roll-out targets cached round the cell of (e, n) (:data:`geofence.unit_kernel.TARGET_CELLS`
+        each way)."""
+        ce, cn = rollout_cell(e, n)
+        U[_uk.HAS_TARGETS], U[_uk.CELL_E], U[_uk.CELL_N] = 1.0, ce, cn
+        cache = self._rollout_cache
+        reach = _uk.TARGET_CELLS
+        k = _uk.TARGETS0
+        for dn in range(-reach, reach + 1):
+            for de in range(-reach, reach + 1):
+                target = cache.get((ce + de, cn + dn))
+                if target is None:
+                    U[k] = 0.0
+                else:
+                    U[k], U[k + 1], U[k + 2] = 1.0, target[0], target[1]
+                k += 3
 
     def _pack_kept(self, U: np.ndarray) -> None:
         """What the unit keeps that a compiled step may leave as it is (then taken in unchanged), and no step
@@ -753,7 +769,7 @@ class GeofenceUnit:
         R, P, Q, K, thr, clearance = arrays
         self._pack_margins_inputs(U)
         self._pack_kept(U)
-        self._pack_targets(U)
+        self._pack_estimate_targets(U)
         U[_uk.PERIOD_START], U[_uk.MIN_OVERRIDE] = self._override_period_start_s, self.config.min_override_s
         self._pack_hand_back(U)
         U[_uk.THR], U[_uk.CLEARANCE] = thr, clearance

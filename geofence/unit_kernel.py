@@ -4,12 +4,13 @@ sticks through, and while a fixed-wing override flies, as functions a compiled p
 One question each. :func:`monitor_pass`: given this step's estimate (the sensing chain's numbers), does a
 predictive unit that monitors (``MONITOR`` or ``RECOVERED``) keep passing the sticks through, and with which
 margins? The answer is :data:`PASS` (and the margins), :data:`PASS_HANDBACK` (pass, and ``RECOVERED``'s hold is
-over: back to ``MONITOR``) or :data:`UNIT`: anything else (an activation, a stale or lost position, an envelope
-to re-scale to the air density, a wind beyond authority, a roll-out target not cached for this cell near a
-boundary), which the unit's own :meth:`~geofence.unit.GeofenceUnit.update` then answers from the same estimate.
+over: back to ``MONITOR``), :data:`NEED_TARGET` (near a boundary, a fixed-wing's roll-out target for this cell is
+not packed: the unit finds it, and the step is asked again) or :data:`UNIT`: anything else (an activation, a
+stale or lost position, an envelope to re-scale to the air density, a wind beyond authority), which the unit's
+own :meth:`~geofence.unit.GeofenceUnit.update` then answers from the same estimate.
 :func:`override_pass`: which sticks does a fixed-wing override send at this step (:data:`OVERRIDE_STEP`; after
 its minimum override period, with its margins: it is not outside and may not hand back yet), or must the unit
-answer (:data:`UNIT`: a re-activation, a possible hand-back, a lost position, ...)? The unit packs what a step reads in one float
+answer (:data:`UNIT`: a re-activation, a possible hand-back, a lost position, ...; :data:`NEED_TARGET` as above)? The unit packs what a step reads in one float
 array (:meth:`~geofence.unit.GeofenceUnit.pack_monitor`, :meth:`~geofence.unit.GeofenceUnit.pack_override`,
 layout below); :func:`record_pass` keeps what each step taken so changes, and the unit takes it in before it
 answers a step again (:meth:`~geofence.unit.GeofenceUnit.take_in_passes`). ``update`` is the reference: the
@@ -68,6 +69,10 @@ PASS = 0
 PASS_HANDBACK = 1
 UNIT = 2
 OVERRIDE_STEP = 3  # (override_pass) the override's sticks, by its compiled step
+NEED_TARGET = 4
+"""The margins need the roll-out target of the estimate's cell and it is not among those packed: the unit finds it
+(:meth:`~geofence.unit.GeofenceUnit.find_rollout_target`, a route search where it has none cached), and the caller
+asks the same step again from the same estimate (nothing was kept or recorded)."""
 
 # the unit's packed numbers (GeofenceUnit.pack_monitor), each a float
 K_SIGMA = 0  # uncertainty_k_sigma
@@ -209,7 +214,7 @@ def monitor_pass(
                 F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, skip_time_s, hu, v_unc, g
             )[0]  # fmt: skip
             if not far_only:
-                return UNIT, False, NOT_NEEDED
+                return NEED_TARGET, False, NOT_NEEDED
             return _pass(U, recovered, t_s), True, NOT_NEEDED
     far, r = monitor_margins(
         F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, skip_time_s, hu, v_unc, latency, roll,
@@ -279,9 +284,9 @@ def override_pass(
     :data:`UNIT` (a stale or lost position, a wind beyond authority, a route the compiled step does not answer).
     Within the minimum override period the margins are not needed (activation NaN, ``has margins`` false); after
     it they are computed (``F, L, V``: the compiled margins' tables and envelope terms, the roll-out target from
-    those packed in ``U``), and a step that re-activates (still outside) or may hand back is the unit's
-    (:data:`UNIT`; so is one whose roll-out target is not packed): :meth:`~geofence.unit.GeofenceUnit.update`'s path
-    for an override step, the same tests in its order."""
+    those packed in ``U``: :data:`NEED_TARGET` where it is not), and a step that re-activates (still outside) or
+    may hand back is the unit's (:data:`UNIT`): :meth:`~geofence.unit.GeofenceUnit.update`'s path for an override
+    step, the same tests in its order."""
     if not (position_valid and estimate_age_s <= FRESH_ESTIMATE_AGE_S):
         return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
     if not hypot(wind_e, wind_n) + U[RETURN_ALLOWANCE] < U[RETURN_LIMIT]:
@@ -293,7 +298,7 @@ def override_pass(
     if not t_s - U[PERIOD_START] < U[MIN_OVERRIDE]:
         has_target, target_e, target_n = cached_target(U, e, n)
         if not has_target:
-            return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
+            return NEED_TARGET, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
         k_sigma, extra = U[K_SIGMA], U[EXTRA]
         allowance = allowance_in_use_mps(
             U[ESTIMATED_TURBULENCE] != 0.0, turbulence_sigma_mps, U[FORECAST_SIGMA], U[TURBULENCE_K], U[GUST],

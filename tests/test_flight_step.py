@@ -78,6 +78,8 @@ CASES = {
     # raw-sticks segments (the pilot's law array holds them), a fixed-wing's and a multirotor's
     "fixed-wing raw sticks": (ROOT / "scenarios" / "campaign_ci" / "u_fence-0002__predictive.yaml", 40.0),
     "multirotor raw sticks": (ROOT / "scenarios" / "campaign_ci" / "u_fence-0011__predictive.yaml", 40.0),
+    # a roll-out target a compiled step needs, found with that step's sigma_h (the route's clearances)
+    "fixed-wing target at the step's sigma": (DATA / "campaign_corridor_0013_target_sigma.yaml", 15.0),
     # roll-out targets of many cells (route searches), a floor with gaps
     "floor gaps mission": (ROOT / "scenarios" / "campaign_ci" / "floor_gaps-0008__predictive.yaml", 60.0),
 }

@@ -1,15 +1,20 @@
-"""A step of the closed loop in one compiled call: the wind field, the unit's sensing chain, its monitoring step
-(or a fixed-wing override's step) and the recorder's row.
+"""A step of the closed loop in one compiled call: the pilot's law, the wind field, the unit's sensing chain, its
+monitoring step (or a fixed-wing override's step) and the recorder's row.
 
 While the geofence unit monitors (it passes the pilot's sticks through, most of a flight), the runner's step is
-one call of :func:`flight_step` instead of four calls and the Python between them: it samples the wind
-(:func:`wind.field_kernel.wind_sample`), runs the unit's sensors, estimator and wind estimator
-(:func:`scenarios.flight.sensing.sense_step`), asks the unit's monitoring step
+one call of :func:`flight_step` instead of five calls and the Python between them: it flies the pilot's law where
+it has a compiled form (:func:`scenarios.flight.pilots.law_kernel.law_sticks`; else the pilot's sticks are passed
+in), samples the wind (:func:`wind.field_kernel.wind_sample`), runs the unit's sensors, estimator and wind
+estimator (:func:`scenarios.flight.sensing.sense_step`), asks the unit's monitoring step
 (:func:`geofence.unit_kernel.monitor_pass`) and, on a pass, writes the step's row
 (:func:`scenarios.flight.recorder.write_row`). While a fixed-wing override flies,
 :func:`override_flight_step` does the same with the override's step (:func:`geofence.unit_kernel.override_pass`).
-Anything else (an activation, a position lost, ...) is answered by the unit's own
-:meth:`~geofence.unit.GeofenceUnit.update` from the same estimate, and the runner records that row itself. Each
+Where a fixed-wing's roll-out target for the estimate's cell is not packed
+(:data:`~geofence.unit_kernel.NEED_TARGET`), the unit finds it and the rest of the same step is asked again
+(:func:`flight_step_again`, :func:`override_flight_step_again`: from the estimate the first call left, the sensing
+chain not stepped twice). Anything else (an activation, a hand-back, a position lost, ...) is answered by the
+unit's own :meth:`~geofence.unit.GeofenceUnit.update` from the same estimate, and the runner records that row
+itself. Each
 part is the compiled form of a reference the flight takes without numba, so a flight flown either way records the
 same bytes (``tests/test_flight_step.py``; :func:`use_flight_step` is the named hook that switches this path off).
 
@@ -35,6 +40,7 @@ from geofence.unit_kernel import (
     MODE,
     MONITOR_MODE,
     N_UNIT,
+    NEED_TARGET,
     OVERRIDE_STEP,
     PASS,
     PASS_HANDBACK,
@@ -73,25 +79,45 @@ def _flight_step(
     answer; the flags: :data:`WIND_LOW`, :data:`SENSE_LOW`). The pilot's sticks are its law's
     (:func:`scenarios.flight.pilots.law_kernel.law_sticks` on its law array ``A``), or where that has none this
     step, those passed in (``p_roll`` ...). On a pass the unit's ring ``H`` and numbers ``U`` keep it
-    (:func:`geofence.unit_kernel.record_pass`) and row ``row`` of ``T`` records it; else ``Out`` holds what the
-    unit's own step needs (the layout above). The arrays: the wind field's (:meth:`WindArrays.arrays`), the sensing
-    chain's (:meth:`GeofenceSensing.kernel_arrays`), the unit's margins tables, envelope terms and packed numbers
-    (:meth:`GeofenceUnit.pack_monitor`)."""
+    (:func:`geofence.unit_kernel.record_pass`) and row ``row`` of ``T`` records it; else ``Out`` holds the step's
+    estimate and what the unit's own step needs (the layout above), for the unit (:data:`UNIT`) or for
+    :func:`_flight_step_again` once the roll-out target is found (:data:`NEED_TARGET`). The arrays: the wind
+    field's (:meth:`WindArrays.arrays`), the sensing chain's (:meth:`GeofenceSensing.kernel_arrays`), the unit's
+    margins tables, envelope terms and packed numbers (:meth:`GeofenceUnit.pack_monitor`)."""
     if A[LAW_KIND] != GIVEN:
         p_roll, p_pitch, p_yaw, p_throttle = law_sticks(A, ve, vn, yaw, up)
     w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _wind_and_sensing(
         FZ, wind_pool, GX, P, pools, idx, dt_s, t, lat, lon, alt, e, n, agl, ve, vn, vu, airspeed, roll, pitch, yaw
     )  # fmt: skip
+    answer = _monitor_rest(
+        F, L, V, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll,
+        pitch, yaw, on_ground, w_e, w_n, w_u, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence,
+        p_roll, p_pitch, p_yaw, p_throttle, item,
+    )  # fmt: skip
+    return answer, w_e, w_n, w_u, flags, p_roll, p_pitch, p_yaw, p_throttle
+
+
+@jitable
+def _monitor_rest(
+    F: np.ndarray, L: np.ndarray, V: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray,
+    horizon: np.ndarray, row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float,
+    up: float, agl: float, ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
+    on_ground: bool, w_e: float, w_n: float, w_u: float, est: tuple, we: float, wn: float, valid: bool,
+    sigma_h: float, sigma_v: float, new_horizon: bool, age: float, turbulence: float, p_roll: float, p_pitch: float,
+    p_yaw: float, p_throttle: float, item: float,
+) -> int:  # fmt: skip
+    """A monitoring step after the wind and the sensing chain: the unit's answer, its pass kept and recorded (or
+    ``Out`` filled for the unit). ``horizon``: the sensing chain's fusion horizon fields."""
     answer, far, r = monitor_pass(
         U, F, L, V, t, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11], on_ground, we, wn,
         valid, sigma_h, sigma_v, age, turbulence, G_MPS2,
     )  # fmt: skip
-    if answer == UNIT:
+    if answer == UNIT or answer == NEED_TARGET:
         _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
-        return answer, w_e, w_n, w_u, flags, p_roll, p_pitch, p_yaw, p_throttle
+        return answer
     record_pass(
         U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, far, r[0], not far, r, new_horizon,
-        P[_H0:_H1],
+        horizon,
     )  # fmt: skip
     mode = U[MODE] if answer == PASS else U[MONITOR_MODE]  # (a completed hand-back is recorded as MONITOR)
     write_row(
@@ -99,7 +125,7 @@ def _flight_step(
         p_pitch, p_yaw, p_throttle, p_roll, p_pitch, p_yaw, p_throttle, mode, item, est[4], est[5], est[7], we, wn,
         r[0],
     )  # fmt: skip
-    return answer, w_e, w_n, w_u, flags, p_roll, p_pitch, p_yaw, p_throttle
+    return answer
 
 
 @jitable
@@ -130,6 +156,35 @@ def _for_the_unit(
     Out[NEW_HORIZON], Out[AGE], Out[TURBULENCE] = new_horizon, age, turbulence
 
 
+@jitable
+def _estimate_in(Out: np.ndarray) -> tuple:
+    """The estimate :func:`_for_the_unit` wrote into ``Out`` (its 15 fields)."""
+    o = EST0
+    return (
+        Out[o], Out[o + 1], Out[o + 2], Out[o + 3], Out[o + 4], Out[o + 5], Out[o + 6], Out[o + 7], Out[o + 8],
+        Out[o + 9], Out[o + 10], Out[o + 11], Out[o + 12], Out[o + 13], Out[o + 14],
+    )  # fmt: skip
+
+
+def _flight_step_again(
+    P: np.ndarray, F: np.ndarray, L: np.ndarray, V: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray,
+    Out: np.ndarray, row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float,
+    up: float, agl: float, ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
+    on_ground: bool, w_e: float, w_n: float, w_u: float, p_roll: float, p_pitch: float, p_yaw: float,
+    p_throttle: float, item: float,
+) -> tuple[int, float, float, float, float]:  # fmt: skip
+    """The same monitoring step asked again after :data:`~geofence.unit_kernel.NEED_TARGET` (the unit found the
+    roll-out target and packed it in ``U``): from the estimate in ``Out`` and the wind and the pilot's sticks the
+    first call gave, ``(its answer, the pilot's sticks)`` (the rest as :func:`_flight_step`'s)."""
+    answer = _monitor_rest(
+        F, L, V, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll,
+        pitch, yaw, on_ground, w_e, w_n, w_u, _estimate_in(Out), Out[WIND_EST_E], Out[WIND_EST_N],
+        Out[VALID] != 0.0, Out[SIGMA_H], Out[SIGMA_V], Out[NEW_HORIZON] != 0.0, Out[AGE], Out[TURBULENCE], p_roll,
+        p_pitch, p_yaw, p_throttle, item,
+    )  # fmt: skip
+    return answer, p_roll, p_pitch, p_yaw, p_throttle
+
+
 def _override_flight_step(
     FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
     F: np.ndarray, L: np.ndarray, V: np.ndarray, R: np.ndarray, PR: np.ndarray, QR: np.ndarray, K: np.ndarray,
@@ -146,34 +201,77 @@ def _override_flight_step(
     w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _wind_and_sensing(
         FZ, wind_pool, GX, P, pools, idx, dt_s, t, lat, lon, alt, e, n, agl, ve, vn, vu, airspeed, roll, pitch, yaw
     )  # fmt: skip
+    answer, s_roll, s_pitch, s_yaw, s_throttle = _override_rest(
+        F, L, V, R, PR, QR, K, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu,
+        airspeed, roll, pitch, yaw, on_ground, w_e, w_n, w_u, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age,
+        turbulence, p_roll, p_pitch, p_yaw, p_throttle, item,
+    )  # fmt: skip
+    return answer, w_e, w_n, w_u, flags, s_roll, s_pitch, s_yaw, s_throttle
+
+
+@jitable
+def _override_rest(
+    F: np.ndarray, L: np.ndarray, V: np.ndarray, R: np.ndarray, PR: np.ndarray, QR: np.ndarray, K: np.ndarray,
+    U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, horizon: np.ndarray, row: float, dt_s: float,
+    t: float, lat: float, lon: float, alt: float, e: float, n: float, up: float, agl: float, ve: float, vn: float,
+    vu: float, airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool, w_e: float, w_n: float,
+    w_u: float, est: tuple, we: float, wn: float, valid: bool, sigma_h: float, sigma_v: float, new_horizon: bool,
+    age: float, turbulence: float, p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
+) -> tuple[int, float, float, float, float]:  # fmt: skip
+    """An override step after the wind and the sensing chain: ``(answer, the sticks to send)``, its step kept and
+    recorded (or ``Out`` filled for the unit)."""
     answer, c_roll, c_pitch, c_throttle, activation, has_margins, r = override_pass(
         U, F, L, V, R, PR, QR, K, t, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11], est[13],
         est[14], we, wn, valid, sigma_h, sigma_v, age, turbulence, G_MPS2,
     )  # fmt: skip
-    if answer == UNIT:
+    if answer == UNIT or answer == NEED_TARGET:
         _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
-        return answer, w_e, w_n, w_u, flags, p_roll, p_pitch, p_yaw, p_throttle
+        return answer, p_roll, p_pitch, p_yaw, p_throttle
     record_pass(
         U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, U[FAR] != 0.0, activation,
-        has_margins, r, new_horizon, P[_H0:_H1],
+        has_margins, r, new_horizon, horizon,
     )  # fmt: skip
     write_row(
         T, int(row), t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, w_e, w_n, w_u, p_roll,
         p_pitch, p_yaw, p_throttle, c_roll, c_pitch, 0.0, c_throttle, U[MODE], item, est[4], est[5], est[7], we, wn,
         activation,
     )  # fmt: skip
-    return answer, w_e, w_n, w_u, flags, c_roll, c_pitch, 0.0, c_throttle
+    return answer, c_roll, c_pitch, 0.0, c_throttle
 
 
-override_flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = (
-    numba.njit(cache=True)(_override_flight_step) if COMPILED else _override_flight_step
+def _override_flight_step_again(
+    P: np.ndarray, F: np.ndarray, L: np.ndarray, V: np.ndarray, R: np.ndarray, PR: np.ndarray, QR: np.ndarray,
+    K: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, row: float, dt_s: float, t: float,
+    lat: float, lon: float, alt: float, e: float, n: float, up: float, agl: float, ve: float, vn: float, vu: float,
+    airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool, w_e: float, w_n: float, w_u: float,
+    p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
+) -> tuple[int, float, float, float, float]:  # fmt: skip
+    """:func:`_flight_step_again` for a fixed-wing override's step: ``(answer, the sticks to send)``."""
+    return _override_rest(
+        F, L, V, R, PR, QR, K, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu,
+        airspeed, roll, pitch, yaw, on_ground, w_e, w_n, w_u, _estimate_in(Out), Out[WIND_EST_E], Out[WIND_EST_N],
+        Out[VALID] != 0.0, Out[SIGMA_H], Out[SIGMA_V], Out[NEW_HORIZON] != 0.0, Out[AGE], Out[TURBULENCE], p_roll,
+        p_pitch, p_yaw, p_throttle, item,
+    )  # fmt: skip
+
+
+def _compiled(fn: Callable) -> Callable:
+    """``fn`` compiled (cached on disk), or the Python function itself without numba."""
+    return numba.njit(cache=True)(fn) if COMPILED else fn
+
+
+flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = _compiled(_flight_step)
+"""The compiled :func:`_flight_step`."""
+override_flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = _compiled(
+    _override_flight_step
 )
-"""The compiled :func:`_override_flight_step` (the Python function itself without numba)."""
-
-flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = (
-    numba.njit(cache=True)(_flight_step) if COMPILED else _flight_step
-)
-"""The compiled :func:`_flight_step` (the Python function itself without numba)."""
+"""The compiled :func:`_override_flight_step`."""
+flight_step_again: Callable[..., tuple[int, float, float, float, float]] = _compiled(_flight_step_again)
+"""The compiled :func:`_flight_step_again`."""
+override_flight_step_again: Callable[..., tuple[int, float, float, float, float]] = _compiled(_override_flight_step_again)
+"""The compiled :func:`_override_flight_step_again`."""
+_AGAIN = {flight_step: flight_step_again, override_flight_step: override_flight_step_again}
+"""Each step's kernel asked again after NEED_TARGET."""
 
 ENABLED = True
 """Runners build a :class:`FlightStep` where they can (set by :func:`use_flight_step`)."""
@@ -294,6 +392,27 @@ class FlightStep:
         self.unit.take_in_passes(self._U, self._H, before)
         return sensing.stepped(moved, False)
 
+    def _again(
+        self, t_s: float, s: VehicleState, row: int, T: np.ndarray, w: tuple[float, float, float],
+        pilot: tuple[float, float, float, float], item: int,
+    ) -> tuple[int, float, float, float, float]:  # fmt: skip
+        """After :data:`~geofence.unit_kernel.NEED_TARGET`: the unit finds the roll-out target at the step's estimate
+        (in ``Out``), and the mode's kernel is asked the same step again (``pilot``: the sticks the first call
+        gave): ``(answer, the sticks to send)``."""
+        out = self._O
+        self.unit.find_rollout_target(self._U, float(out[EST0 + 4]), float(out[EST0 + 5]), float(out[SIGMA_H]))
+        dispatcher = _AGAIN[self._dispatcher]
+        kernel = self._entry_points.get(dispatcher, dispatcher)
+        args = (
+            self._sense_args[0], *self._tables, self._U, self._H, T, out, float(row), self.dt_s, t_s, s.lat_deg,
+            s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps, s.v_up_mps,
+            s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, *w, *pilot, float(item),
+        )  # fmt: skip
+        result = kernel(*args)
+        if kernel is dispatcher:
+            self._entry_points[dispatcher] = jit.entry_point(dispatcher)
+        return result
+
     def step(
         self, truth: VehicleState, t_s: float, pilot: StickCommand | None, item: int
     ) -> tuple[tuple[float, float, float], StickCommand]:
@@ -319,6 +438,8 @@ class FlightStep:
             if flags & SENSE_LOW:
                 self.sensing.stepped(False, True)
         w = (w_e, w_n, w_u)
+        if answer == NEED_TARGET:  # the unit finds the roll-out target, and the same step is asked again
+            answer, roll, pitch, yaw, throttle = self._again(t_s, s, row, T, w, (roll, pitch, yaw, throttle), item)
         if answer == OVERRIDE_STEP:
             self.steps += 1
             recorder.commit_row()
