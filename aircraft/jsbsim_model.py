@@ -310,7 +310,7 @@ class JSBSimModel:
         Set any pre-``run_ic`` controls (e.g. hover throttle) before calling this.
         """
         self.frame = frame
-        self._to_enu = frame.to_enu  # (bound once: truth() runs every step)
+        self._to_enu = frame.enu_function()  # (bound once: truth() runs every step)
         self._ground_m = frame.h0_m if ground_alt_m is None else ground_alt_m
         s = self.set
         s("ic/lat-geod-deg", lat_deg)

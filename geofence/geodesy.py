@@ -14,7 +14,9 @@ Latitudes/longitudes are in degrees, heights and ENU coordinates in metres.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 from geographiclib.constants import Constants
@@ -114,6 +116,15 @@ class LocalFrame:
         if _jit.ACTIVE:
             return _enu_of_compiled(self.enu_table, lat_deg, lon_deg, h_m)
         return enu_of(self._enu_tuple, lat_deg, lon_deg, h_m)
+
+    def enu_function(self) -> Callable[[float, float, float], tuple[float, float, float]]:
+        """:meth:`to_enu` as one callable for a caller that converts every step: while :data:`geofence.jit.ACTIVE`
+        (when this is asked), the compiled conversion by its entry point with this frame's table bound
+        (:func:`geofence.jit.entry_point`: the table is this frame's own array), else :meth:`to_enu`."""
+        if not _jit.ACTIVE:
+            return self.to_enu
+        _enu_of_compiled(self.enu_table, self.lat0_deg, self.lon0_deg, self.h0_m)  # (its one specialization)
+        return partial(_jit.entry_point(_enu_of_compiled), self.enu_table)
 
     def to_geodetic(self, east_m: float, north_m: float, up_m: float) -> tuple[float, float, float]:
         """(east, north, up) in m -> geodetic (lat deg, lon deg, height m)."""

@@ -711,8 +711,13 @@ class GeofenceUnit:
         would for margins there, with the step's ``sigma_h_m``, or where it is not finite the last finite one,
         which ``U`` keeps with the passes not yet taken in), and pack the targets round it in ``U``: a compiled
         step that answered :data:`~geofence.unit_kernel.NEED_TARGET` is asked again."""
-        self._rollout_target(e, n, sigma_h_m if math.isfinite(sigma_h_m) else float(U[_uk.SIGMA_H]))
-        self._pack_targets(U, e, n)
+        cached = len(self._rollout_cache)
+        target = self._rollout_target(e, n, sigma_h_m if math.isfinite(sigma_h_m) else float(U[_uk.SIGMA_H]))
+        k = _uk.target_slot(U, e, n)
+        if k >= 0 and len(self._rollout_cache) > cached:  # its slot among those packed (the cache not cleared)
+            U[k], U[k + 1], U[k + 2] = 1.0, target[0], target[1]
+        else:  # round this cell
+            self._pack_targets(U, e, n)
 
     def _pack_targets(self, U: np.ndarray, e: float, n: float) -> None:
         """The fixed-wing roll-out targets cached round the cell of (e, n) (:data:`geofence.unit_kernel.TARGET_CELLS`

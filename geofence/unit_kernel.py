@@ -158,16 +158,24 @@ def latency_s(dt_s: float, estimate_age_s: float) -> float:
 
 
 @jitable
-def cached_target(U: np.ndarray, e: float, n: float) -> tuple[bool, float, float]:
-    """``(found, east, north)``: the roll-out target cached for the cell of (e, n) among those packed in ``U``
-    (:data:`TARGET_CELLS` round the cell packed at ``CELL_E, CELL_N``; not found: the unit finds it)."""
+def target_slot(U: np.ndarray, e: float, n: float) -> int:
+    """Where the roll-out target of the cell of (e, n) is packed in ``U`` (its ``has`` flag; then east, north), or
+    -1 where that cell is not among those packed (:data:`TARGET_CELLS` round the cell packed at ``CELL_E, CELL_N``)."""
     if U[HAS_TARGETS] != 0.0:
         cell_e, cell_n = rollout_cell(e, n)
         de, dn = cell_e - U[CELL_E], cell_n - U[CELL_N]
         if abs(de) <= TARGET_CELLS and abs(dn) <= TARGET_CELLS:
-            k = TARGETS0 + 3 * (int(dn + TARGET_CELLS) * _SIDE + int(de + TARGET_CELLS))
-            if U[k] != 0.0:
-                return True, U[k + 1], U[k + 2]
+            return TARGETS0 + 3 * (int(dn + TARGET_CELLS) * _SIDE + int(de + TARGET_CELLS))
+    return -1
+
+
+@jitable
+def cached_target(U: np.ndarray, e: float, n: float) -> tuple[bool, float, float]:
+    """``(found, east, north)``: the roll-out target cached for the cell of (e, n) among those packed in ``U``
+    (:func:`target_slot`; not found: the unit finds it)."""
+    k = target_slot(U, e, n)
+    if k >= 0 and U[k] != 0.0:
+        return True, U[k + 1], U[k + 2]
     return False, 0.0, 0.0
 
 
