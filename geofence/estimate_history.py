@@ -14,13 +14,14 @@ import math
 from bisect import bisect_left
 from collections import deque
 from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 
 from geofence.interface import VehicleState
 
 
-def state_of_row(fields: list[float]) -> VehicleState:
+def state_of_row(fields: list[Any]) -> VehicleState:
     """The :class:`VehicleState` of a ring row's values (a list: ``tolist`` of the row)."""
     est = VehicleState(*fields[:15])
     est.on_ground = fields[15] != 0.0
@@ -57,14 +58,14 @@ class EstimateHistory:
         if not self._parts:
             return math.inf
         first = self._parts[0]
-        return first.times[first.start] if type(first) is _Rows else first.t_s
+        return first.times[first.start] if isinstance(first, _Rows) else first.t_s
 
     def trim(self, oldest_t_s: float) -> None:
         """Forget the states older than ``oldest_t_s`` (they are in time order)."""
         parts = self._parts
         while parts:
             first = parts[0]
-            if type(first) is not _Rows:
+            if not isinstance(first, _Rows):
                 if first.t_s < oldest_t_s:
                     parts.popleft()
                     continue
@@ -81,7 +82,7 @@ class EstimateHistory:
 
     def __iter__(self) -> Iterator[VehicleState]:
         for part in self._parts:
-            if type(part) is _Rows:
+            if isinstance(part, _Rows):
                 for fields in part.block[part.start :].tolist():
                     yield state_of_row(fields)
             else:

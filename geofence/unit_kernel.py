@@ -319,7 +319,7 @@ def override_pass(
         )  # fmt: skip
         if r[LATERAL_MARGIN_FIELD] < 0.0 or r[CEILING_MARGIN_FIELD] < 0.0 or r[FLOOR_MARGIN_FIELD] < 0.0:
             return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED  # still outside: the unit re-activates
-        if not _no_hand_back(U, V, r, e, n, h, latency, sigma_v_m):
+        if not no_hand_back(U, V, r, e, n, h, latency, sigma_v_m):
             return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED  # the unit's hand-back test
         activation, has_margins = r[ACTIVATION_FIELD], True
     turning = U[TURNING] != 0.0
@@ -336,7 +336,7 @@ def override_pass(
 
 
 @jitable
-def _no_hand_back(
+def no_hand_back(
     U: np.ndarray, V: np.ndarray, r: tuple, e: float, n: float, h: float, latency: float, sigma_v_m: float
 ) -> bool:  # fmt: skip
     """Sure that :meth:`~geofence.unit.GeofenceUnit._handback_ok` fails on these margins and changes nothing (else

@@ -1,4 +1,4 @@
-"""The compiled override step's hand-back question (:func:`geofence.unit_kernel._no_hand_back`, which
+"""The compiled override step's hand-back question (:func:`geofence.unit_kernel.no_hand_back`, which
 :func:`~geofence.unit_kernel.override_pass` asks after the minimum override period) against the unit's own
 (:meth:`geofence.unit.GeofenceUnit._handback_ok`): where the compiled step goes on flying the override, the unit
 would not have handed back and its state is unchanged; where it does not, the unit hands back (or clears its climb
@@ -15,7 +15,7 @@ from geofence.config import parse_geofence
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, VehicleState
 from geofence.unit import GeofenceUnit
-from geofence.unit_kernel import N_UNIT, _no_hand_back
+from geofence.unit_kernel import N_UNIT, no_hand_back
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 TERN = Envelope(
@@ -73,7 +73,7 @@ def test_the_compiled_step_flies_on_only_where_the_unit_would_not_hand_back(
     V = unit._compiled._terms
     r = _margins(lateral, closing, vertical)
     fields = tuple(r[:4]) + (0,) + tuple(r[7:])  # the kernel's fields: the element's id for its name and index
-    flies_on = _no_hand_back(U, V, fields, e, n, h, latency, sigma_v)
+    flies_on = no_hand_back(U, V, fields, e, n, h, latency, sigma_v)
     s = VehicleState(east_m=e, north_m=n, agl_m=h, alt_m=400.0 + h)
     hands_back = unit._handback_ok(s, r, r.activation_margin_m)
     if flies_on:

@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numpy as np
 
 from geofence.control_laws import course_error_rad, cpython_hypot
-from geofence.interface import Envelope
+from geofence.interface import Envelope, VehicleState
 from geofence.jit import jitable
 from scenarios.flight.pilots.nav_laws import course_law_sticks
 
@@ -90,8 +90,10 @@ def law_sticks(A: np.ndarray, ve: float, vn: float, yaw: float, up: float) -> tu
     height (m up); :data:`GIVEN` has none (zeros: the caller passes the pilot's)."""
     kind = A[KIND]
     if kind == FIXED_WING_COURSE:
-        env = _LawEnvelope(A[MAX_BANK], A[MAX_CLIMB], A[MAX_DESCENT])
-        err = course_error_rad(_LawState(ve, vn, yaw), A[COURSE])
+        # the laws read these fields by name, as they read an Envelope's and a VehicleState's
+        env: Envelope = _LawEnvelope(A[MAX_BANK], A[MAX_CLIMB], A[MAX_DESCENT])  # type: ignore[assignment]
+        state: VehicleState = _LawState(ve, vn, yaw)  # type: ignore[assignment]
+        err = course_error_rad(state, A[COURSE])
         roll, pitch = course_law_sticks(
             cpython_hypot(ve, vn), err, up, A[HOLD_UP], A[CLIMB_STICK], A[ALTITUDE_GAIN], A[COURSE_GAIN], env
         )  # fmt: skip
