@@ -131,6 +131,11 @@ NODE_INFLATION_M: float = 1e-6
 BREACHED_TOL_M: float = 1e-3
 """Tolerance (m) of the certified first-leg test from a start outside the allowed area."""
 
+ORBIT_CUT_STEP_M: float = 1e-3
+"""The smallest step (m) of :meth:`RecoveryPlanner.safe_point_with_radius`'s sphere tracing along a route: its cut
+point is the route's first point with the room, to within this (two routes a rounding apart can be cut a step
+apart)."""
+
 CORNER_STEP_RAD: float = math.pi / 6.0
 """Largest turn covered by one circumscribed piece at a corner (30 deg)."""
 
@@ -2248,7 +2253,7 @@ class RecoveryPlanner:
         reachable safe points with enough clearance, the one with the shortest
         route is taken; the route is then cut at its first point whose margin
         reaches ``radius_m + c`` (found by sphere tracing along the route: steps
-        of ``max(deficit, 1 mm)``, which skip no such point by more than 1 mm
+        of ``max(deficit, ORBIT_CUT_STEP_M)``, which skip no such point by more than that
         since the margin is 1-Lipschitz; the cut point's margin is checked). ``None`` if no
         reachable safe point has that clearance.
         """
@@ -2271,7 +2276,7 @@ class RecoveryPlanner:
                     return SafePoint(x, y, m), RecoveryPath(self, cut, path.goal_en, True, path.first_leg_floor_m)
                 if seg == 0.0:
                     break
-                u += max(need - m, 1e-3) / seg  # sphere tracing: no point with margin >= need is skipped
+                u += max(need - m, ORBIT_CUT_STEP_M) / seg  # sphere tracing: no point with margin >= need is skipped
                 if u > 1.0:
                     break
         return sp, path

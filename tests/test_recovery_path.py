@@ -13,7 +13,7 @@ from shapely.ops import unary_union
 
 from geofence.fence import Fence, FenceError, KeepOutCircle
 from geofence.geodesy import LocalFrame
-from geofence.recovery_path import RecoveryPlanner, segment_segment_distance
+from geofence.recovery_path import ORBIT_CUT_STEP_M, RecoveryPlanner, segment_segment_distance
 
 FRAME = LocalFrame(0.0, 0.0, 0.0)
 SLACK_M = 1e-6
@@ -420,4 +420,7 @@ def test_lazy_graph_gives_the_eager_graphs_routes(lf, c, data):
             sb = lazy.nearest_safe_point(s) if radius is None else lazy.safe_point_with_radius(s, radius)
             assert (sa is None) == (sb is None)
             if sa is not None and sb is not None:
-                assert sb[1].length_m == pytest.approx(sa[1].length_m, rel=1e-9, abs=1e-6)
+                # a route with an orbit's room is cut by sphere tracing: equal routes a rounding apart may be cut
+                # a step apart (a clean-clone run found one 1.000 mm longer)
+                cut = 0.0 if radius is None else ORBIT_CUT_STEP_M
+                assert sb[1].length_m == pytest.approx(sa[1].length_m, rel=1e-9, abs=1e-6 + cut)
