@@ -345,9 +345,7 @@ def no_hand_back(
     closing) nor the recovery point reached."""
     climb_back = U[CLIMB_BACK]
     if climb_back == climb_back:  # (not NaN) the override climbs back above the floor first
-        if h < climb_back:
-            return True
-        return False  # (the unit clears it, then tests the rest)
+        return h < climb_back  # (above it, the unit clears it, then tests the rest)
     hysteresis = vertical_handback_m(
         U[VERTICAL_HYSTERESIS], U[GOAL_H], U[CEILING_M], U[FLOOR_M], U[REACTION_S] + latency,
         V[TERM_VERTICAL_ACCEL], V[TERM_MAX_CLIMB], V[TERM_MAX_DESCENT], U[K_SIGMA] * sigma_v_m + U[EXTRA],

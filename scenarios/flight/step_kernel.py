@@ -157,12 +157,17 @@ def _for_the_unit(
 
 
 @jitable
-def _estimate_in(Out: np.ndarray) -> tuple:
-    """The estimate :func:`_for_the_unit` wrote into ``Out`` (its 15 fields)."""
+def _unit_inputs_in(Out: np.ndarray) -> tuple:
+    """What :func:`_for_the_unit` wrote into ``Out``: ``(estimate (its 15 fields), wind estimate east, north,
+    validity, sigma_h, sigma_v, new horizon, data age, turbulence)``."""
     o = EST0
-    return (
+    est = (
         Out[o], Out[o + 1], Out[o + 2], Out[o + 3], Out[o + 4], Out[o + 5], Out[o + 6], Out[o + 7], Out[o + 8],
         Out[o + 9], Out[o + 10], Out[o + 11], Out[o + 12], Out[o + 13], Out[o + 14],
+    )  # fmt: skip
+    return (
+        est, Out[WIND_EST_E], Out[WIND_EST_N], Out[VALID] != 0.0, Out[SIGMA_H], Out[SIGMA_V], Out[NEW_HORIZON] != 0.0,
+        Out[AGE], Out[TURBULENCE],
     )  # fmt: skip
 
 
@@ -176,11 +181,11 @@ def _flight_step_again(
     """The same monitoring step asked again after :data:`~geofence.unit_kernel.NEED_TARGET` (the unit found the
     roll-out target and packed it in ``U``): from the estimate in ``Out`` and the wind and the pilot's sticks the
     first call gave, ``(its answer, the pilot's sticks)`` (the rest as :func:`_flight_step`'s)."""
+    est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _unit_inputs_in(Out)
     answer = _monitor_rest(
         F, L, V, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll,
-        pitch, yaw, on_ground, w_e, w_n, w_u, _estimate_in(Out), Out[WIND_EST_E], Out[WIND_EST_N],
-        Out[VALID] != 0.0, Out[SIGMA_H], Out[SIGMA_V], Out[NEW_HORIZON] != 0.0, Out[AGE], Out[TURBULENCE], p_roll,
-        p_pitch, p_yaw, p_throttle, item,
+        pitch, yaw, on_ground, w_e, w_n, w_u, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence,
+        p_roll, p_pitch, p_yaw, p_throttle, item,
     )  # fmt: skip
     return answer, p_roll, p_pitch, p_yaw, p_throttle
 
@@ -247,11 +252,11 @@ def _override_flight_step_again(
     p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
 ) -> tuple[int, float, float, float, float]:  # fmt: skip
     """:func:`_flight_step_again` for a fixed-wing override's step: ``(answer, the sticks to send)``."""
+    est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _unit_inputs_in(Out)
     return _override_rest(
         F, L, V, R, PR, QR, K, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu,
-        airspeed, roll, pitch, yaw, on_ground, w_e, w_n, w_u, _estimate_in(Out), Out[WIND_EST_E], Out[WIND_EST_N],
-        Out[VALID] != 0.0, Out[SIGMA_H], Out[SIGMA_V], Out[NEW_HORIZON] != 0.0, Out[AGE], Out[TURBULENCE], p_roll,
-        p_pitch, p_yaw, p_throttle, item,
+        airspeed, roll, pitch, yaw, on_ground, w_e, w_n, w_u, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age,
+        turbulence, p_roll, p_pitch, p_yaw, p_throttle, item,
     )  # fmt: skip
 
 
