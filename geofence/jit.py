@@ -99,6 +99,14 @@ if COMPILED and not os.environ.get("NUMBA_CACHE_DIR"):  # a cache folder the use
         numba.config.CACHE_DIR = str(_folder)
 
 
+def compiled(fn: F) -> F:
+    """``fn`` compiled by numba (``njit(cache=True)``), an entry point of compiled code; without numba, or with
+    ``NUMBA_DISABLE_JIT=1``, ``fn`` itself: the same source interpreted, never a second copy."""
+    if not COMPILED:
+        return fn
+    return numba.njit(cache=True)(fn)
+
+
 def jitable(fn: F) -> F:
     """``fn`` itself, also callable from compiled kernels (numba's ``register_jitable``) when numba is present."""
     if _register_jitable is None:  # pragma: no cover

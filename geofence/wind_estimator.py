@@ -83,9 +83,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from geofence.dynamics import G_MPS2, airspeed_for_drag_mps, drag_coefficients, isa_density_ratio
 from geofence.interface import Envelope, VehicleState
-from geofence.jit import jitable
+from geofence.jit import compiled, jitable
 
 WIND_ESTIMATE_ERROR_MPS = 1.0
 """How far the estimate of the mean wind may be from the true mean once converged (m/s): issue 10's requirement,
@@ -127,39 +129,168 @@ class WindEstimatorConfig:
             raise ValueError(f"wind_estimator.prior_enu: expected two finite numbers, got {self.prior_enu!r}")
 
 
+WIND_STATE = np.dtype(
+    (
+        np.record,
+        [
+            ("east_mps", np.float64),  # the estimate (toward)
+            ("north_mps", np.float64),
+            ("t_used_s", np.float64),  # weighted time of accepted samples
+            ("variance_m2_s2", np.float64),  # spread of the samples about the estimate, per horizontal axis
+            ("has_lowpass", np.float64),  # 1: the force balance's low-pass below holds a state
+            ("lp_east_mps", np.float64),  # low-passed ground velocity
+            ("lp_north_mps", np.float64),
+            ("lp_up_mps", np.float64),
+            ("lp_thrust_east_mps2", np.float64),  # low-passed horizontal thrust per unit mass
+            ("lp_thrust_north_mps2", np.float64),
+            ("multirotor_seen", np.float64),  # 1 once a multirotor (force balance) step was taken
+            ("last_weight", np.float64),  # the last step's sample weight (0: no sample)
+            ("last_sample_east_mps", np.float64),  # the last step's sample (valid while last_weight > 0)
+            ("last_sample_north_mps", np.float64),
+        ],
+    )
+)
+"""The estimator's state, a record over float memory (all fields float64: a flag is 0 or 1), so that a caller's
+compiled step can keep it in one float array with its other states and this module's façade reads the same
+memory: nothing is copied or synchronised."""
+
+WIND_CONST = np.dtype(
+    (
+        np.record,
+        [
+            ("tau_s", np.float64),
+            ("prior_weight_s", np.float64),
+            ("min_airspeed_mps", np.float64),
+            ("max_bank_rad", np.float64),
+            ("airspeed_is_indicated", np.float64),
+            ("accel_window_s", np.float64),
+            ("accel_ref_sq_m2_s4", np.float64),  # accel_ref_mps2 squared, once
+            ("min_agl_m", np.float64),
+            ("drag_c1_per_s", np.float64),
+            ("drag_c2_per_m", np.float64),
+        ],
+    )
+)
+"""The estimator's constants from its :class:`WindEstimatorConfig` and the envelope's drag law, a record as
+:data:`WIND_STATE`."""
+
+STATE_SIZE = WIND_STATE.itemsize // 8
+CONST_SIZE = WIND_CONST.itemsize // 8
+MEMORY_SIZE = STATE_SIZE + CONST_SIZE
+"""Float64 slots of the memory a :class:`WindEstimator` lives in: its state, then its constants."""
+
+
+@compiled
+def wind_estimator_update(
+    W: np.ndarray, C: np.ndarray, has_pitot: bool, airspeed: float, dt_s: float, position_valid: bool, alt: float,
+    agl: float, ve: float, vn: float, vu: float, roll: float, pitch: float, yaw: float,
+) -> tuple[float, float]:  # fmt: skip
+    """One step of the estimate: the state ``W`` (:data:`WIND_STATE`'s slots) updated in place from the estimate's
+    fields and, with ``has_pitot``, the pitot reading ``airspeed`` (else the multirotor's force balance); ``C``:
+    :data:`WIND_CONST`'s slots. Returns ``(wind east, wind north)``."""
+    w = W.view(WIND_STATE)[0]
+    c = C.view(WIND_CONST)[0]
+    if not (dt_s > 0.0) or not math.isfinite(dt_s):
+        return (w.east_mps, w.north_mps)
+    sampled = False
+    we = wn = 0.0
+    weight = 1.0
+    if position_valid and agl >= c.min_agl_m:
+        if has_pitot:
+            sampled, we, wn = airmass_sample(
+                airspeed, c.airspeed_is_indicated != 0.0, c.min_airspeed_mps, c.max_bank_rad, alt, ve, vn, vu, roll,
+                yaw,
+            )  # fmt: skip
+        else:
+            w.multirotor_seen = 1.0
+            lp = (w.lp_east_mps, w.lp_north_mps, w.lp_up_mps, w.lp_thrust_east_mps2, w.lp_thrust_north_mps2)
+            has_lp, lp, sampled, we, wn, weight = force_balance_sample(
+                lp, w.has_lowpass != 0.0, dt_s, ve, vn, vu, roll, pitch, yaw, c.drag_c1_per_s, c.drag_c2_per_m,
+                c.accel_window_s, c.accel_ref_sq_m2_s4,
+            )  # fmt: skip
+            w.has_lowpass = 1.0 if has_lp else 0.0
+            w.lp_east_mps, w.lp_north_mps, w.lp_up_mps, w.lp_thrust_east_mps2, w.lp_thrust_north_mps2 = lp
+    else:
+        w.has_lowpass = 0.0  # the force balance restarts from fresh filter states
+    if not sampled:
+        w.last_weight = 0.0
+        return (w.east_mps, w.north_mps)
+    w.last_weight = weight
+    w.last_sample_east_mps, w.last_sample_north_mps = we, wn
+    if weight > 0.0 and math.isfinite(we) and math.isfinite(wn):
+        w.east_mps, w.north_mps, w.t_used_s, w.variance_m2_s2 = mean_update(
+            w.east_mps, w.north_mps, w.t_used_s, w.variance_m2_s2, we, wn, weight, dt_s, c.prior_weight_s, c.tau_s
+        )
+    return (w.east_mps, w.north_mps)
+
+
+@jitable
+def turbulence_sigma_mps(W: np.ndarray) -> float:
+    """The RMS per axis of the wind samples about the estimate (m/s) of the state ``W``; 0 before any sample."""
+    var = W.view(WIND_STATE)[0].variance_m2_s2
+    return math.sqrt(var) if var > 0.0 else 0.0
+
+
 class WindEstimator:
-    """Steady-wind estimate of the geofence unit (see the module docstring).
+    """Steady-wind estimate of the geofence unit (see the module docstring): a façade over its state record.
 
     ``update(est, airspeed_mps, dt_s)`` once per outer-loop step with the
     estimator's state and the pitot reading (indicated airspeed; None for a
     multirotor); returns ``(wind_east_mps, wind_north_mps)``, also available as
-    :attr:`wind_enu`.
+    :attr:`wind_enu`. Both run :func:`wind_estimator_update`, the one implementation.
+
+    ``memory``: a float64 array of :data:`MEMORY_SIZE` slots to live in (a caller's compiled step that packs
+    its states into one array passes its slice: the façade then reads what the step writes); a fresh array
+    when omitted. The state and constants are (re)initialised in it.
     """
 
-    def __init__(self, envelope: Envelope | None = None, config: WindEstimatorConfig | None = None) -> None:
+    def __init__(
+        self, envelope: Envelope | None = None, config: WindEstimatorConfig | None = None,
+        memory: np.ndarray | None = None,
+    ) -> None:  # fmt: skip
         self.config = cfg = config or WindEstimatorConfig()
-        self._we, self._wn = float(cfg.prior_enu[0]), float(cfg.prior_enu[1])
-        self.t_used_s = 0.0
-        self._var = 0.0
+        if memory is None:
+            memory = np.zeros(MEMORY_SIZE)
+        if memory.shape != (MEMORY_SIZE,) or memory.dtype != np.float64 or not memory.flags.c_contiguous:
+            raise ValueError(f"WindEstimator memory: expected {MEMORY_SIZE} contiguous float64 slots")
+        self.memory = memory
+        self._W, self._C = memory[:STATE_SIZE], memory[STATE_SIZE:]
+        self._state = self._W.view(WIND_STATE)[0]
         k1, k2 = drag_coefficients(envelope) if envelope is not None else (0.0, 0.0)
-        self._k1 = k1 if cfg.drag_c1_per_s is None else float(cfg.drag_c1_per_s)
-        self._k2 = k2 if cfg.drag_c2_per_m is None else float(cfg.drag_c2_per_m)
-        # low-pass state of the multirotor force balance: velocity (E, N, U) and horizontal thrust (E, N)
-        self._lp: tuple[float, float, float, float, float] | None = None
-        self._accel_ref2 = cfg.accel_ref_mps2 * cfg.accel_ref_mps2  # of the sample weight, once
-        self.last_sample: tuple[float, float] | None = None
-        self.last_weight = 0.0
-        self._last_kind_mr = False
+        const = (
+            cfg.tau_s, cfg.prior_weight_s, cfg.min_airspeed_mps, cfg.max_bank_rad, float(cfg.airspeed_is_indicated),
+            cfg.accel_window_s, cfg.accel_ref_mps2 * cfg.accel_ref_mps2, cfg.min_agl_m,
+            k1 if cfg.drag_c1_per_s is None else float(cfg.drag_c1_per_s),
+            k2 if cfg.drag_c2_per_m is None else float(cfg.drag_c2_per_m),
+        )  # fmt: skip
+        self._C[:] = const
+        self._W[:] = 0.0
+        self._state.east_mps, self._state.north_mps = float(cfg.prior_enu[0]), float(cfg.prior_enu[1])
+
+    def update(
+        self, est: VehicleState, airspeed_mps: float | None, dt_s: float, position_valid: bool = True
+    ) -> tuple[float, float]:
+        return wind_estimator_update(
+            self._W, self._C, airspeed_mps is not None, math.nan if airspeed_mps is None else airspeed_mps, dt_s,
+            position_valid, est.alt_m, est.agl_m, est.v_east_mps, est.v_north_mps, est.v_up_mps, est.roll_rad,
+            est.pitch_rad, est.yaw_rad,
+        )  # fmt: skip
 
     @property
     def drag_coefficients(self) -> tuple[float, float]:
         """``(k1 per s, k2 per m)`` of the drag law the multirotor model inverts."""
-        return (self._k1, self._k2)
+        c = self._C.view(WIND_CONST)[0]
+        return (float(c.drag_c1_per_s), float(c.drag_c2_per_m))
 
     @property
     def wind_enu(self) -> tuple[float, float]:
         """Current estimate (east, north) in m/s, toward."""
-        return (self._we, self._wn)
+        return (float(self._state.east_mps), float(self._state.north_mps))
+
+    @property
+    def t_used_s(self) -> float:
+        """The weighted time of the samples used so far, s."""
+        return float(self._state.t_used_s)
 
     @property
     def converged(self) -> bool:
@@ -168,40 +299,22 @@ class WindEstimator:
     @property
     def sigma_mps(self) -> float:
         cfg = self.config
-        floor = cfg.multirotor_floor_mps if self._last_kind_mr else cfg.fixed_wing_floor_mps
+        floor = cfg.multirotor_floor_mps if self._state.multirotor_seen != 0.0 else cfg.fixed_wing_floor_mps
         s = cfg.prior_sigma_mps * math.sqrt(cfg.prior_weight_s / (cfg.prior_weight_s + self.t_used_s))
         return max(s, floor)
 
-    def update(
-        self, est: VehicleState, airspeed_mps: float | None, dt_s: float, position_valid: bool = True
-    ) -> tuple[float, float]:
-        cfg = self.config
-        if not (dt_s > 0.0) or not math.isfinite(dt_s):
-            return (self._we, self._wn)
-        sample = None
-        weight = 1.0
-        if position_valid and est.agl_m >= cfg.min_agl_m:
-            if airspeed_mps is not None:
-                sample = self._fixed_wing_sample(est, airspeed_mps)
-            else:
-                self._last_kind_mr = True
-                r = self._multirotor_sample(est, dt_s)
-                if r is not None:
-                    we, wn, weight = r
-                    sample = (we, wn)
-        else:
-            self._lp = None  # the force balance restarts from fresh filter states
-        self.last_sample = sample
-        if sample is None:
-            self.last_weight = 0.0
-            return (self._we, self._wn)
-        self.last_weight = weight
-        we, wn = sample
-        if weight > 0.0 and math.isfinite(we) and math.isfinite(wn):
-            self._we, self._wn, self.t_used_s, self._var = mean_update(
-                self._we, self._wn, self.t_used_s, self._var, we, wn, weight, dt_s, cfg.prior_weight_s, cfg.tau_s
-            )
-        return (self._we, self._wn)
+    @property
+    def last_weight(self) -> float:
+        """The weight of the last step's sample (0: the step took none)."""
+        return float(self._state.last_weight)
+
+    @property
+    def last_sample(self) -> tuple[float, float] | None:
+        """The last step's wind sample (east, north), m/s; None when the step took none."""
+        st = self._state
+        if st.last_weight == 0.0:
+            return None
+        return (float(st.last_sample_east_mps), float(st.last_sample_north_mps))
 
     @property
     def turbulence_sigma_mps(self) -> float:
@@ -211,27 +324,7 @@ class WindEstimator:
         mean estimate's start-up transient, so it errs on the high side; 0 until
         samples were used.
         """
-        return math.sqrt(self._var) if self._var > 0.0 else 0.0
-
-    def _fixed_wing_sample(self, s: VehicleState, va: float) -> tuple[float, float] | None:
-        cfg = self.config
-        ok, we, wn = airmass_sample(
-            va, cfg.airspeed_is_indicated, cfg.min_airspeed_mps, cfg.max_bank_rad, s.alt_m, s.v_east_mps, s.v_north_mps,
-            s.v_up_mps, s.roll_rad, s.yaw_rad,
-        )  # fmt: skip
-        return (we, wn) if ok else None
-
-    def _multirotor_sample(self, s: VehicleState, dt_s: float) -> tuple[float, float, float] | None:
-        lp = self._lp
-        has_lp, lp, ok, we, wn, weight = force_balance_sample(
-            lp if lp is not None else _NO_FILTER, lp is not None, dt_s, s.v_east_mps, s.v_north_mps, s.v_up_mps,
-            s.roll_rad, s.pitch_rad, s.yaw_rad, self._k1, self._k2, self.config.accel_window_s, self._accel_ref2,
-        )  # fmt: skip
-        self._lp = lp if has_lp else None
-        return (we, wn, weight) if ok else None
-
-
-_NO_FILTER = (0.0, 0.0, 0.0, 0.0, 0.0)
+        return turbulence_sigma_mps(self._W)
 
 
 @jitable

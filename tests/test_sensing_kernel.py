@@ -1,12 +1,11 @@
 """Property: the compiled sensing chain gives the reference objects' numbers, bit for bit.
 
-:func:`aircraft.sensor_kernel.sensors_step`, :func:`geofence.estimator_kernel.estimator_step` and
-:func:`geofence.wind_estimator_kernel.wind_estimator_update` are array forms of
-:class:`~aircraft.sensors.SensorSuite`, :class:`~geofence.estimator.GeofenceEstimator` and
-:class:`~geofence.wind_estimator.WindEstimator`. Stepped side by side along random manoeuvring flights (turns,
+:func:`aircraft.sensor_kernel.sensors_step` and :func:`geofence.estimator_kernel.estimator_step` are array
+forms of :class:`~aircraft.sensors.SensorSuite` and :class:`~geofence.estimator.GeofenceEstimator` (the wind
+estimator is written once: ``tests/test_wind_estimator.py``). Stepped side by side along random manoeuvring flights (turns,
 climbs, a stop, GNSS outages and a receiver failure, sensor tunings that switch the barometer from primary to
 calibrated, no latency, no pre-filled fix, both platform kinds, past the noise pools' refills) every sample,
-every estimate field, sigma, validity flag, fusion horizon and wind estimate must be equal as floats' bits.
+every estimate field, sigma, validity flag and fusion horizon must be equal as floats' bits.
 Whole flights fly the same either way (:mod:`scenarios.flight.sensing` switches with :func:`geofence.jit.use_compiled`).
 """
 
@@ -20,7 +19,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from test_lateral_kernel import fly_both_ways
 
-from aircraft.profile import load_profile
 from aircraft.sensor_kernel import MAX_DRAWS_PER_STEP, SensorArrays, sensors_step
 from aircraft.sensors import SensorConfig, SensorSuite
 from geofence import estimator_kernel as ek
@@ -28,8 +26,6 @@ from geofence.estimator import GeofenceEstimator
 from geofence.estimator_kernel import estimator_arrays, estimator_step
 from geofence.geodesy import LocalFrame
 from geofence.interface import VehicleState
-from geofence.wind_estimator import WindEstimator, WindEstimatorConfig
-from geofence.wind_estimator_kernel import VAR, wind_estimator_arrays, wind_estimator_update
 from scenarios.spec.schema import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -92,14 +88,11 @@ def sensor_configs():
 )
 def test_the_compiled_chain_is_the_reference_chain(cfg, seed, multirotor, prefill, baro_referenced):
     dt = 0.025
-    env = load_profile("F450" if multirotor else "Tern").envelope
     suite = SensorSuite(cfg, has_pitot=not multirotor, seed=seed, prefill=prefill)
     arrays = SensorArrays(cfg, has_pitot=not multirotor, seed=seed, prefill=prefill)
     est_cfg = cfg.estimator_config(baro_referenced=baro_referenced)
     estimator = GeofenceEstimator(FRAME, est_cfg)
     X, K = estimator_arrays(FRAME, est_cfg)
-    wind = WindEstimator(env, WindEstimatorConfig(prior_enu=(1.0, -2.0)))
-    W, WC = wind_estimator_arrays(wind)
     refills = 0
     for truth in truth_states(seed, 3000, dt, multirotor):  # 75 s: every pool refills at least once
         fix, air, att = suite.sample(truth)
@@ -129,14 +122,6 @@ def test_the_compiled_chain_is_the_reference_chain(cfg, seed, multirotor, prefil
         if horizon is not None:
             assert [_bits(v) for v in horizon] == [_bits(X[i]) for i in (ek.H_T, ek.H_E, ek.H_N, ek.H_VE, ek.H_VN)]
 
-        valid = estimator.position_valid
-        ref_wind = wind.update(est, air.airspeed_mps, dt, valid)
-        got = wind_estimator_update(
-            W, WC, not multirotor, a_ind, dt, valid, est.alt_m, est.agl_m, est.v_east_mps, est.v_north_mps,
-            est.v_up_mps, est.roll_rad, est.pitch_rad, est.yaw_rad,
-        )  # fmt: skip
-        assert [_bits(v) for v in ref_wind] == [_bits(v) for v in got]
-        assert _bits(wind.turbulence_sigma_mps) == _bits(math.sqrt(W[VAR]) if W[VAR] > 0 else 0.0)
     assert refills >= 2
     assert estimator.fixes_used == X[ek.FIXES_USED] > 0 and estimator.fixes_rejected == X[ek.FIXES_REJECTED]
 

@@ -1,6 +1,7 @@
 """The geofence unit's steady-wind estimate, fed by its own (simulated) sensors and state estimator."""
 
 import math
+import random
 
 import pytest
 from hypothesis import given, settings
@@ -329,3 +330,49 @@ def test_wind_never_nan(seq):
             s = VehicleState(agl_m=10.0, v_east_mps=ve, v_north_mps=vn, v_up_mps=vu, roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw)
             e, n = we.update(s, tas, dt)
             assert math.isfinite(e) and math.isfinite(n)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    prior=st.tuples(st.floats(-10, 10), st.floats(-10, 10)),
+    sample=st.tuples(st.floats(-15, 15), st.floats(-15, 15)),
+    steps=st.integers(1, 60),
+)
+def test_growing_memory_average_is_the_weighted_mean_with_the_prior(prior, sample, steps):
+    """Oracle: while ``prior_weight_s + t_used`` is below ``tau_s`` the estimate is the plain weighted mean of
+    the prior (counted as ``prior_weight_s`` seconds of data) and the samples taken so far."""
+    cfg = WindEstimatorConfig(prior_enu=prior, tau_s=1e6, prior_weight_s=2.0, min_airspeed_mps=0.0)
+    we = WindEstimator(config=cfg)
+    va = 20.0
+    s = VehicleState(agl_m=50.0, v_east_mps=sample[0], v_north_mps=sample[1] + va, yaw_rad=0.0)
+    for _ in range(steps):
+        we.update(s, va, DT)  # a fixed-wing triangle: the sample is the ground velocity less the airspeed north
+    t = steps * DT
+    expected = [(cfg.prior_weight_s * p + t * x) / (cfg.prior_weight_s + t) for p, x in zip(prior, sample)]
+    assert we.wind_enu == pytest.approx(expected, abs=1e-9)
+    assert we.t_used_s == pytest.approx(t, rel=1e-12)
+
+
+@pytest.mark.parametrize("multirotor", [False, True])
+def test_the_compiled_update_is_the_interpreted_update(multirotor):
+    """Conformance of the one entry point: compiled and interpreted (its own source, ``py_func``) agree to
+    1e-9 m/s along a noisy manoeuvring stream."""
+    from geofence.wind_estimator import MEMORY_SIZE, STATE_SIZE, wind_estimator_update
+
+    if not hasattr(wind_estimator_update, "py_func"):
+        pytest.skip("numba is not compiling here: the interpreted run is the only one")
+    rng = random.Random(7)
+    a = WindEstimator(QUAD if multirotor else None)
+    b = WindEstimator(QUAD if multirotor else None)
+    mem_a, mem_b = a.memory, b.memory
+    assert mem_a.shape == (MEMORY_SIZE,)
+    for k in range(4000):
+        fields = (rng.uniform(300, 500), rng.uniform(-1, 40), *(rng.gauss(0, 6) for _ in range(3)))
+        att = (rng.gauss(0, 0.3), rng.gauss(0, 0.3), rng.uniform(-math.pi, math.pi))
+        air = math.nan if multirotor else rng.uniform(0, 30)
+        valid = k % 500 > 20
+        args = (not multirotor, air, DT, valid, *fields, *att)
+        got = wind_estimator_update(mem_a[:STATE_SIZE], mem_a[STATE_SIZE:], *args)
+        ref = wind_estimator_update.py_func(mem_b[:STATE_SIZE], mem_b[STATE_SIZE:], *args)
+        assert got == pytest.approx(ref, abs=1e-9), k
+    assert a.turbulence_sigma_mps == pytest.approx(b.turbulence_sigma_mps, rel=1e-9)

@@ -1,13 +1,12 @@
 """The geofence unit's own view of a simulated flight: sensors -> state estimator -> wind estimator, per step.
 
 :class:`GeofenceSensing` runs the chain either as the reference objects
-(:class:`aircraft.sensors.SensorSuite`, :class:`geofence.estimator.GeofenceEstimator`,
-:class:`geofence.wind_estimator.WindEstimator`) or, where numba is active
-(:data:`geofence.jit.ACTIVE`), as one compiled call per step through their
-array forms (:mod:`aircraft.sensor_kernel`, :mod:`geofence.estimator_kernel`,
-:mod:`geofence.wind_estimator_kernel`). Both give the same numbers, bit for bit
-(``tests/test_sensing_kernel.py`` steps them side by side, and flies whole
-flights both ways); the compiled chain costs about a fifth of the objects'.
+(:class:`aircraft.sensors.SensorSuite`, :class:`geofence.estimator.GeofenceEstimator`) or, where numba is
+active (:data:`geofence.jit.ACTIVE`), as one compiled call per step through their array forms
+(:mod:`aircraft.sensor_kernel`, :mod:`geofence.estimator_kernel`); the sensors and the state estimator give
+the same numbers either way (``tests/test_sensing_kernel.py``). The wind estimator is written once
+(:func:`geofence.wind_estimator.wind_estimator_update`): the compiled chain keeps its state in its packed
+array, and :attr:`GeofenceSensing.wind` is a façade over those slots.
 
 With ``state_source: truth`` (e.g. indoor motion capture) the unit gets the
 true state and the true steady wind instead.
@@ -15,7 +14,6 @@ true state and the true steady wind instead.
 
 from __future__ import annotations
 
-import math
 from typing import Any, Callable, NamedTuple
 
 import numpy as np
@@ -25,15 +23,14 @@ from aircraft.sensor_kernel import HAS_PITOT, MAX_DRAWS_PER_STEP, SensorArrays, 
 from aircraft.sensors import SensorSuite
 from geofence import estimator_kernel as ek
 from geofence import jit
-from geofence import wind_estimator_kernel as wk
+from geofence import wind_estimator as wk
 from geofence.config import GeofenceConfig, StateSource
 from geofence.estimator import GeofenceEstimator
 from geofence.estimator_kernel import estimator_arrays, estimator_step
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, FixState, VehicleState
 from geofence.jit import COMPILED, numba
-from geofence.wind_estimator import WindEstimator, WindEstimatorConfig
-from geofence.wind_estimator_kernel import VAR, wind_estimator_arrays, wind_estimator_update
+from geofence.wind_estimator import WindEstimator, WindEstimatorConfig, turbulence_sigma_mps, wind_estimator_update
 from scenarios.spec.schema import Scenario
 from wind.config import wind_from_config
 
@@ -63,8 +60,8 @@ _C0 = _S0 + sk.N_STATE
 _X0 = _C0 + sk.N_CONST
 _K0 = _X0 + ek.N_STATE
 _W0 = _K0 + ek.N_CONST
-_WC0 = _W0 + wk.N_STATE
-_FIX0 = _WC0 + wk.N_CONST
+_WC0 = _W0 + wk.STATE_SIZE
+_FIX0 = _WC0 + wk.CONST_SIZE
 _OUTAGES0 = _FIX0 + 10
 
 
@@ -91,14 +88,13 @@ def _sense_step(
         W, WC, C[HAS_PITOT] != 0.0, a_ind, dt_s, valid, est[3], est[7], est[8], est[9], est[10], est[11], est[12], est[13]
     )
     age = X[ek.T_S] - X[ek.T_D] if X[ek.HAS_H] != 0.0 else 0.0
-    var = W[VAR]
     low = False
     for k in range(pools.shape[0]):
         if pools.shape[1] - idx[k] < MAX_DRAWS_PER_STEP:
             low = True
     return (
         est, we, wn, valid, X[ek.SIGMA_H], X[ek.SIGMA_V], X[ek.HORIZON_NEW] != 0.0, age if age > 0.0 else 0.0,
-        math.sqrt(var) if var > 0.0 else 0.0, low,
+        turbulence_sigma_mps(W), low,
     )  # fmt: skip
 
 
@@ -129,7 +125,7 @@ class GeofenceSensing:
         self.truth_source = cfg.state_source is StateSource.TRUTH
         sc = scenario.sensors
         has_pitot = not env.is_multirotor
-        wind = WindEstimator(env, WindEstimatorConfig(prior_enu=cfg.wind_prior_enu))
+        wind_cfg = WindEstimatorConfig(prior_enu=cfg.wind_prior_enu)
         self._truth_wind = None
         if self.truth_source and scenario.wind is not None:
             self._truth_wind = wind_from_config(scenario.wind, scenario.seed)
@@ -137,14 +133,15 @@ class GeofenceSensing:
         if not self.compiled:
             self.sensors = SensorSuite(sc, has_pitot=has_pitot, seed=scenario.seed)
             self.estimator = GeofenceEstimator(frame, sc.estimator_config())
-            self.wind = wind
+            self.wind = WindEstimator(env, wind_cfg)
         else:
             arrays = self._sensor_arrays = SensorArrays(sc, has_pitot=has_pitot, seed=scenario.seed)
             X, K = estimator_arrays(frame, sc.estimator_config())
-            W, WC = wind_estimator_arrays(wind)
-            packed = (arrays.state, arrays.const, X, K, W, WC, arrays.fix, arrays.outages.ravel(), arrays.pending.ravel())
+            wind_memory = np.zeros(wk.MEMORY_SIZE)  # the wind estimator's, laid out in P below
+            packed = (arrays.state, arrays.const, X, K, wind_memory, arrays.fix, arrays.outages.ravel(), arrays.pending.ravel())
             P = np.concatenate(packed)  # copies: from here on the step reads and writes P, and of the sensor
             # arrays only their noise rows and read indices (refilled in place)
+            self.wind = WindEstimator(env, wind_cfg, memory=P[_W0:_FIX0])  # a façade over the step's own slots
             self._X = P[_X0:_K0]
             self._args: tuple[Any, ...] = (P, arrays.pools, arrays.idx)
             self._kernel: Callable[..., tuple[Any, ...]] = sense_step
