@@ -22,7 +22,9 @@ A profile lives in ``aircraft/profiles/<model>.yaml``::
     gains:                      # flight-controller property -> value, written before run_ic
       fc/roll-kp: 4.0
 
-The platform adapters read it; scenarios pick it by model name.
+Every envelope value is checked against a physical bound (:data:`ENVELOPE_BOUNDS`), and
+``min_speed_mps <= cruise_speed_mps <= max_speed_mps``. The platform adapters read it; scenarios
+pick it by model name.
 """
 
 from __future__ import annotations
@@ -55,6 +57,27 @@ _ENVELOPE_FIELDS = {
     "drag_linear_per_s": 1.0,
     "drag_quadratic_per_m": 1.0,
 }
+ENVELOPE_BOUNDS: dict[str, tuple[float, float, bool]] = {
+    "cruise_speed_mps": (0.0, 150.0, True),
+    "max_speed_mps": (0.0, 150.0, True),
+    "min_speed_mps": (0.0, 150.0, False),
+    "max_bank_deg": (0.0, 80.0, True),
+    "max_pitch_deg": (0.0, 80.0, True),
+    "max_yaw_rate_deg_s": (0.0, 720.0, True),
+    "max_climb_rate_mps": (0.0, 50.0, True),
+    "max_descent_rate_mps": (0.0, 50.0, True),
+    "braking_decel_mps2": (0.0, 50.0, True),
+    "vertical_accel_mps2": (0.0, 50.0, True),
+    "reaction_time_s": (0.0, 10.0, False),
+    "drag_linear_per_s": (0.0, 10.0, False),
+    "drag_quadratic_per_m": (0.0, 10.0, False),
+}
+"""``(low, high, low excluded)`` per envelope key, in the file's units. Physical bounds of a small UAS:
+speeds up to 150 m/s (above any small UAS; the shipped Cessna 172 tops at 58), bank and pitch limits up
+to 80 deg (a level turn at 80 deg bank pulls 5.8 g; a multirotor tilted 90 deg has no lift),
+accelerations up to 50 m/s^2 (~5 g), a reaction time up to 10 s. The sticks scale by bank, pitch, yaw
+rate, climb and descent rates (the control laws divide by them), and the fence's stopping distances by
+the decelerations, so those must be > 0."""
 _OPTIONAL_ENVELOPE_FIELDS = ("drag_linear_per_s", "drag_quadratic_per_m")
 """Envelope keys a profile may leave out: they take the :class:`geofence.interface.Envelope` field's default."""
 
@@ -99,6 +122,15 @@ def parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
         raise ProfileError(str(exc)) from None
 
 
+def _check_speed_order(values: dict[str, float], given: Mapping, where: str) -> None:
+    """``min_speed_mps <= cruise_speed_mps <= max_speed_mps`` (a fixed-wing's throttle spans them: a stall
+    speed above the top speed leaves no speed to fly at). The message names the key the block gave."""
+    for low, high in (("min_speed_mps", "cruise_speed_mps"), ("cruise_speed_mps", "max_speed_mps")):
+        if values[low] > values[high]:
+            key, other, rel = (high, low, ">=") if high in given and low not in given else (low, high, "<=")
+            raise ProfileError(f"{where}.envelope.{key}: must be {rel} {other} ({values[other]:g} m/s), got {values[key]:g} m/s")
+
+
 def _parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
     if not isinstance(raw, Mapping):
         raise ProfileError(f"{where}: expected a mapping with kind, envelope and gains")
@@ -111,13 +143,16 @@ def _parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
     for key, scale in _ENVELOPE_FIELDS.items():
         field_name = key.replace("_deg_s", "_radps").replace("_deg", "_rad")
         if key in env_raw:
-            values[field_name] = number(env_raw[key], f"{where}.envelope.{key}", minimum=0.0) * scale
+            low, high, open_low = ENVELOPE_BOUNDS[key]
+            x = number(env_raw[key], f"{where}.envelope.{key}", minimum=low, maximum=high, strictly_positive=open_low)
+            values[field_name] = x * scale
         elif base is not None:
             values[field_name] = getattr(base.envelope, field_name)
         elif key in _OPTIONAL_ENVELOPE_FIELDS:
             values[field_name] = field_default(Envelope, field_name)
         else:
             raise ProfileError(f"{where}.envelope.{key}: missing (required)")
+    _check_speed_order(values, env_raw, where)
     gains = dict(base.gains) if base else {}
     gains_raw = require_mapping(raw.get("gains") or {}, f"{where}.gains")
     for k, v in gains_raw.items():

@@ -766,8 +766,29 @@ def log_fence_distance_m(traj: dict[str, np.ndarray], fence) -> float:
     return float(_haversine_m(lat, lon, a[:, 0], a[:, 1]).min())
 
 
+MAX_FENCE_DISTANCE_M = 100_000.0
+"""The largest log-to-fence distance a log may be scored at (``--max-fence-distance-km`` at most 100). The
+score is taken in one flat local ENU (tangent-plane) frame: at a distance d it shortens lengths by about
+d^3 / (6 R^2) (4 m at 100 km, 4 km at 1,000 km) and its up axis rises d^2 / (2 R) above the ground
+(0.8 km at 100 km). A log that far from its fence is the wrong fence anyway."""
+
+
+def check_distance_bound(max_distance_m: float, where: str = "--max-fence-distance-km") -> float:
+    """``max_distance_m`` if finite, > 0 and at most :data:`MAX_FENCE_DISTANCE_M`; else a one-line refusal."""
+    bound_km = MAX_FENCE_DISTANCE_M / 1000.0
+    if not (math.isfinite(max_distance_m) and 0.0 < max_distance_m <= MAX_FENCE_DISTANCE_M):
+        raise LogFenceDistanceError(
+            f"{where}: must be > 0 and <= {bound_km:g} km, got {max_distance_m / 1000.0:g} km (the scores are taken in "
+            f"one flat ENU frame: at 100 km it shortens lengths by 4 m and its up axis is 0.8 km above the ground)"
+        )
+    return max_distance_m
+
+
 def check_near_fence(traj: dict[str, np.ndarray], fence, max_distance_m: float = 50_000.0, name: str = "log") -> float:
-    """:func:`log_fence_distance_m`, refused with :class:`LogFenceDistanceError` beyond ``max_distance_m``."""
+    """:func:`log_fence_distance_m`, refused with :class:`LogFenceDistanceError` beyond ``max_distance_m``
+    (itself refused unless finite and within :data:`MAX_FENCE_DISTANCE_M`: ``nan`` or ``inf`` switched the
+    guard off)."""
+    check_distance_bound(max_distance_m, f"{name}: max_distance_m")
     d = log_fence_distance_m(traj, fence)
     if d > max_distance_m:
         far = f"{d / 1000:,.0f} km" if d >= 10_000 else f"{d / 1000:,.1f} km"

@@ -7,7 +7,8 @@ Example (every key but ``fence`` optional)::
       # or a fence file (any format geofence.importers.load_fence_file reads: GeoJSON, QGC .plan, WPL 110,
       # MAVProxy), its path relative to the scenario file; the other keys override or add to the file's:
       # fence: {file: airspace/city_park.geojson, ceiling_m: 60, floor_m: 5, floor_gaps: [...],
-      #         recovery_point: [lat, lon], altitude_reference: agl}
+      #         recovery_point: [lat, lon], altitude_reference: agl,
+      #         inclusion_polygon: 0}   # required when the file has several inclusion areas
       trigger: predictive          # predictive (shifted boundary) | reactive (act on the fence line)
       min_override_s: 2.0          # hold an override at least this long
       handback_margin_m: 5.0       # hand back once this far inside the activation boundary and moving inward
@@ -49,7 +50,7 @@ from pathlib import Path
 from typing import Any
 
 from geofence.fence import AltitudeReference, Fence, FenceError, parse_fence
-from geofence.importers import load_fence_file
+from geofence.importers import MAX_CEILING_M, load_fence_file
 from geofence.jit import jitable
 from geofence.validation import (
     ConfigError,
@@ -220,7 +221,15 @@ _KEYS = {
 }
 
 
-FENCE_FILE_KEYS = ("file", "ceiling_m", "floor_m", "floor_gaps", "recovery_point", "altitude_reference")
+FENCE_FILE_KEYS = (
+    "file",
+    "ceiling_m",
+    "floor_m",
+    "floor_gaps",
+    "recovery_point",
+    "altitude_reference",
+    "inclusion_polygon",
+)
 """The keys of a ``fence:`` block that references a fence file."""
 
 
@@ -255,6 +264,10 @@ def _parse_geofence(raw: Mapping, where: str, base_dir: str | Path | None) -> Ge
         fence, fence_file, fence_warnings = _fence_from_file(raw["fence"], f"{where}.fence", base_dir)
     else:
         fence = parse_fence(raw["fence"], f"{where}.fence")
+        if fence.ceiling_m > MAX_CEILING_M:
+            raise GeofenceConfigError(
+                f"{where}.fence.ceiling_m: {fence.ceiling_m:g} m is above {MAX_CEILING_M:g} m, the highest any small UAS flies"
+            )
 
     def num(key: str, lo: float = 0.0, hi: float = math.inf) -> float:
         return number(raw.get(key, _default(key)), f"{where}.{key}", minimum=lo, maximum=hi)
@@ -343,6 +356,9 @@ def _fence_from_file(block: Mapping, where: str, base_dir: str | Path | None) ->
     ref = block.get("altitude_reference")
     if ref is not None:
         ref = enum_value(ref.lower() if isinstance(ref, str) else ref, f"{where}.altitude_reference", AltitudeReference)
+    choice = block.get("inclusion_polygon")
+    if choice is not None:
+        choice = integer(choice, f"{where}.inclusion_polygon", minimum=0)
     gaps = block.get("floor_gaps")
     if gaps is not None and (isinstance(gaps, (str, Mapping)) or not isinstance(gaps, (list, tuple))):
         raise GeofenceConfigError(f"{where}.floor_gaps: must be a list of polygons, got {type(gaps).__name__}")
@@ -354,11 +370,14 @@ def _fence_from_file(block: Mapping, where: str, base_dir: str | Path | None) ->
             altitude_reference=ref,
             floor_gaps=tuple(gaps or ()),
             recovery_point=block.get("recovery_point"),
+            inclusion_polygon=choice,
         )
     except FenceError as exc:
         msg = str(exc)
         rest = msg[len(str(path)) + 2 :] if msg.startswith(f"{path}: ") else msg
         field = re.match(r"[a-z_]*", rest).group(0)  # type: ignore[union-attr]  # [a-z_]* matches every string
+        if rest.startswith(("inclusion polygon", "inclusion_polygon")) and "inclusion_polygon" in block:
+            raise GeofenceConfigError(f"{where}.inclusion_polygon: {msg}") from None
         if field in block and field != "file":  # the inline value is the problem (e.g. a floor gap outside the keep-in)
             raise GeofenceConfigError(f"{where}.{rest}") from None
         raise GeofenceConfigError(f"{where}.file: {msg}") from None

@@ -56,8 +56,8 @@ Supported formats (detected from the content, not the file name):
     ``alt_m`` property is its altitude above home. Sizes are limited
     (:data:`MAX_FENCE_VERTICES`, :data:`MAX_FENCE_POLYGONS`, checked before the
     coordinates are read). RFC 7946 cuts an area crossing the antimeridian
-    into a MultiPolygon; such a keep-in is not re-joined (only its first part
-    is used, with a warning).
+    into a MultiPolygon; such a keep-in is not re-joined (it is several
+    inclusion polygons: pick one, see below).
 
 Parser choice: our own, not :mod:`pymavlink.mavwp`. pymavlink's
 ``MissionItemProtocol_Fence``/``_Rally`` loaders only work when the
@@ -75,10 +75,16 @@ cross-checks the items against pymavlink's loaders on the real files.
 
 Mapping to :class:`Fence`
 -------------------------
-* keep-in: the first inclusion polygon. Further inclusion polygons and any
-  inclusion circles are *not* intersected in (``Fence`` holds one keep-in);
-  they are listed in ``warnings``. If the file has no inclusion polygon but an
-  inclusion circle, the first circle becomes the keep-in as an inscribed
+* keep-in: the file's one inclusion area. A file with several (polygons and
+  circles together) is refused unless the caller picks one by index
+  (``inclusion_polygon``: polygons in file order, then circles; the CLI's
+  ``--inclusion-polygon N``, a scenario's ``fence: {file: ..., inclusion_polygon: N}``):
+  ArduPilot flies several inclusion zones as their intersection (as their
+  union with ``FENCE_OPTIONS`` bit 1), ``Fence`` holds one keep-in, and taking
+  the first silently scored one real log at +89.4 m or -356 m depending on the
+  polygons' order. The others are then listed in ``warnings``. A GeoJSON
+  keep-in's holes and properties are the chosen polygon's. An inclusion circle
+  becomes the keep-in as an inscribed
   regular polygon (:func:`geofence.fence.circle_to_polygon`: vertices on the
   geodesic circle, so the approximation lies inside the circle and is
   conservative); its vertex count is the smallest
@@ -87,7 +93,8 @@ Mapping to :class:`Fence`
 * keep-outs: exclusion polygons and exclusion circles. One that lies entirely
   outside the keep-in constrains nothing (ArduPilot allows it, ``Fence``
   rejects it), so it is dropped with a warning.
-* ceiling/floor: none of the MAVLink/QGC formats carries one (ArduPilot keeps
+* ceiling/floor: at most :data:`MAX_CEILING_M` (10 km), whoever gives them.
+  None of the MAVLink/QGC formats carries one (ArduPilot keeps
   ``FENCE_ALT_MAX`` in parameters, PX4 ``GF_MAX_VER_DIST``). The ceiling is
   the caller's ``ceiling_m``, else the file's (GeoJSON only), else
   :data:`DEFAULT_CEILING_M` = 120 m AGL (the EU open-category / FAA Part 107
@@ -148,6 +155,9 @@ MAX_FENCE_VERTICES = 200_000
 """Default limit on the polygon vertices of one fence file (all rings, closing duplicates included)."""
 MAX_FENCE_POLYGONS = 20_000
 """Default limit on the polygons (rings, holes included) of one fence file."""
+MAX_CEILING_M = 10_000.0
+"""The highest fence ceiling or floor, m (in either altitude reference): above the service ceiling of
+any small UAS and of every shipped model (the Cessna 172's is 4.1 km); a ceiling of 10^9 m is a typo."""
 
 ED269_KEEP_OUT = ("PROHIBITED", "REQ_AUTHORISATION", "CONDITIONAL")
 """ED-269 ``restriction`` values read as keep-outs (``NO_RESTRICTION`` zones are ignored)."""
@@ -235,7 +245,7 @@ class _Raw:
     exc_extents: list = field(default_factory=list)
     """A :class:`VerticalExtent` per ``exc_polys`` (GeoJSON only; empty: all full-height)."""
     inc_label: str = ""
-    """Name of the first inclusion polygon in messages (default ``keep_in``)."""
+    """Name of the chosen inclusion polygon in messages (default ``keep_in``)."""
     ceiling_m: float | None = None
     floor_m: float | None = None
     altitude_reference: AltitudeReference | None = None
@@ -260,6 +270,7 @@ def load_fence_file(
     recovery_point: tuple[float, ...] | None = None,
     max_vertices: int = MAX_FENCE_VERTICES,
     max_polygons: int = MAX_FENCE_POLYGONS,
+    inclusion_polygon: int | None = None,
 ) -> ImportedFence:
     """Read a fence file (any format in :data:`FORMATS` except rally-only) into an :class:`ImportedFence`.
 
@@ -272,10 +283,14 @@ def load_fence_file(
     apart from the fence) whose points are appended to ``rally_points``.
     ``max_vertices``/``max_polygons``: refuse a file with more polygon vertices / polygons (rings)
     than this, before building anything.
+    ``inclusion_polygon``: the index of the inclusion area to use as the keep-in (polygons in file
+    order, then circles); required when the file has more than one (see the module docstring).
     Raises :class:`FenceError` with one line naming the file and the problem.
     """
     name = str(path)
-    raw = _raw_from_text(_read_text(Path(path)), name, max_vertices=max_vertices, max_polygons=max_polygons)
+    raw = _raw_from_text(
+        _read_text(Path(path)), name, max_vertices=max_vertices, max_polygons=max_polygons, keep_in_index=inclusion_polygon or 0
+    )
     if raw.fmt != "geojson":  # GeoJSON is checked before its coordinates are read
         polys = [*raw.inc_polys, *raw.exc_polys]
         _check_size(name, sum(len(p) for p in polys), len(polys), max_vertices, max_polygons)
@@ -297,25 +312,8 @@ def load_fence_file(
         ref = altitude_reference.upper() if isinstance(altitude_reference, str) else altitude_reference
         warnings.append(f"no ceiling in the file; using the default ceiling {DEFAULT_CEILING_M:g} m {ref}")
 
-    # keep-in
-    keep_in_label = raw.inc_label
-    if raw.inc_polys:
-        keep_in = raw.inc_polys[0]
-        if len(raw.inc_polys) > 1:
-            warnings.append(f"{len(raw.inc_polys) - 1} further inclusion polygon(s) ignored: the fence uses the first only")
-        if raw.inc_circles:
-            warnings.append(
-                f"{len(raw.inc_circles)} inclusion circle(s) ignored: the fence uses the first inclusion polygon only"
-            )
-    else:
-        c = raw.inc_circles[0]
-        keep_in, n, sag = circle_to_polygon(c.center_lat_deg, c.center_lon_deg, c.radius_m, circle_tolerance_m)
-        keep_in_label = "inclusion circle 0"
-        warnings.append(
-            f"inclusion circle r={c.radius_m:g} m approximated by an inscribed {n}-gon (max gap {sag:.3f} m inside the circle)"
-        )
-        if len(raw.inc_circles) > 1:
-            warnings.append(f"{len(raw.inc_circles) - 1} further inclusion circle(s) ignored: the fence uses the first only")
+    _check_heights(name, ceiling_m, floor_m)
+    keep_in, keep_in_label = _choose_keep_in(raw, inclusion_polygon, name, circle_tolerance_m, warnings)
 
     # Format-level relations in a local frame at the keep-in (vectorised; the Fence validates the
     # geometry itself, once, below): drop keep-outs that constrain nothing, check the return point.
@@ -414,6 +412,52 @@ def load_fence_file(
         warnings=warnings,
         ceiling_source=ceiling_source,
     )
+
+
+def _check_heights(name: str, ceiling_m: Any, floor_m: Any) -> None:
+    """A ceiling or floor above :data:`MAX_CEILING_M` (or not a finite number) is refused."""
+    for key, value in (("ceiling_m", ceiling_m), ("floor_m", floor_m)):
+        if value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise FenceError(f"{name}: {key}: must be a finite number, got {value!r}")
+        if value > MAX_CEILING_M:
+            raise FenceError(
+                f"{name}: {key}: {value:g} m is above {MAX_CEILING_M:g} m, the highest any small UAS flies "
+                f"(the limit of a fence here)"
+            )
+
+
+def _choose_keep_in(
+    raw: _Raw, index: int | None, name: str, circle_tolerance_m: float, warnings: list[str]
+) -> tuple[PolygonLL, str]:
+    """``(keep_in, its label)``: the file's one inclusion area, or the one at ``index`` (polygons, then circles).
+
+    Several inclusion areas without an ``index`` are refused: ArduPilot flies their intersection (their union
+    with FENCE_OPTIONS bit 1), which one keep-in cannot hold, and any one of them scores a different flight.
+    """
+    n_poly, n_circ = len(raw.inc_polys), len(raw.inc_circles)
+    n = n_poly + n_circ
+    if index is None and n > 1:
+        raise FenceError(
+            f"{name}: inclusion polygons: the file has {n} inclusion areas ({n_poly} polygon(s), {n_circ} circle(s)); "
+            f"ArduPilot flies their intersection (their union with FENCE_OPTIONS bit 1) and a fence here holds one "
+            f"keep-in: pick one with --inclusion-polygon N (0 to {n - 1}; in a scenario: fence: {{file: ..., "
+            f"inclusion_polygon: N}}), or split the file"
+        )
+    index = index or 0
+    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < n:
+        raise FenceError(f"{name}: inclusion polygon {index!r}: no such inclusion area (the file has {n}: 0 to {n - 1})")
+    if n > 1:
+        warnings.append(f"inclusion area {index} of {n} used as the keep-in (chosen); the other {n - 1} ignored")
+    if index < n_poly:
+        return raw.inc_polys[index], raw.inc_label
+    c = raw.inc_circles[index - n_poly]
+    keep_in, k, sag = circle_to_polygon(c.center_lat_deg, c.center_lon_deg, c.radius_m, circle_tolerance_m)
+    warnings.append(
+        f"inclusion circle r={c.radius_m:g} m approximated by an inscribed {k}-gon (max gap {sag:.3f} m inside the circle)"
+    )
+    return keep_in, f"inclusion circle {index - n_poly}"
 
 
 def _frame_at(poly: PolygonLL) -> LocalFrame:
@@ -543,6 +587,8 @@ def _sniff(text: str, name: str) -> tuple[str, Any]:
                 doc = json.loads(text)
             except json.JSONDecodeError:
                 return "qgc_plan", None  # _parse_plan reports where the JSON is broken
+            except RecursionError:
+                raise FenceError(f"{name}: JSON nested too deeply (a fence file needs at most 6 levels)") from None
             if isinstance(doc, dict) and doc.get("type") in GEOJSON_TYPES:
                 return "geojson", doc
             return "qgc_plan", doc
@@ -566,13 +612,18 @@ def _read_raw(path: Path) -> _Raw:
 
 
 def _raw_from_text(
-    text: str, name: str, *, max_vertices: int = MAX_FENCE_VERTICES, max_polygons: int = MAX_FENCE_POLYGONS
+    text: str,
+    name: str,
+    *,
+    max_vertices: int = MAX_FENCE_VERTICES,
+    max_polygons: int = MAX_FENCE_POLYGONS,
+    keep_in_index: int = 0,
 ) -> _Raw:
     fmt, doc = _sniff(text, name)
     if fmt == "qgc_plan":
         return _parse_plan(text, name, doc)
     if fmt == "geojson":
-        return _parse_geojson(doc, name, max_vertices=max_vertices, max_polygons=max_polygons)
+        return _parse_geojson(doc, name, max_vertices=max_vertices, max_polygons=max_polygons, keep_in_index=keep_in_index)
     return {"qgc_wpl_110": _parse_wpl110, "mavproxy_fence": _parse_mavproxy_fence, "mavproxy_rally": _parse_mavproxy_rally}[fmt](
         text, name
     )
@@ -862,8 +913,15 @@ _WGS84_CRS = re.compile(r"(?:CRS:?84|EPSG:{1,2}4326)$")
 
 
 def _parse_geojson(
-    doc: Any, name: str, *, max_vertices: int = MAX_FENCE_VERTICES, max_polygons: int = MAX_FENCE_POLYGONS
+    doc: Any,
+    name: str,
+    *,
+    max_vertices: int = MAX_FENCE_VERTICES,
+    max_polygons: int = MAX_FENCE_POLYGONS,
+    keep_in_index: int = 0,
 ) -> _Raw:
+    """The items of a GeoJSON document; the keep-in polygon at ``keep_in_index`` gives its holes (keep-outs),
+    label and properties (the others are kept in ``inc_polys`` only)."""
     raw = _Raw("geojson")
     crs = doc.get("crs")
     if crs is not None:
@@ -943,8 +1001,8 @@ def _parse_geojson(
                 rings = _gj_polygon(pc, name, f"{label}: {where}")
                 if role == "keep_in":
                     raw.inc_polys.append(rings[0])
-                    if len(raw.inc_polys) > 1:
-                        continue  # ignored (with a warning) by load_fence_file, holes and all
+                    if len(raw.inc_polys) != keep_in_index + 1:
+                        continue  # not the chosen one (load_fence_file refuses or warns), holes and all
                     raw.inc_label = f"{label}{suffix}"
                     keep_in_props = props
                     for h, hole in enumerate(rings[1:], 1):

@@ -302,13 +302,21 @@ def test_plan_small(tmp_path):
     assert imp.rally_points[0].alt_m == 30.0 and imp.home == (47.3976, 8.5451, 488.0)
 
 
-def test_plan_several_inclusions_warn(tmp_path):
+def test_plan_several_inclusions_are_refused_unless_one_is_chosen(tmp_path):
     other = [(47.3976, 8.5451), (47.3979, 8.5451), (47.3979, 8.5454)]
     p = _write(tmp_path, "b.plan", _plan(polygons=[(True, SQUARE), (True, other)], circles=[(True, (47.398, 8.546), 50.0)]))
-    imp = load_fence_file(p)
-    assert imp.fence.keep_in == tuple(SQUARE) and len(imp.keep_in_polygons) == 2
-    assert any("1 further inclusion polygon" in w for w in imp.warnings)
-    assert any("inclusion circle" in w for w in imp.warnings)
+    with pytest.raises(
+        FenceError, match=r"b\.plan: inclusion polygons: the file has 3 inclusion areas .*--inclusion-polygon N \(0 to 2"
+    ):
+        load_fence_file(p)
+    for index, expected in ((0, tuple(SQUARE)), (1, tuple(other))):
+        imp = load_fence_file(p, inclusion_polygon=index)
+        assert imp.fence.keep_in == expected and len(imp.keep_in_polygons) == 2
+        assert any(f"inclusion area {index} of 3 used" in w for w in imp.warnings)
+    circle = load_fence_file(p, inclusion_polygon=2).fence.keep_in
+    assert all(geodesic_distance_m(47.398, 8.546, lat, lon) == pytest.approx(50.0, abs=1e-6) for lat, lon in circle)
+    with pytest.raises(FenceError, match="no such inclusion area"):
+        load_fence_file(p, inclusion_polygon=3)
 
 
 def test_inclusion_circle_becomes_polygon(tmp_path):
@@ -353,7 +361,9 @@ def test_wpl_two_polygons_and_exclusion(tmp_path):
     inner = [(47.3980, 8.5455), (47.3985, 8.5455), (47.3985, 8.5460)]
     items = [(5001, 4, *v) for v in SQUARE] + [(5001, 3, *v) for v in inner] + [(5002, 3, *v) for v in inner]
     items += [(16, 0, 47.398, 8.546, 50.0), (5100, 0, 47.3982, 8.5462, 40.0, 3)]
-    imp = load_fence_file(_write(tmp_path, "f.txt", _wpl(items)))
+    with pytest.raises(FenceError, match="2 inclusion areas"):
+        load_fence_file(_write(tmp_path, "f.txt", _wpl(items)))
+    imp = load_fence_file(tmp_path / "f.txt", inclusion_polygon=0)
     assert imp.keep_in_polygons == (tuple(SQUARE), tuple(inner))
     assert imp.fence.keep_out_polygons == (tuple(inner),)
     assert imp.rally_points[0].alt_m == 40.0 and imp.rally_points[0].alt_reference == "relative"

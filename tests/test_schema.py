@@ -63,7 +63,7 @@ def test_base_document_parses():
         (
             with_(aircraft="c172p", profile={"base": "c172x", "envelope": {"max_bank_deg": -5}}),
             "profile.envelope.max_bank_deg",
-            ">= 0",
+            "must be > 0",
         ),
         (with_(aircraft="c172p", profile={"kind": "glider"}), "profile.kind", "is not one of multirotor, fixed_wing"),
         (with_(colour="red"), "bad.yaml: colour", "colour: unknown key (allowed: "),

@@ -8,7 +8,8 @@ The ``wind:`` block of a scenario::
       profile: {law: power, exponent: 0.14, reference_height_m: 10}      # optional
       #        {law: log, roughness_length_m: 0.03, reference_height_m: 10}
       #        {law: uniform}      (the default: same speed at every height)
-      turbulence: {severity: light}     # light | moderate | severe | none, or {w20_mps: 7.7}; optional
+      turbulence: {severity: light}     # light | moderate | severe | none, or {w20_mps: 7.7} (<= 23.15,
+                                        # severe); optional
       gusts:                            # optional list of discrete 1-cos gusts
         - {onset_s: 20, amplitude_mps: 5, length_m: 30, from_deg: 270}
         - {onset_s: 1.5, onset_after: first_activation, amplitude_mps: 4, length_m: 20}
@@ -59,6 +60,11 @@ from wind.steady import LogLawProfile, PowerLawProfile, SteadyWind, UniformProfi
 
 PROFILE_LAWS = ("uniform", "power", "log")
 SEVERITIES = (*SEVERITY_W20_MPS, "none")
+
+MAX_W20_MPS = SEVERITY_W20_MPS["severe"]
+"""The largest ``turbulence.w20_mps`` (45 kt, 23.15 m/s: MIL-HDBK-1797's "severe"): the Dryden
+low-altitude model is specified up to there, and beyond it the gusts exceed what a small UAS flies in
+(at 10^9 m/s the flight diverges)."""
 
 _TURBULENCE_STREAM = 0
 _GUST_STREAM = 1
@@ -320,7 +326,13 @@ def _parse_turbulence(raw: Any, where: str) -> TurbulenceConfig:
         return TurbulenceConfig(
             severity=string(sev.lower() if isinstance(sev, str) else sev, f"{where}.severity", choices=SEVERITIES)
         )
-    return TurbulenceConfig(w20_mps=number(m["w20_mps"], f"{where}.w20_mps", minimum=0.0))
+    w20_mps = number(m["w20_mps"], f"{where}.w20_mps", minimum=0.0)
+    if w20_mps > MAX_W20_MPS:
+        raise ConfigError(
+            f"{where}.w20_mps: must be <= {MAX_W20_MPS:.2f} m/s (45 kt, MIL-HDBK-1797 severe: the Dryden model's "
+            f"range), got {m['w20_mps']!r}"
+        )
+    return TurbulenceConfig(w20_mps=w20_mps)
 
 
 def _parse_gust(raw: Any, where: str) -> GustConfig:

@@ -147,8 +147,11 @@ def build_parser() -> argparse.ArgumentParser:
         type=float,
         default=50.0,
         metavar="KM",
-        help="refuse a log whose median position is farther than this from the fence (default 50)",
+        help="refuse a log whose median position is farther than this from the fence (default 50; at most 100: "
+        "the scores are taken in one flat ENU tangent-plane frame, which at 100 km shortens lengths by 4 m and "
+        "stands 0.8 km above the ground)",
     )
+    _inclusion_option(score)
 
     imp = sub.add_parser(
         "import-fence",
@@ -179,6 +182,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="write here instead of stdout (coordinates rounded to 1e-7 deg)",
     )
     imp.add_argument("--force", action="store_true", help="overwrite OUT.yaml if it exists")
+    _inclusion_option(imp)
 
     val = sub.add_parser(
         "validate",
@@ -207,16 +211,20 @@ def build_parser() -> argparse.ArgumentParser:
 
     vm = sub.add_parser(
         "validate-models",
-        help="fly every platform through standard manoeuvres; write docs/validation.md",
+        help="fly every platform through standard manoeuvres; write validation.md (or --out FILE)",
         description=(
             "Fly each platform (default: every shipped profile) through standard manoeuvres (full-tilt or "
             "full-throttle step, stop from top speed, zero-tilt wind pick-up, max-bank turn, climb, roll step, "
-            "best glide), compare with published figures and write a markdown table per platform. With "
+            "best glide), compare with published figures and write a markdown table per platform to --out "
+            "(default: validation.md in the current folder; the checkout's docs/validation.md only when you name it). "
+            "The output is checked for writability before anything flies. With "
             "--check-profiles, exit 1 if a profile's envelope differs from what was measured."
         ),
     )
     vm.add_argument("--models", nargs="+", default=None, metavar="MODEL", help="models to fly (default: every profile)")
-    vm.add_argument("--out", default="docs/validation.md", metavar="FILE", help="markdown output (default docs/validation.md)")
+    vm.add_argument(
+        "--out", type=Path, default=Path("validation.md"), metavar="FILE", help="markdown output (default ./validation.md)"
+    )
     vm.add_argument("--check-profiles", action="store_true", help="exit 1 when a profile's envelope is not what was measured")
     vm.add_argument(
         "--allow-conservative", action="store_true", help="with --check-profiles: a figure off on the safe side only warns"
@@ -243,7 +251,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     gen.add_argument("out", type=Path, metavar="DIR", help="folder for the scenario files (must be new or empty)")
     gen.add_argument("--cases", type=int, default=1000, metavar="N", help="number of cases (default 1000; each is flown 3 times)")
-    gen.add_argument("--seed", type=int, default=2026, help="campaign seed (default 2026)")
+    gen.add_argument("--seed", type=int, default=2026, help="campaign seed, >= 0 (default 2026)")
     gen.add_argument("--max-duration-s", type=float, default=180.0, metavar="S", help="longest flight, s (default 180)")
     gen.add_argument(
         "--platforms",
@@ -279,6 +287,19 @@ def build_parser() -> argparse.ArgumentParser:
         description="List aircraft that have a platform profile, and the example scenarios shipped with the testbed.",
     )
     return parser
+
+
+def _inclusion_option(sub: argparse.ArgumentParser) -> None:
+    sub.add_argument(
+        "--inclusion-polygon",
+        type=int,
+        default=None,
+        metavar="N",
+        help="the inclusion area to use as the keep-in, by index (0-based: polygons in file order, then circles). "
+        "Required when the file has several: ArduPilot flies several inclusion zones as their intersection "
+        "(their union with FENCE_OPTIONS bit 1), a fence here holds one keep-in, so such a file is refused "
+        "unless you pick one",
+    )
 
 
 OWN_PACKAGES: dict[str, str] = {
@@ -352,6 +373,7 @@ def main(argv: list[str] | None = None) -> int:
 
             for model in args.models or []:
                 load_profile(model)  # an unknown model is one line, exit 2, before anything flies
+            check_output_file(args.out, "--out")
             return run_validation(
                 args.models, args.out, check_profiles=args.check_profiles, allow_conservative=args.allow_conservative
             )
@@ -390,6 +412,9 @@ def _cmd_campaign(args) -> int:
 
         if args.cases < 1:
             print(f"error: --cases: must be >= 1, got {args.cases}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        if not 0 <= args.seed < 2**63:
+            print(f"error: --seed: must be an integer in [0, 2^63), got {args.seed}", file=sys.stderr)
             return EXIT_BAD_INPUT
         if args.out.exists() and (not args.out.is_dir() or any(args.out.iterdir())):
             print(f"error: {args.out}: must be a new or empty folder (a campaign is never written over another)", file=sys.stderr)
@@ -547,6 +572,18 @@ def check_output_dir(path: Path, option: str = "--out") -> None:
         raise ConfigError(f"{option}: {path}: {problem}")
 
 
+def check_output_file(path: Path, option: str) -> None:
+    """Refuse, before anything is flown, an output file that is a folder or whose folder cannot be written."""
+    from geofence.validation import ConfigError
+
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"{option}: {path}: is a folder; give a file name, e.g. {path / 'validation.md'}")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise ConfigError(f"{option}: {path}: is not writable")
+    check_output_dir(path.parent, option)
+
+
 def _writable(folder: Path) -> bool:
     """Whether a file can be created in ``folder`` (tried for real: permissions, read-only mounts, root)."""
     try:
@@ -583,6 +620,8 @@ def _cmd_batch(args) -> int:
         from geofence.validation import ConfigError
 
         raise ConfigError(f"--jobs: must be >= 1, got {args.jobs}")
+    if args.scheduler is not None:
+        check_scheduler_address(args.scheduler)
     specs = plan(discover(args.paths))  # refuses duplicate names and bad sweeps up front
     check_output_dir(args.out, "--out")
     if args.out.is_dir():
@@ -614,6 +653,19 @@ def _cmd_batch(args) -> int:
     return EXIT_FLIGHT_FAILED if outcome.failed else 0
 
 
+def check_scheduler_address(address: str) -> None:
+    """A ``--scheduler`` that is not a well-formed address (``http://[::1``, a port out of range) is one line."""
+    from urllib.parse import urlsplit
+
+    from geofence.validation import ConfigError
+
+    try:
+        parts = urlsplit(address if "://" in address else f"tcp://{address}")
+        parts.port  # noqa: B018 - parses the port, raises ValueError when it is malformed
+    except ValueError as exc:
+        raise ConfigError(f"--scheduler {address}: not a valid address ({exc}); expected tcp://HOST:PORT") from None
+
+
 def _write_batch_outputs(out_dir: Path, report: bool) -> None:
     from analysis.report import collect_results, write_report, write_results_csv
 
@@ -625,7 +677,6 @@ def _write_batch_outputs(out_dir: Path, report: bool) -> None:
 
 def _cmd_plot(args) -> int:
     from geofence.validation import ConfigError
-    from scenarios.flight.recorder import read_trajectory_csv
     from scenarios.spec.schema import parse_scenario, read_document
 
     folders = sorted(p.parent for p in Path(args.out).glob("*/trajectory.csv"))
@@ -634,7 +685,7 @@ def _cmd_plot(args) -> int:
     if (Path(args.out) / "trajectory.csv").is_file():
         folders = [Path(args.out)]
     for folder in folders:
-        traj = read_trajectory_csv(folder / "trajectory.csv")
+        traj = read_trajectory(folder / "trajectory.csv")
         fence = envelope = None
         if (folder / "scenario.yaml").is_file():
             sc = parse_scenario(read_document(folder / "scenario.yaml"), str(folder / "scenario.yaml"), folder.name)
@@ -650,6 +701,41 @@ def _cmd_plot(args) -> int:
         _write_batch_outputs(args.out, report=True)
         print(f"{Path(args.out) / 'report.md'}")
     return 0
+
+
+PLOT_COLUMNS = ("time_s", "east_m", "north_m", "agl_m", "ground_speed_mps", "airspeed_mps")
+"""The trajectory.csv columns a flight figure needs."""
+
+
+def read_trajectory(path: Path) -> dict:
+    """A flight's trajectory.csv, or a one-line :class:`ConfigError`: cut short (the recorder ends every row with a
+    newline), not text, rows of different lengths, no rows, or without the columns a figure needs."""
+    from geofence.validation import ConfigError
+    from scenarios.flight.recorder import read_trajectory_csv
+
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096)
+            f.seek(0, os.SEEK_END)
+            size = f.tell()
+            f.seek(max(0, size - 1))
+            last = f.read(1)
+        head.decode("ascii")
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a trajectory CSV (not text; binary?): re-fly the flight") from None
+    if size == 0 or last != b"\n":
+        raise ConfigError(f"{path}: cut short ({'empty' if size == 0 else 'its last row is incomplete'}): re-fly the flight")
+    try:
+        traj = read_trajectory_csv(path)
+    except (ValueError, UnicodeDecodeError, IndexError) as exc:
+        why = " ".join(str(exc).split())[:120]
+        raise ConfigError(f"{path}: not a complete trajectory CSV ({why}): re-fly the flight") from None
+    missing = [c for c in PLOT_COLUMNS if c not in traj]
+    if missing:
+        raise ConfigError(f"{path}: not a trajectory CSV: no column {missing[0]!r} (header cut or another file?)")
+    if traj["time_s"].ndim != 1 or len(traj["time_s"]) < 2:
+        raise ConfigError(f"{path}: fewer than two rows: nothing to plot (re-fly the flight)")
+    return traj
 
 
 def _cmd_compare(args) -> int:
@@ -670,11 +756,12 @@ def _cmd_score_log(args) -> int:
     import json
     import math
 
-    from analysis.logs import check_near_fence, describe, load_log
+    from analysis.logs import check_distance_bound, check_near_fence, describe, load_log
     from analysis.scoring import score_flight
     from geofence.importers import load_fence_file, summarize
 
-    imported = load_fence_file(args.fence, ceiling_m=args.ceiling)
+    check_distance_bound(args.max_fence_distance_km * 1000.0)
+    imported = load_fence_file(args.fence, ceiling_m=args.ceiling, inclusion_polygon=args.inclusion_polygon)
     traj, info = load_log(args.log)
     check_near_fence(traj, imported.fence, args.max_fence_distance_km * 1000.0, name=str(args.log))
     scores = score_flight(traj, imported.fence.to_local(info.frame))
@@ -707,7 +794,7 @@ def _cmd_import_fence(args) -> int:
         if out.exists() and not args.force:
             raise ConfigError(f"-o: {out}: exists; add --force to overwrite it")
         check_output_dir(out.parent, "-o")
-    imported = load_fence_file(args.fence_file, ceiling_m=args.ceiling)
+    imported = load_fence_file(args.fence_file, ceiling_m=args.ceiling, inclusion_polygon=args.inclusion_polygon)
     for w in imported.warnings:
         print(f"warning: {w}", file=sys.stderr)
     text = yaml.safe_dump(_rounded(fence_to_yaml_block(imported)), sort_keys=False)

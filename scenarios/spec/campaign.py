@@ -1557,6 +1557,8 @@ def generate_campaign(
     fence fits none of them is left out (the manifest counts it). Flights last
     at most ``max_duration_s`` of simulated time. Returns the YAML paths written.
     """
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
+        raise ConfigError(f"seed: must be an integer in [0, 2^63) (numpy seeds are non-negative), got {seed!r}")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     cases = generate_cases(n_cases, seed, platforms=platforms, families=families, max_duration_s=max_duration_s)

@@ -397,6 +397,62 @@ class UniqueKeyLoader(yaml.SafeLoader):
             first[key] = key_node.start_mark
         return super().construct_mapping(node, deep=deep)
 
+    def get_single_data(self) -> Any:
+        """The document, refused before it is built when its aliases expand it beyond :data:`MAX_YAML_NODES`."""
+        node = self.get_single_node()
+        if node is None:
+            return None
+        _check_expanded_size(node)
+        return self.construct_document(node)
+
+
+MAX_YAML_NODES = 1_000_000
+"""A scenario document may hold at most this many YAML nodes once its aliases are expanded (the largest
+inline fence, 200,000 vertices of two numbers each, is some 600,000). A few lines of nested aliases
+("billion laughs") otherwise stand for 10^9 nodes, and anything that walks the document (a name
+stringified, the scenario hash) would grow without end."""
+
+
+class DocumentTooLarge(yaml.YAMLError):
+    """A YAML document whose aliases stand for more than :data:`MAX_YAML_NODES` nodes, or for a loop."""
+
+
+def _check_expanded_size(root: yaml.Node) -> None:
+    """Count ``root``'s nodes as if every alias were copied out (each distinct node visited once, no
+    recursion); refuse a recursive alias or more than :data:`MAX_YAML_NODES`."""
+    size: dict[int, int] = {}
+    on_path: set[int] = set()
+    stack: list[tuple[yaml.Node, bool]] = [(root, False)]
+    while stack:
+        node, done = stack.pop()
+        children = _yaml_children(node)
+        if done:
+            on_path.discard(id(node))
+            size[id(node)] = total = 1 + sum(size[id(c)] for c in children)
+            if total > MAX_YAML_NODES:
+                raise DocumentTooLarge(
+                    f"YAML aliases: expand the document beyond {MAX_YAML_NODES:,} nodes (an alias bomb?); "
+                    f"write the values out or use fewer nested aliases"
+                )
+            continue
+        if id(node) in size:
+            continue
+        on_path.add(id(node))
+        stack.append((node, True))
+        for c in children:
+            if id(c) in on_path:
+                raise DocumentTooLarge(f"YAML aliases: line {c.start_mark.line + 1}: a recursive alias (a node inside itself)")
+            if id(c) not in size:
+                stack.append((c, False))
+
+
+def _yaml_children(node: yaml.Node) -> list[yaml.Node]:
+    if isinstance(node, yaml.MappingNode):
+        return [n for pair in node.value for n in pair]
+    if isinstance(node, yaml.SequenceNode):
+        return list(node.value)
+    return []
+
 
 def read_document(path: str | Path) -> Any:
     """Read a YAML file; any problem (malformed YAML, a key given twice in one mapping) is a one-line
@@ -407,6 +463,8 @@ def read_document(path: str | Path) -> Any:
         raise ConfigError(f"{where}: no such scenario file")
     try:
         raw = yaml.load(path.read_text(), Loader=UniqueKeyLoader)  # noqa: S506 - a SafeLoader
+    except DocumentTooLarge as exc:
+        raise ConfigError(f"{where}: {exc}") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
@@ -414,6 +472,8 @@ def read_document(path: str | Path) -> Any:
         raise ConfigError(f"{where}: malformed YAML{at}: {problem}") from None
     except UnicodeDecodeError:
         raise ConfigError(f"{where}: not a text file") from None
+    except RecursionError:
+        raise ConfigError(f"{where}: malformed YAML: nested too deeply for the YAML reader") from None
     if raw is None:
         raise ConfigError(f"{where}: the file is empty")
     return raw
@@ -485,8 +545,7 @@ def parse_scenario(
         maximum=120.0,
     )
     name = string(raw.get("name", default_name), f"{where}: name")
-    if any(c in name for c in "/\\") or name.startswith("."):
-        raise ConfigError(f"{where}: name: {name!r} must be usable as a folder name (no slashes, no leading dot)")
+    _check_name(name, f"{where}: name")
 
     allow = _parse_allow(raw.get("allow"), f"{where}: allow")
     start = _parse_start(raw["start"], f"{where}: start")
@@ -527,6 +586,22 @@ def parse_scenario(
         allow=allow,
         warnings=tuple(warnings),
     )
+
+
+MAX_NAME_BYTES = 200
+"""A scenario (flight) name is a folder name: at most 255 bytes on common file systems, less the room the
+flight's temporary folder (``.<name>.<random>.tmp``) takes."""
+
+
+def _check_name(name: str, where: str) -> None:
+    """A name usable as one folder name: no slashes, no leading dot, no control character, not too long."""
+    if any(c in name for c in "/\\") or name.startswith("."):
+        raise ConfigError(f"{where}: {name!r} must be usable as a folder name (no slashes, no leading dot)")
+    if any(ord(c) < 32 or ord(c) == 127 for c in name):
+        raise ConfigError(f"{where}: {name!r} must be usable as a folder name (no control characters such as NUL)")
+    n_bytes = len(name.encode("utf-8", "surrogatepass"))
+    if n_bytes > MAX_NAME_BYTES:
+        raise ConfigError(f"{where}: must be at most {MAX_NAME_BYTES} bytes (it names a folder), got {n_bytes}")
 
 
 def _parse_allow(raw: Any, where: str) -> frozenset[str]:

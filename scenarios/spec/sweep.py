@@ -16,7 +16,9 @@ Parameters are dotted paths into the scenario document (``wind.speed_mps``,
           start.heading_deg: {choice: [0, 90, 180, 270]}
           seed: {integers: [0, 1000000]}
 
-With both, each grid point gets ``count`` draws. Each flight is named
+With both, each grid point gets ``count`` draws; a file may stand for at most
+:data:`MAX_SWEEP_FLIGHTS` (100,000) flights, counted before anything is
+expanded. Each flight is named
 ``<name>__<param>=<value>...`` (grid) and ``__mc<k>`` (draws); its document is
 validated like any scenario. Draws use numpy's PCG64 seeded by ``seed``, so the
 same file always expands to the same flights.
@@ -48,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from geofence.validation import ConfigError, integer, number, reject_unknown_keys, require_mapping
+from geofence.validation import ConfigError, integer, number, reject_unknown_keys, require_mapping, string
 
 DISTRIBUTIONS = ("uniform", "normal", "choice", "integers")
 
@@ -159,18 +161,26 @@ def _profile_text(name: str) -> str:
         return ""
 
 
-def expand(document: dict, where: str, default_name: str) -> list[FlightSpec]:
-    """The flights a scenario document stands for (one without a ``sweep:`` block)."""
+MAX_SWEEP_FLIGHTS = 100_000
+"""A sweep file may stand for at most this many flights (grid points x Monte Carlo draws): counted from the
+list lengths and ``count`` before anything is expanded (at some 5 KB per flight document, 10^9 draws would
+fill the memory long before the first was judged; 100,000 flights are days of compute on one machine)."""
+
+
+def expand(document: dict, where: str, default_name: str, *, max_flights: int = MAX_SWEEP_FLIGHTS) -> list[FlightSpec]:
+    """The flights a scenario document stands for (one without a ``sweep:`` block); a sweep of more than
+    ``max_flights`` is refused before it is expanded."""
     require_mapping(document, f"{where}: (top level)")
     doc = dict(document)
     sweep = doc.pop("sweep", None)
-    base_name = str(doc.get("name", default_name))
+    base_name = string(doc["name"], f"{where}: name") if "name" in doc else str(default_name)  # typed before use
     if sweep is None:
         return [FlightSpec(base_name, doc if "name" in doc else dict(doc, name=base_name), where)]
     require_mapping(sweep, f"{where}: sweep")
     reject_unknown_keys(sweep, {"grid", "monte_carlo"}, f"{where}: sweep")
-    grid_points = _grid(sweep.get("grid"), f"{where}: sweep.grid")
     mc = sweep.get("monte_carlo")
+    _check_flight_count(sweep.get("grid"), mc, where, max_flights)
+    grid_points = _grid(sweep.get("grid"), f"{where}: sweep.grid")
     if grid_points and grid_points[0]:
         for path, value in grid_points[0]:
             _check_path(doc, path, value, f"{where}: sweep.grid.{path}", where)
@@ -186,6 +196,24 @@ def expand(document: dict, where: str, default_name: str) -> list[FlightSpec]:
             variant["name"] = name
             specs.append(FlightSpec(name, variant, where))
     return specs
+
+
+def _check_flight_count(grid: Any, mc: Any, where: str, max_flights: int) -> None:
+    """Refuse a sweep of more than ``max_flights`` flights, from its sizes alone."""
+    points = 1
+    if isinstance(grid, dict):
+        for vals in grid.values():
+            points *= len(vals) if isinstance(vals, list) and vals else 1
+    draws = 1
+    if isinstance(mc, dict):
+        count = mc.get("count", 10)
+        draws = integer(count, f"{where}: sweep.monte_carlo.count", minimum=1)
+    if points * draws > max_flights:
+        field = "sweep.monte_carlo.count" if draws > max_flights else "sweep"
+        raise ConfigError(
+            f"{where}: {field}: {points:,} grid point(s) x {draws:,} draw(s) = {points * draws:,} flights exceed the "
+            f"limit of {max_flights:,} per file; split the sweep into several files"
+        )
 
 
 _DOTTED_PATH = re.compile(r"[A-Za-z0-9_\-]+(\.[A-Za-z0-9_\-]+)*")
