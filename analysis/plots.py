@@ -222,7 +222,7 @@ def _wind_title(ax, traj, scenario_wind) -> str:
         zorder=10,
     )
     from_deg = np.degrees(np.arctan2(-we, -wn)) % 360
-    title = f"\nmean wind measured at the vehicle: {speed:.1f} m/s from {from_deg:.0f}° (blue arrow: toward)"
+    title = f"\nwind measured at the vehicle (mean, arrow): {speed:.1f} m/s from {from_deg:.0f}°"
     return title + (f"\nscenario wind: {cfg_text}" if cfg_text else "")
 
 
@@ -360,9 +360,10 @@ def flight_figure(
             zorder=5,
             label="mission waypoints" + (f" (acceptance circle {acceptance_radius_m:g} m)" if acceptance_radius_m else ""),
         )
-    # start and end above the recovery point (a flight often starts on it)
-    ax.plot(e[0], n[0], marker="^", color="tab:green", mec="black", ms=9, ls="none", label="start", zorder=11)
-    ax.plot(e[-1], n[-1], marker="s", color="tab:red", mec="black", ms=8, ls="none", label="end", zorder=11)
+    # start and end above the recovery point (a flight often starts on it); the end hollow, under the start, so a
+    # flight that lands where it took off shows both
+    ax.plot(e[-1], n[-1], marker="s", mfc="none", mec="tab:red", mew=2, ms=12, ls="none", label="end", zorder=11)
+    ax.plot(e[0], n[0], marker="^", color="tab:green", mec="black", ms=9, ls="none", label="start", zorder=12)
     if len(act_idx):
         ax.plot(
             e[act_idx],
@@ -414,7 +415,7 @@ def flight_figure(
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("east (m)")
     ax.set_ylabel("north (m)")
-    ax.set_title("ground track" + wind_title, fontsize="medium", loc="left")
+    ax.set_title("ground track" + wind_title, fontsize="small", loc="left")
     ax.grid(alpha=0.3)
     ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.07), ncol=2, fontsize="small", frameon=False)
     if points is not None:
