@@ -2,6 +2,11 @@
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+from pathlib import Path
+
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
@@ -103,3 +108,39 @@ def test_the_keep_in_margin_is_drawn_apart_from_a_nearer_keep_out():
         assert np.allclose(keep_in, expected, atol=0.5)
     finally:
         plt.close(fig)
+
+
+# --------------------------------------------------------------------------- the shipped examples
+ROOT = Path(__file__).parents[1]
+SHIPPED = sorted((ROOT / "scenarios").glob("*.yaml")) + sorted((ROOT / "scenarios" / "airspace").glob("*.yaml"))
+
+
+@pytest.mark.closed_loop  # (the project's marker for flying tests; "slow" is not registered)
+@pytest.mark.parametrize("path", SHIPPED, ids=[p.name for p in SHIPPED])
+def test_every_shipped_example_runs_to_completion(path):
+    """Issue 41: the four airspace examples ran out of duration_s ("NOT completed", exit 1). All of them together
+    fly in about 45 s on 2 cores (no figures)."""
+    from scenarios.flight.runner import fly
+    from scenarios.spec.schema import load_scenario
+
+    summary = fly(load_scenario(path)).summary
+    assert summary["completed"], f"{path.name}: {summary.get('mission_progress')} at {summary.get('sim_time_s')} s"
+    if path.parent.name == "airspace" and "large_fence" in path.name:
+        assert summary["activations"] >= 1  # the avenues end inside the activation room: the unit turns it back
+
+
+def test_compare_says_an_unreadable_summary_on_stderr_and_counts_it_apart(tmp_path):
+    """Issue 41: a corrupt summary.json was counted as a failed "unknown" flight without a word."""
+    (tmp_path / "good").mkdir()
+    good = {"flight": "good", "aircraft": "F450RD", "platform_kind": "multirotor", "completed": True, "geofence": True,
+            "wind_speed_mps": 4.0, "max_excursion_m": -2.0, "activations": 1}  # fmt: skip
+    (tmp_path / "good" / "summary.json").write_text(json.dumps(good))
+    (tmp_path / "torn").mkdir()
+    (tmp_path / "torn" / "summary.json").write_text('{"flight": "torn", "aircr')
+    res = subprocess.run(
+        [sys.executable, "-m", "scenarios.app.cli", "compare", str(tmp_path)], capture_output=True, text=True, timeout=120
+    )
+    assert res.returncode == 0, res.stderr
+    assert res.stderr.count("\n") == 1 and "torn/summary.json: unreadable (" in res.stderr, res.stderr
+    assert "| unknown |" not in res.stdout and "(1 unreadable summary.json counted apart" in res.stdout
+    assert "| F450RD (multirotor) | predictive | 4 m/s | 1 | 0 | 0/1 |" in res.stdout
