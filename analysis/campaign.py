@@ -68,6 +68,7 @@ from analysis.report import RESULTS_CSV, read_results_csv
 from analysis.scoring import SCORED_COLUMNS, score_flight
 from geofence.fence import parse_fence
 from geofence.geodesy import LocalFrame
+from geofence.validation import ConfigError
 
 MANIFEST = "campaign.json"
 REPORT_MD = "campaign_report.md"
@@ -800,17 +801,31 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
     return lines
 
 
+def _not_this_campaign(batch_dir: Path, n_results: int, manifest: Mapping, manifest_path) -> str:
+    """Why results that hold none of the campaign's flights are refused, in one line."""
+    cases = manifest.get("cases") or []
+    example = f"{cases[0]['case_id']}__{VARIANTS[0]}" if cases else "<case_id>__predictive"
+    return (
+        f"{batch_dir / RESULTS_CSV}: none of its {n_results} flights is one of the campaign's in {manifest_path} "
+        f"(named <case_id>__<variant>, e.g. {example}): give the folder this campaign was flown into"
+    )
+
+
 def write_campaign_report(batch_dir: str | Path, manifest_path: str | Path, *, out_dir: str | Path | None = None) -> Path:
     """Read ``<batch_dir>/results.csv`` and the manifest; write ``campaign_report.md``, its figures and
     ``campaign_flights.csv`` (one row per flight, :func:`flight_summaries`).
 
-    Returns the report's path (in ``out_dir``, default ``batch_dir``).
+    Returns the report's path (in ``out_dir``, default ``batch_dir``). Results of which no flight is one of the
+    campaign's (``<case_id>__<variant>``) are refused with a one-line :class:`ConfigError`, nothing written.
     """
     batch_dir = Path(batch_dir)
     out_dir = Path(out_dir) if out_dir is not None else batch_dir
     out_dir.mkdir(parents=True, exist_ok=True)
     manifest = load_manifest(manifest_path)
-    rows = campaign_rows(read_results_csv(batch_dir / RESULTS_CSV), manifest, batch_dir)
+    results = read_results_csv(batch_dir / RESULTS_CSV)
+    rows = campaign_rows(results, manifest, batch_dir)
+    if not rows:
+        raise ConfigError(_not_this_campaign(batch_dir, len(results), manifest, manifest_path))
     plot_excursions(rows, out_dir / "campaign_excursion")
     plot_breach_bounds(rows, out_dir / "campaign_breach_bounds")
     flights = out_dir / FLIGHTS_CSV

@@ -8,13 +8,20 @@ the flight:
 
 * the ground track coloured by the unit's recorded activation margin
   (``activation_margin_m``; grey where the unit did not compute it), the
-  activations (where it reached 0) and hand-backs marked, and the activation
-  boundary for the speed and wind recorded at each activation (keep-in edges,
-  keep-out polygons and circles, see :mod:`analysis.boundary`);
+  activations (where it reached 0) and hand-backs marked, and, for a
+  predictive unit (the one that uses it), the activation boundary for the
+  speed and wind recorded at each activation (keep-in edges, keep-out polygons
+  and circles, see :mod:`analysis.boundary`); a reactive unit acts on the fence
+  line itself, so none is drawn;
 * the keep-in fence, keep-outs, floor gaps, the recovery point (on top,
   labelled) and, for missions, the waypoints with their acceptance circles;
-* against time: height with ceiling and floor, speed, the lateral margin, the
-  ceiling and floor margins, and the unit's activation margin, each with the
+* the mean wind measured at the vehicle (arrow above the track, outside the
+  data) beside the scenario's wind (at its reference height: the two differ
+  with the height profile, turbulence and gusts);
+* against time: height with ceiling and floor, speed, the lateral margin (to
+  the keep-in edge and to the nearest keep-out, apart), the ceiling and floor
+  margins (none drawn over a floor gap, where no floor applies), and the unit's
+  activation margin, each with the
   geofence phases (:class:`geofence.unit.Mode`) shaded and the GPS failure
   marked.
 """
@@ -196,6 +203,45 @@ def _activation_boundaries(ax, traj, fence, envelope, act_idx: np.ndarray) -> No
         ax.plot([], [], ls="none", label=f"(+{n_act - len(chosen)} activations at a similar\nspeed and wind: same boundary)")
 
 
+def _wind_title(ax, traj, scenario_wind) -> str:
+    """The wind arrow (above the track's top right corner, off the data) and the title lines naming both winds."""
+    cfg_text = _scenario_wind_text(scenario_wind)
+    if "wind_east_mps" not in traj or not np.nanmax(np.hypot(traj["wind_east_mps"], traj["wind_north_mps"])) > 0.1:
+        return f"\nscenario wind: {cfg_text}" if cfg_text else ""
+    we, wn = np.nanmean(traj["wind_east_mps"]), np.nanmean(traj["wind_north_mps"])
+    speed = float(np.hypot(we, wn))
+    u = np.array([we, wn]) / speed
+    centre = np.array([0.95, 1.07])  # axes fraction: right of the (left-aligned) title, above the frame
+    ax.annotate(
+        "",
+        xy=tuple(centre + 0.035 * u),
+        xytext=tuple(centre - 0.035 * u),
+        xycoords="axes fraction",
+        arrowprops={"arrowstyle": "-|>", "color": "tab:blue", "lw": 2},
+        annotation_clip=False,
+        zorder=10,
+    )
+    from_deg = np.degrees(np.arctan2(-we, -wn)) % 360
+    title = f"\nwind measured at the vehicle (mean, arrow): {speed:.1f} m/s from {from_deg:.0f}°"
+    return title + (f"\nscenario wind: {cfg_text}" if cfg_text else "")
+
+
+def _scenario_wind_text(cfg) -> str:
+    """The scenario's wind in words: speed, direction, the height it is given at, and what it adds."""
+    if cfg is None:
+        return ""
+    text = f"{cfg.speed_mps:g} m/s from {cfg.from_deg:g}°"
+    profile = cfg.profile
+    if profile is not None and profile.law != "uniform":
+        text += f" at {profile.reference_height_m:g} m AGL ({profile.law} law)"
+    extras = []
+    if cfg.turbulence is not None and cfg.turbulence.resolved_w20_mps > 0.0:
+        extras.append("turbulence")
+    if cfg.gusts or (cfg.random_gusts is not None and cfg.random_gusts.count):
+        extras.append("gusts")
+    return text + (f" + {', '.join(extras)}" if extras else "")
+
+
 def _track_by_margin(ax, fig, traj) -> None:
     """Ground track as a line coloured by the unit's activation margin; grey where not computed."""
     e, n = traj["east_m"], traj["north_m"]
@@ -233,8 +279,21 @@ def _mode_track(ax, traj) -> None:
 
 
 def plot_flight(
+    traj: dict[str, np.ndarray], out_path: Path, title: str, wind_note: str = "", fence=None, envelope=None, **kw
+) -> list[Path]:
+    """:func:`flight_figure` written to ``out_path`` .png and .svg; returns the paths written."""
+    fig = flight_figure(traj, title, wind_note, fence, envelope, **kw)
+    written = []
+    for suffix in (".png", ".svg"):
+        path = Path(out_path).with_suffix(suffix)
+        fig.savefig(path, dpi=100)
+        written.append(path)
+    plt.close(fig)
+    return written
+
+
+def flight_figure(
     traj: dict[str, np.ndarray],
-    out_path: Path,
     title: str,
     wind_note: str = "",
     fence=None,
@@ -244,18 +303,22 @@ def plot_flight(
     gps_outages: Sequence[tuple[float, float]] = (),
     waypoints_en: Sequence[tuple[float, float]] | None = None,
     acceptance_radius_m: float | None = None,
-) -> list[Path]:
-    """Ground track (ENU m) beside height, speed and margins vs time; writes ``out_path`` .png and .svg.
+    trigger: str | None = None,
+    scenario_wind=None,
+):
+    """The figure of a flight: ground track (ENU m) beside height, speed and margins vs time (open; the caller
+    saves and closes it).
 
     Without a fence the track is coloured by time. With one (a
     :class:`~geofence.local_fence.LocalFence`; ``envelope`` the platform's
     :class:`~geofence.interface.Envelope`), see the module docstring.
     ``gps_fail_at_s`` (the scenario's ``sensors.gps_fail_at_s``) and
     ``gps_outages`` mark the GPS failure; ``waypoints_en`` (ENU m) and
-    ``acceptance_radius_m`` draw a mission's waypoints. Returns the paths written.
+    ``acceptance_radius_m`` draw a mission's waypoints; ``trigger`` (the unit's, ``"predictive"``
+    by default) whether an activation boundary is drawn; ``scenario_wind`` (a
+    :class:`~wind.config.WindConfig`) is named beside the measured mean wind.
     """
     t, e, n = traj["time_s"], traj["east_m"], traj["north_m"]
-    wind_title = ""
     has_fence = fence is not None
     n_time = 5 if has_fence else 2
     fig = plt.figure(figsize=(16, 12.5 if has_fence else 6.4), layout="constrained")
@@ -273,7 +336,8 @@ def plot_flight(
                 ax.plot([], [], color="tab:red", lw=6, alpha=0.25, label="geofence override (under the track)")
         else:
             _mode_track(ax, traj)
-        _activation_boundaries(ax, traj, fence, envelope, act_idx)
+        if trigger != "reactive":  # a reactive unit acts on the fence line: it has no activation boundary
+            _activation_boundaries(ax, traj, fence, envelope, act_idx)
         points = None
     else:
         points = ax.scatter(e, n, c=t, s=2, cmap="viridis")
@@ -296,8 +360,10 @@ def plot_flight(
             zorder=5,
             label="mission waypoints" + (f" (acceptance circle {acceptance_radius_m:g} m)" if acceptance_radius_m else ""),
         )
-    ax.plot(e[0], n[0], marker="^", color="tab:green", mec="black", ms=9, ls="none", label="start", zorder=7)
-    ax.plot(e[-1], n[-1], marker="s", color="tab:red", mec="black", ms=8, ls="none", label="end", zorder=7)
+    # start and end above the recovery point (a flight often starts on it); the end hollow, under the start, so a
+    # flight that lands where it took off shows both
+    ax.plot(e[-1], n[-1], marker="s", mfc="none", mec="tab:red", mew=2, ms=12, ls="none", label="end", zorder=11)
+    ax.plot(e[0], n[0], marker="^", color="tab:green", mec="black", ms=9, ls="none", label="start", zorder=12)
     if len(act_idx):
         ax.plot(
             e[act_idx],
@@ -335,17 +401,7 @@ def plot_flight(
             zorder=10,
             bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.5", "alpha": 0.85},
         )
-    if "wind_east_mps" in traj and np.nanmax(np.hypot(traj["wind_east_mps"], traj["wind_north_mps"])) > 0.1:
-        we, wn = np.nanmean(traj["wind_east_mps"]), np.nanmean(traj["wind_north_mps"])
-        ax.annotate(
-            "",
-            xy=(0.95, 0.95),
-            xytext=(0.95 - 0.07 * we / np.hypot(we, wn), 0.95 - 0.07 * wn / np.hypot(we, wn)),
-            xycoords="axes fraction",
-            arrowprops={"arrowstyle": "-|>", "color": "tab:blue", "lw": 2},
-            zorder=10,
-        )
-        wind_title = f"\nmean wind {np.hypot(we, wn):.1f} m/s from {np.degrees(np.arctan2(-we, -wn)) % 360:.0f}° (arrow: toward)"
+    wind_title = _wind_title(ax, traj, scenario_wind)
     xs = [e[np.isfinite(e)]] + ([fence.keep_in.vertices[:, 0]] if has_fence else [])
     ys = [n[np.isfinite(n)]] + ([fence.keep_in.vertices[:, 1]] if has_fence else [])
     if waypoints_en is not None and len(waypoints_en):
@@ -359,7 +415,7 @@ def plot_flight(
     ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("east (m)")
     ax.set_ylabel("north (m)")
-    ax.set_title("ground track" + wind_title, fontsize="medium")
+    ax.set_title("ground track" + wind_title, fontsize="small", loc="left")
     ax.grid(alpha=0.3)
     ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.07), ncol=2, fontsize="small", frameon=False)
     if points is not None:
@@ -401,13 +457,7 @@ def plot_flight(
         if handles:  # the phase key under the time axes, outside the data
             time_axes[-1].legend(handles=handles + time_axes[-1].get_legend_handles_labels()[0], **LEGEND_OUTSIDE)
     fig.suptitle(title + (f" — {wind_note}" if wind_note else ""))
-    written = []
-    for suffix in (".png", ".svg"):
-        path = Path(out_path).with_suffix(suffix)
-        fig.savefig(path, dpi=100)
-        written.append(path)
-    plt.close(fig)
-    return written
+    return fig
 
 
 def _margin_panels(fig, grid, ax_alt, traj, fence) -> list:
@@ -417,7 +467,7 @@ def _margin_panels(fig, grid, ax_alt, traj, fence) -> list:
     t = traj["time_s"]
     m = margins(traj, fence)
     ax_lat = fig.add_subplot(grid[2, 1], sharex=ax_alt)
-    lat = m["lateral"]
+    lat = fence.keep_in.signed_distance_array(np.column_stack([traj["east_m"], traj["north_m"]]))
     ax_lat.plot(t, lat, color="black", lw=1.2, label="to the keep-in edge (truth)")
     series = [lat]
     if fence.keep_out_polygons or fence.keep_out_circles:
@@ -432,7 +482,8 @@ def _margin_panels(fig, grid, ax_alt, traj, fence) -> list:
     ax_v.plot(t, m["ceiling"], color="tab:brown", lw=1.2, label="below the ceiling (truth)")
     series = [m["ceiling"]]
     if fence.floor_m is not None:
-        fl = np.where(np.isfinite(m["floor"]), m["floor"], np.nan)
+        over_gap = fence.in_floor_gap_array(np.column_stack([traj["east_m"], traj["north_m"]]))
+        fl = np.where(np.isfinite(m["floor"]) & ~over_gap, m["floor"], np.nan)
         ax_v.plot(t, fl, color="tab:green", lw=1.2, label="above the floor (truth;\nno line: over a floor gap)")
         series.append(fl)
     ax_v.axhline(0.0, color="tab:red", lw=1.0)
@@ -483,13 +534,17 @@ def plot_result(result, folder: Path) -> list[Path]:
 
 
 def scenario_plot_kwargs(sc) -> dict:
-    """The optional :func:`plot_flight` arguments a scenario provides: GPS failure, outages, waypoints.
+    """The optional :func:`plot_flight` arguments a scenario provides: GPS failure, outages, waypoints,
+    the unit's trigger and the scenario's wind.
 
     For callers that re-plot saved flights (``geofence-testbed plot``) from ``scenario.yaml``.
     """
     from geofence.geodesy import LocalFrame
 
-    kw: dict = {}
+    kw: dict = {"scenario_wind": getattr(sc, "wind", None)}
+    geofence = getattr(sc, "geofence", None)
+    if geofence is not None:
+        kw["trigger"] = str(geofence.trigger)
     sensors = getattr(sc, "sensors", None)
     if sensors is not None:
         kw["gps_fail_at_s"] = sensors.gps_fail_at_s

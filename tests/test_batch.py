@@ -133,10 +133,18 @@ def test_interrupted_batch_keeps_finished_flights_and_resumes_without_refling(tm
     while len(list(out.glob("*/summary.json"))) < 4 and time.monotonic() < deadline:
         time.sleep(0.02)
     proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=300)
+    stdout, err = proc.communicate(timeout=300)
     first = summaries(out)
     assert 4 <= len(first) < 20, f"{len(first)} flights finished before the interrupt"
     assert proc.returncode == 130, err
+    # the console counts the folders written (the flights in the air when Ctrl-C came landed and count)
+    assert f"20 flights: 0 already done, {len(first)} flown" in stdout, stdout + err
+    from analysis.report import read_results_csv
+
+    assert {(r["batch_partial"], r["batch_flights"]) for r in read_results_csv(out / "results.csv")} == {
+        (True, f"{len(first)}/20")
+    }
+    assert f"**Partial batch: {len(first)} of 20 planned flights have results**" in (out / "report.md").read_text()
     stamps = {name: (out / name / "summary.json").stat().st_mtime_ns for name in first}
     res = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stdout + res.stderr
@@ -145,6 +153,7 @@ def test_interrupted_batch_keeps_finished_flights_and_resumes_without_refling(tm
     assert len(final) == 20 and all(s["completed"] for s in final.values())
     assert all((out / name / "summary.json").stat().st_mtime_ns == t for name, t in stamps.items())
     assert not list(out.rglob(".*.tmp")), "a half-written file was left behind"
+    assert "batch_partial" not in read_results_csv(out / "results.csv")[0]  # resumed to its end: complete
 
 
 def test_dask_executor_runs_the_same_batch_on_a_local_cluster(tmp_path):
@@ -169,3 +178,80 @@ def test_a_sweep_key_that_is_not_a_dotted_path_is_refused_in_one_line(key):
         expand(doc, "s.yaml", "s")
     msg = str(exc.value)
     assert "\n" not in msg and "is not a dotted field path" in msg and msg.startswith("s.yaml: sweep.grid")
+
+
+# --------------------------------------------------------------------------- refusals, the lock, partial batches
+def cli(*args, **kw):
+    return subprocess.run([sys.executable, "-m", "scenarios.app.cli", *args], capture_output=True, text=True, timeout=120, **kw)
+
+
+def broken_specs(tmp_path, n: int = 2):
+    """Specs that fail at once (unreadable files): a batch of them writes its folders without flying."""
+    for k in range(n):
+        (tmp_path / f"broken{k}.yaml").write_text("aircraft: [F450\n")
+    return plan(discover([tmp_path / f"broken{k}.yaml" for k in range(n)]))
+
+
+def test_an_empty_scenario_folder_is_refused_in_one_line(tmp_path):
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ConfigError, match="no scenario files"):
+        discover([tmp_path / "empty"])
+    res = cli("batch", str(tmp_path / "empty"), "--out", str(tmp_path / "out"), "--quiet")
+    assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stdout + res.stderr
+    assert "empty: no scenario files (*.yaml) in this folder" in res.stderr
+    assert not (tmp_path / "out").exists()
+
+
+HOLD_LOCK = """
+import fcntl, os, sys, time
+fh = open(sys.argv[1], "a+")
+fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+fh.write(f"pid {os.getpid()} on testhost, started now\\n"); fh.flush()
+print("held", flush=True)
+time.sleep(60)
+"""
+
+
+def test_a_second_batch_into_the_same_folder_is_refused_naming_the_holder(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    holder = subprocess.Popen([sys.executable, "-c", HOLD_LOCK, str(out / ".batch.lock")], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+        specs = broken_specs(tmp_path)
+        with pytest.raises(ConfigError, match=rf"another batch is writing into this folder \(pid {holder.pid} on testhost"):
+            run_batch(specs, out, jobs=1, progress=False)
+        assert not summaries(out), "the refused batch wrote nothing"
+        res = cli("batch", str(tmp_path / "broken0.yaml"), "--out", str(out), "--quiet")
+        assert res.returncode == 2 and res.stderr.count("\n") == 1 and f"pid {holder.pid}" in res.stderr, res.stderr
+    finally:
+        holder.kill()
+        holder.wait()
+    # the holder died without releasing anything: its file is left, and it does not block
+    assert "testhost" in (out / ".batch.lock").read_text()
+    outcome = run_batch(broken_specs(tmp_path), out, jobs=1, progress=False)
+    assert outcome.flown == 2
+
+
+def lock_is_free(out: Path) -> bool:
+    probe = "import fcntl, sys; fcntl.flock(open(sys.argv[1], 'a+'), fcntl.LOCK_EX | fcntl.LOCK_NB)"
+    return subprocess.run([sys.executable, "-c", probe, str(out / ".batch.lock")]).returncode == 0
+
+
+def test_the_lock_is_released_at_the_end_and_on_ctrl_c_and_the_batch_is_marked_partial(tmp_path):
+    from analysis.report import batch_progress, collect_results
+
+    out = tmp_path / "out"
+    specs = broken_specs(tmp_path, 3)
+    run_batch(specs[:1], out, jobs=1, progress=False)
+    assert lock_is_free(out)
+    assert batch_progress(out, collect_results(out)) is None  # ran to its end
+
+    def ctrl_c(summary):
+        raise KeyboardInterrupt
+
+    outcome = run_batch(specs, out, jobs=1, progress=False, on_done=ctrl_c)
+    assert outcome.interrupted and lock_is_free(out)
+    written = len(summaries(out))
+    assert outcome.flown + outcome.skipped == written == 2  # the console's count is the folders written
+    assert batch_progress(out, collect_results(out)) == (2, 3)

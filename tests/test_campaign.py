@@ -17,6 +17,8 @@ from __future__ import annotations
 import csv
 import json
 import math
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -772,3 +774,19 @@ def test_ci_slice_has_no_predictive_breach(tmp_path):
     assert not bad, "predictive keep-in breach / keep-out entry / vertical breach / out-of-gap landing:\n" + "\n".join(
         map(describe_flight, bad)
     )
+
+
+def test_a_report_of_results_that_are_not_the_campaigns_is_refused_in_one_line(tmp_path):
+    """Issue 41: results of another batch gave a report of "0 flights in the results" and exit 0."""
+    from analysis.report import write_results_csv
+
+    write_results_csv([_row("survey_calm"), _row("other-0001__predictive")], tmp_path / "results.csv")
+    (tmp_path / "campaign.json").write_text(json.dumps(SYNTH_MANIFEST))
+    with pytest.raises(ConfigError, match=r"none of its 2 flights is one of the campaign's .* e\.g\. box-0000__predictive"):
+        write_campaign_report(tmp_path, tmp_path / "campaign.json")
+    assert not (tmp_path / "campaign_report.md").exists()
+    res = subprocess.run(
+        [sys.executable, "-m", "scenarios.app.cli", "campaign", "report", str(tmp_path), "--campaign", str(tmp_path)],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert res.returncode == 2 and res.stderr.count("\n") == 1 and "none of its 2 flights" in res.stderr, res.stderr

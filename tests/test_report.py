@@ -138,7 +138,7 @@ def test_report_has_counts_table_figures_and_failures(tmp_path):
     assert "**7 flights**: 5 completed, **2 failed**" in text
     assert "**3 breaches**" in text and "**1 out-of-gap landings**" in text and "1 keep-out breaches" in text
     assert comparison_table(rows).strip() in text
-    assert "| F450 (multirotor) | 4 m/s | 1 | 0 | 1/1 |" in text
+    assert "| F450 (multirotor) | predictive | 4 m/s | 1 | 0 | 1/1 |" in text
     assert "`bad__cfg`: bad configuration: x.yaml: wind.speed_mps: must be >= 0, got -3" in text
     assert "`crashed`: FloatingPointError: overflow" in text
     for stem in ("breach_distribution", "platform_comparison"):
@@ -151,12 +151,12 @@ def test_report_has_counts_table_figures_and_failures(tmp_path):
 def test_comparison_stats_numbers(tmp_path):
     make_batch(tmp_path)
     rows = collect_results(tmp_path)
-    stats = {(s["platform"], s["wind"]): s for s in comparison_stats(rows)}
+    stats = {(s["platform"], s["wind"]): s for s in comparison_stats(rows) if s["variant"] == "predictive"}
     mc8 = stats[("F450 (multirotor)", "8 m/s")]
     assert mc8["breaches"] == 1 and mc8["landed_outside_gap"] == 1 and mc8["mean_activations"] == 6.0
     fw0 = stats[("Tern (fixed_wing)", "0 m/s")]
     assert fw0["mean_peak_excursion_m"] == -4.0 and math.isnan(fw0["mean_time_to_handback_s"])
-    assert "| Tern (fixed_wing) | 0 m/s | 1 | 0 | 0/1 |" in comparison_table(rows)
+    assert "| Tern (fixed_wing) | predictive | 0 m/s | 1 | 0 | 0/1 |" in comparison_table(rows)
 
 
 def test_many_wind_speeds_are_binned():
@@ -194,3 +194,75 @@ def test_plots_are_written(tmp_path, case):
         assert all(p.is_file() and p.stat().st_size > 1000 for p in written)
     report = write_report(tmp_path / "r", rows).read_text()
     assert f"**{len(rows)} flights**" in report
+
+
+def mixed_variant_batch(out: Path) -> None:
+    """A campaign-like set: one case per wind, flown predictive (held), reactive (breached) and unprotected."""
+    for wind in (0.0, 4.0):
+        case = f"box-{int(wind):04d}"
+        flights = [
+            (f"{case}__predictive", summary(f"{case}__predictive", "F450RD", "multirotor", wind, -1.5), "predictive"),
+            (f"{case}__reactive", summary(f"{case}__reactive", "F450RD", "multirotor", wind, 2.0), "reactive"),
+            (f"{case}__unprotected", {"aircraft": "F450RD", "platform_kind": "multirotor", "completed": True,
+                                      "wind_speed_mps": wind, "geofence": False}, None),
+        ]  # fmt: skip
+        for flight, s, trigger in flights:
+            folder = out / flight
+            folder.mkdir(parents=True)
+            (folder / "summary.json").write_text(json.dumps(dict(s, flight=flight)))
+            doc = {"name": flight, "aircraft": "F450RD"}
+            if trigger is not None:
+                doc["geofence"] = {"fence": {}, "trigger": trigger}
+            (folder / "scenario.yaml").write_text(json.dumps(doc))  # (JSON is YAML)
+
+
+def test_a_report_of_mixed_variants_counts_each_apart(tmp_path):
+    """Issue 41: "F450RD 2/4 breaches" lumped a predictive fence that held with a reactive one that did not."""
+    mixed_variant_batch(tmp_path)
+    rows = collect_results(tmp_path)
+    stats = {(s["variant"], s["wind"]): s for s in comparison_stats(rows)}
+    assert {k: (s["breaches"], s["scored"], s["flights"]) for k, s in stats.items()} == {
+        ("predictive", "0 m/s"): (0, 1, 1),
+        ("predictive", "4 m/s"): (0, 1, 1),
+        ("reactive", "0 m/s"): (1, 1, 1),
+        ("reactive", "4 m/s"): (1, 1, 1),
+        ("none", "0 m/s"): (0, 0, 1),
+        ("none", "4 m/s"): (0, 0, 1),
+    }
+    text = write_report(tmp_path, rows).read_text()
+    assert "| F450RD (multirotor) | predictive | 4 m/s | 1 | 0 | 0/1 |" in text
+    assert "| F450RD (multirotor) | reactive | 4 m/s | 1 | 0 | 1/1 |" in text
+    assert "| F450RD (multirotor) | no geofence | 4 m/s | 1 | 0 | 0/0 |" in text
+    assert "- **predictive**: 2 flights (0 failed); 0/2 scored flights breached" in text
+    assert "- **reactive**: 2 flights (0 failed); 2/2 scored flights breached" in text
+    assert "- **no geofence**: 2 flights (0 failed); not scored (no fence flown)" in text
+
+
+def test_an_unreadable_summary_is_said_and_counted_apart(tmp_path, capsys):
+    make_batch(tmp_path)
+    (tmp_path / "torn").mkdir()
+    (tmp_path / "torn" / "summary.json").write_text('{"aircraft": "F450", "compl')
+    rows = collect_results(tmp_path)
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "torn/summary.json: unreadable" in err and "counted apart" in err
+    table = comparison_table(rows)
+    # the two failed flights of no known platform stay as they were, the unreadable one is not a third
+    assert "| unknown | geofence unknown | unknown wind | 2 | 2 |" in table
+    assert "(1 unreadable summary.json counted apart" in table
+    assert sum(s["flights"] for s in comparison_stats(rows)) == len(rows) - 1
+    text = write_report(tmp_path, rows).read_text()
+    assert "**7 flights**" in text and "**1 unreadable `summary.json`** (counted apart" in text
+
+
+def test_a_partial_batch_says_so_in_the_report_and_in_results_csv(tmp_path):
+    make_batch(tmp_path)
+    planned = ["bad__cfg", "crashed", "fw__w0", "fw__w8", "mc__w0", "mc__w4", "mc__w8", "never__flown"]
+    (tmp_path / ".batch.json").write_text(json.dumps({"planned": planned, "finished": False}))
+    rows = collect_results(tmp_path)
+    text = write_report(tmp_path, rows).read_text()
+    assert "**Partial batch: 7 of 8 planned flights have results**" in text
+    back = read_results_csv(write_results_csv(rows, tmp_path / "results.csv"))
+    assert {(r["batch_partial"], r["batch_flights"]) for r in back} == {(True, "7/8")}
+    (tmp_path / ".batch.json").write_text(json.dumps({"planned": planned[:-1], "finished": True}))
+    assert "Partial" not in write_report(tmp_path, rows).read_text()
+    assert "batch_partial" not in read_results_csv(write_results_csv(rows, tmp_path / "results.csv"))[0]

@@ -16,8 +16,18 @@
   an exception) gets a ``summary.json`` with ``completed: false`` and the
   ``error``, and the batch goes on.
 * Refused up front (:class:`ConfigError`, nothing flown): two flights with the
-  same name, a sweep whose structure or dotted paths are wrong, an unreachable
-  Dask scheduler.
+  same name, a sweep whose structure or dotted paths are wrong, a scenario
+  folder with no ``*.yaml`` in it, an unreachable Dask scheduler, and an
+  output folder another batch is writing into: a batch holds an exclusive
+  ``fcntl.flock`` on ``<out>/.batch.lock`` (the holder's pid, host and start
+  time written in it) while it flies, released when it ends, Ctrl-C included;
+  the kernel drops the lock of a process that died, so a stale file never
+  blocks.
+* ``<out>/.batch.json`` records the flights the batch planned and whether it
+  ran to its end: ``results.csv`` and ``report.md`` of an interrupted batch
+  say it is partial (:func:`analysis.report.batch_progress`). On Ctrl-C the
+  flights already in the air are waited for and counted, so the console's
+  count is the folders written.
 * Temporary JSBSim model folders never outlive a model's load
   (:mod:`aircraft.jsbsim_model`); a worker that gets SIGTERM removes any
   in-progress one before it exits.
@@ -27,14 +37,17 @@
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import json
 import os
 import signal
+import socket
 import sys
 import threading
 import time
 import traceback
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -45,6 +58,10 @@ from geofence.validation import ConfigError
 from scenarios.spec.sweep import FlightSpec, expand, with_referenced_files
 
 SUMMARY = "summary.json"
+LOCK = ".batch.lock"
+"""The file in the output folder a batch holds an exclusive ``flock`` on while it flies."""
+STATE = ".batch.json"
+"""The batch's plan in its output folder (:data:`analysis.report.BATCH_STATE`)."""
 
 
 @dataclass
@@ -66,7 +83,10 @@ def discover(paths: Iterable[str | Path]) -> list[Path]:
     found: list[Path] = []
     for p in map(Path, paths):
         if p.is_dir():
-            found.extend(sorted(q for q in p.rglob("*.yaml") if q.is_file()))
+            files = sorted(q for q in p.rglob("*.yaml") if q.is_file())
+            if not files:
+                raise ConfigError(f"{p}: no scenario files (*.yaml) in this folder")
+            found.extend(files)
         elif p.is_file():
             found.append(p)
         else:
@@ -230,6 +250,55 @@ def slow_start_notice(bar, after_s: float, message: str = SLOW_START_NOTICE) -> 
     return notice
 
 
+_HELD: set[Path] = set()
+"""Output folders this process holds the lock of (a nested :func:`output_lock` of the same folder passes)."""
+
+
+@contextlib.contextmanager
+def output_lock(out_dir: Path) -> Iterator[None]:
+    """Hold the exclusive lock of ``out_dir`` (:data:`LOCK`) while the block runs, or refuse in one line.
+
+    The lock is the kernel's ``flock``: released when the block ends (an exception or Ctrl-C included) and
+    when the process dies, so a file left by a killed batch never blocks another.
+    """
+    out_dir = Path(out_dir).resolve()
+    if out_dir in _HELD:
+        yield
+        return
+    fh = open(out_dir / LOCK, "a+")
+    try:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = " ".join(fh.read().split()) or "a process that has not said who it is"
+            raise ConfigError(
+                f"--out {out_dir}: another batch is writing into this folder ({holder}); "
+                "wait for it to end, or choose another folder"
+            ) from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"pid {os.getpid()} on {socket.gethostname()}, started {time.strftime('%Y-%m-%d %H:%M:%S %Z')}\n")
+        fh.flush()
+        _HELD.add(out_dir)
+        try:
+            yield
+        finally:
+            _HELD.discard(out_dir)
+            fh.seek(0)
+            fh.truncate()  # (then the kernel's lock goes with the file's closing)
+    finally:
+        fh.close()
+
+
+def write_state(out_dir: Path, specs: Iterable[FlightSpec], finished: bool) -> None:
+    """:data:`STATE`: the flights planned and whether the batch ran to its end (written atomically)."""
+    path = Path(out_dir) / STATE
+    tmp = path.with_name(f"{path.name}.part")
+    tmp.write_text(json.dumps({"planned": [s.flight_id for s in specs], "finished": finished}, indent=1) + "\n")
+    os.replace(tmp, path)
+
+
 def run_batch(
     specs: list[FlightSpec],
     out_dir: Path,
@@ -246,7 +315,14 @@ def run_batch(
     out_dir = Path(out_dir)
     check_unique_names(specs)
     out_dir.mkdir(parents=True, exist_ok=True)
+    with output_lock(out_dir):  # before anything is touched: a running batch's staging folders are its own
+        return _run_locked(specs, out_dir, jobs, executor, scheduler, progress, on_done, flight_plots, slow_start_s)
+
+
+def _run_locked(specs, out_dir, jobs, executor, scheduler, progress, on_done, flight_plots, slow_start_s) -> BatchOutcome:
+    """:func:`run_batch` once the output folder's lock is held."""
     remove_stale_staging(out_dir)
+    write_state(out_dir, specs, finished=False)
     state = resume_state(specs, out_dir)
     done = {s.flight_id for s in state.done}
     todo = [s for s in specs if s.flight_id not in done]
@@ -282,12 +358,14 @@ def run_batch(
             _run_processes(todo, out_dir, jobs or os.cpu_count() or 1, finished, flight_plots)
     except KeyboardInterrupt:
         outcome.interrupted = True
+        outcome.flown = sum(is_done(out_dir, s) for s in todo)  # the folders written, whatever was reported
     finally:
         if notice is not None:
             notice.cancel()
         if bar is not None:
             bar.close()
         outcome.wall_time_s = time.perf_counter() - t0
+    write_state(out_dir, specs, finished=not outcome.interrupted)
     return outcome
 
 
@@ -327,8 +405,26 @@ def _run_processes(
                 nxt = next(queue, None)
                 if nxt is not None:
                     pending.add(pool.submit(fly_spec, nxt, str(out_dir), flight_plots))
+    except KeyboardInterrupt:
+        _land_running(pending, finished)
+        raise
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _land_running(pending: set, finished: Callable[[dict], None]) -> None:
+    """After Ctrl-C: cancel the flights not started, wait for those in the air (their workers ignore it) and count
+    them, so what is reported is what is on disk. A second Ctrl-C stops the waiting."""
+    for fut in pending:
+        fut.cancel()
+    running = [f for f in pending if not f.cancelled()]
+    if running:
+        print(
+            f"interrupted: waiting for the {len(running)} flight(s) in the air to land (Ctrl-C again: stop now)", file=sys.stderr
+        )
+    for fut in wait(running).done:
+        if fut.exception() is None:
+            finished(fut.result())
 
 
 def _dask_client(scheduler: str | None):

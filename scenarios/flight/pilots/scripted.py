@@ -1,8 +1,9 @@
 """The scripted ("adversarial") pilot: timed segments of raw sticks or blunt behaviours.
 
 Used to provoke breaches: "fly course 090 at full speed", "climb at max",
-"hold these sticks". Each segment lasts ``duration_s``; after the last one the
-pilot keeps flying it. Behaviours use the same navigation laws as the mission
+"hold these sticks". Each segment lasts ``duration_s``; when the last one's
+duration has passed the script has run to its end (every segment counted in
+``items_reached``, ``finished`` set) and the pilot keeps flying it. Behaviours use the same navigation laws as the mission
 autopilot but with saturated speed/climb demands.
 """
 
@@ -20,6 +21,9 @@ from scenarios.flight.pilots.nav_laws import FixedWingNavigator, MultirotorNavig
 from scenarios.spec.schema import ScriptSegment, SegmentEnd
 
 _CLIMB_STICK = {"hold": 0.0, "max": 1.0, "descend": -1.0}
+END_TOLERANCE_STEPS = 0.5
+"""The last segment has ended within half a step of its end time (a script whose segments sum to the
+scenario's ``duration_s`` ends on the flight's last step, whose time is that sum within rounding)."""
 
 
 class ScriptedPilot:
@@ -77,7 +81,7 @@ class ScriptedPilot:
         self._segment_index = -1
         self._law = lk.law_array()  # the current segment's law, where it has a compiled form (else GIVEN)
         self._law_flies = False  # (its kind is not GIVEN)
-        self.finished = False  # a script has no goal: it flies until the scenario's duration ends
+        self.finished = False  # the last segment's duration has passed: the script ran to its end
 
     @property
     def items_total(self) -> int:
@@ -85,6 +89,9 @@ class ScriptedPilot:
 
     @property
     def items_reached(self) -> int:
+        """The segments flown to their end: the earlier ones, and the last once its duration has passed."""
+        if self.finished:
+            return len(self.segments)
         i = self._segment_index
         return i if i > 0 else 0  # (-1 before the first command)
 
@@ -162,6 +169,8 @@ class ScriptedPilot:
         # (and the last one never)
         if self._index < self._last and (s.t_s >= self._end_s or self._on_event):
             self._segment_at(s)
+        if self._index == self._last and not self.finished and s.t_s >= self._end_s - END_TOLERANCE_STEPS * self.dt_s:
+            self.finished = True  # the last segment's duration has passed (the pilot keeps flying it)
         if self._index != self._segment_index:
             self._segment_index = i = self._index
             self._start_segment(self.segments[i], s)
