@@ -478,12 +478,12 @@ def _probe_scheduler(scheduler: str) -> None:
     from urllib.parse import urlsplit
 
     where = f"--scheduler {scheduler}"
-    parts = urlsplit(scheduler if "://" in scheduler else f"tcp://{scheduler}")
-    if parts.scheme not in ("tcp", "tls"):
-        return
     try:
+        parts = urlsplit(scheduler if "://" in scheduler else f"tcp://{scheduler}")
+        if parts.scheme not in ("tcp", "tls"):
+            return
         host, port = parts.hostname, parts.port
-    except ValueError:
+    except ValueError:  # a malformed address ("http://[::1")
         host = port = None
     if not host or not port:
         raise ConfigError(f"{where}: expected an address like tcp://HOST:PORT")

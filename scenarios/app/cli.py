@@ -508,7 +508,8 @@ def _cmd_list() -> int:
     print("aircraft (platform profiles):")
     for model in available_profiles():
         p = load_profile(model)
-        print(f"  {model:10s} {p.kind.value:11s} cruise {p.envelope.cruise_speed_mps:.0f} m/s")
+        note = "  (the drag-free reference: no rotor drag; fly F450RD for a credible drone)" if model == "F450" else ""
+        print(f"  {model:10s} {p.kind.value:11s} cruise {p.envelope.cruise_speed_mps:.0f} m/s{note}")
     print("shipped scenarios (ci/ holds sweeps: run them with 'batch'):")
     for path in sorted(SHIPPED_SCENARIOS.rglob("*.yaml")):
         print(f"  {path.relative_to(SHIPPED_SCENARIOS.parent)}")
@@ -614,7 +615,7 @@ def _version() -> str:
 
 
 def _cmd_batch(args) -> int:
-    from scenarios.app.batch import discover, plan, resume_state, run_batch
+    from scenarios.app.batch import discover, output_lock, plan, resume_state, run_batch
 
     if args.jobs is not None and args.jobs < 1:
         from geofence.validation import ConfigError
@@ -630,16 +631,18 @@ def _cmd_batch(args) -> int:
             print(
                 f"re-flying {changed} changed flight{'s' if changed != 1 else ''} (scenario, version or code differs from the stored result)"
             )
-    outcome = run_batch(
-        specs,
-        args.out,
-        jobs=args.jobs,
-        executor=args.executor,
-        scheduler=args.scheduler,
-        progress=not args.quiet,
-        flight_plots=not args.no_flight_plots,
-    )
-    _write_batch_outputs(args.out, report=not args.no_report)
+    args.out.mkdir(parents=True, exist_ok=True)
+    with output_lock(args.out):  # the flights and the batch's reports under one lock (it nests in run_batch)
+        outcome = run_batch(
+            specs,
+            args.out,
+            jobs=args.jobs,
+            executor=args.executor,
+            scheduler=args.scheduler,
+            progress=not args.quiet,
+            flight_plots=not args.no_flight_plots,
+        )
+        _write_batch_outputs(args.out, report=not args.no_report)
     print(
         f"{outcome.total} flights: {outcome.skipped} already done, {outcome.flown} flown, {len(outcome.failed)} failed "
         f"in {outcome.wall_time_s:.1f} s -> {args.out / 'results.csv'}"
@@ -676,6 +679,7 @@ def _write_batch_outputs(out_dir: Path, report: bool) -> None:
 
 
 def _cmd_plot(args) -> int:
+    from analysis.plots import plot_flight, scenario_plot_kwargs
     from geofence.validation import ConfigError
     from scenarios.spec.schema import parse_scenario, read_document
 
@@ -687,15 +691,15 @@ def _cmd_plot(args) -> int:
     for folder in folders:
         traj = read_trajectory(folder / "trajectory.csv")
         fence = envelope = None
+        plot_kwargs: dict = {}
         if (folder / "scenario.yaml").is_file():
             sc = parse_scenario(read_document(folder / "scenario.yaml"), str(folder / "scenario.yaml"), folder.name)
 
             if sc.geofence is not None:
                 fence = sc.local_fence()
             envelope = sc.profile.envelope
-        from analysis.plots import plot_flight
-
-        plot_flight(traj, folder / "flight", folder.name, fence=fence, envelope=envelope)
+            plot_kwargs = scenario_plot_kwargs(sc)  # the unit's trigger, the scenario's wind, its GNSS faults
+        plot_flight(traj, folder / "flight", folder.name, fence=fence, envelope=envelope, **plot_kwargs)
         print(f"{folder / 'flight.png'}")
     if len(folders) > 1 or folders[0] != Path(args.out):
         _write_batch_outputs(args.out, report=True)
@@ -708,34 +712,11 @@ PLOT_COLUMNS = ("time_s", "east_m", "north_m", "agl_m", "ground_speed_mps", "air
 
 
 def read_trajectory(path: Path) -> dict:
-    """A flight's trajectory.csv, or a one-line :class:`ConfigError`: cut short (the recorder ends every row with a
-    newline), not text, rows of different lengths, no rows, or without the columns a figure needs."""
-    from geofence.validation import ConfigError
+    """A flight's trajectory.csv with the columns a figure needs, or a one-line :class:`ConfigError`
+    (:func:`scenarios.flight.recorder.read_trajectory_csv`)."""
     from scenarios.flight.recorder import read_trajectory_csv
 
-    try:
-        with open(path, "rb") as f:
-            head = f.read(4096)
-            f.seek(0, os.SEEK_END)
-            size = f.tell()
-            f.seek(max(0, size - 1))
-            last = f.read(1)
-        head.decode("ascii")
-    except UnicodeDecodeError:
-        raise ConfigError(f"{path}: not a trajectory CSV (not text; binary?): re-fly the flight") from None
-    if size == 0 or last != b"\n":
-        raise ConfigError(f"{path}: cut short ({'empty' if size == 0 else 'its last row is incomplete'}): re-fly the flight")
-    try:
-        traj = read_trajectory_csv(path)
-    except (ValueError, UnicodeDecodeError, IndexError) as exc:
-        why = " ".join(str(exc).split())[:120]
-        raise ConfigError(f"{path}: not a complete trajectory CSV ({why}): re-fly the flight") from None
-    missing = [c for c in PLOT_COLUMNS if c not in traj]
-    if missing:
-        raise ConfigError(f"{path}: not a trajectory CSV: no column {missing[0]!r} (header cut or another file?)")
-    if traj["time_s"].ndim != 1 or len(traj["time_s"]) < 2:
-        raise ConfigError(f"{path}: fewer than two rows: nothing to plot (re-fly the flight)")
-    return traj
+    return read_trajectory_csv(path, PLOT_COLUMNS)
 
 
 def _cmd_compare(args) -> int:

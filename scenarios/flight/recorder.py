@@ -9,6 +9,7 @@ numbers in the same columns).
 from __future__ import annotations
 
 import math
+import os
 import struct
 from pathlib import Path
 
@@ -183,7 +184,32 @@ def write_row(
     row[29], row[30], row[31], row[32], row[33], row[34] = est_e, est_n, est_agl, wind_est_e, wind_est_n, activation_margin_m
 
 
-def read_trajectory_csv(path: Path) -> dict[str, np.ndarray]:
-    """Read a trajectory CSV back into named columns."""
-    data = np.genfromtxt(path, delimiter=",", names=True)
-    return {name: np.asarray(data[name], dtype=float) for name in data.dtype.names or ()}
+def read_trajectory_csv(path: Path, required: tuple[str, ...] = ("time_s",)) -> dict[str, np.ndarray]:
+    """A trajectory CSV read back into named columns, or a one-line :class:`ConfigError`: cut short (every
+    row ends with a newline), not text, rows of different lengths, fewer than two rows, or without one of
+    the ``required`` columns."""
+    from geofence.validation import ConfigError
+
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4096)
+            size = f.seek(0, os.SEEK_END)
+            f.seek(max(0, size - 1))
+            last = f.read(1)
+        head.decode("ascii")
+    except UnicodeDecodeError:
+        raise ConfigError(f"{path}: not a trajectory CSV (not text; binary?): re-fly the flight") from None
+    if size == 0 or last != b"\n":
+        raise ConfigError(f"{path}: cut short ({'empty' if size == 0 else 'its last row is incomplete'}): re-fly the flight")
+    try:
+        data = np.genfromtxt(path, delimiter=",", names=True)
+        traj = {name: np.asarray(data[name], dtype=float) for name in data.dtype.names or ()}
+    except (ValueError, UnicodeDecodeError, IndexError) as exc:
+        why = " ".join(str(exc).split())[:120]
+        raise ConfigError(f"{path}: not a complete trajectory CSV ({why}): re-fly the flight") from None
+    missing = [c for c in required if c not in traj]
+    if missing:
+        raise ConfigError(f"{path}: not a trajectory CSV: no column {missing[0]!r} (header cut or another file?)")
+    if traj["time_s"].ndim != 1 or len(traj["time_s"]) < 2:
+        raise ConfigError(f"{path}: fewer than two rows: nothing to plot (re-fly the flight)")
+    return traj
