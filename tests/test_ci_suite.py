@@ -117,10 +117,11 @@ def test_ci_courses_point_at_every_edge_with_enough_run():
             if h <= lo:
                 h, _ = lo, reached.add("floor")
         assert reached == {"ceiling", "floor"}, f"{name}: the vertical segments reach only {sorted(reached)}"
-    assert {a for a, _ in covered} == {"F450", "Tern"}
+    assert {a for a, _ in covered} == {"F450RD", "Tern"}
     for key, edges in covered.items():
         assert edges == {0, 1, 2, 3}, f"{key}: courses reach edges {sorted(edges)} only"
-    assert {w for _, w in covered} == {0, 4, 8}
+    winds = {a: {w for b, w in covered if b == a} for a, _ in covered}
+    assert winds == {"F450RD": {0, 3, 6}, "Tern": {0, 4, 8}}, winds
 
 
 def assert_ci_suite_approaches(out: Path) -> dict[str, dict[str, float]]:
