@@ -293,6 +293,7 @@ def plot_breach_distribution(rows: Sequence[Mapping], out_base: Path) -> list[Pa
     (0 m) is marked on every panel and the breach side shaded. One key under
     the panels (colour: platform; line style and hatch: the geofence flown), off the data.
     """
+    from matplotlib.artist import Artist
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -349,7 +350,7 @@ def plot_breach_distribution(rows: Sequence[Mapping], out_base: Path) -> list[Pa
     ax_ecdf.set_title("peak 3-D excursion (ECDF)", fontsize="medium")
     for ax, breach_side in ((ax_hist, 1), (ax_ecdf, 1), (ax_lat, -1), (ax_vert, -1)):
         _mark_fence_side(ax, breach_side, ecdf=ax is not ax_hist)
-    keys = [
+    keys: list[Artist] = [
         Line2D([], [], color=style[pv]["color"], ls=style[pv]["ls"], lw=2, label=f"{series_label(*pv)} (n={len(by[pv])})")
         for pv in series
     ]

@@ -4,7 +4,7 @@ Example (every key but ``fence`` optional)::
 
     geofence:
       fence: {keep_in: [[lat, lon], ...], ceiling_m: 60, floor_m: 5, floor_gaps: [...]}
-      # or a fence file (any format geofence.importers.load_fence_file reads: GeoJSON, QGC .plan, WPL 110,
+      # or a fence file (any format analysis.formats.fence_files reads: GeoJSON, QGC .plan, WPL 110,
       # MAVProxy), its path relative to the scenario file; the other keys override or add to the file's:
       # fence: {file: airspace/city_park.geojson, ceiling_m: 60, floor_m: 5, floor_gaps: [...],
       #         recovery_point: [lat, lon], altitude_reference: agl,
@@ -30,27 +30,19 @@ Example (every key but ``fence`` optional)::
 
 All messages are one line: ``<where>.<field>: <problem>``.
 
-Fence files (``fence: {file: ...}``): a relative path is resolved against ``base_dir`` (the scenario
-file's folder, see :func:`scenarios.spec.schema.parse_scenario`); against the working directory only when
-no ``base_dir`` is known. Inline ``ceiling_m``, ``floor_m`` and ``altitude_reference`` win over the
-file's values (GeoJSON properties); ``floor_gaps`` are added (no format carries them); an inline
-``recovery_point`` replaces the file's return point as the recovery point. A ceiling is required:
-inline, or in the file (a scenario never flies under the importer's silent default). The importer's
-warnings (dropped keep-outs, ignored zones, ...) are kept in :attr:`GeofenceConfig.fence_warnings`.
+A ``fence: {file: ...}`` block is read by the scenario loader's reader
+(:mod:`scenarios.spec.fence_file`, passed as ``fence_file_reader``): the unit reads no file.
 """
 
 from __future__ import annotations
 
 import math
-import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from enum import StrEnum
-from pathlib import Path
 from typing import Any
 
-from geofence.fence import AltitudeReference, Fence, FenceError, parse_fence
-from geofence.importers import MAX_CEILING_M, load_fence_file
+from geofence.fence import MAX_CEILING_M, Fence, parse_fence
 from geofence.jit import jitable
 from geofence.validation import (
     ConfigError,
@@ -221,47 +213,43 @@ _KEYS = {
 }
 
 
-FENCE_FILE_KEYS = (
-    "file",
-    "ceiling_m",
-    "floor_m",
-    "floor_gaps",
-    "recovery_point",
-    "altitude_reference",
-    "inclusion_polygon",
-)
-"""The keys of a ``fence:`` block that references a fence file."""
-
-
 def _default(name: str) -> Any:
     """The default of a :class:`GeofenceConfig` field (each default is written once, in the dataclass)."""
     return field_default(GeofenceConfig, name)
 
 
-def parse_geofence(raw: Any, where: str = "geofence", base_dir: str | Path | None = None) -> GeofenceConfig:
+FenceFileReader = Callable[[Mapping, str], tuple[Fence, str, list[str]]]
+"""Reads a ``fence: {file: ...}`` block: ``(block, where) -> (fence, the file's path, the importer's
+warnings)``. The unit reads no file: the scenario loader passes one
+(:func:`scenarios.spec.fence_file.fence_from_file`)."""
+
+
+def parse_geofence(raw: Any, where: str = "geofence", fence_file_reader: FenceFileReader | None = None) -> GeofenceConfig:
     """Validate a ``geofence:`` mapping into a :class:`GeofenceConfig`.
 
-    ``base_dir``: the folder a relative ``fence: {file: ...}`` is resolved against (the scenario file's).
+    ``fence_file_reader``: what reads a ``fence: {file: ...}`` block (without one such a block is refused).
     Every value is read with :mod:`geofence.validation`; a missing key takes the dataclass field's default.
     """
     if not isinstance(raw, Mapping):
         raise GeofenceConfigError(f"{where}: expected a mapping with at least a fence: block")
     try:
-        return _parse_geofence(raw, where, base_dir)
+        return _parse_geofence(raw, where, fence_file_reader)
     except GeofenceConfigError:
         raise
     except ConfigError as exc:  # one domain type for the geofence block (FenceError, kit readers)
         raise GeofenceConfigError(str(exc)) from None
 
 
-def _parse_geofence(raw: Mapping, where: str, base_dir: str | Path | None) -> GeofenceConfig:
+def _parse_geofence(raw: Mapping, where: str, fence_file_reader: FenceFileReader | None) -> GeofenceConfig:
     reject_unknown_keys(raw, _KEYS, where)
     if "fence" not in raw:
         raise GeofenceConfigError(f"{where}.fence: missing (required)")
     fence_file: str | None = None
     fence_warnings: list[str] | tuple[str, ...] = ()
     if isinstance(raw["fence"], Mapping) and "file" in raw["fence"]:
-        fence, fence_file, fence_warnings = _fence_from_file(raw["fence"], f"{where}.fence", base_dir)
+        if fence_file_reader is None:
+            raise GeofenceConfigError(f"{where}.fence.file: fence files are read by the scenario loader, not here")
+        fence, fence_file, fence_warnings = fence_file_reader(raw["fence"], f"{where}.fence")
     else:
         fence = parse_fence(raw["fence"], f"{where}.fence")
         if fence.ceiling_m > MAX_CEILING_M:
@@ -323,64 +311,3 @@ def _parse_geofence(raw: Mapping, where: str, base_dir: str | Path | None) -> Ge
 
 
 _WIND_PRIOR_KEYS = ("speed_mps", "from_deg", "turbulence_sigma_mps", "gust_mps")
-
-
-def fence_file_path(file: Any, where: str, base_dir: str | Path | None) -> Path:
-    """The path a ``fence.file`` value names: relative ones against ``base_dir`` (the scenario's folder)."""
-    if not isinstance(file, str) or not file.strip():
-        raise GeofenceConfigError(f"{where}.file: must be a path to a fence file, got {file!r}")
-    path = Path(file).expanduser()
-    if not path.is_absolute() and base_dir is not None:
-        path = Path(base_dir) / path
-    return path
-
-
-def _fence_from_file(block: Mapping, where: str, base_dir: str | Path | None) -> tuple[Fence, str, list[str]]:
-    """A ``fence: {file: ..., <overrides>}`` block: the file read by the importer, the inline keys applied."""
-    unknown = [k for k in block if k not in FENCE_FILE_KEYS]
-    if unknown:
-        extra = " (keep_in comes from the file)" if "keep_in" in unknown else ""
-        raise GeofenceConfigError(
-            f"{where}: unknown key(s) {', '.join(repr(k) for k in unknown)} with a fence file "
-            f"(allowed: {', '.join(FENCE_FILE_KEYS)}){extra}"
-        )
-    path = fence_file_path(block["file"], where, base_dir)
-    if not path.is_file():
-        place = f" (relative to {base_dir})" if base_dir is not None and not Path(block["file"]).is_absolute() else ""
-        if path.exists():
-            raise GeofenceConfigError(f"{where}.file: {block['file']!r} is not a file{place}")
-        raise GeofenceConfigError(f"{where}.file: no such file {block['file']!r}{place}")
-    for key in ("ceiling_m", "floor_m"):
-        if block.get(key) is not None:
-            number(block[key], f"{where}.{key}")
-    ref = block.get("altitude_reference")
-    if ref is not None:
-        ref = enum_value(ref.lower() if isinstance(ref, str) else ref, f"{where}.altitude_reference", AltitudeReference)
-    choice = block.get("inclusion_polygon")
-    if choice is not None:
-        choice = integer(choice, f"{where}.inclusion_polygon", minimum=0)
-    gaps = block.get("floor_gaps")
-    if gaps is not None and (isinstance(gaps, (str, Mapping)) or not isinstance(gaps, (list, tuple))):
-        raise GeofenceConfigError(f"{where}.floor_gaps: must be a list of polygons, got {type(gaps).__name__}")
-    try:
-        imported = load_fence_file(
-            path,
-            ceiling_m=block.get("ceiling_m"),
-            floor_m=block.get("floor_m"),
-            altitude_reference=ref,
-            floor_gaps=tuple(gaps or ()),
-            recovery_point=block.get("recovery_point"),
-            inclusion_polygon=choice,
-        )
-    except FenceError as exc:
-        msg = str(exc)
-        rest = msg[len(str(path)) + 2 :] if msg.startswith(f"{path}: ") else msg
-        field = re.match(r"[a-z_]*", rest).group(0)  # type: ignore[union-attr]  # [a-z_]* matches every string
-        if rest.startswith(("inclusion polygon", "inclusion_polygon")) and "inclusion_polygon" in block:
-            raise GeofenceConfigError(f"{where}.inclusion_polygon: {msg}") from None
-        if field in block and field != "file":  # the inline value is the problem (e.g. a floor gap outside the keep-in)
-            raise GeofenceConfigError(f"{where}.{rest}") from None
-        raise GeofenceConfigError(f"{where}.file: {msg}") from None
-    if imported.ceiling_source == "default":
-        raise GeofenceConfigError(f"{where}.ceiling_m: required: the fence file {block['file']!r} gives no ceiling")
-    return imported.fence, str(path), list(imported.warnings)

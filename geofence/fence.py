@@ -107,6 +107,11 @@ MAX_KEEP_IN_CIRCLE_RADIUS_M = 10_000.0
 :data:`DEFAULT_CIRCLE_TOLERANCE_M` (sag ``r(1 - cos(pi/720))`` = 0.095 m at 10 km)."""
 
 
+MAX_CEILING_M = 10_000.0
+"""The highest ceiling or floor a fence may have, m (above any small UAS: a larger value is a typo), whoever
+gives it: a scenario, a fence file or the command line."""
+
+
 @dataclass(frozen=True)
 class KeepOutCircle:
     """A circular keep-out zone: centre (WGS-84 deg), radius in m, and its :class:`VerticalExtent`."""

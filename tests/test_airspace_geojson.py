@@ -14,15 +14,15 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from geofence.fence import FenceError
-from geofence.geodesy import LocalFrame, geodesic_destination
-from geofence.importers import (
+from analysis.formats.fence_files import (
     MAX_FENCE_POLYGONS,
     MAX_FENCE_VERTICES,
     detect_format,
     fence_to_yaml_block,
     load_fence_file,
 )
+from geofence.fence import FenceError
+from geofence.geodesy import LocalFrame, geodesic_destination
 from geofence.validation import ConfigError
 from scenarios.airspace.generate import bounding_rectangle, generate_park, write_geojson
 from scenarios.spec.schema import PilotKind, load_scenario, parse_scenario

@@ -151,3 +151,18 @@ def test_no_project_code_is_monkeypatched():
             if hit and name != "setattr" or (hit and isinstance(f, ast.Attribute)):
                 offenders.append(f"{p.relative_to(ROOT)}:{node.lineno}")
     assert offenders == []
+
+
+FILE_READING = ("open(", ".read_text(", ".read_bytes(", ".is_file(", "json.load", "import yaml", "pathlib")
+"""What reading a file looks like in a module's text."""
+
+
+def test_nothing_in_the_geofence_reads_a_file():
+    """The unit reads no file: formats are adapters above it (analysis/formats/, the scenario loader). Only its
+    compiler plumbing (geofence/jit.py: numba's cache folder) touches the file system."""
+    readers = {
+        str(p.relative_to(ROOT)): [w for w in FILE_READING if w in p.read_text()]
+        for p in (ROOT / "geofence").rglob("*.py")
+        if p.name != "jit.py"
+    }
+    assert {k: v for k, v in readers.items() if v} == {}

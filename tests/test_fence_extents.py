@@ -16,9 +16,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import geofence.importers
+import analysis.formats.fence_files
 from aircraft.profile import load_profile
 from analysis.fast_margins import fence_margins
+from analysis.formats.fence_files import fence_to_yaml_block, load_fence_file
 from analysis.scoring import keep_out_margin, score_flight
 from geofence.boundary_shift import activation_margins
 from geofence.fence import (
@@ -32,7 +33,6 @@ from geofence.fence import (
     parse_fence,
 )
 from geofence.geodesy import LocalFrame, geodesic_distance_m
-from geofence.importers import fence_to_yaml_block, load_fence_file
 from geofence.local_fence import LocalFence
 from scenarios.spec.schema import load_scenario
 
@@ -131,7 +131,7 @@ def test_yaml_block_round_trips_the_circle_and_the_extents():
 
 
 def test_circle_to_polygon_has_one_home():
-    assert geofence.importers.circle_to_polygon is circle_to_polygon
+    assert analysis.formats.fence_files.circle_to_polygon is circle_to_polygon
 
 
 def test_shipped_scenario_loads_with_the_circle_and_the_building():

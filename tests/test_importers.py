@@ -15,9 +15,7 @@ import yaml
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from geofence.fence import Fence, FenceError, parse_fence
-from geofence.geodesy import LocalFrame, geodesic_destination, geodesic_distance_m
-from geofence.importers import (
+from analysis.formats.fence_files import (
     DEFAULT_CEILING_M,
     circle_to_polygon,
     detect_format,
@@ -25,6 +23,8 @@ from geofence.importers import (
     load_fence_file,
     load_rally_file,
 )
+from geofence.fence import Fence, FenceError, parse_fence
+from geofence.geodesy import LocalFrame, geodesic_destination, geodesic_distance_m
 from geofence.polygon import signed_area
 
 REALWORLD = Path(__file__).parents[2] / "shared" / "realworld"

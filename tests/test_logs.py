@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from analysis.logs import LogError, describe, load_log, read_log
+from analysis.formats.logs import LogError, describe, load_log, read_log
 from analysis.scoring import score_flight
 from geofence.fence import Fence
 from geofence.geodesy import LocalFrame
@@ -224,7 +224,7 @@ import random  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 
-from analysis.logs import (  # noqa: E402
+from analysis.formats.logs import (  # noqa: E402
     LogFenceDistanceError,
     LogIntegrityError,
     SanityLimits,

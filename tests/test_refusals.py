@@ -16,8 +16,8 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from analysis.formats.fence_files import load_fence_file
 from geofence.fence import FenceError
-from geofence.importers import load_fence_file
 from geofence.validation import ConfigError
 from scenarios.app.cli import build_parser, read_trajectory
 from scenarios.spec.schema import read_document

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from aircraft.jsbsim_model import UnknownAircraftError
 from aircraft.profile import ProfileError
-from analysis.logs import LogError, LogFenceDistanceError, LogIntegrityError
+from analysis.formats.logs import LogError, LogFenceDistanceError, LogIntegrityError
 from geofence.config import GeofenceConfigError
 from geofence.fence import FenceError
 from geofence.validation import (

@@ -737,9 +737,9 @@ def _cmd_score_log(args) -> int:
     import json
     import math
 
-    from analysis.logs import check_distance_bound, check_near_fence, describe, load_log
+    from analysis.formats.fence_files import load_fence_file, summarize
+    from analysis.formats.logs import check_distance_bound, check_near_fence, describe, load_log
     from analysis.scoring import score_flight
-    from geofence.importers import load_fence_file, summarize
 
     check_distance_bound(args.max_fence_distance_km * 1000.0)
     imported = load_fence_file(args.fence, ceiling_m=args.ceiling, inclusion_polygon=args.inclusion_polygon)
@@ -765,7 +765,7 @@ def _cmd_score_log(args) -> int:
 def _cmd_import_fence(args) -> int:
     import yaml
 
-    from geofence.importers import fence_to_yaml_block, load_fence_file
+    from analysis.formats.fence_files import fence_to_yaml_block, load_fence_file
     from geofence.validation import ConfigError
 
     out = args.output

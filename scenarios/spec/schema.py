@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import IntEnum, StrEnum
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +34,7 @@ from aircraft.jsbsim_model import UnknownAircraftError, model_folder
 from aircraft.profile import PlatformProfile, available_profiles, load_profile, parse_profile
 from aircraft.sensors import SensorConfig, parse_sensors
 from geofence.boundary_shift import check_shift_feasible
-from geofence.config import GeofenceConfig, fence_file_path, parse_geofence
+from geofence.config import GeofenceConfig, parse_geofence
 from geofence.fence import AltitudeReference, FenceError
 from geofence.geodesy import LocalFrame
 from geofence.interface import PlatformKind
@@ -50,6 +51,7 @@ from geofence.validation import (
     require_mapping,
     string,
 )
+from scenarios.spec.fence_file import fence_file_path, fence_from_file
 from wind.config import WindConfig, parse_wind
 
 MISSION_ITEM_TYPES = ("takeoff", "waypoint", "loiter", "land")
@@ -709,7 +711,7 @@ def _parse_geofence_block(
 ) -> GeofenceConfig:
     """Validate the geofence block, and check that its activation boundary exists for this platform and wind."""
     try:
-        cfg = parse_geofence(raw, where, base_dir=base_dir)
+        cfg = parse_geofence(raw, where, fence_file_reader=partial(fence_from_file, base_dir=base_dir))
         f = cfg.fence
         for name, polys in (("keep_in", (f.keep_in,)), ("floor_gaps", f.floor_gaps), ("keep_out_polygons", f.keep_out_polygons)):
             for poly in polys:

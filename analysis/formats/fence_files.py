@@ -62,7 +62,7 @@ Supported formats (detected from the content, not the file name):
 Parser choice: our own, not :mod:`pymavlink.mavwp`. pymavlink's
 ``MissionItemProtocol_Fence``/``_Rally`` loaders only work when the
 ``MAVLINK20`` environment variable was set before pymavlink chose its dialect
-(process-global state that would also change how :mod:`analysis.logs` decodes
+(process-global state that would also change how :mod:`analysis.formats.logs` decodes
 tlogs); the old-format fence loader truncates coordinates to ``int(deg*1e7)``
 and *prints* "Insufficient points" instead of failing; the RALLY loader
 multiplies the altitude by 1000 and drops the break altitude; and their
@@ -122,9 +122,10 @@ from typing import Any, cast
 
 import numpy as np
 
-from .fence import (
+from geofence.fence import (
     DEFAULT_CIRCLE_TOLERANCE_M,
     FULL_HEIGHT,
+    MAX_CEILING_M,
     AltitudeReference,
     Fence,
     FenceError,
@@ -133,9 +134,9 @@ from .fence import (
     VerticalExtent,
     circle_to_polygon,
 )
-from .geodesy import LocalFrame, ecef_to_geodetic, geodetic_to_ecef
-from .polygon import PolygonIndex, polygons_intersect
-from .validation import ConfigError, enum_value, field_default, latitude, longitude, number
+from geofence.geodesy import LocalFrame, ecef_to_geodetic, geodetic_to_ecef
+from geofence.polygon import PolygonIndex, polygons_intersect
+from geofence.validation import ConfigError, enum_value, field_default, latitude, longitude, number
 
 DEFAULT_CEILING_M = 120.0
 """Ceiling used when the caller gives none (m, AGL)."""
@@ -155,7 +156,6 @@ MAX_FENCE_VERTICES = 200_000
 """Default limit on the polygon vertices of one fence file (all rings, closing duplicates included)."""
 MAX_FENCE_POLYGONS = 20_000
 """Default limit on the polygons (rings, holes included) of one fence file."""
-MAX_CEILING_M = 10_000.0
 """The highest fence ceiling or floor, m (in either altitude reference): above the service ceiling of
 any small UAS and of every shipped model (the Cessna 172's is 4.1 km); a ceiling of 10^9 m is a typo."""
 
