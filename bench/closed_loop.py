@@ -36,9 +36,9 @@ from aircraft.factory import build_platform
 from aircraft.jsbsim_model import JSBSimModel
 from geofence.geodesy import LocalFrame
 from geofence.jit import use_compiled
+from scenarios.definition.schema import load_scenario
 from scenarios.flight.runner import fly
 from scenarios.flight.step_kernel import use_flight_step
-from scenarios.spec.schema import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = {

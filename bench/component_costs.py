@@ -31,8 +31,8 @@ from geofence.config import GeofenceConfig
 from geofence.geodesy import LocalFrame
 from geofence.interface import StickCommand, VehicleState
 from geofence.unit import GeofenceUnit
+from scenarios.definition.schema import load_scenario
 from scenarios.flight.sensing import GeofenceSensing
-from scenarios.spec.schema import load_scenario
 from wind import SteadyWind
 from wind.config import parse_wind, wind_from_config
 from wind.dryden import DrydenTurbulence

@@ -35,8 +35,8 @@ import numba
 import numpy as np
 
 from aircraft.factory import build_platform
+from scenarios.definition.schema import Scenario, load_scenario
 from scenarios.flight.runner import fly
-from scenarios.spec.schema import Scenario, load_scenario
 
 sys.path.insert(0, str(Path(__file__).parent))
 from closed_loop import GEOFENCE_CASES, TARGET, bare_rate, positive  # noqa: E402  (one definition of bare and the target)

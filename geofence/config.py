@@ -31,7 +31,7 @@ Example (every key but ``fence`` optional)::
 All messages are one line: ``<where>.<field>: <problem>``.
 
 A ``fence: {file: ...}`` block is read by the scenario loader's reader
-(:mod:`scenarios.spec.fence_file`, passed as ``fence_file_reader``): the unit reads no file.
+(:mod:`scenarios.definition.fence_file`, passed as ``fence_file_reader``): the unit reads no file.
 """
 
 from __future__ import annotations
@@ -221,7 +221,7 @@ def _default(name: str) -> Any:
 FenceFileReader = Callable[[Mapping, str], tuple[Fence, str, list[str]]]
 """Reads a ``fence: {file: ...}`` block: ``(block, where) -> (fence, the file's path, the importer's
 warnings)``. The unit reads no file: the scenario loader passes one
-(:func:`scenarios.spec.fence_file.fence_from_file`)."""
+(:func:`scenarios.definition.fence_file.fence_from_file`)."""
 
 
 def parse_geofence(raw: Any, where: str = "geofence", fence_file_reader: FenceFileReader | None = None) -> GeofenceConfig:

@@ -92,7 +92,7 @@ from geofence.jit import compiled, jitable
 WIND_ESTIMATE_ERROR_MPS = 1.0
 """How far the estimate of the mean wind may be from the true mean once converged (m/s): issue 10's requirement,
 measured in ``tests/test_wind_estimator.py``. The unit's dead reckoning drifts at it (plus the turbulence of the
-moment), and the pre-flight check widens the forecast by it (:mod:`scenarios.spec.preflight`)."""
+moment), and the pre-flight check widens the forecast by it (:mod:`scenarios.definition.preflight`)."""
 
 _MIN_G_UP_MPS2 = 0.2 * G_MPS2  # the least thrust (per unit mass, vertical) the force balance assumes
 

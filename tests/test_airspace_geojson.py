@@ -25,7 +25,7 @@ from geofence.fence import FenceError
 from geofence.geodesy import LocalFrame, geodesic_destination
 from geofence.validation import ConfigError
 from scenarios.airspace.generate import bounding_rectangle, generate_park, write_geojson
-from scenarios.spec.schema import PilotKind, load_scenario, parse_scenario
+from scenarios.definition.schema import PilotKind, load_scenario, parse_scenario
 
 ROOT = Path(__file__).parents[1]
 AIRSPACE = ROOT / "scenarios" / "airspace"
@@ -556,7 +556,7 @@ def test_batch_hash_covers_the_referenced_fence_file(site):
     fence.unlink()
     assert plan([path])[0].scenario_hash not in (h1, h2)
     # a scenario without a fence file keeps the plain document hash
-    from scenarios.spec.sweep import expand
+    from scenarios.definition.sweep import expand
 
     inline = write(
         site / "flights", scenario_text(json.dumps({"keep_in": [list(v) for v in SQUARE_LL], "ceiling_m": 50})), "i.yaml"
@@ -630,8 +630,8 @@ def test_run_and_batch_give_a_scenario_with_a_fence_file_the_same_hash(tmp_path)
     import shutil
 
     from scenarios.app.batch import plan
+    from scenarios.definition.schema import load_scenario
     from scenarios.flight.runner import hash_of_source
-    from scenarios.spec.schema import load_scenario
 
     src = Path(__file__).parents[1] / "scenarios" / "airspace"
     shutil.copy(src / "airspace_rectangle_fence_multicopter_wind.yaml", tmp_path / "s.yaml")

@@ -75,10 +75,13 @@ def imported_dotted(path: Path) -> set[str]:
     return names
 
 
-# Inside scenarios/, bottom up: spec (scenario data) -> flight (the simulated flight) -> app (CLI, batch, experiments).
+# Inside scenarios/, bottom up: airspace (the park generator, data) -> definition (scenario data) -> campaign (the
+# case generator) -> flight (the simulated flight) -> app (CLI, batch, experiments).
 SCENARIO_LAYER_FORBIDDEN = [
-    ("scenarios/spec", ("scenarios.flight", "scenarios.app")),
-    ("scenarios/flight", ("scenarios.app",)),
+    ("scenarios/airspace", ("scenarios.definition", "scenarios.campaign", "scenarios.flight", "scenarios.app")),
+    ("scenarios/definition", ("scenarios.campaign", "scenarios.flight", "scenarios.app")),
+    ("scenarios/campaign", ("scenarios.flight", "scenarios.app")),
+    ("scenarios/flight", ("scenarios.campaign", "scenarios.app")),
 ]
 
 
@@ -93,7 +96,7 @@ def test_scenario_layers_import_one_way(folder, forbidden):
 
 
 def test_scenarios_has_no_flat_modules_left():
-    """Every module of scenarios/ lives in one of its three layers (the airspace generator is a data script)."""
+    """Every module of scenarios/ lives in one of its layers (airspace, definition, campaign, flight, app)."""
     flat = sorted(p.name for p in (ROOT / "scenarios").glob("*.py") if p.name != "__init__.py")
     assert flat == []
 

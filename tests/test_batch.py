@@ -12,7 +12,7 @@ import yaml
 
 from geofence.validation import ConfigError
 from scenarios.app.batch import discover, plan, run_batch
-from scenarios.spec.sweep import expand
+from scenarios.definition.sweep import expand
 
 ROOT = Path(__file__).parents[1]
 CI_SUITE = ROOT / "scenarios" / "ci"

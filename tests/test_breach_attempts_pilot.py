@@ -15,17 +15,17 @@ from hypothesis import strategies as st
 from geofence.geodesy import LocalFrame
 from geofence.interface import VehicleState
 from geofence.validation import ConfigError
-from scenarios.flight.pilots import build_pilot
-from scenarios.flight.pilots.breach_attempts import BreachAttemptsPilot, PushEnd
-from scenarios.flight.pilots.breach_attempts_fixedwing import FixedWingBreachAttemptsPilot
-from scenarios.flight.runner import fly
-from scenarios.spec.schema import (
+from scenarios.definition.schema import (
     BreachAttemptsConfig,
     BreachDirection,
     PilotKind,
     VerticalSense,
     parse_scenario,
 )
+from scenarios.flight.pilots import build_pilot
+from scenarios.flight.pilots.breach_attempts import BreachAttemptsPilot, PushEnd
+from scenarios.flight.pilots.breach_attempts_fixedwing import FixedWingBreachAttemptsPilot
+from scenarios.flight.runner import fly
 
 SITE = {"lat_deg": -35.363262, "lon_deg": 149.165237, "ground_alt_m": 584.0}
 FRAME = LocalFrame(SITE["lat_deg"], SITE["lon_deg"], SITE["ground_alt_m"])

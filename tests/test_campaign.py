@@ -30,7 +30,7 @@ from hypothesis import strategies as st
 from scipy.stats import binom, poisson
 
 from aircraft.profile import available_profiles, load_profile
-from analysis.campaign import (
+from analysis.campaign_report import (
     KEEP_IN_TOLERANCE_M,
     campaign_report_lines,
     campaign_rows,
@@ -56,7 +56,7 @@ from geofence.geodesy import LocalFrame
 from geofence.polygon import self_intersections, signed_area
 from geofence.rooms import worst_case_lateral_shift_m
 from geofence.validation import ConfigError
-from scenarios.spec.campaign import (
+from scenarios.campaign.generator import (
     BREACH_PUSH_FACTOR,
     CITY_BUILDINGS,
     CITY_VERTICES,
@@ -76,7 +76,7 @@ from scenarios.spec.campaign import (
     wind_authority,
     wind_limit_mps,
 )
-from scenarios.spec.schema import PilotKind, load_scenario, parse_scenario
+from scenarios.definition.schema import PilotKind, load_scenario, parse_scenario
 from wind.dryden import SEVERITY_W20_MPS, dryden_scales
 
 ROOT = Path(__file__).parents[1]

@@ -29,7 +29,7 @@ import numpy as np
 from geofence.geodesy import LocalFrame
 from geofence.rooms import vertical_arrest_distance_m, worst_case_lateral_shift_m
 from scenarios.app.batch import discover, plan
-from scenarios.spec.schema import parse_scenario, read_document
+from scenarios.definition.schema import parse_scenario, read_document
 
 ROOT = Path(__file__).parents[1]
 CI_SUITE = ROOT / "scenarios" / "ci"

@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from geofence.geodesy import LocalFrame, geodesic_destination
+from scenarios.definition.schema import PilotKind, parse_scenario
 from scenarios.flight.runner import fly
-from scenarios.spec.schema import PilotKind, parse_scenario
 
 pytestmark = pytest.mark.closed_loop
 
@@ -148,7 +148,7 @@ EXAMPLES = sorted((Path(__file__).parents[1] / "scenarios").glob("*.yaml"))
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
 def test_every_shipped_example_flies_to_completion(path):
-    from scenarios.spec.schema import load_scenario
+    from scenarios.definition.schema import load_scenario
 
     res = fly(load_scenario(path))
     assert res.summary["completed"], res.summary

@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 from test_lateral_kernel import fly_both_ways
 
-from scenarios.spec.schema import parse_scenario, read_document
-from scenarios.spec.sweep import expand
+from scenarios.definition.schema import parse_scenario, read_document
+from scenarios.definition.sweep import expand
 
 ROOT = Path(__file__).resolve().parents[1]
 SHIPPED = sorted(

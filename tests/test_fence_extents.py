@@ -34,7 +34,7 @@ from geofence.fence import (
 )
 from geofence.geodesy import LocalFrame, geodesic_distance_m
 from geofence.local_fence import LocalFence
-from scenarios.spec.schema import load_scenario
+from scenarios.definition.schema import load_scenario
 
 ROOT = Path(__file__).parents[1]
 LAT0, LON0 = 47.4, 8.5

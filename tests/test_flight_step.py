@@ -17,10 +17,10 @@ from geofence.config import TurbulenceSource
 from geofence.guidance import FixedWingRecovery
 from geofence.heights import AltitudeReference
 from geofence.interface import StickCommand, VehicleState
+from scenarios.definition.schema import load_scenario
 from scenarios.flight import step_kernel
 from scenarios.flight.recorder import COLUMNS, Recorder, write_row
 from scenarios.flight.runner import fly
-from scenarios.spec.schema import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "tests" / "data"

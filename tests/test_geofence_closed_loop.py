@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from geofence.geodesy import LocalFrame
+from scenarios.definition.schema import parse_scenario
 from scenarios.flight.runner import fly
-from scenarios.spec.schema import parse_scenario
 
 pytestmark = pytest.mark.closed_loop
 
@@ -99,7 +99,7 @@ def test_without_a_geofence_the_same_pilot_does_cross():
 
 def test_position_loss_over_a_floor_ends_with_a_termination_inside_the_floor_gap():
     """Return impossible (GPS lost): the unit dead-reckons to the floor gap and ends the flight inside it."""
-    from scenarios.spec.schema import load_scenario
+    from scenarios.definition.schema import load_scenario
 
     res = fly(load_scenario(ROOT_SCENARIOS / "geofence_gps_loss_fixedwing.yaml"))
     s = res.summary

@@ -18,8 +18,8 @@ import os
 import pytest
 from support import GOLDEN, GOLDEN_COLUMNS, compare_golden, golden_table, read_golden, write_golden
 
+from scenarios.definition.schema import load_scenario
 from scenarios.flight.runner import fly
-from scenarios.spec.schema import load_scenario
 
 pytestmark = [pytest.mark.slow, pytest.mark.closed_loop]
 

@@ -42,8 +42,8 @@ def test_a_flight_through_the_entry_points_is_the_flight_through_the_dispatcher(
     """The per-step kernels (margins, sensing, wind, the fixed-wing recovery step) bind their entry points after
     their first call; with them switched off (:func:`geofence.jit.use_entry_points`), the same flight records the
     same bytes."""
+    from scenarios.definition.schema import load_scenario
     from scenarios.flight.runner import fly
-    from scenarios.spec.schema import load_scenario
 
     sc = load_scenario(ROOT / "scenarios" / "geofence_fixedwing_adversarial_wind.yaml")
     sc = replace(sc, duration_s=25.0)

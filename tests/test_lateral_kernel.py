@@ -26,8 +26,8 @@ from geofence.cpython_math import hypot
 from geofence.fence import Fence, KeepOutCircle
 from geofence.jit import COMPILED, numba, use_compiled
 from geofence.recovery_path import RecoveryPlanner, path_follow, path_lookahead, path_project, path_rollout, segment_clear
+from scenarios.definition.schema import load_scenario
 from scenarios.flight.runner import fly
-from scenarios.spec.schema import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 

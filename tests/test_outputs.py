@@ -120,8 +120,8 @@ SHIPPED = sorted((ROOT / "scenarios").glob("*.yaml")) + sorted((ROOT / "scenario
 def test_every_shipped_example_runs_to_completion(path):
     """Issue 41: the four airspace examples ran out of duration_s ("NOT completed", exit 1). All of them together
     fly in about 45 s on 2 cores (no figures)."""
+    from scenarios.definition.schema import load_scenario
     from scenarios.flight.runner import fly
-    from scenarios.spec.schema import load_scenario
 
     summary = fly(load_scenario(path)).summary
     assert summary["completed"], f"{path.name}: {summary.get('mission_progress')} at {summary.get('sim_time_s')} s"

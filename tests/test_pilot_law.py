@@ -11,10 +11,10 @@ from hypothesis import strategies as st
 
 from geofence import jit
 from geofence.interface import Envelope, PlatformKind, VehicleState
+from scenarios.definition.schema import ScriptSegment
 from scenarios.flight.pilots import CompiledLawPilot
 from scenarios.flight.pilots import law_kernel as lk
 from scenarios.flight.pilots.scripted import ScriptedPilot
-from scenarios.spec.schema import ScriptSegment
 
 TERN = Envelope(
     PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0, 0.6, 5.0, 1.1

@@ -156,7 +156,7 @@ def test_a_route_must_pass_for_every_wind_within_the_uncertainty():
 
 
 def test_the_expected_wind_is_the_forecast_raised_to_the_routes_top_with_its_error_disc():
-    from scenarios.spec.preflight import TURBULENCE_IN_ESTIMATE_SIGMAS, WIND_ESTIMATE_ERROR_MPS, expected_wind
+    from scenarios.definition.preflight import TURBULENCE_IN_ESTIMATE_SIGMAS, WIND_ESTIMATE_ERROR_MPS, expected_wind
 
     (we, wn), radius = expected_wind((3.0, 4.0), 120.0)
     assert math.hypot(we, wn) == pytest.approx(5.0 * 12.0 ** (1.0 / 7.0)) and we / wn == pytest.approx(0.75)
@@ -210,8 +210,8 @@ def test_return_must_be_assured_against_the_strongest_wind_the_forecast_allows()
 
 
 def test_the_check_adds_the_units_latency_and_it_matches_the_sensors():
-    from scenarios.spec.preflight import latency_bound_s
-    from scenarios.spec.schema import load_scenario
+    from scenarios.definition.preflight import latency_bound_s
+    from scenarios.definition.schema import load_scenario
 
     wps = [PlannedWaypoint(0.0, 0.0, 30.0), PlannedWaypoint(230.0, 0.0, 30.0)]
     f = fence(ceiling=200.0)
@@ -228,9 +228,9 @@ def test_the_join_from_the_last_waypoint_out_to_its_orbit_is_checked():
     autopilot's vector field. Campaign seed 4122026, ``floor_gaps-0080``: a Tern's mission passed the check (the
     orbit alone fits) and was overridden 1.5 s after its last waypoint, 27 m out and heading nearly straight out
     at 18.5 m/s. The check now flags it, at the last waypoint; and the flight was in fact overridden."""
+    from scenarios.definition.preflight import preflight_findings
+    from scenarios.definition.schema import load_scenario
     from scenarios.flight.runner import fly
-    from scenarios.spec.preflight import preflight_findings
-    from scenarios.spec.schema import load_scenario
 
     sc = load_scenario(REPO / "tests" / "data" / "campaign_floor_gaps_0080_orbit_join.yaml")
     out = preflight_findings(sc)

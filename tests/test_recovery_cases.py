@@ -42,8 +42,8 @@ import numpy as np
 import pytest
 
 from geofence.geodesy import LocalFrame
+from scenarios.definition.schema import load_scenario, parse_scenario
 from scenarios.flight.runner import fly
-from scenarios.spec.schema import load_scenario, parse_scenario
 
 pytestmark = pytest.mark.closed_loop
 

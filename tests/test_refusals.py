@@ -20,8 +20,8 @@ from analysis.formats.fence_files import load_fence_file
 from geofence.fence import FenceError
 from geofence.validation import ConfigError
 from scenarios.app.cli import build_parser, read_trajectory
-from scenarios.spec.schema import read_document
-from scenarios.spec.sweep import expand
+from scenarios.definition.schema import read_document
+from scenarios.definition.sweep import expand
 
 ROOT = Path(__file__).parents[1]
 GOOD = ROOT / "scenarios" / "multicopter_survey_calm.yaml"

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from geofence.validation import ConfigError
-from scenarios.spec.schema import PilotKind, load_scenario, parse_scenario, read_document
+from scenarios.definition.schema import PilotKind, load_scenario, parse_scenario, read_document
 
 SHIPPED = sorted((Path(__file__).parents[1] / "scenarios").rglob("*.yaml"))
 

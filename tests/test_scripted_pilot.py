@@ -4,8 +4,8 @@ import pytest
 
 from aircraft.profile import load_profile
 from geofence.interface import StickCommand, VehicleState
+from scenarios.definition.schema import ScriptSegment
 from scenarios.flight.pilots.scripted import ScriptedPilot
-from scenarios.spec.schema import ScriptSegment
 
 DT = 0.025
 SEGMENTS = (

@@ -30,8 +30,8 @@ from scenarios.app.seed_reproduction import (
     pearson_r,
     ramp_setpoints,
 )
+from scenarios.definition.schema import BreachAttemptsConfig, SpeedDraw, load_scenario, parse_scenario
 from scenarios.flight.pilots.breach_attempts import BreachAttemptsPilot, draw_speeds
-from scenarios.spec.schema import BreachAttemptsConfig, SpeedDraw, load_scenario, parse_scenario
 
 ENV = Envelope(
     PlatformKind.MULTIROTOR, 13.0, 22.6, 0.0, math.radians(20), math.radians(20), math.radians(90), 1.0, 0.8, 3.5, 3.0, 0.25

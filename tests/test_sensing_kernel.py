@@ -26,7 +26,7 @@ from geofence.estimator import GeofenceEstimator
 from geofence.estimator_kernel import estimator_arrays, estimator_step
 from geofence.geodesy import LocalFrame
 from geofence.interface import VehicleState
-from scenarios.spec.schema import load_scenario
+from scenarios.definition.schema import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]
 FRAME = LocalFrame(47.3, 8.5, 420.0)

@@ -21,8 +21,8 @@ import yaml
 
 from geofence.validation import ConfigError
 from scenarios.app.batch import discover, plan
-from scenarios.spec.schema import parse_scenario
-from scenarios.spec.sweep import expand, scenario_hash
+from scenarios.definition.schema import parse_scenario
+from scenarios.definition.sweep import expand, scenario_hash
 
 ROOT = Path(__file__).parents[1]
 EDGES = ROOT / "scenarios" / "ci" / "multicopter_edges.yaml"
@@ -97,11 +97,11 @@ def test_scenario_hash_is_the_resolved_document_and_the_version():
     h = scenario_hash(doc)
     assert h == scenario_hash(copy.deepcopy(doc)) and len(h) == 64
     assert scenario_hash(dict(doc, duration_s=4)) != h
-    from scenarios.spec.sweep import project_version
+    from scenarios.definition.sweep import project_version
 
     assert scenario_hash(doc, version=project_version()) == h
     assert scenario_hash(doc, version="999.0") != h, "a new version must re-fly"
-    from scenarios.spec.sweep import code_fingerprint
+    from scenarios.definition.sweep import code_fingerprint
 
     assert scenario_hash(doc, code=code_fingerprint()) == h
     assert scenario_hash(doc, code="other code") != h, "a result flown by other code must re-fly"
@@ -147,8 +147,8 @@ def test_same_named_flights_are_refused_up_front_naming_both_files(tmp_path):
 
 def test_a_run_replaces_its_folder_whole_and_says_why_it_did_not_complete(tmp_path):
     """--no-plot leaves no stale flight.png; a stale file of an earlier flight goes; the reason is recorded."""
+    from scenarios.definition.schema import load_scenario
     from scenarios.flight.runner import run_scenario
-    from scenarios.spec.schema import load_scenario
 
     doc = yaml.safe_load(SURVEY.read_text())
     doc["duration_s"] = 2.0  # the survey cannot finish in 2 s
@@ -367,7 +367,7 @@ def test_a_sweep_with_a_bad_dotted_path_fails_up_front(tmp_path):
 
 # --------------------------------------------------------------------------- smaller fixes
 def test_version_and_import_fence_output(tmp_path):
-    from scenarios.spec.sweep import project_version
+    from scenarios.definition.sweep import project_version
 
     res = cli("--version")
     assert res.returncode == 0 and res.stdout.strip() == f"geofence-testbed {project_version()}"
@@ -435,7 +435,7 @@ def test_the_code_fingerprint_changes_with_any_code_file_and_only_with_code(tmp_
     """Edit a module, add a model file: another fingerprint. A scenario YAML or a figure beside the code: the same."""
     import shutil
 
-    from scenarios.spec.sweep import CODE_PACKAGES, code_fingerprint
+    from scenarios.definition.sweep import CODE_PACKAGES, code_fingerprint
 
     root = Path(__file__).resolve().parents[1]
     for pkg in CODE_PACKAGES:

@@ -198,7 +198,7 @@ def test_field_default_reads_the_dataclass():
 def config_enums() -> list[type[Enum]]:
     from geofence.config import MultirotorLaw, StateSource, Trigger, TurbulenceSource
     from geofence.fence import AltitudeReference
-    from scenarios.spec.schema import SegmentEnd, SpeedDraw
+    from scenarios.definition.schema import SegmentEnd, SpeedDraw
     from wind.config import GustOnset
 
     return [Trigger, MultirotorLaw, StateSource, TurbulenceSource, AltitudeReference, SegmentEnd, SpeedDraw, GustOnset]

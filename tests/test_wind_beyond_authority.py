@@ -18,9 +18,9 @@ from pathlib import Path
 
 import pytest
 
+from scenarios.definition.schema import parse_scenario, read_document
+from scenarios.definition.sweep import expand
 from scenarios.flight.runner import fly
-from scenarios.spec.schema import parse_scenario, read_document
-from scenarios.spec.sweep import expand
 
 SWEEP = Path(__file__).parents[1] / "scenarios" / "rotor_drag" / "f450rd_adversarial_wind_seeds.yaml"
 

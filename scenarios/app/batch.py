@@ -9,7 +9,7 @@
   ``trajectory.csv``, figures, ``summary.json``), so a folder is either the
   complete result of one flight or absent. Its ``summary.json`` holds the
   flight's ``scenario_hash`` (sha256 of the resolved scenario, the version and the code that flew it,
-  :func:`scenarios.spec.sweep.scenario_hash`, and of the bytes of a fence file it references,
+  :func:`scenarios.definition.sweep.scenario_hash`, and of the bytes of a fence file it references,
   :func:`with_referenced_files`): re-running skips only flights whose
   stored hash matches, and flies an edited scenario again. A crash or Ctrl-C
   keeps finished flights. A flight that fails (bad configuration, divergence,
@@ -55,7 +55,7 @@ from pathlib import Path
 import yaml
 
 from geofence.validation import ConfigError
-from scenarios.spec.sweep import FlightSpec, expand, with_referenced_files
+from scenarios.definition.sweep import FlightSpec, expand, with_referenced_files
 
 SUMMARY = "summary.json"
 LOCK = ".batch.lock"
@@ -101,7 +101,7 @@ def plan(files: Iterable[Path]) -> list[FlightSpec]:
     cannot be expanded (bad structure, a dotted path that points nowhere) and two flights with the
     same name are refused up front with a :class:`ConfigError`.
     """
-    from scenarios.spec.schema import read_document
+    from scenarios.definition.schema import read_document
 
     specs: list[FlightSpec] = []
     for path in files:
@@ -169,8 +169,8 @@ def is_done(out_dir: Path, spec: FlightSpec) -> bool:
 
 def fly_spec(spec: FlightSpec, out_dir: str, flight_plots: bool = False) -> dict:
     """Fly one spec and write its folder; never raises (failures are written as a failed summary)."""
+    from scenarios.definition.schema import parse_scenario
     from scenarios.flight.runner import fly, replace_folder, write_result
-    from scenarios.spec.schema import parse_scenario
 
     final = Path(out_dir) / spec.flight_id
     t0 = time.perf_counter()

@@ -394,8 +394,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def _cmd_check(args) -> int:
     """The pre-flight mission check of each scenario (exit 1 if any mission would be overridden)."""
-    from scenarios.spec.preflight import describe_findings, preflight_findings
-    from scenarios.spec.schema import load_scenario
+    from scenarios.definition.preflight import describe_findings, preflight_findings
+    from scenarios.definition.schema import load_scenario
 
     scenarios = [load_scenario(p) for p in args.scenarios]  # every file validated before anything is checked
     overridden = 0
@@ -408,7 +408,7 @@ def _cmd_check(args) -> int:
 
 def _cmd_campaign(args) -> int:
     if args.campaign_command == "generate":
-        from scenarios.spec.campaign import generate_campaign
+        from scenarios.campaign.generator import generate_campaign
 
         if args.cases < 1:
             print(f"error: --cases: must be >= 1, got {args.cases}", file=sys.stderr)
@@ -434,7 +434,7 @@ def _cmd_campaign(args) -> int:
                 return EXIT_BAD_INPUT
         families = None
         if args.families is not None:
-            from scenarios.spec.campaign import CaseFamily
+            from scenarios.campaign.generator import CaseFamily
 
             names = [f.strip() for f in args.families.split(",") if f.strip()]
             known = {f.value: f for f in CaseFamily}
@@ -455,7 +455,7 @@ def _cmd_campaign(args) -> int:
             f"geofence-testbed batch {args.out} --out RESULTS"
         )
         return 0
-    from analysis.campaign import write_campaign_report
+    from analysis.campaign_report import write_campaign_report
 
     manifest = args.campaign / "campaign.json"
     for path, what in ((args.results / "results.csv", "RESULTS/results.csv (run batch first)"), (manifest, "campaign.json")):
@@ -469,8 +469,8 @@ def _cmd_campaign(args) -> int:
 def _cmd_validate(args) -> int:
     """Every file is checked (sweeps expanded, each flight validated); one line per file; exit 2 if any failed."""
     from scenarios.app.batch import check_unique_names
-    from scenarios.spec.schema import parse_scenario, read_document
-    from scenarios.spec.sweep import expand
+    from scenarios.definition.schema import parse_scenario, read_document
+    from scenarios.definition.sweep import expand
 
     failed = 0
     for path in args.scenarios:
@@ -522,9 +522,9 @@ PROGRESS_LABELS = {"mission": "mission", "scripted": "segments", "breach_attempt
 
 def _cmd_run(args) -> int:
     from scenarios.app.batch import check_unique_names
+    from scenarios.definition.schema import load_scenario, read_document
+    from scenarios.definition.sweep import expand
     from scenarios.flight.runner import run_scenario
-    from scenarios.spec.schema import load_scenario, read_document
-    from scenarios.spec.sweep import expand
 
     scenarios = [load_scenario(p) for p in args.scenarios]  # validate everything before flying anything
     specs = [expand(read_document(p), str(p), p.stem)[0] for p in args.scenarios]
@@ -609,7 +609,7 @@ def _sigterm_interrupts() -> None:
 
 
 def _version() -> str:
-    from scenarios.spec.sweep import project_version
+    from scenarios.definition.sweep import project_version
 
     return project_version()
 
@@ -681,7 +681,7 @@ def _write_batch_outputs(out_dir: Path, report: bool) -> None:
 def _cmd_plot(args) -> int:
     from analysis.plots import plot_flight, scenario_plot_kwargs
     from geofence.validation import ConfigError
-    from scenarios.spec.schema import parse_scenario, read_document
+    from scenarios.definition.schema import parse_scenario, read_document
 
     folders = sorted(p.parent for p in Path(args.out).glob("*/trajectory.csv"))
     if not folders and not (Path(args.out) / "trajectory.csv").is_file():

@@ -283,8 +283,8 @@ def _add_setpoints(an: SeedAnalysis, scenario, fence) -> None:
 
 def analyse_folder(folder: Path, scenario_path: Path) -> SeedAnalysis:
     """Analyse a written flight (``trajectory.csv`` + ``summary.json``, optional ``attempts.json``)."""
+    from scenarios.definition.schema import load_scenario
     from scenarios.flight.recorder import read_trajectory_csv
-    from scenarios.spec.schema import load_scenario
 
     folder = Path(folder)
     scenario = load_scenario(scenario_path)
@@ -378,8 +378,8 @@ def report_markdown(reactive: SeedAnalysis, predictive: SeedAnalysis, figures: S
 def fly_seed_scenario(path: Path, out_dir: Path | None = None):
     """Fly a seed scenario (keeping the pilot's attempt log); write it under ``out_dir`` if given. Returns the FlightResult."""
     import scenarios.flight.runner as runner
+    from scenarios.definition.schema import load_scenario
     from scenarios.flight.runner import write_result
-    from scenarios.spec.schema import load_scenario
 
     result = runner.fly(load_scenario(path))
     if out_dir is not None:
@@ -401,7 +401,7 @@ def run(
         if fly_flights:
             analyses.append(analyse_flight(fly_seed_scenario(path, out_dir)))
         else:
-            from scenarios.spec.schema import load_scenario
+            from scenarios.definition.schema import load_scenario
 
             name = load_scenario(path).name
             if not (out_dir / name / "trajectory.csv").is_file():

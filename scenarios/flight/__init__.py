@@ -2,5 +2,5 @@
 
 The runner (``fly``: JSBSim platform, wind, the geofence unit's sensors and the
 unit, with a typed ``FlightResult``), the recorder and the pilots. Imports
-``scenarios.spec`` and the layers below, never ``scenarios.app``.
+``scenarios.definition`` and the layers below, never ``scenarios.app``.
 """

@@ -37,12 +37,12 @@ from geofence import jit
 from geofence.geodesy import LocalFrame
 from geofence.local_fence import LocalFence
 from geofence.unit import GeofenceUnit, Mode
+from scenarios.definition.preflight import findings_summary, preflight_findings
+from scenarios.definition.schema import PilotKind, Scenario
 from scenarios.flight.pilots import CompiledLawPilot, Pilot, build_pilot
 from scenarios.flight.recorder import Recorder
 from scenarios.flight.sensing import GeofenceSensing
 from scenarios.flight.step_kernel import FlightStep
-from scenarios.spec.preflight import findings_summary, preflight_findings
-from scenarios.spec.schema import PilotKind, Scenario
 from wind.config import wind_from_config
 from wind.field import CalmWind, WindField, notify_first_activation
 from wind.field_kernel import WindArrays, compiled_wind
@@ -248,7 +248,7 @@ def write_result(
     temporary folder beside it, which is then swapped in: nothing of an earlier
     flight of the same name (a stale ``flight.png``, ``attempts.json``) survives,
     and a reader never sees a half-written folder. The summary gains
-    ``scenario_hash`` (the flight's identity, see :func:`scenarios.spec.sweep.scenario_hash`;
+    ``scenario_hash`` (the flight's identity, see :func:`scenarios.definition.sweep.scenario_hash`;
     computed from ``scenario.source`` when not given), ``incomplete_reason`` and
     ``warnings`` (inconsistencies the scenario allowed).
     """
@@ -334,8 +334,8 @@ def hash_of_source(scenario: Scenario) -> str | None:
     if scenario.source is None or not Path(scenario.source).is_file():
         return None
     from geofence.validation import ConfigError
-    from scenarios.spec.schema import read_document
-    from scenarios.spec.sweep import expand, with_referenced_files
+    from scenarios.definition.schema import read_document
+    from scenarios.definition.sweep import expand, with_referenced_files
 
     try:
         source = Path(scenario.source)

@@ -31,7 +31,7 @@ from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, FixState, VehicleState
 from geofence.jit import COMPILED, numba
 from geofence.wind_estimator import WindEstimator, WindEstimatorConfig, turbulence_sigma_mps, wind_estimator_update
-from scenarios.spec.schema import Scenario
+from scenarios.definition.schema import Scenario
 from wind.config import wind_from_config
 
 

@@ -22,7 +22,7 @@ import numpy as np
 
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, StickCommand, VehicleState
-from scenarios.spec.schema import PilotKind, Scenario
+from scenarios.definition.schema import PilotKind, Scenario
 
 
 class Pilot(Protocol):

@@ -14,7 +14,7 @@ toward the ceiling. This pilot does the same, reproducibly:
 2. per attempt ``k``: fly toward ``directions[k % len]`` at a speed drawn
    uniformly from ``speed_mps`` (numpy ``default_rng(seed)``, all speeds drawn
    up front, so the schedule does not depend on the flight): a compass
-   direction or a bearing (a :class:`~scenarios.spec.schema.BreachDirection`)
+   direction or a bearing (a :class:`~scenarios.definition.schema.BreachDirection`)
    is flown at that ground speed with the height held, ``up`` climbs at that
    rate (capped at the envelope's climb rate) and ``down`` descends at it
    (capped at the descent rate) with the position held;
@@ -42,8 +42,8 @@ from typing import Any
 import numpy as np
 
 from geofence.interface import Envelope, StickCommand, VehicleState
+from scenarios.definition.schema import BreachAttemptsConfig, BreachDirection, SpeedDraw, VerticalSense
 from scenarios.flight.pilots.nav_laws import MultirotorNavigator
-from scenarios.spec.schema import BreachAttemptsConfig, BreachDirection, SpeedDraw, VerticalSense
 
 HOME_TOLERANCE_M = 0.10
 """Within this distance (horizontal and vertical) of home, and ..."""

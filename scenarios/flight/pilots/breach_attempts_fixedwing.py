@@ -35,9 +35,9 @@ import math
 
 from geofence.control_laws import climb_rate_to_stick, ground_course_rad, wrap_pi
 from geofence.interface import Envelope, StickCommand, VehicleState
+from scenarios.definition.schema import BreachAttemptsConfig, BreachDirection, VerticalSense
 from scenarios.flight.pilots.breach_attempts import BreachAttemptsSchedule, PushEnd, push_progress
 from scenarios.flight.pilots.nav_laws import FixedWingNavigator
-from scenarios.spec.schema import BreachAttemptsConfig, BreachDirection, VerticalSense
 
 ORBIT_TURN_RADII = 1.5
 """The home orbit's radius in turn radii at cruise (the envelope's bank limit) ..."""

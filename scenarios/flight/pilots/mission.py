@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, StickCommand, VehicleState
+from scenarios.definition.schema import MissionConfig
 from scenarios.flight.pilots.nav_laws import FixedWingNavigator, MultirotorNavigator, climb_rate_to_stick
-from scenarios.spec.schema import MissionConfig
 
 MULTIROTOR_VERTICAL_TOLERANCE_M = 2.0
 LAND_SLOW_BELOW_AGL_M = 3.0

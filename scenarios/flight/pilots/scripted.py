@@ -16,9 +16,9 @@ import numpy as np
 from geofence.control_laws import airspeed_to_stick
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, StickCommand, VehicleState
+from scenarios.definition.schema import ScriptSegment, SegmentEnd
 from scenarios.flight.pilots import law_kernel as lk
 from scenarios.flight.pilots.nav_laws import FixedWingNavigator, MultirotorNavigator
-from scenarios.spec.schema import ScriptSegment, SegmentEnd
 
 _CLIMB_STICK = {"hold": 0.0, "max": 1.0, "descend": -1.0}
 END_TOLERANCE_STEPS = 0.5

@@ -2,7 +2,7 @@
 the block's inline keys applied over it.
 
 A relative path is resolved against ``base_dir`` (the scenario file's folder, see
-:func:`scenarios.spec.schema.parse_scenario`); against the working directory only when no ``base_dir`` is
+:func:`scenarios.definition.schema.parse_scenario`); against the working directory only when no ``base_dir`` is
 known. Inline ``ceiling_m``, ``floor_m`` and ``altitude_reference`` win over the file's values (GeoJSON
 properties); ``floor_gaps`` are added (no format carries them); an inline ``recovery_point`` replaces the
 file's return point as the recovery point; ``inclusion_polygon`` picks one of several inclusion areas. A

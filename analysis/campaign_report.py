@@ -2,7 +2,7 @@
 
 Input: a batch folder's ``results.csv`` (:func:`analysis.report.read_results_csv`)
 and the campaign's ``campaign.json`` manifest (written by
-:mod:`scenarios.spec.campaign`); output: numbers, ``campaign_report.md`` and two
+:mod:`scenarios.campaign.generator`); output: numbers, ``campaign_report.md`` and two
 figures. Nothing here flies.
 
 Flights are ``<case_id>__<variant>`` (variant ``predictive``, ``reactive`` or

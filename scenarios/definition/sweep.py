@@ -322,7 +322,7 @@ def _check_path(doc: dict, path: str, value: Any, label: str, where: str) -> Non
         return  # the path exists in the base scenario
     trial = copy.deepcopy(doc)
     _set_path(trial, path, value, f"{where}: sweep")  # a bad list index or scalar parent raises here
-    from scenarios.spec.schema import parse_scenario
+    from scenarios.definition.schema import parse_scenario
 
     try:
         parse_scenario(trial, where=where)
@@ -351,7 +351,7 @@ def with_referenced_files(specs: Iterable[FlightSpec], base_dir: Path) -> list[F
     flight: editing it must re-fly a resumed batch, though the scenario document did not change.
     A file that cannot be read hashes as missing (the flight then fails with the schema's message).
     """
-    from scenarios.spec.schema import referenced_files
+    from scenarios.definition.schema import referenced_files
 
     out = []
     for spec in specs:

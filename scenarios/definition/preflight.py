@@ -24,7 +24,7 @@ from geofence.fence import AltitudeReference
 from geofence.geodesy import LocalFrame
 from geofence.preflight import PlannedWaypoint, PreflightFinding, check_route
 from geofence.wind_estimator import WIND_ESTIMATE_ERROR_MPS
-from scenarios.spec.schema import PilotKind, Scenario
+from scenarios.definition.schema import PilotKind, Scenario
 from wind.steady import PowerLawProfile
 
 BUFFER_M = 2.0

@@ -51,7 +51,7 @@ from geofence.validation import (
     require_mapping,
     string,
 )
-from scenarios.spec.fence_file import fence_file_path, fence_from_file
+from scenarios.definition.fence_file import fence_file_path, fence_from_file
 from wind.config import WindConfig, parse_wind
 
 MISSION_ITEM_TYPES = ("takeoff", "waypoint", "loiter", "land")
