@@ -1,12 +1,12 @@
 """The geofence unit's own view of a simulated flight: sensors -> state estimator -> wind estimator, per step.
 
-:class:`GeofenceSensing` runs the chain either as the reference objects
-(:class:`aircraft.sensors.SensorSuite`, :class:`geofence.estimator.GeofenceEstimator`) or, where numba is
-active (:data:`geofence.jit.ACTIVE`), as one compiled call per step through their array forms
-(:mod:`aircraft.sensor_kernel`, :mod:`geofence.estimator_kernel`); the sensors and the state estimator give
-the same numbers either way (``tests/test_sensing_kernel.py``). The wind estimator is written once
-(:func:`geofence.wind_estimator.wind_estimator_update`): the compiled chain keeps its state in its packed
-array, and :attr:`GeofenceSensing.wind` is a façade over those slots.
+:class:`GeofenceSensing` runs the chain either as the reference sensors (:class:`aircraft.sensors.SensorSuite`)
+and the estimators' façades or, where numba is active (:data:`geofence.jit.ACTIVE`), as one compiled call per
+step (the sensors through their array form, :mod:`aircraft.sensor_kernel`, which gives the same numbers:
+``tests/test_sensing_kernel.py``). The state and wind estimators are written once
+(:func:`geofence.estimator.estimator_step`, :func:`geofence.wind_estimator.wind_estimator_update`): the compiled
+chain keeps their states in its packed array, and :attr:`GeofenceSensing.estimator` and
+:attr:`GeofenceSensing.wind` are façades over those slots.
 
 With ``state_source: truth`` (e.g. indoor motion capture) the unit gets the
 true state and the true steady wind instead.
@@ -21,12 +21,11 @@ import numpy as np
 from aircraft import sensor_kernel as sk
 from aircraft.sensor_kernel import HAS_PITOT, MAX_DRAWS_PER_STEP, SensorArrays, sensors_step
 from aircraft.sensors import SensorSuite
-from geofence import estimator_kernel as ek
+from geofence import estimator as ek
 from geofence import jit
 from geofence import wind_estimator as wk
 from geofence.config import GeofenceConfig, StateSource
-from geofence.estimator import GeofenceEstimator
-from geofence.estimator_kernel import estimator_arrays, estimator_step
+from geofence.estimator import EST_STATE, HORIZON_FIELDS, GeofenceEstimator, estimator_step
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, FixState, VehicleState
 from geofence.jit import COMPILED, numba
@@ -58,8 +57,8 @@ class Sensed(NamedTuple):
 _S0 = 0
 _C0 = _S0 + sk.N_STATE
 _X0 = _C0 + sk.N_CONST
-_K0 = _X0 + ek.N_STATE
-_W0 = _K0 + ek.N_CONST
+_K0 = _X0 + ek.STATE_SIZE
+_W0 = _K0 + ek.CONST_SIZE
 _WC0 = _W0 + wk.STATE_SIZE
 _FIX0 = _WC0 + wk.CONST_SIZE
 _OUTAGES0 = _FIX0 + 10
@@ -83,30 +82,29 @@ def _sense_step(
         airspeed, roll, pitch, yaw,
     )  # fmt: skip
     est = estimator_step(X, K, dt_s, delivered, fix, t, a_ind, baro_alt, r, p, y)
-    valid = X[ek.POSITION_VALID] != 0.0
+    x = X.view(EST_STATE)[0]
+    valid = x.position_valid != 0.0
     we, wn = wind_estimator_update(
         W, WC, C[HAS_PITOT] != 0.0, a_ind, dt_s, valid, est[3], est[7], est[8], est[9], est[10], est[11], est[12], est[13]
     )
-    age = X[ek.T_S] - X[ek.T_D] if X[ek.HAS_H] != 0.0 else 0.0
+    age = x.t_s - x.t_d_s if x.has_fix != 0.0 else 0.0
     low = False
     for k in range(pools.shape[0]):
         if pools.shape[1] - idx[k] < MAX_DRAWS_PER_STEP:
             low = True
     return (
-        est, we, wn, valid, X[ek.SIGMA_H], X[ek.SIGMA_V], X[ek.HORIZON_NEW] != 0.0, age if age > 0.0 else 0.0,
+        est, we, wn, valid, x.sigma_h_m, x.sigma_v_m, x.horizon_new != 0.0, age if age > 0.0 else 0.0,
         turbulence_sigma_mps(W), low,
     )  # fmt: skip
 
 
 _new_tuple = tuple.__new__
 
-HORIZON_IN_P = slice(_X0 + ek.H_T, _X0 + ek.H_VN + 1)
+HORIZON_IN_P = slice(_X0 + HORIZON_FIELDS.start, _X0 + HORIZON_FIELDS.stop)
 """The fusion horizon's fields in the chain's packed array (for a caller's compiled step that runs the chain)."""
-_HORIZON = slice(ek.H_T, ek.H_VN + 1)
+_HORIZON = HORIZON_FIELDS
 """The fusion horizon's fields in the estimator's state, in :class:`FixState`'s order (read as one slice: a
 generator over the five indices costs three times as much, on every step with a new fix)."""
-if (ek.H_E, ek.H_N, ek.H_VE, ek.H_VN) != tuple(range(ek.H_T + 1, ek.H_T + 5)):
-    raise ImportError("the estimator's horizon fields are no longer adjacent: update sensing._HORIZON")
 
 sense_step: Callable[..., tuple[Any, ...]] = numba.njit(cache=True)(_sense_step) if COMPILED else _sense_step
 """The compiled :func:`_sense_step` (the Python function itself without numba)."""
@@ -136,12 +134,13 @@ class GeofenceSensing:
             self.wind = WindEstimator(env, wind_cfg)
         else:
             arrays = self._sensor_arrays = SensorArrays(sc, has_pitot=has_pitot, seed=scenario.seed)
-            X, K = estimator_arrays(frame, sc.estimator_config())
-            wind_memory = np.zeros(wk.MEMORY_SIZE)  # the wind estimator's, laid out in P below
-            packed = (arrays.state, arrays.const, X, K, wind_memory, arrays.fix, arrays.outages.ravel(), arrays.pending.ravel())
+            est_memory = np.zeros(ek.MEMORY_SIZE)  # the estimators', laid out in P below
+            wind_memory = np.zeros(wk.MEMORY_SIZE)
+            packed = (arrays.state, arrays.const, est_memory, wind_memory, arrays.fix, arrays.outages.ravel(), arrays.pending.ravel())  # fmt: skip
             P = np.concatenate(packed)  # copies: from here on the step reads and writes P, and of the sensor
             # arrays only their noise rows and read indices (refilled in place)
-            self.wind = WindEstimator(env, wind_cfg, memory=P[_W0:_FIX0])  # a façade over the step's own slots
+            self.estimator = GeofenceEstimator(frame, sc.estimator_config(), memory=P[_X0:_W0])  # façades over
+            self.wind = WindEstimator(env, wind_cfg, memory=P[_W0:_FIX0])  # the step's own slots
             self._X = P[_X0:_K0]
             self._args: tuple[Any, ...] = (P, arrays.pools, arrays.idx)
             self._kernel: Callable[..., tuple[Any, ...]] = sense_step
