@@ -1,12 +1,11 @@
 """The geofence unit's own view of a simulated flight: sensors -> state estimator -> wind estimator, per step.
 
-:class:`GeofenceSensing` runs the chain either as the reference sensors (:class:`aircraft.sensors.SensorSuite`)
-and the estimators' façades or, where numba is active (:data:`geofence.jit.ACTIVE`), as one compiled call per
-step (the sensors through their array form, :mod:`aircraft.sensor_kernel`, which gives the same numbers:
-``tests/test_sensing_kernel.py``). The state and wind estimators are written once
-(:func:`geofence.estimator.estimator_step`, :func:`geofence.wind_estimator.wind_estimator_update`): the compiled
-chain keeps their states in its packed array, and :attr:`GeofenceSensing.estimator` and
-:attr:`GeofenceSensing.wind` are façades over those slots.
+:class:`GeofenceSensing` runs the chain either through the objects (:class:`aircraft.sensors.SensorSuite` and the
+estimators) or, where numba is active (:data:`geofence.jit.ACTIVE`), as one compiled call per step. Each link is
+written once (:func:`aircraft.sensors.sensors_step`, :func:`geofence.estimator.estimator_step`,
+:func:`geofence.wind_estimator.wind_estimator_update`): the compiled chain keeps their memories in its packed
+array, and :attr:`GeofenceSensing.sensors`, :attr:`GeofenceSensing.estimator` and :attr:`GeofenceSensing.wind`
+are façades over those slots.
 
 With ``state_source: truth`` (e.g. indoor motion capture) the unit gets the
 true state and the true steady wind instead.
@@ -18,9 +17,8 @@ from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
-from aircraft import sensor_kernel as sk
-from aircraft.sensor_kernel import HAS_PITOT, MAX_DRAWS_PER_STEP, SensorArrays, sensors_step
-from aircraft.sensors import SensorSuite
+from aircraft import sensors as sk
+from aircraft.sensors import SENSOR_CONST, SensorSuite, sensors_step
 from geofence import estimator as ek
 from geofence import jit
 from geofence import wind_estimator as wk
@@ -51,17 +49,15 @@ class Sensed(NamedTuple):
     """The wind estimator's turbulence intensity, m/s 1-sigma (None with a truth source: the unit is told nothing)."""
 
 
-# The chain's state vectors and constants, packed end to end in one float array (a compiled call pays about
-# 0.1 us per array argument): the sensors' state and constants, the estimator's, the wind estimator's, the
-# delivered fix, the outage windows and, last, the pending GNSS ring (their sizes follow the sensor configuration).
-_S0 = 0
-_C0 = _S0 + sk.N_STATE
-_X0 = _C0 + sk.N_CONST
+# The chain's memories, packed end to end in one float array (a compiled call pays about 0.1 us per array
+# argument): the state estimator's (state, constants), the wind estimator's and, last, the sensors' (state,
+# constants, the delivered fix, the outage windows and the pending GNSS ring: its size follows their configuration).
+_X0 = 0
 _K0 = _X0 + ek.STATE_SIZE
 _W0 = _K0 + ek.CONST_SIZE
 _WC0 = _W0 + wk.STATE_SIZE
-_FIX0 = _WC0 + wk.CONST_SIZE
-_OUTAGES0 = _FIX0 + 10
+_S0 = _WC0 + wk.CONST_SIZE
+_FIX0, _FIX1 = _S0 + sk.FIX0, _S0 + sk.OUTAGES0
 
 
 def _sense_step(
@@ -70,28 +66,19 @@ def _sense_step(
 ) -> tuple[tuple[float, ...], float, float, bool, float, float, bool, float, float, bool]:  # fmt: skip
     """One step of the chain from the truth's fields: ``(estimate fields, wind e, wind n, position valid,
     sigma_h, sigma_v, new horizon, data age, turbulence sigma, a noise pool runs low)``. ``P``: the packed
-    state and constants; ``pools``, ``idx``: :class:`~aircraft.sensor_kernel.SensorArrays`' noise rows and
-    read indices."""
-    S, C, X, K = P[_S0:_C0], P[_C0:_X0], P[_X0:_K0], P[_K0:_W0]
-    W, WC, fix = P[_W0:_WC0], P[_WC0:_FIX0], P[_FIX0:_OUTAGES0]
-    pending0 = _OUTAGES0 + 2 * int(C[sk.N_OUTAGES])
-    outages = P[_OUTAGES0:pending0].reshape(-1, 2)
-    pending = P[pending0:].reshape(-1, 10)
-    delivered, a_ind, baro_alt, r, p, y = sensors_step(
-        S, C, outages, pending, pools[0], pools[1], pools[2], pools[3], idx, fix, t, lat, lon, alt, ve, vn, vu,
-        airspeed, roll, pitch, yaw,
-    )  # fmt: skip
-    est = estimator_step(X, K, dt_s, delivered, fix, t, a_ind, baro_alt, r, p, y)
+    memories; ``pools``, ``idx``: the sensors' noise rows and read indices (:attr:`SensorSuite.pools`)."""
+    X, K, W, WC = P[_X0:_K0], P[_K0:_W0], P[_W0:_WC0], P[_WC0:_S0]
+    delivered, a_ind, baro_alt, r, p, y, low = sensors_step(
+        P[_S0:], pools, idx, t, lat, lon, alt, ve, vn, vu, airspeed, roll, pitch, yaw
+    )
+    est = estimator_step(X, K, dt_s, delivered, P[_FIX0:_FIX1], t, a_ind, baro_alt, r, p, y)
     x = X.view(EST_STATE)[0]
     valid = x.position_valid != 0.0
+    has_pitot = P[_S0 + sk.STATE_SIZE : _FIX0].view(SENSOR_CONST)[0].has_pitot != 0.0
     we, wn = wind_estimator_update(
-        W, WC, C[HAS_PITOT] != 0.0, a_ind, dt_s, valid, est[3], est[7], est[8], est[9], est[10], est[11], est[12], est[13]
+        W, WC, has_pitot, a_ind, dt_s, valid, est[3], est[7], est[8], est[9], est[10], est[11], est[12], est[13]
     )
     age = x.t_s - x.t_d_s if x.has_fix != 0.0 else 0.0
-    low = False
-    for k in range(pools.shape[0]):
-        if pools.shape[1] - idx[k] < MAX_DRAWS_PER_STEP:
-            low = True
     return (
         est, we, wn, valid, x.sigma_h_m, x.sigma_v_m, x.horizon_new != 0.0, age if age > 0.0 else 0.0,
         turbulence_sigma_mps(W), low,
@@ -133,16 +120,12 @@ class GeofenceSensing:
             self.estimator = GeofenceEstimator(frame, sc.estimator_config())
             self.wind = WindEstimator(env, wind_cfg)
         else:
-            arrays = self._sensor_arrays = SensorArrays(sc, has_pitot=has_pitot, seed=scenario.seed)
-            est_memory = np.zeros(ek.MEMORY_SIZE)  # the estimators', laid out in P below
-            wind_memory = np.zeros(wk.MEMORY_SIZE)
-            packed = (arrays.state, arrays.const, est_memory, wind_memory, arrays.fix, arrays.outages.ravel(), arrays.pending.ravel())  # fmt: skip
-            P = np.concatenate(packed)  # copies: from here on the step reads and writes P, and of the sensor
-            # arrays only their noise rows and read indices (refilled in place)
-            self.estimator = GeofenceEstimator(frame, sc.estimator_config(), memory=P[_X0:_W0])  # façades over
-            self.wind = WindEstimator(env, wind_cfg, memory=P[_W0:_FIX0])  # the step's own slots
+            P = np.zeros(_S0 + sk.memory_size(sc))  # the step reads and writes P; the objects are façades over it
+            self.estimator = GeofenceEstimator(frame, sc.estimator_config(), memory=P[_X0:_W0])
+            self.wind = WindEstimator(env, wind_cfg, memory=P[_W0:_S0])
+            self.sensors = SensorSuite(sc, has_pitot=has_pitot, seed=scenario.seed, memory=P[_S0:])
             self._X = P[_X0:_K0]
-            self._args: tuple[Any, ...] = (P, arrays.pools, arrays.idx)
+            self._args: tuple[Any, ...] = (P, self.sensors.pools, self.sensors.idx)
             self._kernel: Callable[..., tuple[Any, ...]] = sense_step
             self._horizon: FixState | None = None
 
@@ -182,7 +165,7 @@ class GeofenceSensing:
         if new_horizon:
             self._horizon = _new_tuple(FixState, self._X[_HORIZON].tolist())  # (Python floats, as float(X[i]))
         if low:
-            self._sensor_arrays.refill()  # in place: the pools stay the same array
+            self.sensors.refill()  # in place: the pools stay the same array
         return self._horizon
 
     def _sense_reference(self, truth: VehicleState, dt_s: float) -> Sensed:
