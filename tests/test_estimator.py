@@ -422,3 +422,36 @@ def test_compiled_step_conforms_to_its_interpreted_source():
         assert got == pytest.approx(ref, abs=1e-9, nan_ok=True), k
         assert (a.position_valid, a.fixes_used, a.fixes_rejected) == (b.position_valid, b.fixes_used, b.fixes_rejected)
         assert a.sigma_h_m == pytest.approx(b.sigma_h_m, rel=1e-12) and a.horizon_state() == pytest.approx(b.horizon_state())
+
+
+def test_the_sensing_chain_s_facades_read_its_own_slots():
+    """:class:`scenarios.flight.sensing.GeofenceSensing` runs one call a step over one packed array; its estimator,
+    wind estimator and sensors are façades over that array's slices, so they answer what the step wrote, and the
+    façades stepped on their own from the same truths give the same numbers (same sources, same noise)."""
+    from support import ROOT
+
+    from aircraft.profile import load_profile
+    from geofence.wind_estimator import WindEstimator, WindEstimatorConfig
+    from scenarios.flight.sensing import GeofenceSensing
+    from scenarios.spec.schema import load_scenario
+
+    sc = load_scenario(ROOT / "scenarios" / "geofence_gps_loss_fixedwing.yaml")
+    env = load_profile("Tern").envelope
+    chain = GeofenceSensing(sc, sc.geofence, sc.frame, env)
+    sensors = SensorSuite(sc.sensors, has_pitot=not env.is_multirotor, seed=sc.seed)
+    est = GeofenceEstimator(sc.frame, sc.sensors.estimator_config())
+    wind = WindEstimator(env, WindEstimatorConfig(prior_enu=sc.geofence.wind_prior_enu))
+    frame = sc.frame
+    for k in range(int(30.0 / DT)):
+        t = k * DT
+        lat, lon, h = frame.to_geodetic(15.0 * t, 0.0, 60.0)
+        truth = VehicleState(t, lat, lon, h, 15.0 * t, 0.0, 60.0, 60.0, 15.0, 0.0, 0.0, 0.0, 0.05, 0.5 * math.pi, 16.0)
+        got = chain.sense(truth, DT)
+        fix, air, att = sensors.sample(truth)
+        s = est.step(DT, fix, air, att)
+        assert (got.estimate.east_m, got.estimate.up_m) == pytest.approx((s.east_m, s.up_m), abs=1e-9)
+        assert got.wind_en == pytest.approx(wind.update(s, air.airspeed_mps, DT, est.position_valid), abs=1e-9)
+        assert (chain.estimator.sigma_h_m, chain.estimator.position_valid) == (got.sigma_h_m, got.position_valid)
+        assert chain.estimator.horizon_state() == chain.horizon and chain.wind.wind_enu == got.wind_en
+        assert chain.sensors.gps_bias_enu_m == sensors.gps_bias_enu_m
+    assert chain.estimator.fixes_used == est.fixes_used > 100

@@ -1,11 +1,11 @@
 """The geofence unit's own view of a simulated flight: sensors -> state estimator -> wind estimator, per step.
 
-:class:`GeofenceSensing` runs the chain either through the objects (:class:`aircraft.sensors.SensorSuite` and the
-estimators) or, where numba is active (:data:`geofence.jit.ACTIVE`), as one compiled call per step. Each link is
-written once (:func:`aircraft.sensors.sensors_step`, :func:`geofence.estimator.estimator_step`,
-:func:`geofence.wind_estimator.wind_estimator_update`): the compiled chain keeps their memories in its packed
-array, and :attr:`GeofenceSensing.sensors`, :attr:`GeofenceSensing.estimator` and :attr:`GeofenceSensing.wind`
-are façades over those slots.
+:class:`GeofenceSensing` runs the chain as one call per step, :func:`sense_step` (compiled by
+:func:`geofence.jit.compiled`; the same source interpreted without numba or with ``NUMBA_DISABLE_JIT=1``). Each
+link is written once (:func:`aircraft.sensors.sensors_step`, :func:`geofence.estimator.estimator_step`,
+:func:`geofence.wind_estimator.wind_estimator_update`); the chain keeps their memories in one packed array, and
+:attr:`GeofenceSensing.sensors`, :attr:`GeofenceSensing.estimator` and :attr:`GeofenceSensing.wind` are façades
+over its slices: nothing is copied or synchronised.
 
 With ``state_source: truth`` (e.g. indoor motion capture) the unit gets the
 true state and the true steady wind instead.
@@ -26,7 +26,6 @@ from geofence.config import GeofenceConfig, StateSource
 from geofence.estimator import EST_STATE, HORIZON_FIELDS, GeofenceEstimator, estimator_step
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, FixState, VehicleState
-from geofence.jit import COMPILED, numba
 from geofence.wind_estimator import WindEstimator, WindEstimatorConfig, turbulence_sigma_mps, wind_estimator_update
 from scenarios.spec.schema import Scenario
 from wind.config import wind_from_config
@@ -93,46 +92,41 @@ _HORIZON = HORIZON_FIELDS
 """The fusion horizon's fields in the estimator's state, in :class:`FixState`'s order (read as one slice: a
 generator over the five indices costs three times as much, on every step with a new fix)."""
 
-sense_step: Callable[..., tuple[Any, ...]] = numba.njit(cache=True)(_sense_step) if COMPILED else _sense_step
-"""The compiled :func:`_sense_step` (the Python function itself without numba)."""
+sense_step: Callable[..., tuple[Any, ...]] = jit.compiled(_sense_step)
+"""The compiled :func:`_sense_step` (the Python function itself without numba): a caller's compiled step composes
+it (:mod:`scenarios.flight.step_kernel`)."""
 
 
 class GeofenceSensing:
     """The geofence unit's own view of the flight: sensors -> state estimator -> wind estimator.
 
-    ``compiled`` (default :data:`geofence.jit.ACTIVE` when built): one compiled call per step through the
-    chain's array forms; else the reference objects, kept as ``sensors``, ``estimator`` and ``wind``.
+    One call of :func:`sense_step` a step over one packed array; ``sensors``, ``estimator`` and ``wind`` are
+    façades over its slices (they read what the step writes). With ``state_source: truth`` the unit is given the
+    truth and the true steady wind instead (``compiled`` is then False: the chain does not run).
     """
 
-    def __init__(
-        self, scenario: Scenario, cfg: GeofenceConfig, frame: LocalFrame, env: Envelope, compiled: bool | None = None
-    ) -> None:
+    def __init__(self, scenario: Scenario, cfg: GeofenceConfig, frame: LocalFrame, env: Envelope) -> None:
         self.truth_source = cfg.state_source is StateSource.TRUTH
+        self.compiled = not self.truth_source
+        """The chain runs (and a caller's compiled step may run it: :meth:`kernel_arrays`)."""
         sc = scenario.sensors
-        has_pitot = not env.is_multirotor
-        wind_cfg = WindEstimatorConfig(prior_enu=cfg.wind_prior_enu)
         self._truth_wind = None
         if self.truth_source and scenario.wind is not None:
             self._truth_wind = wind_from_config(scenario.wind, scenario.seed)
-        self.compiled = (jit.ACTIVE if compiled is None else compiled) and not self.truth_source
-        if not self.compiled:
-            self.sensors = SensorSuite(sc, has_pitot=has_pitot, seed=scenario.seed)
-            self.estimator = GeofenceEstimator(frame, sc.estimator_config())
-            self.wind = WindEstimator(env, wind_cfg)
-        else:
-            P = np.zeros(_S0 + sk.memory_size(sc))  # the step reads and writes P; the objects are façades over it
-            self.estimator = GeofenceEstimator(frame, sc.estimator_config(), memory=P[_X0:_W0])
-            self.wind = WindEstimator(env, wind_cfg, memory=P[_W0:_S0])
-            self.sensors = SensorSuite(sc, has_pitot=has_pitot, seed=scenario.seed, memory=P[_S0:])
-            self._X = P[_X0:_K0]
-            self._args: tuple[Any, ...] = (P, self.sensors.pools, self.sensors.idx)
-            self._kernel: Callable[..., tuple[Any, ...]] = sense_step
-            self._horizon: FixState | None = None
+        P = np.zeros(_S0 + sk.memory_size(sc))  # the step reads and writes P; the objects are façades over it
+        self.estimator = GeofenceEstimator(frame, sc.estimator_config(), memory=P[_X0:_W0])
+        self.wind = WindEstimator(env, WindEstimatorConfig(prior_enu=cfg.wind_prior_enu), memory=P[_W0:_S0])
+        self.sensors = SensorSuite(sc, has_pitot=not env.is_multirotor, seed=scenario.seed, memory=P[_S0:])
+        self._X = P[_X0:_K0]
+        self._args: tuple[Any, ...] = (P, self.sensors.pools, self.sensors.idx)
+        self._kernel: Callable[..., tuple[Any, ...]] = sense_step
+        self._horizon: FixState | None = None
 
     def sense(self, truth: VehicleState, dt_s: float) -> Sensed:
         """The unit's estimate, wind estimate, position validity and sigmas for this step."""
-        if not self.compiled:
-            return self._sense_reference(truth, dt_s)
+        if self.truth_source:
+            we, wn = (self._truth_wind.mean(truth.agl_m)[:2]) if self._truth_wind is not None else (0.0, 0.0)
+            return Sensed(truth, (we, wn), True, 0.0, 0.0)
         s = truth
         P, pools, idx = self._args  # (unpacked: a call with *self._args costs 0.09 us more, measured)
         kernel = self._kernel
@@ -167,19 +161,3 @@ class GeofenceSensing:
         if low:
             self.sensors.refill()  # in place: the pools stay the same array
         return self._horizon
-
-    def _sense_reference(self, truth: VehicleState, dt_s: float) -> Sensed:
-        """:meth:`sense` with the truth as the source, or through the reference objects."""
-        if self.truth_source:
-            we, wn = (self._truth_wind.mean(truth.agl_m)[:2]) if self._truth_wind is not None else (0.0, 0.0)
-            return Sensed(truth, (we, wn), True, 0.0, 0.0)
-        fix, air, att = self.sensors.sample(truth)
-        estimator = self.estimator
-        est = estimator.step(dt_s, fix, air, att)
-        est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
-        valid = estimator.position_valid
-        wind_en = self.wind.update(est, air.airspeed_mps, dt_s, valid)
-        return Sensed(
-            est, wind_en, valid, estimator.sigma_h_m, estimator.sigma_v_m, estimator.horizon_state(),
-            estimator.data_age_s, self.wind.turbulence_sigma_mps,
-        )  # fmt: skip
