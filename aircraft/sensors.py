@@ -47,30 +47,35 @@ scenario's optional ``sensors:`` block, see :func:`parse_sensors`):
 
 Reproducibility: all noise comes from ``numpy.random.SeedSequence(seed)`` with
 an independent stream per sensor (spawn keys), so enabling or retuning one
-sensor leaves the others' noise unchanged. Normals are drawn in blocks and
-handed out as plain floats, so a step costs a few microseconds.
+sensor leaves the others' noise unchanged. A stream is a row of drawn normals
+and a read index (:attr:`SensorSuite.pools`, :attr:`SensorSuite.idx`), topped
+up in place between steps (a step draws at most :data:`MAX_DRAWS_PER_STEP`
+from a stream; a stream's numbers do not depend on how many are drawn at a time).
+
+The step is written once: :func:`sensors_step`, compiled by :func:`geofence.jit.compiled` (the same source
+interpreted without numba or with ``NUMBA_DISABLE_JIT=1``). Its state and constants are the records
+:data:`SENSOR_STATE` and :data:`SENSOR_CONST` over float memory, followed by the delivered GNSS message, the
+outage windows and the ring of pending messages (solved, not yet delivered; rows of
+:data:`geofence.estimator.GPS_FIX`), so that the unit's compiled sensing chain (:mod:`scenarios.flight.sensing`)
+keeps them in its packed array; :class:`SensorSuite` is a façade that owns (or is given) that memory.
 """
 
 from __future__ import annotations
 
-import itertools
 import math
-from collections import deque
-from collections.abc import Callable
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
 
 from geofence.dynamics import isa_density_ratio
-from geofence.estimator import EstimatorConfig
+from geofence.estimator import FIX_SIZE, GPS_FIX, EstimatorConfig
 from geofence.geodesy import radii_of_curvature_m
 from geofence.interface import VehicleState
+from geofence.jit import compiled, jitable
 from geofence.measurements import AirData, AttitudeSample, GpsFix
 from geofence.validation import ConfigError, integer, kind, number, reject_unknown_keys, require_mapping
 
-_NAN = float("nan")
-_INF = float("inf")
 _TWO_PI = 2.0 * math.pi
 _EPS_S = 1e-9
 
@@ -79,6 +84,8 @@ SENSOR_STREAMS = (GPS_STREAM, BARO_STREAM, PITOT_STREAM, AHRS_STREAM)
 """The independent noise streams, one per sensor: the spawn key of each stream's seed sequence."""
 NORMAL_BLOCK = 4096
 """Normals drawn from a stream at a time."""
+MAX_DRAWS_PER_STEP = 32
+"""The most normals one step can take from one stream (two GNSS solutions of nine draws each, at the first step)."""
 
 
 def stream_generator(seed: int, stream: int) -> np.random.Generator:
@@ -134,219 +141,329 @@ class SensorConfig:
         return False
 
 
-def _normal_stream(rng: np.random.Generator, block: int = NORMAL_BLOCK) -> Callable[[], float]:
-    """Standard normal floats from ``rng``: returns a callable that hands out the next one (cheap per call, reproducible).
-
-    The normals are drawn ``block`` at a time and handed out as plain floats. A
-    block holds the same numbers as ``block`` single draws (numpy's Generator
-    draws an array one value after the other), so the block size does not
-    change the stream.
-    """
-    # iter(f, None) calls f for ever (a list never equals None): an endless iterator of blocks, chained into
-    # one iterator of floats. Its bound __next__ costs ~35 ns a draw, a Python __call__ method ~180 ns.
-    blocks = iter(lambda: rng.standard_normal(block).tolist(), None)
-    return itertools.chain.from_iterable(blocks).__next__
+def _float_record(*names: str) -> np.dtype:
+    """A record dtype of float64 fields, viewable over float memory."""
+    return np.dtype((np.record, [(name, np.float64) for name in names]))
 
 
-class _GaussMarkov:
-    """First-order Gauss-Markov process with stationary sigma and correlation time tau (tau 0: white)."""
+SENSOR_STATE = _float_record(
+    "t_last_s", "has_t_last",  # the previous sample's time (has_*: 1 once set)
+    "next_epoch_s", "has_next_epoch", "last_epoch_s", "has_last_epoch",  # the receiver's solution epochs
+    "next_arrival_s",  # when the oldest pending message is delivered (inf: none pending)
+    "ring_head", "ring_count",  # the pending messages' ring: its oldest row and how many
+    "gps_bias_e_m", "gps_bias_n_m", "gps_bias_u_m", "baro_drift_m",  # the Gauss-Markov errors
+    "ahrs_roll_err_rad", "ahrs_pitch_err_rad", "ahrs_yaw_err_rad",
+)  # fmt: skip
+"""The sensors' state, a record over float memory (every field float64: a flag is 0 or 1, a count a whole number)."""
 
-    __slots__ = ("sigma", "tau", "value", "_dt", "_a", "_b", "_n")
+SENSOR_CONST = _float_record(
+    "period_s", "latency_s", "prefill", "has_pitot",
+    "gps_h_white_m", "gps_v_white_m", "gps_vel_h_mps", "gps_vel_v_mps", "baro_noise_m", "airspeed_noise_mps",
+    "h_acc_m", "v_acc_m", "fail_at_s", "n_outages",  # fail_at_s: inf without a failure
+    "gps_h_bias_m", "gps_v_bias_m", "gps_bias_tau_s", "baro_drift_sigma_m", "baro_drift_tau_s",
+    "ahrs_roll_pitch_rad", "ahrs_yaw_rad", "ahrs_tau_s",
+)  # fmt: skip
+"""The sensors' constants from their :class:`SensorConfig` (SI, angles in rad)."""
 
-    def __init__(self, sigma: float, tau_s: float, normals: Callable[[], float]) -> None:
-        self.sigma = sigma
-        self.tau = tau_s
-        self._n = normals
-        self.value = sigma * normals() if sigma > 0.0 else 0.0  # start in the stationary distribution
-        self._dt = -1.0
-        self._a = 0.0
-        self._b = sigma
+STATE_SIZE = SENSOR_STATE.itemsize // 8
+CONST_SIZE = SENSOR_CONST.itemsize // 8
+FIX0 = STATE_SIZE + CONST_SIZE
+"""The slot of the delivered GNSS message (:data:`~geofence.estimator.GPS_FIX`) in a suite's memory."""
+OUTAGES0 = FIX0 + FIX_SIZE
+"""The slot of the outage windows (``start_s, end_s`` pairs), then the pending messages' ring (:func:`ring_rows`
+messages)."""
 
-    def step(self, dt_s: float) -> float:
-        if self.sigma <= 0.0:
-            return 0.0
-        if dt_s != self._dt:  # the coefficients are cached for the last dt (the outer loop's is constant)
-            self._dt = dt_s
-            a = math.exp(-dt_s / self.tau) if self.tau > 0.0 else 0.0
-            self._a = a
-            self._b = self.sigma * math.sqrt(max(0.0, 1.0 - a * a))
-        value = self._a * self.value + self._b * self._n()
-        self.value = value
-        return value
+
+def ring_rows(cfg: SensorConfig) -> int:
+    """Rows of the pending GNSS messages' ring: more than are ever pending, the solutions of one latency (one per
+    fix period) plus the pre-filled first one and a margin."""
+    return int(math.ceil(cfg.gps_latency_s * cfg.gps_rate_hz)) + 4
+
+
+def memory_size(cfg: SensorConfig) -> int:
+    """Float64 slots of the memory a :class:`SensorSuite` of ``cfg`` lives in: its state, constants, delivered
+    message, outage windows and pending ring."""
+    return OUTAGES0 + 2 * len(cfg.gps_outages) + FIX_SIZE * ring_rows(cfg)
+
+
+@compiled
+def sensors_step(
+    M: np.ndarray, pools: np.ndarray, idx: np.ndarray, t: float, lat_deg: float, lon_deg: float, alt: float,
+    ve: float, vn: float, vu: float, airspeed_true: float, roll: float, pitch: float, yaw: float,
+) -> tuple[bool, float, float, float, float, float, bool]:  # fmt: skip
+    """The sensors' sample of one truth state: ``(fix delivered, airspeed, baro, roll, pitch, yaw, a noise pool
+    runs low)``. ``M``: a suite's memory (:func:`memory_size`), updated in place; a delivered message is written
+    to its slots at :data:`FIX0`. ``pools``, ``idx``: a row of drawn normals per stream and its read index.
+    ``airspeed`` is NaN without a pitot; the air data and attitude are of time ``t``."""
+    s = M[:STATE_SIZE].view(SENSOR_STATE)[0]
+    c = M[STATE_SIZE:FIX0].view(SENSOR_CONST)[0]
+    n_out = int(c.n_outages)
+    outages = M[OUTAGES0 : OUTAGES0 + 2 * n_out].reshape(-1, 2)
+    ring = M[OUTAGES0 + 2 * n_out :].view(GPS_FIX)
+    dt = 0.0 if s.has_t_last == 0.0 else t - s.t_last_s
+    if dt < 0.0:
+        raise ValueError("sensor time went backwards")
+    s.t_last_s = t
+    s.has_t_last = 1.0
+    gnss_epochs(s, c, outages, ring, pools, idx, t, lat_deg, lon_deg, alt, ve, vn, vu)
+    delivered = False
+    if t >= s.next_arrival_s:
+        deliver(s, c, ring, M[FIX0:OUTAGES0].view(GPS_FIX), t)
+        delivered = True
+    # barometer: pressure altitude referenced at start-up to the true altitude (+ drift)
+    if dt > 0.0:
+        s.baro_drift_m = gauss_markov(s.baro_drift_m, c.baro_drift_sigma_m, c.baro_drift_tau_s, dt, pools, idx, BARO_STREAM)
+    baro = alt + s.baro_drift_m + c.baro_noise_m * draw(pools, idx, BARO_STREAM)
+    airspeed = math.nan
+    if c.has_pitot != 0.0:  # indicated airspeed: the true airspeed scaled by sqrt(rho / rho0)
+        airspeed = airspeed_true * math.sqrt(isa_density_ratio(alt)) + c.airspeed_noise_mps * draw(pools, idx, PITOT_STREAM)
+        if airspeed < 0.0:
+            airspeed = 0.0
+    if dt > 0.0:
+        rp, tau = c.ahrs_roll_pitch_rad, c.ahrs_tau_s
+        s.ahrs_roll_err_rad = gauss_markov(s.ahrs_roll_err_rad, rp, tau, dt, pools, idx, AHRS_STREAM)
+        s.ahrs_pitch_err_rad = gauss_markov(s.ahrs_pitch_err_rad, rp, tau, dt, pools, idx, AHRS_STREAM)
+        s.ahrs_yaw_err_rad = gauss_markov(s.ahrs_yaw_err_rad, c.ahrs_yaw_rad, tau, dt, pools, idx, AHRS_STREAM)
+    low = False
+    for k in range(pools.shape[0]):
+        if pools.shape[1] - idx[k] < MAX_DRAWS_PER_STEP:
+            low = True
+    return (
+        delivered, airspeed, baro, roll + s.ahrs_roll_err_rad, pitch + s.ahrs_pitch_err_rad,
+        (yaw + s.ahrs_yaw_err_rad) % _TWO_PI, low,
+    )  # fmt: skip
+
+
+@jitable
+def draw(pools: np.ndarray, idx: np.ndarray, stream: int) -> float:
+    """The next standard normal of a noise stream."""
+    i = idx[stream]
+    idx[stream] = i + 1
+    return pools[stream, i]
+
+
+@jitable
+def gauss_markov(value: float, sigma: float, tau_s: float, dt: float, pools: np.ndarray, idx: np.ndarray, stream: int) -> float:  # fmt: skip
+    """A first-order Gauss-Markov process's next value after ``dt`` (stationary ``sigma``, correlation time
+    ``tau_s``; 0: white), drawing from ``stream``; 0 without drawing when ``sigma`` is 0."""
+    if sigma <= 0.0:
+        return 0.0
+    a = math.exp(-dt / tau_s) if tau_s > 0.0 else 0.0
+    b = sigma * math.sqrt(max(0.0, 1.0 - a * a))
+    return a * value + b * draw(pools, idx, stream)
+
+
+@jitable
+def gnss_epochs(
+    s: Any, c: Any, outages: np.ndarray, ring: np.ndarray, pools: np.ndarray, idx: np.ndarray, t: float,
+    lat_deg: float, lon_deg: float, alt: float, ve: float, vn: float, vu: float,
+) -> None:  # fmt: skip
+    """The receiver's solutions due by ``t`` queued: at the first call with ``prefill`` the previous epoch's (the
+    receiver was already running: truth extrapolated back at constant velocity), then one per epoch."""
+    if s.has_next_epoch == 0.0:
+        lat = c.latency_s
+        if c.prefill != 0.0 and lat > 0.0:
+            lat_r = math.radians(lat_deg)
+            n_rad, m_rad = radii_of_curvature_m(lat_r)
+            de, dn, du = ve * lat, vn * lat, vu * lat
+            solve(
+                s, c, outages, ring, pools, idx, t - lat, lat_deg - math.degrees(dn / (m_rad + alt)),
+                lon_deg - math.degrees(de / ((n_rad + alt) * math.cos(lat_r))), alt - du, ve, vn, vu,
+            )  # fmt: skip
+            s.next_epoch_s = t - lat + c.period_s
+        else:
+            s.next_epoch_s = t
+        s.has_next_epoch = 1.0
+    if t >= s.next_epoch_s - _EPS_S:
+        solve(s, c, outages, ring, pools, idx, t, lat_deg, lon_deg, alt, ve, vn, vu)
+        while s.next_epoch_s <= t + _EPS_S:
+            s.next_epoch_s += c.period_s
+
+
+@jitable
+def gps_lost(c: Any, outages: np.ndarray, t: float) -> bool:
+    """The receiver has no fix at ``t`` (failure or outage window, :meth:`SensorConfig.gps_lost`)."""
+    if t >= c.fail_at_s:
+        return True
+    for w in range(outages.shape[0]):
+        if outages[w, 0] <= t < outages[w, 1]:
+            return True
+    return False
+
+
+@jitable
+def solve(
+    s: Any, c: Any, outages: np.ndarray, ring: np.ndarray, pools: np.ndarray, idx: np.ndarray, t: float,
+    lat_deg: float, lon_deg: float, alt: float, ve: float, vn: float, vu: float,
+) -> None:  # fmt: skip
+    """The receiver's solution at an epoch (time of validity ``t``), appended to the pending ring; the bias keeps
+    wandering through an outage, as the real error sources do."""
+    dt = c.period_s if s.has_last_epoch == 0.0 else t - s.last_epoch_s
+    s.last_epoch_s = t
+    s.has_last_epoch = 1.0
+    tau = c.gps_bias_tau_s
+    be = gauss_markov(s.gps_bias_e_m, c.gps_h_bias_m, tau, dt, pools, idx, GPS_STREAM)
+    bn = gauss_markov(s.gps_bias_n_m, c.gps_h_bias_m, tau, dt, pools, idx, GPS_STREAM)
+    bu = gauss_markov(s.gps_bias_u_m, c.gps_v_bias_m, tau, dt, pools, idx, GPS_STREAM)
+    s.gps_bias_e_m, s.gps_bias_n_m, s.gps_bias_u_m = be, bn, bu
+    de = be + c.gps_h_white_m * draw(pools, idx, GPS_STREAM)
+    dn = bn + c.gps_h_white_m * draw(pools, idx, GPS_STREAM)
+    du = bu + c.gps_v_white_m * draw(pools, idx, GPS_STREAM)
+    nve = c.gps_vel_h_mps * draw(pools, idx, GPS_STREAM)
+    nvn = c.gps_vel_h_mps * draw(pools, idx, GPS_STREAM)
+    nvu = c.gps_vel_v_mps * draw(pools, idx, GPS_STREAM)
+    count = int(s.ring_count)
+    if count >= ring.shape[0]:  # not reached: ring_rows() holds every solution of one latency and more
+        raise ValueError("the pending GNSS messages' ring is full")
+    r = ring[(int(s.ring_head) + count) % ring.shape[0]]
+    s.ring_count = count + 1
+    if count == 0:
+        s.next_arrival_s = t + c.latency_s - _EPS_S
+    r.t_s = t
+    if gps_lost(c, outages, t):
+        r.lat_deg = r.lon_deg = r.alt_m = r.v_east_mps = r.v_north_mps = r.v_up_mps = math.nan
+        r.horizontal_accuracy_m = r.vertical_accuracy_m = math.inf
+        r.valid = 0.0
+        return
+    lat = math.radians(lat_deg)
+    n_rad, m_rad = radii_of_curvature_m(lat)  # prime vertical, meridian
+    r.lat_deg = lat_deg + math.degrees(dn / (m_rad + alt))
+    r.lon_deg = lon_deg + math.degrees(de / ((n_rad + alt) * math.cos(lat)))
+    r.alt_m = alt + du
+    r.v_east_mps, r.v_north_mps, r.v_up_mps = ve + nve, vn + nvn, vu + nvu
+    r.horizontal_accuracy_m, r.vertical_accuracy_m = c.h_acc_m, c.v_acc_m
+    r.valid = 1.0
+
+
+@jitable
+def deliver(s: Any, c: Any, ring: np.ndarray, fix: np.ndarray, t: float) -> None:
+    """The pending messages that have arrived by ``t`` (at least one) popped off the ring; if several are due (a
+    slow caller), the newest wins: it is written to ``fix[0]``."""
+    head = int(s.ring_head)
+    count = int(s.ring_count)
+    fix[0] = ring[head]
+    head = (head + 1) % ring.shape[0]
+    count -= 1
+    while count > 0 and t >= ring[head].t_s + c.latency_s - _EPS_S:
+        fix[0] = ring[head]
+        head = (head + 1) % ring.shape[0]
+        count -= 1
+    s.ring_head = head
+    s.ring_count = count
+    s.next_arrival_s = ring[head].t_s + c.latency_s - _EPS_S if count > 0 else math.inf
 
 
 class SensorSuite:
-    """The geofence unit's sensors, sampled from truth once per outer-loop step.
+    """The geofence unit's sensors, sampled from truth once per outer-loop step: a façade over their memory.
 
     ``sample(truth)`` returns ``(fix, air, att)``: ``fix`` is a :class:`GpsFix`
     on the steps where a GNSS message arrives (every ``1/gps_rate_hz`` s, each
     ``gps_latency_s`` after its time of validity), else None; ``air`` and
     ``att`` are fresh every step. Call it with non-decreasing ``truth.t_s``.
+    Both run :func:`sensors_step`, the one implementation.
 
     ``seed`` is used unless ``config.seed`` is set. With ``prefill`` (default)
     the receiver is taken to be running before the first call: the first call
     already delivers the fix of ``gps_latency_s`` earlier (truth extrapolated
     back at constant velocity), so an estimator has a position from step 0.
+
+    ``memory``: a float64 array of :func:`memory_size` slots to live in (a caller's compiled step that packs its
+    states into one array passes its slice); a fresh array when omitted. The noise is in :attr:`pools` (a row of
+    drawn normals per stream, read from :attr:`idx` on), topped up by :meth:`refill`.
     """
 
     def __init__(
-        self, config: SensorConfig | None = None, *, has_pitot: bool = True, seed: int | None = None, prefill: bool = True
-    ) -> None:
+        self, config: SensorConfig | None = None, *, has_pitot: bool = True, seed: int | None = None,
+        prefill: bool = True, memory: np.ndarray | None = None,
+    ) -> None:  # fmt: skip
         self.config = cfg = config or SensorConfig()
         self.has_pitot = has_pitot
         self.prefill = prefill
-        s = cfg.seed if cfg.seed is not None else (seed if seed is not None else 0)
-        self.seed = s
-        gps_n, baro_n, pitot_n, ahrs_n = (_normal_stream(stream_generator(s, k)) for k in SENSOR_STREAMS)
-        self._gps_n, self._pitot_n = gps_n, pitot_n
-        self._baro_n = baro_n
-        tau = cfg.gps_bias_tau_s
-        self._gps_bias = (
-            _GaussMarkov(cfg.gps_h_bias_m, tau, gps_n),
-            _GaussMarkov(cfg.gps_h_bias_m, tau, gps_n),
-            _GaussMarkov(cfg.gps_v_bias_m, tau, gps_n),
-        )
-        self._baro_drift = _GaussMarkov(cfg.baro_drift_m, cfg.baro_drift_tau_s, baro_n)
-        rp = math.radians(cfg.ahrs_roll_pitch_deg)
-        self._ahrs = (
-            _GaussMarkov(rp, cfg.ahrs_tau_s, ahrs_n),
-            _GaussMarkov(rp, cfg.ahrs_tau_s, ahrs_n),
-            _GaussMarkov(math.radians(cfg.ahrs_yaw_deg), cfg.ahrs_tau_s, ahrs_n),
-        )
-        self._period_s = 1.0 / cfg.gps_rate_hz
-        self._next_epoch_s: float | None = None
-        self._last_epoch_s: float | None = None
-        self._last_t_s: float | None = None
-        self._pending: deque[GpsFix] = deque()
-        self._next_arrival_s = _INF  # when the oldest pending fix is delivered (inf: none pending)
-        self._h_acc = cfg.gps_h_sigma_m
-        self._v_acc = cfg.gps_v_sigma_m
+        self.seed = s = cfg.seed if cfg.seed is not None else (seed if seed is not None else 0)
+        size = memory_size(cfg)
+        if memory is None:
+            memory = np.zeros(size)
+        if memory.shape != (size,) or memory.dtype != np.float64 or not memory.flags.c_contiguous:
+            raise ValueError(f"SensorSuite memory: expected {size} contiguous float64 slots")
+        self.memory = memory
+        self._rngs = [stream_generator(s, k) for k in SENSOR_STREAMS]
+        self.pools = np.stack([rng.standard_normal(NORMAL_BLOCK) for rng in self._rngs])
+        """One row of normals per stream, read from ``idx[stream]`` on (refilled in place)."""
+        self.idx = np.zeros(len(SENSOR_STREAMS), np.int64)
+        memory[:] = 0.0
+        self._state = memory[:STATE_SIZE].view(SENSOR_STATE)[0]
+        _fill_constants(memory[STATE_SIZE:FIX0].view(SENSOR_CONST)[0], cfg, has_pitot, prefill)
+        memory[OUTAGES0 : OUTAGES0 + 2 * len(cfg.gps_outages)] = np.ravel(cfg.gps_outages)
+        self._start_stationary()
+        self._state.next_arrival_s = math.inf
+        self._fix = memory[FIX0:OUTAGES0]
 
-    # -- per step ---------------------------------------------------------------
+    def _start_stationary(self) -> None:
+        """Each Gauss-Markov error starts in its stationary distribution (one draw each, in the streams' order)."""
+        st, cfg = self._state, self.config
+        rp, yaw = math.radians(cfg.ahrs_roll_pitch_deg), math.radians(cfg.ahrs_yaw_deg)
+        starts = (
+            ("gps_bias_e_m", cfg.gps_h_bias_m, GPS_STREAM), ("gps_bias_n_m", cfg.gps_h_bias_m, GPS_STREAM),
+            ("gps_bias_u_m", cfg.gps_v_bias_m, GPS_STREAM), ("baro_drift_m", cfg.baro_drift_m, BARO_STREAM),
+            ("ahrs_roll_err_rad", rp, AHRS_STREAM), ("ahrs_pitch_err_rad", rp, AHRS_STREAM),
+            ("ahrs_yaw_err_rad", yaw, AHRS_STREAM),
+        )  # fmt: skip
+        for name, sigma, stream in starts:
+            if sigma > 0.0:
+                setattr(st, name, sigma * self.pools[stream][self.idx[stream]])
+                self.idx[stream] += 1
+
     def sample(self, truth: VehicleState) -> tuple[GpsFix | None, AirData, AttitudeSample]:
-        cfg = self.config
         t = truth.t_s
-        last_t = self._last_t_s
-        dt = 0.0 if last_t is None else t - last_t
-        if dt < 0.0:
-            raise ValueError(f"sensor time went backwards: {t} after {last_t}")
-        self._last_t_s = t
+        delivered, airspeed, baro, roll, pitch, yaw, low = sensors_step(
+            self.memory, self.pools, self.idx, t, truth.lat_deg, truth.lon_deg, truth.alt_m, truth.v_east_mps,
+            truth.v_north_mps, truth.v_up_mps, truth.airspeed_mps, truth.roll_rad, truth.pitch_rad, truth.yaw_rad,
+        )  # fmt: skip
+        if low:
+            self.refill()
+        fix = None
+        if delivered:
+            t_m, lat, lon, alt, ve, vn, vu, h_acc, v_acc, valid = self._fix.tolist()
+            fix = GpsFix(t_m, lat, lon, alt, ve, vn, vu, h_acc, v_acc, valid != 0.0)
+        return fix, AirData(t, airspeed if self.has_pitot else None, baro), AttitudeSample(t, roll, pitch, yaw)
 
-        # GNSS: solve at the epochs, deliver after the latency
-        if self._next_epoch_s is None:
-            lat = cfg.gps_latency_s
-            if self.prefill and lat > 0.0:
-                # the receiver was already running: its previous epoch arrives now
-                self._queue(self._solve(_back_dated(truth, lat)))
-                self._next_epoch_s = t - lat + self._period_s
-            else:
-                self._next_epoch_s = t
-        if t >= self._next_epoch_s - _EPS_S:
-            self._queue(self._solve(truth))
-            while self._next_epoch_s <= t + _EPS_S:
-                self._next_epoch_s += self._period_s
-        fix = self._deliver(t) if t >= self._next_arrival_s else None
-
-        # barometer: pressure altitude, referenced at start-up to the true altitude (+ drift)
-        drift = self._baro_drift.step(dt) if dt > 0.0 else self._baro_drift.value
-        alt = truth.alt_m
-        baro = alt + drift + cfg.baro_noise_m * self._baro_n()
-        airspeed = None
-        if self.has_pitot:
-            # indicated airspeed: the true airspeed scaled by sqrt(rho / rho0)
-            airspeed = truth.airspeed_mps * math.sqrt(isa_density_ratio(alt)) + cfg.airspeed_noise_mps * self._pitot_n()
-            if airspeed < 0.0:
-                airspeed = 0.0
-        air = AirData(t, airspeed, baro)
-
-        er, ep, ey = self._ahrs
-        if dt > 0.0:
-            dr, dp, dy = er.step(dt), ep.step(dt), ey.step(dt)
-        else:
-            dr, dp, dy = er.value, ep.value, ey.value
-        yaw = (truth.yaw_rad + dy) % _TWO_PI
-        att = AttitudeSample(t, truth.roll_rad + dr, truth.pitch_rad + dp, yaw)
-        return fix, air, att
-
-    def _queue(self, fix: GpsFix) -> None:
-        """Hold a solved fix until its arrival, ``gps_latency_s`` after its time of validity."""
-        pending = self._pending
-        pending.append(fix)
-        if len(pending) == 1:
-            self._next_arrival_s = self._arrival_s(fix)
-
-    def _deliver(self, t: float) -> GpsFix:
-        """Pop the fixes that have arrived by ``t`` (at least one); if several are due (slow caller), the newest wins."""
-        pending = self._pending
-        fix = pending.popleft()
-        while pending and t >= self._arrival_s(pending[0]):
-            fix = pending.popleft()
-        self._next_arrival_s = self._arrival_s(pending[0]) if pending else _INF
-        return fix
-
-    def _arrival_s(self, fix: GpsFix) -> float:
-        """The time a fix is delivered: its time of validity plus the latency (less a float tolerance)."""
-        return fix.t_s + self.config.gps_latency_s - _EPS_S
-
-    def _solve(self, truth: VehicleState) -> GpsFix:
-        """The receiver's solution at this epoch (time of validity = truth time)."""
-        cfg = self.config
-        t = truth.t_s
-        dt = self._period_s if self._last_epoch_s is None else t - self._last_epoch_s
-        self._last_epoch_s = t
-        bx, by, bz = self._gps_bias
-        # the bias keeps wandering through an outage, as the real error sources do
-        be, bn, bu = bx.step(dt), by.step(dt), bz.step(dt)
-        n = self._gps_n
-        de = be + cfg.gps_h_white_m * n()
-        dn = bn + cfg.gps_h_white_m * n()
-        du = bu + cfg.gps_v_white_m * n()
-        nve = cfg.gps_vel_h_noise_mps * n()
-        nvn = cfg.gps_vel_h_noise_mps * n()
-        nvu = cfg.gps_vel_v_noise_mps * n()
-        if cfg.gps_lost(t):
-            return GpsFix(t, _NAN, _NAN, _NAN, _NAN, _NAN, _NAN, _INF, _INF, False)
-        lat = math.radians(truth.lat_deg)
-        n_rad, m_rad = radii_of_curvature_m(lat)  # prime vertical, meridian
-        h = truth.alt_m
-        lat_deg = truth.lat_deg + math.degrees(dn / (m_rad + h))
-        lon_deg = truth.lon_deg + math.degrees(de / ((n_rad + h) * math.cos(lat)))
-        return GpsFix(
-            t,
-            lat_deg,
-            lon_deg,
-            h + du,
-            truth.v_east_mps + nve,
-            truth.v_north_mps + nvn,
-            truth.v_up_mps + nvu,
-            self._h_acc,
-            self._v_acc,
-            True,
-        )
+    def refill(self) -> bool:
+        """Top up the streams that fell below :data:`MAX_DRAWS_PER_STEP` unread normals: the unread ones move to
+        the row's start and the stream's next draws fill the rest (a stream's numbers do not depend on how many
+        are drawn at a time). True when one was."""
+        low = False
+        cap = self.pools.shape[1]
+        for k in range(len(SENSOR_STREAMS)):
+            i = int(self.idx[k])
+            if cap - i < MAX_DRAWS_PER_STEP:
+                row = self.pools[k]
+                row[: cap - i] = row[i:].copy()
+                row[cap - i :] = self._rngs[k].standard_normal(i)
+                self.idx[k] = 0
+                low = True
+        return low
 
     # -- introspection (tests, logs) ---------------------------------------------
     @property
     def gps_bias_enu_m(self) -> tuple[float, float, float]:
         """The current GNSS position bias (east, north, up) in m (truth, for logs and tests)."""
-        return (self._gps_bias[0].value, self._gps_bias[1].value, self._gps_bias[2].value)
+        st = self._state
+        return (float(st.gps_bias_e_m), float(st.gps_bias_n_m), float(st.gps_bias_u_m))
 
 
-def _back_dated(truth: VehicleState, dt_s: float) -> VehicleState:
-    """Truth ``dt_s`` earlier, extrapolated back at constant velocity (for the pre-filled first fix)."""
-    lat = math.radians(truth.lat_deg)
-    n_rad, m_rad = radii_of_curvature_m(lat)
-    de, dn, du = truth.v_east_mps * dt_s, truth.v_north_mps * dt_s, truth.v_up_mps * dt_s
-    return replace(
-        truth,
-        t_s=truth.t_s - dt_s,
-        lat_deg=truth.lat_deg - math.degrees(dn / (m_rad + truth.alt_m)),
-        lon_deg=truth.lon_deg - math.degrees(de / ((n_rad + truth.alt_m) * math.cos(lat))),
-        alt_m=truth.alt_m - du,
-        east_m=truth.east_m - de,
-        north_m=truth.north_m - dn,
-        up_m=truth.up_m - du,
-        agl_m=truth.agl_m - du,
-    )
+def _fill_constants(c: Any, cfg: SensorConfig, has_pitot: bool, prefill: bool) -> None:
+    """The :data:`SENSOR_CONST` record ``c`` of a suite tuned by ``cfg``."""
+    c.period_s, c.latency_s, c.prefill, c.has_pitot = 1.0 / cfg.gps_rate_hz, cfg.gps_latency_s, prefill, has_pitot
+    c.gps_h_white_m, c.gps_v_white_m = cfg.gps_h_white_m, cfg.gps_v_white_m
+    c.gps_vel_h_mps, c.gps_vel_v_mps = cfg.gps_vel_h_noise_mps, cfg.gps_vel_v_noise_mps
+    c.baro_noise_m, c.airspeed_noise_mps = cfg.baro_noise_m, cfg.airspeed_noise_mps
+    c.h_acc_m, c.v_acc_m = cfg.gps_h_sigma_m, cfg.gps_v_sigma_m
+    c.fail_at_s = cfg.gps_fail_at_s if cfg.gps_fail_at_s is not None else math.inf
+    c.n_outages = len(cfg.gps_outages)
+    c.gps_h_bias_m, c.gps_v_bias_m, c.gps_bias_tau_s = cfg.gps_h_bias_m, cfg.gps_v_bias_m, cfg.gps_bias_tau_s
+    c.baro_drift_sigma_m, c.baro_drift_tau_s = cfg.baro_drift_m, cfg.baro_drift_tau_s
+    c.ahrs_roll_pitch_rad, c.ahrs_yaw_rad = math.radians(cfg.ahrs_roll_pitch_deg), math.radians(cfg.ahrs_yaw_deg)
+    c.ahrs_tau_s = cfg.ahrs_tau_s
 
 
 # --------------------------------------------------------------------------- YAML block

@@ -7,8 +7,8 @@ the wind field (steady + power-law profile + light Dryden turbulence + a
 gust) as the flight samples it (compiled, :mod:`wind.field_kernel`) and as
 its reference objects, Dryden turbulence alone, the geofence unit's sensor
 suite (``SensorSuite.sample``), the unit's whole sensing chain (sensors,
-estimator, wind estimator: :mod:`scenarios.flight.sensing`) compiled and as
-the reference objects, and the geofence unit's ``update`` near an edge of a
+estimator, wind estimator: :mod:`scenarios.flight.sensing`, one compiled
+call), and the geofence unit's ``update`` near an edge of a
 4-vertex and of a 1,000-vertex fence. The closed loop runs one control step
 per 3 frames (40 Hz outer loop, 120 Hz JSBSim), so a component that costs
 3 frames doubles the loop's cost.
@@ -104,9 +104,9 @@ def main() -> None:
 
     truths = [replace(truth, t_s=k * 0.025) for k in range(args.calls)]
 
-    def sensing(compiled: bool):
+    def sensing():
         """The unit's sensing chain on a hovering truth from t = 0 (one GNSS fix every 8 calls)."""
-        own = GeofenceSensing(sc, sc.geofence, sc.frame, platform.envelope, compiled=compiled)
+        own = GeofenceSensing(sc, sc.geofence, sc.frame, platform.envelope)
         return lambda k: own.sense(truths[k], 0.025)
 
     def unit_fn(nv):
@@ -128,8 +128,7 @@ def main() -> None:
         "  reference objects": lambda: restarted(field),
         "Dryden turbulence alone (object)": lambda: restarted(turb),
         "sensor suite sample (object)": lambda: lambda k: suite.sample(truth),
-        "unit's sensing chain": lambda: sensing(True),
-        "  reference objects ": lambda: sensing(False),
+        "unit's sensing chain": sensing,
         "geofence update, 4 vertices": lambda: unit_fn(4),
         "geofence update, 1,000 vertices": lambda: unit_fn(1000),
     }

@@ -66,19 +66,25 @@ Output
     (:func:`geofence.dynamics.isa_density_ratio`), or the ground speed
     without a pitot.
 
-Everything per step is plain Python floats (no numpy); see the tests for the
-measured cost (a few microseconds).
+The step is written once: :func:`estimator_step`, compiled by :func:`geofence.jit.compiled` (the same source
+interpreted without numba or with ``NUMBA_DISABLE_JIT=1``), its formulas the ``jitable`` functions below. Its
+state and constants are the records :data:`EST_STATE` and :data:`EST_CONST` over float memory, so that the
+unit's compiled sensing chain (:mod:`scenarios.flight.sensing`) keeps them in its packed array;
+:class:`GeofenceEstimator` is a façade that owns (or is given) those slots and calls the step.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any
+
+import numpy as np
 
 from geofence.dynamics import isa_density_ratio
-from geofence.geodesy import LocalFrame, radii_of_curvature_m
+from geofence.geodesy import LocalFrame, enu_of, radii_of_curvature_m
 from geofence.interface import FixState, VehicleState
+from geofence.jit import compiled, jitable
 from geofence.measurements import AirData, AttitudeSample, GpsFix
 
 
@@ -120,137 +126,368 @@ class EstimatorConfig:
                 raise ValueError(f"estimator.{name}: must be > 0, got {getattr(self, name)!r}")
 
 
-class _Axis:
-    """One horizontal axis's state (p, v, a); its covariance is the :class:`_AxisCovariance` both axes share."""
-
-    __slots__ = ("p", "v", "a")
-
-    def __init__(self, p: float, v: float) -> None:
-        self.p, self.v, self.a = p, v, 0.0
-
-    def predict(self, dt: float) -> None:
-        """Constant-acceleration extrapolation over ``dt``."""
-        if dt <= 0.0:
-            return
-        h = 0.5 * dt * dt
-        self.p += self.v * dt + self.a * h
-        self.v += self.a * dt
-
-    def correct(self, y: float, k: tuple[float, float, float]) -> None:
-        """Scalar Kalman correction with the innovation ``y`` and the gain ``k``."""
-        k0, k1, k2 = k
-        self.p += k0 * y
-        self.v += k1 * y
-        self.a += k2 * y
+def _float_record(*fields: str | tuple[str, int]) -> np.dtype:
+    """A record dtype of float64 fields (a ``(name, n)`` pair: a field of ``n`` floats), viewable over float memory."""
+    spec = [(f, np.float64) if isinstance(f, str) else (f[0], np.float64, (f[1],)) for f in fields]
+    return np.dtype((np.record, spec))
 
 
-class _AxisCovariance:
-    """Covariance of one horizontal axis's (p, v, a), symmetric, stored as 6 floats.
+EST_STATE = _float_record(
+    "t_s", "clock_set", "has_fix",  # the estimator's clock; 1 once a time stamp set it; 1 once a fix was fused
+    "east_m", "v_east_mps", "a_east_mps2", "north_m", "v_north_mps", "a_north_mps2",  # the axes at the horizon
+    "ph00", "ph01", "ph02", "ph11", "ph12", "ph22",  # the covariance of each horizontal axis's (p, v, a)
+    "t_d_s",  # the fusion horizon: the newest fused fix's time of validity
+    "up_m", "v_up_mps", "baro_offset_m",  # the vertical filter (current time)
+    "pv00", "pv01", "pv02", "pv11", "pv12", "pv22",  # its covariance
+    "v_init", "has_pending_baro", "pending_baro_m",  # 1 once the vertical filter started; the baro height before
+    "last_fix_arrival_s", "fixes_used", "fixes_rejected",
+    "roll_rad", "pitch_rad", "yaw_rad",  # the latest AHRS sample
+    "has_airspeed", "airspeed_mps",  # the latest pitot reading (indicated)
+    "position_valid", "sigma_h_m", "sigma_v_m", "var_h_m2",  # the outputs of the last step
+    "horizon_new",  # 1 when the last step moved the horizon
+    "horizon_t_s", "horizon_east_m", "horizon_north_m", "horizon_v_east_mps", "horizon_v_north_mps",  # FixState's order
+)  # fmt: skip
+"""The estimator's state, a record over float memory (every field float64: a flag is 0 or 1, a count a whole
+number), so that a caller's compiled step keeps it in one float array with its other states and the façade reads
+the same memory."""
 
-    East and north have the same model, process noise and measurement noise, and a covariance does not
-    depend on the measured values, so the two axes' covariances are equal at all times: one instance serves
-    both, and each update's gain is computed once for both (an axis-specific noise would need one each).
-    """
+EST_CONST = _float_record(
+    "h0_m", "deg_per_m_n", "deg_per_m_e", "inv_2r_per_m", "lat0_deg", "lon0_deg", "timeout_s",
+    "q_jerk_h", "q_wander_h", "q_accel_v", "baro_primary", "q_baro",
+    "r_p", "r_v", "r_pu", "r_vu", "r_baro", "var_bias_h", "var_bias_v", "var_baro_drift",
+    ("enu_table", 12),
+)  # fmt: skip
+"""The estimator's constants from its frame and :class:`EstimatorConfig` (:func:`estimator_constants`)."""
 
-    __slots__ = ("P00", "P01", "P02", "P11", "P12", "P22")
+GPS_FIX = _float_record(*GpsFix._fields)
+"""A GNSS message as floats, :class:`~geofence.measurements.GpsFix`'s fields in order (``valid`` 0 or 1): the row
+the simulated receiver delivers (:mod:`aircraft.sensors`) and :func:`estimator_step` fuses."""
 
-    def __init__(self, var_p: float, var_v: float, var_a: float) -> None:
-        self.P00, self.P01, self.P02, self.P11, self.P12, self.P22 = var_p, 0.0, 0.0, var_v, 0.0, var_a
-
-    def predict(self, dt: float, qj: float, qp: float) -> None:
-        if dt <= 0.0:
-            return
-        h = 0.5 * dt * dt
-        P00, P01, P02, P11, P12, P22 = self.P00, self.P01, self.P02, self.P11, self.P12, self.P22
-        # F = [[1, dt, h], [0, 1, dt], [0, 0, 1]];  F P F^T + Q (white jerk) + position wander
-        r00, r01, r02 = P00 + dt * P01 + h * P02, P01 + dt * P11 + h * P12, P02 + dt * P12 + h * P22  # row 0 of F P
-        r10, r11, r12 = P01 + dt * P02, P11 + dt * P12, P12 + dt * P22  # row 1 of F P
-        d2, d3 = dt * dt, dt * dt * dt
-        self.P00 = r00 + dt * r01 + h * r02 + qj * d3 * d2 / 20.0 + qp * dt
-        self.P01 = r10 + dt * r11 + h * r12 + qj * d2 * d2 / 8.0
-        self.P02 = r02 + qj * d3 / 6.0
-        self.P11 = r11 + dt * r12 + qj * d3 / 3.0
-        self.P12 = r12 + qj * d2 / 2.0
-        self.P22 = P22 + qj * dt
-
-    def update_p(self, r: float) -> tuple[float, float, float]:
-        """Scalar update with a position measurement of variance ``r`` (H = [1, 0, 0]); returns the gain."""
-        return self._update(self.P00 + r, self.P00, self.P01, self.P02)
-
-    def update_v(self, r: float) -> tuple[float, float, float]:
-        """Scalar update with a velocity measurement of variance ``r`` (H = [0, 1, 0]); returns the gain."""
-        return self._update(self.P11 + r, self.P01, self.P11, self.P12)
-
-    def _update(self, s: float, c0: float, c1: float, c2: float) -> tuple[float, float, float]:
-        """Scalar Kalman update of P: innovation variance ``s``, ``(c0, c1, c2) = P H^T``; returns the gain."""
-        k0, k1, k2 = c0 / s, c1 / s, c2 / s
-        self.P00 -= k0 * c0
-        self.P01 -= k0 * c1
-        self.P02 -= k0 * c2
-        self.P11 -= k1 * c1
-        self.P12 -= k1 * c2
-        self.P22 -= k2 * c2
-        return (k0, k1, k2)
+STATE_SIZE = EST_STATE.itemsize // 8
+CONST_SIZE = EST_CONST.itemsize // 8
+MEMORY_SIZE = STATE_SIZE + CONST_SIZE
+"""Float64 slots of the memory a :class:`GeofenceEstimator` lives in: its state, then its constants."""
+FIX_SIZE = GPS_FIX.itemsize // 8
 
 
-class EstimatorConstants(NamedTuple):
-    """The estimator's per-flight constants, derived once from its frame and tuning (SI; variances in m², (m/s)²)."""
-
-    h0_m: float
-    deg_per_m_n: float
-    """Latitude per metre north at the origin (deg/m), from the meridian radius."""
-    deg_per_m_e: float
-    """Longitude per metre east at the origin (deg/m), from the prime-vertical radius."""
-    inv_2r_per_m: float
-    """``1 / 2R`` of the Earth-curvature drop ``(e² + n²) / 2R`` (R the Gaussian mean radius at the origin)."""
-    q_jerk_h: float
-    q_wander_h: float
-    """The GNSS bias wander as horizontal position process noise, ``2 σ² / τ``."""
-    q_accel_v: float
-    baro_primary: bool
-    """A referenced barometer drifting less than the GNSS height is biased: it is the height reference."""
-    q_baro: float
-    r_p: float
-    r_v: float
-    r_pu: float
-    r_vu: float
-    r_baro: float
-    var_bias_h: float
-    var_bias_v: float
-    var_baro_drift: float
-
-
-def estimator_constants(frame: LocalFrame, cfg: EstimatorConfig) -> EstimatorConstants:
-    """:class:`EstimatorConstants` of an estimator in ``frame`` tuned by ``cfg`` (the one home of these formulas)."""
+def estimator_constants(K: np.ndarray, frame: LocalFrame, cfg: EstimatorConfig) -> None:
+    """Fill ``K`` (:data:`EST_CONST`'s slots) for an estimator in ``frame`` tuned by ``cfg`` (the one home of these
+    formulas; variances in m², (m/s)²)."""
+    c = K.view(EST_CONST)[0]
     lat0 = math.radians(frame.lat0_deg)
     n_rad, m_rad = radii_of_curvature_m(lat0)
     baro_primary = cfg.baro_referenced and cfg.baro_drift_m < cfg.gps_v_bias_m
     q_baro = 2.0 * cfg.baro_drift_m**2 / cfg.baro_drift_tau_s
     if not baro_primary:  # the offset also absorbs the wander of the GNSS height it is tied to
         q_baro += 2.0 * cfg.gps_v_bias_m**2 / cfg.gps_bias_tau_s
-    return EstimatorConstants(
-        h0_m=frame.h0_m,
-        deg_per_m_n=math.degrees(1.0) / (m_rad + frame.h0_m),
-        deg_per_m_e=math.degrees(1.0) / ((n_rad + frame.h0_m) * math.cos(lat0)),
-        inv_2r_per_m=0.5 / math.sqrt(m_rad * n_rad),
-        q_jerk_h=cfg.jerk_psd_h,
-        q_wander_h=2.0 * cfg.gps_h_bias_m**2 / cfg.gps_bias_tau_s,
-        q_accel_v=cfg.accel_psd_v,
-        baro_primary=baro_primary,
-        q_baro=q_baro,
-        r_p=cfg.gps_h_white_m**2,
-        r_v=cfg.gps_vel_h_mps**2,
-        r_pu=cfg.gps_v_white_m**2,
-        r_vu=cfg.gps_vel_v_mps**2,
-        r_baro=cfg.baro_noise_m**2,
-        var_bias_h=cfg.gps_h_bias_m**2,
-        var_bias_v=0.0 if baro_primary else cfg.gps_v_bias_m**2,
-        var_baro_drift=cfg.baro_drift_m**2,
+    c.h0_m, c.lat0_deg, c.lon0_deg, c.timeout_s = frame.h0_m, frame.lat0_deg, frame.lon0_deg, cfg.timeout_s
+    c.deg_per_m_n = math.degrees(1.0) / (m_rad + frame.h0_m)  # latitude per metre north (meridian radius)
+    c.deg_per_m_e = math.degrees(1.0) / ((n_rad + frame.h0_m) * math.cos(lat0))  # longitude per metre east
+    c.inv_2r_per_m = 0.5 / math.sqrt(m_rad * n_rad)  # of the Earth-curvature drop (e² + n²) / 2R
+    c.q_jerk_h, c.q_accel_v, c.q_baro = cfg.jerk_psd_h, cfg.accel_psd_v, q_baro
+    c.q_wander_h = 2.0 * cfg.gps_h_bias_m**2 / cfg.gps_bias_tau_s  # the GNSS bias wander as process noise
+    c.baro_primary = float(baro_primary)  # a referenced barometer drifting less: the height reference
+    c.r_p, c.r_v, c.r_pu = cfg.gps_h_white_m**2, cfg.gps_vel_h_mps**2, cfg.gps_v_white_m**2
+    c.r_vu, c.r_baro = cfg.gps_vel_v_mps**2, cfg.baro_noise_m**2
+    c.var_bias_h, c.var_baro_drift = cfg.gps_h_bias_m**2, cfg.baro_drift_m**2
+    c.var_bias_v = 0.0 if baro_primary else cfg.gps_v_bias_m**2
+    c.enu_table = frame.enu_table
+
+
+def estimator_reset(X: np.ndarray) -> None:
+    """``X`` (:data:`EST_STATE`'s slots) as a fresh estimator's: no fix, no estimate."""
+    X[:] = 0.0
+    x = X.view(EST_STATE)[0]
+    x.last_fix_arrival_s = -math.inf
+    x.sigma_h_m = x.sigma_v_m = x.var_h_m2 = math.inf
+
+
+@compiled
+def estimator_step(
+    X: np.ndarray, K: np.ndarray, dt_s: float, has_fix: bool, fix: np.ndarray, t_air: float, airspeed: float,
+    baro_alt_m: float, roll: float, pitch: float, yaw: float,
+) -> tuple[float, ...]:  # fmt: skip
+    """One step of the estimator (see the module docstring): predict by ``dt_s``, take the sensor time ``t_air``
+    (NaN: none), the attitude (NaN: none), the GNSS message ``fix`` (:data:`GPS_FIX`'s slots) when ``has_fix``,
+    then the pitot's ``airspeed`` (NaN: none) and the baro altitude (NaN: none). ``X``: :data:`EST_STATE`'s slots,
+    updated in place; ``K``: :data:`EST_CONST`'s.
+
+    Returns the estimate's :class:`~geofence.interface.VehicleState` fields in order, ``on_ground`` left out
+    (``t, lat, lon, alt, e, n, up, agl, ve, vn, vu, roll, pitch, yaw, airspeed``); the validity, sigmas and the
+    fusion horizon are in ``X`` (``horizon_new`` set when a fix moved the horizon this step)."""
+    x = X.view(EST_STATE)[0]
+    c = K.view(EST_CONST)[0]
+    x.horizon_new = 0.0
+    predict(x, c, dt_s)
+    if math.isfinite(t_air):
+        if x.clock_set == 0.0 or t_air >= x.t_s - 1.0:
+            x.t_s = t_air
+            x.clock_set = 1.0
+    if math.isfinite(roll) and math.isfinite(pitch) and math.isfinite(yaw):
+        x.roll_rad, x.pitch_rad, x.yaw_rad = roll, pitch, yaw
+    if has_fix:
+        update_gps(x, c, fix.view(GPS_FIX)[0])
+    update_air(x, c, airspeed, baro_alt_m)
+    return output(x, c)
+
+
+@jitable
+def predict(x: Any, c: Any, dt_s: float) -> None:
+    """Advance the clock and the vertical filter by ``dt_s`` (the horizontal state is extrapolated at the output).
+
+    ``F = [[1, dt, 0], [0, 1, 0], [0, 0, 1]]``; Q is the white-acceleration noise (``q dt^3/3``, ``q dt^2/2``,
+    ``q dt``) plus the baro offset's wander."""
+    if not (dt_s > 0.0 and math.isfinite(dt_s)):
+        return
+    x.t_s += dt_s
+    if x.v_init == 0.0:
+        return
+    dt = dt_s
+    q = c.q_accel_v
+    two_dt, dt2, q_uu, q_uv, q_vv, q_bb = 2.0 * dt, dt * dt, q * dt * dt * dt / 3.0, 0.5 * q * dt * dt, q * dt, c.q_baro * dt
+    P00, P01, P02, P11, P12, P22 = x.pv00, x.pv01, x.pv02, x.pv11, x.pv12, x.pv22
+    x.up_m += x.v_up_mps * dt
+    set_vertical_covariance(
+        x, P00 + two_dt * P01 + dt2 * P11 + q_uu, P01 + dt * P11 + q_uv, P02 + dt * P12, P11 + q_vv, P12, P22 + q_bb
     )
 
 
+@jitable
+def set_vertical_covariance(x: Any, p00: float, p01: float, p02: float, p11: float, p12: float, p22: float) -> None:
+    x.pv00, x.pv01, x.pv02, x.pv11, x.pv12, x.pv22 = p00, p01, p02, p11, p12, p22
+
+
+@jitable
+def update_air(x: Any, c: Any, airspeed: float, baro_alt_m: float) -> None:
+    """The pitot reading (kept for the output) and the baro height: a scalar update with ``H = (1, 0, 1)`` (written
+    out without its products by 1 and by 0: the dropped terms are exact zeros), every step."""
+    x.has_airspeed = 1.0 if math.isfinite(airspeed) else 0.0
+    x.airspeed_mps = airspeed
+    z = baro_alt_m
+    if not math.isfinite(z):
+        return
+    z -= c.h0_m
+    if x.v_init == 0.0:
+        x.pending_baro_m = z  # used to initialise the offset at the first fix
+        x.has_pending_baro = 1.0
+        if x.has_fix != 0.0 and c.baro_primary != 0.0:
+            init_vertical_from_baro(x, c, z)  # the first fix came before the first baro sample
+        return
+    c0 = x.pv00 + x.pv02
+    c1 = x.pv01 + x.pv12
+    c2 = x.pv02 + x.pv22
+    v_correct(x, z - (x.up_m + x.baro_offset_m), c0 + c2 + c.r_baro, c0, c1, c2)
+
+
+@jitable
+def v_correct(x: Any, y: float, s: float, c0: float, c1: float, c2: float) -> None:
+    """Scalar Kalman update of the vertical filter: innovation ``y``, its variance ``s``, ``(c0, c1, c2) = P H^T``."""
+    if not s > 0.0:
+        return
+    k0, k1, k2 = c0 / s, c1 / s, c2 / s
+    x.up_m += k0 * y
+    x.v_up_mps += k1 * y
+    x.baro_offset_m += k2 * y
+    x.pv00 = x.pv00 - k0 * c0
+    x.pv01 = x.pv01 - k0 * c1
+    x.pv02 = x.pv02 - k0 * c2
+    x.pv11 = x.pv11 - k1 * c1
+    x.pv12 = x.pv12 - k1 * c2
+    x.pv22 = x.pv22 - k2 * c2
+
+
+@jitable
+def v_update(x: Any, h0: float, h1: float, h2: float, z: float, r: float) -> None:
+    """Scalar update of the vertical filter with the measurement ``z`` of variance ``r``, ``H = (h0, h1, h2)``."""
+    P00, P01, P02, P11, P12, P22 = x.pv00, x.pv01, x.pv02, x.pv11, x.pv12, x.pv22
+    c0 = P00 * h0 + P01 * h1 + P02 * h2
+    c1 = P01 * h0 + P11 * h1 + P12 * h2
+    c2 = P02 * h0 + P12 * h1 + P22 * h2
+    s = h0 * c0 + h1 * c1 + h2 * c2 + r
+    y = z - (h0 * x.up_m + h1 * x.v_up_mps + h2 * x.baro_offset_m)
+    v_correct(x, y, s, c0, c1, c2)
+
+
+@jitable
+def init_vertical_from_baro(x: Any, c: Any, z: float) -> None:
+    """Vertical state from a referenced barometer: up = baro - b with b ~ 0 (the baro drift); up and b correlated."""
+    var_b = c.var_baro_drift
+    x.baro_offset_m = 0.0
+    x.up_m = z
+    set_vertical_covariance(x, c.r_baro + var_b, 0.0, -var_b, c.r_vu, 0.0, var_b)
+    x.v_init = 1.0
+
+
+@jitable
+def init_from_fix(x: Any, c: Any, e: float, n: float, u: float, f: Any, lag: float) -> None:
+    """The state from the first fix ``f`` (a :data:`GPS_FIX` record) at ENU ``(e, n, u)``, ``lag`` s old."""
+    x.has_fix = 1.0
+    x.east_m, x.v_east_mps, x.a_east_mps2 = e, f.v_east_mps, 0.0
+    x.north_m, x.v_north_mps, x.a_north_mps2 = n, f.v_north_mps, 0.0
+    x.ph00, x.ph01, x.ph02, x.ph11, x.ph12, x.ph22 = c.r_p, 0.0, 0.0, c.r_v, 0.0, 4.0  # (2 m/s^2)^2: unknown accel.
+    x.t_d_s = f.t_s
+    set_horizon(x, f.t_s)
+    x.up_m = u + f.v_up_mps * lag
+    x.v_up_mps = f.v_up_mps
+    if c.baro_primary != 0.0:
+        # the barometer reads the true altitude up to its drift: it sets the height, b ~ 0
+        if x.has_pending_baro != 0.0:
+            init_vertical_from_baro(x, c, x.pending_baro_m)
+        return
+    if x.has_pending_baro != 0.0:
+        x.baro_offset_m = x.pending_baro_m - x.up_m
+        var_b = c.r_pu + c.r_baro
+    else:
+        x.baro_offset_m = 0.0
+        var_b = c.var_baro_drift + c.var_bias_v + 100.0
+    set_vertical_covariance(x, c.r_pu, 0.0, 0.0, c.r_vu, 0.0, var_b)
+    x.v_init = 1.0
+
+
+@jitable
+def set_horizon(x: Any, t_m: float) -> None:
+    x.horizon_t_s, x.horizon_east_m, x.horizon_north_m = t_m, x.east_m, x.north_m
+    x.horizon_v_east_mps, x.horizon_v_north_mps = x.v_east_mps, x.v_north_mps
+    x.horizon_new = 1.0
+
+
+@jitable
+def update_gps(x: Any, c: Any, f: Any) -> None:
+    """Fuse one GNSS message ``f`` (a :data:`GPS_FIX` record; its ``t_s`` is the time of validity, its arrival the
+    current time): the horizon predicted to its time and updated there, the vertical filter at the current time
+    (first-order latency compensation)."""
+    if f.valid == 0.0:
+        return
+    t_m, lat, lon, alt = f.t_s, f.lat_deg, f.lon_deg, f.alt_m
+    finite = (
+        math.isfinite(t_m) and math.isfinite(lat) and math.isfinite(lon) and math.isfinite(alt)
+        and math.isfinite(f.v_east_mps) and math.isfinite(f.v_north_mps) and math.isfinite(f.v_up_mps)
+    )  # fmt: skip
+    if not finite or abs(lat) > 90.0:
+        x.fixes_rejected += 1.0
+        return
+    e, n, u = enu_of(c.enu_table, lat, lon, alt)
+    lag = x.t_s - t_m
+    if lag < 0.0:
+        lag = 0.0
+    if x.has_fix == 0.0:
+        init_from_fix(x, c, e, n, u, f, lag)
+    elif t_m <= x.t_d_s:  # stale or duplicate
+        x.fixes_rejected += 1.0
+        return
+    else:
+        fuse_horizontal(x, c, t_m, e, n, f.v_east_mps, f.v_north_mps)
+        q = c.q_accel_v
+        if c.baro_primary == 0.0:
+            v_update(x, 1.0, -lag, 0.0, u, c.r_pu + q * lag * lag * lag / 3.0)
+        v_update(x, 0.0, 1.0, 0.0, f.v_up_mps, c.r_vu + q * lag)
+    x.last_fix_arrival_s = x.t_s
+    x.fixes_used += 1.0
+
+
+@jitable
+def fuse_horizontal(x: Any, c: Any, t_m: float, e: float, n: float, ve: float, vn: float) -> None:
+    """The horizon predicted to ``t_m`` and updated with the position ``(e, n)``, then the velocity ``(ve, vn)``:
+    scalar updates whose gain serves both axes (their covariances are equal)."""
+    dt = t_m - x.t_d_s
+    if dt > 0.0:  # constant-acceleration extrapolation
+        h = 0.5 * dt * dt
+        x.east_m += x.v_east_mps * dt + x.a_east_mps2 * h
+        x.v_east_mps += x.a_east_mps2 * dt
+        x.north_m += x.v_north_mps * dt + x.a_north_mps2 * h
+        x.v_north_mps += x.a_north_mps2 * dt
+        covariance_predict(x, dt, c.q_jerk_h, c.q_wander_h)
+    x.t_d_s = t_m
+    ye, yn = e - x.east_m, n - x.north_m
+    correct(x, ye, yn, covariance_update(x, x.ph00 + c.r_p, x.ph00, x.ph01, x.ph02))  # H = [1, 0, 0]
+    ye, yn = ve - x.v_east_mps, vn - x.v_north_mps
+    correct(x, ye, yn, covariance_update(x, x.ph11 + c.r_v, x.ph01, x.ph11, x.ph12))  # H = [0, 1, 0]
+    set_horizon(x, t_m)
+
+
+@jitable
+def covariance_predict(x: Any, dt: float, qj: float, qp: float) -> None:
+    """``F P F^T + Q`` of each horizontal axis, ``F = [[1, dt, h], [0, 1, dt], [0, 0, 1]]``, Q the white jerk ``qj``
+    plus the position wander ``qp``."""
+    h = 0.5 * dt * dt
+    P00, P01, P02, P11, P12, P22 = x.ph00, x.ph01, x.ph02, x.ph11, x.ph12, x.ph22
+    r00, r01, r02 = P00 + dt * P01 + h * P02, P01 + dt * P11 + h * P12, P02 + dt * P12 + h * P22  # row 0 of F P
+    r10, r11, r12 = P01 + dt * P02, P11 + dt * P12, P12 + dt * P22  # row 1 of F P
+    d2, d3 = dt * dt, dt * dt * dt
+    x.ph00 = r00 + dt * r01 + h * r02 + qj * d3 * d2 / 20.0 + qp * dt
+    x.ph01 = r10 + dt * r11 + h * r12 + qj * d2 * d2 / 8.0
+    x.ph02 = r02 + qj * d3 / 6.0
+    x.ph11 = r11 + dt * r12 + qj * d3 / 3.0
+    x.ph12 = r12 + qj * d2 / 2.0
+    x.ph22 = P22 + qj * dt
+
+
+@jitable
+def covariance_update(x: Any, s: float, c0: float, c1: float, c2: float) -> tuple[float, float, float]:
+    """Scalar Kalman update of each horizontal axis's covariance: innovation variance ``s``, ``(c0, c1, c2) =
+    P H^T``; returns the gain."""
+    k0, k1, k2 = c0 / s, c1 / s, c2 / s
+    x.ph00 -= k0 * c0
+    x.ph01 -= k0 * c1
+    x.ph02 -= k0 * c2
+    x.ph11 -= k1 * c1
+    x.ph12 -= k1 * c2
+    x.ph22 -= k2 * c2
+    return (k0, k1, k2)
+
+
+@jitable
+def correct(x: Any, y_e: float, y_n: float, k: tuple[float, float, float]) -> None:
+    """Both axes' scalar correction with their innovations and the shared gain ``k``."""
+    k0, k1, k2 = k
+    x.east_m += k0 * y_e
+    x.v_east_mps += k1 * y_e
+    x.a_east_mps2 += k2 * y_e
+    x.north_m += k0 * y_n
+    x.v_north_mps += k1 * y_n
+    x.a_north_mps2 += k2 * y_n
+
+
+@jitable
+def output(x: Any, c: Any) -> tuple[float, ...]:
+    """The estimate at the current time: the horizon extrapolated with its covariance (``g P g^T + Q``, ``g = (1, d,
+    h)``, the same for both axes), the vertical filter, the attitude, the true airspeed (indicated converted at the
+    estimated altitude; the ground speed without a pitot); the validity and sigmas set in ``x``."""
+    now = x.t_s
+    x.position_valid = 1.0 if (now - x.last_fix_arrival_s) <= c.timeout_s else 0.0
+    r_, p_, y_ = x.roll_rad, x.pitch_rad, x.yaw_rad
+    if x.has_fix == 0.0:
+        x.sigma_h_m = math.inf
+        x.sigma_v_m = math.inf
+        return (now, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, r_, p_, y_, 0.0)
+    d = now - x.t_d_s
+    if d < 0.0:
+        d = 0.0
+    h = 0.5 * d * d
+    e = x.east_m + x.v_east_mps * d + x.a_east_mps2 * h
+    n = x.north_m + x.v_north_mps * d + x.a_north_mps2 * h
+    ve = x.v_east_mps + x.a_east_mps2 * d
+    vn = x.v_north_mps + x.a_north_mps2 * d
+    qd = c.q_jerk_h * d * d * d * d * d / 20.0 + c.q_wander_h * d
+    var = x.ph00 + 2.0 * d * x.ph01 + 2.0 * h * x.ph02 + d * d * x.ph11 + 2.0 * d * h * x.ph12 + h * h * x.ph22 + qd
+    x.var_h_m2 = var
+    x.sigma_h_m = math.sqrt(var + c.var_bias_h)
+    x.sigma_v_m = math.sqrt(x.pv00 + c.var_bias_v)
+    u = x.up_m
+    curv = (e * e + n * n) * c.inv_2r_per_m
+    alt = c.h0_m + u + curv
+    if x.has_airspeed != 0.0:  # indicated -> true airspeed at the estimated altitude
+        a = x.airspeed_mps / math.sqrt(isa_density_ratio(alt))
+    else:
+        a = math.sqrt(ve * ve + vn * vn)
+    return (
+        now, c.lat0_deg + n * c.deg_per_m_n, c.lon0_deg + e * c.deg_per_m_e, alt, e, n, u, u + curv, ve, vn,
+        x.v_up_mps, r_, p_, y_, a,
+    )  # fmt: skip
+
+
 class GeofenceEstimator:
-    """GNSS/baro/AHRS state estimator of the geofence unit (see the module docstring).
+    """GNSS/baro/AHRS state estimator of the geofence unit (see the module docstring): a façade over its record.
 
     Per outer-loop step::
 
@@ -258,178 +495,85 @@ class GeofenceEstimator:
         estimator.position_valid, estimator.sigma_h_m, estimator.sigma_v_m
 
     The estimator's clock advances by ``dt_s`` and is re-synchronised to the
-    sensor time stamps (``air.t_s`` or ``att.t_s``) when they are given.
+    sensor time stamps (``air.t_s`` or ``att.t_s``) when they are given. The step
+    is :func:`estimator_step`, the one implementation.
+
+    ``memory``: a float64 array of :data:`MEMORY_SIZE` slots to live in (a caller's compiled step that packs its
+    states into one array passes its slice: the façade then reads what the step writes); a fresh array when
+    omitted. The state and constants are (re)initialised in it.
     """
 
-    def __init__(self, frame: LocalFrame, config: EstimatorConfig | None = None) -> None:
+    def __init__(self, frame: LocalFrame, config: EstimatorConfig | None = None, memory: np.ndarray | None = None) -> None:
         self.frame = frame
         self.config = cfg = config or EstimatorConfig()
-        self.t_s = 0.0
-        self._clock_set = False
-        k = estimator_constants(frame, cfg)
-        self._h0 = k.h0_m
-        self._deg_per_m_n, self._deg_per_m_e, self._inv_2r = k.deg_per_m_n, k.deg_per_m_e, k.inv_2r_per_m
-        self._lat0_deg, self._lon0_deg = frame.lat0_deg, frame.lon0_deg
-        self._timeout_s = cfg.timeout_s
-        self._qj, self._qp_h, self._qv, self._qb = k.q_jerk_h, k.q_wander_h, k.q_accel_v, k.q_baro
-        self._baro_primary = k.baro_primary
-        self._r_p, self._r_v, self._r_pu, self._r_vu, self._r_baro = k.r_p, k.r_v, k.r_pu, k.r_vu, k.r_baro
-        self._var_bias_h, self._var_bias_v, self._var_baro_drift = k.var_bias_h, k.var_bias_v, k.var_baro_drift
-        # horizontal (delayed horizon at t_d)
-        self._east: _Axis | None = None
-        self._north: _Axis | None = None
-        self._P_h: _AxisCovariance | None = None  # the covariance of each axis (the same for both)
-        self._t_d = 0.0
-        self._horizon: FixState | None = None  # the fused state at t_d, rebuilt when a fix is fused
-        # vertical (current time): up, v_up, baro offset b
-        self._u = self._vu = self._b = 0.0
-        self._V = (0.0,) * 6  # P00 P01 P02 P11 P12 P22 (a tuple, replaced as a whole by each predict/update)
-        self._vq_dt = math.nan  # the dt of the cached vertical prediction coefficients (nan: none yet)
-        self._vq = (0.0,) * 6
-        self._v_init = False
-        self._pending_baro: float | None = None
-        # bookkeeping
-        self._last_fix_arrival_s = -math.inf
-        self.fixes_used = 0
-        self.fixes_rejected = 0
-        self._att = (0.0, 0.0, 0.0)
-        self._airspeed: float | None = None
-        self.position_valid = False
-        self.sigma_h_m = math.inf
-        self.sigma_v_m = math.inf
-        self.var_e_m2 = self.var_n_m2 = math.inf
+        if memory is None:
+            memory = np.zeros(MEMORY_SIZE)
+        if memory.shape != (MEMORY_SIZE,) or memory.dtype != np.float64 or not memory.flags.c_contiguous:
+            raise ValueError(f"GeofenceEstimator memory: expected {MEMORY_SIZE} contiguous float64 slots")
+        self.memory = memory
+        self._X, self._K = memory[:STATE_SIZE], memory[STATE_SIZE:]
+        self._state = self._X.view(EST_STATE)[0]
+        estimator_constants(self._K, frame, cfg)
+        estimator_reset(self._X)
+        self._fix = np.zeros(FIX_SIZE)
         self.state = VehicleState()
+        """The newest estimate (:meth:`step`'s answer)."""
 
-    # -- public per-step entry point ------------------------------------------------
     def step(
-        self,
-        dt_s: float,
-        fix: GpsFix | None = None,
-        air: AirData | None = None,
-        att: AttitudeSample | None = None,
+        self, dt_s: float, fix: GpsFix | None = None, air: AirData | None = None, att: AttitudeSample | None = None
     ) -> VehicleState:
         """Predict by ``dt_s``, fuse whatever arrived this step, and return the current estimate."""
-        self.predict(dt_s)
-        stamp = air.t_s if air is not None else (att.t_s if att is not None else None)
-        if stamp is not None and math.isfinite(stamp):
-            if not self._clock_set or stamp >= self.t_s - 1.0:
-                self.t_s = stamp
-                self._clock_set = True
-        if att is not None:
-            self.update_attitude(att)
-        if fix is not None:
-            self.update_gps(fix)
+        nan = math.nan
         if air is not None:
-            self.update_air(air)
-        return self.output()
+            t_air, baro = air.t_s, air.baro_alt_m
+            airspeed = nan if air.airspeed_mps is None else air.airspeed_mps
+        else:  # no air data: the last pitot reading stands
+            t_air, baro = (att.t_s if att is not None else nan), nan
+            airspeed = float(self._state.airspeed_mps) if self._state.has_airspeed != 0.0 else nan
+        roll, pitch, yaw = (att.roll_rad, att.pitch_rad, att.yaw_rad) if att is not None else (nan, nan, nan)
+        if fix is not None:
+            self._fix[:] = fix
+        fields: Any = estimator_step(
+            self._X, self._K, float(dt_s), fix is not None, self._fix, float(t_air), float(airspeed), float(baro),
+            float(roll), float(pitch), float(yaw),
+        )  # fmt: skip
+        self.state = VehicleState(*fields)
+        return self.state
 
-    def predict(self, dt_s: float) -> None:
-        """Advance the estimator clock and the vertical filter by ``dt_s`` (horizontal: extrapolated at output)."""
-        if not (dt_s > 0.0) or not math.isfinite(dt_s):
-            return
-        self.t_s += dt_s
-        if not self._v_init:
-            return
-        dt = dt_s
-        if dt != self._vq_dt:  # the outer loop's dt is constant: its coefficients are computed once
-            self._vq_dt = dt
-            self._vq = self._vertical_coefficients(dt)
-        two_dt, dt2, q_uu, q_uv, q_vv, q_bb = self._vq
-        P00, P01, P02, P11, P12, P22 = self._V
-        self._u += self._vu * dt
-        # F = [[1, dt, 0], [0, 1, 0], [0, 0, 1]];  F P F^T + Q
-        self._V = (
-            P00 + two_dt * P01 + dt2 * P11 + q_uu,
-            P01 + dt * P11 + q_uv,
-            P02 + dt * P12,
-            P11 + q_vv,
-            P12,
-            P22 + q_bb,
-        )
+    @property
+    def t_s(self) -> float:
+        """The estimator's clock, s."""
+        return float(self._state.t_s)
 
-    def _vertical_coefficients(self, dt: float) -> tuple[float, float, float, float, float, float]:
-        """``(2 dt, dt^2, Q_uu, Q_uv, Q_vv, Q_bb)`` of the vertical prediction over ``dt``.
+    @property
+    def position_valid(self) -> bool:
+        """A valid fix arrived within ``timeout_s`` (as of the last step)."""
+        return bool(self._state.position_valid != 0.0)
 
-        Q is the white-acceleration noise (``q dt^3/3``, ``q dt^2/2``, ``q dt``) plus the baro offset's wander.
-        """
-        q = self._qv
-        return (2.0 * dt, dt * dt, q * dt * dt * dt / 3.0, 0.5 * q * dt * dt, q * dt, self._qb * dt)
+    @property
+    def sigma_h_m(self) -> float:
+        """Horizontal position 1-sigma per axis, the GNSS bias included (inf before the first fix)."""
+        return float(self._state.sigma_h_m)
 
-    def update_attitude(self, att: AttitudeSample) -> None:
-        r, p, y = att.roll_rad, att.pitch_rad, att.yaw_rad
-        if math.isfinite(r) and math.isfinite(p) and math.isfinite(y):
-            self._att = (r, p, y)
+    @property
+    def sigma_v_m(self) -> float:
+        """Vertical position 1-sigma, the GNSS height bias included unless the barometer is the reference."""
+        return float(self._state.sigma_v_m)
 
-    def update_air(self, air: AirData) -> None:
-        """Baro altitude (every step) and pitot airspeed."""
-        a = air.airspeed_mps
-        self._airspeed = a if (a is not None and math.isfinite(a)) else None
-        z = air.baro_alt_m
-        if not math.isfinite(z):
-            return
-        z -= self._h0
-        if not self._v_init:
-            self._pending_baro = z  # used to initialise the offset at the first fix
-            if self._east is not None and self._baro_primary:
-                self._init_vertical_from_baro(z)  # the first fix came before the first baro sample
-            return
-        self._baro_update(z)
+    @property
+    def var_e_m2(self) -> float:
+        """The filter's east position variance (the bias left out), m²; the north one is the same."""
+        return float(self._state.var_h_m2)
 
-    def update_gps(self, fix: GpsFix) -> None:
-        """Fuse one GNSS message (its ``t_s`` is the time of validity; arrival is the current time)."""
-        if not fix.valid:
-            return
-        isfinite = math.isfinite
-        finite = (
-            isfinite(fix.t_s)
-            and isfinite(fix.lat_deg)
-            and isfinite(fix.lon_deg)
-            and isfinite(fix.alt_m)
-            and isfinite(fix.v_east_mps)
-            and isfinite(fix.v_north_mps)
-            and isfinite(fix.v_up_mps)
-        )
-        if not finite or abs(fix.lat_deg) > 90.0:
-            self.fixes_rejected += 1
-            return
-        e, n, u = self.frame.to_enu(fix.lat_deg, fix.lon_deg, fix.alt_m)
-        t_m = fix.t_s
-        lag = self.t_s - t_m
-        if lag < 0.0:
-            lag = 0.0
-        if self._east is None:
-            self._init(e, n, u, fix, t_m, lag)
-            self._last_fix_arrival_s = self.t_s
-            self.fixes_used += 1
-            return
-        if t_m <= self._t_d:  # stale or duplicate
-            self.fixes_rejected += 1
-            return
-        dt = t_m - self._t_d
-        ex, nx, P = self._east, self._north, self._P_h
-        if ex is None or nx is None or P is None:  # not reached: the first fix initialised the axes above
-            return
-        ex.predict(dt)
-        nx.predict(dt)
-        P.predict(dt, self._qj, self._qp_h)
-        self._t_d = t_m
-        # position, then velocity: each gain serves both axes (their covariances are equal)
-        ye, yn = e - ex.p, n - nx.p
-        k = P.update_p(self._r_p)
-        ex.correct(ye, k)
-        nx.correct(yn, k)
-        ye, yn = fix.v_east_mps - ex.v, fix.v_north_mps - nx.v
-        k = P.update_v(self._r_v)
-        ex.correct(ye, k)
-        nx.correct(yn, k)
-        self._horizon = FixState(t_m, ex.p, nx.p, ex.v, nx.v)
-        # vertical: current-time filter, first-order latency compensation
-        q = self._qv
-        if not self._baro_primary:
-            self._v_update(1.0, -lag, 0.0, u, self._r_pu + q * lag * lag * lag / 3.0)
-        self._v_update(0.0, 1.0, 0.0, fix.v_up_mps, self._r_vu + q * lag)
-        self._last_fix_arrival_s = self.t_s
-        self.fixes_used += 1
+    var_n_m2 = var_e_m2
+
+    @property
+    def fixes_used(self) -> int:
+        return int(self._state.fixes_used)
+
+    @property
+    def fixes_rejected(self) -> int:
+        return int(self._state.fixes_rejected)
 
     @property
     def data_age_s(self) -> float:
@@ -439,139 +583,36 @@ class GeofenceEstimator:
         acceleration that started within it is not yet in the estimate, so the
         geofence adds it to its reaction time (up to latency + one GNSS period).
         """
-        return max(self.t_s - self._t_d, 0.0) if self._east is not None else 0.0
-
-    # -- output --------------------------------------------------------------------
-    def output(self) -> VehicleState:
-        """A new estimate at the current estimator time (also kept as ``self.state``)."""
-        now = self.t_s
-        self.position_valid = (now - self._last_fix_arrival_s) <= self._timeout_s
-        ex, nx, P = self._east, self._north, self._P_h
-        roll, pitch, yaw = self._att
-        if ex is None or nx is None or P is None:
-            self.sigma_h_m = self.sigma_v_m = math.inf
-            self.state = VehicleState(t_s=now, roll_rad=roll, pitch_rad=pitch, yaw_rad=yaw)
-            return self.state
-        d = now - self._t_d
-        if d < 0.0:
-            d = 0.0
-        h = 0.5 * d * d
-        e = ex.p + ex.v * d + ex.a * h
-        n = nx.p + nx.v * d + nx.a * h
-        ve = ex.v + ex.a * d
-        vn = nx.v + nx.a * d
-        # position variance extrapolated from the horizon: g P g^T + Q, g = (1, d, h); the same for both axes
-        qd = self._qj * d * d * d * d * d / 20.0 + self._qp_h * d
-        var = P.P00 + 2.0 * d * P.P01 + 2.0 * h * P.P02 + d * d * P.P11 + 2.0 * d * h * P.P12 + h * h * P.P22 + qd
-        self.var_e_m2 = self.var_n_m2 = var
-        self.sigma_h_m = math.sqrt(var + self._var_bias_h)
-        self.sigma_v_m = math.sqrt(self._V[0] + self._var_bias_v)
-        u = self._u
-        curv = (e * e + n * n) * self._inv_2r
-        alt = self._h0 + u + curv
-        a = self._airspeed
-        if a is not None:  # indicated -> true airspeed at the estimated altitude
-            a = a / math.sqrt(isa_density_ratio(alt))
-        st = VehicleState(
-            now,
-            self._lat0_deg + n * self._deg_per_m_n,
-            self._lon0_deg + e * self._deg_per_m_e,
-            alt,
-            e,
-            n,
-            u,
-            u + curv,
-            ve,
-            vn,
-            self._vu,
-            roll,
-            pitch,
-            yaw,
-            a if a is not None else math.sqrt(ve * ve + vn * vn),
-            False,
-        )
-        self.state = st
-        return st
+        x = self._state
+        return max(float(x.t_s - x.t_d_s), 0.0) if x.has_fix != 0.0 else 0.0
 
     @property
     def baro_offset_m(self) -> float:
         """Estimated baro offset (baro altitude - origin height - up) in m."""
-        return self._b
+        return float(self._state.baro_offset_m)
 
     def horizon_state(self) -> FixState | None:
         """The fused horizontal state at the newest fix's time of validity (None before the first fix)."""
-        return self._horizon
+        x = self._state
+        if x.has_fix == 0.0:
+            return None
+        return FixState(*(float(v) for v in self._X[HORIZON_FIELDS]))
 
     @property
     def accel_en_mps2(self) -> tuple[float, float]:
         """Estimated horizontal acceleration (east, north) at the fusion horizon, m/s^2."""
-        ex, nx = self._east, self._north
-        if ex is None or nx is None:
-            return (0.0, 0.0)
-        return (ex.a, nx.a)
+        x = self._state
+        return (float(x.a_east_mps2), float(x.a_north_mps2)) if x.has_fix != 0.0 else (0.0, 0.0)
 
-    # -- internals -----------------------------------------------------------------
-    def _init(self, e: float, n: float, u: float, fix: GpsFix, t_m: float, lag: float) -> None:
-        var_a = 4.0  # (2 m/s^2)^2: unknown initial acceleration
-        self._east = ex = _Axis(e, fix.v_east_mps)
-        self._north = nx = _Axis(n, fix.v_north_mps)
-        self._P_h = _AxisCovariance(self._r_p, self._r_v, var_a)
-        self._t_d = t_m
-        self._horizon = FixState(t_m, ex.p, nx.p, ex.v, nx.v)
-        self._u = u + fix.v_up_mps * lag
-        self._vu = fix.v_up_mps
-        if self._baro_primary:
-            # the barometer reads the true altitude up to its drift: it sets the height, b ~ 0
-            if self._pending_baro is not None:
-                self._init_vertical_from_baro(self._pending_baro)
-            return
-        if self._pending_baro is not None:
-            self._b = self._pending_baro - self._u
-            var_b = self._r_pu + self._r_baro
-        else:
-            self._b = 0.0
-            var_b = self._var_baro_drift + self._var_bias_v + 100.0
-        self._V = (self._r_pu, 0.0, 0.0, self._r_vu, 0.0, var_b)
-        self._v_init = True
 
-    def _init_vertical_from_baro(self, z: float) -> None:
-        """Vertical state from a referenced barometer: up = baro - b with b ~ 0 (the baro drift)."""
-        var_b = self._var_baro_drift
-        self._b = 0.0
-        self._u = z
-        # up and b are correlated: up = z - b
-        self._V = (self._r_baro + var_b, 0.0, -var_b, self._r_vu, 0.0, var_b)
-        self._v_init = True
+def _slot(name: str) -> int:
+    """The float slot of an :data:`EST_STATE` field."""
+    fields = EST_STATE.fields
+    assert fields is not None
+    return int(fields[name][1]) // 8
 
-    def _v_update(self, h0: float, h1: float, h2: float, z: float, r: float) -> None:
-        """Scalar update of the vertical filter with H = (h0, h1, h2)."""
-        P00, P01, P02, P11, P12, P22 = self._V
-        c0 = P00 * h0 + P01 * h1 + P02 * h2
-        c1 = P01 * h0 + P11 * h1 + P12 * h2
-        c2 = P02 * h0 + P12 * h1 + P22 * h2
-        s = h0 * c0 + h1 * c1 + h2 * c2 + r
-        y = z - (h0 * self._u + h1 * self._vu + h2 * self._b)
-        self._v_correct(y, s, c0, c1, c2)
 
-    def _baro_update(self, z: float) -> None:
-        """Scalar update with the baro height ``z`` (above the origin): H = (1, 0, 1), every step.
-
-        This is ``_v_update(1.0, 0.0, 1.0, z, r_baro)`` written out without its products by 1 and by 0: the
-        dropped terms are exact zeros, so the numbers are the same, for a third of the operations.
-        """
-        P00, P01, P02, P11, P12, P22 = self._V
-        c0 = P00 + P02
-        c1 = P01 + P12
-        c2 = P02 + P22
-        self._v_correct(z - (self._u + self._b), c0 + c2 + self._r_baro, c0, c1, c2)
-
-    def _v_correct(self, y: float, s: float, c0: float, c1: float, c2: float) -> None:
-        """Scalar Kalman update of the vertical filter: innovation ``y``, its variance ``s``, ``(c0, c1, c2) = P H^T``."""
-        if not s > 0.0:
-            return
-        P00, P01, P02, P11, P12, P22 = self._V
-        k0, k1, k2 = c0 / s, c1 / s, c2 / s
-        self._u += k0 * y
-        self._vu += k1 * y
-        self._b += k2 * y
-        self._V = (P00 - k0 * c0, P01 - k0 * c1, P02 - k0 * c2, P11 - k1 * c1, P12 - k1 * c2, P22 - k2 * c2)
+HORIZON_FIELDS = slice(_slot("horizon_t_s"), _slot("horizon_v_north_mps") + 1)
+"""The fusion horizon's slots in :data:`EST_STATE`, in :class:`FixState`'s order (read as one slice)."""
+if HORIZON_FIELDS.stop - HORIZON_FIELDS.start != len(FixState._fields):
+    raise ImportError("the estimator's horizon fields are no longer FixState's: update HORIZON_FIELDS")

@@ -239,3 +239,219 @@ def test_never_nan_for_finite_inputs(seq):
             assert math.isfinite(getattr(s, name)), name
         assert not math.isnan(est.sigma_h_m) and not math.isnan(est.sigma_v_m)
         assert est.sigma_h_m > 0.0 and est.sigma_v_m > 0.0
+
+
+# -- the oracle: the module docstring's model as a textbook matrix-form Kalman filter --------------------------------
+
+
+def _ca_model(d: float, q_jerk: float, q_wander: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(F, Q)`` of one horizontal axis's constant-acceleration model over ``d`` s: white jerk of spectral density
+    ``q_jerk`` plus the GNSS bias wander ``q_wander`` on the position."""
+    F = np.array([[1.0, d, 0.5 * d * d], [0.0, 1.0, d], [0.0, 0.0, 1.0]])
+    Q = q_jerk * np.array(
+        [[d**5 / 20.0, d**4 / 8.0, d**3 / 6.0], [d**4 / 8.0, d**3 / 3.0, d**2 / 2.0], [d**3 / 6.0, d**2 / 2.0, d]]
+    )
+    Q[0, 0] += q_wander * d
+    return F, Q
+
+
+def _kalman_update(x: np.ndarray, P: np.ndarray, H: np.ndarray, z: np.ndarray, R: np.ndarray):
+    """The textbook update: ``K = P H^T (H P H^T + R)^-1``, ``x + K (z - H x)``, ``(I - K H) P``."""
+    S = H @ P @ H.T + R
+    K = P @ H.T @ np.linalg.inv(S)
+    return x + K @ (z - H @ x), (np.eye(len(P)) - K @ H) @ P
+
+
+class TextbookEstimator:
+    """The estimator's model in matrix form, written from the module docstring of :mod:`geofence.estimator`: per
+    horizontal axis ``(p, v, a)`` at the newest fix's time of validity (the fusion horizon), predicted there and
+    updated with the fix's position and velocity (one joint update: the same as the two scalar ones), then
+    extrapolated to the current time; the vertical ``(up, v_up, baro offset)`` at the current time, the baro every
+    step (``H = (1, 0, 1)``), the GNSS vertical velocity with its latency's process noise, the GNSS height only when
+    the barometer is not the reference."""
+
+    def __init__(self, frame: LocalFrame, cfg: EstimatorConfig) -> None:
+        self.frame, self.cfg = frame, cfg
+        self.baro_primary = cfg.baro_referenced and cfg.baro_drift_m < cfg.gps_v_bias_m
+        self.q_wander = 2.0 * cfg.gps_h_bias_m**2 / cfg.gps_bias_tau_s
+        self.q_baro = 2.0 * cfg.baro_drift_m**2 / cfg.baro_drift_tau_s
+        if not self.baro_primary:
+            self.q_baro += 2.0 * cfg.gps_v_bias_m**2 / cfg.gps_bias_tau_s
+        self.xh = self.Ph = self.t_d = None  # (3, 2): the east and north axes' columns
+        self.xv = self.Pv = None
+        self.v_up0 = self.pending_baro = None
+        self.last_arrival_s = -math.inf
+
+    def step(self, t: float, dt: float, fix: GpsFix | None, air: AirData) -> dict:
+        cfg = self.cfg
+        if self.xv is not None:
+            F = np.array([[1.0, dt, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+            q = cfg.accel_psd_v
+            Q = np.array([[q * dt**3 / 3.0, q * dt**2 / 2.0, 0.0], [q * dt**2 / 2.0, q * dt, 0.0], [0.0, 0.0, 0.0]])
+            Q[2, 2] = self.q_baro * dt
+            self.xv, self.Pv = F @ self.xv, F @ self.Pv @ F.T + Q
+        if fix is not None and fix.valid:
+            self._fuse(t, fix)
+        self._baro(air.baro_alt_m - self.frame.h0_m)
+        return self._output(t)
+
+    def _fuse(self, t: float, fix: GpsFix) -> None:
+        cfg = self.cfg
+        e, n, u = self.frame.to_enu(fix.lat_deg, fix.lon_deg, fix.alt_m)
+        lag = max(t - fix.t_s, 0.0)
+        z_h = np.array([[e, n], [fix.v_east_mps, fix.v_north_mps]])
+        if self.xh is None:
+            self.xh = np.vstack([z_h, np.zeros((1, 2))])
+            self.Ph = np.diag([cfg.gps_h_white_m**2, cfg.gps_vel_h_mps**2, 4.0])
+            self.t_d = fix.t_s
+            self._init_vertical(u + fix.v_up_mps * lag, fix.v_up_mps)
+        elif fix.t_s > self.t_d:
+            F, Q = _ca_model(fix.t_s - self.t_d, cfg.jerk_psd_h, self.q_wander)
+            self.xh, self.Ph = F @ self.xh, F @ self.Ph @ F.T + Q
+            self.t_d = fix.t_s
+            H = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+            self.xh, self.Ph = _kalman_update(self.xh, self.Ph, H, z_h, np.diag([cfg.gps_h_white_m**2, cfg.gps_vel_h_mps**2]))
+            q = cfg.accel_psd_v
+            if not self.baro_primary:  # the height, stamped lag s ago: up(t - lag) = up - lag v_up
+                r = cfg.gps_v_white_m**2 + q * lag**3 / 3.0
+                self.xv, self.Pv = _kalman_update(self.xv, self.Pv, np.array([[1.0, -lag, 0.0]]), np.array([u]), np.array([[r]]))
+            r = cfg.gps_vel_v_mps**2 + q * lag
+            self.xv, self.Pv = _kalman_update(
+                self.xv, self.Pv, np.array([[0.0, 1.0, 0.0]]), np.array([fix.v_up_mps]), np.array([[r]])
+            )
+        else:
+            return
+        self.last_arrival_s = t
+
+    def _init_vertical(self, up: float, v_up: float) -> None:
+        cfg = self.cfg
+        self.v_up0 = v_up
+        if self.baro_primary:
+            if self.pending_baro is not None:
+                self._init_from_baro(self.pending_baro)
+            return
+        if self.pending_baro is not None:
+            b, var_b = self.pending_baro - up, cfg.gps_v_white_m**2 + cfg.baro_noise_m**2
+        else:
+            b, var_b = 0.0, cfg.baro_drift_m**2 + cfg.gps_v_bias_m**2 + 100.0
+        self.xv = np.array([up, v_up, b])
+        self.Pv = np.diag([cfg.gps_v_white_m**2, cfg.gps_vel_v_mps**2, var_b])
+
+    def _init_from_baro(self, z: float) -> None:
+        cfg = self.cfg
+        var_b = cfg.baro_drift_m**2
+        self.xv = np.array([z, self.v_up0, 0.0])
+        self.Pv = np.array([[cfg.baro_noise_m**2 + var_b, 0.0, -var_b], [0.0, cfg.gps_vel_v_mps**2, 0.0], [-var_b, 0.0, var_b]])
+
+    def _baro(self, z: float) -> None:
+        if self.xv is None:
+            self.pending_baro = z
+            if self.xh is not None and self.baro_primary:
+                self._init_from_baro(z)
+            return
+        R = np.array([[self.cfg.baro_noise_m**2]])
+        self.xv, self.Pv = _kalman_update(self.xv, self.Pv, np.array([[1.0, 0.0, 1.0]]), np.array([z]), R)
+
+    def _output(self, t: float) -> dict:
+        cfg = self.cfg
+        d = max(t - self.t_d, 0.0)
+        F, Q = _ca_model(d, cfg.jerk_psd_h, self.q_wander)
+        x = F @ self.xh
+        var = (F @ self.Ph @ F.T + Q)[0, 0]
+        var_bias_v = 0.0 if self.baro_primary else cfg.gps_v_bias_m**2
+        return {
+            "east_m": x[0, 0], "north_m": x[0, 1], "v_east_mps": x[1, 0], "v_north_mps": x[1, 1],
+            "up_m": self.xv[0], "v_up_mps": self.xv[1], "baro_offset_m": self.xv[2],
+            "sigma_h_m": math.sqrt(var + cfg.gps_h_bias_m**2), "sigma_v_m": math.sqrt(self.Pv[0, 0] + var_bias_v),
+            "position_valid": t - self.last_arrival_s <= cfg.timeout_s, "data_age_s": d,
+        }  # fmt: skip
+
+
+ORACLE_TOLERANCE = {"m": 1e-6, "mps": 1e-6, "sigma": 1e-9}
+"""How far the estimator may be from the oracle: round-off only (1 µm, 1 µm/s; sigmas relative 1e-9)."""
+
+
+@pytest.mark.parametrize(
+    "sensors, baro_referenced",
+    [
+        (SensorConfig(), True),  # the barometer is the height reference
+        (SensorConfig(gps_outages=((20.0, 24.0),), baro_drift_m=4.0), True),  # drifts more: the GNSS height fused
+        (SensorConfig(gps_latency_s=0.11, gps_rate_hz=10.0), False),
+    ],
+)
+def test_the_estimator_is_the_textbook_kalman_filter(sensors, baro_referenced):
+    """On a noisy turning flight (with an outage, both vertical references), the estimator's every output is the
+    matrix-form filter's for the same model, within :data:`ORACLE_TOLERANCE`."""
+    cfg = sensors.estimator_config(baro_referenced=baro_referenced)
+    suite = SensorSuite(sensors, seed=11)
+    est, oracle = GeofenceEstimator(FRAME, cfg), TextbookEstimator(FRAME, cfg)
+    for k in range(int(60.0 / DT)):
+        t = k * DT
+        fix, air, att = suite.sample(turning(t))
+        s = est.step(DT, fix, air, att)
+        want = oracle.step(t, DT, fix, air)
+        for name in ("east_m", "north_m", "up_m"):
+            assert getattr(s, name) == pytest.approx(want[name], abs=ORACLE_TOLERANCE["m"]), (t, name)
+        for name in ("v_east_mps", "v_north_mps", "v_up_mps"):
+            assert getattr(s, name) == pytest.approx(want[name], abs=ORACLE_TOLERANCE["mps"]), (t, name)
+        assert est.baro_offset_m == pytest.approx(want["baro_offset_m"], abs=ORACLE_TOLERANCE["m"])
+        for name in ("sigma_h_m", "sigma_v_m"):
+            assert getattr(est, name) == pytest.approx(want[name], rel=ORACLE_TOLERANCE["sigma"]), (t, name)
+        assert est.position_valid == want["position_valid"], t
+        assert est.data_age_s == pytest.approx(want["data_age_s"], abs=1e-9)
+    assert est.fixes_used > 250
+
+
+def test_compiled_step_conforms_to_its_interpreted_source():
+    """Conformance of the one entry point: compiled and interpreted (its own source, ``py_func``) agree to 1e-9 (m,
+    m/s, rad) along a noisy flight with an outage and a receiver failure."""
+    from geofence.estimator import FIX_SIZE, STATE_SIZE, estimator_step
+
+    if not hasattr(estimator_step, "py_func"):
+        pytest.skip("numba is not compiling here: the interpreted run is the only one")
+    suite = SensorSuite(SensorConfig(gps_outages=((10.0, 13.0),), gps_fail_at_s=40.0), seed=5)
+    a, b = GeofenceEstimator(FRAME), GeofenceEstimator(FRAME)
+    fix_row = np.zeros(FIX_SIZE)
+    for k in range(int(50.0 / DT)):
+        fix, air, att = suite.sample(turning(k * DT))
+        if fix is not None:
+            fix_row[:] = fix
+        args = (DT, fix is not None, fix_row, air.t_s, air.airspeed_mps, air.baro_alt_m, *att[1:])
+        got = estimator_step(a.memory[:STATE_SIZE], a.memory[STATE_SIZE:], *args)
+        ref = estimator_step.py_func(b.memory[:STATE_SIZE], b.memory[STATE_SIZE:], *args)
+        assert got == pytest.approx(ref, abs=1e-9, nan_ok=True), k
+        assert (a.position_valid, a.fixes_used, a.fixes_rejected) == (b.position_valid, b.fixes_used, b.fixes_rejected)
+        assert a.sigma_h_m == pytest.approx(b.sigma_h_m, rel=1e-12) and a.horizon_state() == pytest.approx(b.horizon_state())
+
+
+def test_the_sensing_chain_s_facades_read_its_own_slots():
+    """:class:`scenarios.flight.sensing.GeofenceSensing` runs one call a step over one packed array; its estimator,
+    wind estimator and sensors are façades over that array's slices, so they answer what the step wrote, and the
+    façades stepped on their own from the same truths give the same numbers (same sources, same noise)."""
+    from support import ROOT
+
+    from aircraft.profile import load_profile
+    from geofence.wind_estimator import WindEstimator, WindEstimatorConfig
+    from scenarios.definition.schema import load_scenario
+    from scenarios.flight.sensing import GeofenceSensing
+
+    sc = load_scenario(ROOT / "scenarios" / "geofence_gps_loss_fixedwing.yaml")
+    env = load_profile("Tern").envelope
+    chain = GeofenceSensing(sc, sc.geofence, sc.frame, env)
+    sensors = SensorSuite(sc.sensors, has_pitot=not env.is_multirotor, seed=sc.seed)
+    est = GeofenceEstimator(sc.frame, sc.sensors.estimator_config())
+    wind = WindEstimator(env, WindEstimatorConfig(prior_enu=sc.geofence.wind_prior_enu))
+    frame = sc.frame
+    for k in range(int(30.0 / DT)):
+        t = k * DT
+        lat, lon, h = frame.to_geodetic(15.0 * t, 0.0, 60.0)
+        truth = VehicleState(t, lat, lon, h, 15.0 * t, 0.0, 60.0, 60.0, 15.0, 0.0, 0.0, 0.0, 0.05, 0.5 * math.pi, 16.0)
+        got = chain.sense(truth, DT)
+        fix, air, att = sensors.sample(truth)
+        s = est.step(DT, fix, air, att)
+        assert (got.estimate.east_m, got.estimate.up_m) == pytest.approx((s.east_m, s.up_m), abs=1e-9)
+        assert got.wind_en == pytest.approx(wind.update(s, air.airspeed_mps, DT, est.position_valid), abs=1e-9)
+        assert (chain.estimator.sigma_h_m, chain.estimator.position_valid) == (got.sigma_h_m, got.position_valid)
+        assert chain.estimator.horizon_state() == chain.horizon and chain.wind.wind_enu == got.wind_en
+        assert chain.sensors.gps_bias_enu_m == sensors.gps_bias_enu_m
+    assert chain.estimator.fixes_used == est.fixes_used > 100

@@ -5,7 +5,17 @@ import math
 import numpy as np
 import pytest
 
-from aircraft.sensors import SensorConfig, SensorSuite, parse_sensors
+from aircraft.sensors import (
+    AHRS_STREAM,
+    BARO_STREAM,
+    GPS_STREAM,
+    NORMAL_BLOCK,
+    PITOT_STREAM,
+    SensorConfig,
+    SensorSuite,
+    parse_sensors,
+    stream_generator,
+)
 from geofence.dynamics import isa_density_ratio
 from geofence.geodesy import LocalFrame
 from geofence.interface import VehicleState
@@ -164,3 +174,75 @@ def test_the_estimator_is_tuned_to_the_sensors_through_one_map():
         assert getattr(est, theirs) == getattr(noisy, ours)
     assert est.timeout_s == 2.0
     assert set(ESTIMATOR_NOISE_FIELDS) <= {f.name for f in dc_fields(SensorConfig)}
+
+
+def test_each_sensor_draws_its_own_stream_in_order_across_refills():
+    """The noise order (what keeps flights identical): each message takes its stream's next normals, in the order
+    of the module docstring, straight through the pools' refills. With the Gauss-Markov errors switched off or
+    white, every sample is the truth plus sigma times a known draw of ``stream_generator(seed, stream)``."""
+    cfg = SensorConfig(gps_rate_hz=10.0, gps_h_bias_m=0.0, gps_v_bias_m=0.0, baro_drift_m=0.0, ahrs_tau_s=0.0)
+    seed, n = 9, NORMAL_BLOCK + 400  # every pool refills (the GNSS one six times)
+    suite = SensorSuite(cfg, seed=seed, prefill=False)
+    normals = {
+        k: stream_generator(seed, k).standard_normal(8 * NORMAL_BLOCK)
+        for k in (GPS_STREAM, BARO_STREAM, PITOT_STREAM, AHRS_STREAM)
+    }
+    truth = hover_truth(0.0)
+    rp, yaw = math.radians(cfg.ahrs_roll_pitch_deg), math.radians(cfg.ahrs_yaw_deg)
+    fixes = 0
+    for k in range(n):
+        t = k * 0.1
+        fix, air, att = suite.sample(hover_truth(t))
+        assert air.baro_alt_m == pytest.approx(truth.alt_m + 0.3 * normals[BARO_STREAM][k], abs=1e-9)
+        ias = 20.0 * math.sqrt(isa_density_ratio(truth.alt_m))
+        assert air.airspeed_mps == pytest.approx(max(ias + 0.3 * normals[PITOT_STREAM][k], 0.0), abs=1e-12)
+        a = normals[AHRS_STREAM][3 * k : 3 * k + 3]  # the start's three draws at step 0 (no time passed), then 3 a step
+        assert att.roll_rad == pytest.approx(truth.roll_rad + rp * a[0], abs=1e-12)
+        assert att.pitch_rad == pytest.approx(truth.pitch_rad + rp * a[1], abs=1e-12)
+        assert att.yaw_rad == pytest.approx((truth.yaw_rad + yaw * a[2]) % (2.0 * math.pi), abs=1e-12)
+        if fix is not None:
+            g = normals[GPS_STREAM][6 * fixes : 6 * fixes + 6]  # e, n, u, then the velocities
+            assert (fix.v_east_mps, fix.v_north_mps, fix.v_up_mps) == pytest.approx(
+                (0.1 * g[3], 0.1 * g[4], 0.2 * g[5]), abs=1e-12
+            )
+            e, nn, u = FRAME.to_enu(fix.lat_deg, fix.lon_deg, fix.alt_m)
+            assert (e, nn, u - 30.0) == pytest.approx((0.5 * g[0], 0.5 * g[1], 1.0 * g[2]), abs=1e-6)
+            fixes += 1
+    assert 6 * fixes > 2 * NORMAL_BLOCK
+
+
+def test_a_latency_of_many_fix_periods_is_delivered_in_order():
+    """The pending GNSS ring is sized by the configuration (here 90 messages in flight), not a fixed capacity."""
+    suite = SensorSuite(SensorConfig(gps_rate_hz=10.0, gps_latency_s=9.0, seed=4))
+    fixes = [(t, f) for t, f, _, _ in run(suite, 30.0) if f is not None]
+    assert len(fixes) == pytest.approx(30.0 * 10.0 - 90.0 + 1, abs=2)
+    for t, f in fixes:
+        assert t - f.t_s == pytest.approx(9.0, abs=0.025)
+    assert fixes[0][1].t_s == pytest.approx(-9.0)  # the pre-filled one, then one a fix period from t = 0
+    assert np.diff([f.t_s for _, f in fixes[1:]]) == pytest.approx(np.full(len(fixes) - 2, 0.1), abs=1e-9)
+
+
+@pytest.mark.parametrize("multirotor", [False, True])
+def test_compiled_step_conforms_to_its_interpreted_source(multirotor):
+    """Conformance of the one entry point: compiled and interpreted (its own source, ``py_func``) agree to 1e-9
+    (deg, m, m/s, rad) along a noisy climbing turn with an outage and a receiver failure, past the pools' refills."""
+    from aircraft.sensors import FIX0, OUTAGES0, sensors_step
+
+    if not hasattr(sensors_step, "py_func"):
+        pytest.skip("numba is not compiling here: the interpreted run is the only one")
+    cfg = SensorConfig(gps_outages=((10.0, 12.0),), gps_fail_at_s=60.0)
+    a, b = (SensorSuite(cfg, has_pitot=not multirotor, seed=3) for _ in range(2))
+
+    def climbing_turn(t: float) -> VehicleState:
+        lat, lon, h = FRAME.to_geodetic(50.0 * math.sin(0.2 * t), 50.0 * math.cos(0.2 * t), 30.0 + t)
+        return VehicleState(t, lat, lon, h, 0.0, 0.0, 30.0 + t, 30.0 + t, 10.0, -5.0, 1.0, 0.3, 0.05, 0.2 * t, 20.0)
+
+    for k in range(int(80.0 / DT)):
+        s = climbing_turn(k * DT)
+        fields = (s.t_s, s.lat_deg, s.lon_deg, s.alt_m, s.v_east_mps, s.v_north_mps, s.v_up_mps, s.airspeed_mps)
+        got = sensors_step(a.memory, a.pools, a.idx, *fields, s.roll_rad, s.pitch_rad, s.yaw_rad)
+        ref = sensors_step.py_func(b.memory, b.pools, b.idx, *fields, s.roll_rad, s.pitch_rad, s.yaw_rad)
+        assert got == pytest.approx(ref, abs=1e-9, nan_ok=True), k
+        assert a.memory[FIX0:OUTAGES0] == pytest.approx(b.memory[FIX0:OUTAGES0], abs=1e-9, nan_ok=True)
+        assert got[-1] == a.refill() | False and ref[-1] == b.refill() | False
+    assert (a.idx == b.idx).all() and a.gps_bias_enu_m == pytest.approx(b.gps_bias_enu_m, abs=1e-9)

@@ -1,12 +1,11 @@
 """The geofence unit's own view of a simulated flight: sensors -> state estimator -> wind estimator, per step.
 
-:class:`GeofenceSensing` runs the chain either as the reference objects
-(:class:`aircraft.sensors.SensorSuite`, :class:`geofence.estimator.GeofenceEstimator`) or, where numba is
-active (:data:`geofence.jit.ACTIVE`), as one compiled call per step through their array forms
-(:mod:`aircraft.sensor_kernel`, :mod:`geofence.estimator_kernel`); the sensors and the state estimator give
-the same numbers either way (``tests/test_sensing_kernel.py``). The wind estimator is written once
-(:func:`geofence.wind_estimator.wind_estimator_update`): the compiled chain keeps its state in its packed
-array, and :attr:`GeofenceSensing.wind` is a façade over those slots.
+:class:`GeofenceSensing` runs the chain as one call per step, :func:`sense_step` (compiled by
+:func:`geofence.jit.compiled`; the same source interpreted without numba or with ``NUMBA_DISABLE_JIT=1``). Each
+link is written once (:func:`aircraft.sensors.sensors_step`, :func:`geofence.estimator.estimator_step`,
+:func:`geofence.wind_estimator.wind_estimator_update`); the chain keeps their memories in one packed array, and
+:attr:`GeofenceSensing.sensors`, :attr:`GeofenceSensing.estimator` and :attr:`GeofenceSensing.wind` are façades
+over its slices: nothing is copied or synchronised.
 
 With ``state_source: truth`` (e.g. indoor motion capture) the unit gets the
 true state and the true steady wind instead.
@@ -18,18 +17,15 @@ from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
-from aircraft import sensor_kernel as sk
-from aircraft.sensor_kernel import HAS_PITOT, MAX_DRAWS_PER_STEP, SensorArrays, sensors_step
-from aircraft.sensors import SensorSuite
-from geofence import estimator_kernel as ek
+from aircraft import sensors as sk
+from aircraft.sensors import SENSOR_CONST, SensorSuite, sensors_step
+from geofence import estimator as ek
 from geofence import jit
 from geofence import wind_estimator as wk
 from geofence.config import GeofenceConfig, StateSource
-from geofence.estimator import GeofenceEstimator
-from geofence.estimator_kernel import estimator_arrays, estimator_step
+from geofence.estimator import EST_STATE, HORIZON_FIELDS, GeofenceEstimator, estimator_step
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, FixState, VehicleState
-from geofence.jit import COMPILED, numba
 from geofence.wind_estimator import WindEstimator, WindEstimatorConfig, turbulence_sigma_mps, wind_estimator_update
 from scenarios.definition.schema import Scenario
 from wind.config import wind_from_config
@@ -52,17 +48,15 @@ class Sensed(NamedTuple):
     """The wind estimator's turbulence intensity, m/s 1-sigma (None with a truth source: the unit is told nothing)."""
 
 
-# The chain's state vectors and constants, packed end to end in one float array (a compiled call pays about
-# 0.1 us per array argument): the sensors' state and constants, the estimator's, the wind estimator's, the
-# delivered fix, the outage windows and, last, the pending GNSS ring (their sizes follow the sensor configuration).
-_S0 = 0
-_C0 = _S0 + sk.N_STATE
-_X0 = _C0 + sk.N_CONST
-_K0 = _X0 + ek.N_STATE
-_W0 = _K0 + ek.N_CONST
+# The chain's memories, packed end to end in one float array (a compiled call pays about 0.1 us per array
+# argument): the state estimator's (state, constants), the wind estimator's and, last, the sensors' (state,
+# constants, the delivered fix, the outage windows and the pending GNSS ring: its size follows their configuration).
+_X0 = 0
+_K0 = _X0 + ek.STATE_SIZE
+_W0 = _K0 + ek.CONST_SIZE
 _WC0 = _W0 + wk.STATE_SIZE
-_FIX0 = _WC0 + wk.CONST_SIZE
-_OUTAGES0 = _FIX0 + 10
+_S0 = _WC0 + wk.CONST_SIZE
+_FIX0, _FIX1 = _S0 + sk.FIX0, _S0 + sk.OUTAGES0
 
 
 def _sense_step(
@@ -71,86 +65,68 @@ def _sense_step(
 ) -> tuple[tuple[float, ...], float, float, bool, float, float, bool, float, float, bool]:  # fmt: skip
     """One step of the chain from the truth's fields: ``(estimate fields, wind e, wind n, position valid,
     sigma_h, sigma_v, new horizon, data age, turbulence sigma, a noise pool runs low)``. ``P``: the packed
-    state and constants; ``pools``, ``idx``: :class:`~aircraft.sensor_kernel.SensorArrays`' noise rows and
-    read indices."""
-    S, C, X, K = P[_S0:_C0], P[_C0:_X0], P[_X0:_K0], P[_K0:_W0]
-    W, WC, fix = P[_W0:_WC0], P[_WC0:_FIX0], P[_FIX0:_OUTAGES0]
-    pending0 = _OUTAGES0 + 2 * int(C[sk.N_OUTAGES])
-    outages = P[_OUTAGES0:pending0].reshape(-1, 2)
-    pending = P[pending0:].reshape(-1, 10)
-    delivered, a_ind, baro_alt, r, p, y = sensors_step(
-        S, C, outages, pending, pools[0], pools[1], pools[2], pools[3], idx, fix, t, lat, lon, alt, ve, vn, vu,
-        airspeed, roll, pitch, yaw,
-    )  # fmt: skip
-    est = estimator_step(X, K, dt_s, delivered, fix, t, a_ind, baro_alt, r, p, y)
-    valid = X[ek.POSITION_VALID] != 0.0
-    we, wn = wind_estimator_update(
-        W, WC, C[HAS_PITOT] != 0.0, a_ind, dt_s, valid, est[3], est[7], est[8], est[9], est[10], est[11], est[12], est[13]
+    memories; ``pools``, ``idx``: the sensors' noise rows and read indices (:attr:`SensorSuite.pools`)."""
+    X, K, W, WC = P[_X0:_K0], P[_K0:_W0], P[_W0:_WC0], P[_WC0:_S0]
+    delivered, a_ind, baro_alt, r, p, y, low = sensors_step(
+        P[_S0:], pools, idx, t, lat, lon, alt, ve, vn, vu, airspeed, roll, pitch, yaw
     )
-    age = X[ek.T_S] - X[ek.T_D] if X[ek.HAS_H] != 0.0 else 0.0
-    low = False
-    for k in range(pools.shape[0]):
-        if pools.shape[1] - idx[k] < MAX_DRAWS_PER_STEP:
-            low = True
+    est = estimator_step(X, K, dt_s, delivered, P[_FIX0:_FIX1], t, a_ind, baro_alt, r, p, y)
+    x = X.view(EST_STATE)[0]
+    valid = x.position_valid != 0.0
+    has_pitot = P[_S0 + sk.STATE_SIZE : _FIX0].view(SENSOR_CONST)[0].has_pitot != 0.0
+    we, wn = wind_estimator_update(
+        W, WC, has_pitot, a_ind, dt_s, valid, est[3], est[7], est[8], est[9], est[10], est[11], est[12], est[13]
+    )
+    age = x.t_s - x.t_d_s if x.has_fix != 0.0 else 0.0
     return (
-        est, we, wn, valid, X[ek.SIGMA_H], X[ek.SIGMA_V], X[ek.HORIZON_NEW] != 0.0, age if age > 0.0 else 0.0,
+        est, we, wn, valid, x.sigma_h_m, x.sigma_v_m, x.horizon_new != 0.0, age if age > 0.0 else 0.0,
         turbulence_sigma_mps(W), low,
     )  # fmt: skip
 
 
 _new_tuple = tuple.__new__
 
-HORIZON_IN_P = slice(_X0 + ek.H_T, _X0 + ek.H_VN + 1)
+HORIZON_IN_P = slice(_X0 + HORIZON_FIELDS.start, _X0 + HORIZON_FIELDS.stop)
 """The fusion horizon's fields in the chain's packed array (for a caller's compiled step that runs the chain)."""
-_HORIZON = slice(ek.H_T, ek.H_VN + 1)
+_HORIZON = HORIZON_FIELDS
 """The fusion horizon's fields in the estimator's state, in :class:`FixState`'s order (read as one slice: a
 generator over the five indices costs three times as much, on every step with a new fix)."""
-if (ek.H_E, ek.H_N, ek.H_VE, ek.H_VN) != tuple(range(ek.H_T + 1, ek.H_T + 5)):
-    raise ImportError("the estimator's horizon fields are no longer adjacent: update sensing._HORIZON")
 
-sense_step: Callable[..., tuple[Any, ...]] = numba.njit(cache=True)(_sense_step) if COMPILED else _sense_step
-"""The compiled :func:`_sense_step` (the Python function itself without numba)."""
+sense_step: Callable[..., tuple[Any, ...]] = jit.compiled(_sense_step)
+"""The compiled :func:`_sense_step` (the Python function itself without numba): a caller's compiled step composes
+it (:mod:`scenarios.flight.step_kernel`)."""
 
 
 class GeofenceSensing:
     """The geofence unit's own view of the flight: sensors -> state estimator -> wind estimator.
 
-    ``compiled`` (default :data:`geofence.jit.ACTIVE` when built): one compiled call per step through the
-    chain's array forms; else the reference objects, kept as ``sensors``, ``estimator`` and ``wind``.
+    One call of :func:`sense_step` a step over one packed array; ``sensors``, ``estimator`` and ``wind`` are
+    façades over its slices (they read what the step writes). With ``state_source: truth`` the unit is given the
+    truth and the true steady wind instead (``compiled`` is then False: the chain does not run).
     """
 
-    def __init__(
-        self, scenario: Scenario, cfg: GeofenceConfig, frame: LocalFrame, env: Envelope, compiled: bool | None = None
-    ) -> None:
+    def __init__(self, scenario: Scenario, cfg: GeofenceConfig, frame: LocalFrame, env: Envelope) -> None:
         self.truth_source = cfg.state_source is StateSource.TRUTH
+        self.compiled = not self.truth_source
+        """The chain runs (and a caller's compiled step may run it: :meth:`kernel_arrays`)."""
         sc = scenario.sensors
-        has_pitot = not env.is_multirotor
-        wind_cfg = WindEstimatorConfig(prior_enu=cfg.wind_prior_enu)
         self._truth_wind = None
         if self.truth_source and scenario.wind is not None:
             self._truth_wind = wind_from_config(scenario.wind, scenario.seed)
-        self.compiled = (jit.ACTIVE if compiled is None else compiled) and not self.truth_source
-        if not self.compiled:
-            self.sensors = SensorSuite(sc, has_pitot=has_pitot, seed=scenario.seed)
-            self.estimator = GeofenceEstimator(frame, sc.estimator_config())
-            self.wind = WindEstimator(env, wind_cfg)
-        else:
-            arrays = self._sensor_arrays = SensorArrays(sc, has_pitot=has_pitot, seed=scenario.seed)
-            X, K = estimator_arrays(frame, sc.estimator_config())
-            wind_memory = np.zeros(wk.MEMORY_SIZE)  # the wind estimator's, laid out in P below
-            packed = (arrays.state, arrays.const, X, K, wind_memory, arrays.fix, arrays.outages.ravel(), arrays.pending.ravel())
-            P = np.concatenate(packed)  # copies: from here on the step reads and writes P, and of the sensor
-            # arrays only their noise rows and read indices (refilled in place)
-            self.wind = WindEstimator(env, wind_cfg, memory=P[_W0:_FIX0])  # a façade over the step's own slots
-            self._X = P[_X0:_K0]
-            self._args: tuple[Any, ...] = (P, arrays.pools, arrays.idx)
-            self._kernel: Callable[..., tuple[Any, ...]] = sense_step
-            self._horizon: FixState | None = None
+        P = np.zeros(_S0 + sk.memory_size(sc))  # the step reads and writes P; the objects are façades over it
+        self.estimator = GeofenceEstimator(frame, sc.estimator_config(), memory=P[_X0:_W0])
+        self.wind = WindEstimator(env, WindEstimatorConfig(prior_enu=cfg.wind_prior_enu), memory=P[_W0:_S0])
+        self.sensors = SensorSuite(sc, has_pitot=not env.is_multirotor, seed=scenario.seed, memory=P[_S0:])
+        self._X = P[_X0:_K0]
+        self._args: tuple[Any, ...] = (P, self.sensors.pools, self.sensors.idx)
+        self._kernel: Callable[..., tuple[Any, ...]] = sense_step
+        self._horizon: FixState | None = None
 
     def sense(self, truth: VehicleState, dt_s: float) -> Sensed:
         """The unit's estimate, wind estimate, position validity and sigmas for this step."""
-        if not self.compiled:
-            return self._sense_reference(truth, dt_s)
+        if self.truth_source:
+            we, wn = (self._truth_wind.mean(truth.agl_m)[:2]) if self._truth_wind is not None else (0.0, 0.0)
+            return Sensed(truth, (we, wn), True, 0.0, 0.0)
         s = truth
         P, pools, idx = self._args  # (unpacked: a call with *self._args costs 0.09 us more, measured)
         kernel = self._kernel
@@ -183,21 +159,5 @@ class GeofenceSensing:
         if new_horizon:
             self._horizon = _new_tuple(FixState, self._X[_HORIZON].tolist())  # (Python floats, as float(X[i]))
         if low:
-            self._sensor_arrays.refill()  # in place: the pools stay the same array
+            self.sensors.refill()  # in place: the pools stay the same array
         return self._horizon
-
-    def _sense_reference(self, truth: VehicleState, dt_s: float) -> Sensed:
-        """:meth:`sense` with the truth as the source, or through the reference objects."""
-        if self.truth_source:
-            we, wn = (self._truth_wind.mean(truth.agl_m)[:2]) if self._truth_wind is not None else (0.0, 0.0)
-            return Sensed(truth, (we, wn), True, 0.0, 0.0)
-        fix, air, att = self.sensors.sample(truth)
-        estimator = self.estimator
-        est = estimator.step(dt_s, fix, air, att)
-        est.on_ground = truth.on_ground  # touchdown switch / the flight controller's land detector
-        valid = estimator.position_valid
-        wind_en = self.wind.update(est, air.airspeed_mps, dt_s, valid)
-        return Sensed(
-            est, wind_en, valid, estimator.sigma_h_m, estimator.sigma_v_m, estimator.horizon_state(),
-            estimator.data_age_s, self.wind.turbulence_sigma_mps,
-        )  # fmt: skip
