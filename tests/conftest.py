@@ -65,7 +65,6 @@ SLOW_TESTS = {
     "test_routes_by_the_goal_tree_are_the_searchs_shortest_routes",
     "test_the_whole_graph_built_at_once_is_the_graph_found_node_by_node",
     "test_plots_are_written",
-    "test_the_compiled_chain_is_the_reference_chain",
     "test_variants_share_the_flight_and_differ_only_in_the_geofence",  # its fixture flies a campaign slice
     "test_routes_are_the_same_with_and_without_the_grid",
     "test_help_explains_every_subcommand",
