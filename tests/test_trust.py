@@ -131,7 +131,7 @@ def test_batch_resume_reflies_an_edited_scenario_and_says_so(tmp_path):
     a = json.loads((out / "flight_a" / "summary.json").read_text())
     assert a["scenario_hash"] != hashes["flight_a"] and a["sim_time_s"] == pytest.approx(2.0, abs=0.1)
     assert (out / "flight_b" / "summary.json").stat().st_mtime_ns == stamp_b, "an unchanged flight was re-flown"
-    assert not list(out.glob(".*")), "a temporary flight folder was left behind"
+    assert not list(out.glob(".*.tmp")), "a temporary flight folder was left behind"
     assert not jsbsim_folders(tmp)
 
 
@@ -218,7 +218,7 @@ def test_ctrl_c_and_sigterm_leave_no_temporary_folders(tmp_path):
         assert proc.returncode == 130, err
         assert "Traceback" not in err, err
         assert not jsbsim_folders(tmp), f"{sig.name} left temporary JSBSim folders"
-        assert not list(out.glob(".*")) if out.is_dir() else True, "a temporary flight folder was left behind"
+        assert not list(out.glob(".*.tmp")) if out.is_dir() else True, "a temporary flight folder was left behind"
 
 
 def test_a_run_leaves_no_temporary_folder_and_reports_segments(tmp_path):
