@@ -13,6 +13,7 @@ from analysis.formats.logs import LogError, describe, load_log, read_log
 from analysis.scoring import score_flight
 from geofence.fence import Fence
 from geofence.geodesy import LocalFrame
+from geofence.validation import ConfigError
 
 REALWORLD = Path(__file__).parents[2] / "shared" / "realworld"
 COLUMNS = (
@@ -468,31 +469,34 @@ def test_fence_far_from_the_log_is_flagged(tmp_path):
     assert d == pytest.approx(5004e3, rel=0.01)
     with pytest.raises(LogFenceDistanceError, match=r"5,00\d km apart.*wrong fence"):
         check_near_fence(traj, far, name="vtol")
-    assert check_near_fence(traj, far, max_distance_m=6e6) == d
-    # the CLI: a Canberra log against a Boulder fence is refused with one line; a larger bound lets it through
-    res = score_cli(real(VTOL), real("pymavlink_fence-110.txt"))
-    assert res.returncode == 2 and res.stdout == "" and len(res.stderr.strip().splitlines()) == 1
-    assert "km apart" in res.stderr and "wrong fence" in res.stderr
-    res = score_cli(real(VTOL), real("pymavlink_fence-110.txt"), "--max-fence-distance-km", "20000")
-    assert res.returncode == 0 and json.loads(res.stdout)["max_lateral_excursion_m"] > 1e6
+    with pytest.raises(ConfigError, match="max_distance_m"):  # no bound lets it through: the flat frame fails
+        check_near_fence(traj, far, max_distance_m=6e6)
+    # the CLI: a Canberra log against a Boulder fence is refused with one line, whatever bound is asked for
+    for extra in ((), ("--max-fence-distance-km", "20000")):
+        res = score_cli(real(VTOL), real("pymavlink_fence-110.txt"), *extra)
+        assert res.returncode == 2 and res.stdout == "" and len(res.stderr.strip().splitlines()) == 1, res.stderr
+    assert "km apart" in score_cli(real(VTOL), real("pymavlink_fence-110.txt")).stderr
 
 
 def test_text_output_prints_each_warning_once(tmp_path):
     data = real(VTOL).read_bytes()
     cut = tmp_path / "cut.tlog"
     cut.write_bytes(data[: len(data) - 5])
+    traj, info = _load(VTOL)
+    box = _box_fence(info, traj, 100.0)  # a fence around the log's own site (a far one is refused)
+    plan = tmp_path / "box.plan"
+    polygon = [[lat, lon] for lat, lon in box.keep_in]
+    plan.write_text(
+        json.dumps(
+            {
+                "fileType": "Plan",
+                "version": 1,
+                "geoFence": {"version": 2, "circles": [], "polygons": [{"inclusion": True, "polygon": polygon, "version": 1}]},
+            }
+        )
+    )
     res = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "scenarios.app.cli",
-            "score-log",
-            str(cut),
-            "--fence",
-            str(real("qgc_ce_geofence_home_base.plan")),
-            "--max-fence-distance-km",
-            "20000",
-        ],
+        [sys.executable, "-m", "scenarios.app.cli", "score-log", str(cut), "--fence", str(plan), "--ceiling", "120"],
         capture_output=True,
         text=True,
         cwd=REPO,
