@@ -1,5 +1,46 @@
 """The geofence unit: fence geometry, boundary shifting, monitor/override logic and guidance.
 
-Imports nothing from JSBSim or :mod:`aircraft`; it sees a state estimate, a
-platform :class:`~geofence.interface.Envelope` and outer-loop sticks.
+Imports nothing from JSBSim or :mod:`aircraft`, and reads no file; it sees a state estimate, a platform
+:class:`~geofence.interface.Envelope`, the wind and outer-loop sticks, and emits sticks and a mode.
+
+The public API, re-exported here (``from geofence import GeofenceUnit, parse_geofence``); each name is
+imported on first use, so that ``import geofence.validation`` stays light:
+
+=====================  ==========================================================================
+``GeofenceUnit``       the unit: ``update(estimate, sticks, ...)`` -> sticks, and its :class:`Mode`
+``GeofenceConfig``     its configuration (``parse_geofence`` validates a ``geofence:`` mapping)
+``Fence``              the fence in WGS-84 (keep-in, keep-outs, ceiling, floor and its gaps)
+``LocalFence``         the same in a local ENU frame (``Fence.to_local(LocalFrame(...))``)
+``Envelope``           what the unit knows of an airframe: speeds, bank or tilt, rates, latency
+``VehicleState``       a state estimate (ENU position and velocity, attitude, airspeed)
+``StickCommand``       normalised roll, pitch, yaw, throttle sticks
+``PlatformKind``       multirotor or fixed-wing
+=====================  ==========================================================================
 """
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
+
+_PUBLIC = {
+    "GeofenceUnit": "geofence.unit",
+    "Mode": "geofence.unit",
+    "GeofenceConfig": "geofence.config",
+    "parse_geofence": "geofence.config",
+    "Fence": "geofence.fence",
+    "LocalFence": "geofence.local_fence",
+    "LocalFrame": "geofence.geodesy",
+    "Envelope": "geofence.interface",
+    "VehicleState": "geofence.interface",
+    "StickCommand": "geofence.interface",
+    "PlatformKind": "geofence.interface",
+}
+
+__all__ = sorted(_PUBLIC)
+
+
+def __getattr__(name: str) -> Any:
+    if name in _PUBLIC:
+        return getattr(import_module(_PUBLIC[name]), name)
+    raise AttributeError(f"module 'geofence' has no attribute {name!r}")

@@ -169,3 +169,13 @@ def test_nothing_in_the_geofence_reads_a_file():
         if p.name != "jit.py"
     }
     assert {k: v for k, v in readers.items() if v} == {}
+
+
+def test_the_public_api_is_reexported_from_the_package():
+    import geofence
+
+    for name in geofence.__all__:
+        obj = getattr(geofence, name)
+        assert obj.__name__ == name and obj.__module__.startswith("geofence."), name
+    with pytest.raises(AttributeError):
+        geofence.no_such_name  # noqa: B018
