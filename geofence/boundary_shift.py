@@ -93,6 +93,7 @@ from .rooms import (
     reaction_arc_terms_m,
     rollout_turns,
     tilt_accel_mps2,
+    trochoid_excursion_bound_m,
     trochoid_excursion_m,
     vertical_arrest_distance_m,
     worst_case_lateral_shift_m,
@@ -231,9 +232,7 @@ def _binding_edge_pruned(
     bounded = []
     for pos, item in enumerate(near):
         d, w_n, base, psi0, gap = item[0], item[7], item[8], item[9], item[10]
-        drift = w_n * delta * inv_omega if w_n > 0.0 else 0.0
-        ub = radius * (1.0 - s * math.sin(psi0)) + drift
-        ub += 1e-6 * (1.0 + radius + drift)  # covers the excursion's round-off
+        ub = trochoid_excursion_bound_m(radius, inv_omega, w_n, math.sin(psi0), s, delta)
         gap_ub = gap * (1.0 + 1e-9) + 1e-9  # and the gap's: (d - base) - gap can round above d - (base + gap)
         bounded.append((d - base - (ub if ub > gap_ub else gap_ub), pos))
     bounded.sort()

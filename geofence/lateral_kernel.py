@@ -32,7 +32,14 @@ import numpy as np
 from geofence.cpython_math import hypot
 from geofence.dynamics import wind_push_mps2
 from geofence.jit import COMPILED, jitable, numba
-from geofence.rooms import multirotor_room_m, reaction_arc_terms_m, trochoid_excursion_m
+from geofence.rooms import (
+    multirotor_room_m,
+    reaction_arc_bound_m,
+    reaction_arc_sines_m,
+    reaction_arc_terms_m,
+    trochoid_excursion_bound_m,
+    trochoid_excursion_m,
+)
 
 __all__ = ["capped_lateral", "circle_scored", "edge_scored", "element_table", "lateral_binding", "nearest_distance"]
 
@@ -137,12 +144,7 @@ def _fixed_wing_binding(
             lb_base[q] = -math.inf
             sinp[q] = 0.0
             continue
-        if straight:
-            along = arc * (cp * nx + sp * ny)
-        else:
-            along = arc * ((sp * nx - cp * ny) - (sq * nx - cq * ny))
-        dd = along + w_n * t_fw
-        ub = dd if dd > 0.0 else 0.0
+        ub = reaction_arc_sines_m(arc, sp, cp, sq, cq, straight, t_fw, nx, ny, w_n)
         lb_base[q] = f_d[k] - ub - hu - 1e-9 * (1.0 + abs(arc) + abs(w_n) * t_fw + abs(hu))
         sinp[q] = nx * sa - ny * ca
     b_act = math.inf
@@ -156,10 +158,8 @@ def _fixed_wing_binding(
         seed = -1
         for q in range(nk):
             w_n = wn[q]
-            drift = w_n * delta * inv_omega if w_n > 0.0 else 0.0
-            ub = radius * (1.0 - s * sinp[q]) + drift
-            ub += 1e-6 * (1.0 + radius + drift)  # the excursion's round-off and sin psi0's
-            gap_ub = (v_turn + (w_n if w_n > 0.0 else 0.0)) * t_fw * (1.0 + 1e-9) + 1e-9  # >= the arc's farthest
+            ub = trochoid_excursion_bound_m(radius, inv_omega, w_n, sinp[q], s, delta)
+            gap_ub = reaction_arc_bound_m(v_turn, w_n, t_fw)
             lbq[q] = lb_base[q] - (ub if ub > gap_ub else gap_ub)
             if seed < 0 or lbq[q] < lbq[seed]:
                 seed = q
