@@ -74,25 +74,19 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from . import jit as _jit
-from .dynamics import drag_coefficients, wind_push_mps2
+from .dynamics import wind_push_mps2
 from .fence import AltitudeReference, FenceError
 from .interface import Envelope, PlatformKind, VehicleState
-from .lateral_kernel import capped_lateral, circle_scored, edge_scored, lateral_binding
+from .lateral_kernel import Turns, capped_lateral, circle_scored, edge_scored, lateral_binding
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
-from .margins_kernel import envelope_terms, floor_with_gap_m
+from .margins_kernel import EnvelopeTerms, envelope_terms, envelope_tuple, floor_with_gap_m, lateral_terms
 from .margins_kernel import margins as margins_kernel
 from .margins_kernel import monitor_margins as monitor_margins_kernel
 from .rooms import (
     G_MPS2,
-    climb_arrest_phase,
-    fixed_wing_reaction_terms,
-    fixed_wing_room_bound_m,
     gap_circle_turn_rad,
-    multirotor_room_bound_m,
     multirotor_room_m,
     reaction_arc_terms_m,
-    rollout_turns,
-    tilt_accel_mps2,
     trochoid_excursion_bound_m,
     trochoid_excursion_m,
     vertical_arrest_distance_m,
@@ -317,40 +311,25 @@ def activation_margins(
             fence, e, n, h, ve, vn, vu, envelope, wind_e, wind_n, h_uncertainty_m, v_uncertainty_m, latency_s, bank_rad,
             wind_extra_mps, rollout_target_en, g,
         )  # fmt: skip
-    t_r = envelope.reaction_time_s + latency_s
     speed = math.hypot(ve, vn)
     extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
     wspeed = math.hypot(wind_e, wind_n) + extra
     hu = h_uncertainty_m
-
     fixed_wing = envelope.kind is PlatformKind.FIXED_WING
-    if fixed_wing:
-        vae, van = ve - wind_e, vn - wind_n
-        # reaction phase: the pilot's current turn goes on, and rolling out of the current bank costs up to
-        # another roll time before the recovery turn starts (at cruise at least: the override flies at cruise)
-        psi_abs, psi_react0, v_turn, radius, inv_omega, t_fw, omega_now, rot = fixed_wing_reaction_terms(
-            math.hypot(vae, van), vae, van, ve, vn, speed, envelope.cruise_speed_mps, envelope.min_speed_mps,
-            envelope.max_bank_rad, envelope.reaction_time_s, t_r, bank_rad, g,
-        )  # fmt: skip
-        ca, sa = math.cos(psi_abs), math.sin(psi_abs)
-        # roll-out heading: the wind-corrected track to the recovery point
-        re, rn = fence.recovery_en if rollout_target_en is None else rollout_target_en
-        de, dn = re - e, rn - n
-        s1, delta1, s2, delta2 = rollout_turns(de, dn, math.hypot(de, dn), wind_e, wind_n, v_turn, psi_abs)
-        directions: tuple[tuple[float, float], ...] = ((s1, delta1), (s2, delta2))
-        # no edge farther than min_d + bound can bind (bound >= any room, turns <= 2 pi)
-        bound = fixed_wing_room_bound_m(radius, inv_omega, speed, wspeed, t_fw) + hu
-    else:
-        a_tilt = tilt_accel_mps2(envelope.max_bank_rad, g)
-        k1, k2 = drag_coefficients(envelope)
-        v_air_mc = math.hypot(ve - wind_e, vn - wind_n)
-        a_brake = envelope.braking_decel_mps2
-        # arresting a climb lowers the collective, and with it the horizontal braking force
-        climb_arrest = climb_arrest_phase(vu, envelope.vertical_accel_mps2, g)
-        directions = ((0.0, 0.0),)
-        radius = inv_omega = v_turn = 0.0  # no turn
-        # no edge farther than min_d + bound can bind
-        bound = multirotor_room_bound_m(speed, t_r, a_tilt, k1, k2, wspeed, a_brake, climb_arrest, hu)
+    env = _envelope_tuple(envelope)
+    re, rn = fence.recovery_en if rollout_target_en is None else rollout_target_en
+    de, dn = re - e, rn - n
+    state, turn, brake, turns, bound = lateral_terms(
+        env, ve, vn, vu, wind_e, wind_n, speed, math.hypot(ve - wind_e, vn - wind_n), wspeed, extra, hu, latency_s,
+        bank_rad, de, dn, math.hypot(de, dn), g,
+    )  # fmt: skip
+    t_r = env.reaction_s + latency_s
+    directions: tuple[tuple[float, float], ...] = (
+        ((turns.s1, turns.delta1), (turns.s2, turns.delta2)) if fixed_wing else ((0.0, 0.0),)
+    )
+    v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega = turn
+    k1, k2, _wspeed, _speed, a_pilot, _t_r, a_brake, arrest_t, arrest_loss = brake
+    climb_arrest = (arrest_t, arrest_loss)
 
     def terms_of(items: list, min_d: float) -> list:
         """Per edge item ``(d, nx, ny, feat, idx, j)`` that can bind (``d - bound < min_d``), its
@@ -372,7 +351,7 @@ def activation_margins(
                 # edge (while below max airspeed), helped by the wind's push, until the
                 # override acts (t_r); then the vehicle brakes against that push
                 push = wind_push_mps2(k1, k2, wspeed, w_n)
-                a_p = (a_tilt if v_air_mc < envelope.max_speed_mps else 0.0) + push
+                a_p = a_pilot + push
                 base = multirotor_room_m(v_n, speed, t_r, a_p, a_brake - push, climb_arrest) + hu
                 psi0 = gap = 0.0
             out.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap))
@@ -408,19 +387,11 @@ def activation_margins(
         else:  # every element
             walk = False
             ids, lbs, delta_c = all_ids, zeros, 0.0
-        if fixed_wing:
-            (s1, delta1), (s2, delta2) = directions
-            k1 = k2 = a_pilot = a_brake = arrest_t = arrest_loss = 0.0
-        else:
-            s1 = delta1 = s2 = delta2 = psi_react0 = rot = omega_now = t_fw = sa = ca = 0.0  # (radius, v_turn: 0 above)
-            a_pilot = a_tilt if v_air_mc < envelope.max_speed_mps else 0.0
-            arrest_t, arrest_loss = climb_arrest
         free = True
         while True:
             lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
-                E, ids, lbs, walk, e, n, bound, delta_c, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
-                v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
-                k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, fence.line_scored_edges(), free,
+                E, ids, lbs, walk, e, n, bound, delta_c, fence.line_scored_edges(), free, fixed_wing, state, turn,
+                brake, turns,
             )  # fmt: skip
             lat_margin = fence.lateral_margin_m(e, n, min_d)  # min_d: the exact nearest element, walked or scanned
             if lat_margin >= 0.0 or not free:
@@ -476,10 +447,8 @@ def activation_margins(
                             # the binding lateral element for the other turn alone (the candidates just scored)
                             if compiled:
                                 o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = lateral_binding(
-                                    E, ids, lbs, walk, e, n, bound, delta_c, fixed_wing, ve, vn, wind_e, wind_n,
-                                    extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega,
-                                    s_o, delta_o, s_o, delta_o, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t,
-                                    arrest_loss, fence.line_scored_edges(), free,
+                                    E, ids, lbs, walk, e, n, bound, delta_c, fence.line_scored_edges(), free,
+                                    fixed_wing, state, turn, brake, Turns(s_o, delta_o, s_o, delta_o),
                                 )  # fmt: skip
                                 o_feat, o_idx, o_j = meta[o_bind]
                             else:
@@ -526,10 +495,10 @@ def activation_margins(
     )
 
 
-_ENVELOPE_TERMS: dict[int, tuple[Envelope, np.ndarray]] = {}
-"""The compiled margins' envelope terms by envelope object (its identity checked: the entry holds it); cleared
-from :data:`_ENVELOPE_TERMS_KEPT` entries on (a unit makes a new envelope each time the air density it scales
-to moves, and a batch process flies many units)."""
+_ENVELOPE_TERMS: dict[int, tuple[Envelope, np.ndarray, EnvelopeTerms]] = {}
+"""The margins' envelope terms (the compiled kernels' array and the named tuple) by envelope object (its identity
+checked: the entry holds it); cleared from :data:`_ENVELOPE_TERMS_KEPT` entries on (a unit makes a new envelope
+each time the air density it scales to moves, and a batch process flies many units)."""
 _ENVELOPE_TERMS_KEPT = 64
 
 
@@ -544,14 +513,25 @@ def _margins_compiled(
     )
 
 
-def _envelope_terms(envelope: Envelope) -> np.ndarray:
-    """:func:`geofence.margins_kernel.envelope_terms` of ``envelope``, cached by identity."""
+def _cached_terms(envelope: Envelope) -> tuple[Envelope, np.ndarray, EnvelopeTerms]:
+    """``(envelope, envelope_terms, envelope_tuple)`` of ``envelope`` (:mod:`geofence.margins_kernel`), cached by
+    identity."""
     cached = _ENVELOPE_TERMS.get(id(envelope))
     if cached is None or cached[0] is not envelope:
         if len(_ENVELOPE_TERMS) >= _ENVELOPE_TERMS_KEPT:
             _ENVELOPE_TERMS.clear()
-        cached = _ENVELOPE_TERMS[id(envelope)] = (envelope, envelope_terms(envelope))
-    return cached[1]
+        cached = _ENVELOPE_TERMS[id(envelope)] = (envelope, envelope_terms(envelope), envelope_tuple(envelope))
+    return cached
+
+
+def _envelope_terms(envelope: Envelope) -> np.ndarray:
+    """:func:`geofence.margins_kernel.envelope_terms` of ``envelope``, cached by identity."""
+    return _cached_terms(envelope)[1]
+
+
+def _envelope_tuple(envelope: Envelope) -> EnvelopeTerms:
+    """:func:`geofence.margins_kernel.envelope_tuple` of ``envelope``, cached by identity."""
+    return _cached_terms(envelope)[2]
 
 
 class CompiledMargins:

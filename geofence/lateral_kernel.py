@@ -25,13 +25,13 @@ order then the circles): ``(ax, ay, dx, dy, 1/len², nx, ny)`` for an edge,
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import NamedTuple, Sequence
 
 import numpy as np
 
 from geofence.cpython_math import hypot
 from geofence.dynamics import wind_push_mps2
-from geofence.jit import COMPILED, jitable, numba
+from geofence.jit import compiled, jitable
 from geofence.rooms import (
     multirotor_room_m,
     reaction_arc_bound_m,
@@ -41,10 +41,76 @@ from geofence.rooms import (
     trochoid_excursion_m,
 )
 
-__all__ = ["capped_lateral", "circle_scored", "edge_scored", "element_table", "lateral_binding", "nearest_distance"]
+__all__ = [
+    "FixedWingTurn",
+    "LateralState",
+    "MultirotorBrake",
+    "Turns",
+    "capped_lateral",
+    "circle_scored",
+    "edge_scored",
+    "element_table",
+    "lateral_binding",
+    "nearest_distance",
+]
 
 FIXED_WING_SCRATCH_ROWS = 8
 """The scratch rows :func:`_fixed_wing_binding` takes (its per-element terms)."""
+
+
+class LateralState(NamedTuple):
+    """The state's terms every element is scored with: ground velocity and wind (m/s, ENU), the wind
+    allowance added towards every element ``extra`` (m/s) and the horizontal uncertainty ``hu`` (m)."""
+
+    ve: float
+    vn: float
+    wind_e: float
+    wind_n: float
+    extra: float
+    hu: float
+
+
+class FixedWingTurn(NamedTuple):
+    """A fixed-wing's manoeuvre terms (:func:`geofence.rooms.fixed_wing_reaction_terms`): the turn speed (m/s),
+    the air heading at the reaction's start (rad, ENU), the reaction's rotation (rad) and rate (rad/s, + =
+    clockwise), the reaction time (s), ``sin``/``cos`` of the heading where the turn starts, and the turn
+    constants ``R`` (m), ``1/omega`` (s). Zeros for a multirotor."""
+
+    v_turn: float
+    psi_react0: float
+    rot: float
+    omega_now: float
+    t_fw: float
+    sa: float
+    ca: float
+    radius: float
+    inv_omega: float
+
+
+class MultirotorBrake(NamedTuple):
+    """A multirotor's stop terms: the drag law ``k1, k2``, the wind speed with its allowance (m/s), the ground
+    speed (m/s), the pilot's tilt acceleration (m/s², 0 at max airspeed), the reaction time (s), the braking
+    deceleration (m/s²) and the climb arrest (:func:`geofence.rooms.climb_arrest_phase`: s, fraction). Zeros
+    for a fixed-wing."""
+
+    k1: float
+    k2: float
+    wspeed: float
+    speed: float
+    a_pilot: float
+    t_r: float
+    a_brake: float
+    arrest_t: float
+    arrest_loss: float
+
+
+class Turns(NamedTuple):
+    """The two turns a fixed-wing is scored with: direction (+1 left, -1 right) and angle (rad) each."""
+
+    s1: float
+    delta1: float
+    s2: float
+    delta2: float
 
 
 def element_table(edges: Sequence[tuple], circles: Sequence[tuple[float, float, float]]) -> np.ndarray:
@@ -56,12 +122,17 @@ def element_table(edges: Sequence[tuple], circles: Sequence[tuple[float, float, 
 
 @jitable
 def _multirotor_binding(
-    f_d: np.ndarray, f_nx: np.ndarray, f_ny: np.ndarray, f_id: np.ndarray, keep: np.ndarray, state: tuple, brake: tuple
+    f_d: np.ndarray,
+    f_nx: np.ndarray,
+    f_ny: np.ndarray,
+    f_id: np.ndarray,
+    keep: np.ndarray,
+    state: LateralState,
+    brake: MultirotorBrake,
 ) -> tuple[float, float, int, float, float, float]:
     """``(activation, 0, position in keep, room, 0, v_n)``: the smallest ``d - base`` over ``keep`` (the
     reference's ``terms_of`` and ``_binding_edge_no_turn``: the lowest element id ``f_id`` on a tie, the first
-    in the reference's element order). ``state = (ve, vn, wind_e, wind_n, extra, hu)``, ``brake = (k1, k2,
-    wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss)``: :func:`_lateral_binding`'s arguments."""
+    in the reference's element order)."""
     ve, vn, wind_e, wind_n, extra, hu = state
     k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss = brake
     worst = math.inf
@@ -93,8 +164,9 @@ def _fixed_wing_binding(
     f_ny: np.ndarray,
     f_id: np.ndarray,
     keep: np.ndarray,
-    state: tuple,
-    turn: tuple,
+    state: LateralState,
+    turn: FixedWingTurn,
+    turns: Turns,
     W: np.ndarray,
 ) -> tuple[float, float, int, float, float, float]:
     """``(activation, turn sign, position in keep, room, turn angle, v_n)`` of a fixed-wing's binding element
@@ -110,12 +182,12 @@ def _fixed_wing_binding(
     1e-9 of it; a normal that is not unit (a zero-length edge) gets no bound. After the element with the
     smallest bound, every element whose bound is at most the smallest activation found so far is scored; a
     bound is at most its activation, so every element that can tie the smallest is scored exactly.
-    ``state = (ve, vn, wind_e, wind_n, extra, hu)``, ``turn = (v_turn, psi_react0, rot, omega_now, t_fw, sa,
-    ca, radius, inv_omega, s1, delta1, s2, delta2)``: :func:`_lateral_binding`'s arguments. ``W``: scratch, at
-    least :data:`FIXED_WING_SCRATCH_ROWS` rows of ``keep``'s length (its rows are the per-element terms below).
+    ``W``: scratch, at least :data:`FIXED_WING_SCRATCH_ROWS` rows of ``keep``'s length (its rows are the
+    per-element terms below).
     """
     ve, vn, wind_e, wind_n, extra, hu = state
-    v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2 = turn
+    v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega = turn
+    s1, delta1, s2, delta2 = turns
     nk = keep.shape[0]
     if nk == 0:
         return math.inf, 0.0, -1, 0.0, 0.0, 0.0
@@ -339,48 +411,23 @@ def _lateral_binding(
     n: float,
     reach: float,
     delta_c: float,
-    fixed_wing: bool,
-    ve: float,
-    vn: float,
-    wind_e: float,
-    wind_n: float,
-    extra: float,
-    hu: float,
-    v_turn: float,
-    psi_react0: float,
-    rot: float,
-    omega_now: float,
-    t_fw: float,
-    sa: float,
-    ca: float,
-    radius: float,
-    inv_omega: float,
-    s1: float,
-    delta1: float,
-    s2: float,
-    delta2: float,
-    k1: float,
-    k2: float,
-    wspeed: float,
-    speed: float,
-    a_pilot: float,
-    t_r: float,
-    a_brake: float,
-    arrest_t: float,
-    arrest_loss: float,
     n_line: int,
     free: bool,
+    fixed_wing: bool,
+    state: LateralState,
+    turn: FixedWingTurn,
+    brake: MultirotorBrake,
+    turns: Turns,
 ) -> tuple[float, float, int, float, float, float, float, float, float, float]:
     """``(activation, turn sign, element id, room, nx, ny, d, v_n, turn angle, d_min)`` of the binding element.
 
     Candidates: the rows ``ids`` of ``E``. ``walk``: they are sorted by ``lbs``, lower bounds of their
     distance plus ``delta_c`` (an index cell's list, :meth:`FenceGrid.near`'s walk and stop rule); else every
     candidate is scored (the full scan; ``ids`` in element order). Kept: ``d - reach < d_min``. Scored by
-    :func:`_fixed_wing_binding` (turns ``(s1, delta1)`` and ``(s2, delta2)``) or :func:`_multirotor_binding`;
-    a tie goes to the lowest element id (the reference's first in element order). Element id -1: no
-    candidate. The other arguments are :func:`~geofence.boundary_shift.activation_margins`' per-state
-    terms under the same names (the other platform kind's are zeros; ``arrest_t, arrest_loss`` its
-    ``climb_arrest``). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges; ``free``: the point
+    :func:`_fixed_wing_binding` (``turn``, scored for each of ``turns``) or :func:`_multirotor_binding`
+    (``brake``); a tie goes to the lowest element id (the reference's first in element order). Element id -1:
+    no candidate. ``state``, ``turn``, ``brake``: the per-state terms
+    (:func:`geofence.margins_kernel.lateral_terms`; the other platform kind's are zeros). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges; ``free``: the point
     is in the free space (:func:`edge_scored`). Each edge is
     scored by :func:`edge_scored` (``d``, ``nx, ny``: its scored distance and direction; ``d_min`` stays the
     nearest point-segment distance).
@@ -404,12 +451,9 @@ def _lateral_binding(
             keep[nk] = k
             nk += 1
     keep = keep[:nk]
-    state = (ve, vn, wind_e, wind_n, extra, hu)
     if fixed_wing:
-        turn = (v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2)
-        b_act, b_s, b_q, b_room, b_delta, t_vn = _fixed_wing_binding(f_d, f_nx, f_ny, f_id, keep, state, turn, W[3:])
+        b_act, b_s, b_q, b_room, b_delta, t_vn = _fixed_wing_binding(f_d, f_nx, f_ny, f_id, keep, state, turn, turns, W[3:])
     else:
-        brake = (k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss)
         b_act, b_s, b_q, b_room, b_delta, t_vn = _multirotor_binding(f_d, f_nx, f_ny, f_id, keep, state, brake)
     if b_q < 0:
         return math.inf, 0.0, -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, min_d
@@ -417,8 +461,8 @@ def _lateral_binding(
     return b_act, b_s, f_id[k], b_room, f_nx[k], f_ny[k], f_d[k], t_vn, b_delta, min_d
 
 
-lateral_binding = numba.njit(cache=True)(_lateral_binding) if COMPILED else _lateral_binding
+lateral_binding = compiled(_lateral_binding)
 """The compiled :func:`_lateral_binding` (the Python function itself without numba)."""
 
-nearest_distance = numba.njit(cache=True)(_nearest_distance) if COMPILED else _nearest_distance
+nearest_distance = compiled(_nearest_distance)
 """The compiled :func:`_nearest_distance`."""
