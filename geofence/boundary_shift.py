@@ -74,21 +74,27 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from . import jit as _jit
-from .dynamics import wind_push_mps2
 from .fence import AltitudeReference, FenceError
 from .interface import Envelope, PlatformKind, VehicleState
-from .lateral_kernel import Turns, capped_lateral, circle_scored, edge_scored, lateral_binding
+from .lateral_kernel import (
+    Turns,
+    capped_lateral,
+    circle_scored,
+    edge_scored,
+    fixed_wing_edge_terms,
+    lateral_binding,
+    multirotor_edge_room_m,
+    wind_toward_mps,
+)
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
 from .margins_kernel import EnvelopeTerms, envelope_terms, envelope_tuple, floor_with_gap_m, lateral_terms
 from .margins_kernel import margins as margins_kernel
 from .margins_kernel import monitor_margins as monitor_margins_kernel
 from .rooms import (
     G_MPS2,
+    fixed_wing_edge_room_m,
     gap_circle_turn_rad,
-    multirotor_room_m,
-    reaction_arc_terms_m,
     trochoid_excursion_bound_m,
-    trochoid_excursion_m,
     vertical_arrest_distance_m,
     worst_case_lateral_shift_m,
 )
@@ -205,8 +211,7 @@ def _binding_edge_scan(
     worst = math.inf
     wk = None
     for d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap in near:
-        ex = trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
-        room = base + (ex if ex >= gap else gap)
+        room = fixed_wing_edge_room_m(base, gap, radius, inv_omega, v_turn, w_n, psi0, s, delta)
         act = d - room
         if act < worst:
             worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)
@@ -237,8 +242,7 @@ def _binding_edge_pruned(
         if lb > worst:
             break
         d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap = near[pos]
-        ex = trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
-        room = base + (ex if ex >= gap else gap)
+        room = fixed_wing_edge_room_m(base, gap, radius, inv_omega, v_turn, w_n, psi0, s, delta)
         act = d - room
         if act < worst or (act == worst and pos < wpos):
             worst, wk, wpos = act, (room, feat, idx, j, nx, ny, d, v_n), pos
@@ -327,9 +331,7 @@ def activation_margins(
     directions: tuple[tuple[float, float], ...] = (
         ((turns.s1, turns.delta1), (turns.s2, turns.delta2)) if fixed_wing else ((0.0, 0.0),)
     )
-    v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega = turn
-    k1, k2, _wspeed, _speed, a_pilot, _t_r, a_brake, arrest_t, arrest_loss = brake
-    climb_arrest = (arrest_t, arrest_loss)
+    radius, inv_omega, v_turn = turn.radius, turn.inv_omega, turn.v_turn
 
     def terms_of(items: list, min_d: float) -> list:
         """Per edge item ``(d, nx, ny, feat, idx, j)`` that can bind (``d - bound < min_d``), its
@@ -340,19 +342,11 @@ def activation_margins(
             if d - bound >= min_d:
                 continue
             v_n = ve * nx + vn * ny
-            w_n = wind_e * nx + wind_n * ny + extra
+            w_n = wind_toward_mps(state, nx, ny)
             if fixed_wing:
-                end, gap = reaction_arc_terms_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n)
-                base = end + hu
-                # air heading relative to the normal: angle from n to (ca, sa)
-                psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
+                base, gap, psi0 = fixed_wing_edge_terms(state, turn, nx, ny, w_n)
             else:
-                # worst case: the pilot keeps accelerating at the tilt limit toward the
-                # edge (while below max airspeed), helped by the wind's push, until the
-                # override acts (t_r); then the vehicle brakes against that push
-                push = wind_push_mps2(k1, k2, wspeed, w_n)
-                a_p = a_pilot + push
-                base = multirotor_room_m(v_n, speed, t_r, a_p, a_brake - push, climb_arrest) + hu
+                base = multirotor_edge_room_m(env, state, brake, v_n, w_n)
                 psi0 = gap = 0.0
             out.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap))
         return out
@@ -390,8 +384,8 @@ def activation_margins(
         free = True
         while True:
             lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
-                E, ids, lbs, walk, e, n, bound, delta_c, fence.line_scored_edges(), free, fixed_wing, state, turn,
-                brake, turns,
+                E, ids, lbs, walk, e, n, bound, delta_c, fence.line_scored_edges(), free, fixed_wing, env, state,
+                turn, brake, turns,
             )  # fmt: skip
             lat_margin = fence.lateral_margin_m(e, n, min_d)  # min_d: the exact nearest element, walked or scanned
             if lat_margin >= 0.0 or not free:
@@ -448,7 +442,7 @@ def activation_margins(
                             if compiled:
                                 o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = lateral_binding(
                                     E, ids, lbs, walk, e, n, bound, delta_c, fence.line_scored_edges(), free,
-                                    fixed_wing, state, turn, brake, Turns(s_o, delta_o, s_o, delta_o),
+                                    fixed_wing, env, state, turn, brake, Turns(s_o, delta_o, s_o, delta_o),
                                 )  # fmt: skip
                                 o_feat, o_idx, o_j = meta[o_bind]
                             else:

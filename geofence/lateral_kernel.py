@@ -25,20 +25,23 @@ order then the circles): ``(ax, ay, dx, dy, 1/len², nx, ny)`` for an edge,
 from __future__ import annotations
 
 import math
-from typing import NamedTuple, Sequence
+from typing import TYPE_CHECKING, NamedTuple, Sequence
 
 import numpy as np
 
 from geofence.cpython_math import hypot
 from geofence.dynamics import wind_push_mps2
 from geofence.jit import compiled, jitable
+
+if TYPE_CHECKING:  # (margins_kernel imports this module)
+    from geofence.margins_kernel import EnvelopeTerms
 from geofence.rooms import (
+    fixed_wing_edge_room_m,
     multirotor_room_m,
     reaction_arc_bound_m,
     reaction_arc_sines_m,
     reaction_arc_terms_m,
     trochoid_excursion_bound_m,
-    trochoid_excursion_m,
 )
 
 __all__ = [
@@ -88,18 +91,14 @@ class FixedWingTurn(NamedTuple):
 
 
 class MultirotorBrake(NamedTuple):
-    """A multirotor's stop terms: the drag law ``k1, k2``, the wind speed with its allowance (m/s), the ground
-    speed (m/s), the pilot's tilt acceleration (m/s², 0 at max airspeed), the reaction time (s), the braking
-    deceleration (m/s²) and the climb arrest (:func:`geofence.rooms.climb_arrest_phase`: s, fraction). Zeros
-    for a fixed-wing."""
+    """A multirotor's stop terms: the wind speed with its allowance (m/s), the ground speed (m/s), the pilot's
+    tilt acceleration (m/s², 0 at max airspeed), the reaction time (s) and the climb arrest
+    (:func:`geofence.rooms.climb_arrest_phase`: s, fraction). Zeros for a fixed-wing."""
 
-    k1: float
-    k2: float
     wspeed: float
     speed: float
     a_pilot: float
     t_r: float
-    a_brake: float
     arrest_t: float
     arrest_loss: float
 
@@ -111,6 +110,38 @@ class Turns(NamedTuple):
     delta1: float
     s2: float
     delta2: float
+
+
+@jitable
+def wind_toward_mps(state: LateralState, nx: float, ny: float) -> float:
+    """The wind towards an element along the unit direction ``(nx, ny)`` it is scored along, with the
+    allowance (m/s)."""
+    return state.wind_e * nx + state.wind_n * ny + state.extra
+
+
+@jitable
+def fixed_wing_edge_terms(
+    state: LateralState, turn: FixedWingTurn, nx: float, ny: float, w_n: float
+) -> tuple[float, float, float]:
+    """``(base, gap, psi0)`` of one element for a fixed-wing, whatever the turn: the reaction travel plus the
+    uncertainty (m), how much farther the reaction arc gets (m; :func:`geofence.rooms.reaction_arc_terms_m`),
+    and the air heading where the turn starts relative to the direction ``(nx, ny)`` (rad)."""
+    end, gap = reaction_arc_terms_m(turn.v_turn, turn.psi_react0, turn.rot, turn.omega_now, turn.t_fw, nx, ny, w_n)
+    sa = turn.sa
+    ca = turn.ca
+    return end + state.hu, gap, math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
+
+
+@jitable
+def multirotor_edge_room_m(env: EnvelopeTerms, state: LateralState, brake: MultirotorBrake, v_n: float, w_n: float) -> float:
+    """A multirotor's room against one element, plus the uncertainty, m: the worst-case pilot accelerates
+    towards it at the tilt limit (while below max airspeed) helped by the wind's push until the override acts,
+    then it brakes against that push (:func:`geofence.rooms.multirotor_room_m`); ``v_n``, ``w_n``: the ground
+    velocity and the wind towards it (m/s)."""
+    push = wind_push_mps2(env.k1, env.k2, brake.wspeed, w_n)
+    a_p = brake.a_pilot + push
+    arrest = (brake.arrest_t, brake.arrest_loss)
+    return multirotor_room_m(v_n, brake.speed, brake.t_r, a_p, env.braking_mps2 - push, arrest) + state.hu
 
 
 def element_table(edges: Sequence[tuple], circles: Sequence[tuple[float, float, float]]) -> np.ndarray:
@@ -127,14 +158,15 @@ def _multirotor_binding(
     f_ny: np.ndarray,
     f_id: np.ndarray,
     keep: np.ndarray,
+    env: EnvelopeTerms,
     state: LateralState,
     brake: MultirotorBrake,
 ) -> tuple[float, float, int, float, float, float]:
     """``(activation, 0, position in keep, room, 0, v_n)``: the smallest ``d - base`` over ``keep`` (the
     reference's ``terms_of`` and ``_binding_edge_no_turn``: the lowest element id ``f_id`` on a tie, the first
     in the reference's element order)."""
-    ve, vn, wind_e, wind_n, extra, hu = state
-    k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss = brake
+    ve = state.ve
+    vn = state.vn
     worst = math.inf
     wq = -1
     wroom = 0.0
@@ -144,10 +176,7 @@ def _multirotor_binding(
         nx = f_nx[k]
         ny = f_ny[k]
         v_n = ve * nx + vn * ny
-        w_n = wind_e * nx + wind_n * ny + extra
-        push = wind_push_mps2(k1, k2, wspeed, w_n)
-        a_p = a_pilot + push
-        base = multirotor_room_m(v_n, speed, t_r, a_p, a_brake - push, (arrest_t, arrest_loss)) + hu
+        base = multirotor_edge_room_m(env, state, brake, v_n, wind_toward_mps(state, nx, ny))
         act = f_d[k] - base
         if act < worst or (wq >= 0 and act == worst and f_id[k] < f_id[keep[wq]]):
             worst = act
@@ -185,7 +214,9 @@ def _fixed_wing_binding(
     ``W``: scratch, at least :data:`FIXED_WING_SCRATCH_ROWS` rows of ``keep``'s length (its rows are the
     per-element terms below).
     """
-    ve, vn, wind_e, wind_n, extra, hu = state
+    ve = state.ve
+    vn = state.vn
+    hu = state.hu
     v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega = turn
     s1, delta1, s2, delta2 = turns
     nk = keep.shape[0]
@@ -210,7 +241,7 @@ def _fixed_wing_binding(
         k = keep[q]
         nx = f_nx[k]
         ny = f_ny[k]
-        w_n = wind_e * nx + wind_n * ny + extra
+        w_n = wind_toward_mps(state, nx, ny)
         wn[q] = w_n
         if abs(nx * nx + ny * ny - 1.0) > 1e-9:  # no bound: scored exactly
             lb_base[q] = -math.inf
@@ -244,14 +275,9 @@ def _fixed_wing_binding(
                 continue
             k = keep[q]
             if done[q] == 0.0:
-                nx = f_nx[k]
-                ny = f_ny[k]
-                end, gap[q] = reaction_arc_terms_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, wn[q])
-                base[q] = end + hu
-                psi[q] = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
+                base[q], gap[q], psi[q] = fixed_wing_edge_terms(state, turn, f_nx[k], f_ny[k], wn[q])
                 done[q] = 1.0
-            excursion = trochoid_excursion_m(radius, inv_omega, v_turn, wn[q], psi[q], s, delta)
-            room = base[q] + (excursion if excursion >= gap[q] else gap[q])
+            room = fixed_wing_edge_room_m(base[q], gap[q], radius, inv_omega, v_turn, wn[q], psi[q], s, delta)
             act = f_d[k] - room
             if act < worst or (wq >= 0 and act == worst and f_id[k] < f_id[keep[wq]]):
                 worst = act
@@ -414,6 +440,7 @@ def _lateral_binding(
     n_line: int,
     free: bool,
     fixed_wing: bool,
+    env: EnvelopeTerms,
     state: LateralState,
     turn: FixedWingTurn,
     brake: MultirotorBrake,
@@ -426,7 +453,7 @@ def _lateral_binding(
     candidate is scored (the full scan; ``ids`` in element order). Kept: ``d - reach < d_min``. Scored by
     :func:`_fixed_wing_binding` (``turn``, scored for each of ``turns``) or :func:`_multirotor_binding`
     (``brake``); a tie goes to the lowest element id (the reference's first in element order). Element id -1:
-    no candidate. ``state``, ``turn``, ``brake``: the per-state terms
+    no candidate. ``env``: the envelope's terms; ``state``, ``turn``, ``brake``: the per-state terms
     (:func:`geofence.margins_kernel.lateral_terms`; the other platform kind's are zeros). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges; ``free``: the point
     is in the free space (:func:`edge_scored`). Each edge is
     scored by :func:`edge_scored` (``d``, ``nx, ny``: its scored distance and direction; ``d_min`` stays the
@@ -454,7 +481,7 @@ def _lateral_binding(
     if fixed_wing:
         b_act, b_s, b_q, b_room, b_delta, t_vn = _fixed_wing_binding(f_d, f_nx, f_ny, f_id, keep, state, turn, turns, W[3:])
     else:
-        b_act, b_s, b_q, b_room, b_delta, t_vn = _multirotor_binding(f_d, f_nx, f_ny, f_id, keep, state, brake)
+        b_act, b_s, b_q, b_room, b_delta, t_vn = _multirotor_binding(f_d, f_nx, f_ny, f_id, keep, env, state, brake)
     if b_q < 0:
         return math.inf, 0.0, -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, min_d
     k = keep[b_q]

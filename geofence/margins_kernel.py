@@ -242,12 +242,12 @@ def lateral_terms(
         turn = FixedWingTurn(v_turn, psi_react0, rot, omega_now, t_fw, math.sin(psi_abs), math.cos(psi_abs), radius, inv_omega)
         turns = Turns(*rollout_turns(de, dn, dd, wind_e, wind_n, v_turn, psi_abs))
         bound = fixed_wing_room_bound_m(radius, inv_omega, speed, wspeed, t_fw) + hu
-        return state, turn, MultirotorBrake(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), turns, bound
+        return state, turn, MultirotorBrake(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), turns, bound
     a_tilt = tilt_accel_mps2(env.max_bank_rad, g)
     arrest_t, arrest_loss = climb_arrest_phase(vu, env.vertical_accel_mps2, g)
     bound = multirotor_room_bound_m(speed, t_r, a_tilt, env.k1, env.k2, wspeed, env.braking_mps2, (arrest_t, arrest_loss), hu)
     a_pilot = a_tilt if v_air < env.max_speed_mps else 0.0
-    brake = MultirotorBrake(env.k1, env.k2, wspeed, speed, a_pilot, t_r, env.braking_mps2, arrest_t, arrest_loss)
+    brake = MultirotorBrake(wspeed, speed, a_pilot, t_r, arrest_t, arrest_loss)
     turn = FixedWingTurn(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     return state, turn, brake, Turns(0.0, 0.0, 0.0, 0.0), bound
 
@@ -300,7 +300,7 @@ def _margins(
         lat_margin = _lateral_margin(F, L, e, n)
     E, ids, zeros, n_line = _table(F, L, ELEMENTS, 7), _vector(L, IDS), _column(F, L, ZEROS), int(S[LINE_EDGES])
     lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
-        E, ids, zeros, False, e, n, bound, 0.0, n_line, lat_margin >= 0.0, fixed_wing, state, turn, brake, turns
+        E, ids, zeros, False, e, n, bound, 0.0, n_line, lat_margin >= 0.0, fixed_wing, env, state, turn, brake, turns
     )
     lat_act, ttb = capped_lateral(lat_act, lat_margin, d_edge, v_n)
 
@@ -335,7 +335,7 @@ def _margins(
                 g_ids = np.arange(cnt)
                 g_lbs = np.zeros(cnt)
                 g_act = lateral_binding(
-                    G, g_ids, g_lbs, False, e, n, bound, 0.0, 0, True, fixed_wing, state, turn, brake, g_turns
+                    G, g_ids, g_lbs, False, e, n, bound, 0.0, 0, True, fixed_wing, env, state, turn, brake, g_turns
                 )[0]
                 floor_best = floor_with_gap_m(f_act, g_act, gd)
                 if fixed_wing and floor_best < gd:
@@ -343,15 +343,15 @@ def _margins(
                     # the other turn's circle can raise the floor's activation only below the gap's own room
                     s_o, delta_o = (turns.s2, turns.delta2) if s_best == turns.s1 else (turns.s1, turns.delta1)
                     g_o = lateral_binding(
-                        G, g_ids, g_lbs, False, e, n, bound, 0.0, 0, True, fixed_wing, state, turn, brake,
+                        G, g_ids, g_lbs, False, e, n, bound, 0.0, 0, True, fixed_wing, env, state, turn, brake,
                         Turns(s_o, circle, s_o, circle),
                     )[0]  # fmt: skip
                     floor_o = floor_with_gap_m(f_act, g_o, gd)
                     now = min(lat_act, floor_best, ceiling_act)
                     if floor_o > floor_best and min(floor_o, ceiling_act) > now:
                         o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = lateral_binding(
-                            E, ids, zeros, False, e, n, bound, 0.0, n_line, lat_margin >= 0.0, fixed_wing, state,
-                            turn, brake, Turns(s_o, delta_o, s_o, delta_o),
+                            E, ids, zeros, False, e, n, bound, 0.0, n_line, lat_margin >= 0.0, fixed_wing, env,
+                            state, turn, brake, Turns(s_o, delta_o, s_o, delta_o),
                         )  # fmt: skip
                         o_lat, o_ttb = capped_lateral(o_act, lat_margin, o_d, o_vn)
                         if min(o_lat, floor_o, ceiling_act) > now:

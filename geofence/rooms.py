@@ -107,14 +107,17 @@ __all__ = [
     "fixed_wing_room_bound_m",
     "gap_circle_turn_rad",
     "fixed_wing_room_from_velocity_m",
+    "fixed_wing_edge_room_m",
     "fixed_wing_reaction_terms",
     "fixed_wing_room_m",
     "head_on_room_m",
     "multicopter_stopping_distance_m",
     "multirotor_room_bound_m",
     "multirotor_room_m",
+    "reaction_arc_bound_m",
     "reaction_arc_gap_m",
     "reaction_arc_m",
+    "reaction_arc_sines_m",
     "reaction_arc_terms_m",
     "room_upper_bounds_fast_m",
     "room_upper_bounds_m",
@@ -123,6 +126,7 @@ __all__ = [
     "tilt_accel_mps2",
     "trochoid_excursion_m",
     "turn_constants",
+    "trochoid_excursion_bound_m",
     "turn_excursion_m",
     "turn_radius_m",
     "turn_rate_radps",
@@ -221,6 +225,18 @@ def trochoid_excursion_bound_m(radius: float, inv_omega: float, w: float, sin_ps
     drift = w * delta * inv_omega if w > 0.0 else 0.0
     ub = radius * (1.0 - s * sin_psi0) + drift
     return ub + 1e-6 * (1.0 + radius + drift)
+
+
+@jitable
+def fixed_wing_edge_room_m(
+    base_m: float, gap_m: float, radius: float, inv_omega: float, v: float, w: float, psi0: float, s: float, delta: float
+) -> float:
+    """The room against one edge of the fixed-wing manoeuvre the margins score, m: ``base_m`` (the reaction
+    travel to where the turn starts, plus any margin the caller folds in) and the larger of the turn's excursion
+    (:func:`trochoid_excursion_m` of ``s``, ``delta``) and ``gap_m``, how much farther the reaction arc itself
+    gets (:func:`reaction_arc_gap_m`)."""
+    ex = trochoid_excursion_m(radius, inv_omega, v, w, psi0, s, delta)
+    return base_m + (ex if ex >= gap_m else gap_m)
 
 
 def turn_excursion_m(
