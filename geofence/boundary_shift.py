@@ -87,7 +87,15 @@ from .lateral_kernel import (
     wind_toward_mps,
 )
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
-from .margins_kernel import EnvelopeTerms, envelope_terms, envelope_tuple, floor_with_gap_m, lateral_terms
+from .margins_kernel import (
+    EnvelopeTerms,
+    envelope_terms,
+    envelope_tuple,
+    floor_with_gap_m,
+    lateral_terms,
+    vertical_arrests_m,
+    vertical_time_to_breach_s,
+)
 from .margins_kernel import margins as margins_kernel
 from .margins_kernel import monitor_margins as monitor_margins_kernel
 from .rooms import (
@@ -412,12 +420,11 @@ def activation_margins(
 
     # vertical
     c_m = fence.ceiling_m - h
-    c_s = vertical_arrest_distance_m(vu, t_r, envelope.vertical_accel_mps2, envelope.max_climb_rate_mps) + v_uncertainty_m
+    c_s, f_dive = vertical_arrests_m(env, vu, t_r, v_uncertainty_m)
     if fence.floor_m is None:
         f_m, f_s, f_act = math.inf, 0.0, math.inf
     else:
         f_m = fence.floor_margin_m(e, n, h)
-        f_dive = vertical_arrest_distance_m(-vu, t_r, envelope.vertical_accel_mps2, envelope.max_descent_rate_mps)
         f_act = h - fence.floor_m - f_dive - v_uncertainty_m
         if fence.floor_gaps:
             gi, gd = fence.best_gap(e, n)
@@ -456,14 +463,7 @@ def activation_margins(
                     f_act = floor_best
         f_s = f_m - f_act
     v_act = min(c_m - c_s, f_act)
-    if c_m <= 0.0 or f_m <= 0.0:
-        vttb = 0.0
-    elif vu > 1e-9:
-        vttb = c_m / vu
-    elif vu < -1e-9 and fence.floor_m is not None:
-        vttb = f_m / -vu
-    else:
-        vttb = math.inf
+    vttb = vertical_time_to_breach_s(c_m, f_m, vu, fence.floor_m is not None)
     # positional (a keyword call costs a microsecond per step); the fields in ShiftResult's order
     return ShiftResult(
         v_act if v_act < lat_act else lat_act,  # activation_margin_m: min(lat_act, v_act), exactly

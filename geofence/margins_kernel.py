@@ -55,6 +55,8 @@ __all__ = [
     "lateral_terms",
     "margins",
     "monitor_margins",
+    "vertical_arrests_m",
+    "vertical_time_to_breach_s",
 ]
 
 
@@ -306,14 +308,13 @@ def _margins(
 
     # vertical
     c_m = S[CEILING] - h
-    c_s = vertical_arrest_distance_m(vu, t_r, env.vertical_accel_mps2, env.max_climb_mps) + v_unc
+    c_s, f_dive = vertical_arrests_m(env, vu, t_r, v_unc)
     ceiling_act = c_m - c_s
     if S[HAS_FLOOR] == 0.0:
         f_m, f_s, f_act = math.inf, 0.0, math.inf
     else:
         floor = S[FLOOR]
         f_m = h - floor
-        f_dive = vertical_arrest_distance_m(-vu, t_r, env.vertical_accel_mps2, env.max_descent_mps)
         f_act = h - floor - f_dive - v_unc
         gap_offsets = _vector(L, GAP_OFFSETS)
         n_gaps = gap_offsets.shape[0] - 1
@@ -361,18 +362,33 @@ def _margins(
                 f_act = floor_best
         f_s = f_m - f_act
     v_act = f_act if f_act < ceiling_act else ceiling_act
-    if c_m <= 0.0 or f_m <= 0.0:
-        vttb = 0.0
-    elif vu > 1e-9:
-        vttb = c_m / vu
-    elif vu < -1e-9 and S[HAS_FLOOR] != 0.0:
-        vttb = f_m / -vu
-    else:
-        vttb = math.inf
+    vttb = vertical_time_to_breach_s(c_m, f_m, vu, S[HAS_FLOOR] != 0.0)
     return (
         v_act if v_act < lat_act else lat_act, lat_margin, room, lat_act, i_bind, nx, ny, d_edge, v_n, ttb,
         int(s_best), turn_angle, c_m, c_s, f_m, f_s, v_act, vttb,
     )  # fmt: skip
+
+
+@jitable
+def vertical_arrests_m(env: EnvelopeTerms, vu: float, t_r: float, v_unc: float) -> tuple[float, float]:
+    """``(ceiling shift, dive)`` (m): how far a climb at ``vu`` (m/s) goes before it is arrested, plus the
+    vertical uncertainty ``v_unc``, and how far a descent does (:func:`geofence.rooms.vertical_arrest_distance_m`
+    over the reaction time ``t_r``, the pilot accelerating up to the climb or descent rate meanwhile)."""
+    c_s = vertical_arrest_distance_m(vu, t_r, env.vertical_accel_mps2, env.max_climb_mps) + v_unc
+    return c_s, vertical_arrest_distance_m(-vu, t_r, env.vertical_accel_mps2, env.max_descent_mps)
+
+
+@jitable
+def vertical_time_to_breach_s(ceiling_margin_m: float, floor_margin_m: float, vu: float, has_floor: bool) -> float:
+    """Seconds until the ceiling (climbing) or the floor (descending, ``has_floor``) is reached at ``vu`` m/s: 0
+    once either is breached, ``inf`` when level (within 1e-9 m/s) or descending without a floor."""
+    if ceiling_margin_m <= 0.0 or floor_margin_m <= 0.0:
+        return 0.0
+    if vu > 1e-9:
+        return ceiling_margin_m / vu
+    if vu < -1e-9 and has_floor:
+        return floor_margin_m / -vu
+    return math.inf
 
 
 @jitable
