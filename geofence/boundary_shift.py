@@ -77,12 +77,10 @@ from . import jit as _jit
 from .fence import AltitudeReference, FenceError
 from .interface import Envelope, PlatformKind, VehicleState
 from .lateral_kernel import (
-    Turns,
     capped_lateral,
     circle_scored,
     edge_scored,
     fixed_wing_edge_terms,
-    lateral_binding,
     multirotor_edge_room_m,
     wind_toward_mps,
 )
@@ -93,6 +91,8 @@ from .margins_kernel import (
     envelope_tuple,
     floor_with_gap_m,
     lateral_terms,
+    room_bound,
+    state_binding,
     vertical_arrests_m,
     vertical_time_to_breach_s,
 )
@@ -323,28 +323,58 @@ def activation_margins(
             fence, e, n, h, ve, vn, vu, envelope, wind_e, wind_n, h_uncertainty_m, v_uncertainty_m, latency_s, bank_rad,
             wind_extra_mps, rollout_target_en, g,
         )  # fmt: skip
-    speed = math.hypot(ve, vn)
-    extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
-    wspeed = math.hypot(wind_e, wind_n) + extra
     hu = h_uncertainty_m
     fixed_wing = envelope.kind is PlatformKind.FIXED_WING
     env = _envelope_tuple(envelope)
+    t_r = env.reaction_s + latency_s
     re, rn = fence.recovery_en if rollout_target_en is None else rollout_target_en
     de, dn = re - e, rn - n
-    state, turn, brake, turns, bound = lateral_terms(
-        env, ve, vn, vu, wind_e, wind_n, speed, math.hypot(ve - wind_e, vn - wind_n), wspeed, extra, hu, latency_s,
-        bank_rad, de, dn, math.hypot(de, dn), g,
-    )  # fmt: skip
-    t_r = env.reaction_s + latency_s
-    directions: tuple[tuple[float, float], ...] = (
-        ((turns.s1, turns.delta1), (turns.s2, turns.delta2)) if fixed_wing else ((0.0, 0.0),)
-    )
-    radius, inv_omega, v_turn = turn.radius, turn.inv_omega, turn.v_turn
+    made: list = []  # the per-state terms (state, turn, brake, turns, bound), made in Python where needed
+
+    def terms() -> tuple:
+        """:func:`~geofence.margins_kernel.lateral_terms` of the state (made once)."""
+        if not made:
+            extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
+            made.append(
+                lateral_terms(
+                    env,
+                    ve,
+                    vn,
+                    vu,
+                    wind_e,
+                    wind_n,
+                    math.hypot(ve, vn),
+                    math.hypot(ve - wind_e, vn - wind_n),
+                    math.hypot(wind_e, wind_n) + extra,
+                    extra,
+                    hu,
+                    latency_s,
+                    bank_rad,
+                    de,
+                    dn,
+                    math.hypot(de, dn),
+                    g,
+                )  # fmt: skip
+            )
+        return made[0]
+
+    def directions() -> tuple[tuple[float, float], ...]:
+        """The turns scored, ``(sign, angle)`` each (none for a multirotor)."""
+        turns = terms()[3]
+        return ((turns.s1, turns.delta1), (turns.s2, turns.delta2)) if fixed_wing else ((0.0, 0.0),)
+
+    if compiled:  # the bound by one compiled call (the same number)
+        V = _envelope_terms(envelope)
+        state_args = (V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, de, dn, g)
+        bound = room_bound(*state_args)
+    else:
+        bound = terms()[4]
 
     def terms_of(items: list, min_d: float) -> list:
         """Per edge item ``(d, nx, ny, feat, idx, j)`` that can bind (``d - bound < min_d``), its
         direction-independent part ``(d, nx, ny, feat, idx, j, v_n, w_n, base room, psi0, gap)`` (``gap``: how much
         farther the reaction arc gets than its end, 0 for a multirotor; one call per list: the per-step loop)."""
+        state, turn, brake, _turns, _bound = terms()
         out = []
         for d, nx, ny, feat, idx, j in items:
             if d - bound >= min_d:
@@ -359,12 +389,14 @@ def activation_margins(
             out.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap))
         return out
 
-    def worst_edge(dists: list, min_d: float, turns: tuple = directions):
+    def worst_edge(dists: list, min_d: float, turns: tuple | None = None):
         """(activation, turn sign, (room, feature, index, edge, nx, ny, d, v_n), delta) of the binding edge, the
-        best of ``turns`` (``(sign, angle)`` each)."""
+        best of ``turns`` (``(sign, angle)`` each; default :func:`directions`)."""
         near = terms_of(dists, min_d)
+        turn = terms()[1]
+        radius, inv_omega, v_turn = turn.radius, turn.inv_omega, turn.v_turn
         best = None
-        for s, delta in turns:
+        for s, delta in directions() if turns is None else turns:
             if not fixed_wing:
                 worst, wk = _binding_edge_no_turn(near)
             elif len(near) < prune_from_edges:
@@ -391,10 +423,9 @@ def activation_margins(
             ids, lbs, delta_c = all_ids, zeros, 0.0
         free = True
         while True:
-            lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
-                E, ids, lbs, walk, e, n, bound, delta_c, fence.line_scored_edges(), free, fixed_wing, env, state,
-                turn, brake, turns,
-            )  # fmt: skip
+            lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = state_binding(
+                E, ids, lbs, walk, e, n, delta_c, fence.line_scored_edges(), free, *state_args, 0.0, 0.0
+            )
             lat_margin = fence.lateral_margin_m(e, n, min_d)  # min_d: the exact nearest element, walked or scanned
             if lat_margin >= 0.0 or not free:
                 break
@@ -431,25 +462,25 @@ def activation_margins(
             if gd > 0.0:  # over a gap: staying inside it (laterally) also keeps the floor
                 gdists, gmin = _edge_distances(fence.gap_edges(gi), e, n, 0, True)  # (inside the gap: free of it)
                 if not fixed_wing:
-                    f_act = floor_with_gap_m(f_act, worst_edge(gdists, gmin, directions)[0], gd)
+                    f_act = floor_with_gap_m(f_act, worst_edge(gdists, gmin)[0], gd)
                 else:  # it circles, the way it turns, until it has climbed back from its deepest point
                     deepest = h - f_dive - v_uncertainty_m
-                    circle = gap_circle_turn_rad(fence.floor_m - deepest, envelope.max_climb_rate_mps, inv_omega)
+                    circle = gap_circle_turn_rad(fence.floor_m - deepest, env.max_climb_mps, terms()[1].inv_omega)
                     floor_best = floor_with_gap_m(f_act, worst_edge(gdists, gmin, ((s_best, circle),))[0], gd)
                     # the turn is one for the keep-in and the gap together: where the other turn's circle keeps
                     # the gap better and its lateral activation allows it, it is the one scored (and flown); it
                     # can raise the floor's activation only below the gap's own room
                     if floor_best < gd:
-                        (sa1, da1), (sa2, da2) = directions
+                        (sa1, da1), (sa2, da2) = directions()
                         s_o, delta_o = (sa2, da2) if s_best == sa1 else (sa1, da1)
                         floor_o = floor_with_gap_m(f_act, worst_edge(gdists, gmin, ((s_o, circle),))[0], gd)
                         now = min(lat_act, floor_best, c_m - c_s)
                         if floor_o > floor_best and min(floor_o, c_m - c_s) > now:
                             # the binding lateral element for the other turn alone (the candidates just scored)
                             if compiled:
-                                o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = lateral_binding(
-                                    E, ids, lbs, walk, e, n, bound, delta_c, fence.line_scored_edges(), free,
-                                    fixed_wing, env, state, turn, brake, Turns(s_o, delta_o, s_o, delta_o),
+                                o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = state_binding(
+                                    E, ids, lbs, walk, e, n, delta_c, fence.line_scored_edges(), free, *state_args,
+                                    s_o, delta_o,
                                 )  # fmt: skip
                                 o_feat, o_idx, o_j = meta[o_bind]
                             else:

@@ -55,6 +55,9 @@ __all__ = [
     "lateral_terms",
     "margins",
     "monitor_margins",
+    "room_bound",
+    "state_binding",
+    "state_terms",
     "vertical_arrests_m",
     "vertical_time_to_breach_s",
 ]
@@ -255,6 +258,56 @@ def lateral_terms(
 
 
 @jitable
+def state_terms(
+    V: np.ndarray, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float, latency_s: float,
+    bank_rad: float, wind_extra_mps: float, de: float, dn: float, g: float,
+) -> tuple[EnvelopeTerms, LateralState, FixedWingTurn, MultirotorBrake, Turns, float]:  # fmt: skip
+    """``(env, state, turn, brake, turns, bound)``: :func:`lateral_terms` from the state as :func:`_margins`
+    takes it (``V``: :func:`envelope_terms`; ``(de, dn)``: the roll-out target from the position, m), the
+    speeds by :func:`geofence.cpython_math.hypot`."""
+    env = envelope_of_terms(V)
+    extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
+    state, turn, brake, turns, bound = lateral_terms(
+        env, ve, vn, vu, wind_e, wind_n, hypot(ve, vn), hypot(ve - wind_e, vn - wind_n), hypot(wind_e, wind_n) + extra,
+        extra, hu, latency_s, bank_rad, de, dn, hypot(de, dn), g,
+    )  # fmt: skip
+    return env, state, turn, brake, turns, bound
+
+
+def _room_bound(
+    V: np.ndarray, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float, latency_s: float,
+    bank_rad: float, wind_extra_mps: float, de: float, dn: float, g: float,
+) -> float:  # fmt: skip
+    """The ``bound`` of :func:`state_terms`: no element farther than the nearest plus this can bind (m)."""
+    return state_terms(V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, de, dn, g)[5]
+
+
+def _state_binding(
+    E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, walk: bool, e: float, n: float, delta_c: float, n_line: int,
+    free: bool, V: np.ndarray, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float,
+    latency_s: float, bank_rad: float, wind_extra_mps: float, de: float, dn: float, g: float, turn_s: float,
+    turn_delta: float,
+) -> tuple[float, float, int, float, float, float, float, float, float, float]:  # fmt: skip
+    """:func:`geofence.lateral_kernel.lateral_binding` of a state (:func:`state_terms`' terms, its reach the
+    bound), for a caller in Python: scalars and arrays cross into compiled code much faster than named tuples.
+    ``turn_s`` 0: the state's own turns; else the one turn ``(turn_s, turn_delta)``."""
+    env, state, turn, brake, turns, bound = state_terms(
+        V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, de, dn, g
+    )
+    if turn_s != 0.0:
+        turns = Turns(turn_s, turn_delta, turn_s, turn_delta)
+    fixed_wing = env.fixed_wing != 0.0
+    return lateral_binding(E, ids, lbs, walk, e, n, bound, delta_c, n_line, free, fixed_wing, env, state, turn, brake, turns)
+
+
+room_bound = compiled(_room_bound)
+"""The compiled :func:`_room_bound`."""
+
+state_binding = compiled(_state_binding)
+"""The compiled :func:`_state_binding`."""
+
+
+@jitable
 def _margins(
     F: np.ndarray,
     L: np.ndarray,
@@ -285,18 +338,12 @@ def _margins(
     ``has_target``: a ``rollout_target_en`` is given). ``F, L``: a fence's packed :class:`MarginTables`.
     ``lat_margin``: the lateral margin at (e, n) when the caller has it (:func:`_lateral_margin`), NaN: not yet."""
     S = _column(F, L, SCALARS)
-    env = envelope_of_terms(V)
+    re, rn = (target_e, target_n) if has_target else (S[RECOVERY_E], S[RECOVERY_N])
+    env, state, turn, brake, turns, bound = state_terms(
+        V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, re - e, rn - n, g
+    )
     fixed_wing = env.fixed_wing != 0.0
     t_r = env.reaction_s + latency_s
-    speed = hypot(ve, vn)
-    extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
-    wspeed = hypot(wind_e, wind_n) + extra
-    re, rn = (target_e, target_n) if has_target else (S[RECOVERY_E], S[RECOVERY_N])
-    de, dn = re - e, rn - n
-    state, turn, brake, turns, bound = lateral_terms(
-        env, ve, vn, vu, wind_e, wind_n, speed, hypot(ve - wind_e, vn - wind_n), wspeed, extra, hu, latency_s,
-        bank_rad, de, dn, hypot(de, dn), g,
-    )  # fmt: skip
 
     if lat_margin != lat_margin:
         lat_margin = _lateral_margin(F, L, e, n)

@@ -23,7 +23,7 @@ from geofence.config import parse_geofence
 from geofence.fence import Fence
 from geofence.interface import VehicleState
 from geofence.jit import COMPILED, use_compiled
-from geofence.margins_kernel import envelope_terms, margins, monitor_margins
+from geofence.margins_kernel import envelope_terms, margins, monitor_margins, room_bound, state_binding
 from geofence.unit import GeofenceUnit
 
 
@@ -256,3 +256,27 @@ def test_monitor_margins_compiled_is_its_python_source(seed, n_gaps):
         far, fields = monitor_margins(*args)
         far_py, fields_py = monitor_margins.py_func(*args)
         assert far == far_py and close_fields(fields, fields_py), args[3:6]
+
+
+@needs_numba
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(60, 600), n_squares=st.integers(0, 8))
+def test_room_bound_and_state_binding_compiled_are_their_python_source(seed, n_vertices, n_squares):
+    """:func:`geofence.margins_kernel.room_bound` and :func:`~geofence.margins_kernel.state_binding` (the indexed
+    fence's per-step calls from Python), with the state's own turns and with one given turn."""
+    local = random_fence(seed, n_vertices, n_squares, 2).to_local(FRAME, index=True)
+    E, _meta, _ids, _zeros = local.element_table()
+    rng = random.Random(seed)
+    for e, n in probe_points(local, rng, 20):
+        for env in (MC, FW):
+            args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True)
+            _, _, _, ve, vn, vu, _, we, wn = args
+            re, rn = local.recovery_en
+            state = (envelope_terms(env), ve, vn, vu, we, wn, kw["h_uncertainty_m"], kw["latency_s"], kw["bank_rad"])
+            state += (kw["wind_extra_mps"], re - e, rn - n, 9.80665)
+            bound = room_bound(*state)
+            assert close_fields((bound,), (room_bound.py_func(*state),))
+            ids, lbs, delta = local.grid().candidates(e, n, bound)
+            for turn in ((0.0, 0.0), (rng.choice([1.0, -1.0]), rng.uniform(0.0, 6.3))):
+                call = (E, ids, lbs, True, e, n, delta, local.line_scored_edges(), True, *state, *turn)
+                assert close_fields(state_binding(*call), state_binding.py_func(*call)), (e, n, env.kind)
