@@ -7,7 +7,8 @@ descent. The geofence acts when the *activation margin* (distance to an edge
 minus the room needed against that edge) reaches zero. This module assembles
 the margins; the room formulas themselves (turn, trochoid excursion, reaction
 travel, braking, arrest, their upper bounds and the head-on room) live in
-:mod:`geofence.rooms`, whose docstring derives them, and are re-exported here.
+:mod:`geofence.rooms`, whose docstring derives them; the per-state terms in
+:func:`geofence.margins_kernel.lateral_terms`, shared with the compiled kernels.
 
 Conventions: ENU metres and m/s; angles in rad. For an edge, ``n`` is the unit
 normal pointing *towards the breach* (outward across a keep-in edge, into a

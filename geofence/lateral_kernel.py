@@ -2,8 +2,13 @@
 
 One question: given the fence's lateral elements (keep-in and keep-out edges,
 keep-out circles) as one float table, a candidate list and the state's room
-parameters, which element has the smallest activation ``d - room``, and what
-is the nearest element's distance? :func:`geofence.boundary_shift.activation_margins`
+terms (named tuples: :class:`LateralState`, :class:`FixedWingTurn`,
+:class:`MultirotorBrake`, :class:`Turns`, the envelope's
+:class:`~geofence.margins_kernel.EnvelopeTerms`), which element has the
+smallest activation ``d - room``, and what is the nearest element's distance?
+The room against one element is :func:`fixed_wing_edge_terms` with
+:func:`geofence.rooms.fixed_wing_edge_room_m`, or :func:`multirotor_edge_room_m`:
+the Python reference calls the same functions. :func:`geofence.boundary_shift.activation_margins`
 asks it every step; its plain-Python branches (the full scan, the index walk
 :meth:`geofence.fence_grid.FenceGrid.near`, ``terms_of`` and the binding-edge
 searches) stay as the reference, and ``tests/test_lateral_kernel.py`` checks

@@ -1,5 +1,12 @@
 """The activation margins of a state against a fence without an index, compiled whole.
 
+It also holds the margins' per-state terms, written once for the kernel and for
+:func:`geofence.boundary_shift.activation_margins`' Python branches alike:
+:func:`lateral_terms` (and :func:`state_terms`, from the state as the kernels
+take it), :func:`vertical_arrests_m` and :func:`vertical_time_to_breach_s`; and
+the two compiled calls an indexed fence's step makes from Python
+(:func:`room_bound`, :func:`state_binding`).
+
 One question: :func:`geofence.boundary_shift.activation_margins` for a fence
 small enough to be scanned element by element (no
 :class:`~geofence.fence_grid.FenceGrid`: the fences autopilots store, and most

@@ -6,8 +6,10 @@ fixed-wing turn excursion (the trochoid) and its reaction travel, the
 multirotor's reaction travel under the worst-case pilot and its braking
 distance (weakened while a climb is arrested), the vertical arrest distance,
 the head-on room that the analysis figures draw and the feasibility check
-maximises, and the upper bounds of the room that the margin's edge culling and
-the unit's skip shortcut rely on. Where the per-step loop needs a fast form
+maximises, the room against one edge (:func:`fixed_wing_edge_room_m`), and the
+upper bounds of the room that the binding searches' pruning, the margin's edge
+culling and the unit's skip shortcut rely on. The compiled kernels call these
+same functions (:func:`geofence.jit.jitable`): to change a formula, edit it here. Where the per-step loop needs a fast form
 (precomputed turn constants, one call per edge), it stands next to its
 reference form and ``tests/test_rooms.py`` checks that the two agree to 1e-9
 relative. :mod:`geofence.boundary_shift` assembles these rooms into activation
