@@ -7,7 +7,8 @@ descent. The geofence acts when the *activation margin* (distance to an edge
 minus the room needed against that edge) reaches zero. This module assembles
 the margins; the room formulas themselves (turn, trochoid excursion, reaction
 travel, braking, arrest, their upper bounds and the head-on room) live in
-:mod:`geofence.rooms`, whose docstring derives them, and are re-exported here.
+:mod:`geofence.rooms`, whose docstring derives them; the per-state terms in
+:func:`geofence.margins_kernel.lateral_terms`, shared with the compiled kernels.
 
 Conventions: ENU metres and m/s; angles in rad. For an edge, ``n`` is the unit
 normal pointing *towards the breach* (outward across a keep-in edge, into a
@@ -74,26 +75,35 @@ from typing import NamedTuple, Sequence
 import numpy as np
 
 from . import jit as _jit
-from .dynamics import drag_coefficients, wind_push_mps2
 from .fence import AltitudeReference, FenceError
 from .interface import Envelope, PlatformKind, VehicleState
-from .lateral_kernel import capped_lateral, circle_scored, edge_scored, lateral_binding
+from .lateral_kernel import (
+    capped_lateral,
+    circle_scored,
+    edge_scored,
+    fixed_wing_edge_terms,
+    multirotor_edge_room_m,
+    wind_toward_mps,
+)
 from .local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
-from .margins_kernel import envelope_terms, floor_with_gap_m
+from .margins_kernel import (
+    EnvelopeTerms,
+    envelope_terms,
+    envelope_tuple,
+    floor_with_gap_m,
+    lateral_terms,
+    room_bound,
+    state_binding,
+    vertical_arrests_m,
+    vertical_time_to_breach_s,
+)
 from .margins_kernel import margins as margins_kernel
 from .margins_kernel import monitor_margins as monitor_margins_kernel
 from .rooms import (
     G_MPS2,
-    climb_arrest_phase,
-    fixed_wing_reaction_terms,
-    fixed_wing_room_bound_m,
+    fixed_wing_edge_room_m,
     gap_circle_turn_rad,
-    multirotor_room_bound_m,
-    multirotor_room_m,
-    reaction_arc_terms_m,
-    rollout_turns,
-    tilt_accel_mps2,
-    trochoid_excursion_m,
+    trochoid_excursion_bound_m,
     vertical_arrest_distance_m,
     worst_case_lateral_shift_m,
 )
@@ -210,8 +220,7 @@ def _binding_edge_scan(
     worst = math.inf
     wk = None
     for d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap in near:
-        ex = trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
-        room = base + (ex if ex >= gap else gap)
+        room = fixed_wing_edge_room_m(base, gap, radius, inv_omega, v_turn, w_n, psi0, s, delta)
         act = d - room
         if act < worst:
             worst, wk = act, (room, feat, idx, j, nx, ny, d, v_n)
@@ -231,9 +240,7 @@ def _binding_edge_pruned(
     bounded = []
     for pos, item in enumerate(near):
         d, w_n, base, psi0, gap = item[0], item[7], item[8], item[9], item[10]
-        drift = w_n * delta * inv_omega if w_n > 0.0 else 0.0
-        ub = radius * (1.0 - s * math.sin(psi0)) + drift
-        ub += 1e-6 * (1.0 + radius + drift)  # covers the excursion's round-off
+        ub = trochoid_excursion_bound_m(radius, inv_omega, w_n, math.sin(psi0), s, delta)
         gap_ub = gap * (1.0 + 1e-9) + 1e-9  # and the gap's: (d - base) - gap can round above d - (base + gap)
         bounded.append((d - base - (ub if ub > gap_ub else gap_ub), pos))
     bounded.sort()
@@ -244,8 +251,7 @@ def _binding_edge_pruned(
         if lb > worst:
             break
         d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap = near[pos]
-        ex = trochoid_excursion_m(radius, inv_omega, v_turn, w_n, psi0, s, delta)
-        room = base + (ex if ex >= gap else gap)
+        room = fixed_wing_edge_room_m(base, gap, radius, inv_omega, v_turn, w_n, psi0, s, delta)
         act = d - room
         if act < worst or (act == worst and pos < wpos):
             worst, wk, wpos = act, (room, feat, idx, j, nx, ny, d, v_n), pos
@@ -318,73 +324,80 @@ def activation_margins(
             fence, e, n, h, ve, vn, vu, envelope, wind_e, wind_n, h_uncertainty_m, v_uncertainty_m, latency_s, bank_rad,
             wind_extra_mps, rollout_target_en, g,
         )  # fmt: skip
-    t_r = envelope.reaction_time_s + latency_s
-    speed = math.hypot(ve, vn)
-    extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
-    wspeed = math.hypot(wind_e, wind_n) + extra
     hu = h_uncertainty_m
-
     fixed_wing = envelope.kind is PlatformKind.FIXED_WING
-    if fixed_wing:
-        vae, van = ve - wind_e, vn - wind_n
-        # reaction phase: the pilot's current turn goes on, and rolling out of the current bank costs up to
-        # another roll time before the recovery turn starts (at cruise at least: the override flies at cruise)
-        psi_abs, psi_react0, v_turn, radius, inv_omega, t_fw, omega_now, rot = fixed_wing_reaction_terms(
-            math.hypot(vae, van), vae, van, ve, vn, speed, envelope.cruise_speed_mps, envelope.min_speed_mps,
-            envelope.max_bank_rad, envelope.reaction_time_s, t_r, bank_rad, g,
-        )  # fmt: skip
-        ca, sa = math.cos(psi_abs), math.sin(psi_abs)
-        # roll-out heading: the wind-corrected track to the recovery point
-        re, rn = fence.recovery_en if rollout_target_en is None else rollout_target_en
-        de, dn = re - e, rn - n
-        s1, delta1, s2, delta2 = rollout_turns(de, dn, math.hypot(de, dn), wind_e, wind_n, v_turn, psi_abs)
-        directions: tuple[tuple[float, float], ...] = ((s1, delta1), (s2, delta2))
-        # no edge farther than min_d + bound can bind (bound >= any room, turns <= 2 pi)
-        bound = fixed_wing_room_bound_m(radius, inv_omega, speed, wspeed, t_fw) + hu
+    env = _envelope_tuple(envelope)
+    t_r = env.reaction_s + latency_s
+    re, rn = fence.recovery_en if rollout_target_en is None else rollout_target_en
+    de, dn = re - e, rn - n
+    made: list = []  # the per-state terms (state, turn, brake, turns, bound), made in Python where needed
+
+    def terms() -> tuple:
+        """:func:`~geofence.margins_kernel.lateral_terms` of the state (made once)."""
+        if not made:
+            extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
+            made.append(
+                lateral_terms(
+                    env,
+                    ve,
+                    vn,
+                    vu,
+                    wind_e,
+                    wind_n,
+                    math.hypot(ve, vn),
+                    math.hypot(ve - wind_e, vn - wind_n),
+                    math.hypot(wind_e, wind_n) + extra,
+                    extra,
+                    hu,
+                    latency_s,
+                    bank_rad,
+                    de,
+                    dn,
+                    math.hypot(de, dn),
+                    g,
+                )  # fmt: skip
+            )
+        return made[0]
+
+    def directions() -> tuple[tuple[float, float], ...]:
+        """The turns scored, ``(sign, angle)`` each (none for a multirotor)."""
+        turns = terms()[3]
+        return ((turns.s1, turns.delta1), (turns.s2, turns.delta2)) if fixed_wing else ((0.0, 0.0),)
+
+    if compiled:  # the bound by one compiled call (the same number)
+        V = _envelope_terms(envelope)
+        state_args = (V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, de, dn, g)
+        bound = room_bound(*state_args)
     else:
-        a_tilt = tilt_accel_mps2(envelope.max_bank_rad, g)
-        k1, k2 = drag_coefficients(envelope)
-        v_air_mc = math.hypot(ve - wind_e, vn - wind_n)
-        a_brake = envelope.braking_decel_mps2
-        # arresting a climb lowers the collective, and with it the horizontal braking force
-        climb_arrest = climb_arrest_phase(vu, envelope.vertical_accel_mps2, g)
-        directions = ((0.0, 0.0),)
-        radius = inv_omega = v_turn = 0.0  # no turn
-        # no edge farther than min_d + bound can bind
-        bound = multirotor_room_bound_m(speed, t_r, a_tilt, k1, k2, wspeed, a_brake, climb_arrest, hu)
+        bound = terms()[4]
 
     def terms_of(items: list, min_d: float) -> list:
         """Per edge item ``(d, nx, ny, feat, idx, j)`` that can bind (``d - bound < min_d``), its
         direction-independent part ``(d, nx, ny, feat, idx, j, v_n, w_n, base room, psi0, gap)`` (``gap``: how much
         farther the reaction arc gets than its end, 0 for a multirotor; one call per list: the per-step loop)."""
+        state, turn, brake, _turns, _bound = terms()
         out = []
         for d, nx, ny, feat, idx, j in items:
             if d - bound >= min_d:
                 continue
             v_n = ve * nx + vn * ny
-            w_n = wind_e * nx + wind_n * ny + extra
+            w_n = wind_toward_mps(state, nx, ny)
             if fixed_wing:
-                end, gap = reaction_arc_terms_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, w_n)
-                base = end + hu
-                # air heading relative to the normal: angle from n to (ca, sa)
-                psi0 = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
+                base, gap, psi0 = fixed_wing_edge_terms(state, turn, nx, ny, w_n)
             else:
-                # worst case: the pilot keeps accelerating at the tilt limit toward the
-                # edge (while below max airspeed), helped by the wind's push, until the
-                # override acts (t_r); then the vehicle brakes against that push
-                push = wind_push_mps2(k1, k2, wspeed, w_n)
-                a_p = (a_tilt if v_air_mc < envelope.max_speed_mps else 0.0) + push
-                base = multirotor_room_m(v_n, speed, t_r, a_p, a_brake - push, climb_arrest) + hu
+                base = multirotor_edge_room_m(env, state, brake, v_n, w_n)
                 psi0 = gap = 0.0
             out.append((d, nx, ny, feat, idx, j, v_n, w_n, base, psi0, gap))
         return out
 
-    def worst_edge(dists: list, min_d: float, turns: tuple = directions):
+    def worst_edge(dists: list, min_d: float, turns: tuple | None = None):
         """(activation, turn sign, (room, feature, index, edge, nx, ny, d, v_n), delta) of the binding edge, the
-        best of ``turns`` (``(sign, angle)`` each)."""
+        best of ``turns`` (``(sign, angle)`` each; default :func:`directions`)."""
         near = terms_of(dists, min_d)
+        turn = terms()[1]
+        radius, inv_omega, v_turn = turn.radius, turn.inv_omega, turn.v_turn
         best = None
-        for s, delta in turns:
+        for s, delta in directions() if turns is None else turns:
             if not fixed_wing:
                 worst, wk = _binding_edge_no_turn(near)
             elif len(near) < prune_from_edges:
@@ -409,20 +422,11 @@ def activation_margins(
         else:  # every element
             walk = False
             ids, lbs, delta_c = all_ids, zeros, 0.0
-        if fixed_wing:
-            (s1, delta1), (s2, delta2) = directions
-            k1 = k2 = a_pilot = a_brake = arrest_t = arrest_loss = 0.0
-        else:
-            s1 = delta1 = s2 = delta2 = psi_react0 = rot = omega_now = t_fw = sa = ca = 0.0  # (radius, v_turn: 0 above)
-            a_pilot = a_tilt if v_air_mc < envelope.max_speed_mps else 0.0
-            arrest_t, arrest_loss = climb_arrest
         free = True
         while True:
-            lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
-                E, ids, lbs, walk, e, n, bound, delta_c, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
-                v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
-                k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, fence.line_scored_edges(), free,
-            )  # fmt: skip
+            lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = state_binding(
+                E, ids, lbs, walk, e, n, delta_c, fence.line_scored_edges(), free, *state_args, 0.0, 0.0
+            )
             lat_margin = fence.lateral_margin_m(e, n, min_d)  # min_d: the exact nearest element, walked or scanned
             if lat_margin >= 0.0 or not free:
                 break
@@ -448,39 +452,36 @@ def activation_margins(
 
     # vertical
     c_m = fence.ceiling_m - h
-    c_s = vertical_arrest_distance_m(vu, t_r, envelope.vertical_accel_mps2, envelope.max_climb_rate_mps) + v_uncertainty_m
+    c_s, f_dive = vertical_arrests_m(env, vu, t_r, v_uncertainty_m)
     if fence.floor_m is None:
         f_m, f_s, f_act = math.inf, 0.0, math.inf
     else:
         f_m = fence.floor_margin_m(e, n, h)
-        f_dive = vertical_arrest_distance_m(-vu, t_r, envelope.vertical_accel_mps2, envelope.max_descent_rate_mps)
         f_act = h - fence.floor_m - f_dive - v_uncertainty_m
         if fence.floor_gaps:
             gi, gd = fence.best_gap(e, n)
             if gd > 0.0:  # over a gap: staying inside it (laterally) also keeps the floor
                 gdists, gmin = _edge_distances(fence.gap_edges(gi), e, n, 0, True)  # (inside the gap: free of it)
                 if not fixed_wing:
-                    f_act = floor_with_gap_m(f_act, worst_edge(gdists, gmin, directions)[0], gd)
+                    f_act = floor_with_gap_m(f_act, worst_edge(gdists, gmin)[0], gd)
                 else:  # it circles, the way it turns, until it has climbed back from its deepest point
                     deepest = h - f_dive - v_uncertainty_m
-                    circle = gap_circle_turn_rad(fence.floor_m - deepest, envelope.max_climb_rate_mps, inv_omega)
+                    circle = gap_circle_turn_rad(fence.floor_m - deepest, env.max_climb_mps, terms()[1].inv_omega)
                     floor_best = floor_with_gap_m(f_act, worst_edge(gdists, gmin, ((s_best, circle),))[0], gd)
                     # the turn is one for the keep-in and the gap together: where the other turn's circle keeps
                     # the gap better and its lateral activation allows it, it is the one scored (and flown); it
                     # can raise the floor's activation only below the gap's own room
                     if floor_best < gd:
-                        (sa1, da1), (sa2, da2) = directions
+                        (sa1, da1), (sa2, da2) = directions()
                         s_o, delta_o = (sa2, da2) if s_best == sa1 else (sa1, da1)
                         floor_o = floor_with_gap_m(f_act, worst_edge(gdists, gmin, ((s_o, circle),))[0], gd)
                         now = min(lat_act, floor_best, c_m - c_s)
                         if floor_o > floor_best and min(floor_o, c_m - c_s) > now:
                             # the binding lateral element for the other turn alone (the candidates just scored)
                             if compiled:
-                                o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = lateral_binding(
-                                    E, ids, lbs, walk, e, n, bound, delta_c, fixed_wing, ve, vn, wind_e, wind_n,
-                                    extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega,
-                                    s_o, delta_o, s_o, delta_o, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t,
-                                    arrest_loss, fence.line_scored_edges(), free,
+                                o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = state_binding(
+                                    E, ids, lbs, walk, e, n, delta_c, fence.line_scored_edges(), free, *state_args,
+                                    s_o, delta_o,
                                 )  # fmt: skip
                                 o_feat, o_idx, o_j = meta[o_bind]
                             else:
@@ -494,14 +495,7 @@ def activation_margins(
                     f_act = floor_best
         f_s = f_m - f_act
     v_act = min(c_m - c_s, f_act)
-    if c_m <= 0.0 or f_m <= 0.0:
-        vttb = 0.0
-    elif vu > 1e-9:
-        vttb = c_m / vu
-    elif vu < -1e-9 and fence.floor_m is not None:
-        vttb = f_m / -vu
-    else:
-        vttb = math.inf
+    vttb = vertical_time_to_breach_s(c_m, f_m, vu, fence.floor_m is not None)
     # positional (a keyword call costs a microsecond per step); the fields in ShiftResult's order
     return ShiftResult(
         v_act if v_act < lat_act else lat_act,  # activation_margin_m: min(lat_act, v_act), exactly
@@ -527,10 +521,10 @@ def activation_margins(
     )
 
 
-_ENVELOPE_TERMS: dict[int, tuple[Envelope, np.ndarray]] = {}
-"""The compiled margins' envelope terms by envelope object (its identity checked: the entry holds it); cleared
-from :data:`_ENVELOPE_TERMS_KEPT` entries on (a unit makes a new envelope each time the air density it scales
-to moves, and a batch process flies many units)."""
+_ENVELOPE_TERMS: dict[int, tuple[Envelope, np.ndarray, EnvelopeTerms]] = {}
+"""The margins' envelope terms (the compiled kernels' array and the named tuple) by envelope object (its identity
+checked: the entry holds it); cleared from :data:`_ENVELOPE_TERMS_KEPT` entries on (a unit makes a new envelope
+each time the air density it scales to moves, and a batch process flies many units)."""
 _ENVELOPE_TERMS_KEPT = 64
 
 
@@ -545,14 +539,25 @@ def _margins_compiled(
     )
 
 
-def _envelope_terms(envelope: Envelope) -> np.ndarray:
-    """:func:`geofence.margins_kernel.envelope_terms` of ``envelope``, cached by identity."""
+def _cached_terms(envelope: Envelope) -> tuple[Envelope, np.ndarray, EnvelopeTerms]:
+    """``(envelope, envelope_terms, envelope_tuple)`` of ``envelope`` (:mod:`geofence.margins_kernel`), cached by
+    identity."""
     cached = _ENVELOPE_TERMS.get(id(envelope))
     if cached is None or cached[0] is not envelope:
         if len(_ENVELOPE_TERMS) >= _ENVELOPE_TERMS_KEPT:
             _ENVELOPE_TERMS.clear()
-        cached = _ENVELOPE_TERMS[id(envelope)] = (envelope, envelope_terms(envelope))
-    return cached[1]
+        cached = _ENVELOPE_TERMS[id(envelope)] = (envelope, envelope_terms(envelope), envelope_tuple(envelope))
+    return cached
+
+
+def _envelope_terms(envelope: Envelope) -> np.ndarray:
+    """:func:`geofence.margins_kernel.envelope_terms` of ``envelope``, cached by identity."""
+    return _cached_terms(envelope)[1]
+
+
+def _envelope_tuple(envelope: Envelope) -> EnvelopeTerms:
+    """:func:`geofence.margins_kernel.envelope_tuple` of ``envelope``, cached by identity."""
+    return _cached_terms(envelope)[2]
 
 
 class CompiledMargins:

@@ -2,8 +2,13 @@
 
 One question: given the fence's lateral elements (keep-in and keep-out edges,
 keep-out circles) as one float table, a candidate list and the state's room
-parameters, which element has the smallest activation ``d - room``, and what
-is the nearest element's distance? :func:`geofence.boundary_shift.activation_margins`
+terms (named tuples: :class:`LateralState`, :class:`FixedWingTurn`,
+:class:`MultirotorBrake`, :class:`Turns`, the envelope's
+:class:`~geofence.margins_kernel.EnvelopeTerms`), which element has the
+smallest activation ``d - room``, and what is the nearest element's distance?
+The room against one element is :func:`fixed_wing_edge_terms` with
+:func:`geofence.rooms.fixed_wing_edge_room_m`, or :func:`multirotor_edge_room_m`:
+the Python reference calls the same functions. :func:`geofence.boundary_shift.activation_margins`
 asks it every step; its plain-Python branches (the full scan, the index walk
 :meth:`geofence.fence_grid.FenceGrid.near`, ``terms_of`` and the binding-edge
 searches) stay as the reference, and ``tests/test_lateral_kernel.py`` checks
@@ -25,19 +30,123 @@ order then the circles): ``(ax, ay, dx, dy, 1/len², nx, ny)`` for an edge,
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import TYPE_CHECKING, NamedTuple, Sequence
 
 import numpy as np
 
 from geofence.cpython_math import hypot
 from geofence.dynamics import wind_push_mps2
-from geofence.jit import COMPILED, jitable, numba
-from geofence.rooms import multirotor_room_m, reaction_arc_terms_m, trochoid_excursion_m
+from geofence.jit import compiled, jitable
 
-__all__ = ["capped_lateral", "circle_scored", "edge_scored", "element_table", "lateral_binding", "nearest_distance"]
+if TYPE_CHECKING:  # (margins_kernel imports this module)
+    from geofence.margins_kernel import EnvelopeTerms
+from geofence.rooms import (
+    fixed_wing_edge_room_m,
+    multirotor_room_m,
+    reaction_arc_bound_m,
+    reaction_arc_sines_m,
+    reaction_arc_terms_m,
+    trochoid_excursion_bound_m,
+)
+
+__all__ = [
+    "FixedWingTurn",
+    "LateralState",
+    "MultirotorBrake",
+    "Turns",
+    "capped_lateral",
+    "circle_scored",
+    "edge_scored",
+    "element_table",
+    "lateral_binding",
+    "nearest_distance",
+]
 
 FIXED_WING_SCRATCH_ROWS = 8
 """The scratch rows :func:`_fixed_wing_binding` takes (its per-element terms)."""
+
+
+class LateralState(NamedTuple):
+    """The state's terms every element is scored with: ground velocity and wind (m/s, ENU), the wind
+    allowance added towards every element ``extra`` (m/s) and the horizontal uncertainty ``hu`` (m)."""
+
+    ve: float
+    vn: float
+    wind_e: float
+    wind_n: float
+    extra: float
+    hu: float
+
+
+class FixedWingTurn(NamedTuple):
+    """A fixed-wing's manoeuvre terms (:func:`geofence.rooms.fixed_wing_reaction_terms`): the turn speed (m/s),
+    the air heading at the reaction's start (rad, ENU), the reaction's rotation (rad) and rate (rad/s, + =
+    clockwise), the reaction time (s), ``sin``/``cos`` of the heading where the turn starts, and the turn
+    constants ``R`` (m), ``1/omega`` (s). Zeros for a multirotor."""
+
+    v_turn: float
+    psi_react0: float
+    rot: float
+    omega_now: float
+    t_fw: float
+    sa: float
+    ca: float
+    radius: float
+    inv_omega: float
+
+
+class MultirotorBrake(NamedTuple):
+    """A multirotor's stop terms: the wind speed with its allowance (m/s), the ground speed (m/s), the pilot's
+    tilt acceleration (m/s², 0 at max airspeed), the reaction time (s) and the climb arrest
+    (:func:`geofence.rooms.climb_arrest_phase`: s, fraction). Zeros for a fixed-wing."""
+
+    wspeed: float
+    speed: float
+    a_pilot: float
+    t_r: float
+    arrest_t: float
+    arrest_loss: float
+
+
+class Turns(NamedTuple):
+    """The two turns a fixed-wing is scored with: direction (+1 left, -1 right) and angle (rad) each."""
+
+    s1: float
+    delta1: float
+    s2: float
+    delta2: float
+
+
+@jitable
+def wind_toward_mps(state: LateralState, nx: float, ny: float) -> float:
+    """The wind towards an element along the unit direction ``(nx, ny)`` it is scored along, with the
+    allowance (m/s)."""
+    return state.wind_e * nx + state.wind_n * ny + state.extra
+
+
+@jitable
+def fixed_wing_edge_terms(
+    state: LateralState, turn: FixedWingTurn, nx: float, ny: float, w_n: float
+) -> tuple[float, float, float]:
+    """``(base, gap, psi0)`` of one element for a fixed-wing, whatever the turn: the reaction travel plus the
+    uncertainty (m), how much farther the reaction arc gets (m; :func:`geofence.rooms.reaction_arc_terms_m`),
+    and the air heading where the turn starts relative to the direction ``(nx, ny)`` (rad)."""
+    end, gap = reaction_arc_terms_m(turn.v_turn, turn.psi_react0, turn.rot, turn.omega_now, turn.t_fw, nx, ny, w_n)
+    sa = turn.sa
+    ca = turn.ca
+    return end + state.hu, gap, math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
+
+
+@jitable
+def multirotor_edge_room_m(env: EnvelopeTerms, state: LateralState, brake: MultirotorBrake, v_n: float, w_n: float) -> float:
+    """A multirotor's room against one element, plus the uncertainty, m: the worst-case pilot accelerates
+    towards it at the tilt limit (while below max airspeed) helped by the wind's push until the override acts,
+    then it brakes against that push (:func:`geofence.rooms.multirotor_room_m`); ``v_n``, ``w_n``: the ground
+    velocity and the wind towards it (m/s)."""
+    push = wind_push_mps2(env.k1, env.k2, brake.wspeed, w_n)
+    a_p = brake.a_pilot + push
+    arrest = (brake.arrest_t, brake.arrest_loss)
+    return multirotor_room_m(v_n, brake.speed, brake.t_r, a_p, env.braking_mps2 - push, arrest) + state.hu
 
 
 def element_table(edges: Sequence[tuple], circles: Sequence[tuple[float, float, float]]) -> np.ndarray:
@@ -49,14 +158,20 @@ def element_table(edges: Sequence[tuple], circles: Sequence[tuple[float, float, 
 
 @jitable
 def _multirotor_binding(
-    f_d: np.ndarray, f_nx: np.ndarray, f_ny: np.ndarray, f_id: np.ndarray, keep: np.ndarray, state: tuple, brake: tuple
+    f_d: np.ndarray,
+    f_nx: np.ndarray,
+    f_ny: np.ndarray,
+    f_id: np.ndarray,
+    keep: np.ndarray,
+    env: EnvelopeTerms,
+    state: LateralState,
+    brake: MultirotorBrake,
 ) -> tuple[float, float, int, float, float, float]:
     """``(activation, 0, position in keep, room, 0, v_n)``: the smallest ``d - base`` over ``keep`` (the
     reference's ``terms_of`` and ``_binding_edge_no_turn``: the lowest element id ``f_id`` on a tie, the first
-    in the reference's element order). ``state = (ve, vn, wind_e, wind_n, extra, hu)``, ``brake = (k1, k2,
-    wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss)``: :func:`_lateral_binding`'s arguments."""
-    ve, vn, wind_e, wind_n, extra, hu = state
-    k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss = brake
+    in the reference's element order)."""
+    ve = state.ve
+    vn = state.vn
     worst = math.inf
     wq = -1
     wroom = 0.0
@@ -66,10 +181,7 @@ def _multirotor_binding(
         nx = f_nx[k]
         ny = f_ny[k]
         v_n = ve * nx + vn * ny
-        w_n = wind_e * nx + wind_n * ny + extra
-        push = wind_push_mps2(k1, k2, wspeed, w_n)
-        a_p = a_pilot + push
-        base = multirotor_room_m(v_n, speed, t_r, a_p, a_brake - push, (arrest_t, arrest_loss)) + hu
+        base = multirotor_edge_room_m(env, state, brake, v_n, wind_toward_mps(state, nx, ny))
         act = f_d[k] - base
         if act < worst or (wq >= 0 and act == worst and f_id[k] < f_id[keep[wq]]):
             worst = act
@@ -86,8 +198,9 @@ def _fixed_wing_binding(
     f_ny: np.ndarray,
     f_id: np.ndarray,
     keep: np.ndarray,
-    state: tuple,
-    turn: tuple,
+    state: LateralState,
+    turn: FixedWingTurn,
+    turns: Turns,
     W: np.ndarray,
 ) -> tuple[float, float, int, float, float, float]:
     """``(activation, turn sign, position in keep, room, turn angle, v_n)`` of a fixed-wing's binding element
@@ -103,12 +216,14 @@ def _fixed_wing_binding(
     1e-9 of it; a normal that is not unit (a zero-length edge) gets no bound. After the element with the
     smallest bound, every element whose bound is at most the smallest activation found so far is scored; a
     bound is at most its activation, so every element that can tie the smallest is scored exactly.
-    ``state = (ve, vn, wind_e, wind_n, extra, hu)``, ``turn = (v_turn, psi_react0, rot, omega_now, t_fw, sa,
-    ca, radius, inv_omega, s1, delta1, s2, delta2)``: :func:`_lateral_binding`'s arguments. ``W``: scratch, at
-    least :data:`FIXED_WING_SCRATCH_ROWS` rows of ``keep``'s length (its rows are the per-element terms below).
+    ``W``: scratch, at least :data:`FIXED_WING_SCRATCH_ROWS` rows of ``keep``'s length (its rows are the
+    per-element terms below).
     """
-    ve, vn, wind_e, wind_n, extra, hu = state
-    v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2 = turn
+    ve = state.ve
+    vn = state.vn
+    hu = state.hu
+    v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega = turn
+    s1, delta1, s2, delta2 = turns
     nk = keep.shape[0]
     if nk == 0:
         return math.inf, 0.0, -1, 0.0, 0.0, 0.0
@@ -131,18 +246,13 @@ def _fixed_wing_binding(
         k = keep[q]
         nx = f_nx[k]
         ny = f_ny[k]
-        w_n = wind_e * nx + wind_n * ny + extra
+        w_n = wind_toward_mps(state, nx, ny)
         wn[q] = w_n
         if abs(nx * nx + ny * ny - 1.0) > 1e-9:  # no bound: scored exactly
             lb_base[q] = -math.inf
             sinp[q] = 0.0
             continue
-        if straight:
-            along = arc * (cp * nx + sp * ny)
-        else:
-            along = arc * ((sp * nx - cp * ny) - (sq * nx - cq * ny))
-        dd = along + w_n * t_fw
-        ub = dd if dd > 0.0 else 0.0
+        ub = reaction_arc_sines_m(arc, sp, cp, sq, cq, straight, t_fw, nx, ny, w_n)
         lb_base[q] = f_d[k] - ub - hu - 1e-9 * (1.0 + abs(arc) + abs(w_n) * t_fw + abs(hu))
         sinp[q] = nx * sa - ny * ca
     b_act = math.inf
@@ -156,10 +266,8 @@ def _fixed_wing_binding(
         seed = -1
         for q in range(nk):
             w_n = wn[q]
-            drift = w_n * delta * inv_omega if w_n > 0.0 else 0.0
-            ub = radius * (1.0 - s * sinp[q]) + drift
-            ub += 1e-6 * (1.0 + radius + drift)  # the excursion's round-off and sin psi0's
-            gap_ub = (v_turn + (w_n if w_n > 0.0 else 0.0)) * t_fw * (1.0 + 1e-9) + 1e-9  # >= the arc's farthest
+            ub = trochoid_excursion_bound_m(radius, inv_omega, w_n, sinp[q], s, delta)
+            gap_ub = reaction_arc_bound_m(v_turn, w_n, t_fw)
             lbq[q] = lb_base[q] - (ub if ub > gap_ub else gap_ub)
             if seed < 0 or lbq[q] < lbq[seed]:
                 seed = q
@@ -172,14 +280,9 @@ def _fixed_wing_binding(
                 continue
             k = keep[q]
             if done[q] == 0.0:
-                nx = f_nx[k]
-                ny = f_ny[k]
-                end, gap[q] = reaction_arc_terms_m(v_turn, psi_react0, rot, omega_now, t_fw, nx, ny, wn[q])
-                base[q] = end + hu
-                psi[q] = math.atan2(nx * sa - ny * ca, nx * ca + ny * sa)
+                base[q], gap[q], psi[q] = fixed_wing_edge_terms(state, turn, f_nx[k], f_ny[k], wn[q])
                 done[q] = 1.0
-            excursion = trochoid_excursion_m(radius, inv_omega, v_turn, wn[q], psi[q], s, delta)
-            room = base[q] + (excursion if excursion >= gap[q] else gap[q])
+            room = fixed_wing_edge_room_m(base[q], gap[q], radius, inv_omega, v_turn, wn[q], psi[q], s, delta)
             act = f_d[k] - room
             if act < worst or (wq >= 0 and act == worst and f_id[k] < f_id[keep[wq]]):
                 worst = act
@@ -339,48 +442,24 @@ def _lateral_binding(
     n: float,
     reach: float,
     delta_c: float,
-    fixed_wing: bool,
-    ve: float,
-    vn: float,
-    wind_e: float,
-    wind_n: float,
-    extra: float,
-    hu: float,
-    v_turn: float,
-    psi_react0: float,
-    rot: float,
-    omega_now: float,
-    t_fw: float,
-    sa: float,
-    ca: float,
-    radius: float,
-    inv_omega: float,
-    s1: float,
-    delta1: float,
-    s2: float,
-    delta2: float,
-    k1: float,
-    k2: float,
-    wspeed: float,
-    speed: float,
-    a_pilot: float,
-    t_r: float,
-    a_brake: float,
-    arrest_t: float,
-    arrest_loss: float,
     n_line: int,
     free: bool,
+    fixed_wing: bool,
+    env: EnvelopeTerms,
+    state: LateralState,
+    turn: FixedWingTurn,
+    brake: MultirotorBrake,
+    turns: Turns,
 ) -> tuple[float, float, int, float, float, float, float, float, float, float]:
     """``(activation, turn sign, element id, room, nx, ny, d, v_n, turn angle, d_min)`` of the binding element.
 
     Candidates: the rows ``ids`` of ``E``. ``walk``: they are sorted by ``lbs``, lower bounds of their
     distance plus ``delta_c`` (an index cell's list, :meth:`FenceGrid.near`'s walk and stop rule); else every
     candidate is scored (the full scan; ``ids`` in element order). Kept: ``d - reach < d_min``. Scored by
-    :func:`_fixed_wing_binding` (turns ``(s1, delta1)`` and ``(s2, delta2)``) or :func:`_multirotor_binding`;
-    a tie goes to the lowest element id (the reference's first in element order). Element id -1: no
-    candidate. The other arguments are :func:`~geofence.boundary_shift.activation_margins`' per-state
-    terms under the same names (the other platform kind's are zeros; ``arrest_t, arrest_loss`` its
-    ``climb_arrest``). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges; ``free``: the point
+    :func:`_fixed_wing_binding` (``turn``, scored for each of ``turns``) or :func:`_multirotor_binding`
+    (``brake``); a tie goes to the lowest element id (the reference's first in element order). Element id -1:
+    no candidate. ``env``: the envelope's terms; ``state``, ``turn``, ``brake``: the per-state terms
+    (:func:`geofence.margins_kernel.lateral_terms`; the other platform kind's are zeros). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges; ``free``: the point
     is in the free space (:func:`edge_scored`). Each edge is
     scored by :func:`edge_scored` (``d``, ``nx, ny``: its scored distance and direction; ``d_min`` stays the
     nearest point-segment distance).
@@ -404,21 +483,18 @@ def _lateral_binding(
             keep[nk] = k
             nk += 1
     keep = keep[:nk]
-    state = (ve, vn, wind_e, wind_n, extra, hu)
     if fixed_wing:
-        turn = (v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2)
-        b_act, b_s, b_q, b_room, b_delta, t_vn = _fixed_wing_binding(f_d, f_nx, f_ny, f_id, keep, state, turn, W[3:])
+        b_act, b_s, b_q, b_room, b_delta, t_vn = _fixed_wing_binding(f_d, f_nx, f_ny, f_id, keep, state, turn, turns, W[3:])
     else:
-        brake = (k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss)
-        b_act, b_s, b_q, b_room, b_delta, t_vn = _multirotor_binding(f_d, f_nx, f_ny, f_id, keep, state, brake)
+        b_act, b_s, b_q, b_room, b_delta, t_vn = _multirotor_binding(f_d, f_nx, f_ny, f_id, keep, env, state, brake)
     if b_q < 0:
         return math.inf, 0.0, -1, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, min_d
     k = keep[b_q]
     return b_act, b_s, f_id[k], b_room, f_nx[k], f_ny[k], f_d[k], t_vn, b_delta, min_d
 
 
-lateral_binding = numba.njit(cache=True)(_lateral_binding) if COMPILED else _lateral_binding
+lateral_binding = compiled(_lateral_binding)
 """The compiled :func:`_lateral_binding` (the Python function itself without numba)."""
 
-nearest_distance = numba.njit(cache=True)(_nearest_distance) if COMPILED else _nearest_distance
+nearest_distance = compiled(_nearest_distance)
 """The compiled :func:`_nearest_distance`."""

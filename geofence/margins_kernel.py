@@ -1,5 +1,12 @@
 """The activation margins of a state against a fence without an index, compiled whole.
 
+It also holds the margins' per-state terms, written once for the kernel and for
+:func:`geofence.boundary_shift.activation_margins`' Python branches alike:
+:func:`lateral_terms` (and :func:`state_terms`, from the state as the kernels
+take it), :func:`vertical_arrests_m` and :func:`vertical_time_to_breach_s`; and
+the two compiled calls an indexed fence's step makes from Python
+(:func:`room_bound`, :func:`state_binding`).
+
 One question: :func:`geofence.boundary_shift.activation_margins` for a fence
 small enough to be scanned element by element (no
 :class:`~geofence.fence_grid.FenceGrid`: the fences autopilots store, and most
@@ -30,8 +37,8 @@ import numpy as np
 from geofence.cpython_math import hypot
 from geofence.dynamics import drag_coefficients
 from geofence.interface import Envelope, PlatformKind
-from geofence.jit import COMPILED, jitable, numba
-from geofence.lateral_kernel import capped_lateral, lateral_binding
+from geofence.jit import compiled, jitable, numba
+from geofence.lateral_kernel import FixedWingTurn, LateralState, MultirotorBrake, Turns, capped_lateral, lateral_binding
 from geofence.rooms import (
     climb_arrest_phase,
     climb_back_drift_m,
@@ -46,12 +53,49 @@ from geofence.rooms import (
 )
 from geofence.scan_kernel import deepest_polygon, lateral_margin_scan, rows_view
 
-__all__ = ["MarginTables", "envelope_terms", "margins", "monitor_margins"]
+__all__ = [
+    "EnvelopeTerms",
+    "MarginTables",
+    "envelope_of_terms",
+    "envelope_terms",
+    "envelope_tuple",
+    "lateral_terms",
+    "margins",
+    "monitor_margins",
+    "room_bound",
+    "state_binding",
+    "state_terms",
+    "vertical_arrests_m",
+    "vertical_time_to_breach_s",
+]
 
-# envelope terms
-FIXED_WING, REACTION_S, MAX_BANK, CRUISE, MIN_SPEED, MAX_SPEED, BRAKING, VERTICAL_ACCEL, MAX_CLIMB, K1, K2, MAX_DESCENT = range(
-    12
-)
+
+class EnvelopeTerms(NamedTuple):
+    """The envelope's numbers the margins read (SI units; ``fixed_wing`` 1.0 or 0.0; ``k1, k2`` its drag law's
+    :func:`~geofence.dynamics.drag_coefficients`). The kernels take them as a float array in this order
+    (:func:`envelope_terms`: an array argument costs less to pass) and read them by name
+    (:func:`envelope_of_terms`)."""
+
+    fixed_wing: float
+    reaction_s: float
+    max_bank_rad: float
+    cruise_mps: float
+    min_speed_mps: float
+    max_speed_mps: float
+    braking_mps2: float
+    vertical_accel_mps2: float
+    max_climb_mps: float
+    k1: float
+    k2: float
+    max_descent_mps: float
+
+
+ENVELOPE_TERM_COUNT = len(EnvelopeTerms._fields)
+# the positions the unit's kernel reads a few of them at (geofence.unit_kernel)
+VERTICAL_ACCEL = EnvelopeTerms._fields.index("vertical_accel_mps2")
+MAX_CLIMB = EnvelopeTerms._fields.index("max_climb_mps")
+MAX_DESCENT = EnvelopeTerms._fields.index("max_descent_mps")
+
 # fence scalars
 CEILING, FLOOR, HAS_FLOOR, RECOVERY_E, RECOVERY_N, LINE_EDGES = range(6)
 
@@ -148,17 +192,126 @@ def _vector(L: np.ndarray, k: int) -> np.ndarray:
     return L[start : start + L[2 * k + 1]]
 
 
-def envelope_terms(env: Envelope) -> np.ndarray:
-    """The envelope's terms :func:`margins` reads (kind, reaction time, bank, speeds, braking, vertical
-    acceleration and climb rate, the drag law's ``k1, k2``, and the descent rate)."""
+def envelope_tuple(env: Envelope) -> EnvelopeTerms:
+    """The :class:`EnvelopeTerms` of ``env``."""
     k1, k2 = drag_coefficients(env)
-    return np.array(
-        [
-            float(env.kind is PlatformKind.FIXED_WING), env.reaction_time_s, env.max_bank_rad, env.cruise_speed_mps,
-            env.min_speed_mps, env.max_speed_mps, env.braking_decel_mps2, env.vertical_accel_mps2,
-            env.max_climb_rate_mps, k1, k2, env.max_descent_rate_mps,
-        ]
+    return EnvelopeTerms(
+        fixed_wing=float(env.kind is PlatformKind.FIXED_WING), reaction_s=env.reaction_time_s,
+        max_bank_rad=env.max_bank_rad, cruise_mps=env.cruise_speed_mps, min_speed_mps=env.min_speed_mps,
+        max_speed_mps=env.max_speed_mps, braking_mps2=env.braking_decel_mps2,
+        vertical_accel_mps2=env.vertical_accel_mps2, max_climb_mps=env.max_climb_rate_mps, k1=k1, k2=k2,
+        max_descent_mps=env.max_descent_rate_mps,
     )  # fmt: skip
+
+
+def envelope_terms(env: Envelope) -> np.ndarray:
+    """The envelope's terms :func:`margins` reads, as the float array it takes (:class:`EnvelopeTerms`' order)."""
+    return np.array(envelope_tuple(env), dtype=np.float64)
+
+
+def envelope_of_terms(V: np.ndarray) -> EnvelopeTerms:
+    """The :class:`EnvelopeTerms` of :func:`envelope_terms`' array (compiled: a fixed-size tuple of its floats)."""
+    return EnvelopeTerms(*(float(x) for x in V))
+
+
+if numba is not None:
+    from numba.np.unsafe.ndarray import to_fixed_tuple
+
+    @numba.extending.overload(envelope_of_terms)
+    def _envelope_of_terms_compiled(V):  # noqa: ANN001, ANN202 - numba's typing hook
+        def impl(V):  # noqa: ANN001, ANN202
+            return EnvelopeTerms(*to_fixed_tuple(V, ENVELOPE_TERM_COUNT))
+
+        return impl
+
+
+@jitable
+def lateral_terms(
+    env: EnvelopeTerms, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, speed: float, v_air: float,
+    wspeed: float, extra: float, hu: float, latency_s: float, bank_rad: float, de: float, dn: float, dd: float,
+    g: float,
+) -> tuple[LateralState, FixedWingTurn, MultirotorBrake, Turns, float]:  # fmt: skip
+    """``(state, turn, brake, turns, bound)``: a state's terms for the binding search
+    (:func:`geofence.lateral_kernel.lateral_binding`), the one home of their arithmetic (the margins kernel and
+    :func:`geofence.boundary_shift.activation_margins`' Python branches call it).
+
+    Arguments as :func:`_margins`'; ``speed``, ``v_air``: the ground and air speed (m/s), ``wspeed`` the wind
+    speed plus ``extra`` (m/s), ``(de, dn)`` the roll-out target from the position and ``dd`` its length (m):
+    the caller's ``hypot`` (CPython's in Python, :func:`geofence.cpython_math.hypot` compiled). Fixed-wing: the
+    reaction phase (the pilot's current turn goes on, and rolling out of the current bank costs up to another
+    roll time, at cruise at least: :func:`~geofence.rooms.fixed_wing_reaction_terms`), the turns to the
+    wind-corrected roll-out heading (:func:`~geofence.rooms.rollout_turns`); multirotor: the worst-case pilot
+    (the tilt limit while below max airspeed) and the climb arrest (it lowers the collective, and with it the
+    horizontal braking force). ``bound``: no element farther than the nearest plus this can bind.
+    """
+    t_r = env.reaction_s + latency_s
+    state = LateralState(ve, vn, wind_e, wind_n, extra, hu)
+    if env.fixed_wing != 0.0:
+        psi_abs, psi_react0, v_turn, radius, inv_omega, t_fw, omega_now, rot = fixed_wing_reaction_terms(
+            v_air, ve - wind_e, vn - wind_n, ve, vn, speed, env.cruise_mps, env.min_speed_mps, env.max_bank_rad,
+            env.reaction_s, t_r, bank_rad, g,
+        )  # fmt: skip
+        turn = FixedWingTurn(v_turn, psi_react0, rot, omega_now, t_fw, math.sin(psi_abs), math.cos(psi_abs), radius, inv_omega)
+        turns = Turns(*rollout_turns(de, dn, dd, wind_e, wind_n, v_turn, psi_abs))
+        bound = fixed_wing_room_bound_m(radius, inv_omega, speed, wspeed, t_fw) + hu
+        return state, turn, MultirotorBrake(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), turns, bound
+    a_tilt = tilt_accel_mps2(env.max_bank_rad, g)
+    arrest_t, arrest_loss = climb_arrest_phase(vu, env.vertical_accel_mps2, g)
+    bound = multirotor_room_bound_m(speed, t_r, a_tilt, env.k1, env.k2, wspeed, env.braking_mps2, (arrest_t, arrest_loss), hu)
+    a_pilot = a_tilt if v_air < env.max_speed_mps else 0.0
+    brake = MultirotorBrake(wspeed, speed, a_pilot, t_r, arrest_t, arrest_loss)
+    turn = FixedWingTurn(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    return state, turn, brake, Turns(0.0, 0.0, 0.0, 0.0), bound
+
+
+@jitable
+def state_terms(
+    V: np.ndarray, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float, latency_s: float,
+    bank_rad: float, wind_extra_mps: float, de: float, dn: float, g: float,
+) -> tuple[EnvelopeTerms, LateralState, FixedWingTurn, MultirotorBrake, Turns, float]:  # fmt: skip
+    """``(env, state, turn, brake, turns, bound)``: :func:`lateral_terms` from the state as :func:`_margins`
+    takes it (``V``: :func:`envelope_terms`; ``(de, dn)``: the roll-out target from the position, m), the
+    speeds by :func:`geofence.cpython_math.hypot`."""
+    env = envelope_of_terms(V)
+    extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
+    state, turn, brake, turns, bound = lateral_terms(
+        env, ve, vn, vu, wind_e, wind_n, hypot(ve, vn), hypot(ve - wind_e, vn - wind_n), hypot(wind_e, wind_n) + extra,
+        extra, hu, latency_s, bank_rad, de, dn, hypot(de, dn), g,
+    )  # fmt: skip
+    return env, state, turn, brake, turns, bound
+
+
+def _room_bound(
+    V: np.ndarray, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float, latency_s: float,
+    bank_rad: float, wind_extra_mps: float, de: float, dn: float, g: float,
+) -> float:  # fmt: skip
+    """The ``bound`` of :func:`state_terms`: no element farther than the nearest plus this can bind (m)."""
+    return state_terms(V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, de, dn, g)[5]
+
+
+def _state_binding(
+    E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, walk: bool, e: float, n: float, delta_c: float, n_line: int,
+    free: bool, V: np.ndarray, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float,
+    latency_s: float, bank_rad: float, wind_extra_mps: float, de: float, dn: float, g: float, turn_s: float,
+    turn_delta: float,
+) -> tuple[float, float, int, float, float, float, float, float, float, float]:  # fmt: skip
+    """:func:`geofence.lateral_kernel.lateral_binding` of a state (:func:`state_terms`' terms, its reach the
+    bound), for a caller in Python: scalars and arrays cross into compiled code much faster than named tuples.
+    ``turn_s`` 0: the state's own turns; else the one turn ``(turn_s, turn_delta)``."""
+    env, state, turn, brake, turns, bound = state_terms(
+        V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, de, dn, g
+    )
+    if turn_s != 0.0:
+        turns = Turns(turn_s, turn_delta, turn_s, turn_delta)
+    fixed_wing = env.fixed_wing != 0.0
+    return lateral_binding(E, ids, lbs, walk, e, n, bound, delta_c, n_line, free, fixed_wing, env, state, turn, brake, turns)
+
+
+room_bound = compiled(_room_bound)
+"""The compiled :func:`_room_bound`."""
+
+state_binding = compiled(_state_binding)
+"""The compiled :func:`_state_binding`."""
 
 
 @jitable
@@ -192,53 +345,30 @@ def _margins(
     ``has_target``: a ``rollout_target_en`` is given). ``F, L``: a fence's packed :class:`MarginTables`.
     ``lat_margin``: the lateral margin at (e, n) when the caller has it (:func:`_lateral_margin`), NaN: not yet."""
     S = _column(F, L, SCALARS)
-    fixed_wing = V[FIXED_WING] != 0.0
-    t_r = V[REACTION_S] + latency_s
-    speed = hypot(ve, vn)
-    extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
-    wspeed = hypot(wind_e, wind_n) + extra
-    max_bank = V[MAX_BANK]
-    s1 = delta1 = s2 = delta2 = psi_react0 = rot = omega_now = t_fw = sa = ca = 0.0
-    radius = inv_omega = v_turn = 0.0
-    k1 = k2 = a_pilot = a_brake = arrest_t = arrest_loss = 0.0
-    if fixed_wing:
-        vae, van = ve - wind_e, vn - wind_n
-        psi_abs, psi_react0, v_turn, radius, inv_omega, t_fw, omega_now, rot = fixed_wing_reaction_terms(
-            hypot(vae, van), vae, van, ve, vn, speed, V[CRUISE], V[MIN_SPEED], max_bank, V[REACTION_S], t_r, bank_rad, g
-        )
-        ca, sa = math.cos(psi_abs), math.sin(psi_abs)
-        re, rn = (target_e, target_n) if has_target else (S[RECOVERY_E], S[RECOVERY_N])
-        de, dn = re - e, rn - n
-        s1, delta1, s2, delta2 = rollout_turns(de, dn, hypot(de, dn), wind_e, wind_n, v_turn, psi_abs)
-        bound = fixed_wing_room_bound_m(radius, inv_omega, speed, wspeed, t_fw) + hu
-    else:
-        a_tilt = tilt_accel_mps2(max_bank, g)
-        k1, k2 = V[K1], V[K2]
-        v_air_mc = hypot(ve - wind_e, vn - wind_n)
-        a_brake = V[BRAKING]
-        arrest_t, arrest_loss = climb_arrest_phase(vu, V[VERTICAL_ACCEL], g)
-        bound = multirotor_room_bound_m(speed, t_r, a_tilt, k1, k2, wspeed, a_brake, (arrest_t, arrest_loss), hu)
-        a_pilot = a_tilt if v_air_mc < V[MAX_SPEED] else 0.0
+    re, rn = (target_e, target_n) if has_target else (S[RECOVERY_E], S[RECOVERY_N])
+    env, state, turn, brake, turns, bound = state_terms(
+        V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, re - e, rn - n, g
+    )
+    fixed_wing = env.fixed_wing != 0.0
+    t_r = env.reaction_s + latency_s
 
     if lat_margin != lat_margin:
         lat_margin = _lateral_margin(F, L, e, n)
+    E, ids, zeros, n_line = _table(F, L, ELEMENTS, 7), _vector(L, IDS), _column(F, L, ZEROS), int(S[LINE_EDGES])
     lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
-        _table(F, L, ELEMENTS, 7), _vector(L, IDS), _column(F, L, ZEROS), False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n, extra, hu,
-        v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s1, delta1, s2, delta2,
-        k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, int(S[LINE_EDGES]), lat_margin >= 0.0,
-    )  # fmt: skip
+        E, ids, zeros, False, e, n, bound, 0.0, n_line, lat_margin >= 0.0, fixed_wing, env, state, turn, brake, turns
+    )
     lat_act, ttb = capped_lateral(lat_act, lat_margin, d_edge, v_n)
 
     # vertical
     c_m = S[CEILING] - h
-    c_s = vertical_arrest_distance_m(vu, t_r, V[VERTICAL_ACCEL], V[MAX_CLIMB]) + v_unc
+    c_s, f_dive = vertical_arrests_m(env, vu, t_r, v_unc)
     ceiling_act = c_m - c_s
     if S[HAS_FLOOR] == 0.0:
         f_m, f_s, f_act = math.inf, 0.0, math.inf
     else:
         floor = S[FLOOR]
         f_m = h - floor
-        f_dive = vertical_arrest_distance_m(-vu, t_r, V[VERTICAL_ACCEL], V[MAX_DESCENT])
         f_act = h - floor - f_dive - v_unc
         gap_offsets = _vector(L, GAP_OFFSETS)
         n_gaps = gap_offsets.shape[0] - 1
@@ -251,37 +381,32 @@ def _margins(
                 edge_offsets = _vector(L, GAP_EDGE_OFFSETS)
                 G = _table(F, L, GAP_EDGES, 7)[edge_offsets[gi] : edge_offsets[gi + 1]]
                 cnt = G.shape[0]
-                g1, gd1, g2, gd2 = s1, delta1, s2, delta2
+                g_turns = turns
                 circle = 0.0
                 if fixed_wing:  # it circles, the way it turns, until it has climbed back from its deepest point
                     deepest = h - f_dive - v_unc
-                    g1 = g2 = s_best
-                    gd1 = gd2 = circle = gap_circle_turn_rad(floor - deepest, V[MAX_CLIMB], inv_omega)
+                    circle = gap_circle_turn_rad(floor - deepest, env.max_climb_mps, turn.inv_omega)
+                    g_turns = Turns(s_best, circle, s_best, circle)
                 g_ids = np.arange(cnt)
                 g_lbs = np.zeros(cnt)
                 g_act = lateral_binding(
-                    G, g_ids, g_lbs, False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n,
-                    extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, g1, gd1, g2,
-                    gd2, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, 0, True,
-                )[0]  # fmt: skip
+                    G, g_ids, g_lbs, False, e, n, bound, 0.0, 0, True, fixed_wing, env, state, turn, brake, g_turns
+                )[0]
                 floor_best = floor_with_gap_m(f_act, g_act, gd)
                 if fixed_wing and floor_best < gd:
                     # the turn is one for the keep-in and the gap together (activation_margins: the reference);
                     # the other turn's circle can raise the floor's activation only below the gap's own room
-                    s_o, delta_o = (s2, delta2) if s_best == s1 else (s1, delta1)
+                    s_o, delta_o = (turns.s2, turns.delta2) if s_best == turns.s1 else (turns.s1, turns.delta1)
                     g_o = lateral_binding(
-                        G, g_ids, g_lbs, False, e, n, bound, 0.0, fixed_wing, ve, vn, wind_e, wind_n,
-                        extra, hu, v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega, s_o, circle,
-                        s_o, circle, k1, k2, wspeed, speed, a_pilot, t_r, a_brake, arrest_t, arrest_loss, 0, True,
+                        G, g_ids, g_lbs, False, e, n, bound, 0.0, 0, True, fixed_wing, env, state, turn, brake,
+                        Turns(s_o, circle, s_o, circle),
                     )[0]  # fmt: skip
                     floor_o = floor_with_gap_m(f_act, g_o, gd)
                     now = min(lat_act, floor_best, ceiling_act)
                     if floor_o > floor_best and min(floor_o, ceiling_act) > now:
                         o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = lateral_binding(
-                            _table(F, L, ELEMENTS, 7), _vector(L, IDS), _column(F, L, ZEROS), False, e, n, bound, 0.0,
-                            fixed_wing, ve, vn, wind_e, wind_n, extra, hu, v_turn, psi_react0, rot, omega_now, t_fw,
-                            sa, ca, radius, inv_omega, s_o, delta_o, s_o, delta_o, k1, k2, wspeed, speed, a_pilot, t_r,
-                            a_brake, arrest_t, arrest_loss, int(S[LINE_EDGES]), lat_margin >= 0.0,
+                            E, ids, zeros, False, e, n, bound, 0.0, n_line, lat_margin >= 0.0, fixed_wing, env,
+                            state, turn, brake, Turns(s_o, delta_o, s_o, delta_o),
                         )  # fmt: skip
                         o_lat, o_ttb = capped_lateral(o_act, lat_margin, o_d, o_vn)
                         if min(o_lat, floor_o, ceiling_act) > now:
@@ -291,18 +416,33 @@ def _margins(
                 f_act = floor_best
         f_s = f_m - f_act
     v_act = f_act if f_act < ceiling_act else ceiling_act
-    if c_m <= 0.0 or f_m <= 0.0:
-        vttb = 0.0
-    elif vu > 1e-9:
-        vttb = c_m / vu
-    elif vu < -1e-9 and S[HAS_FLOOR] != 0.0:
-        vttb = f_m / -vu
-    else:
-        vttb = math.inf
+    vttb = vertical_time_to_breach_s(c_m, f_m, vu, S[HAS_FLOOR] != 0.0)
     return (
         v_act if v_act < lat_act else lat_act, lat_margin, room, lat_act, i_bind, nx, ny, d_edge, v_n, ttb,
         int(s_best), turn_angle, c_m, c_s, f_m, f_s, v_act, vttb,
     )  # fmt: skip
+
+
+@jitable
+def vertical_arrests_m(env: EnvelopeTerms, vu: float, t_r: float, v_unc: float) -> tuple[float, float]:
+    """``(ceiling shift, dive)`` (m): how far a climb at ``vu`` (m/s) goes before it is arrested, plus the
+    vertical uncertainty ``v_unc``, and how far a descent does (:func:`geofence.rooms.vertical_arrest_distance_m`
+    over the reaction time ``t_r``, the pilot accelerating up to the climb or descent rate meanwhile)."""
+    c_s = vertical_arrest_distance_m(vu, t_r, env.vertical_accel_mps2, env.max_climb_mps) + v_unc
+    return c_s, vertical_arrest_distance_m(-vu, t_r, env.vertical_accel_mps2, env.max_descent_mps)
+
+
+@jitable
+def vertical_time_to_breach_s(ceiling_margin_m: float, floor_margin_m: float, vu: float, has_floor: bool) -> float:
+    """Seconds until the ceiling (climbing) or the floor (descending, ``has_floor``) is reached at ``vu`` m/s: 0
+    once either is breached, ``inf`` when level (within 1e-9 m/s) or descending without a floor."""
+    if ceiling_margin_m <= 0.0 or floor_margin_m <= 0.0:
+        return 0.0
+    if vu > 1e-9:
+        return ceiling_margin_m / vu
+    if vu < -1e-9 and has_floor:
+        return floor_margin_m / -vu
+    return math.inf
 
 
 @jitable
@@ -330,11 +470,13 @@ def far_from_everything(
     floor within the largest room the state can need (:func:`geofence.rooms.room_upper_bounds_terms` at the wind
     speed plus ``allowance`` over the time ``t_s``, plus the uncertainties ``hu`` and ``v_unc``), and the lateral margin at (e, n) when it was computed (else NaN)."""
     S = _column(F, L, SCALARS)
-    fixed_wing = V[FIXED_WING] != 0.0
+    env = envelope_of_terms(V)
+    fixed_wing = env.fixed_wing != 0.0
     w = hypot(wind_e, wind_n) + allowance
     room, vroom = room_upper_bounds_terms(
-        fixed_wing, V[MAX_SPEED], V[MAX_BANK], V[BRAKING], V[VERTICAL_ACCEL], V[MAX_CLIMB], V[MAX_DESCENT], V[K1],
-        V[K2], ground_speed, hypot(ve - wind_e, vn - wind_n), vu, w, t_s, g,
+        fixed_wing, env.max_speed_mps, env.max_bank_rad, env.braking_mps2, env.vertical_accel_mps2,
+        env.max_climb_mps, env.max_descent_mps, env.k1, env.k2, ground_speed, hypot(ve - wind_e, vn - wind_n), vu, w,
+        t_s, g,
     )  # fmt: skip
     if room == math.inf:
         return False, math.nan
@@ -348,7 +490,7 @@ def far_from_everything(
     if S[HAS_FLOOR] == 0.0 or h - S[FLOOR] > vroom:
         return True, lat
     if fixed_wing:  # it circles in a gap while it climbs back: the circle drifts (an upper bound)
-        room += climb_back_drift_m(S[FLOOR] + vroom - h, V[MAX_CLIMB], w)
+        room += climb_back_drift_m(S[FLOOR] + vroom - h, env.max_climb_mps, w)
     return deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), _vector(L, GAP_OFFSETS))[1] > room, lat
 
 
@@ -378,8 +520,8 @@ def _monitor_margins(
     )  # fmt: skip
 
 
-margins = numba.njit(cache=True)(_margins) if COMPILED else _margins
+margins = compiled(_margins)
 """The compiled :func:`_margins` (the Python function itself without numba)."""
 
-monitor_margins = numba.njit(cache=True)(_monitor_margins) if COMPILED else _monitor_margins
+monitor_margins = compiled(_monitor_margins)
 """The compiled :func:`_monitor_margins` (the Python function itself without numba)."""

@@ -6,8 +6,10 @@ fixed-wing turn excursion (the trochoid) and its reaction travel, the
 multirotor's reaction travel under the worst-case pilot and its braking
 distance (weakened while a climb is arrested), the vertical arrest distance,
 the head-on room that the analysis figures draw and the feasibility check
-maximises, and the upper bounds of the room that the margin's edge culling and
-the unit's skip shortcut rely on. Where the per-step loop needs a fast form
+maximises, the room against one edge (:func:`fixed_wing_edge_room_m`), and the
+upper bounds of the room that the binding searches' pruning, the margin's edge
+culling and the unit's skip shortcut rely on. The compiled kernels call these
+same functions (:func:`geofence.jit.jitable`): to change a formula, edit it here. Where the per-step loop needs a fast form
 (precomputed turn constants, one call per edge), it stands next to its
 reference form and ``tests/test_rooms.py`` checks that the two agree to 1e-9
 relative. :mod:`geofence.boundary_shift` assembles these rooms into activation
@@ -107,14 +109,17 @@ __all__ = [
     "fixed_wing_room_bound_m",
     "gap_circle_turn_rad",
     "fixed_wing_room_from_velocity_m",
+    "fixed_wing_edge_room_m",
     "fixed_wing_reaction_terms",
     "fixed_wing_room_m",
     "head_on_room_m",
     "multicopter_stopping_distance_m",
     "multirotor_room_bound_m",
     "multirotor_room_m",
+    "reaction_arc_bound_m",
     "reaction_arc_gap_m",
     "reaction_arc_m",
+    "reaction_arc_sines_m",
     "reaction_arc_terms_m",
     "room_upper_bounds_fast_m",
     "room_upper_bounds_m",
@@ -123,6 +128,7 @@ __all__ = [
     "tilt_accel_mps2",
     "trochoid_excursion_m",
     "turn_constants",
+    "trochoid_excursion_bound_m",
     "turn_excursion_m",
     "turn_radius_m",
     "turn_rate_radps",
@@ -209,6 +215,32 @@ def trochoid_excursion_m(
     return best if best > 0.0 else 0.0
 
 
+@jitable
+def trochoid_excursion_bound_m(radius: float, inv_omega: float, w: float, sin_psi0: float, s: float, delta: float) -> float:
+    """Upper bound of :func:`trochoid_excursion_m` over a turn of ``delta`` (rad) in direction ``s``, m.
+
+    ``R·(1 - s·sin psi0) + max(w, 0)·delta/omega`` (each term of ``x(theta)`` bounded over ``theta in [0,
+    delta]``) plus a slack of ``1e-6·(1 + R + drift)`` that covers the excursion's round-off and that of
+    ``sin_psi0`` (``sin psi0`` however the caller finds it). The binding-edge searches score edges in order of
+    ``d - base - this``.
+    """
+    drift = w * delta * inv_omega if w > 0.0 else 0.0
+    ub = radius * (1.0 - s * sin_psi0) + drift
+    return ub + 1e-6 * (1.0 + radius + drift)
+
+
+@jitable
+def fixed_wing_edge_room_m(
+    base_m: float, gap_m: float, radius: float, inv_omega: float, v: float, w: float, psi0: float, s: float, delta: float
+) -> float:
+    """The room against one edge of the fixed-wing manoeuvre the margins score, m: ``base_m`` (the reaction
+    travel to where the turn starts, plus any margin the caller folds in) and the larger of the turn's excursion
+    (:func:`trochoid_excursion_m` of ``s``, ``delta``) and ``gap_m``, how much farther the reaction arc itself
+    gets (:func:`reaction_arc_gap_m`)."""
+    ex = trochoid_excursion_m(radius, inv_omega, v, w, psi0, s, delta)
+    return base_m + (ex if ex >= gap_m else gap_m)
+
+
 def turn_excursion_m(
     airspeed_mps: float,
     bank_rad: float,
@@ -262,6 +294,32 @@ def _reaction_arc_end_m(v_air: float, psi0: float, rot: float, omega: float, t: 
         along = (v_air / omega) * (math.sin(psi0 - theta) - math.sin(psi0 - rot - theta))
     d = along + w_n * t
     return d if d > 0.0 else 0.0
+
+
+@jitable
+def reaction_arc_sines_m(
+    arc: float, sp: float, cp: float, sq: float, cq: float, straight: bool, t: float, nx: float, ny: float, w_n: float
+) -> float:
+    """:func:`reaction_arc_m` without a transcendental function per normal, to round-off, m (>= 0): the fast form
+    the compiled binding search bounds elements with (about 1e-15 of ``arc`` from the reference form).
+
+    ``arc``: ``V·t`` when ``straight`` (``|rot| < 1e-6``), else ``V/omega``; ``(sp, cp)`` the sine and cosine of
+    the air heading ``psi0`` at the start, ``(sq, cq)`` of ``psi0 - rot`` at the end; for a unit normal at
+    angle ``theta``, ``sin(psi - theta) = sin psi·nx - cos psi·ny``.
+    """
+    if straight:
+        along = arc * (cp * nx + sp * ny)
+    else:
+        along = arc * ((sp * nx - cp * ny) - (sq * nx - cq * ny))
+    d = along + w_n * t
+    return d if d > 0.0 else 0.0
+
+
+@jitable
+def reaction_arc_bound_m(v_air: float, w_n: float, t: float) -> float:
+    """Upper bound of the reaction arc's farthest travel along a normal (:func:`reaction_arc_terms_m`'s end plus
+    gap), m: ``(V + max(w_n, 0))·t``, with a relative slack of 1e-9 and 1e-9 m for round-off."""
+    return (v_air + (w_n if w_n > 0.0 else 0.0)) * t * (1.0 + 1e-9) + 1e-9
 
 
 @jitable
@@ -481,7 +539,8 @@ def multicopter_stopping_distance_m(
     speed_mps: float | None = None,
     wind_push_mps2: float = 0.0,
 ) -> float:
-    """Room along an edge normal to stop: ``v_n·t_react + v_n·v/(2·(a_brake - a_w))``, in m (the reference form).
+    """Room along an edge normal to stop: ``v_n·t_react + v_n·v/(2·(a_brake - a_w))``, in m: the reaction travel
+    plus :func:`braking_room_m` without a climb arrest.
 
     ``speed_mps`` (default ``|v_n|``) is the full ground speed (the vehicle
     brakes along its velocity); ``wind_push_mps2`` from
@@ -491,10 +550,7 @@ def multicopter_stopping_distance_m(
     if v_normal_mps <= 0.0:
         return 0.0
     v = abs(v_normal_mps) if speed_mps is None else max(speed_mps, v_normal_mps)
-    a = braking_decel_mps2 - wind_push_mps2
-    if a <= 0.0:
-        return math.inf
-    return v_normal_mps * reaction_time_s + v_normal_mps * v / (2.0 * a)
+    return v_normal_mps * reaction_time_s + braking_room_m(v_normal_mps, v, braking_decel_mps2 - wind_push_mps2, (0.0, 0.0))
 
 
 # --------------------------------------------------------------------------- vertical
@@ -611,39 +667,8 @@ def room_upper_bounds_m(
       ``v = max(v_max, airspeed)`` (the turn speed is at most that);
     * vertical: :func:`vertical_arrest_distance_m` from the largest of the
       climb rate, the descent rate and ``|v_up|``.
-    """
-    w = wind_speed_mps
-    if env.kind is PlatformKind.FIXED_WING:
-        v = max(env.max_speed_mps, airspeed_mps)
-        radius, inv_omega = turn_constants(v, env.max_bank_rad, g)
-        lateral = fixed_wing_room_bound_m(radius, inv_omega, v, w, t_s)
-    else:
-        v = max(env.max_speed_mps, ground_speed_mps)
-        push = wind_push_mps2(*drag_coefficients(env), w, w)
-        a = (env.braking_decel_mps2 - push) * max(1.0 - env.vertical_accel_mps2 / g, 0.05)
-        lateral = (
-            multirotor_room_m(v, v, t_s, tilt_accel_mps2(env.max_bank_rad, g) + push, a, (0.0, 0.0)) if a > 0.0 else math.inf
-        )
-    vz = max(env.max_climb_rate_mps, env.max_descent_rate_mps, abs(v_up_mps))
-    return lateral, vertical_arrest_distance_m(vz, t_s, env.vertical_accel_mps2, vz)
 
-
-def room_upper_bounds_fast_m(
-    env: Envelope,
-    ground_speed_mps: float,
-    airspeed_mps: float,
-    v_up_mps: float,
-    wind_speed_mps: float,
-    t_s: float,
-    g: float = G_MPS2,
-) -> tuple[float, float]:
-    """Fast form of :func:`room_upper_bounds_m` (the same bounds in m, inlined for the unit's per-step skip shortcut).
-
-    Lateral: multirotor ``v·t + a_p·t²/2 + (v + a_p·t)²/(2a)`` with
-    ``a_p = g·tan(tilt) + a_w``, ``a = (a_brake - a_w)·max(1 - a_z/g, 0.05)``;
-    fixed-wing ``2R + |W|·2pi/omega + (v + |W|)·t``. Vertical:
-    ``v_z·t + v_z²/(2·a_z)``. ``tests/test_rooms.py`` holds it to the reference
-    form within 1e-9 relative. The arithmetic is :func:`room_upper_bounds_terms`'s.
+    The arithmetic is :func:`room_upper_bounds_terms`' (on the envelope's numbers: the compiled kernels call it).
     """
     k1, k2 = drag_coefficients(env)
     return room_upper_bounds_terms(
@@ -651,6 +676,10 @@ def room_upper_bounds_fast_m(
         env.vertical_accel_mps2, env.max_climb_rate_mps, env.max_descent_rate_mps, k1, k2,
         ground_speed_mps, airspeed_mps, v_up_mps, wind_speed_mps, t_s, g,
     )  # fmt: skip
+
+
+room_upper_bounds_fast_m = room_upper_bounds_m
+"""The unit's name for :func:`room_upper_bounds_m` (once a hand-inlined copy of it; now the same function)."""
 
 
 @jitable
@@ -671,25 +700,18 @@ def room_upper_bounds_terms(
     t_s: float,
     g: float,
 ) -> tuple[float, float]:
-    """:func:`room_upper_bounds_fast_m` on the envelope's numbers (``k1, k2``: its drag law's
-    :func:`~geofence.dynamics.drag_coefficients`), the one home of its arithmetic (compiled kernels call it)."""
+    """:func:`room_upper_bounds_m` on the envelope's numbers (``k1, k2``: its drag law's
+    :func:`~geofence.dynamics.drag_coefficients`), composed of the room formulas' bounds."""
     w = wind_speed_mps
     if fixed_wing:
         v = max_speed_mps if max_speed_mps > airspeed_mps else airspeed_mps
-        tanb = g * math.tan(max_bank_rad)
-        lateral = (2.0 * v * v + w * TWO_PI * v) / tanb + (v + w) * t_s
+        radius, inv_omega = turn_constants(v, max_bank_rad, g)
+        lateral = fixed_wing_room_bound_m(radius, inv_omega, v, w, t_s)
     else:
         v = max_speed_mps if max_speed_mps > ground_speed_mps else ground_speed_mps
-        push = (k1 + k2 * w) * w if w > 0.0 else 0.0
+        push = wind_push_mps2(k1, k2, w, w)
         a = (braking_decel_mps2 - push) * max(1.0 - vertical_accel_mps2 / g, 0.05)
-        if a > 0.0:
-            a_p = g * math.tan(max_bank_rad) + push
-            v1 = v + a_p * t_s
-            lateral = v * t_s + 0.5 * a_p * t_s * t_s + v1 * v1 / (2.0 * a)
-        else:
-            lateral = math.inf
+        a_p = tilt_accel_mps2(max_bank_rad, g) + push
+        lateral = multirotor_room_m(v, v, t_s, a_p, a, (0.0, 0.0)) if a > 0.0 else math.inf
     vz = max(max_climb_rate_mps, max_descent_rate_mps, abs(v_up_mps))
-    az = vertical_accel_mps2
-    if vz <= 0.0:
-        return lateral, 0.0
-    return lateral, (vz * t_s + vz * vz / (2.0 * az) if az > 0.0 else math.inf)
+    return lateral, vertical_arrest_distance_m(vz, t_s, vertical_accel_mps2, vz)

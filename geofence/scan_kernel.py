@@ -21,7 +21,7 @@ import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
 from geofence.cpython_math import hypot
-from geofence.jit import COMPILED, jitable, numba
+from geofence.jit import compiled, jitable
 from geofence.polygon import BOUNDARY_TOL_M
 
 __all__ = ["deepest_polygon", "lateral_margin_scan", "polygon_rows", "rows_view", "signed_distance_rows", "stacked"]
@@ -95,7 +95,7 @@ def _lateral_margin_scan(
     return m
 
 
-lateral_margin_scan = numba.njit(cache=True)(_lateral_margin_scan) if COMPILED else _lateral_margin_scan
+lateral_margin_scan = compiled(_lateral_margin_scan)
 """The compiled :func:`_lateral_margin_scan`."""
 
 
@@ -110,5 +110,5 @@ def _deepest_polygon(e: float, n: float, rows: np.ndarray, offsets: np.ndarray) 
     return best, best_d
 
 
-deepest_polygon = numba.njit(cache=True)(_deepest_polygon) if COMPILED else _deepest_polygon
+deepest_polygon = compiled(_deepest_polygon)
 """The compiled :func:`_deepest_polygon`."""

@@ -1,5 +1,8 @@
 """Helpers shared by the test modules (the one place they live: test modules do not import each other).
 
+Twins: :func:`same_bits` (every field equal bit for bit) and :func:`fly_both_ways` (a flight compiled and on
+the plain-Python reference, the same trajectory bytes).
+
 Golden flights: a scenario under ``tests/data/golden/`` flown in closed loop, its trajectory sampled at
 :data:`GOLDEN_STRIDE` and kept as ``<name>.csv`` beside it, compared with tolerances the way JSBSim's own
 regression tests compare tables (:func:`compare_golden`).
@@ -70,3 +73,31 @@ def compare_golden(got: np.ndarray, want: np.ndarray) -> list[str]:
         if err[k] > GOLDEN_TOLERANCE[name]:
             problems.append(f"{name}: {a[k]!r} != golden {b[k]!r} at t = {want[k, 0]:.2f} s")
     return problems
+
+
+def _bits(x) -> object:
+    return x if isinstance(x, str) else float(x).hex()  # a float's exact value (and its sign, inf, nan)
+
+
+def same_bits(a, b) -> bool:
+    """Every field equal bit for bit (numpy or Python floats alike)."""
+    return [_bits(x) for x in a] == [_bits(x) for x in b]
+
+
+def fly_both_ways(sc):
+    """The flight compiled and on the plain-Python reference (:func:`geofence.jit.use_compiled`); asserts the same
+    trajectory bytes and returns both results."""
+    from geofence.jit import use_compiled
+    from scenarios.flight.runner import fly
+
+    runs = []
+    for on in (True, False):
+        previous = use_compiled(on)
+        try:
+            runs.append(fly(sc))
+        finally:
+            use_compiled(previous)
+    a, b = runs
+    assert a.recorder.n == b.recorder.n > 0
+    assert a.recorder.data.tobytes() == b.recorder.data.tobytes()
+    return a, b

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
+from support import fly_both_ways, same_bits  # (fly_both_ways: test_sensing_kernel and test_compiled_flights import it here)
 from test_fence_grid import FRAME, FW, MC, dense_fence, dense_states, latlon, probe_points, random_fence, random_margin_call
 
 from geofence.boundary_shift import activation_margins
@@ -27,36 +28,10 @@ from geofence.fence import Fence, KeepOutCircle
 from geofence.jit import COMPILED, numba, use_compiled
 from geofence.recovery_path import RecoveryPlanner, path_follow, path_lookahead, path_project, path_rollout, segment_clear
 from scenarios.definition.schema import load_scenario
-from scenarios.flight.runner import fly
 
 ROOT = Path(__file__).resolve().parents[1]
 
 needs_numba = pytest.mark.skipif(not COMPILED, reason="numba not installed, or NUMBA_DISABLE_JIT set (the kernels run as Python)")
-
-
-def fly_both_ways(sc):
-    """The flight compiled and on the plain-Python reference (:func:`use_compiled`); asserts the same trajectory
-    bytes and returns both results."""
-    runs = []
-    for on in (True, False):
-        previous = use_compiled(on)
-        try:
-            runs.append(fly(sc))
-        finally:
-            use_compiled(previous)
-    a, b = runs
-    assert a.recorder.n == b.recorder.n > 0
-    assert a.recorder.data.tobytes() == b.recorder.data.tobytes()
-    return a, b
-
-
-def _bits(x) -> object:
-    return x if isinstance(x, str) else float(x).hex()  # a float's exact value (and its sign, inf, nan)
-
-
-def same_bits(a, b) -> bool:
-    """Every field equal bit for bit (numpy or Python floats alike)."""
-    return [_bits(x) for x in a] == [_bits(x) for x in b]
 
 
 _compiled_hypot = numba.njit(lambda x, y: hypot(x, y)) if COMPILED else None
@@ -308,6 +283,87 @@ def test_compiled_lateral_scan_equals_the_polygon_loops(seed, n_vertices, n_squa
             ref = local.lateral_margin_scan_m(e, n)
         finally:
             use_compiled(previous)
-        assert _bits(a) == _bits(ref), (e, n)
+        assert same_bits((a,), (ref,)), (e, n)
         signs.add(ref > 0.0)
     assert signs == {True, False}  # inside and breached points both checked
+
+
+# ------------------------------------------------------------------ conformance: each compiled entry point is its source
+CONFORMANCE_REL = 1e-12
+"""Compiled and interpreted, the same float operations in the same order (numba contracts no multiply-adds, the
+C library's transcendental functions are CPython's): equal within this relative tolerance (in practice exactly)."""
+
+
+def close_fields(a, b, rel: float = CONFORMANCE_REL) -> bool:
+    """Every field equal within ``rel`` relative (infinities and NaNs equal to themselves)."""
+    for x, y in zip(a, b, strict=True):
+        x, y = float(x), float(y)
+        if x == y or (math.isnan(x) and math.isnan(y)):
+            continue
+        if not abs(x - y) <= rel * max(abs(x), abs(y)):
+            return False
+    return True
+
+
+def _binding_arguments(local, env, rng: random.Random, e: float, n: float) -> tuple:
+    """:func:`lateral_binding`'s arguments at (e, n) for a random state, by the public per-state terms."""
+    from geofence.margins_kernel import envelope_tuple, lateral_terms
+
+    args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True)
+    _, _, _, ve, vn, vu, _, we, wn = args
+    terms = envelope_tuple(env)
+    extra, hu = kw["wind_extra_mps"], kw["h_uncertainty_m"]
+    re, rn = local.recovery_en
+    state, turn, brake, turns, bound = lateral_terms(
+        terms, ve, vn, vu, we, wn, math.hypot(ve, vn), math.hypot(ve - we, vn - wn), math.hypot(we, wn) + extra, extra,
+        hu, kw["latency_s"], kw["bank_rad"], re - e, rn - n, math.hypot(re - e, rn - n), 9.80665,
+    )  # fmt: skip
+    E, _meta, ids, zeros = local.element_table()
+    fixed_wing = terms.fixed_wing != 0.0
+    return (E, ids, zeros, False, e, n, bound, 0.0, local.line_scored_edges(), True, fixed_wing, terms, state, turn, brake, turns)
+
+
+@needs_numba
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(4, 300), n_squares=st.integers(0, 10), n_circles=st.integers(0, 4))
+def test_lateral_binding_compiled_is_its_python_source(seed, n_vertices, n_squares, n_circles):
+    from geofence.lateral_kernel import lateral_binding
+
+    local = random_fence(seed, n_vertices, n_squares, n_circles).to_local(FRAME)
+    rng = random.Random(seed)
+    for e, n in probe_points(local, rng, 30):
+        for env in (MC, FW):
+            args = _binding_arguments(local, env, rng, e, n)
+            assert close_fields(lateral_binding(*args), lateral_binding.py_func(*args)), (e, n, env.kind)
+
+
+@needs_numba
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(60, 600), n_circles=st.integers(0, 4))
+def test_nearest_distance_compiled_is_its_python_source(seed, n_vertices, n_circles):
+    from geofence.lateral_kernel import nearest_distance
+
+    local = random_fence(seed, n_vertices, 3, n_circles).to_local(FRAME, index=True)
+    grid = local.grid()
+    rng = random.Random(seed)
+    for e, n in probe_points(local, rng, 30):
+        ids, lbs, delta = grid.candidates(e, n, 0.0)
+        args = (grid.table, ids, lbs, delta, e, n)
+        assert close_fields((nearest_distance(*args),), (nearest_distance.py_func(*args),)), (e, n)
+
+
+@needs_numba
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(4, 300), n_squares=st.integers(0, 10), n_circles=st.integers(0, 4))
+def test_the_lateral_margin_scans_compiled_are_their_python_source(seed, n_vertices, n_squares, n_circles):
+    """:func:`geofence.scan_kernel.lateral_margin_scan` and :func:`~geofence.scan_kernel.deepest_polygon`."""
+    from geofence.scan_kernel import deepest_polygon, lateral_margin_scan
+
+    local = random_fence(seed, n_vertices, n_squares, n_circles).to_local(FRAME)
+    tables = local.scan_tables()
+    rng = random.Random(seed)
+    for e, n in probe_points(local, rng, 30):
+        scan = (e, n, *tables)
+        assert close_fields((lateral_margin_scan(*scan),), (lateral_margin_scan.py_func(*scan),)), (e, n)
+        deep = (e, n, tables[1], tables[2])  # the keep-out polygons as the polygons to be deepest in
+        assert close_fields(deepest_polygon(*deep), deepest_polygon.py_func(*deep)), (e, n)

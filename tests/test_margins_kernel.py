@@ -12,16 +12,18 @@ import math
 import random
 from dataclasses import replace
 
+import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
+from support import same_bits
 from test_fence_grid import FRAME, FW, MC, latlon, probe_points, random_fence, random_margin_call
-from test_lateral_kernel import same_bits
 
 from geofence.boundary_shift import activation_margins
 from geofence.config import parse_geofence
 from geofence.fence import Fence
 from geofence.interface import VehicleState
-from geofence.jit import use_compiled
+from geofence.jit import COMPILED, use_compiled
+from geofence.margins_kernel import envelope_terms, margins, monitor_margins, room_bound, state_binding
 from geofence.unit import GeofenceUnit
 
 
@@ -197,3 +199,84 @@ def test_the_monitoring_step_skips_where_the_reference_skips():
     for seed in range(6):
         seen |= monitoring_outcomes(seed, 12, 0, 0, 1, ("none", "gaps", "wide gap")[seed % 3])
     assert {(MC.kind, True), (FW.kind, True), (MC.kind, False), (FW.kind, False)} <= seen
+
+
+# ------------------------------------------------------------------ conformance: each compiled entry point is its source
+needs_numba = pytest.mark.skipif(not COMPILED, reason="numba not installed, or NUMBA_DISABLE_JIT set (no compiled form)")
+CONFORMANCE_REL = 1e-12
+"""Compiled and interpreted, the same float operations in the same order: equal within this relative tolerance
+(in practice exactly)."""
+
+
+def close_fields(a, b, rel: float = CONFORMANCE_REL) -> bool:
+    """Every field equal within ``rel`` relative (infinities and NaNs equal to themselves)."""
+    for x, y in zip(a, b, strict=True):
+        x, y = float(x), float(y)
+        if x == y or (math.isnan(x) and math.isnan(y)):
+            continue
+        if not abs(x - y) <= rel * max(abs(x), abs(y)):
+            return False
+    return True
+
+
+def _kernel_calls(seed: int, n_gaps: int):
+    """``(margins arguments, monitor_margins arguments)`` at random states over a small fence with floor gaps."""
+    local = fence_with_gaps(seed, 12, 2, 1, n_gaps).to_local(FRAME)
+    F, L = local.margin_tables()
+    rng = random.Random(seed)
+    for e, n in probe_points(local, rng, 20):
+        for env in (MC, FW):
+            V = envelope_terms(env)
+            args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True)
+            _, _, _, ve, vn, vu, _, we, wn = args
+            h = rng.uniform(-5.0, 150.0)
+            hu, v_unc, lat_s, bank, extra = (
+                kw[k] for k in ("h_uncertainty_m", "v_uncertainty_m", "latency_s", "bank_rad", "wind_extra_mps")
+            )
+            target = rng.choice([(False, 0.0, 0.0), (True, rng.uniform(-300, 300), rng.uniform(-300, 300))])
+            yield (
+                (F, L, V, e, n, h, ve, vn, vu, we, wn, hu, v_unc, lat_s, bank, extra, *target, 9.80665, math.nan),
+                (F, L, V, e, n, h, math.hypot(ve, vn), ve, vn, vu, we, wn, extra, 2.0, hu, v_unc, lat_s, bank, *target, 9.80665),
+            )  # fmt: skip
+
+
+@needs_numba
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_gaps=st.integers(0, 3))
+def test_margins_compiled_is_its_python_source(seed, n_gaps):
+    for args, _ in _kernel_calls(seed, n_gaps):
+        assert close_fields(margins(*args), margins.py_func(*args)), args[3:6]
+
+
+@needs_numba
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_gaps=st.integers(0, 3))
+def test_monitor_margins_compiled_is_its_python_source(seed, n_gaps):
+    for _, args in _kernel_calls(seed, n_gaps):
+        far, fields = monitor_margins(*args)
+        far_py, fields_py = monitor_margins.py_func(*args)
+        assert far == far_py and close_fields(fields, fields_py), args[3:6]
+
+
+@needs_numba
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000), n_vertices=st.integers(60, 600), n_squares=st.integers(0, 8))
+def test_room_bound_and_state_binding_compiled_are_their_python_source(seed, n_vertices, n_squares):
+    """:func:`geofence.margins_kernel.room_bound` and :func:`~geofence.margins_kernel.state_binding` (the indexed
+    fence's per-step calls from Python), with the state's own turns and with one given turn."""
+    local = random_fence(seed, n_vertices, n_squares, 2).to_local(FRAME, index=True)
+    E, _meta, _ids, _zeros = local.element_table()
+    rng = random.Random(seed)
+    for e, n in probe_points(local, rng, 20):
+        for env in (MC, FW):
+            args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True)
+            _, _, _, ve, vn, vu, _, we, wn = args
+            re, rn = local.recovery_en
+            state = (envelope_terms(env), ve, vn, vu, we, wn, kw["h_uncertainty_m"], kw["latency_s"], kw["bank_rad"])
+            state += (kw["wind_extra_mps"], re - e, rn - n, 9.80665)
+            bound = room_bound(*state)
+            assert close_fields((bound,), (room_bound.py_func(*state),))
+            ids, lbs, delta = local.grid().candidates(e, n, bound)
+            for turn in ((0.0, 0.0), (rng.choice([1.0, -1.0]), rng.uniform(0.0, 6.3))):
+                call = (E, ids, lbs, True, e, n, delta, local.line_scored_edges(), True, *state, *turn)
+                assert close_fields(state_binding(*call), state_binding.py_func(*call)), (e, n, env.kind)
