@@ -179,3 +179,33 @@ def test_the_public_api_is_reexported_from_the_package():
         assert obj.__name__ == name and obj.__module__.startswith("geofence."), name
     with pytest.raises(AttributeError):
         geofence.no_such_name  # noqa: B018
+
+
+def imported_test_modules(tree: ast.AST) -> list[str]:
+    """The ``test_*`` modules an (already parsed) module imports, anywhere in it (function-local imports too):
+    ``import test_x``, ``from test_x import y``, ``from tests.test_x import y``, ``from tests import test_x``,
+    ``from . import test_x``."""
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            found += [a.name for a in node.names if any(p.startswith("test_") for p in a.name.split("."))]
+        elif isinstance(node, ast.ImportFrom):
+            parts = node.module.split(".") if node.module else []
+            if any(p.startswith("test_") for p in parts):
+                found.append(node.module or "")
+            elif node.level > 0 or parts[-1:] == ["tests"]:  # a package's test modules, by name
+                found += [a.name for a in node.names if a.name.startswith("test_")]
+    return found
+
+
+def test_test_modules_do_not_import_each_other():
+    """Shared helpers live in one support module (tests/support.py); a test module imports them from there, never
+    from another test module (``support`` and ``conftest`` are fine)."""
+    caught = "import test_a\nfrom test_b import x\nfrom tests.test_c import y\nfrom . import test_d\nfrom support import z\n"
+    assert imported_test_modules(ast.parse(caught)) == ["test_a", "test_b", "tests.test_c", "test_d"]
+    offenders = {
+        str(p.relative_to(ROOT)): found
+        for p in sorted((ROOT / "tests").rglob("*.py"))
+        if (found := imported_test_modules(ast.parse(p.read_text())))
+    }
+    assert offenders == {}

@@ -97,7 +97,7 @@ def test_ci_suite_batch_on_two_jobs_writes_every_result_and_no_breach(tmp_path):
     platforms = {s["aircraft"] for s in got.values()}
     assert platforms == {"F450RD", "Tern"}
     # the suite tests what it says: every flight really approached its edge, the ceiling and the floor
-    from test_ci_suite import assert_ci_suite_approaches
+    from support import assert_ci_suite_approaches
 
     assert_ci_suite_approaches(out)
 

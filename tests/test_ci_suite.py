@@ -7,7 +7,7 @@
   cover the four edges, and that every flight has a climb segment long enough
   to reach the ceiling and a descent segment long enough to reach the floor
   (away from the floor gap).
-* :func:`assert_ci_suite_approaches` checks the *flown* suite (a batch output
+* :func:`support.assert_ci_suite_approaches` checks the *flown* suite (a batch output
   folder with ``*/trajectory.csv`` and ``scenario.yaml``): each flight's
   closest approach to its target edge is below 2 x the platform's worst-case
   lateral activation room at that wind
@@ -25,11 +25,10 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+from support import scenario_local_fence, target_edge, vertical_room_m
 
-from geofence.geodesy import LocalFrame
-from geofence.rooms import vertical_arrest_distance_m, worst_case_lateral_shift_m
 from scenarios.app.batch import discover, plan
-from scenarios.definition.schema import parse_scenario, read_document
+from scenarios.definition.schema import parse_scenario
 
 ROOT = Path(__file__).parents[1]
 CI_SUITE = ROOT / "scenarios" / "ci"
@@ -37,44 +36,11 @@ HEAD_ON_COS = math.cos(math.radians(10.0))
 """A course counts as pointing at an edge when within 10 degrees of its outward normal."""
 
 
-def _local_fence(sc):
-    st = sc.start
-    return sc.geofence.fence.to_local(LocalFrame(st.lat_deg, st.lon_deg, st.ground_alt_m))
-
-
-def target_edge(sc, fence) -> tuple[int, float]:
-    """(index of the keep-in edge the first segment's course ray hits first from the start, distance m)."""
-    seg = sc.pilot.segments[0]
-    c = math.radians(seg.course_deg)
-    d = np.array([math.sin(c), math.cos(c)])
-    k = fence.keep_in
-    best = (-1, math.inf)
-    for i, (a, b) in enumerate(zip(k.starts, k.ends)):
-        # solve o + s d = a + u (b - a), the start o = (0, 0)
-        m = np.column_stack([d, a - b])
-        if abs(np.linalg.det(m)) < 1e-12:
-            continue
-        s, u = np.linalg.solve(m, a)
-        if s > 0 and -1e-9 <= u <= 1 + 1e-9 and s < best[1]:
-            best = (i, float(s))
-    return best
-
-
 def _vertical_sticks(seg, multirotor: bool) -> float:
     """The climb demand of a segment in [-1, 1] (+ climb)."""
     if seg.sticks is not None:
         return seg.sticks[3] if multirotor else seg.sticks[1]
     return {"hold": 0.0, "max": 1.0, "descend": -1.0}[seg.climb]
-
-
-def _vertical_room_m(sc, rate_mps: float) -> float:
-    """Arrest distance at ``rate_mps`` plus k·sigma of the GPS vertical error (bias and white, root-sum-square)."""
-    env = sc.profile.envelope
-    sigma = math.hypot(sc.sensors.gps_v_bias_m, sc.sensors.gps_v_white_m)
-    return (
-        vertical_arrest_distance_m(rate_mps, env.reaction_time_s, env.vertical_accel_mps2, rate_mps)
-        + sc.geofence.uncertainty_k_sigma * sigma
-    )
 
 
 def _ci_scenarios():
@@ -86,7 +52,7 @@ def _ci_scenarios():
 def test_ci_courses_point_at_every_edge_with_enough_run():
     covered: dict[tuple[str, float], set[int]] = defaultdict(set)
     for name, sc in _ci_scenarios():
-        fence = _local_fence(sc)
+        fence = scenario_local_fence(sc)
         env = sc.profile.envelope
         seg0 = sc.pilot.segments[0]
         assert seg0.course_deg is not None and seg0.speed == "max" and seg0.climb == "hold", name
@@ -106,8 +72,8 @@ def test_ci_courses_point_at_every_edge_with_enough_run():
         assert fence.floor_m is not None and fence.floor_gaps, f"{name}: no floor with a gap"
         # nominal height through the vertical segments, in order: each must reach the room above the floor or
         # below the ceiling (where the unit takes over) from where the previous one left it
-        lo = fence.floor_m + _vertical_room_m(sc, env.max_descent_rate_mps)
-        hi = fence.ceiling_m - _vertical_room_m(sc, env.max_climb_rate_mps)
+        lo = fence.floor_m + vertical_room_m(sc, env.max_descent_rate_mps)
+        hi = fence.ceiling_m - vertical_room_m(sc, env.max_climb_rate_mps)
         h, reached = sc.start.agl_m, set()
         for seg in sc.pilot.segments[1:]:
             v = _vertical_sticks(seg, env.is_multirotor)
@@ -122,53 +88,3 @@ def test_ci_courses_point_at_every_edge_with_enough_run():
         assert edges == {0, 1, 2, 3}, f"{key}: courses reach edges {sorted(edges)} only"
     winds = {a: {w for b, w in covered if b == a} for a, _ in covered}
     assert winds == {"F450RD": {0, 3, 6}, "Tern": {0, 4, 8}}, winds
-
-
-def assert_ci_suite_approaches(out: Path) -> dict[str, dict[str, float]]:
-    """Check the flown CI suite in ``out`` (see the module docstring); returns the closest approaches per flight."""
-    from scenarios.flight.recorder import read_trajectory_csv
-
-    folders = sorted(p.parent for p in Path(out).glob("*/trajectory.csv"))
-    assert folders, f"{out}: no flights"
-    approaches: dict[str, dict[str, float]] = {}
-    vertical: dict[tuple[str, float], dict[str, float]] = defaultdict(lambda: {"ceiling": math.inf, "floor": math.inf})
-    bounds: dict[tuple[str, float], dict[str, float]] = {}
-    for folder in folders:
-        sc = parse_scenario(read_document(folder / "scenario.yaml"), str(folder / "scenario.yaml"), folder.name)
-        fence = _local_fence(sc)
-        env = sc.profile.envelope
-        wind = sc.wind.speed_mps if sc.wind else 0.0
-        tr = read_trajectory_csv(folder / "trajectory.csv")
-        edge, _ = target_edge(sc, fence)
-        a, b = fence.keep_in.starts[edge], fence.keep_in.ends[edge]
-        normal = fence.keep_in.outward_normals[edge]
-        pts = np.column_stack([tr["east_m"], tr["north_m"]])
-        inside_by = (a - pts) @ normal  # + inside, distance to the edge's line
-        closest = float(inside_by.min())
-        room = worst_case_lateral_shift_m(env, wind)
-        assert closest < 2.0 * room, (
-            f"{folder.name}: closest approach to edge {edge} is {closest:.0f} m, not within 2 x {room:.0f} m of activation room"
-        )
-        assert np.linalg.norm(b - a) > 0
-        ceiling = float(np.min(fence.ceiling_m - tr["agl_m"]))
-        floor = float(np.min(tr["agl_m"] - fence.floor_m)) if fence.floor_m is not None else math.inf
-        approaches[folder.name] = {
-            "edge": edge,
-            "lateral_m": closest,
-            "lateral_bound_m": 2.0 * room,
-            "ceiling_m": ceiling,
-            "floor_m": floor,
-        }
-        key = (sc.aircraft, wind)
-        vertical[key]["ceiling"] = min(vertical[key]["ceiling"], ceiling)
-        vertical[key]["floor"] = min(vertical[key]["floor"], floor)
-        bounds[key] = {
-            "ceiling": 2.0 * _vertical_room_m(sc, env.max_climb_rate_mps),
-            "floor": 2.0 * _vertical_room_m(sc, env.max_descent_rate_mps),
-        }
-    for key, v in vertical.items():
-        for which in ("ceiling", "floor"):
-            assert v[which] < bounds[key][which], (
-                f"{key}: closest approach to the {which} {v[which]:.1f} m, not within {bounds[key][which]:.1f} m"
-            )
-    return approaches

@@ -11,7 +11,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import pytest
-from test_lateral_kernel import fly_both_ways
+from support import fly_both_ways
 
 from scenarios.definition.schema import parse_scenario, read_document
 from scenarios.definition.sweep import expand

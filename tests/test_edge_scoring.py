@@ -25,15 +25,12 @@ from types import SimpleNamespace
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_fence_grid import FRAME, FW, MC, latlon, random_fence
-from test_line_scored_edges import model_path_leaves, random_flight
+from support import FRAME, FW, MC, G, latlon, model_path_leaves, random_fence, random_flight
 
 from geofence.boundary_shift import activation_margins
 from geofence.dynamics import envelope_at_density, isa_density_ratio
 from geofence.fence import Fence, KeepOutCircle
 from geofence.lateral_kernel import edge_scored
-
-G = 9.80665
 
 
 def turn_radius(env) -> float:

@@ -16,126 +16,12 @@ import random
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from support import FRAME, FW, MC, dense_fence, dense_states, latlon, probe_points, random_fence, random_margin_call
 
-from aircraft.profile import load_profile
 from geofence.boundary_shift import activation_margins
 from geofence.fence import Fence, KeepOutCircle
 from geofence.fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
-from geofence.geodesy import LocalFrame
 from geofence.local_fence import FEATURE_KEEP_OUT_CIRCLE, LocalFence
-
-FRAME = LocalFrame(47.0, 8.0, 400.0)
-FW = load_profile("Tern").envelope
-MC = load_profile("F450RD").envelope
-
-
-def latlon(e, n):
-    lat, lon, _ = FRAME.to_geodetic(e, n, FRAME.h0_m)
-    return (lat, lon)
-
-
-def _inside(poly: list[tuple[float, float]], x: float, y: float) -> bool:
-    """Even-odd test of a point against a polygon's vertices (for the generator only)."""
-    inside = False
-    for (ax, ay), (bx, by) in zip(poly, poly[1:] + poly[:1]):
-        if (ay > y) != (by > y) and x < ax + (y - ay) * (bx - ax) / (by - ay):
-            inside = not inside
-    return inside
-
-
-def random_fence(seed: int, n_vertices: int, n_squares: int, n_circles: int, dense: bool = False) -> Fence:
-    rng = random.Random(seed)
-    r0 = rng.uniform(300.0, 900.0) if not dense else rng.uniform(350.0, 700.0)
-    keep_in = []
-    for i in range(n_vertices):
-        a = 2.0 * math.pi * i / n_vertices
-        if dense:
-            r = r0 * (1.0 + 0.2 * math.sin(3 * a + seed) + 0.03 * math.sin(29 * a)) + rng.uniform(-1.5, 1.5)
-            if rng.random() < 0.01:  # a notch: sharp corners
-                r -= rng.uniform(5.0, 25.0)
-        else:
-            r = r0 * (1.0 + 0.25 * math.sin(3 * a + seed) + 0.04 * rng.uniform(-1.0, 1.0))
-        keep_in.append((r * math.cos(a), r * math.sin(a)))
-    squares, circles, placed = [], [], []
-    for _ in range(200):
-        if len(squares) >= n_squares and len(circles) >= n_circles:
-            break
-        a, r = rng.uniform(0, 2 * math.pi), rng.uniform(0.0, 0.55 * r0)
-        cx, cy, s = r * math.cos(a), r * math.sin(a), rng.uniform(8.0, 30.0)
-        if any(math.hypot(cx - px, cy - py) < s + ps + 10.0 for px, py, ps in placed):
-            continue
-        if not _inside(keep_in, cx, cy):  # a narrow keep-in (a triangle) may not reach 0.55 r0 everywhere
-            continue
-        placed.append((cx, cy, s))
-        if len(squares) < n_squares:
-            t = rng.uniform(0, math.pi)
-            cut = rng.randint(1, 12) if dense else 1  # sides cut into short edges
-            corners = [(cx + s * math.cos(t + k * math.pi / 2), cy + s * math.sin(t + k * math.pi / 2)) for k in range(4)]
-            pts = []
-            for k in range(4):
-                (ax, ay), (bx, by) = corners[k], corners[(k + 1) % 4]
-                pts += [(ax + (bx - ax) * q / cut, ay + (by - ay) * q / cut) for q in range(cut)]
-            squares.append(tuple(latlon(x, y) for x, y in pts))
-        else:
-            circles.append(KeepOutCircle(*latlon(cx, cy), s))
-    return Fence(
-        keep_in=tuple(latlon(e, n) for e, n in keep_in),
-        ceiling_m=120.0,
-        keep_out_polygons=tuple(squares),
-        keep_out_circles=tuple(circles),
-    )
-
-
-def probe_points(local, rng: random.Random, count: int):
-    """Points near vertices and edges (both sides), inside keep-outs, far inside and outside."""
-    pts = []
-    ki = local.keep_in
-    for _ in range(count):
-        kind = rng.randrange(5)
-        if kind == 0:
-            v = ki.vertices[rng.randrange(ki.n)]
-            pts.append((v[0] + rng.gauss(0, 3.0), v[1] + rng.gauss(0, 3.0)))
-        elif kind == 1:
-            i = rng.randrange(ki.n)
-            a, b = ki.starts[i], ki.ends[i]
-            t = rng.random()
-            o = ki.outward_normals[i] * rng.uniform(-40.0, 40.0)
-            pts.append((a[0] + t * (b[0] - a[0]) + o[0], a[1] + t * (b[1] - a[1]) + o[1]))
-        elif kind == 2 and local.keep_out_polygons:
-            k = local.keep_out_polygons[rng.randrange(len(local.keep_out_polygons))]
-            c = k.vertices.mean(axis=0)
-            pts.append((c[0] + rng.uniform(-25, 25), c[1] + rng.uniform(-25, 25)))
-        elif kind == 3 and local.keep_out_circles:
-            ce, cn, r = local.keep_out_circles[rng.randrange(len(local.keep_out_circles))]
-            pts.append((ce + rng.uniform(-1.5 * r, 1.5 * r), cn + rng.uniform(-1.5 * r, 1.5 * r)))
-        else:
-            pts.append((rng.uniform(-1500, 1500), rng.uniform(-1500, 1500)))
-    return pts
-
-
-def random_margin_call(
-    rng: random.Random, e: float, n: float, env, *, bank_rad: float, wrap_heading: bool = False, rollout: bool = False
-) -> tuple[tuple, dict]:
-    """Random arguments of :func:`activation_margins` at (e, n): speed up to 1.2 x max in any course (with
-    ``wrap_heading``, 1 in 5 at the ±pi wrap), wind up to 9 m/s, uncertainty, latency, bank up to ``bank_rad``,
-    wind allowance and (with ``rollout``) a roll-out target: none, anywhere, or the point itself."""
-    speed = rng.uniform(0.0, env.max_speed_mps * 1.2)
-    course = rng.uniform(-math.pi, math.pi)
-    if wrap_heading and rng.random() < 0.2:
-        course = math.pi * rng.choice([1.0, -1.0]) * (1.0 - 1e-12 * rng.random())
-    w, wd = rng.uniform(0.0, 9.0), rng.uniform(-math.pi, math.pi)
-    args = (e, n, 30.0, speed * math.cos(course), speed * math.sin(course), rng.uniform(-3, 3), env)
-    args += (w * math.cos(wd), w * math.sin(wd))
-    kw = dict(
-        h_uncertainty_m=rng.uniform(0, 6),
-        v_uncertainty_m=1.0,
-        latency_s=rng.uniform(0, 0.3),
-        bank_rad=rng.uniform(-bank_rad, bank_rad),
-        wind_extra_mps=rng.uniform(0, 3),
-    )
-    if rollout:
-        kw["rollout_target_en"] = rng.choice([None, (rng.uniform(-300, 300), rng.uniform(-300, 300)), (e, n)])
-    return args, kw
 
 
 @settings(max_examples=12, deadline=None)
@@ -240,30 +126,6 @@ def test_candidates_past_the_tuple_prefix_give_the_same_answers(seed, n_vertices
         assert a_min == b_min
         # the walk may visit different supersets; what can bind (d - reach < d_min) must be identical
         assert [x for x in a_items if x[0] - reach < a_min] == [x for x in b_items if x[0] - reach < b_min]
-
-
-def dense_fence(seed: int, n_vertices: int, n_squares: int, n_circles: int) -> Fence:
-    """A keep-in of closely spaced jagged vertices with notches, keep-out squares cut into short edges."""
-    return random_fence(seed, n_vertices, n_squares, n_circles, dense=True)
-
-
-def dense_states(local, rng: random.Random, count: int):
-    """Points next to keep-in vertices (inside and out), next to and inside keep-outs, near circles."""
-    ki = local.keep_in
-    for _ in range(count):
-        kind = rng.randrange(4)
-        if kind == 0 or not (local.keep_out_polygons or local.keep_out_circles):
-            v = ki.vertices[rng.randrange(ki.n)]
-            inward = -ki.outward_normals[rng.randrange(ki.n)]
-            depth = rng.choice([rng.uniform(-3.0, 3.0), rng.uniform(0.0, 120.0)])
-            yield v[0] + inward[0] * depth + rng.gauss(0, 1.0), v[1] + inward[1] * depth + rng.gauss(0, 1.0)
-        elif kind in (1, 2) and local.keep_out_polygons:
-            k = local.keep_out_polygons[rng.randrange(len(local.keep_out_polygons))]
-            v = k.vertices[rng.randrange(k.n)] if kind == 1 else k.vertices.mean(axis=0)
-            yield v[0] + rng.uniform(-12.0, 12.0), v[1] + rng.uniform(-12.0, 12.0)
-        elif local.keep_out_circles:
-            ce, cn, r = local.keep_out_circles[rng.randrange(len(local.keep_out_circles))]
-            yield ce + rng.uniform(-1.5 * r, 1.5 * r), cn + rng.uniform(-1.5 * r, 1.5 * r)
 
 
 @settings(max_examples=20, deadline=None)

@@ -17,7 +17,7 @@ import struct
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_fence_grid import FRAME, FW, random_fence
+from support import FRAME, FW, random_fence
 
 from geofence import guidance
 from geofence.control_laws import air_heading_to_rad, cpython_hypot, orbit_course_rad

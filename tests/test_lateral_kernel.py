@@ -19,8 +19,19 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
-from support import fly_both_ways, same_bits  # (fly_both_ways: test_sensing_kernel and test_compiled_flights import it here)
-from test_fence_grid import FRAME, FW, MC, dense_fence, dense_states, latlon, probe_points, random_fence, random_margin_call
+from support import (
+    FRAME,
+    FW,
+    MC,
+    dense_fence,
+    dense_states,
+    fly_both_ways,
+    latlon,
+    probe_points,
+    random_fence,
+    random_margin_call,
+    same_bits,
+)
 
 from geofence.boundary_shift import activation_margins
 from geofence.cpython_math import hypot

@@ -22,14 +22,10 @@ import random
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from test_fence_grid import FRAME, FW, MC, latlon, random_fence
-from test_lateral_kernel import same_bits
+from support import FRAME, FW, MC, G, latlon, model_path_leaves, random_fence, random_flight, same_bits
 
 from geofence.boundary_shift import activation_margins
 from geofence.fence import Fence
-from geofence.rooms import turn_constants, turn_rate_radps
-
-G = 9.80665
 
 
 def convex_fence(n_vertices: int, radius_m: float, aspect: float, turn_rad: float) -> Fence:
@@ -41,40 +37,6 @@ def convex_fence(n_vertices: int, radius_m: float, aspect: float, turn_rad: floa
         x, y = radius_m * math.cos(a), aspect * radius_m * math.sin(a)
         pts.append(latlon(c * x - s * y, s * x + c * y))
     return Fence(keep_in=tuple(pts), ceiling_m=500.0)
-
-
-def model_path_leaves(local, e, n, ve, vn, we, wn, bank, latency, r, steps: int = 3000, env=FW) -> float:
-    """The deepest point outside the allowed area (m, > 0: out) of the manoeuvre :func:`activation_margins` scores
-    for a fixed-wing of envelope ``env`` (its reaction phase in the current turn at ``v_turn``, then the turn
-    ``r.turn_sign``, ``r.turn_angle_rad`` at the bank limit), flown in the steady wind ``(we, wn)``: every point
-    of it."""
-    vae, van = ve - we, vn - wn
-    psi = math.atan2(van, vae)
-    v = max(math.hypot(vae, van), env.cruise_speed_mps, env.min_speed_mps, 1e-3)
-    _, inv_omega = turn_constants(v, env.max_bank_rad, G)
-    bank_now = max(-env.max_bank_rad, min(env.max_bank_rad, bank))
-    t_fw = env.reaction_time_s + latency + env.reaction_time_s * abs(bank_now) / env.max_bank_rad
-    rot = max(-math.pi, min(math.pi, turn_rate_radps(v, bank_now, G) * t_fw))
-    deepest = -math.inf
-    x, y = e, n
-    phases = ((t_fw, -rot / t_fw), (r.turn_angle_rad * inv_omega, r.turn_sign / inv_omega))
-    for duration, rate in phases:
-        dt = duration / steps
-        for _ in range(steps):
-            x += (v * math.cos(psi + 0.5 * rate * dt) + we) * dt
-            y += (v * math.sin(psi + 0.5 * rate * dt) + wn) * dt
-            psi += rate * dt
-            deepest = max(deepest, -local.lateral_margin_m(x, y))
-    return deepest
-
-
-def random_flight(rng: random.Random, env, max_wind_fraction: float) -> tuple[float, ...]:
-    """``(ve, vn, wind_e, wind_n, bank, latency)``: a fixed-wing between cruise and max airspeed on any course, in a
-    wind of 0.2 to ``max_wind_fraction`` of its cruise speed from anywhere, banked up to 0.5 rad, 0 to 0.3 s late."""
-    speed, course = rng.uniform(env.cruise_speed_mps, env.max_speed_mps), rng.uniform(-math.pi, math.pi)
-    w, wd = rng.uniform(0.2, max_wind_fraction) * env.cruise_speed_mps, rng.uniform(-math.pi, math.pi)
-    we, wn = w * math.cos(wd), w * math.sin(wd)
-    return speed * math.cos(course) + we, speed * math.sin(course) + wn, we, wn, rng.uniform(-0.5, 0.5), rng.uniform(0.0, 0.3)
 
 
 def leaving_turns(seed: int, n_vertices: int, aspect: float) -> int:

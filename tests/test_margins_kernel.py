@@ -15,8 +15,7 @@ from dataclasses import replace
 import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
-from support import same_bits
-from test_fence_grid import FRAME, FW, MC, latlon, probe_points, random_fence, random_margin_call
+from support import FRAME, FW, MC, latlon, probe_points, random_fence, random_margin_call, same_bits
 
 from geofence.boundary_shift import activation_margins
 from geofence.config import parse_geofence

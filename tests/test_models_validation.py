@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from support import OUTER_HZ, fly  # (fly: hold sticks at the 40 Hz outer loop)
 
 from aircraft.factory import build_platform
 from aircraft.profile import load_profile
@@ -34,10 +35,6 @@ from geofence.interface import StickCommand
 ROOT = Path(__file__).resolve().parents[1]
 LAT0, LON0, H0 = 47.0, 8.0, 400.0
 FRAME = LocalFrame(LAT0, LON0, H0)
-OUTER_HZ = 40.0
-
-
-from test_multicopter_platform import fly  # noqa: E402  (hold sticks at the 40 Hz outer loop)
 
 
 @pytest.fixture(scope="module")

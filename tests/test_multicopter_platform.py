@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 import pytest
+from support import fly
 
 from aircraft.multicopter import MulticopterPlatform
 from aircraft.profile import load_profile
@@ -17,7 +18,6 @@ from geofence.interface import StickCommand
 
 LAT0, LON0, H0 = 44.7258, -93.0759, 285.0
 FRAME = LocalFrame(LAT0, LON0, H0)
-OUTER_HZ = 40.0
 
 
 @pytest.fixture(scope="module")
@@ -28,20 +28,6 @@ def quad() -> MulticopterPlatform:
 def start(pl: MulticopterPlatform, agl_m: float = 30.0, heading_deg: float = 0.0) -> None:
     pl.set_wind_enu(0.0, 0.0, 0.0)
     pl.reset(FRAME, LAT0, LON0, agl_m, heading_deg, 0.0)
-
-
-def fly(pl: MulticopterPlatform, cmd: StickCommand, seconds: float, until=None):
-    """Hold ``cmd`` for ``seconds`` (40 Hz outer loop); return the states seen, stop early if ``until(state)``."""
-    frames = max(1, round(1.0 / (OUTER_HZ * pl.dt_s)))
-    states = []
-    for _ in range(int(round(seconds * OUTER_HZ))):
-        pl.command(cmd)
-        pl.step(frames)
-        s = pl.truth()
-        states.append(s)
-        if until is not None and until(s):
-            break
-    return states
 
 
 def test_zero_sticks_hold_altitude_level_and_position(quad):
