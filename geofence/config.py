@@ -43,6 +43,7 @@ from enum import StrEnum
 from typing import Any
 
 from geofence.fence import MAX_CEILING_M, Fence, parse_fence
+from geofence.guidance import SeedPDGains
 from geofence.jit import jitable
 from geofence.validation import (
     ConfigError,
@@ -119,26 +120,6 @@ def allowance_in_use_mps(
 
 class GeofenceConfigError(ConfigError):
     """A bad ``geofence:`` block; the message is one line naming the field."""
-
-
-@dataclass(frozen=True)
-class SeedPDGains:
-    """The seed work's decoupled PD law, in stick units (1 stick = 500 µs of RC PWM; see README).
-
-    ``*_limit`` are the per-axis saturations of the override command,
-    ``*_deadband`` the dead zones inside which an axis gets the neutral stick.
-    """
-
-    kp_xy: float = 0.2  # 100 µs/m
-    kd_xy: float = 0.4  # 200 µs/(m/s)
-    kp_z: float = 0.4  # 200 µs/m
-    kd_z: float = 0.0
-    kp_yaw: float = 0.5  # per rad; yaw is purely proportional
-    xy_limit: float = 0.24  # ±120 µs
-    z_limit: float = 0.15  # ±75 µs
-    yaw_limit: float = 0.15  # ±75 µs
-    z_deadband_m: float = 0.05
-    yaw_deadband_rad: float = 0.009
 
 
 @dataclass(frozen=True)

@@ -44,12 +44,12 @@ Angles rad, positions ENU m, heights m, speeds m/s.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Callable, NamedTuple, Protocol
 
 import numpy as np
 
 from geofence import jit as _jit
-from geofence.config import SeedPDGains
 from geofence.control_laws import (
     VelocityController,
     air_heading_to_rad,
@@ -88,6 +88,26 @@ SLOW_DESCENT_BELOW_M = 3.0
 (as ArduPilot's LAND mode: LAND_SPEED_HIGH down to LAND_ALT_LOW, then LAND_SPEED)."""
 TOUCHDOWN_DESCENT_MPS = 1.0
 """A multirotor's descent rate for the last metres (m/s)."""
+
+
+@dataclass(frozen=True)
+class SeedPDGains:
+    """The seed work's decoupled PD law, in stick units (1 stick = 500 µs of RC PWM; see README).
+
+    ``*_limit`` are the per-axis saturations of the override command,
+    ``*_deadband`` the dead zones inside which an axis gets the neutral stick.
+    """
+
+    kp_xy: float = 0.2  # 100 µs/m
+    kd_xy: float = 0.4  # 200 µs/(m/s)
+    kp_z: float = 0.4  # 200 µs/m
+    kd_z: float = 0.0
+    kp_yaw: float = 0.5  # per rad; yaw is purely proportional
+    xy_limit: float = 0.24  # ±120 µs
+    z_limit: float = 0.15  # ±75 µs
+    yaw_limit: float = 0.15  # ±75 µs
+    z_deadband_m: float = 0.05
+    yaw_deadband_rad: float = 0.009
 
 
 class Route(Protocol):

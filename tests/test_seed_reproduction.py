@@ -15,8 +15,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geofence.config import SeedPDGains
-from geofence.guidance import SeedPDRecovery, StraightRoute
+from geofence.guidance import SeedPDGains, SeedPDRecovery, StraightRoute
 from geofence.interface import Envelope, PlatformKind, VehicleState
 from scenarios.app.seed_reproduction import (
     PREDICTIVE_SCENARIO,

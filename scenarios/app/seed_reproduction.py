@@ -220,8 +220,7 @@ def ramp_setpoints(
     that step (re-activations keep the ramp, as the unit does); rows outside
     an override are NaN.
     """
-    from geofence.config import SeedPDGains
-    from geofence.guidance import SeedPDRecovery, StraightRoute
+    from geofence.guidance import SeedPDGains, SeedPDRecovery, StraightRoute
     from geofence.interface import VehicleState
     from geofence.unit import Mode
 
