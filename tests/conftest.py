@@ -68,6 +68,12 @@ SLOW_TESTS = {
     "test_variants_share_the_flight_and_differ_only_in_the_geofence",  # its fixture flies a campaign slice
     "test_routes_are_the_same_with_and_without_the_grid",
     "test_help_explains_every_subcommand",
+    "test_generator_is_deterministic_and_seed_dependent",
+    "test_fences_fit_their_platform_and_winds_stay_within_its_limit",
+    "test_clean_vtol_log_scores_49_m_out_with_no_warning",
+    "test_grid_segment_test_equals_the_loop",
+    "test_a_fixed_wing_below_the_floor_in_a_gap_is_scored_on_its_whole_climb_back_circle",
+    "test_committed_ci_slice_is_the_generators_output",
 }
 """Single tests of about 3 s or more (the fast tier keeps a quick one of each kind)."""
 
