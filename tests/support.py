@@ -414,3 +414,20 @@ def assert_ci_suite_approaches(out: Path) -> dict[str, dict[str, float]]:
                 f"{key}: closest approach to the {which} {v[which]:.1f} m, not within {bounds[key][which]:.1f} m"
             )
     return approaches
+
+
+CONFORMANCE_REL = 1e-12
+"""A compiled entry point against its own source interpreted (``.py_func``): the same float operations in the
+same order (numba contracts no multiply-adds, the C library's transcendental functions are CPython's), so
+equal within this relative tolerance (in practice exactly)."""
+
+
+def close_fields(a, b, rel: float = CONFORMANCE_REL) -> bool:
+    """Every field equal within ``rel`` relative (infinities and NaNs equal to themselves)."""
+    for x, y in zip(a, b, strict=True):
+        x, y = float(x), float(y)
+        if x == y or (math.isnan(x) and math.isnan(y)):
+            continue
+        if not abs(x - y) <= rel * max(abs(x), abs(y)):
+            return False
+    return True

@@ -23,6 +23,7 @@ from support import (
     FRAME,
     FW,
     MC,
+    close_fields,
     dense_fence,
     dense_states,
     fly_both_ways,
@@ -300,20 +301,6 @@ def test_compiled_lateral_scan_equals_the_polygon_loops(seed, n_vertices, n_squa
 
 
 # ------------------------------------------------------------------ conformance: each compiled entry point is its source
-CONFORMANCE_REL = 1e-12
-"""Compiled and interpreted, the same float operations in the same order (numba contracts no multiply-adds, the
-C library's transcendental functions are CPython's): equal within this relative tolerance (in practice exactly)."""
-
-
-def close_fields(a, b, rel: float = CONFORMANCE_REL) -> bool:
-    """Every field equal within ``rel`` relative (infinities and NaNs equal to themselves)."""
-    for x, y in zip(a, b, strict=True):
-        x, y = float(x), float(y)
-        if x == y or (math.isnan(x) and math.isnan(y)):
-            continue
-        if not abs(x - y) <= rel * max(abs(x), abs(y)):
-            return False
-    return True
 
 
 def _binding_arguments(local, env, rng: random.Random, e: float, n: float) -> tuple:

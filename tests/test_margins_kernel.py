@@ -15,7 +15,17 @@ from dataclasses import replace
 import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
-from support import FRAME, FW, MC, latlon, probe_points, random_fence, random_margin_call, same_bits
+from support import (
+    FRAME,
+    FW,
+    MC,
+    close_fields,
+    latlon,
+    probe_points,
+    random_fence,
+    random_margin_call,
+    same_bits,
+)
 
 from geofence.boundary_shift import activation_margins
 from geofence.config import parse_geofence
@@ -202,20 +212,6 @@ def test_the_monitoring_step_skips_where_the_reference_skips():
 
 # ------------------------------------------------------------------ conformance: each compiled entry point is its source
 needs_numba = pytest.mark.skipif(not COMPILED, reason="numba not installed, or NUMBA_DISABLE_JIT set (no compiled form)")
-CONFORMANCE_REL = 1e-12
-"""Compiled and interpreted, the same float operations in the same order: equal within this relative tolerance
-(in practice exactly)."""
-
-
-def close_fields(a, b, rel: float = CONFORMANCE_REL) -> bool:
-    """Every field equal within ``rel`` relative (infinities and NaNs equal to themselves)."""
-    for x, y in zip(a, b, strict=True):
-        x, y = float(x), float(y)
-        if x == y or (math.isnan(x) and math.isnan(y)):
-            continue
-        if not abs(x - y) <= rel * max(abs(x), abs(y)):
-            return False
-    return True
 
 
 def _kernel_calls(seed: int, n_gaps: int):
