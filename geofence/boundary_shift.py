@@ -31,8 +31,9 @@ with the larger worst-edge activation margin (both directions are scored
 against *all* edges, so convex corners and narrow corridors are handled).
 Assumed: constant airspeed -- the larger of the current one and cruise, since
 the override flies at cruise and a slow aircraft's turn widens as it speeds up
-(campaign case acute-0013, a Cessna 172 caught at 45 m/s: 58 m outside with the
-current airspeed) -- and wind, instant roll-in (fold roll-in into
+(scored at the current airspeed instead, a slow aircraft leaves the fence)
+(case history: docs/campaigns.md#acute-0013-a-slow-aircrafts-turn-widens-as-it-speeds-up-to-cruise)
+-- and wind, instant roll-in (fold roll-in into
 ``reaction_time_s``), and a straight leg from roll-out to the recovery point
 inside the fence (true when the fence is star-shaped about it, e.g. convex).
 Consequences: the margin steps down when the vehicle overflies the recovery
@@ -314,7 +315,7 @@ def activation_margins(
     activation allows it (then the result's turn, lateral element and room are
     that turn's, and the override flies it). Scored in the keep-in's turn
     alone, a heading sweeping round flipped the circle out of the gap within a
-    step (campaign seed 26112029, floor_gaps-0305).
+    step (case history: docs/campaigns.md#breach-classes-found-and-fixed).
     Plain-Python scalar code for the per-step loop.
     """
     if compiled is None:

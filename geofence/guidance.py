@@ -616,9 +616,8 @@ class LandingGuidance:
         self.turned_rad = 0.0
         self._last_yaw = None
         # The spiral goes on the way the first turn went: a clockwise spiral after a left turn reverses the
-        # turn at once, and a fast fixed-wing flies a turn diameter downwind doing it (campaign seed 26112033,
-        # star-0588: a J3Cub that lost GPS 1.3 s into an override's left turn, 46 m/s over the ground, its
-        # landing point where it was, left by 53.8 m). With no first turn: clockwise.
+        # turn at once, and a fast fixed-wing flies a turn diameter downwind doing it, far enough to leave the
+        # fence (case history: docs/campaigns.md#breach-classes-found-and-fixed). With no first turn: clockwise.
         self.orbit_clockwise = turn_sign <= 0
         if self.velocity:
             self.velocity.reset()

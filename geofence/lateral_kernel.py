@@ -371,8 +371,9 @@ def edge_scored(
     reach that far to touch it. Where the perpendicular foot lies on the segment that is the normal and ``d``.
     Where it lies off the segment, the normal with ``d`` is not sound: a turn drifting in wind leaves through
     the segment far along it, or heads straight at its end, with less excursion along the normal than ``d``
-    (campaign seed 27112026, circle-0169: 86 m out of a divided circle; a U-shaped keep-in's inner corner and
-    a keep-out's corner the same way, found by ``tests/test_edge_scoring.py``). Two sound choices remain:
+    (a divided circle, a U-shaped keep-in's inner corner and a keep-out's corner alike, the last two found by
+    ``tests/test_edge_scoring.py``) (case history: docs/campaigns.md#breach-classes-found-and-fixed). Two
+    sound choices remain:
 
     * the direction to the segment's nearest point (its end) and ``d``: the nearest point of a convex set, so
       every point of the segment lies at least ``d`` along that direction; it treats the end as a point;
@@ -384,9 +385,9 @@ def edge_scored(
     far side of a building, seen past its near side), the normal points away from the edge and does not hold
     it either. From the free space such an edge is scored like an end: along the direction to its nearest
     point (the foot), which is sound by the same argument. Before, its normal made a phantom wall behind the
-    point, which flipped a fixed-wing's scored turn within a step (campaign seed 2711, city-0058: handed back
-    with a margin of 32 m, re-activated 0.05 s later at -44 m, turned the long way round and entered a
-    building by 1.4 m). From a breached point (inside a keep-out or outside the keep-in) the normal stays.
+    point, which flipped a fixed-wing's scored turn within a step, so that it turned the long way round into
+    the building (case history: docs/campaigns.md#breach-classes-found-and-fixed). From a breached point (inside a keep-out or
+    outside the keep-in) the normal stays.
     """
     t = (px * dx + py * dy) * il2
     off = t < 0.0 or t > 1.0

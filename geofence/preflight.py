@@ -26,14 +26,14 @@ What "on paper" means (the autopilot's flight, idealised):
 * **fixed-wing loiters**: the orbit (clockwise, as the autopilot flies it) at
   ``max(radius, 1.5 R)`` around the loiter point, sampled every 10 deg; the
   last waypoint is one too: after its mission a fixed-wing orbits it (as
-  ArduPlane and PX4 loiter at the last waypoint). Unchecked, a Tern's orbit
-  after an L-fence mission took it within the activation margin of a wall
-  (campaign seed 1122026, ``l_fence-0163``: overridden though it passed); it joins that orbit from the
+  ArduPlane and PX4 loiter at the last waypoint). Unchecked, a fixed-wing's orbit
+  after a mission took it within the activation margin of a wall, overridden though it passed
+  (case history: docs/campaigns.md#fresh-seeds-in-the-order-they-were-flown); it joins that orbit from the
   waypoint itself, outward along the autopilot's vector field (:func:`geofence.control_laws.orbit_course_rad`,
   its default gain), so the join is checked too: every 10 deg at 0.25, 0.5, 0.75 and 0.9 of the radius, on
-  the field's course there (any arrival direction). Unchecked, a Tern 27 m out from its last waypoint,
-  heading nearly straight out at 18.5 m/s, was overridden 1.5 s after its mission though it passed
-  (campaign seed 4122026, ``floor_gaps-0080``);
+  the field's course there (any arrival direction). Unchecked, a fixed-wing joining the orbit outward
+  from its last waypoint was overridden after its mission though it passed
+  (case history: docs/campaigns.md#fresh-seeds-in-the-order-they-were-flown);
 * a multirotor brakes to a stop at each waypoint; it is checked at full
   planned speed right up to the waypoint (conservative).
 
@@ -70,8 +70,8 @@ BOTH_WAYS_ABOVE_RAD = math.radians(120.0)
 navigator turns the way its course error points when it switches legs, and that error is not the legs'
 angle: its vector field adds up to 60 deg of approach towards the new line (about 40 deg from an
 acceptance radius's offset) and the crab adds the wind's. Near a reversal the way round is the flight's to
-choose (campaign seed 26112030, ``corridor-0320``: a J3Cub turned left where the check had turned right,
-and was overridden in a mission that had passed). Checked on 183 campaign missions: beyond 150 deg (the
+choose: a fixed-wing that turned the other way from the check was overridden in a mission that had passed
+(case history: docs/campaigns.md#breach-classes-found-and-fixed). Checked on 183 campaign missions: beyond 150 deg (the
 navigator's turn commitment) they were all caught too; 120 deg leaves 99 passing, 3 fewer."""
 
 

@@ -563,9 +563,9 @@ def vertical_arrest_distance_m(v_toward_mps: float, reaction_time_s: float, acce
     accelerating towards the limit at ``a_z``, up to ``v_max`` (as the lateral margins let it keep
     accelerating towards the edge); then the override arrests it at ``a_z``. Already at ``v_max`` or beyond
     (or with ``v_max`` 0: no acceleration) that is ``v·t_react + v²/(2·a_z)``. Holding the speed through the reaction
-    instead let a pilot who dived again right after a hand-back take a J3Cub 0.06 m below the floor (campaign
-    seed 26112031, floor_gaps-0071: at rest next to the floor the old distance was 0, the dive needs
-    ``a_z·t_react²``, 2.7 m).
+    instead let a pilot who dived again right after a hand-back take a vehicle below the floor: at rest
+    next to the floor that distance is 0, where the dive needs about ``a_z·t_react²``
+    (case history: docs/campaigns.md#breach-classes-found-and-fixed).
     """
     if accel_mps2 <= 0.0:
         return math.inf if v_toward_mps > 0.0 or v_max_toward_mps > 0.0 else 0.0

@@ -523,9 +523,9 @@ class GeofenceUnit:
 
         The margin scores the turn the override flies. Not the route's first point: a vehicle passing a
         vertex of its route a few metres away saw the direction to it, and with it the scored turn, swing
-        round within a step (a Tern in a corridor narrower than its turn was handed back with a margin of
-        31 m, had none 0.25 s later, turned away from the corridor towards a vertex behind it and left by
-        23 m; campaign seed 3122026). Cached per cell of :data:`geofence.unit_kernel.ROLLOUT_CELL_M`; found with
+        round within a step, so that a fixed-wing in a corridor narrower than its turn turned away from the
+        corridor towards a vertex behind it (case history: docs/campaigns.md#breach-classes-found-and-fixed). Cached per
+        cell of :data:`geofence.unit_kernel.ROLLOUT_CELL_M`; found with
         the route clearances of ``sigma_h_m`` (default the unit's, :meth:`_route_clearances`).
         """
         key = rollout_cell(e, n)
@@ -555,9 +555,9 @@ class GeofenceUnit:
                 # Still in its override's turn: it goes on with that turn, for what is left of the angle its
                 # margin scored when the override began, and spirals that way. Scored afresh now, the turn is
                 # counted after the current bank's reaction arc: a few degrees the other way, which the
-                # guidance flies at once. A J3Cub whose GPS went out 4.5 s into an override's right turn
-                # (campaign seed 26112038, random-0255) so reversed into a left turn and flew it 310 degrees
-                # round to its route, 50 degrees to the right, out by 51 m.
+                # guidance flies at once: a fixed-wing whose GPS went out in an override's turn so reversed it
+                # and flew the long way round to its route, out of the fence
+                # (case history: docs/campaigns.md#breach-classes-found-and-fixed).
                 turn_sign, turn_limit = recovery.turn_sign, left
             else:
                 # Otherwise the first turn is scored as the override's is, towards where the landing's own
@@ -584,10 +584,9 @@ class GeofenceUnit:
         :data:`SLOW_TURN_MAX_WIND_FRACTION` of the minimum speed: the override then flies that turn at the
         minimum speed (:meth:`FixedWingRecovery.start`).
 
-        A Tern at its maximum speed started 20 degrees off the axis of a zigzag corridor narrower than its
-        turn (campaign seed 26112702, corridor-1922), and a J3Cub in an acute wedge without a forecast (seed
-        26112701's acute-0364, its forecast removed), left by 9.9 m and 16.9 m turning at cruise; at the
-        minimum speed both stay inside.
+        A fixed-wing started inside the activation boundary (at its maximum speed in a corridor narrower than
+        its turn, or in an acute wedge without a forecast) leaves turning at cruise and stays inside turning
+        at the minimum speed (case history: docs/campaigns.md#breach-classes-found-and-fixed).
         """
         if self._multirotor or not self._predictive or self.fence.floor_m is not None:
             return False  # (a reactive unit acts on the line by design: every turn of its lacks room)
@@ -1015,8 +1014,9 @@ class GeofenceUnit:
     def _landing_edge_margin_m(self) -> float:
         """How far inside the keep-in, or inside a floor gap, a multirotor's estimate must be to descend there (m):
         :data:`LANDING_EDGE_MARGIN_M` beyond the estimate's uncertainty margin ``k·σ_h + extra`` (the one every
-        activation margin adds). Without it an F450RD aimed 3 m inside a gap's upwind edge, its estimate 3.2 m
-        off (k·σ_h 4.6 m), touched down 0.5 m outside the gap (campaign seed 3122026, ``floor_gaps-0143``)."""
+        activation margin adds). Without it a multirotor aimed a few metres inside a gap's upwind edge, its
+        estimate off by less than k·σ_h, touched down outside the gap
+        (case history: docs/campaigns.md#breach-classes-found-and-fixed)."""
         return LANDING_EDGE_MARGIN_M + self.config.uncertainty_k_sigma * self._sigma_h_m + self.config.extra_margin_m
 
     def _safe_to_descend(self, s: VehicleState) -> bool:

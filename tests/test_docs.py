@@ -11,7 +11,9 @@ Fast and without flights. Checked:
   a subcommand and options that exist; and each argument that looks like a repository path
   (``scenarios/....yaml``) exists;
 * every ```yaml block of README.md that is a whole scenario (it names an ``aircraft``) passes
-  ``geofence-testbed validate``.
+  ``geofence-testbed validate``;
+* every ``docs/campaigns.md#anchor`` named in a .py file of the packages (a docstring's or comment's
+  ``(case history: ...)`` pointer) matches a heading of docs/campaigns.md.
 
 The checkers are tested on small documents of their own first, so a checker that cannot fail fails here.
 """
@@ -45,6 +47,9 @@ CODE_SPAN = re.compile(r"(`+)(?:.|\n)*?(?<!`)\1(?!`)")
 SHELL_LANGUAGES = {"bash", "sh", "shell", "console"}
 COMMAND_SEPARATORS = {"&&", "||", ";", "|", "&", "(", ")", ";;"}
 OUTPUT_OPTIONS = {"--out", "-o"}
+CAMPAIGNS = ROOT / "docs" / "campaigns.md"
+CODE_PACKAGES = ("geofence", "aircraft", "wind", "analysis", "scenarios")
+CAMPAIGNS_ANCHOR = re.compile(r"docs/campaigns\.md#([\w\-]+)")
 """Options whose value is a path the command writes: it need not exist yet."""
 
 
@@ -141,6 +146,21 @@ def broken_links(doc: Path) -> list[str]:
             elif anchor not in anchors(dest.read_text(encoding="utf-8")):
                 problems.append(f"{doc.name}: ({target}): no heading '#{anchor}' in {dest.name}")
     return problems
+
+
+def campaign_anchor_problems(py_files: list[Path], heading_anchors: set[str]) -> list[str]:
+    """One line per ``docs/campaigns.md#anchor`` named in ``py_files`` that is not in ``heading_anchors``."""
+    problems: list[str] = []
+    for path in py_files:
+        for n, line in enumerate(path.read_text(encoding="utf-8").split("\n"), start=1):
+            for anchor in CAMPAIGNS_ANCHOR.findall(line):
+                if anchor not in heading_anchors:
+                    problems.append(f"{path}:{n}: no heading '#{anchor}' in docs/campaigns.md")
+    return problems
+
+
+def code_files() -> list[Path]:
+    return sorted(p for package in CODE_PACKAGES for p in (ROOT / package).rglob("*.py"))
 
 
 # ---------------------------------------------------------------------------------------------- shell commands
@@ -290,6 +310,13 @@ def test_command_checker_finds_an_unknown_subcommand_an_unknown_option_and_a_mis
     assert command_problems("geofence-testbed --version\ngeofence-testbed campaign report r --campaign c\n", ROOT) == []
 
 
+def test_campaign_anchor_checker_finds_a_missing_heading(tmp_path):
+    code = tmp_path / "mod.py"
+    code.write_text('"""Sound (case history: docs/campaigns.md#here)."""\n# (case history: docs/campaigns.md#gone)\n')
+    problems = campaign_anchor_problems([code], anchors("# Top\n\n## Here\n"))
+    assert len(problems) == 1 and "#gone" in problems[0] and "mod.py:2" in problems[0], problems
+
+
 @pytest.mark.skipif(shutil.which("bash") is None, reason="bash is not installed")
 def test_bash_syntax_check_can_fail():
     assert bash_syntax_error("echo ok && ls\n") is None
@@ -309,6 +336,12 @@ def test_relative_links_resolve(doc):
     if not doc.is_file():
         pytest.fail(f"{doc.relative_to(ROOT)} is missing")
     assert broken_links(doc) == []
+
+
+def test_campaign_anchors_in_the_code_resolve():
+    files = code_files()
+    assert files, "no .py files found under the packages"
+    assert campaign_anchor_problems(files, anchors(CAMPAIGNS.read_text(encoding="utf-8"))) == []
 
 
 def test_readme_is_at_most_300_lines():

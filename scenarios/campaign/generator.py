@@ -1177,8 +1177,9 @@ def random_simple_polygon(rng: np.random.Generator, k: int) -> np.ndarray:
 
     While every angular gap is under pi the polygon is star-shaped about the centre, hence simple. A gap of
     pi or more (one draw in eight with 5 vertices, one in a thousand with 10) puts its edge on the far side
-    of the centre: often still simple (then kept), sometimes across other edges (campaign seed 26112703
-    stopped on such a keep-in), and then the whole polygon is drawn again. A polygon that was simple at its
+    of the centre: often still simple (then kept), sometimes across other edges (a campaign's generation
+    stopped on such a keep-in (case history: docs/campaigns.md#fresh-seeds-in-the-order-they-were-flown)), and
+    then the whole polygon is drawn again. A polygon that was simple at its
     first draw is kept as drawn, so the campaigns that never met a crossing keep their cases.
     """
     share = 2.0 * math.pi / k

@@ -41,8 +41,8 @@ TURBULENCE_IN_ESTIMATE_SIGMAS = 1.5
 """How much of the forecast's turbulence sigma the unit's 20 s wind estimate may still hold. A first-order
 average over ``tau`` of turbulence with time scale ``T`` keeps ``sqrt(T / (T + tau))`` of its sigma: 0.65 for the
 15 s of a Dryden gust at 20 m in 8 m/s, so 1.5 sigma is 2.3 of the estimate's own standard deviations. Measured:
-the 122 missions of the 1,000-case campaign (seed 20261125) stayed within 1 m/s + 1.5 sigma of the mean wind at
-the vehicle, apart from start-up and landing transients."""
+the 122 missions of the largest campaign stayed within 1 m/s + 1.5 sigma of the mean wind at the vehicle, apart
+from start-up and landing transients (case history: docs/campaigns.md#the-largest-campaign-seed-20261125)."""
 
 
 def planned_route(scenario: Scenario, frame: LocalFrame) -> list[PlannedWaypoint]:
