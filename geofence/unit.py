@@ -18,7 +18,7 @@ reckoning from its last valid estimate (:mod:`geofence.dead_reckoning`).
   at any time, the unit goes straight to LAND_IN_GAP (the most reachable floor gap,
   downwind preferred). A multirotor flies there at the lowest safe height and aims
   upwind in the gap.
-* A vehicle on the ground slower than :data:`SITTING_MAX_GROUND_SPEED_MPS` is sitting and never
+* A vehicle on the ground slower than :data:`~geofence.unit_kernel.SITTING_MAX_GROUND_SPEED_MPS` is sitting and never
   triggers; a faster one is rolling (a fixed-wing that touched down at flying speed) and triggers as in
   the air.
 * Either a lateral or a vertical trigger starts the whole 3-D override
@@ -77,9 +77,12 @@ from geofence.rooms import (
 from geofence.unit_kernel import (  # (their home: the monitoring step's kernel reads them too)
     DENSITY_REFRESH_M,
     FRESH_ESTIMATE_AGE_S,
-    RECOVERED_HOLD_S,
-    SITTING_MAX_GROUND_SPEED_MPS,
+    activates,
+    hand_back,
+    hold_over,
     latency_s,
+    outside,
+    return_assured,
     rollout_cell,
     vertical_handback_m,
 )
@@ -326,10 +329,6 @@ class GeofenceUnit:
         """``trigger: reactive``'s activation margin: the plain margin (act on the line); a predictive unit's is
         ``r.activation_margin_m``."""
         return min(r.lateral_margin_m, r.ceiling_margin_m, r.floor_margin_m) - self.config.extra_margin_m
-
-    @staticmethod
-    def _outside(r: ShiftResult) -> bool:
-        return r.lateral_margin_m < 0.0 or r.ceiling_margin_m < 0.0 or r.floor_margin_m < 0.0
 
     def _trigger_reason(self, r: ShiftResult) -> str:
         if self.config.trigger is Trigger.REACTIVE:
@@ -660,9 +659,9 @@ class GeofenceUnit:
     # -- the monitoring step on arrays (geofence.unit_kernel) ----------------------------------------------------------
     @property
     def monitors_compiled(self) -> bool:
-        """A predictive unit whose margins are compiled (a fence without an index, :data:`geofence.jit.ACTIVE`): its
-        monitoring steps can be taken by :func:`geofence.unit_kernel.monitor_pass` (see :meth:`monitor_ready`)."""
-        return self._predictive and self._compiled is not None and _jit.ACTIVE
+        """A predictive unit whose margins have their array form (a fence without an index): its monitoring steps
+        can be taken by :func:`geofence.unit_kernel.monitor_pass` (see :meth:`monitor_ready`)."""
+        return self._predictive and self._compiled is not None
 
     def monitor_ready(self) -> bool:
         """Whether :func:`geofence.unit_kernel.monitor_pass` can take the next step: a predictive unit monitoring
@@ -899,7 +898,7 @@ class GeofenceUnit:
         we, wn = self.wind_enu
         allowance, limit = self._return_wind_limits
         # return_not_assured's test against its limits (computed once per envelope); its message only when it fails
-        impossible = None if math.hypot(we, wn) + allowance < limit else self._return_impossible()
+        impossible = None if return_assured(we, wn, allowance, limit) else self._return_impossible()
         if impossible is None:
             self._strong_wind_since_s = None
         else:
@@ -914,7 +913,7 @@ class GeofenceUnit:
             found = self._monitor_margins(est, h, sigma_h_m, sigma_v_m, dt_s)
             if found is None:  # far from everything
                 self.activation_margin_m = math.inf  # larger than any room: not computed in detail
-                if mode is _RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
+                if hold_over(mode is _RECOVERED, t_s, self._mode_since_s):
                     self.complete_hand_back(t_s)
                 return pilot
             r = found
@@ -928,7 +927,7 @@ class GeofenceUnit:
         self.activation_margin_m = act
 
         if monitoring:
-            if act <= 0.0 and not (est.on_ground and est.ground_speed_mps < SITTING_MAX_GROUND_SPEED_MPS):
+            if activates(act, est.on_ground, est.ground_speed_mps):
                 self.activations += 1
                 if self.first_activation_s is None:
                     self.first_activation_s = t_s
@@ -937,13 +936,13 @@ class GeofenceUnit:
                     return self._land(t_s, est, h, dt_s)
                 self._start_override(t_s, est, h, r, self._trigger_reason(r))
             else:
-                if mode is _RECOVERED and t_s - self._mode_since_s >= RECOVERED_HOLD_S:
+                if hold_over(mode is _RECOVERED, t_s, self._mode_since_s):
                     self.complete_hand_back(t_s)
                 return pilot
 
         # OVERRIDE
         if t_s - self._override_period_start_s >= self.config.min_override_s:
-            if self._outside(r):
+            if outside(r.lateral_margin_m, r.ceiling_margin_m, r.floor_margin_m):
                 self.reactivations += 1
                 if self.reactivations > self.config.max_reactivations:
                     self._start_landing(
@@ -963,24 +962,25 @@ class GeofenceUnit:
         return self.recovery.sticks(est, h, t_s, dt_s)
 
     def _handback_ok(self, s: VehicleState, r: ShiftResult, act: float) -> bool:
-        if self._climb_back_to_m is not None:
-            # below the floor in a gap the override climbs back first, and hands back only above it: its margins
-            # there may be wide at one heading and not at the next (a J3Cub circling 14 m below the floor was
-            # handed back, the pilot's dash re-activated it a step later with the other turn, and it left the gap)
-            if self.height(s) < self._climb_back_to_m:
-                return False
-            self._climb_back_to_m = None
-        re, rn = self.fence.recovery_en
-        at_point = math.hypot(re - s.east_m, rn - s.north_m) <= self.config.recovery_radius_m
-        # each axis against its own hysteresis: the vertical goal height leaves only the vertical one
-        if self.config.trigger is Trigger.PREDICTIVE:
+        """:func:`geofence.unit_kernel.hand_back` on these margins (its climb back cleared once done): a predictive
+        unit's hysteresis is the activation margins' (:meth:`_vertical_handback_at_goal_m`), a reactive one's the
+        plain margins'."""
+        cfg = self.config
+        if self._predictive:
             vertical_ok = r.vertical_activation_m >= self._vertical_handback_at_goal_m()
             lateral = r.lateral_activation_m
         else:
             vertical_ok = min(r.ceiling_margin_m, r.floor_margin_m) > 0.0
-            lateral = r.lateral_margin_m - self.config.extra_margin_m
-        lateral_ok = lateral >= self.config.handback_margin_m and r.closing_speed_mps <= 0.0
-        return vertical_ok and (lateral_ok or at_point)
+            lateral = r.lateral_margin_m - cfg.extra_margin_m
+        climb_back = self._climb_back_to_m
+        re, rn = self.fence.recovery_en
+        climbed, ok = hand_back(
+            math.nan if climb_back is None else climb_back, self.height(s), vertical_ok, lateral, r.closing_speed_mps,
+            cfg.handback_margin_m, math.hypot(re - s.east_m, rn - s.north_m), cfg.recovery_radius_m,
+        )  # fmt: skip
+        if climbed:
+            self._climb_back_to_m = None
+        return ok
 
     def _vertical_handback_at_goal_m(self) -> float:
         """The vertical hand-back hysteresis the override's goal height allows, m.

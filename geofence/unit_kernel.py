@@ -31,7 +31,7 @@ import numpy as np
 from geofence.config import allowance_in_use_mps
 from geofence.cpython_math import hypot
 from geofence.guidance import fixed_wing_step
-from geofence.jit import jitable
+from geofence.jit import compiled, jitable
 from geofence.margins_kernel import (
     ACTIVATION_FIELD,
     CEILING_MARGIN_FIELD,
@@ -158,6 +158,48 @@ def latency_s(dt_s: float, estimate_age_s: float) -> float:
 
 
 @jitable
+def return_assured(wind_e: float, wind_n: float, allowance_mps: float, limit_mps: float) -> bool:
+    """The wind with its allowance is under the return limit (:func:`geofence.dynamics.return_wind_limits`): the
+    test of :func:`geofence.dynamics.return_not_assured` against limits computed once per envelope."""
+    return hypot(wind_e, wind_n) + allowance_mps < limit_mps
+
+
+@jitable
+def activates(activation_m: float, on_ground: bool, ground_speed_mps: float) -> bool:
+    """A monitoring unit starts its override: the activation margin reached 0 and the vehicle is not sitting on the
+    ground (:data:`SITTING_MAX_GROUND_SPEED_MPS`)."""
+    return activation_m <= 0.0 and not (on_ground and ground_speed_mps < SITTING_MAX_GROUND_SPEED_MPS)
+
+
+@jitable
+def hold_over(recovered: bool, t_s: float, mode_since_s: float) -> bool:
+    """``RECOVERED`` has held :data:`RECOVERED_HOLD_S`: back to ``MONITOR``."""
+    return recovered and t_s - mode_since_s >= RECOVERED_HOLD_S
+
+
+@jitable
+def outside(lateral_margin_m: float, ceiling_margin_m: float, floor_margin_m: float) -> bool:
+    """Past the fence (a plain margin below 0): an override still outside at the end of its period re-activates."""
+    return lateral_margin_m < 0.0 or ceiling_margin_m < 0.0 or floor_margin_m < 0.0
+
+
+@jitable
+def hand_back(
+    climb_back_m: float, h: float, vertical_ok: bool, lateral_m: float, closing_mps: float, handback_margin_m: float,
+    recovery_distance_m: float, recovery_radius_m: float,
+) -> tuple[bool, bool]:  # fmt: skip
+    """``(climbed back, hand back)`` of an override after its minimum period. Below the floor in a gap it climbs back
+    to ``climb_back_m`` (NaN: none) first: below it, neither; at or above it, the climb is done (``climbed back``:
+    the unit clears it) and the rest is tested. Hand back: the vertical hysteresis met (``vertical_ok``) and either
+    the lateral one (``lateral_m`` at least ``handback_margin_m``, not closing) or the recovery point reached."""
+    climbed = climb_back_m == climb_back_m  # (not NaN)
+    if climbed and h < climb_back_m:
+        return False, False
+    lateral_ok = lateral_m >= handback_margin_m and closing_mps <= 0.0
+    return climbed, vertical_ok and (lateral_ok or recovery_distance_m <= recovery_radius_m)
+
+
+@jitable
 def target_slot(U: np.ndarray, e: float, n: float) -> int:
     """Where the roll-out target of the cell of (e, n) is packed in ``U`` (its ``has`` flag; then east, north), or
     -1 where that cell is not among those packed (:data:`TARGET_CELLS` round the cell packed at ``CELL_E, CELL_N``)."""
@@ -181,11 +223,11 @@ def cached_target(U: np.ndarray, e: float, n: float) -> tuple[bool, float, float
 
 @jitable
 def _pass(U: np.ndarray, recovered: bool, t_s: float) -> int:
-    """A pass's answer: :data:`PASS_HANDBACK` once ``RECOVERED`` has held :data:`RECOVERED_HOLD_S`, else :data:`PASS`."""
-    return PASS_HANDBACK if recovered and t_s - U[MODE_SINCE] >= RECOVERED_HOLD_S else PASS
+    """A pass's answer: :data:`PASS_HANDBACK` once ``RECOVERED`` has held (:func:`hold_over`), else :data:`PASS`."""
+    return PASS_HANDBACK if hold_over(recovered, t_s, U[MODE_SINCE]) else PASS
 
 
-@jitable
+@compiled
 def monitor_pass(
     U: np.ndarray, F: np.ndarray, L: np.ndarray, V: np.ndarray, t_s: float, dt_s: float, alt: float, e: float,
     n: float, agl: float, ve: float, vn: float, vu: float, roll: float, on_ground: bool, wind_e: float, wind_n: float,
@@ -201,7 +243,7 @@ def monitor_pass(
     recovered = U[MODE] != U[MONITOR_MODE]
     if not recovered and not abs(alt - U[DENSITY_ALT]) < DENSITY_REFRESH_M:  # (NaN: never scaled)
         return UNIT, False, NOT_NEEDED
-    if not hypot(wind_e, wind_n) + U[RETURN_ALLOWANCE] < U[RETURN_LIMIT]:
+    if not return_assured(wind_e, wind_n, U[RETURN_ALLOWANCE], U[RETURN_LIMIT]):
         return UNIT, False, NOT_NEEDED
     allowance = allowance_in_use_mps(
         U[ESTIMATED_TURBULENCE] != 0.0, turbulence_sigma_mps, U[FORECAST_SIGMA], U[TURBULENCE_K], U[GUST],
@@ -228,7 +270,7 @@ def monitor_pass(
         F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, skip_time_s, hu, v_unc, latency, roll,
         has_target, target_e, target_n, g,
     )  # fmt: skip
-    if not far and r[0] <= 0.0 and not (on_ground and ground_speed < SITTING_MAX_GROUND_SPEED_MPS):
+    if not far and activates(r[0], on_ground, ground_speed):
         return UNIT, False, r  # an activation: the unit starts its override
     return _pass(U, recovered, t_s), far, r
 
@@ -278,7 +320,7 @@ def record_pass(
             U[HORIZON0 + k] = horizon[k]
 
 
-@jitable
+@compiled
 def override_pass(
     U: np.ndarray, F: np.ndarray, L: np.ndarray, V: np.ndarray, R: np.ndarray, P: np.ndarray, Q: np.ndarray,
     K: np.ndarray, t_s: float, dt_s: float, alt: float, e: float, n: float, agl: float, ve: float, vn: float,
@@ -297,7 +339,7 @@ def override_pass(
     step, the same tests in its order."""
     if not (position_valid and estimate_age_s <= FRESH_ESTIMATE_AGE_S):
         return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
-    if not hypot(wind_e, wind_n) + U[RETURN_ALLOWANCE] < U[RETURN_LIMIT]:
+    if not return_assured(wind_e, wind_n, U[RETURN_ALLOWANCE], U[RETURN_LIMIT]):
         return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
     h = agl if U[AGL] != 0.0 else alt
     activation = math.nan  # (not needed, nor computed, until the minimum override has passed)
@@ -317,7 +359,7 @@ def override_pass(
             F, L, V, e, n, h, ve, vn, vu, wind_e, wind_n, k_sigma * sigma_h_m + extra, k_sigma * sigma_v_m + extra,
             latency, roll, allowance, True, target_e, target_n, g, math.nan,
         )  # fmt: skip
-        if r[LATERAL_MARGIN_FIELD] < 0.0 or r[CEILING_MARGIN_FIELD] < 0.0 or r[FLOOR_MARGIN_FIELD] < 0.0:
+        if outside(r[LATERAL_MARGIN_FIELD], r[CEILING_MARGIN_FIELD], r[FLOOR_MARGIN_FIELD]):
             return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED  # still outside: the unit re-activates
         if not no_hand_back(U, V, r, e, n, h, latency, sigma_v_m):
             return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED  # the unit's hand-back test
@@ -339,21 +381,17 @@ def override_pass(
 def no_hand_back(
     U: np.ndarray, V: np.ndarray, r: tuple, e: float, n: float, h: float, latency: float, sigma_v_m: float
 ) -> bool:  # fmt: skip
-    """Sure that :meth:`~geofence.unit.GeofenceUnit._handback_ok` fails on these margins and changes nothing (else
-    the unit tests it): a climb back above the floor still below its height, or the vertical hysteresis not met
-    (:func:`vertical_handback_m`), or neither the lateral one (the margin at least ``handback_margin_m``, not
-    closing) nor the recovery point reached."""
-    climb_back = U[CLIMB_BACK]
-    if climb_back == climb_back:  # (not NaN) the override climbs back above the floor first
-        return h < climb_back  # (above it, the unit clears it, then tests the rest)
+    """Sure that a predictive override's :func:`hand_back` on these margins (the hysteresis of
+    :func:`vertical_handback_m`) neither hands back nor clears its climb back (else the unit answers the step)."""
     hysteresis = vertical_handback_m(
         U[VERTICAL_HYSTERESIS], U[GOAL_H], U[CEILING_M], U[FLOOR_M], U[REACTION_S] + latency,
         V[TERM_VERTICAL_ACCEL], V[TERM_MAX_CLIMB], V[TERM_MAX_DESCENT], U[K_SIGMA] * sigma_v_m + U[EXTRA],
     )  # fmt: skip
-    if not r[VERTICAL_ACTIVATION_FIELD] >= hysteresis:
-        return True
-    lateral_ok = r[LATERAL_ACTIVATION_FIELD] >= U[HANDBACK_MARGIN] and r[CLOSING_FIELD] <= 0.0
-    return not lateral_ok and not hypot(U[RECOVERY_E] - e, U[RECOVERY_N] - n) <= U[RECOVERY_RADIUS]
+    climbed, ok = hand_back(
+        U[CLIMB_BACK], h, r[VERTICAL_ACTIVATION_FIELD] >= hysteresis, r[LATERAL_ACTIVATION_FIELD], r[CLOSING_FIELD],
+        U[HANDBACK_MARGIN], hypot(U[RECOVERY_E] - e, U[RECOVERY_N] - n), U[RECOVERY_RADIUS],
+    )  # fmt: skip
+    return not climbed and not ok
 
 
 @jitable

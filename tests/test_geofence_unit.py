@@ -6,6 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from geofence.boundary_shift import activation_margins_for_state
 from geofence.config import parse_geofence
 from geofence.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, StickCommand, VehicleState
@@ -171,7 +172,11 @@ def test_envelope_is_scaled_to_the_air_density_at_a_high_site():
     low = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), fw)
     low.update(0.0, VehicleState(east_m=0.0, north_m=0.0, agl_m=100.0, alt_m=0.0, v_north_mps=24.0), PILOT, DT)
     s = VehicleState(east_m=0.0, north_m=1900.0, agl_m=100.0, alt_m=2780.0, v_north_mps=12.0)
-    assert u._margins(s, 100.0, 0.0, 0.0, DT).lateral_shift_m > 1.2 * low._margins(s, 100.0, 0.0, 0.0, DT).lateral_shift_m
+
+    def shift(env: Envelope) -> float:
+        return activation_margins_for_state(u.fence, s, env, latency_s=DT).lateral_shift_m
+
+    assert shift(u.env) > 1.2 * shift(low.env)
 
 
 @settings(max_examples=40, deadline=None)

@@ -1,105 +1,74 @@
-"""The compiled override step's hand-back question (:func:`geofence.unit_kernel.no_hand_back`, which
-:func:`~geofence.unit_kernel.override_pass` asks after the minimum override period) against the unit's own
-(:meth:`geofence.unit.GeofenceUnit._handback_ok`): where the compiled step goes on flying the override, the unit
-would not have handed back and its state is unchanged; where it does not, the unit hands back (or clears its climb
-back above the floor first). And the vertical hysteresis has one formula both ways."""
+"""An override's hand-back decision, written once (:func:`geofence.unit_kernel.hand_back`, which both
+:meth:`geofence.unit.GeofenceUnit.update` and the compiled override step, :func:`~geofence.unit_kernel.no_hand_back`,
+ask), against its rule; and the vertical hysteresis at a goal short of the band
+(:func:`~geofence.unit_kernel.vertical_handback_m`) against its closed form."""
 
 import math
 
-import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geofence.boundary_shift import ShiftResult
-from geofence.config import parse_geofence
-from geofence.geodesy import LocalFrame
-from geofence.interface import Envelope, PlatformKind, VehicleState
-from geofence.unit import GeofenceUnit
-from geofence.unit_kernel import N_UNIT, no_hand_back
+from geofence.rooms import vertical_arrest_distance_m
+from geofence.unit_kernel import hand_back, vertical_handback_m
 
-FRAME = LocalFrame(47.0, 8.0, 400.0)
-TERN = Envelope(
-    PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0, 0.6, 5.0, 1.1
+near = st.floats(-3.0, 12.0)  # round the hysteresis thresholds (5 m lateral)
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    climb_back=st.none() | st.floats(0.0, 60.0),
+    h=st.floats(0.0, 150.0),
+    vertical_ok=st.booleans(),
+    lateral=near,
+    closing=st.floats(-3.0, 3.0),
+    margin=st.floats(0.0, 10.0),
+    distance=st.floats(0.0, 100.0),
+    radius=st.floats(0.0, 50.0),
 )
-
-
-def _unit(floor_m: float | None, ceiling_m: float) -> GeofenceUnit:
-    half = 400.0
-    corners = [(-half, -half), (half, -half), (half, half), (-half, half)]
-    fence: dict = {"keep_in": [list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in corners], "ceiling_m": ceiling_m}
-    if floor_m is not None:
-        gap = [(-50.0, -50.0), (50.0, -50.0), (50.0, 50.0), (-50.0, 50.0)]
-        fence.update(floor_m=floor_m, floor_gaps=[[list(FRAME.to_geodetic(e, n, 0.0)[:2]) for e, n in gap]])
-    cfg = parse_geofence({"fence": fence}, "test")
-    return GeofenceUnit(cfg, cfg.fence.to_local(FRAME), TERN)
-
-
-def _margins(lateral_activation: float, closing: float, vertical_activation: float) -> ShiftResult:
-    return ShiftResult(
-        min(lateral_activation, vertical_activation), 50.0, 10.0, lateral_activation, "keep_in", 0, 1, 1.0, 0.0, 60.0,
-        closing, math.inf, 1, 0.3, 40.0, 5.0, 30.0, 5.0, vertical_activation, math.inf,
-    )  # fmt: skip
-
-
-near = st.floats(-3.0, 12.0)  # round the hysteresis thresholds (5 m lateral, 2 m vertical)
+def test_the_hand_back_follows_its_rule(climb_back, h, vertical_ok, lateral, closing, margin, distance, radius):
+    """Below the climb-back height: neither; at or above it the climb is done. Then: back only with the vertical
+    hysteresis met and either the lateral one (the margin, not closing) or the recovery point reached."""
+    climbed, ok = hand_back(
+        math.nan if climb_back is None else climb_back, h, vertical_ok, lateral, closing, margin, distance, radius
+    )
+    if climb_back is not None and h < climb_back:
+        assert not climbed and not ok
+        return
+    assert climbed == (climb_back is not None)
+    lateral_ok = lateral >= margin and closing <= 0.0
+    assert ok == (vertical_ok and (lateral_ok or distance <= radius))
 
 
 @settings(max_examples=300, deadline=None)
 @given(
     floor=st.none() | st.floats(5.0, 30.0),
     band=st.floats(2.0, 120.0),
-    climb_back=st.none() | st.floats(0.0, 60.0),
     goal=st.none() | st.floats(0.0, 150.0),
-    latency=st.floats(0.0, 1.0),
-    sigma_v=st.floats(0.0, 5.0),
-    lateral=near,
-    closing=st.floats(-3.0, 3.0),
-    vertical=near,
-    e=st.floats(-30.0, 30.0),
-    n=st.floats(-30.0, 30.0),
-    h=st.floats(0.0, 150.0),
+    hysteresis=st.floats(0.1, 10.0),
+    reaction=st.floats(0.2, 2.0),
+    accel=st.floats(0.5, 5.0),
+    climb=st.floats(1.0, 6.0),
+    descent=st.floats(1.0, 6.0),
+    uncertainty=st.floats(0.0, 10.0),
 )
-def test_the_compiled_step_flies_on_only_where_the_unit_would_not_hand_back(
-    floor, band, climb_back, goal, latency, sigma_v, lateral, closing, vertical, e, n, h
+def test_the_vertical_hysteresis_is_half_the_room_at_rest_at_a_goal_short_of_the_band(
+    floor, band, goal, hysteresis, reaction, accel, climb, descent, uncertainty
 ):
-    unit = _unit(floor, (floor or 0.0) + band)
-    unit._climb_back_to_m = climb_back
-    unit._goal_h_m, unit._goal_short_of_band = (math.nan, False) if goal is None else (goal, True)
-    unit._latency_s, unit._sigma_v_m = latency, sigma_v
-    U = np.zeros(N_UNIT)
-    unit._pack_margins_inputs(U)
-    unit._pack_hand_back(U)
-    assert unit._compiled is not None
-    V = unit._compiled._terms
-    r = _margins(lateral, closing, vertical)
-    fields = tuple(r[:4]) + (0,) + tuple(r[7:])  # the kernel's fields: the element's id for its name and index
-    flies_on = no_hand_back(U, V, fields, e, n, h, latency, sigma_v)
-    s = VehicleState(east_m=e, north_m=n, agl_m=h, alt_m=400.0 + h)
-    hands_back = unit._handback_ok(s, r, r.activation_margin_m)
-    if flies_on:
-        assert not hands_back
-        assert unit._climb_back_to_m == climb_back  # nothing changed
-    else:
-        assert hands_back or (climb_back is not None and unit._climb_back_to_m is None)
-
-
-@settings(max_examples=200, deadline=None)
-@given(
-    floor=st.none() | st.floats(5.0, 30.0),
-    band=st.floats(2.0, 120.0),
-    goal=st.none() | st.floats(0.0, 150.0),
-    latency=st.floats(0.0, 1.0),
-    sigma_v=st.floats(0.0, 5.0),
-)
-def test_the_vertical_hysteresis_is_half_the_room_at_rest_at_a_goal_short_of_the_band(floor, band, goal, latency, sigma_v):
-    """At most the configured hysteresis; below it only for a goal short of the band, and then half the room the
-    vehicle has at rest there (never negative)."""
-    unit = _unit(floor, (floor or 0.0) + band)
-    unit._goal_h_m, unit._goal_short_of_band = (math.nan, False) if goal is None else (goal, True)
-    unit._latency_s, unit._sigma_v_m = latency, sigma_v
-    hyst = unit._vertical_handback_m
-    got = unit._vertical_handback_at_goal_m()
+    """The configured hysteresis for a goal in the band (NaN); for a goal short of it, the smaller of that and half
+    the vertical room at rest there (the ceiling's and floor's arrest distances from 0 m/s and the uncertainty
+    off), never below 0."""
+    ceiling = (floor or 0.0) + band
+    got = vertical_handback_m(
+        hysteresis, math.nan if goal is None else goal, ceiling, math.nan if floor is None else floor, reaction, accel,
+        climb, descent, uncertainty,
+    )  # fmt: skip
     if goal is None:
-        assert got == hyst
-    else:
-        assert 0.0 < got <= hyst
+        assert got == hysteresis
+        return
+    rest = ceiling - goal - vertical_arrest_distance_m(0.0, reaction, accel, climb)
+    if floor is not None:
+        rest = min(rest, goal - floor - vertical_arrest_distance_m(0.0, reaction, accel, descent))
+    rest -= uncertainty
+    want = hysteresis if not rest > 0.0 else min(hysteresis, 0.5 * rest)
+    assert math.isclose(got, want, rel_tol=1e-12, abs_tol=1e-12)
+    assert 0.0 < got <= hysteresis
