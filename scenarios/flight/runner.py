@@ -10,9 +10,9 @@ frames in between, with the flight controller inside JSBSim):
     platform.command(cmd); recorder.append(...); platform.step(frames_per_step)
 
 While a predictive unit monitors (and while a fixed-wing override flies), the
-wind sample, the unit's sensing and update and the recorder's row are one compiled call
-(:class:`scenarios.flight.step_kernel.FlightStep`, where numba is active): the same numbers as
-the separate calls, bit for bit.
+wind sample, the unit's sensing and monitoring step and the recorder's row are one call
+(:class:`scenarios.flight.step_kernel.FlightStep`: compiled, or the same functions interpreted
+without numba); a step the unit answers itself is :func:`scenarios.flight.step_kernel.unit_step`.
 
 The run stops at ``duration_s`` or two seconds after the pilot finished its
 mission. Files: ``<out>/<scenario>/trajectory.csv`` and ``summary.json`` (see
@@ -33,7 +33,6 @@ from typing import Any, Callable
 
 from aircraft.factory import build_platform
 from analysis.scoring import SCORED_COLUMNS, score_flight
-from geofence import jit
 from geofence.geodesy import LocalFrame
 from geofence.local_fence import LocalFence
 from geofence.unit import GeofenceUnit, Mode
@@ -42,7 +41,7 @@ from scenarios.definition.schema import PilotKind, Scenario
 from scenarios.flight.pilots import CompiledLawPilot, Pilot, build_pilot
 from scenarios.flight.recorder import Recorder
 from scenarios.flight.sensing import GeofenceSensing
-from scenarios.flight.step_kernel import FlightStep
+from scenarios.flight.step_kernel import FlightStep, unit_step
 from wind.config import wind_from_config
 from wind.field import CalmWind, WindField, notify_first_activation
 from wind.field_kernel import WindArrays, compiled_wind
@@ -77,9 +76,9 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     platform = build_platform(scenario.profile)
     env = platform.envelope
     wind = wind_from_config(scenario.wind, scenario.seed) if scenario.wind is not None else CalmWind()
-    # the wind's arrays sampled by one compiled call (the same numbers), where numba is active and the field is one
-    # wind_from_config builds; else the field objects
-    wind_arrays = compiled_wind(wind) if jit.ACTIVE else None
+    # the wind's arrays sampled by one compiled call (the same numbers), where the field is one wind_from_config
+    # builds; else the field objects
+    wind_arrays = compiled_wind(wind)
     sampler: WindField | WindArrays = wind if wind_arrays is None else wind_arrays  # sample() and the activation hook
     sample_wind = sampler.sample
     # the start is settled in the wind at t = 0 (platforms keep a wind set before reset)
@@ -138,25 +137,11 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                 set_wind(*w)
                 cmd_in = pilot_sticks(truth)
                 if unit is not None and own is not None:
-                    est, wind_en, valid, sigma_h, sigma_v, horizon, age, turbulence = own.sense(truth, dt_s)
-                    cmd = unit.update(
-                        t,
-                        est,
-                        cmd_in,
-                        dt_s,
-                        wind_en=wind_en,
-                        position_valid=valid,
-                        sigma_h_m=sigma_h,
-                        sigma_v_m=sigma_v,
-                        estimate_age_s=age,
-                        turbulence_sigma_mps=turbulence,
-                        horizon=horizon,
-                    )
-                    record(
-                        truth, w, cmd_in, cmd, unit.mode, pilot.items_reached, unit.estimate, wind_en, unit.activation_margin_m
-                    )
-                    if fused is not None:
-                        fused.refresh()
+                    sensed = own.sense(truth, dt_s)
+                    if fused is not None:  # (then asked whether the next step can be its compiled call)
+                        cmd = fused.by_unit(truth, t, w, cmd_in, pilot.items_reached, sensed)
+                    else:
+                        cmd = unit_step(unit, recorder, truth, t, w, cmd_in, pilot.items_reached, sensed, dt_s)
                 else:
                     cmd = cmd_in
                     record(truth, w, cmd_in, cmd, mode, pilot.items_reached)

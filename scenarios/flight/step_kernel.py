@@ -14,9 +14,8 @@ Where a fixed-wing's roll-out target for the estimate's cell is not packed
 (:func:`flight_step_again`, :func:`override_flight_step_again`: from the estimate the first call left, the sensing
 chain not stepped twice). Anything else (an activation, a hand-back, a position lost, ...) is answered by the
 unit's own :meth:`~geofence.unit.GeofenceUnit.update` from the same estimate, and the runner records that row
-itself. Each
-part is the compiled form of a reference the flight takes without numba, so a flight flown either way records the
-same bytes (``tests/test_flight_step.py``; :func:`use_flight_step` is the named hook that switches this path off).
+itself (:func:`unit_step`, the step the runner takes where no compiled call can: the same call). Compiled where
+numba is, the same functions interpreted where it is not.
 
 :class:`FlightStep` holds the arrays, asks :meth:`~geofence.unit.GeofenceUnit.monitor_ready` and
 :meth:`~geofence.unit.GeofenceUnit.override_ready` after every step the unit took itself, and has the unit take in
@@ -32,7 +31,7 @@ import numpy as np
 from geofence import jit
 from geofence.dynamics import G_MPS2
 from geofence.interface import FixState, StickCommand, VehicleState
-from geofence.jit import COMPILED, jitable, numba
+from geofence.jit import jitable
 from geofence.unit import GeofenceUnit
 from geofence.unit_kernel import (
     FAR,
@@ -53,7 +52,7 @@ from geofence.unit_kernel import (
 from scenarios.flight.pilots.law_kernel import GIVEN, law_array, law_sticks
 from scenarios.flight.pilots.law_kernel import KIND as LAW_KIND
 from scenarios.flight.recorder import Recorder, write_row
-from scenarios.flight.sensing import HORIZON_IN_P, GeofenceSensing, sense_step
+from scenarios.flight.sensing import HORIZON_IN_P, GeofenceSensing, Sensed, sense_step
 from wind.field_kernel import WindArrays, wind_sample
 
 # what a step the unit answers itself needs (UNIT), one float array
@@ -260,36 +259,18 @@ def _override_flight_step_again(
     )  # fmt: skip
 
 
-def _compiled(fn: Callable) -> Callable:
-    """``fn`` compiled (cached on disk), or the Python function itself without numba."""
-    return numba.njit(cache=True)(fn) if COMPILED else fn
-
-
-flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = _compiled(_flight_step)
+flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = jit.compiled(_flight_step)
 """The compiled :func:`_flight_step`."""
-override_flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = _compiled(
+override_flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = jit.compiled(
     _override_flight_step
 )
 """The compiled :func:`_override_flight_step`."""
-flight_step_again: Callable[..., tuple[int, float, float, float, float]] = _compiled(_flight_step_again)
+flight_step_again: Callable[..., tuple[int, float, float, float, float]] = jit.compiled(_flight_step_again)
 """The compiled :func:`_flight_step_again`."""
-override_flight_step_again: Callable[..., tuple[int, float, float, float, float]] = _compiled(_override_flight_step_again)
+override_flight_step_again: Callable[..., tuple[int, float, float, float, float]] = jit.compiled(_override_flight_step_again)
 """The compiled :func:`_override_flight_step_again`."""
 _AGAIN = {flight_step: flight_step_again, override_flight_step: override_flight_step_again}
 """Each step's kernel asked again after NEED_TARGET."""
-
-ENABLED = True
-"""Runners build a :class:`FlightStep` where they can (set by :func:`use_flight_step`)."""
-
-
-def use_flight_step(on: bool) -> bool:
-    """Let the runner take monitoring steps in one compiled call (``True``, the default where numba is active) or
-    always through the separate objects (``False``), for flights started from now on; returns the previous
-    setting."""
-    global ENABLED
-    previous = ENABLED
-    ENABLED = bool(on)
-    return previous
 
 
 class FlightStep:
@@ -338,13 +319,13 @@ class FlightStep:
         dt_s: float,
         pilot_law: np.ndarray | None = None,
     ) -> FlightStep | None:
-        """A :class:`FlightStep` for this flight, or None where a part has no compiled form here: numba not active
-        (or :func:`use_flight_step` off), no unit or not one that :attr:`~GeofenceUnit.monitors_compiled`, the sensing
+        """A :class:`FlightStep` for this flight, or None where a part has no array form: no unit or not one that
+        :attr:`~GeofenceUnit.monitors_compiled`, the sensing
         chain not compiled (a truth source), the wind field not as arrays (``wind``: the runner's, None when the
         field has no array form or is ``calm``). ``pilot_law``: the pilot's law array where it has one
         (:mod:`scenarios.flight.pilots.law_kernel`; :meth:`step` then takes no sticks where its kind is not
         ``GIVEN``)."""
-        if not (ENABLED and jit.ACTIVE) or unit is None or not unit.monitors_compiled:
+        if unit is None or not unit.monitors_compiled:
             return None
         if sensing is None or not sensing.compiled:
             return None
@@ -468,11 +449,33 @@ class FlightStep:
         horizon = self._take_in(o[NEW_HORIZON] != 0.0)
         est = VehicleState(*o[EST0 : EST0 + 15])
         est.on_ground = s.on_ground  # touchdown switch / the flight controller's land detector
-        wind_en = (o[WIND_EST_E], o[WIND_EST_N])
-        cmd = unit.update(
-            t_s, est, pilot, self.dt_s, wind_en=wind_en, position_valid=o[VALID] != 0.0, sigma_h_m=o[SIGMA_H],
-            sigma_v_m=o[SIGMA_V], estimate_age_s=o[AGE], turbulence_sigma_mps=o[TURBULENCE], horizon=horizon,
+        sensed = _new_tuple(
+            Sensed,
+            (est, (o[WIND_EST_E], o[WIND_EST_N]), o[VALID] != 0.0, o[SIGMA_H], o[SIGMA_V], horizon, o[AGE], o[TURBULENCE]),
         )  # fmt: skip
-        recorder.append(truth, w, pilot, cmd, unit.mode, item, unit.estimate, wind_en, unit.activation_margin_m)
+        return w, self.by_unit(truth, t_s, w, pilot, item, sensed)
+
+    def by_unit(
+        self, truth: VehicleState, t_s: float, w: tuple[float, float, float], pilot: StickCommand, item: int,
+        sensed: Sensed,
+    ) -> StickCommand:  # fmt: skip
+        """A step the unit answers itself (:func:`unit_step`), then asked again whether the next can be a compiled
+        call."""
+        cmd = unit_step(self.unit, self.recorder, truth, t_s, w, pilot, item, sensed, self.dt_s)
         self.refresh()
-        return w, cmd
+        return cmd
+
+
+def unit_step(
+    unit: GeofenceUnit, recorder: Recorder, truth: VehicleState, t_s: float, w: tuple[float, float, float],
+    pilot: StickCommand, item: int, sensed: Sensed, dt_s: float,
+) -> StickCommand:  # fmt: skip
+    """A step the unit answers itself (:meth:`GeofenceUnit.update` on the sensing chain's outputs ``sensed``), its row
+    recorded: the sticks to send."""
+    est, wind_en, valid, sigma_h, sigma_v, horizon, age, turbulence = sensed
+    cmd = unit.update(
+        t_s, est, pilot, dt_s, wind_en=wind_en, position_valid=valid, sigma_h_m=sigma_h, sigma_v_m=sigma_v,
+        estimate_age_s=age, turbulence_sigma_mps=turbulence, horizon=horizon,
+    )  # fmt: skip
+    recorder.append(truth, w, pilot, cmd, unit.mode, item, unit.estimate, wind_en, unit.activation_margin_m)
+    return cmd
