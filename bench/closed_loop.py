@@ -8,12 +8,7 @@ For each platform it measures, interleaved in one run (repeats, median):
 * ``closed``: the full closed loop of ``scenarios.flight.runner.fly`` (pilot,
   wind field, recorder, outer loop at the scenario's control rate);
 * ``geofence``: the same with the geofence unit in the loop (an adversarial
-  pilot against a fence, so the override and its guidance run too), the
-  same flight with its monitoring steps through the separate objects instead
-  of one compiled call each (:func:`scenarios.flight.step_kernel.use_flight_step`
-  off: the loop as it was before that call), and again on the plain-Python
-  reference of the compiled kernels (:func:`geofence.jit.use_compiled` off);
-  the same trajectory, bit for bit, all three ways.
+  pilot against a fence, so the override and its guidance run too).
 
 It prints frames/s for each and the ratios to bare (target >= 0.6 with the
 geofence). The closed-loop rates are those of the stepping loop, measured as
@@ -35,10 +30,8 @@ from pathlib import Path
 from aircraft.factory import build_platform
 from aircraft.jsbsim_model import JSBSimModel
 from geofence.geodesy import LocalFrame
-from geofence.jit import use_compiled
 from scenarios.definition.schema import load_scenario
 from scenarios.flight.runner import fly
-from scenarios.flight.step_kernel import use_flight_step
 
 ROOT = Path(__file__).resolve().parents[1]
 CASES = {
@@ -120,13 +113,13 @@ def main() -> None:
     args = ap.parse_args()
     print(
         f"{'model':6s} {'shipped f/s':>12s} {'bare+FC f/s':>12s} {'closed f/s':>11s} {'+geofence':>10s}"
-        f" {'closed/bare':>12s} {'geofence/bare':>14s} {'(no one call)':>14s} {'(Python ref.)':>14s}"
+        f" {'closed/bare':>12s} {'geofence/bare':>14s}"
         f" {'closed/shipped':>15s}"
         f" {'whole flight: closed, +geofence /bare':>38s}"
     )
     budgets = []
     for model in CASES:
-        shipped, bare, closed, fenced, fenced_apart, fenced_py, closed_all, fenced_all = [], [], [], [], [], [], [], []
+        shipped, bare, closed, fenced, closed_all, fenced_all = [], [], [], [], [], []
         for _ in range(args.repeats):
             loop, whole = closed_rate(CASES[model], args.seconds)
             closed.append(loop)
@@ -134,24 +127,12 @@ def main() -> None:
             loop, whole = closed_rate(GEOFENCE_CASES[model], args.seconds)
             fenced.append(loop)
             fenced_all.append(whole)
-            previous = use_flight_step(False)  # its monitoring steps through the separate objects
-            try:
-                fenced_apart.append(closed_rate(GEOFENCE_CASES[model], args.seconds)[0])
-            finally:
-                use_flight_step(previous)
-            previous = use_compiled(False)  # the same flight on the plain-Python reference of the kernels
-            try:
-                fenced_py.append(closed_rate(GEOFENCE_CASES[model], args.seconds)[0])
-            finally:
-                use_compiled(previous)
             frames = int(args.seconds * 120)
             bare.append(bare_rate(model, frames, with_fc=True))
             shipped.append(bare_rate(model, frames, with_fc=False))
-        s, b, c, g, ga_, gp, ca, ga = (
-            statistics.median(x) for x in (shipped, bare, closed, fenced, fenced_apart, fenced_py, closed_all, fenced_all)
-        )
+        s, b, c, g, ca, ga = (statistics.median(x) for x in (shipped, bare, closed, fenced, closed_all, fenced_all))
         print(
-            f"{model:6s} {s:12.0f} {b:12.0f} {c:11.0f} {g:10.0f} {c / b:12.2f} {g / b:14.2f} {ga_ / b:14.2f} {gp / b:14.2f}"
+            f"{model:6s} {s:12.0f} {b:12.0f} {c:11.0f} {g:10.0f} {c / b:12.2f} {g / b:14.2f}"
             f" {c / s:15.2f} {ca / b:27.2f}, {ga / b:.2f}"
         )
         budgets.append(budget_line(model, b, g, load_scenario(GEOFENCE_CASES[model]).frames_per_step))
