@@ -13,7 +13,7 @@ from shapely.ops import unary_union
 
 from geofence.fence import Fence, FenceError, KeepOutCircle
 from geofence.geodesy import LocalFrame
-from geofence.recovery_path import ORBIT_CUT_STEP_M, RecoveryPlanner, segment_segment_distance
+from geofence.recovery import ORBIT_CUT_STEP_M, RecoveryPlanner, segment_segment_distance
 
 FRAME = LocalFrame(0.0, 0.0, 0.0)
 SLACK_M = 1e-6
