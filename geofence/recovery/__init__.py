@@ -84,16 +84,17 @@ same tangency filter and exact test, one row of pairs), and the searches stop
 early: :meth:`RecoveryPlanner.plan` is A* toward the goal (Euclidean
 heuristic, admissible and consistent: the route is still the shortest over
 the same graph) and the safe-point searches stop at the first safe point
-settled. Same graph, same routes; only the work done differs. The compiled A* takes its first legs from
-boxes of nodes released in order of a lower bound of their keys (:func:`~geofence.recovery.search._lazy_astar`: not a heap of every
-node per search). :meth:`RecoveryPlanner.prepare` (a unit's ``prepare_routes``, before flight) instead files
-every node's edges at once (each tangent pair tested once, :func:`~geofence.recovery.graph._tangent_pairs`) and, for each goal it is
-given, the shortest-route tree to it over the whole graph (:func:`~geofence.recovery.search._goal_tree`). A search towards a prepared goal
-is then no search: the route leaves for the first node, in order of the straight leg plus its route length,
-whose leg is clear (:func:`~geofence.recovery.search._tree_first_leg`; the elements that blocked the last legs, and those filed in the
-node's own cell, are tried first), then follows the tree. The same shortest length over the same graph (to
-round-off; ``tests/test_recovery_clear_vector.py`` holds it to a Dijkstra oracle); a 10,000-vertex park with 500 buildings answers in some
-30 µs instead of 0.3-1 ms. Per step, :meth:`RecoveryPath.lookahead_point`
+settled. Same graph, same routes; only the work done differs. The compiled A* takes its first legs from boxes of
+nodes released in order of a lower bound of their keys (:func:`~geofence.recovery.search._lazy_astar`: not a
+heap of every node per search). :meth:`RecoveryPlanner.prepare` (a unit's ``prepare_routes``, before flight)
+instead files every node's edges at once (each tangent pair tested once,
+:func:`~geofence.recovery.graph._tangent_pairs`) and, for each goal it is given, the shortest-route tree to it
+over the whole graph (:func:`~geofence.recovery.search._goal_tree`). A search towards a prepared goal is then no
+search: the route leaves for the first node, in order of the straight leg plus its route length, whose leg is
+clear (:func:`~geofence.recovery.search._tree_first_leg`; the elements that blocked the last legs, and those
+filed in the node's own cell, are tried first), then follows the tree. The same shortest length over the same
+graph (to round-off; ``tests/test_recovery_clear_vector.py`` holds it to a Dijkstra oracle); a 10,000-vertex
+park with 500 buildings answers in some 30 µs instead of 0.3-1 ms. Per step, :meth:`RecoveryPath.lookahead_point`
 is a projection over the path's segments and one or two exact chord tests
 (bounding-box filtered loops over the edges): one compiled call
 (:data:`~geofence.recovery.follower.path_lookahead`) while the vehicle is inside by more than 1e-9 m; for a

@@ -1,10 +1,10 @@
 """The planner's graph: its corner nodes, which pairs of them are tangent at both ends, filing the clear ones.
 
-Owns the corner nodes round the grown obstacles (:func:`corner_nodes`), the tangency test of a node's normal cone (:func:`_tangent_at`), a node's tangent candidates
-(:func:`_tangent_row`), every node's at once (:func:`_tangent_pairs`), and the edge store's filing of a node's
-clear candidates (:func:`_file_row`, :func:`_file_rows`). The edge store: node ``i``'s edges are
-``store_j[row_start[i]:][:row_len[i]]`` (other nodes) with lengths ``store_w``, ``row_start[i]`` -1 until filed,
-``used[0]`` entries filled.
+Owns the corner nodes round the grown obstacles (:func:`corner_nodes`), the tangency test of a node's normal
+cone (:func:`_tangent_at`), a node's tangent candidates (:func:`_tangent_row`), every node's at once
+(:func:`_tangent_pairs`), and the edge store's filing of a node's clear candidates (:func:`_file_row`,
+:func:`_file_rows`). The edge store: node ``i``'s edges are ``store_j[row_start[i]:][:row_len[i]]`` (other
+nodes) with lengths ``store_w``, ``row_start[i]`` -1 until filed, ``used[0]`` entries filled.
 """
 
 from __future__ import annotations

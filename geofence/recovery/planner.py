@@ -203,9 +203,9 @@ class RecoveryPlanner:
         return D, nxt, box_d
 
     def _tree_route(self, s: Point, g: Point, goal: Point) -> RecoveryPath | None:
-        """The shortest route from ``s`` (in the free space) to ``g`` by its goal tree (:meth:`prepare`'s): the
-        first leg :func:`~geofence.recovery.search.tree_first_leg` finds, then the tree's next nodes. ``None``: no tree for ``g``, or no
-        route to it from ``s`` (the search finds the partial route)."""
+        """The shortest route from ``s`` (in the free space) to ``g`` by its goal tree (:meth:`prepare`'s): the first
+        leg :func:`~geofence.recovery.search.tree_first_leg` finds, then the tree's next nodes. ``None``: no
+        tree for ``g``, or no route to it from ``s`` (the search finds the partial route)."""
         tree = self._trees.get(g)
         grid = self._segment_grid()
         if tree is None or grid is None:
@@ -384,9 +384,9 @@ class RecoveryPlanner:
 
     # ------------------------------------------------------------------ exact segment tests
     def _segment_grid(self) -> Grid | None:
-        """The grid of the compiled segment test (:func:`~geofence.recovery.segments.segment_grid`, reach: the clearance; cells of the
-        clearance, at least 25 m), made on first use; ``None`` without one (the planner's ``grid`` argument; by
-        default from :data:`SEGMENT_GRID_MIN_EDGES` edges on)."""
+        """The grid of the compiled segment test (:func:`~geofence.recovery.segments.segment_grid`, reach: the
+        clearance; cells of the clearance, at least 25 m), made on first use; ``None`` without one (the
+        planner's ``grid`` argument; by default from :data:`SEGMENT_GRID_MIN_EDGES` edges on)."""
         if self._grid is None:
             choice = self._grid_choice
             if not len(self._edge_rows) or not (len(self._edge_rows) >= SEGMENT_GRID_MIN_EDGES if choice is None else choice):
@@ -648,9 +648,9 @@ class RecoveryPlanner:
         return Search(s, self.clearance_m, pts, dist, pred, int(n_first), int(best))
 
     def _node_boxes(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The graph's nodes in boxes for :func:`~geofence.recovery.search.lazy_astar`'s first legs, ``(box, box_start, box_items)``: the
-        non-empty cells of a square grid of about :data:`NODES_PER_BOX` nodes a cell, each as its nodes' bounding
-        box; made on first use."""
+        """The graph's nodes in boxes for :func:`~geofence.recovery.search.lazy_astar`'s first legs, ``(box, box_start,
+        box_items)``: the non-empty cells of a square grid of about :data:`NODES_PER_BOX` nodes a cell, each as
+        its nodes' bounding box; made on first use."""
         if self._boxes is None:
             P = self._nodes
             lo, hi = P.min(axis=0), P.max(axis=0)

@@ -158,9 +158,7 @@ SEGMENT_GRID_SLACK_M: float = 0.5
 the grid's reach plus this of its bounding box, and the walk visits every cell within this of the segment."""
 
 
-def segment_grid(
-    edges: np.ndarray, circles: np.ndarray, reach_m: float, cell_m: float
-) -> Grid:
+def segment_grid(edges: np.ndarray, circles: np.ndarray, reach_m: float, cell_m: float) -> Grid:
     """The uniform grid of :func:`_segment_clear_grid`: ``(x0, y0, cell_m, nx, ny, start, items)``.
 
     Cell ``(i, j)`` (column ``i`` east from ``x0``, row ``j`` north from ``y0``) lists, in
@@ -290,14 +288,14 @@ from the fan's origin than the segment's length plus the threshold, far beyond a
 def _fan_clear_rows(
     ox: float, oy: float, q: np.ndarray, thr: float, edges: np.ndarray, edge_d: np.ndarray, circles: np.ndarray
 ) -> np.ndarray:
-    """The verdicts of :func:`_segment_clear` for the segments from (ox, oy) to each row of ``q``: each
-    circle row ``(x, y, r)`` first, then the edge rows ``(cx, cy, dx, dy, ...)`` in the given order (by their
-    distance ``edge_d`` from the origin, nearest first), with the same per-edge test (:func:`_edge_blocks`); a segment leaves at the first element in its way, or at the first edge
-    farther from the origin than its length plus ``thr``: every point of the segment is within its length of
-    the origin, so neither that edge nor any after it can cross it or come within ``thr``. An edge whose
-    bounding box is more than ``thr`` from the segment's is skipped. Both shortcuts carry
-    :data:`FAN_SLACK_M` (beyond any rounding of the per-edge test, so the verdicts are :func:`_segment_clear`'s),
-    and spare the far side of a large fence for a short segment."""
+    """The verdicts of :func:`_segment_clear` for the segments from (ox, oy) to each row of ``q``: each circle row
+    ``(x, y, r)`` first, then the edge rows ``(cx, cy, dx, dy, ...)`` in the given order (by their distance
+    ``edge_d`` from the origin, nearest first), with the same per-edge test (:func:`_edge_blocks`); a segment
+    leaves at the first element in its way, or at the first edge farther from the origin than its length plus
+    ``thr``: every point of the segment is within its length of the origin, so neither that edge nor any after
+    it can cross it or come within ``thr``. An edge whose bounding box is more than ``thr`` from the segment's
+    is skipped. Both shortcuts carry :data:`FAN_SLACK_M` (beyond any rounding of the per-edge test, so the
+    verdicts are :func:`_segment_clear`'s), and spare the far side of a large fence for a short segment."""
     t2 = thr * thr
     out = np.zeros(q.shape[0], np.bool_)
     for i in range(q.shape[0]):
