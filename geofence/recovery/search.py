@@ -87,6 +87,52 @@ def _box_key_bound(sx: float, sy: float, gx: float, gy: float, box: np.ndarray, 
 
 
 @jitable
+def _release_boxes(
+    sx: float, sy: float, gx: float, gy: float, P: np.ndarray, box_start: np.ndarray, box_items: np.ndarray,
+    blb: np.ndarray, boxes: np.ndarray, n_boxes: int, open_key: float, leg: np.ndarray, keys: np.ndarray,
+    cand: np.ndarray, size: int,
+) -> tuple[int, int]:  # fmt: skip
+    """:func:`_lazy_astar`'s release of the boxes whose nodes can come next: while the smallest box bound (heap
+    ``boxes[:n_boxes]`` by ``blb``) is at most the smallest key waiting (first leg in ``cand[:size]``, or the
+    open node's ``open_key``), its nodes get their first leg ``leg`` and key ``keys`` and join ``cand``.
+    Returns ``(size, n_boxes)`` after."""
+    while n_boxes > 0:
+        bound = keys[cand[0]] if size > 0 else np.inf
+        if open_key < bound:
+            bound = open_key
+        if blb[boxes[0]] > bound:
+            break
+        c = _key_pop(boxes, blb, n_boxes)
+        n_boxes -= 1
+        for p in range(box_start[c], box_start[c + 1]):
+            i = box_items[p]
+            ex = P[i, 0] - sx  # (square roots, as the planner's own lazy search keys them)
+            ey = P[i, 1] - sy
+            fx = P[i, 0] - gx
+            fy = P[i, 1] - gy
+            leg[i] = math.sqrt(ex * ex + ey * ey)
+            keys[i] = leg[i] + math.sqrt(fx * fx + fy * fy)
+            _key_push(cand, keys, size, i)
+            size += 1
+    return size, n_boxes
+
+
+@jitable
+def _best_node(touched: np.ndarray, n_touched: int, dist: np.ndarray, goal_d: np.ndarray) -> int:
+    """The node of the smallest ``dist + goal_d`` among ``touched[:n_touched]``, the lowest index on a tie
+    (np.argmin's); -1 when none is finite."""
+    best = -1
+    best_total = np.inf
+    for k in range(n_touched):
+        i = touched[k]
+        total = dist[i] + goal_d[i]
+        if total < best_total or (total == best_total and i < best):
+            best_total = total
+            best = i
+    return best
+
+
+@jitable
 def _lazy_astar(
     sx: float, sy: float, gx: float, gy: float, thr: float, node_thr: float, P: np.ndarray, cones: np.ndarray,
     is_corner: np.ndarray, goal_d: np.ndarray, edges: np.ndarray, circles: np.ndarray, x0: float, y0: float,
@@ -134,24 +180,9 @@ def _lazy_astar(
     best_goal = np.inf
     n_first = 0
     while True:
-        while n_boxes > 0:  # release the boxes whose nodes can come next
-            bound = keys[cand[0]] if size > 0 else np.inf
-            if len(open_) > 0 and open_[0][0] < bound:
-                bound = open_[0][0]
-            if blb[boxes[0]] > bound:
-                break
-            c = _key_pop(boxes, blb, n_boxes)
-            n_boxes -= 1
-            for p in range(box_start[c], box_start[c + 1]):
-                i = box_items[p]
-                ex = P[i, 0] - sx  # (square roots, as the planner.s own lazy search keys them)
-                ey = P[i, 1] - sy
-                fx = P[i, 0] - gx
-                fy = P[i, 1] - gy
-                leg[i] = math.sqrt(ex * ex + ey * ey)
-                keys[i] = leg[i] + math.sqrt(fx * fx + fy * fy)
-                _key_push(cand, keys, size, i)
-                size += 1
+        open_key = open_[0][0] if len(open_) > 0 else np.inf
+        size, n_boxes = _release_boxes(sx, sy, gx, gy, P, box_start, box_items, blb, boxes, n_boxes, open_key, leg,
+                                       keys, cand, size)  # fmt: skip
         if size > 0 and (len(open_) == 0 or keys[cand[0]] < open_[0][0]):  # the next untested first leg first
             i = _key_pop(cand, keys, size)
             size -= 1
@@ -194,15 +225,7 @@ def _lazy_astar(
                 dist[j] = nd
                 pred[j] = i
                 heapq.heappush(open_, (nd + hypot(P[j, 0] - gx, P[j, 1] - gy), nd, j))
-    best = -1
-    best_total = np.inf
-    for k in range(n_touched):  # the smallest dist + goal_d, the lowest index on a tie (np.argmin's)
-        i = touched[k]
-        total = dist[i] + goal_d[i]
-        if total < best_total or (total == best_total and i < best):
-            best_total = total
-            best = i
-    return dist, pred, n_first, best
+    return dist, pred, n_first, _best_node(touched, n_touched, dist, goal_d)
 
 
 @jitable
