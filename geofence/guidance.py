@@ -68,7 +68,7 @@ from geofence.control_laws import (
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
 from geofence.jit import COMPILED, jitable, numba
-from geofence.recovery_path import RecoveryPath, route_arrays, route_follow, route_rollout
+from geofence.recovery import RecoveryPath, route_arrays, route_follow, route_rollout
 from geofence.rooms import turn_radius_m
 
 ALTITUDE_GAIN_PER_S = 1.0

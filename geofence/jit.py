@@ -53,6 +53,7 @@ except ImportError:  # pragma: no cover - exercised only where numba is missing
 
 KERNEL_SOURCES = (
     "geofence/*.py",
+    "geofence/recovery/*.py",
     "wind/*.py",
     "aircraft/sensor*.py",
     "scenarios/flight/sensing.py",

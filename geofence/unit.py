@@ -67,7 +67,7 @@ from geofence.guidance import (
 )
 from geofence.interface import Envelope, FixState, StickCommand, VehicleState
 from geofence.local_fence import LocalFence
-from geofence.recovery_path import Point, RecoveryPlanner
+from geofence.recovery import Point, RecoveryPlanner
 from geofence.rooms import (
     climb_back_drift_m,
     envelope_turn_radius_m,

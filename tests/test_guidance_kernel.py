@@ -24,7 +24,7 @@ from geofence.control_laws import air_heading_to_rad, cpython_hypot, orbit_cours
 from geofence.guidance import FixedWingRecovery, fixed_wing_follow_roll, rolls_out
 from geofence.interface import VehicleState
 from geofence.jit import COMPILED, numba, use_compiled
-from geofence.recovery_path import RecoveryPlanner
+from geofence.recovery import RecoveryPlanner
 
 pytestmark = pytest.mark.skipif(not COMPILED, reason="numba absent: no compiled step to compare")
 

@@ -38,7 +38,7 @@ from geofence.boundary_shift import activation_margins
 from geofence.cpython_math import hypot
 from geofence.fence import Fence, KeepOutCircle
 from geofence.jit import COMPILED, numba, use_compiled
-from geofence.recovery_path import RecoveryPlanner, path_follow, path_lookahead, path_project, path_rollout, segment_clear
+from geofence.recovery import RecoveryPlanner, path_follow, path_lookahead, path_project, path_rollout, segment_clear
 from scenarios.definition.schema import load_scenario
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""Recovery routes (geofence/recovery_path.py): hand cases and property tests against shapely."""
+"""Recovery routes (geofence/recovery/): hand cases and property tests against shapely."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ from shapely.ops import unary_union
 
 from geofence.fence import Fence, FenceError, KeepOutCircle
 from geofence.geodesy import LocalFrame
-from geofence.recovery_path import ORBIT_CUT_STEP_M, RecoveryPlanner, segment_segment_distance
+from geofence.recovery import ORBIT_CUT_STEP_M, RecoveryPlanner, segment_segment_distance
 
 FRAME = LocalFrame(0.0, 0.0, 0.0)
 SLACK_M = 1e-6
@@ -272,6 +272,19 @@ def test_bad_clearance_and_segment_distance():
 
 
 # ----------------------------------------------------------------------------- property tests
+COORD = st.floats(-500.0, 500.0).map(lambda x: round(x, 6))
+"""A coordinate (m) on a micrometre lattice (GEOS mismeasures segments of subnormal length)."""
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.tuples(COORD, COORD), st.tuples(COORD, COORD), st.tuples(COORD, COORD), st.tuples(COORD, COORD))
+def test_segment_distance_is_shapelys(p1, p2, q1, q2):
+    """The distance between two closed segments (0 where they meet) is shapely's."""
+    a = LineString([p1, p2]) if p1 != p2 else Point(p1)
+    b = LineString([q1, q2]) if q1 != q2 else Point(q1)
+    assert segment_segment_distance(p1, p2, q1, q2) == pytest.approx(a.distance(b), rel=1e-9, abs=1e-9)
+
+
 @st.composite
 def star_keep_in(draw):
     n = draw(st.integers(5, 24))
@@ -374,12 +387,14 @@ def test_random_fences_graph_edges_and_safe_points(lf, c, data):
     pl, eroded = _planner(lf, c)
     nodes = pl.nodes
     # every graph edge is admissible (sampled) and inside shapely's eroded area
-    for i, nbrs in enumerate(pl._adj):
-        for j, w in nbrs:
-            if j > i:
-                seg = sample_segment(nodes[i], nodes[j], 1.0)
-                assert lf.lateral_margin_array(seg).min() >= c - SLACK_M
-                assert eroded.buffer(SLACK_M).covers(LineString([nodes[i], nodes[j]]))
+    ii, jj, w = pl.graph_edges()
+    assert len(ii) == 2 * pl.graph_edge_count  # (an eager graph: every edge both ways)
+    for i, j, length in zip(ii.tolist(), jj.tolist(), w.tolist()):
+        assert length == pytest.approx(math.dist(nodes[i], nodes[j]), rel=1e-12)
+        if j > i:
+            seg = sample_segment(nodes[i], nodes[j], 1.0)
+            assert lf.lateral_margin_array(seg).min() >= c - SLACK_M
+            assert eroded.buffer(SLACK_M).covers(LineString([nodes[i], nodes[j]]))
     for sp in pl.safe_points():
         assert lf.lateral_margin_m(*sp.en) >= c
     x0, y0, x1, y1 = lf.keep_in.bbox
