@@ -2,7 +2,7 @@
 
 Each law is started with the state at activation, a **route** (a polyline
 inside the allowed area that ends at the goal, planned by
-:mod:`geofence.recovery_path`, or a :class:`StraightRoute` where no planner
+:mod:`geofence.recovery`, or a :class:`StraightRoute` where no planner
 is used) and a goal height in the fence's altitude reference, then asked for
 sticks every step. They see only the estimate and the :class:`Envelope`.
 
@@ -30,13 +30,14 @@ sticks every step. They see only the estimate and the :class:`Envelope`.
   a multirotor descends only while nearly stopped over it
   (``TOUCHDOWN_MAX_GROUND_SPEED_MPS``), a fixed-wing spirals down over it.
 
-The fixed-wing recovery's step, the override's common path, is also one compiled call
-(:data:`fixed_wing_step`: the route follower's step of :mod:`geofence.recovery_path` and the stick law
-together) while :data:`geofence.jit.ACTIVE` and the route's follower is compiled (a
-:class:`~geofence.recovery_path.RecoveryPath` whose chords are tested exactly); :meth:`FixedWingRecovery.sticks`
-in Python stays the reference, and both take their formulas from one home: the jitable laws below
-(:func:`fixed_wing_recovery_pitch`, :func:`turned_through_rad`, :func:`rolls_out`, :func:`fixed_wing_follow_roll`)
-and those of :mod:`geofence.control_laws`. ``tests/test_guidance_kernel.py`` holds the two equal, bit for bit.
+The fixed-wing recovery's step is written once, :func:`fixed_wing_step_on`, over its route's two queries (the
+roll-out point, the follower's step) and the jitable laws below (:func:`fixed_wing_recovery_pitch`,
+:func:`turned_through_rad`, :func:`rolls_out`, :func:`fixed_wing_follow_roll`) and those of
+:mod:`geofence.control_laws`. On a planned route's arrays it is one compiled call (:data:`fixed_wing_step`: the
+route follower of :mod:`geofence.recovery` and the stick law together), which the unit's compiled override
+pass calls too; where that follower does not answer (a breached vehicle, whose chords only the route's Python
+methods certify; a :class:`StraightRoute`) :meth:`FixedWingRecovery.sticks` runs the same function interpreted,
+on the route's own methods.
 
 Angles rad, positions ENU m, heights m, speeds m/s.
 """
@@ -67,7 +68,7 @@ from geofence.control_laws import (
     yaw_stick_for_heading,
 )
 from geofence.interface import Envelope, StickCommand, VehicleState
-from geofence.jit import COMPILED, jitable, numba
+from geofence.jit import compiled, jitable
 from geofence.recovery import RecoveryPath, route_arrays, route_follow, route_rollout
 from geofence.rooms import turn_radius_m
 
@@ -111,7 +112,7 @@ class SeedPDGains:
 
 
 class Route(Protocol):
-    """What a guidance law needs of a planned route (see :class:`geofence.recovery_path.RecoveryPath`).
+    """What a guidance law needs of a planned route (see :class:`geofence.recovery.RecoveryPath`).
 
     ``points``: the polyline (ENU m), start first, ending at the goal.
     """
@@ -326,13 +327,132 @@ def fixed_wing_follow_roll(
     return fixed_wing_roll_stick(ground_speed_mps, course_error_rad(s, course_cmd), COURSE_GAIN_PER_S, env)
 
 
+class _EnvelopeFloats(NamedTuple):
+    """The :class:`Envelope` fields the fixed-wing recovery's laws read, for compiled code."""
+
+    max_bank_rad: float
+    max_climb_rate_mps: float
+    max_descent_rate_mps: float
+    min_speed_mps: float
+
+
+class _StateFloats(NamedTuple):
+    """The :class:`VehicleState` fields the fixed-wing recovery's laws read, for compiled code."""
+
+    east_m: float
+    north_m: float
+    v_east_mps: float
+    v_north_mps: float
+    yaw_rad: float
+    airspeed_mps: float
+
+
+FIXED_WING_STEP_CONSTANTS = 11
+"""The length of the fixed-wing step's constants ``K``: goal height, lookahead, orbit radius, turn sign, turn limit
+(rad), the envelope's bank limit, climb and descent rates and minimum speed, then the route's end (east, north)."""
+
+
+StepAnswer = tuple[float, float, float, float, bool, float, float]
+"""A fixed-wing override step's answer ``(thr, roll, pitch, progress, turning, turned, last yaw)``: the route's
+chord threshold (not positive: its queries did not answer, nothing else counts), the roll and pitch sticks, the
+route's progress after the step (on the arrays; the route's own methods keep theirs, NaN), the turn state after
+it. (A plain tuple: compiled code returns a named tuple through its constructor, a microsecond a step.)"""
+
+FollowAnswer = tuple[float, float, float, float, float]
+"""A route's follower query's answer ``(thr, progress, carrot east, carrot north, remaining)``."""
+
+
+@jitable
+def fixed_wing_step_on(
+    route: object, rollout: Callable[..., tuple[float, float, float]],
+    follow: Callable[..., FollowAnswer], K: np.ndarray | tuple[float, ...], s0: float,
+    thr: float, e: float, n: float, ve: float, vn: float, yaw: float, airspeed: float, ground_speed: float, h: float,
+    wind_e: float, wind_n: float, turning: bool, turned_rad: float, last_yaw: float,
+) -> StepAnswer:  # fmt: skip
+    """The fixed-wing override's step after any hold below a floor (a :data:`StepAnswer`): the first turn at the
+    bank limit until :func:`rolls_out`, then :func:`fixed_wing_follow_roll` on the route's carrot, and
+    :func:`fixed_wing_recovery_pitch`. The route answers two queries, each taking and returning the chord
+    threshold ``thr``: ``rollout(route, thr, e, n, lookahead) -> (thr, east, north)`` (the roll-out point) and
+    ``follow(route, thr, e, n, lookahead) -> (thr, progress, carrot east, carrot north, remaining)`` (the
+    follower's step); ``s0`` the route's progress before the step. ``K``: the recovery's constants
+    (:data:`FIXED_WING_STEP_CONSTANTS`); the state's floats, then the turn state before the step."""
+    # the laws read these fields by name, as they read an Envelope's and a VehicleState's
+    env: Envelope = _EnvelopeFloats(K[5], K[6], K[7], K[8])  # type: ignore[assignment]
+    s: VehicleState = _StateFloats(e, n, ve, vn, yaw, airspeed)  # type: ignore[assignment]
+    pitch = fixed_wing_recovery_pitch(K[0], h, env)
+    if turning:
+        turned_rad = turned_through_rad(turned_rad, last_yaw, yaw)
+        last_yaw = yaw
+        # roll out heading for the route a turn ahead (the turn the margin scored), or once that turn is used up
+        thr, re, rn = rollout(route, thr, e, n, K[1])
+        if not thr > 0.0:
+            return thr, 0.0, pitch, s0, turning, turned_rad, last_yaw
+        if not rolls_out(s, re, rn, wind_e, wind_n, env.min_speed_mps, turned_rad, K[4]):
+            return thr, -K[3], pitch, s0, turning, turned_rad, last_yaw  # turn sign +1 = left = negative roll stick
+        turning = False
+    thr, progress, te, tn, remaining = follow(route, thr, e, n, K[1])
+    if not thr > 0.0:
+        return thr, 0.0, pitch, s0, turning, turned_rad, last_yaw
+    roll = fixed_wing_follow_roll(s, ground_speed, te, tn, remaining, K[9], K[10], K[2], K[3], env)
+    return thr, roll, pitch, progress, turning, turned_rad, last_yaw
+
+
+@jitable
+def _rollout_on_arrays(route: tuple, thr: float, e: float, n: float, lookahead_m: float) -> tuple[float, float, float]:
+    """The roll-out query on a route's packed arrays ``(R, P, Q, progress, clearance)``
+    (:func:`geofence.recovery.route_rollout`)."""
+    R, P, Q, s0, clearance_m = route
+    return route_rollout(R, P, Q, s0, e, n, lookahead_m, thr, clearance_m)
+
+
+@jitable
+def _follow_on_arrays(route: tuple, thr: float, e: float, n: float, lookahead_m: float) -> FollowAnswer:
+    """The follower query on a route's packed arrays (:func:`geofence.recovery.route_follow`), the length left
+    after the projection as :meth:`~geofence.recovery.RecoveryPath.follow` gives it."""
+    R, P, Q, s0, clearance_m = route
+    thr, progress, te, tn, s_after = route_follow(R, P, Q, s0, e, n, lookahead_m, thr, clearance_m)
+    _pts, cum = route_arrays(R)
+    return thr, progress, te, tn, max(0.0, cum[cum.shape[0] - 1] - s_after)
+
+
+def _rollout_by_methods(route: Route, thr: float, e: float, n: float, lookahead_m: float) -> tuple[float, float, float]:
+    """The roll-out query by the route's own methods (:meth:`Route.rollout_point`)."""
+    re, rn = route.rollout_point(e, n, lookahead_m)
+    return thr, re, rn
+
+
+def _follow_by_methods(route: Route, thr: float, e: float, n: float, lookahead_m: float) -> FollowAnswer:
+    """The follower query by the route's own methods (:meth:`Route.follow`, which moves the route's progress
+    itself: the progress answered is NaN)."""
+    (te, tn), remaining = route.follow(e, n, lookahead_m)
+    return thr, math.nan, te, tn, remaining
+
+
+def _fixed_wing_step(
+    R: np.ndarray, P: np.ndarray, Q: np.ndarray, K: np.ndarray, s0: float, thr: float, clearance_m: float, e: float,
+    n: float, ve: float, vn: float, yaw: float, airspeed: float, ground_speed: float, h: float, wind_e: float,
+    wind_n: float, turning: bool, turned_rad: float, last_yaw: float,
+) -> StepAnswer:  # fmt: skip
+    """:func:`fixed_wing_step_on` on a route's and its planner's packed arrays (``R``, ``P``, ``Q``, the progress
+    ``s0``, the chord threshold ``thr``, NaN or not, and the clearance of
+    :func:`geofence.recovery.route_follow`). A threshold that is not positive answers nothing (the vehicle's
+    chords are not tested exactly: :meth:`FixedWingRecovery.sticks` asks the route's methods)."""
+    return fixed_wing_step_on(
+        (R, P, Q, s0, clearance_m), _rollout_on_arrays, _follow_on_arrays, K, s0, thr, e, n, ve, vn, yaw, airspeed,
+        ground_speed, h, wind_e, wind_n, turning, turned_rad, last_yaw,
+    )  # fmt: skip
+
+
+fixed_wing_step = compiled(_fixed_wing_step)
+"""The fixed-wing override's step on a planned route's arrays, compiled (:func:`_fixed_wing_step`; interpreted
+without numba)."""
+
+
 class FixedWingRecovery:
-    def __init__(self, env: Envelope, wind_enu: list[float], step: Callable | None = None):
-        """``step``: the compiled step to take (default :data:`fixed_wing_step`; a test passes a wrapper)."""
+    def __init__(self, env: Envelope, wind_enu: list[float]):
         self.env = env
         self.wind = wind_enu  # shared, updated by the unit
-        self._step = step if step is not None else fixed_wing_step
-        self._own_step = step is None and fixed_wing_step is not None  # (a caller's compiled step may take it)
+        self._step = fixed_wing_step  # (its entry point after the first call: geofence.jit.entry_point)
         self.route: Route = StraightRoute(0.0, 0.0)
         self.goal_h = 0.0
         self.turn_sign = 0
@@ -345,8 +465,9 @@ class FixedWingRecovery:
         self._throttle = airspeed_to_stick(env.cruise_speed_mps, env)  # the override flies at cruise
         self._slow_throttle = airspeed_to_stick(env.min_speed_mps, env)  # (a first turn that does not fit: minimum)
         self._turn_throttle = self._throttle  # the first turn's (start)
-        self._path: RecoveryPath | None = None  # the route, when the compiled step can follow it
-        self._constants = np.zeros(FIXED_WING_STEP_CONSTANTS)  # the compiled step's constants (set by start)
+        self._path: RecoveryPath | None = None  # the route, when it is a planned one (its arrays: the compiled step)
+        self._constants = np.zeros(FIXED_WING_STEP_CONSTANTS)  # the step's constants (set by start)
+        self._constant_floats: tuple[float, ...] = tuple(self._constants.tolist())  # (the same, for the interpreter)
 
     @property
     def lookahead_m(self) -> float:
@@ -382,22 +503,25 @@ class FixedWingRecovery:
         self.turned_rad = 0.0
         self._last_yaw = s.yaw_rad
         self.hold_below_m = hold_below_m
-        self._path = route if isinstance(route, RecoveryPath) and self._step is not None else None
-        if self._path is not None:
-            env = self.env
-            self._constants = np.array(
-                [
-                    goal_h,
-                    self.lookahead_m,
-                    self.orbit_radius_m,
-                    float(self.turn_sign),
-                    self.turn_limit_rad,
-                    env.max_bank_rad,
-                    env.max_climb_rate_mps,
-                    env.max_descent_rate_mps,
-                    env.min_speed_mps,
-                ]
-            )
+        self._path = route if isinstance(route, RecoveryPath) else None
+        env = self.env
+        goal_e, goal_n = route.points[-1]
+        self._constants = np.array(
+            [
+                goal_h,
+                self.lookahead_m,
+                self.orbit_radius_m,
+                float(self.turn_sign),
+                self.turn_limit_rad,
+                env.max_bank_rad,
+                env.max_climb_rate_mps,
+                env.max_descent_rate_mps,
+                env.min_speed_mps,
+                goal_e,
+                goal_n,
+            ]
+        )
+        self._constant_floats = tuple(self._constants.tolist())
 
     def turn_left_rad(self) -> float | None:
         """What is left of the first turn its margin scored (rad, the roll-out tolerance not counted), or None
@@ -412,12 +536,12 @@ class FixedWingRecovery:
 
     def compiled_step(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, float] | None:
         """The arrays and chord arguments its compiled step (:data:`fixed_wing_step`) takes for a route that needs no
-        per-position argument (a fence without an index: :meth:`RecoveryPath._kernel_arguments`), ``(R, P, Q, K, thr,
-        clearance)``, for a caller's compiled step; None where :meth:`sticks` must answer (circling up in a floor
-        gap, no compiled route, numba not active). With :meth:`step_state` and :meth:`set_step_state` a caller
-        steps it as :meth:`sticks` does."""
+        per-position argument (a fence without an index: :meth:`RecoveryPath.constant_kernel_arguments`), ``(R, P,
+        Q, K, thr, clearance)``, for a caller's compiled step; None where :meth:`sticks` must answer (circling up in
+        a floor gap, a route that is not planned, a fence with an index: its threshold is found per position). With
+        :meth:`step_state` and :meth:`set_step_state` a caller steps it as :meth:`sticks` does."""
         path = self._path
-        if self.hold_below_m is not None or path is None or not self._own_step:
+        if self.hold_below_m is not None or path is None:
             return None
         args = path.constant_kernel_arguments()
         if args is None:
@@ -442,7 +566,12 @@ class FixedWingRecovery:
     def sticks(self, s: VehicleState, h: float, t_s: float, dt_s: float) -> StickCommand:
         """The override's sticks: its first turn at the bank limit, then the route, at cruise; a first turn that does
         not fit (``slow_turn`` at :meth:`start`) at the minimum speed (see there). Circling up inside a floor gap
-        it keeps the cruise throttle (the climb rate it was measured to have)."""
+        it keeps the cruise throttle (the climb rate it was measured to have).
+
+        The step is :func:`fixed_wing_step_on`: compiled on a planned route's arrays (:data:`fixed_wing_step`)
+        where its compiled follower answers (the vehicle more than 1e-9 m inside the allowed area), else
+        interpreted on the route's own methods (a breached vehicle's chords are certified by
+        :meth:`~geofence.recovery.RecoveryPlanner.chord_ok` in Python; a straight route)."""
         if self.hold_below_m is not None:
             if h < self.hold_below_m:  # circling inside the gap, climbing at the limit
                 self._last_yaw = s.yaw_rad
@@ -450,128 +579,34 @@ class FixedWingRecovery:
             self.hold_below_m = None
         throttle = self._turn_throttle if self.turning else self._throttle
         path = self._path
-        if path is not None and _jit.ACTIVE:  # the compiled step (fixed_wing_step), the Python one's floats
-            args = path._kernel_arguments(s.east_m, s.north_m)
-            if args is not None:
-                P, Q, thr, clearance = args
-                wind = self.wind
-                step = self._step
-                thr, roll, pitch, progress, turning, turned, last_yaw = step(  # type: ignore[misc]
-                    path._arrays(), P, Q, self._constants, path.progress_m, thr, clearance, s.east_m, s.north_m,
-                    s.v_east_mps, s.v_north_mps, s.yaw_rad, s.airspeed_mps, s.ground_speed_mps, h, wind[0], wind[1],
-                    self.turning, self.turned_rad, self._last_yaw,
-                )  # fmt: skip
-                if step is fixed_wing_step:  # after its first call, by its entry point (geofence.jit: the route's
-                    self._step = _jit.entry_point(step)  # type: ignore[arg-type]  # and the planner's arrays: 1-D, C
-                if thr > 0.0:
-                    path.progress_m = progress
-                    self.turning = turning
-                    self.turned_rad = turned
-                    self._last_yaw = last_yaw
-                    return tuple.__new__(StickCommand, (roll, pitch, 0.0, throttle))
-        env = self.env
-        pitch = fixed_wing_recovery_pitch(self.goal_h, h, env)
-        route = self.route
-        if self.turning:
-            self.turned_rad = turned_through_rad(self.turned_rad, self._last_yaw, s.yaw_rad)
-            self._last_yaw = s.yaw_rad
-            # roll out heading for the route a turn ahead (the turn the margin scored), or once the scored turn
-            # is used up
-            rollout = route.rollout_point(s.east_m, s.north_m, self.lookahead_m)
-            wind = self.wind
-            if rolls_out(s, rollout[0], rollout[1], wind[0], wind[1], env.min_speed_mps, self.turned_rad, self.turn_limit_rad):
-                self.turning = False
-            else:
-                # turn_sign +1 = left (counter-clockwise) = negative roll stick (roll, pitch, yaw, throttle; a named
-                # tuple's generated constructor with keywords costs three times tuple.__new__)
-                return tuple.__new__(StickCommand, (-float(self.turn_sign), pitch, 0.0, throttle))
-        (te, tn), remaining = route.follow(s.east_m, s.north_m, self.lookahead_m)
-        ge, gn = route.points[-1]
-        roll = fixed_wing_follow_roll(
-            s, s.ground_speed_mps, te, tn, remaining, ge, gn, self.orbit_radius_m, float(self.turn_sign), env
-        )
+        args = path._kernel_arguments(s.east_m, s.north_m) if path is not None else None
+        if args is not None:
+            assert path is not None
+            P, Q, thr, clearance = args
+            step = self._step
+            out = step(
+                path._arrays(), P, Q, self._constants, path.progress_m, thr, clearance, s.east_m, s.north_m,
+                s.v_east_mps, s.v_north_mps, s.yaw_rad, s.airspeed_mps, s.ground_speed_mps, h, self.wind[0],
+                self.wind[1], self.turning, self.turned_rad, self._last_yaw,
+            )  # fmt: skip
+            if step is fixed_wing_step:  # after its first call, by its entry point (geofence.jit: the route's
+                self._step = _jit.entry_point(step)  # and the planner's arrays: 1-D, C
+            if out[0] > 0.0:
+                path.progress_m = out[3]
+                return self._take(out, throttle)
+        out = fixed_wing_step_on(
+            self.route, _rollout_by_methods, _follow_by_methods, self._constant_floats, 0.0, 1.0, s.east_m, s.north_m,
+            s.v_east_mps, s.v_north_mps, s.yaw_rad, s.airspeed_mps, s.ground_speed_mps, h, self.wind[0], self.wind[1],
+            self.turning, self.turned_rad, self._last_yaw,
+        )  # fmt: skip
+        return self._take(out, throttle)
+
+    def _take(self, out: StepAnswer, throttle: float) -> StickCommand:
+        """Keep a step's turn state (its answer ``out``); its sticks with ``throttle``."""
+        _thr, roll, pitch, _progress, self.turning, self.turned_rad, self._last_yaw = out
+        # (roll, pitch, yaw, throttle; a named tuple's generated constructor with keywords costs three times
+        # tuple.__new__)
         return tuple.__new__(StickCommand, (roll, pitch, 0.0, throttle))
-
-
-class _EnvelopeFloats(NamedTuple):
-    """The :class:`Envelope` fields the fixed-wing recovery's laws read, for compiled code."""
-
-    max_bank_rad: float
-    max_climb_rate_mps: float
-    max_descent_rate_mps: float
-    min_speed_mps: float
-
-
-class _StateFloats(NamedTuple):
-    """The :class:`VehicleState` fields the fixed-wing recovery's laws read, for compiled code."""
-
-    east_m: float
-    north_m: float
-    v_east_mps: float
-    v_north_mps: float
-    yaw_rad: float
-    airspeed_mps: float
-
-
-FIXED_WING_STEP_CONSTANTS = 9
-"""The length of :func:`_fixed_wing_step`'s constants ``K``: goal height, lookahead, orbit radius, turn sign,
-turn limit (rad), then the envelope's bank limit, climb and descent rates and minimum speed."""
-
-
-def _fixed_wing_step(
-    R: np.ndarray,
-    P: np.ndarray,
-    Q: np.ndarray,
-    K: np.ndarray,
-    s0: float,
-    thr: float,
-    clearance_m: float,
-    e: float,
-    n: float,
-    ve: float,
-    vn: float,
-    yaw: float,
-    airspeed: float,
-    ground_speed: float,
-    h: float,
-    wind_e: float,
-    wind_n: float,
-    turning: bool,
-    turned_rad: float,
-    last_yaw: float,
-) -> tuple[float, float, float, float, bool, float, float]:
-    """``(thr, roll, pitch, progress, turning, turned, last yaw)``: :meth:`FixedWingRecovery.sticks` after any
-    hold below a floor, on the route's and its planner's packed arrays (``R``, ``P``, ``Q`` and the chord
-    threshold ``thr``, NaN or not, of :func:`geofence.recovery_path.route_follow`) and the recovery's
-    constants ``K`` (:data:`FIXED_WING_STEP_CONSTANTS`); the state's floats, its ground speed as computed in
-    Python, and the recovery's turn state before the step; the route's progress, the turn state after it.
-    When ``thr`` is not positive the route follower's compiled call does not answer: nothing else counts,
-    and the Python step answers."""
-    # the laws read these fields by name, as they read an Envelope's and a VehicleState's
-    env: Envelope = _EnvelopeFloats(K[5], K[6], K[7], K[8])  # type: ignore[assignment]
-    s: VehicleState = _StateFloats(e, n, ve, vn, yaw, airspeed)  # type: ignore[assignment]
-    pitch = fixed_wing_recovery_pitch(K[0], h, env)
-    if turning:
-        turned_rad = turned_through_rad(turned_rad, last_yaw, yaw)
-        last_yaw = yaw
-        thr, re, rn = route_rollout(R, P, Q, s0, e, n, K[1], thr, clearance_m)
-        if not thr > 0.0:
-            return thr, 0.0, pitch, s0, turning, turned_rad, last_yaw
-        if not rolls_out(s, re, rn, wind_e, wind_n, env.min_speed_mps, turned_rad, K[4]):
-            return thr, -K[3], pitch, s0, turning, turned_rad, last_yaw
-        turning = False
-    thr, progress, te, tn, s_after = route_follow(R, P, Q, s0, e, n, K[1], thr, clearance_m)
-    if not thr > 0.0:
-        return thr, 0.0, pitch, s0, turning, turned_rad, last_yaw
-    pts, cum = route_arrays(R)
-    k = pts.shape[0]
-    remaining = max(0.0, cum[k - 1] - s_after)
-    roll = fixed_wing_follow_roll(s, ground_speed, te, tn, remaining, pts[k - 1, 0], pts[k - 1, 1], K[2], K[3], env)
-    return thr, roll, pitch, progress, turning, turned_rad, last_yaw
-
-
-fixed_wing_step = numba.njit(cache=True)(_fixed_wing_step) if COMPILED else None
-"""The compiled :func:`_fixed_wing_step` (``None`` without numba: :meth:`FixedWingRecovery.sticks` in Python)."""
 
 
 class LandingGuidance:

@@ -1,200 +1,224 @@
-"""The compiled fixed-wing recovery step (:data:`geofence.guidance.fixed_wing_step`) against its Python reference.
+"""The fixed-wing recovery's step (:func:`geofence.guidance.fixed_wing_step_on`) against oracles of its manoeuvre.
 
-Two :class:`~geofence.guidance.FixedWingRecovery` start on the same route (planned twice: a route keeps its
-progress) and are stepped side by side through random states, one with the compiled kernels
-(:func:`geofence.jit.use_compiled` on), one on the plain-Python reference: every stick, the turn state and the
-route's progress stay equal bit for bit, the states outside the fence (where the compiled follower does not
-answer and the Python step does) and a hold below a floor included. The laws the step compiles are checked
-one by one too, and a kernel off by one unit in the last place is caught.
+A point mass flies the sticks of :class:`~geofence.guidance.FixedWingRecovery` at cruise (roll stick 1 = the bank
+limit, turn rate ``g·tan(bank)/V``): its first turn reverses the course inside the room of the turn-radius
+formula, at the bank limit, and rolls out where the air heading points at the roll-out point; after it, the
+vehicle settles on the orbit round the route's end that the vector field and the proportional course loop
+solve for. Flown on a planned route (the compiled step on its arrays), on a straight route and from outside the
+fence (the same step interpreted on the route's own methods). One conformance test holds the compiled entry
+point :data:`~geofence.guidance.fixed_wing_step` to its source interpreted.
 """
 
 from __future__ import annotations
 
 import math
-import random
-import struct
+from typing import NamedTuple
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from support import FRAME, FW, random_fence
+from support import FRAME, FW, G, close_fields, latlon
 
 from geofence import guidance
-from geofence.control_laws import air_heading_to_rad, cpython_hypot, orbit_course_rad
-from geofence.guidance import FixedWingRecovery, fixed_wing_follow_roll, rolls_out
+from geofence.control_laws import wrap_pi
+from geofence.fence import Fence
+from geofence.guidance import COURSE_GAIN_PER_S, ROLL_OUT_TOLERANCE_RAD, FixedWingRecovery, Route, StraightRoute
 from geofence.interface import VehicleState
-from geofence.jit import COMPILED, numba, use_compiled
+from geofence.jit import COMPILED
 from geofence.recovery import RecoveryPlanner
+from geofence.rooms import turn_radius_m
 
-pytestmark = pytest.mark.skipif(not COMPILED, reason="numba absent: no compiled step to compare")
-
+DT_S = 0.025
+V_MPS = FW.cruise_speed_mps
+R_M = turn_radius_m(V_MPS, FW.max_bank_rad)
+STEP_M = V_MPS * DT_S
+HALF_SIDE_M = 1500.0
 CLEARANCE_M = 20.0
 
 
-def _bits(x: float) -> bytes:
-    return struct.pack("<d", x)
+class Sample(NamedTuple):
+    e: float
+    n: float
+    yaw: float
+    roll: float
+    turning: bool
+    rollout_e: float  # the route's roll-out point before the step
+    rollout_n: float
 
 
-def _snapshot(rec: FixedWingRecovery, cmd: tuple) -> tuple:
-    """Everything a step sets, as bits (so -0.0 and 0.0, or two NaNs, are told apart or matched exactly)."""
-    floats = (*cmd, rec.turned_rad, rec._last_yaw, rec.route.progress_m)  # type: ignore[attr-defined]
-    return (tuple(_bits(float(v)) for v in floats), rec.turning, rec.hold_below_m, type(cmd).__name__)
+def _square_planner() -> RecoveryPlanner:
+    side = HALF_SIDE_M
+    square = [(-side, -side), (side, -side), (side, side), (-side, side)]
+    fence = Fence(keep_in=tuple(latlon(e, n) for e, n in square), ceiling_m=120.0)
+    return RecoveryPlanner(fence.to_local(FRAME), CLEARANCE_M)
 
 
-def _random_state(rng: random.Random, e: float, n: float, spread_m: float) -> VehicleState:
+def _state(e: float, n: float, yaw: float, wind: tuple[float, float]) -> VehicleState:
     return VehicleState(
-        east_m=e + rng.uniform(-spread_m, spread_m),
-        north_m=n + rng.uniform(-spread_m, spread_m),
-        v_east_mps=rng.choice([rng.uniform(-30.0, 30.0), rng.uniform(-0.4, 0.4)]),  # nearly stopped: the heading
-        v_north_mps=rng.uniform(-30.0, 30.0),
-        yaw_rad=rng.uniform(-math.pi, math.pi),
-        airspeed_mps=rng.choice([rng.uniform(0.0, 35.0), 0.5]),
-    )
+        east_m=e, north_m=n, v_east_mps=V_MPS * math.sin(yaw) + wind[0], v_north_mps=V_MPS * math.cos(yaw) + wind[1],
+        yaw_rad=yaw, airspeed_mps=V_MPS,
+    )  # fmt: skip
 
 
-def _fly_pair(seed: int, dense: bool, steps: int = 120, kernel=guidance.fixed_wing_step) -> tuple[int, int]:
-    """Step a compiled and a Python recovery side by side; ``(steps the kernel answered, orbit-branch steps)``."""
-    rng = random.Random(seed)
-    fence = random_fence(seed, 300 if dense else rng.randrange(3, 9), rng.randrange(0, 2), rng.randrange(0, 2), dense=dense)
-    lf = fence.to_local(FRAME)
-    planner = RecoveryPlanner(lf, CLEARANCE_M)
-    assert planner._follower_scans == (lf.grid() is None)
-    ki = lf.keep_in.vertices
-    a, b = ki[rng.randrange(len(ki))], ki[rng.randrange(len(ki))]
-    start = (0.7 * a[0] + rng.uniform(-30, 30), 0.7 * a[1] + rng.uniform(-30, 30))
-    goal = (0.3 * b[0], 0.3 * b[1]) if rng.random() < 0.7 else (start[0] + rng.uniform(-40, 40), start[1] + rng.uniform(-40, 40))
-    paths = [planner.plan(start, goal), planner.plan(start, goal)]
-    if paths[0] is None:
-        return 0, 0
-    assert paths[0].points == paths[1].points
-    wind = [rng.uniform(-12.0, 12.0), rng.uniform(-12.0, 12.0)]
-    calls = [0, 0]  # asked, answered (a positive chord threshold)
-
-    def counted(*args):
-        out = kernel(*args)
-        calls[0] += 1
-        calls[1] += out[0] > 0.0
-        return out
-
-    recs = [FixedWingRecovery(FW, wind, step=counted), FixedWingRecovery(FW, wind)]
-    s0 = _random_state(rng, *start, 5.0)
-    turn_sign = rng.choice([0, 1, -1])
-    turn_limit = rng.choice([math.inf, rng.uniform(0.0, 2.0 * math.pi)])
-    hold = rng.choice([None, None, 80.0])
-    goal_h = rng.uniform(40.0, 120.0)
-
-    def start(s0: VehicleState) -> None:
-        for rec, path, compiled in zip(recs, paths, (True, False)):
-            previous = use_compiled(compiled)
-            try:
-                rec.start(s0, path, goal_h, 60.0, 0.0, turn_sign, turn_limit, hold)
-            finally:
-                use_compiled(previous)
-
-    start(s0)
-    assert recs[0]._path is paths[0]
-    orbit = 0
-    route = paths[0].points
-    for k in range(steps):
-        p = route[min(len(route) - 1, k * len(route) // steps)]
-        s = _random_state(rng, p[0], p[1], rng.choice([2.0, 60.0, 400.0]))  # on the route, near it, far outside
-        h = rng.uniform(50.0, 110.0)
-        if k % 15 == 14:  # a new override: the turn again
-            start(s)
-        wind[0] += rng.uniform(-0.5, 0.5)  # the unit updates the shared estimate between steps
-        snaps = []
-        for rec, compiled in zip(recs, (True, False)):
-            previous = use_compiled(compiled)
-            try:
-                cmd = rec.sticks(s, h, 0.025 * k, 0.025)
-            finally:
-                use_compiled(previous)
-            snaps.append(_snapshot(rec, cmd))
-        assert snaps[0] == snaps[1], f"step {k}: compiled {snaps[0]} != Python {snaps[1]}"
-        if not recs[1].turning and recs[1].hold_below_m is None:
-            orbit += recs[1].route.remaining_m(s.east_m, s.north_m) <= 1.2 * recs[1].orbit_radius_m  # type: ignore[attr-defined]
-    assert calls[0] > 0  # the compiled step was asked (the Python one answered only where it does not)
-    return calls[1], orbit
+def _fly(
+    route: Route, e: float, n: float, yaw: float, seconds: float, wind: tuple[float, float] = (0.0, 0.0), **start
+) -> list[Sample]:
+    """The recovery's sticks flown by a point mass at cruise in a steady wind, its bank the roll stick's."""
+    rec = FixedWingRecovery(FW, list(wind))
+    rec.start(_state(e, n, yaw, wind), route, 60.0, 60.0, 0.0, **start)
+    out = []
+    for k in range(round(seconds / DT_S)):
+        s = _state(e, n, yaw, wind)
+        re, rn = route.rollout_point(e, n, rec.lookahead_m)
+        cmd = rec.sticks(s, 60.0, k * DT_S, DT_S)
+        out.append(Sample(e, n, yaw, cmd.roll, rec.turning, re, rn))
+        yaw += G * math.tan(cmd.roll * FW.max_bank_rad) / V_MPS * DT_S
+        e += s.v_east_mps * DT_S
+        n += s.v_north_mps * DT_S
+    return out
 
 
-@settings(max_examples=40, deadline=None)
-@given(seed=st.integers(0, 10_000))
-def test_compiled_step_equals_python_on_small_fences(seed: int) -> None:
-    _fly_pair(seed, dense=False)
+def _routes() -> dict[str, Route]:
+    planned = _square_planner().plan((0.0, 0.0), (0.0, -900.0))
+    assert planned is not None and len(planned.points) == 2
+    return {"planned": planned, "straight": StraightRoute(0.0, -900.0)}
 
 
-@settings(max_examples=6, deadline=None)
-@given(seed=st.integers(0, 10_000))
-def test_compiled_step_equals_python_on_indexed_fences(seed: int) -> None:
-    """A fence with an index: the chord threshold is found in Python and handed to the kernel."""
-    _fly_pair(seed, dense=True, steps=60)
+def _rollout_turn_rad(kind: str, turn_sign: int) -> float:
+    """The first heading change at which a circle of radius R, flown from (0, 0) heading north, has the heading
+    within :data:`ROLL_OUT_TOLERANCE_RAD` of the bearing to the roll-out point: on the route due south, the
+    projection plus 1.5 R (the orbit radius the recovery looks ahead); on a straight route, its end."""
+    theta = 0.0
+    while theta < 2.0 * math.pi:
+        pe, pn = -turn_sign * R_M * (1.0 - math.cos(theta)), R_M * math.sin(theta)
+        te, tn = (0.0, -(max(0.0, -pn) + 1.5 * R_M)) if kind == "planned" else (0.0, -900.0)
+        if abs(wrap_pi(math.atan2(te - pe, tn - pn) + turn_sign * theta)) < ROLL_OUT_TOLERANCE_RAD:
+            return theta
+        theta += 1e-5
+    raise AssertionError("no roll-out")
 
 
-def test_both_branches_are_flown() -> None:
-    """Over a few seeds the kernel answers many steps, the orbit round the route's end among them."""
-    answered = orbit = 0
-    for seed in range(12):
-        a, o = _fly_pair(seed, dense=False)
-        answered += a
-        orbit += o
-    assert answered > 300 and orbit > 20
+@pytest.mark.parametrize("kind", ["planned", "straight"])
+@pytest.mark.parametrize("turn_sign", [1, -1])
+def test_the_turn_reverses_the_course_within_the_turn_radius_room(kind: str, turn_sign: int) -> None:
+    """Heading north with the route behind: a circle of radius ``V²/(g·tan φ_max)`` at the bank limit (forward room
+    R, lateral 2R, to one step's flight) through the heading change the circle's geometry gives for the roll-out
+    (to two steps' turn); on the planned route, then back over the start's track, due south."""
+    flight = _fly(_routes()[kind], 0.0, 0.0, 0.0, 40.0, turn_sign=turn_sign)
+    turn = [p for p in flight if p.turning]
+    assert all(p.roll == -turn_sign for p in turn)  # the bank limit, +1 left = negative roll stick
+    assert max(p.n for p in turn) <= R_M + STEP_M
+    side = [-turn_sign * p.e for p in turn]  # toward the turn (a left turn goes west)
+    assert min(side) >= -STEP_M and max(side) <= 2.0 * R_M + STEP_M
+    rate_step_rad = G * math.tan(FW.max_bank_rad) / V_MPS * DT_S
+    assert abs(len(turn) * rate_step_rad - _rollout_turn_rad(kind, turn_sign)) < 2.0 * rate_step_rad
+    if kind == "planned":
+        later = flight[round(25.0 / DT_S) :]
+        assert all(abs(p.e) < 0.1 and abs(wrap_pi(p.yaw - math.pi)) < math.radians(0.5) for p in later)
 
 
-def test_a_kernel_one_ulp_off_is_caught() -> None:
-    kernel = guidance.fixed_wing_step
-
-    def off(*args):
-        thr, roll, *rest = kernel(*args)
-        return (thr, math.nextafter(roll, math.inf), *rest)
-
-    with pytest.raises(AssertionError, match="compiled"):
-        for seed in range(12):
-            _fly_pair(seed, dense=False, kernel=off)
-
-
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=25, deadline=None)
 @given(
-    st.tuples(*[st.floats(-500.0, 500.0)] * 4),
-    st.floats(1.0, 200.0),
-    st.floats(-40.0, 40.0),
-    st.floats(-40.0, 40.0),
-    st.floats(-math.pi, math.pi),
-    st.floats(0.0, 40.0),
-    st.floats(-15.0, 15.0),
-    st.floats(-15.0, 15.0),
-    st.floats(0.0, 400.0),
-    st.sampled_from([1.0, -1.0]),
+    yaw=st.floats(-math.pi, math.pi),
+    goal_bearing=st.floats(-math.pi, math.pi),
+    wind_mps=st.floats(0.0, 0.6 * FW.min_speed_mps),
+    wind_dir=st.floats(-math.pi, math.pi),
 )
-def test_laws_compiled_equal_python(en, radius, ve, vn, yaw, airspeed, we, wn, remaining, sign) -> None:
-    """The jitable laws the step calls, compiled from the same source, give the interpreter's floats."""
-    e, n, ce, cn = en
-    s = VehicleState(east_m=e, north_m=n, v_east_mps=ve, v_north_mps=vn, yaw_rad=yaw, airspeed_mps=airspeed)
-    st_ = guidance._StateFloats(e, n, ve, vn, yaw, airspeed)
-    env = guidance._EnvelopeFloats(FW.max_bank_rad, FW.max_climb_rate_mps, FW.max_descent_rate_mps, FW.min_speed_mps)
-    gs = s.ground_speed_mps
-    assert _bits(_compiled["hypot"](e - ce, n - cn)) == _bits(math.hypot(e - ce, n - cn)) == _bits(cpython_hypot(e - ce, n - cn))
-    assert _bits(_compiled["orbit"](e, n, ce, cn, radius, sign < 0)) == _bits(
-        orbit_course_rad(e, n, ce, cn, radius, clockwise=sign < 0)[0]
-    )
-    assert _bits(_compiled["heading"](st_, ce, cn, we, wn, FW.min_speed_mps)) == _bits(
-        air_heading_to_rad(s, ce, cn, we, wn, FW.min_speed_mps)
-    )
-    assert _compiled["rolls_out"](st_, ce, cn, we, wn, FW.min_speed_mps, remaining / 100.0, 2.0) == rolls_out(
-        s, ce, cn, we, wn, FW.min_speed_mps, remaining / 100.0, 2.0
-    )
-    assert _bits(_compiled["roll"](st_, gs, ce, cn, remaining, ce, cn, radius, sign, env)) == _bits(
-        fixed_wing_follow_roll(s, gs, ce, cn, remaining, ce, cn, radius, sign, FW)
-    )
+def test_roll_out_is_at_the_wind_corrected_heading_of_the_roll_out_point(yaw, goal_bearing, wind_mps, wind_dir) -> None:
+    """The turn ends the first step the air heading is within :data:`ROLL_OUT_TOLERANCE_RAD` of the heading whose
+    ground track (wind triangle at cruise) points at the roll-out point; the roll stick never passes the limit."""
+    wind = (wind_mps * math.sin(wind_dir), wind_mps * math.cos(wind_dir))
+    route = StraightRoute(700.0 * math.sin(goal_bearing), 700.0 * math.cos(goal_bearing))
+    flight = _fly(route, 0.0, 0.0, yaw, 30.0, wind)
+
+    def heading_error(p: Sample) -> float:
+        course = math.atan2(p.rollout_e - p.e, p.rollout_n - p.n)
+        cross = wind[0] * math.cos(course) - wind[1] * math.sin(course)
+        return abs(wrap_pi(course - math.asin(cross / V_MPS) - p.yaw))
+
+    assert all(abs(p.roll) <= 1.0 for p in flight)
+    k = next(i for i, p in enumerate(flight) if not p.turning)
+    assert heading_error(flight[k]) < ROLL_OUT_TOLERANCE_RAD
+    assert all(heading_error(p) >= ROLL_OUT_TOLERANCE_RAD for p in flight[:k])
 
 
-_compiled = (
-    {
-        "hypot": numba.njit(lambda x, y: cpython_hypot(x, y)),
-        "orbit": numba.njit(lambda e, n, ce, cn, r, cw: orbit_course_rad(e, n, ce, cn, r, clockwise=cw)[0]),
-        "heading": numba.njit(air_heading_to_rad),
-        "rolls_out": numba.njit(rolls_out),
-        "roll": numba.njit(fixed_wing_follow_roll),
-    }
-    if COMPILED
-    else {}
+def test_the_turn_ends_at_its_scored_limit() -> None:
+    """A turn limit shorter than the reversal: the turn is committed to it (and the tolerance), no further."""
+    limit = 0.5 * math.pi
+    flight = _fly(_routes()["planned"], 0.0, 0.0, 0.0, 10.0, turn_sign=1, turn_limit_rad=limit)
+    turn = [p for p in flight if p.turning]
+    turned = G * math.tan(FW.max_bank_rad) / V_MPS * DT_S * len(turn)
+    assert limit + ROLL_OUT_TOLERANCE_RAD - 0.02 <= turned <= limit + ROLL_OUT_TOLERANCE_RAD + 0.02
+
+
+def _steady_orbit_radius_m(r: float) -> float:
+    """The orbit radius ``d`` the point mass settles on: the course rate ``V/d`` a circle needs is the course loop's
+    ``k·error``, and the vector field (Beard & McLain, gain 2) commands the tangent plus ``atan(2(d - r)/r)``
+    toward the turn: so ``d > r``, where the two meet (by bisection)."""
+    lo, hi = r, 3.0 * r
+    for _ in range(100):
+        d = 0.5 * (lo + hi)
+        if math.atan(2.0 * (d - r) / r) < V_MPS / (COURSE_GAIN_PER_S * d):
+            lo = d
+        else:
+            hi = d
+    return 0.5 * (lo + hi)
+
+
+@pytest.mark.parametrize("turn_sign", [1, -1])
+def test_at_the_route_end_it_settles_on_the_orbit(turn_sign: int) -> None:
+    """Near the route's end it circles the end (counter-clockwise after a left turn) at the radius the orbit law
+    solves for, to 1 %."""
+    route = _square_planner().plan((0.0, 0.0), (0.0, -250.0))
+    assert route is not None
+    flight = _fly(route, 0.0, 0.0, 0.0, 150.0, turn_sign=turn_sign)
+    last = flight[-round(40.0 / DT_S) :]
+    ge, gn = route.points[-1]
+    radii = [math.hypot(p.e - ge, p.n - gn) for p in last]
+    want = _steady_orbit_radius_m(FixedWingRecovery(FW, [0.0, 0.0]).orbit_radius_m)
+    assert max(abs(d - want) for d in radii) < 0.01 * want
+    rate = [wrap_pi(b.yaw - a.yaw) for a, b in zip(last, last[1:])]
+    assert all(-turn_sign * w > 0.0 for w in rate)  # +1 left: counter-clockwise, the heading decreasing
+
+
+def test_from_outside_the_fence_it_turns_back_in() -> None:
+    """A breached vehicle (its chords certified by the route's own methods): the same turn, then back inside."""
+    planner = _square_planner()
+    start = (0.0, HALF_SIDE_M + 50.0)
+    route = planner.plan(start, (0.0, 0.0))
+    assert route is not None
+    flight = _fly(route, *start, 0.0, 40.0)
+    turn = [p for p in flight if p.turning]
+    assert turn and all(abs(p.roll) == 1.0 for p in turn)
+    assert max(p.n for p in turn) <= start[1] + R_M + STEP_M
+    assert flight[-1].n < HALF_SIDE_M - CLEARANCE_M
+
+
+@pytest.mark.skipif(not COMPILED, reason="numba absent: the step is its source interpreted")
+@settings(max_examples=200, deadline=None)
+@given(
+    e=st.floats(-1400.0, 1400.0),
+    n=st.floats(-1400.0, 1400.0),
+    v=st.tuples(st.floats(-30.0, 30.0), st.floats(-30.0, 30.0)),
+    yaw=st.floats(-math.pi, math.pi),
+    airspeed=st.floats(0.0, 30.0),
+    wind=st.tuples(st.floats(-12.0, 12.0), st.floats(-12.0, 12.0)),
+    turning=st.booleans(),
+    turned=st.floats(0.0, 7.0),
+    progress=st.floats(0.0, 1.0),
 )
+def test_compiled_step_conforms_to_its_interpreted_source(e, n, v, yaw, airspeed, wind, turning, turned, progress):
+    """:data:`~geofence.guidance.fixed_wing_step` against its ``py_func`` (the same source, interpreted), on a
+    planned route's arrays: every field within 1e-9 relative."""
+    route = _square_planner().plan((-600.0, 400.0), (500.0, -300.0))
+    assert route is not None
+    rec = FixedWingRecovery(FW, [wind[0], wind[1]])
+    rec.start(_state(-600.0, 400.0, 1.0, wind), route, 60.0, 60.0, 0.0, turn_sign=1, turn_limit_rad=3.0)
+    arrays = rec.compiled_step()
+    assert arrays is not None
+    R, P, Q, K, thr, clearance = arrays
+    args = (R, P, Q, K, progress * route.length_m, thr, clearance, e, n, *v, yaw, airspeed, math.hypot(*v), 60.0,
+            *wind, turning, turned, yaw - 0.1)  # fmt: skip
+    got, want = guidance.fixed_wing_step(*args), guidance.fixed_wing_step.py_func(*args)  # type: ignore[attr-defined]
+    assert got[4] == want[4]  # turning
+    assert close_fields(got, want, rel=1e-9), (got, want)
