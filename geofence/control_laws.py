@@ -16,31 +16,16 @@ and by the testbed's mission autopilot alike (they are the stick semantics of
 
 The laws of floats are :func:`geofence.jit.jitable`: the compiled fixed-wing recovery step
 (:data:`geofence.guidance.fixed_wing_step`) calls them from the same source. Those taking a state ``s`` or an
-envelope ``env`` read only named float attributes, so compiled code passes a named tuple of those fields;
-:func:`cpython_hypot` is ``math.hypot`` in Python and CPython's algorithm when compiled (the same bits).
+envelope ``env`` read only named float attributes, so compiled code passes a named tuple of those fields.
 """
 
 from __future__ import annotations
 
 import math
 
-from geofence.cpython_math import hypot
 from geofence.dynamics import G_MPS2, drag_coefficients
 from geofence.interface import Envelope, StickCommand, VehicleState
-from geofence.jit import jitable, numba
-
-
-def cpython_hypot(x: float, y: float) -> float:
-    """``math.hypot(x, y)``; compiled, :func:`geofence.cpython_math.hypot` (CPython's algorithm: the C library's
-    ``hypot``, which numba calls for ``math.hypot``, differs in the last bit about once in a hundred calls)."""
-    return math.hypot(x, y)
-
-
-if numba is not None:
-
-    @numba.extending.overload(cpython_hypot)
-    def _cpython_hypot_compiled(x: float, y: float):  # (numba: the implementation's parameters, annotations too)
-        return hypot
+from geofence.jit import jitable
 
 
 @jitable
@@ -215,7 +200,7 @@ def orbit_course_rad(
     east_m: float, north_m: float, center_e: float, center_n: float, radius_m: float, gain: float = 2.0, clockwise: bool = True
 ) -> tuple[float, float]:
     """Vector-field course onto a circle (Beard & McLain): (course rad, distance from the centre m)."""
-    d = cpython_hypot(east_m - center_e, north_m - center_n)
+    d = math.hypot(east_m - center_e, north_m - center_n)
     bearing = math.atan2(east_m - center_e, north_m - center_n)
     lam = 1.0 if clockwise else -1.0
     return bearing + lam * (0.5 * math.pi + math.atan(gain * (d - radius_m) / radius_m)), d

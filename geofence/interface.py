@@ -134,8 +134,6 @@ class VehicleState:
 
     @property
     def ground_speed_mps(self) -> float:
-        # math.hypot: the compiled per-step code computes the same bits (geofence.cpython_math.hypot); a power of
-        # 0.5 is the C library's pow in the interpreter and a square root in machine code, a bit apart now and then
         return math.hypot(self.v_east_mps, self.v_north_mps)
 
 

@@ -361,8 +361,7 @@ def fixed_wing_reaction_terms(
     the ground velocity); the turn speed ``v_turn`` (the override flies at cruise, so at least that) and its turn
     constants at the bank limit; the reaction time ``t_fw`` (``t_r`` plus rolling out of the current bank, up to
     another ``reaction_s``); the current turn's rate ``omega_now`` (+ = clockwise) and rotation ``rot`` over it
-    (within ±pi); ``psi`` the heading where the recovery turn starts. The caller computes ``v_air`` (its
-    ``hypot``: CPython's in Python, :func:`geofence.cpython_math.hypot` compiled)."""
+    (within ±pi); ``psi`` the heading where the recovery turn starts. The caller computes ``v_air``."""
     if v_air > 0.0:
         psi = math.atan2(van, vae)
     elif speed > 0.0:
