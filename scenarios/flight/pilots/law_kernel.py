@@ -18,12 +18,12 @@ either way sends the same sticks (``tests/test_flight_step.py``, ``tests/test_pi
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
 
 from geofence.control_laws import course_error_rad
+from geofence.cpython_math import hypot
 from geofence.interface import Envelope, VehicleState
 from geofence.jit import jitable
 from scenarios.flight.pilots.nav_laws import course_law_sticks
@@ -96,7 +96,7 @@ def law_sticks(A: np.ndarray, ve: float, vn: float, yaw: float, up: float) -> tu
         state: VehicleState = _LawState(ve, vn, yaw)  # type: ignore[assignment]
         err = course_error_rad(state, A[COURSE])
         roll, pitch = course_law_sticks(
-            math.hypot(ve, vn), err, up, A[HOLD_UP], A[CLIMB_STICK], A[ALTITUDE_GAIN], A[COURSE_GAIN], env
+            hypot(ve, vn), err, up, A[HOLD_UP], A[CLIMB_STICK], A[ALTITUDE_GAIN], A[COURSE_GAIN], env
         )  # fmt: skip
         return roll, pitch, 0.0, A[THROTTLE]
     if kind == HELD_STICKS:
