@@ -25,11 +25,11 @@ the vertical hand-back hysteresis at an override's goal (:func:`vertical_handbac
 from __future__ import annotations
 
 import math
+from math import hypot
 
 import numpy as np
 
 from geofence.config import allowance_in_use_mps
-from geofence.cpython_math import hypot
 from geofence.guidance import fixed_wing_step
 from geofence.jit import compiled, jitable
 from geofence.margins_kernel import (
@@ -366,7 +366,7 @@ def override_pass(
         activation, has_margins = r[ACTIVATION_FIELD], True
     turning = U[TURNING] != 0.0
     throttle = U[TURN_THROTTLE] if turning else U[THROTTLE]
-    thr, c_roll, c_pitch, progress, turning, turned, last_yaw = fixed_wing_step(  # type: ignore[misc]  # (None: no numba)
+    thr, c_roll, c_pitch, progress, turning, turned, last_yaw = fixed_wing_step(
         R, P, Q, K, U[PROGRESS], U[THR], U[CLEARANCE], e, n, ve, vn, yaw, airspeed, hypot(ve, vn), h, wind_e, wind_n,
         turning, U[TURNED], U[LAST_YAW],
     )  # fmt: skip

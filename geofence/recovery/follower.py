@@ -10,9 +10,10 @@ are tested exactly (more than :data:`~geofence.recovery.segments.EPS_M` inside).
 
 from __future__ import annotations
 
+from math import hypot
+
 import numpy as np
 
-from geofence.cpython_math import hypot
 from geofence.jit import compiled, jitable
 from geofence.scan_kernel import lateral_margin_scan, rows_view
 

@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import heapq
 import math
+from math import hypot
 from typing import Iterator
 
 import numpy as np
 
-from geofence.cpython_math import hypot
 from geofence.jit import compiled, jitable
 
 from .graph import _file_row, _tangent_row

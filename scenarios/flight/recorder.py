@@ -11,11 +11,11 @@ from __future__ import annotations
 import math
 import os
 import struct
+from math import hypot
 from pathlib import Path
 
 import numpy as np
 
-from geofence.cpython_math import hypot
 from geofence.interface import StickCommand, VehicleState
 from geofence.jit import jitable
 

@@ -18,12 +18,12 @@ either way sends the same sticks (``tests/test_flight_step.py``, ``tests/test_pi
 
 from __future__ import annotations
 
+from math import hypot
 from typing import NamedTuple
 
 import numpy as np
 
 from geofence.control_laws import course_error_rad
-from geofence.cpython_math import hypot
 from geofence.interface import Envelope, VehicleState
 from geofence.jit import jitable
 from scenarios.flight.pilots.nav_laws import course_law_sticks
