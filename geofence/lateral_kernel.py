@@ -7,20 +7,19 @@ terms (named tuples: :class:`LateralState`, :class:`FixedWingTurn`,
 :class:`~geofence.margins_kernel.EnvelopeTerms`), which element has the
 smallest activation ``d - room``, and what is the nearest element's distance?
 The room against one element is :func:`fixed_wing_edge_terms` with
-:func:`geofence.rooms.fixed_wing_edge_room_m`, or :func:`multirotor_edge_room_m`:
-the Python reference calls the same functions. :func:`geofence.boundary_shift.activation_margins`
-asks it every step; its plain-Python branches (the full scan, the index walk
-:meth:`geofence.fence_grid.FenceGrid.near`, ``terms_of`` and the binding-edge
-searches) stay as the reference, and ``tests/test_lateral_kernel.py`` checks
-that both give the same :class:`~geofence.boundary_shift.ShiftResult`, bit for
-bit, on random fences and states.
+:func:`geofence.rooms.fixed_wing_edge_room_m`, or :func:`multirotor_edge_room_m`.
+:func:`geofence.margins_kernel.margins` (and so
+:func:`geofence.boundary_shift.activation_margins`) asks it every step; the
+fixed-wing's search scores exactly only the elements a cheap lower bound cannot
+rule out (:func:`_fixed_wing_binding`), and ``tests/test_binding_edge.py`` holds
+it to the exhaustive minimum.
 
-Bit for bit because the kernel does the reference's float operations in the
-reference's order: the room formulas are compiled from their one home in
-:mod:`geofence.rooms` and :mod:`geofence.dynamics` (:func:`geofence.jit.jitable`);
-``sin``, ``atan2``, ``acos`` and ``sqrt`` are the C library's, as in CPython;
-no fused multiply-adds (numba does not contract without ``fastmath``); and
-:func:`~geofence.cpython_math.hypot` is CPython's own algorithm (which is not the C library's).
+Compiled or interpreted, the same floats: the room formulas are compiled from
+their one home in :mod:`geofence.rooms` and :mod:`geofence.dynamics`
+(:func:`geofence.jit.jitable`); ``sin``, ``atan2``, ``acos`` and ``sqrt`` are the
+C library's, as in CPython; no fused multiply-adds (numba does not contract
+without ``fastmath``); and :func:`~geofence.cpython_math.hypot` is CPython's own
+algorithm (which is not the C library's).
 
 Element table ``E`` (one row per element, in :meth:`LocalFence.danger_edges`
 order then the circles): ``(ax, ay, dx, dy, 1/len², nx, ny)`` for an edge,
@@ -55,7 +54,6 @@ __all__ = [
     "MultirotorBrake",
     "Turns",
     "capped_lateral",
-    "circle_scored",
     "edge_scored",
     "element_table",
     "lateral_binding",
@@ -167,9 +165,8 @@ def _multirotor_binding(
     state: LateralState,
     brake: MultirotorBrake,
 ) -> tuple[float, float, int, float, float, float]:
-    """``(activation, 0, position in keep, room, 0, v_n)``: the smallest ``d - base`` over ``keep`` (the
-    reference's ``terms_of`` and ``_binding_edge_no_turn``: the lowest element id ``f_id`` on a tie, the first
-    in the reference's element order)."""
+    """``(activation, 0, position in keep, room, 0, v_n)``: the smallest ``d - base`` over ``keep`` (the lowest
+    element id ``f_id`` on a tie, the first in element order)."""
     ve = state.ve
     vn = state.vn
     worst = math.inf
@@ -205,14 +202,14 @@ def _fixed_wing_binding(
 ) -> tuple[float, float, int, float, float, float]:
     """``(activation, turn sign, position in keep, room, turn angle, v_n)`` of a fixed-wing's binding element
     over ``keep``: per turn ``(s1, delta1)``, ``(s2, delta2)`` the smallest ``d - base - excursion`` (the lowest
-    element id on a tie: ``_binding_edge_scan``'s first in element order), the first turn winning a tie.
+    element id on a tie, the first in element order), the first turn winning a tie.
 
-    Each element's exact terms (the reference's ``terms_of`` arithmetic: ``reaction_arc_m`` and its gap in one call, the heading
-    ``psi0`` by ``atan2``) are computed only for the elements whose activation can be the smallest: a
+    Each element's exact terms (:func:`fixed_wing_edge_terms`: ``reaction_arc_m`` and its gap in one call, the
+    heading ``psi0`` by ``atan2``) are computed only for the elements whose activation can be the smallest: a
     cheap lower bound without transcendental functions comes first. For a unit normal ``n`` at angle
     ``theta``, ``sin(psi - theta) = sin psi·nx - cos psi·ny`` gives the reaction arc, and
     ``sin psi0 = nx·sin a - ny·cos a`` the excursion bound ``R·(1 - s·sin psi0) + max(w_n, 0)·delta/omega``
-    (``_binding_edge_pruned``'s). Their round-off (about 1e-15 of the arc's scale) is covered by a slack of
+    (:func:`geofence.rooms.trochoid_excursion_bound_m`). Their round-off (about 1e-15 of the arc's scale) is covered by a slack of
     1e-9 of it; a normal that is not unit (a zero-length edge) gets no bound. After the element with the
     smallest bound, every element whose bound is at most the smallest activation found so far is scored; a
     bound is at most its activation, so every element that can tie the smallest is scored exactly.
@@ -317,10 +314,10 @@ def _walk(
 ) -> tuple[int, float]:
     """``(count, nearest d)``: the first ``count`` entries of ``f_id, f_b, f_nx, f_ny`` (the caller's, at least
     ``ids``' length) are set to the candidates walked, the distances they are scored at and the unit
-    directions they are scored along (the reference's arithmetic: an edge's :func:`edge_scored`, the first
-    ``n_line`` being a convex keep-in's; a circle's :func:`circle_scored`), in ``ids`` order; with ``walk``,
+    directions they are scored along (an edge's :func:`edge_scored`, the first ``n_line`` being a convex
+    keep-in's; a circle's ``hypot - radius`` and the direction to its centre), in ``ids`` order; with ``walk``,
     until the bound ``lbs[k] - delta_c - reach`` exceeds the nearest point-segment or circle distance found
-    (:meth:`FenceGrid.near`'s stop rule)."""
+    (every element within ``reach`` of the nearest is walked: each ``d`` is 1-Lipschitz)."""
     m = ids.shape[0]
     cnt = 0
     best = math.inf
@@ -418,15 +415,6 @@ def capped_lateral(lat_act: float, lat_margin: float, d_edge: float, v_n: float)
     return lat_act, (d_edge / v_n if v_n > 1e-9 else math.inf)
 
 
-def circle_scored(e: float, n: float, ce: float, cn: float, r: float) -> tuple[float, float, float]:
-    """``(d, ux, uy)`` of a keep-out circle from (e, n): ``hypot - radius`` (negative inside) and the unit direction
-    to its centre, along which the margins score it; the Python reference's (``math.hypot``; the compiled walk
-    does the same with :func:`hypot`, CPython's algorithm)."""
-    dist = math.hypot(ce - e, cn - n)
-    ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
-    return dist - r, ux, uy
-
-
 def _nearest_distance(E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, delta_c: float, e: float, n: float) -> float:
     """The nearest candidate's ``d`` by :func:`_walk` (reach 0): :meth:`FenceGrid.nearest_distance`."""
     m = ids.shape[0]
@@ -455,12 +443,13 @@ def _lateral_binding(
     """``(activation, turn sign, element id, room, nx, ny, d, v_n, turn angle, d_min)`` of the binding element.
 
     Candidates: the rows ``ids`` of ``E``. ``walk``: they are sorted by ``lbs``, lower bounds of their
-    distance plus ``delta_c`` (an index cell's list, :meth:`FenceGrid.near`'s walk and stop rule); else every
+    distance plus ``delta_c`` (an index cell's list, :meth:`FenceGrid.candidates`; the walk's stop rule:
+    :func:`_walk`); else every
     candidate is scored (the full scan; ``ids`` in element order). Kept: ``d - reach < d_min``. Scored by
     :func:`_fixed_wing_binding` (``turn``, scored for each of ``turns``) or :func:`_multirotor_binding`
-    (``brake``); a tie goes to the lowest element id (the reference's first in element order). Element id -1:
+    (``brake``); a tie goes to the lowest element id (the first in element order). Element id -1:
     no candidate. ``env``: the envelope's terms; ``state``, ``turn``, ``brake``: the per-state terms
-    (:func:`geofence.margins_kernel.lateral_terms`; the other platform kind's are zeros). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges; ``free``: the point
+    (:func:`geofence.margins_kernel.state_terms`; the other platform kind's are zeros). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges; ``free``: the point
     is in the free space (:func:`edge_scored`). Each edge is
     scored by :func:`edge_scored` (``d``, ``nx, ny``: its scored distance and direction; ``d_min`` stays the
     nearest point-segment distance).
