@@ -188,6 +188,47 @@ def _multirotor_binding(
     return worst, 0.0, wq, wroom, 0.0, wvn
 
 
+# the rows of _fixed_wing_binding's scratch: the exact terms made (non-zero), base, gap (how much farther the
+# reaction arc gets than its end), psi0, the wind towards the element, d - (upper bound of base), sin psi0 (to
+# round-off) and a turn's lower bound of the activation (indexed, not viewed: a view costs a reference count)
+DONE, BASE, GAP, PSI, WIND, LB_BASE, SIN_PSI, LB_TURN = range(FIXED_WING_SCRATCH_ROWS)
+
+
+@jitable
+def _reaction_bounds(
+    f_d: np.ndarray, f_nx: np.ndarray, f_ny: np.ndarray, keep: np.ndarray, state: LateralState, turn: FixedWingTurn,
+    W: np.ndarray,
+) -> None:  # fmt: skip
+    """Fill each kept element's rows ``WIND``, ``LB_BASE`` and ``SIN_PSI`` of the scratch ``W`` for
+    :func:`_fixed_wing_binding`, without transcendental functions per element: for a unit normal ``n`` at angle
+    ``theta``, ``sin(psi - theta) = sin psi·nx - cos psi·ny`` gives the reaction arc
+    (:func:`geofence.rooms.reaction_arc_sines_m`) and ``sin psi0 = nx·sin a - ny·cos a``. Their round-off (about
+    1e-15 of the arc's scale) is covered by a slack of 1e-9 of it; a normal that is not unit (a zero-length edge)
+    gets no bound."""
+    v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, _radius, _inv_omega = turn
+    hu = state.hu
+    straight = abs(rot) < 1e-6
+    sp = math.sin(psi_react0)
+    cp = math.cos(psi_react0)
+    sq = math.sin(psi_react0 - rot)
+    cq = math.cos(psi_react0 - rot)
+    arc = v_turn * t_fw if straight else v_turn / omega_now
+    for q in range(keep.shape[0]):
+        k = keep[q]
+        nx = f_nx[k]
+        ny = f_ny[k]
+        w_n = wind_toward_mps(state, nx, ny)
+        W[WIND, q] = w_n
+        W[DONE, q] = 0.0
+        if abs(nx * nx + ny * ny - 1.0) > 1e-9:  # no bound: scored exactly
+            W[LB_BASE, q] = -math.inf
+            W[SIN_PSI, q] = 0.0
+            continue
+        ub = reaction_arc_sines_m(arc, sp, cp, sq, cq, straight, t_fw, nx, ny, w_n)
+        W[LB_BASE, q] = f_d[k] - ub - hu - 1e-9 * (1.0 + abs(arc) + abs(w_n) * t_fw + abs(hu))
+        W[SIN_PSI, q] = nx * sa - ny * ca
+
+
 @jitable
 def _fixed_wing_binding(
     f_d: np.ndarray,
@@ -202,84 +243,50 @@ def _fixed_wing_binding(
 ) -> tuple[float, float, int, float, float, float]:
     """``(activation, turn sign, position in keep, room, turn angle, v_n)`` of a fixed-wing's binding element
     over ``keep``: per turn ``(s1, delta1)``, ``(s2, delta2)`` the smallest ``d - base - excursion`` (the lowest
-    element id on a tie, the first in element order), the first turn winning a tie.
+    element id on a tie, the first in element order), the turn with the larger one, the first winning a tie.
 
     Each element's exact terms (:func:`fixed_wing_edge_terms`: ``reaction_arc_m`` and its gap in one call, the
     heading ``psi0`` by ``atan2``) are computed only for the elements whose activation can be the smallest: a
-    cheap lower bound without transcendental functions comes first. For a unit normal ``n`` at angle
-    ``theta``, ``sin(psi - theta) = sin psi·nx - cos psi·ny`` gives the reaction arc, and
-    ``sin psi0 = nx·sin a - ny·cos a`` the excursion bound ``R·(1 - s·sin psi0) + max(w_n, 0)·delta/omega``
-    (:func:`geofence.rooms.trochoid_excursion_bound_m`). Their round-off (about 1e-15 of the arc's scale) is covered by a slack of
-    1e-9 of it; a normal that is not unit (a zero-length edge) gets no bound. After the element with the
-    smallest bound, every element whose bound is at most the smallest activation found so far is scored; a
-    bound is at most its activation, so every element that can tie the smallest is scored exactly.
-    ``W``: scratch, at least :data:`FIXED_WING_SCRATCH_ROWS` rows of ``keep``'s length (its rows are the
-    per-element terms below).
+    cheap lower bound comes first (:func:`_reaction_bounds`, less the turn's excursion bound
+    :func:`geofence.rooms.trochoid_excursion_bound_m` or the reaction arc's); after the element with the smallest
+    bound, every element whose bound is at most the smallest activation found so far is scored exactly. A bound
+    is at most its activation, so every element that can tie the smallest is scored exactly. ``W``: scratch, at
+    least :data:`FIXED_WING_SCRATCH_ROWS` rows of ``keep``'s length (its rows: :data:`DONE` ...).
     """
-    ve = state.ve
-    vn = state.vn
-    hu = state.hu
-    v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega = turn
-    s1, delta1, s2, delta2 = turns
     nk = keep.shape[0]
     if nk == 0:
         return math.inf, 0.0, -1, 0.0, 0.0, 0.0
-    done = W[0]  # the exact terms below are computed (non-zero)
-    done[:nk] = 0.0
-    base = W[1]
-    gap = W[2]  # how much farther the reaction arc gets than its end (reaction_arc_gap_m)
-    psi = W[3]
-    wn = W[4]
-    lb_base = W[5]  # d - (upper bound of base)
-    sinp = W[6]  # sin psi0, to round-off
-    lbq = W[7]  # a turn's lower bound of the activation
-    straight = abs(rot) < 1e-6
-    sp = math.sin(psi_react0)
-    cp = math.cos(psi_react0)
-    sq = math.sin(psi_react0 - rot)
-    cq = math.cos(psi_react0 - rot)
-    arc = v_turn * t_fw if straight else v_turn / omega_now
-    for q in range(nk):
-        k = keep[q]
-        nx = f_nx[k]
-        ny = f_ny[k]
-        w_n = wind_toward_mps(state, nx, ny)
-        wn[q] = w_n
-        if abs(nx * nx + ny * ny - 1.0) > 1e-9:  # no bound: scored exactly
-            lb_base[q] = -math.inf
-            sinp[q] = 0.0
-            continue
-        ub = reaction_arc_sines_m(arc, sp, cp, sq, cq, straight, t_fw, nx, ny, w_n)
-        lb_base[q] = f_d[k] - ub - hu - 1e-9 * (1.0 + abs(arc) + abs(w_n) * t_fw + abs(hu))
-        sinp[q] = nx * sa - ny * ca
+    _reaction_bounds(f_d, f_nx, f_ny, keep, state, turn, W)
     b_act = math.inf
     b_s = 0.0
     b_q = -1
     b_room = 0.0
     b_delta = 0.0
     for di in range(2):
-        s = s1 if di == 0 else s2
-        delta = delta1 if di == 0 else delta2
+        s = turns.s1 if di == 0 else turns.s2
+        delta = turns.delta1 if di == 0 else turns.delta2
         seed = -1
         for q in range(nk):
-            w_n = wn[q]
-            ub = trochoid_excursion_bound_m(radius, inv_omega, w_n, sinp[q], s, delta)
-            gap_ub = reaction_arc_bound_m(v_turn, w_n, t_fw)
-            lbq[q] = lb_base[q] - (ub if ub > gap_ub else gap_ub)
-            if seed < 0 or lbq[q] < lbq[seed]:
+            w_n = W[WIND, q]
+            ub = trochoid_excursion_bound_m(turn.radius, turn.inv_omega, w_n, W[SIN_PSI, q], s, delta)
+            gap_ub = reaction_arc_bound_m(turn.v_turn, w_n, turn.t_fw)
+            W[LB_TURN, q] = W[LB_BASE, q] - (ub if ub > gap_ub else gap_ub)
+            if seed < 0 or W[LB_TURN, q] < W[LB_TURN, seed]:
                 seed = q
         worst = math.inf
         wq = -1
         wroom = 0.0
         for r in range(-1, nk):
             q = seed if r < 0 else r
-            if r >= 0 and (q == seed or lbq[q] > worst):
+            if r >= 0 and (q == seed or W[LB_TURN, q] > worst):
                 continue
             k = keep[q]
-            if done[q] == 0.0:
-                base[q], gap[q], psi[q] = fixed_wing_edge_terms(state, turn, f_nx[k], f_ny[k], wn[q])
-                done[q] = 1.0
-            room = fixed_wing_edge_room_m(base[q], gap[q], radius, inv_omega, v_turn, wn[q], psi[q], s, delta)
+            if W[DONE, q] == 0.0:
+                W[BASE, q], W[GAP, q], W[PSI, q] = fixed_wing_edge_terms(state, turn, f_nx[k], f_ny[k], W[WIND, q])
+                W[DONE, q] = 1.0
+            room = fixed_wing_edge_room_m(
+                W[BASE, q], W[GAP, q], turn.radius, turn.inv_omega, turn.v_turn, W[WIND, q], W[PSI, q], s, delta
+            )
             act = f_d[k] - room
             if act < worst or (wq >= 0 and act == worst and f_id[k] < f_id[keep[wq]]):
                 worst = act
@@ -292,7 +299,7 @@ def _fixed_wing_binding(
             b_room = wroom
             b_delta = delta
     k = keep[b_q]
-    return b_act, b_s, b_q, b_room, b_delta, ve * f_nx[k] + vn * f_ny[k]
+    return b_act, b_s, b_q, b_room, b_delta, state.ve * f_nx[k] + state.vn * f_ny[k]
 
 
 @jitable

@@ -178,6 +178,13 @@ def _column(F: np.ndarray, L: np.ndarray, k: int) -> np.ndarray:
 
 
 @jitable
+def _scalar(F: np.ndarray, L: np.ndarray, i: int) -> float:
+    """Fence scalar ``i`` (:data:`CEILING`, ...) of a packed :class:`MarginTables` (read in place: a view costs a
+    reference count)."""
+    return F[L[2 * SCALARS] + i]
+
+
+@jitable
 def _vector(L: np.ndarray, k: int) -> np.ndarray:
     """Int vector ``k`` of a packed :class:`MarginTables`."""
     start = L[2 * k]
@@ -394,10 +401,9 @@ def _floor(
     (:meth:`geofence.local_fence.LocalFence.floor_margin_m`) and, over the gap the point is deepest inside
     (:meth:`~geofence.local_fence.LocalFence.best_gap`), :func:`_over_gap`; else the descent's arrest margin
     (``dive_m``: how far it goes)."""
-    S = _column(F, L, SCALARS)
-    if S[HAS_FLOOR] == 0.0:
+    if _scalar(F, L, HAS_FLOOR) == 0.0:
         return math.inf, math.inf, NO_OTHER_TURN
-    floor = S[FLOOR]
+    floor = _scalar(F, L, FLOOR)
     f_m = h - floor
     f_act = h - floor - dive_m - v_unc
     gap_offsets = _vector(L, GAP_OFFSETS)
@@ -421,13 +427,12 @@ def _margins_among(
     wind_extra_mps: float, has_target: bool, target_e: float, target_n: float, g: float, lat_margin: float,
 ) -> MarginFields:  # fmt: skip
     """:func:`_margins` with the binding element searched among the candidates ``C``: the one algorithm."""
-    S = _column(F, L, SCALARS)
-    re, rn = (target_e, target_n) if has_target else (S[RECOVERY_E], S[RECOVERY_N])
+    re, rn = (target_e, target_n) if has_target else (_scalar(F, L, RECOVERY_E), _scalar(F, L, RECOVERY_N))
     T = state_terms(V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, re - e, rn - n, g)
     if lat_margin != lat_margin:
         lat_margin = _lateral_margin(F, L, e, n)
     lat = _binding(C, e, n, lat_margin, T, T.turns)
-    c_m = S[CEILING] - h
+    c_m = _scalar(F, L, CEILING) - h
     c_s, dive = vertical_arrests_m(T.env, vu, T.env.reaction_s + latency_s, v_unc)
     ceiling_act = c_m - c_s
     f_m, f_act, other = _floor(F, L, e, n, h, dive, v_unc, ceiling_act, T, lat)
@@ -436,7 +441,7 @@ def _margins_among(
         if min(o_lat.act, other.floor_act, ceiling_act) > other.now:
             lat = o_lat
             f_act = other.floor_act
-    has_floor = S[HAS_FLOOR] != 0.0
+    has_floor = _scalar(F, L, HAS_FLOOR) != 0.0
     f_s = f_m - f_act if has_floor else 0.0
     v_act = f_act if f_act < ceiling_act else ceiling_act
     vttb = vertical_time_to_breach_s(c_m, f_m, vu, has_floor)
@@ -459,9 +464,7 @@ def _margins(
     ``has_target``: a ``rollout_target_en`` is given). ``F, L``: a fence's packed :class:`MarginTables`.
     ``lat_margin``: the lateral margin at (e, n) when the caller has it, NaN: the full scan's
     (:func:`_lateral_margin`)."""
-    C = Candidates(
-        _table(F, L, ELEMENTS, 7), _vector(L, IDS), _column(F, L, ZEROS), False, 0.0, int(_column(F, L, SCALARS)[LINE_EDGES])
-    )
+    C = Candidates(_table(F, L, ELEMENTS, 7), _vector(L, IDS), _column(F, L, ZEROS), False, 0.0, int(_scalar(F, L, LINE_EDGES)))
     return _margins_among(
         F, L, V, C, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps, has_target,
         target_e, target_n, g, lat_margin,
@@ -477,7 +480,7 @@ def _indexed_margins(
     """:func:`_margins` of an indexed fence, the binding element searched among an index cell's candidates
     (``ids, lbs, walk, delta_c``: :class:`Candidates`' fields, from :meth:`geofence.fence_grid.FenceGrid.candidates`)
     and ``lat_margin`` the index's lateral margin at (e, n)."""
-    C = Candidates(_table(F, L, ELEMENTS, 7), ids, lbs, walk, delta_c, int(_column(F, L, SCALARS)[LINE_EDGES]))
+    C = Candidates(_table(F, L, ELEMENTS, 7), ids, lbs, walk, delta_c, int(_scalar(F, L, LINE_EDGES)))
     return _margins_among(
         F, L, V, C, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps, has_target,
         target_e, target_n, g, lat_margin,
@@ -530,7 +533,6 @@ def far_from_everything(
     """:meth:`geofence.unit.GeofenceUnit._far_from_everything` on the tables (its reference): no element, ceiling or
     floor within the largest room the state can need (:func:`geofence.rooms.room_upper_bounds_terms` at the wind
     speed plus ``allowance`` over the time ``t_s``, plus the uncertainties ``hu`` and ``v_unc``), and the lateral margin at (e, n) when it was computed (else NaN)."""
-    S = _column(F, L, SCALARS)
     env = envelope_of_terms(V)
     fixed_wing = env.fixed_wing != 0.0
     w = hypot(wind_e, wind_n) + allowance
@@ -543,15 +545,16 @@ def far_from_everything(
         return False, math.nan
     room += hu
     vroom += v_unc
-    if S[CEILING] - h <= vroom:
+    if _scalar(F, L, CEILING) - h <= vroom:
         return False, math.nan
     lat = _lateral_margin(F, L, e, n)
     if not lat > room:
         return False, lat
-    if S[HAS_FLOOR] == 0.0 or h - S[FLOOR] > vroom:
+    floor = _scalar(F, L, FLOOR)
+    if _scalar(F, L, HAS_FLOOR) == 0.0 or h - floor > vroom:
         return True, lat
     if fixed_wing:  # it circles in a gap while it climbs back: the circle drifts (an upper bound)
-        room += climb_back_drift_m(S[FLOOR] + vroom - h, env.max_climb_mps, w)
+        room += climb_back_drift_m(floor + vroom - h, env.max_climb_mps, w)
     return deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), _vector(L, GAP_OFFSETS))[1] > room, lat
 
 
