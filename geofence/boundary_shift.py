@@ -334,10 +334,10 @@ def monitor_margins(
     latency_s: float, skip_time_s: float, bank_rad: float, wind_extra_mps: float,
     rollout_target_en: tuple[float, float] | None, g: float = G_MPS2,
 ) -> ShiftResult | None:  # fmt: skip
-    """A monitoring unit's step in one compiled call (:func:`geofence.margins_kernel.monitor_margins`), for a
-    fence without an index while :data:`geofence.jit.ACTIVE`: ``None`` when the unit's skip shortcut holds (no
+    """A monitoring unit's step in one compiled call (:func:`geofence.margins_kernel.monitor_margins`; every
+    element scanned: for a fence without an index): ``None`` when the unit's skip shortcut holds (no
     element, ceiling or floor within the largest room the state can need over ``skip_time_s``, see
-    :meth:`geofence.unit.GeofenceUnit._far_from_everything`, the reference), else :func:`activation_margins`
+    :meth:`geofence.unit.GeofenceUnit._far_from_everything`), else :func:`activation_margins`
     (the other arguments are its own; ``ground_speed_mps``: the state's). :meth:`CompiledMargins.monitor` with
     its tables bound once."""
     return CompiledMargins(fence, envelope).monitor(
