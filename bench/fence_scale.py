@@ -17,8 +17,9 @@ For fences of one family -- a noisy star-shaped keep-in about 6 km across with
 Each case runs three ways in the same run: with the fence index and the
 compiled search (``index``, what a flight uses from
 :data:`geofence.fence_grid.SMALL_FENCE_ELEMENTS` elements on), with the index
-and the plain-Python reference the compiled code is tested against
-(``python``, :func:`geofence.jit.use_compiled` off), and with the full scan of
+and :func:`geofence.jit.use_compiled` off (``python``: the unit's remaining
+plain-Python twins, its skip shortcut and the recovery planner's segment tests;
+the margins are one compiled call either way), and with the full scan of
 every element (``scan``, no index: what a flight uses below that, its whole
 margin one compiled call); medians of repeats. It prints a table and saves
 ``bench/fence_scale.png`` (log-log).
@@ -52,8 +53,8 @@ WIND_EN = (6.0 * math.cos(0.7), 6.0 * math.sin(0.7))
 PLATFORMS = ("F450RD", "Tern")
 DEFAULT_FIGURE = Path(__file__).with_name("fence_scale.png")
 VARIANTS = ("index", "python", "scan")
-"""Per case: the index with the compiled search, the index with the plain-Python reference
-(:func:`geofence.jit.use_compiled` off), and the full scan (no index, compiled)."""
+"""Per case: the index with the compiled search, the index with :func:`geofence.jit.use_compiled` off (the
+unit's plain-Python twins), and the full scan (no index, compiled)."""
 INDEX_CALLS = 2_000
 """Updates timed per case with the index: 50 s of flight, some 850 m along the boundary at the Tern's cruise speed.
 Long enough to meet stretches where the fixed-wing's route to the recovery point bends round keep-outs (a route

@@ -2,27 +2,29 @@
 
 One question: for a position ``p`` and a *reach* ``r`` (the largest room the
 platform can need against any edge in the current wind, see
-:func:`geofence.boundary_shift.activation_margins`), which boundary elements
-can have ``d(p) < d_min(p) + r``, where ``d`` is an element's distance and
-``d_min`` the nearest element's? Only those can bind the activation margin
-(an element's activation is ``d - room >= d - r``), so the per-step cost
+:func:`geofence.margins_kernel.room_bound`), which boundary elements can have
+``d_s(p) < d_min(p) + r``, where ``d_s`` is the distance an element is scored
+at (:func:`geofence.lateral_kernel.edge_scored`: its distance ``d``, or for a
+convex keep-in's edge its line distance where that is nearer) and ``d_min``
+the nearest element's distance? Only those can bind the activation margin (an
+element's activation is ``d_s - room >= d_s - r``), so the per-step cost
 depends on the elements *within reach*, not on the size of the fence.
 
-Elements and their distance ``d`` (the same float arithmetic as the full scan,
-so the answers are bit-identical): keep-in and keep-out polygon edges
-(unsigned point-segment distance) and keep-out circles (``hypot - radius``,
-negative inside), in the order of :meth:`LocalFence.danger_edges` followed by
-``keep_out_circles``.
+Elements and their distance ``d`` (the same float arithmetic as the full scan):
+keep-in and keep-out polygon edges (unsigned point-segment distance) and
+keep-out circles (``hypot - radius``, negative inside), in the order of
+:meth:`LocalFence.danger_edges` followed by ``keep_out_circles``.
 
 The index is a table of square cells (``cell_m`` on a side) filled lazily:
 the first time the vehicle is in a cell, one vectorised pass over all elements
-(numpy, ``O(N)``) computes their distances ``d(c)`` from the cell centre ``c``
-and keeps, sorted by ``d(c)``, those with ``d(c) <= U + r_cell + h`` where
-``h`` is the half diagonal and ``U = min d(c) + h`` bounds ``d_min`` anywhere
-in the cell. While the vehicle stays in the cell every step reuses that list:
-it walks it in order of ``d(c)`` and stops as soon as the lower bound
-``d(c) - |p - c|`` exceeds the best distance found plus the reach (every
-element's ``d`` is 1-Lipschitz in ``p``). A step therefore costs
+(numpy, ``O(N)``) computes their bounds ``g(c)`` from the cell centre ``c``
+(``d(c)``, or for a line-scored edge ``min(d, line distance)``: at most
+``d_s`` and ``d``, and 1-Lipschitz, :meth:`FenceGrid._bounds_from`) and keeps,
+sorted by ``g(c)``, those with ``g(c) <= U + r_cell + h`` where ``h`` is the
+half diagonal and ``U = min d(c) + h`` bounds ``d_min`` anywhere in the cell.
+While the vehicle stays in the cell every step reuses that list: it walks it
+in order of ``g(c)`` and stops as soon as the lower bound ``g(c) - |p - c|``
+exceeds the best distance found plus the reach. A step therefore costs
 ``O(elements within reach)``; a new cell costs one ``O(N)`` numpy pass. A
 larger reach than the cell was built for rebuilds it (with 1.5x the reach).
 From :data:`BLOCK_MIN_ELEMENTS` elements on, the ``O(N)`` pass is made once per
@@ -38,12 +40,11 @@ crossing parity is counted over the edges of one horizontal row strip (the
 only edges that can straddle the point's latitude line), with the same test
 as :meth:`geofence.polygon.PolygonIndex.signed_distance`.
 
-The per-step walk runs compiled where numba is installed
-(:func:`geofence.lateral_kernel.lateral_binding` over :meth:`FenceGrid.candidates`,
-:meth:`FenceGrid.nearest_distance`); :meth:`FenceGrid.near` and its tuple
-prefix are the plain-Python reference it is tested against.
-``tests/test_fence_grid.py`` compares every answer with the full scan on
-random fences and states (next to corners, inside keep-outs, outside).
+The per-step walk is compiled (:func:`geofence.lateral_kernel.lateral_binding`
+over :meth:`FenceGrid.candidates`, in :func:`geofence.margins_kernel.indexed_margins`;
+:func:`geofence.lateral_kernel.nearest_distance`). ``tests/test_fence_grid.py``
+compares every answer with the full scan on random fences and states (next to
+corners, inside keep-outs, outside).
 """
 
 from __future__ import annotations
@@ -53,8 +54,7 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from . import jit as _jit
-from .lateral_kernel import circle_scored, edge_scored, element_table, nearest_distance
+from .lateral_kernel import element_table, nearest_distance
 from .polygon import BOUNDARY_TOL_M, PolygonIndex
 
 SMALL_FENCE_ELEMENTS: int = 256
@@ -72,10 +72,6 @@ MIN_REACH_M: float = 50.0
 MAX_CELLS: int = 50_000
 """Cells kept before the table is cleared (memory bound for long flights over big fences)."""
 
-PREFIX_ITEMS: int = 512
-"""Candidates a cell keeps as ready Python tuples for the Python walk (:meth:`FenceGrid.near`, built when it first
-asks; it rarely goes further); the rest stay numpy indices."""
-
 BLOCK_CELLS: int = 8
 """Cells along a side of a block: from :data:`BLOCK_MIN_ELEMENTS` elements on, a new cell looks only at its block's
 elements (:meth:`FenceGrid._block_ids`), and the pass over every element is made once per block."""
@@ -90,8 +86,6 @@ MAX_CACHED_CANDIDATES: int = 4_000_000
 """Candidates (all cells together) kept before the table is cleared: a cell far inside a 100,000-vertex fence
 can hold most of its elements, and scattered queries (an inradius search) visit thousands of cells."""
 
-Item = tuple  # (d, nx, ny, feature, feature_index, edge): the ``dists`` format of activation_margins
-
 
 class _Cell(NamedTuple):
     """One cache cell: what every query at a point inside it starts from (built by :meth:`FenceGrid._cell`)."""
@@ -104,35 +98,31 @@ class _Cell(NamedTuple):
     ids: np.ndarray
     """Every candidate element's id, sorted by ``lbs``."""
     lbs: np.ndarray
-    """Each candidate's distance from the centre (a lower bound of its distance from any point, plus ``|p - c|``)."""
+    """Each candidate's bound ``g`` from the centre (:meth:`FenceGrid._bounds_from`: a lower bound of the distance
+    it is scored at, and of its distance, from any point ``p``, plus ``|p - c|``)."""
     u: float
     """The nearest element's distance from the centre plus the half diagonal: bounds ``d_min`` in the cell."""
     ki_state: int
     """The keep-in wholly around the cell (+1), wholly away (-1) or crossing it (0)."""
     ko: tuple[int, ...]
     """The keep-out polygons whose bounding box meets the cell."""
-    prefix: list
-    """The first ``prefix_items`` candidates as Python tuples, built when the Python walk first asks."""
 
 
 class FenceGrid:
     """The candidate-set index of one :class:`~geofence.local_fence.LocalFence` (see the module docstring).
 
     ``edges``: the :meth:`LocalFence.danger_edges` items ``(ax, ay, dx, dy,
-    inv_len2, nx, ny, feature, feature_index, edge)``; ``circles``: ``(east,
-    north, radius)``; ``circle_feature``: the feature name reported for a
-    circle; ``keep_in`` / ``keep_outs``: the polygons, for containment.
+    inv_len2, nx, ny, ...)``; ``circles``: ``(east, north, radius)``;
+    ``keep_in`` / ``keep_outs``: the polygons, for containment.
     """
 
     def __init__(
         self,
         edges: Sequence[tuple],
         circles: Sequence[tuple[float, float, float]],
-        circle_feature: str,
         keep_in: PolygonIndex,
         keep_outs: Sequence[PolygonIndex],
         cell_m: float = DEFAULT_CELL_M,
-        prefix_items: int = PREFIX_ITEMS,
         line_edges: int = 0,
         block_min_elements: int = BLOCK_MIN_ELEMENTS,
     ) -> None:
@@ -141,21 +131,13 @@ class FenceGrid:
         self.line_edges = int(line_edges)
         """The first ``line_edges`` elements are a convex keep-in's edges (:func:`~geofence.lateral_kernel.edge_scored`)."""
         self.cell_m = float(cell_m)
-        self.prefix_items = int(prefix_items)
         self.half_diag_m = self.cell_m * math.sqrt(0.5)
-        self._circle_feature = circle_feature
         s = len(edges)
         self.n_elements = s + len(circles)
-        # per element: (id, a, b, c, d, inv_len2, nx, ny, feature, index, edge); inv_len2 < 0 marks a circle
-        recs = [
-            (i, ax, ay, dx, dy, il2, nx, ny, feat, idx, j) for i, (ax, ay, dx, dy, il2, nx, ny, feat, idx, j) in enumerate(edges)
-        ]
-        recs += [(s + k, ce, cn, r, 0.0, -1.0, 0.0, 0.0, circle_feature, k, -1) for k, (ce, cn, r) in enumerate(circles)]
-        self._recs = recs
         self.table = element_table(edges, circles)
         """Every element as the compiled walk's float rows (:func:`geofence.lateral_kernel.element_table`)."""
-        e = np.array([[r[1], r[2], r[3], r[4], r[5]] for r in recs[:s]], dtype=float).reshape(-1, 5)
-        self._ax, self._ay, self._dx, self._dy, self._il2 = (e[:, k].copy() for k in range(5))
+        e = self.table[:s]
+        self._ax, self._ay, self._dx, self._dy, self._il2, self._nx, self._ny = (e[:, k].copy() for k in range(7))
         c = np.array(list(circles), dtype=float).reshape(-1, 3)
         self._ce, self._cn, self._cr = (c[:, k].copy() for k in range(3))
         self._keep_in = keep_in
@@ -190,14 +172,30 @@ class FenceGrid:
             d_circ = np.hypot(self._ce[c] - x, self._cn[c] - y) - self._cr[c]
         return np.concatenate([d_seg, d_circ])
 
+    def _bounds_from(self, x: float, y: float, d: np.ndarray, ids: np.ndarray | None = None) -> np.ndarray:
+        """``g``: a 1-Lipschitz lower bound of the distance each element (every one, or ``ids``, ascending) is
+        scored at, from (x, y), given their distances ``d`` from it: ``d`` itself, but for the first
+        :attr:`line_edges` (a convex keep-in's edges, scored at their line distance ``dl`` where the foot lies off
+        the edge: :func:`~geofence.lateral_kernel.edge_scored`) ``min(d, max(dl, 0))``, which can be far below
+        ``d`` (an edge far along a slightly curved side)."""
+        k = self.line_edges if ids is None else int(np.searchsorted(ids, self.line_edges))
+        if k == 0:
+            return d
+        which = slice(0, k) if ids is None else ids[:k]
+        dl = -((x - self._ax[which]) * self._nx[which] + (y - self._ay[which]) * self._ny[which])
+        g = d.copy()
+        g[:k] = np.minimum(d[:k], np.maximum(dl, 0.0))
+        return g
+
     def _block_ids(self, key: tuple[int, int], built_for: float) -> np.ndarray:
         """The elements (ascending ids) every cell of ``key``'s block (:data:`BLOCK_CELLS` cells a side) can keep
         when built for a reach up to ``built_for``: one pass over every element per block, then each of its cells
         looks at these only.
 
         With ``C`` the block's centre, ``H`` its half diagonal, ``c`` a cell's centre (``|c - C| <= H``), ``h``
-        the cell's half diagonal and ``r`` its reach, a cell keeps ``d(c) <= min d(c) + 2h + r``; every ``d`` is
-        1-Lipschitz, so those have ``d(C) <= min d(C) + 2H + 2h + r``, and the keep-in edges a cell's
+        the cell's half diagonal and ``r`` its reach, a cell keeps ``g(c) <= min d(c) + 2h + r``
+        (:meth:`_bounds_from`); every ``g`` and ``d`` is 1-Lipschitz, so those have
+        ``g(C) <= min d(C) + 2H + 2h + r``, and the keep-in edges a cell's
         containment looks at (``d(c) <= h + 1e-6``) have ``d(C) <= h + 1e-6 + H``. Kept: both, and
         :data:`BLOCK_SLACK_M` more, far beyond any rounding. The nearest element from a cell's centre is
         among them, so the cell's list and bounds are those of the pass over every element."""
@@ -210,9 +208,11 @@ class FenceGrid:
         side = b * self.cell_m
         big_h = side * math.sqrt(0.5)
         h = self.half_diag_m
-        d = self._distances_from((bkey[0] + 0.5) * side, (bkey[1] + 0.5) * side)
-        limit = max(float(d.min()) + 2.0 * big_h + 2.0 * h + reach, h + 1e-6 + big_h) + BLOCK_SLACK_M
-        ids = np.flatnonzero(d <= limit)
+        bx, by = (bkey[0] + 0.5) * side, (bkey[1] + 0.5) * side
+        d = self._distances_from(bx, by)
+        g = self._bounds_from(bx, by, d)
+        bound = float(d.min()) + 2.0 * big_h + 2.0 * h + reach + BLOCK_SLACK_M
+        ids = np.flatnonzero((g <= bound) | (d <= h + 1e-6 + big_h + BLOCK_SLACK_M))
         self._blocks[bkey] = (reach, ids)
         self._cached += len(ids)
         return ids
@@ -228,9 +228,10 @@ class FenceGrid:
         h = self.half_diag_m
         pool = self._block_ids(key, built_for) if self.n_elements >= self.block_min_elements else None
         d = self._distances_from(cx, cy, pool)
+        g = self._bounds_from(cx, cy, d, pool)
         u = float(d.min()) + h
-        at = np.flatnonzero(d <= u + built_for + h)
-        at = at[np.argsort(d[at], kind="stable")]
+        at = np.flatnonzero(g <= u + built_for + h)
+        at = at[np.argsort(g[at], kind="stable")]
         sel = at if pool is None else pool[at]
         # keep-in: wholly inside (+1), wholly outside (-1) or crossed by its boundary (0)
         n_ki = self._keep_in.n if pool is None else int(np.searchsorted(pool, self._keep_in.n))
@@ -239,7 +240,7 @@ class FenceGrid:
         kb = self._ko_bbox
         lo_x, lo_y, hi_x, hi_y = key[0] * c, key[1] * c, (key[0] + 1) * c, (key[1] + 1) * c
         ko = tuple(np.flatnonzero((kb[:, 0] <= hi_x) & (kb[:, 2] >= lo_x) & (kb[:, 1] <= hi_y) & (kb[:, 3] >= lo_y)).tolist())
-        cell = _Cell(built_for, cx, cy, sel, d[at], u, ki_state, ko, [])
+        cell = _Cell(built_for, cx, cy, sel, g[at], u, ki_state, ko)
         if len(self._cells) >= MAX_CELLS or self._cached + len(sel) > MAX_CACHED_CANDIDATES:
             self._cells.clear()
             self._blocks.clear()
@@ -248,86 +249,20 @@ class FenceGrid:
         self._cached += len(sel)
         return cell
 
-    def _prefix(self, cell: _Cell) -> tuple:
-        """The cell's first ``prefix_items`` candidates as ready tuples ``(d(c),) + record`` (built once)."""
-        slot = cell.prefix
-        if not slot:
-            k, recs = self.prefix_items, self._recs
-            slot.append(tuple((lb,) + recs[i] for lb, i in zip(cell.lbs[:k].tolist(), cell.ids[:k].tolist())))
-        return slot[0]
-
-    def _rest(self, e: float, n: float, rest: np.ndarray, rest_lb: np.ndarray, limit: float) -> tuple[np.ndarray, np.ndarray]:
-        """``(ids, d)`` of the candidates past a cell's tuple prefix whose lower bound is within ``limit``
-        (``d`` with the scalar walk's arithmetic: vectorised for edges, math.hypot for circles)."""
-        ids = rest[: int(np.searchsorted(rest_lb, limit, side="right"))]
-        seg = ids[ids < len(self._ax)]
-        d_seg = self._segment_distances(e, n, seg)
-        circ = ids[ids >= len(self._ax)]
-        recs = self._recs
-        d_circ = np.array([math.hypot(recs[i][1] - e, recs[i][2] - n) - recs[i][3] for i in circ.tolist()], dtype=float)
-        return np.concatenate([seg, circ]), np.concatenate([d_seg, d_circ])
-
-    # ---- queries
-    def near(self, e: float, n: float, reach: float, free: bool = False) -> tuple[list[Item], float]:
-        """``(items, d_min)``: every element with ``d - reach < d_min``, in element order, and the nearest ``d``
-        (``free``: (e, n) is in the free space, see :func:`~geofence.lateral_kernel.edge_scored`).
-
-        Items are ``(d, ux, uy, feature, feature_index, edge)``: the distance a margin scores the element at and
-        the unit direction it scores along (an edge's :func:`~geofence.lateral_kernel.edge_scored`; a circle's
-        ``hypot - radius`` and the direction to its centre); ``d_min`` is the nearest point's distance.
-        """
-        cell = self._cell(e, n, reach)
-        cx, cy = cell.cx, cell.cy
-        cands = self._prefix(cell)
-        rest, rest_lb = cell.ids[self.prefix_items :], cell.lbs[self.prefix_items :]
-        delta = math.hypot(e - cx, n - cy)
-        best = math.inf
-        found = []
-        stopped = False
-        for lb, i, a, b, c, dd, il2, nx, ny, feat, idx, j in cands:
-            if lb - delta - reach > best:
-                stopped = True
-                break
-            if il2 >= 0.0:
-                d, db, nx, ny = edge_scored(e - a, n - b, c, dd, il2, nx, ny, i < self.line_edges, free)
-            else:
-                d, nx, ny = circle_scored(e, n, a, b, c)
-                db = d
-            found.append((i, (db, nx, ny, feat, idx, j)))
-            if d < best:
-                best = d
-        if not stopped and len(rest):
-            ids, ds = self._rest(e, n, rest, rest_lb, best + delta + reach)
-            if len(ds):
-                best = min(best, float(ds.min()))
-            recs = self._recs
-            for i, d in zip(ids.tolist(), ds.tolist()):
-                _, a, b, c, dd, il2, nx, ny, feat, idx, j = recs[i]
-                if il2 >= 0.0:
-                    _, d, nx, ny = edge_scored(e - a, n - b, c, dd, il2, nx, ny, i < self.line_edges, free)
-                if d - reach >= best:
-                    continue
-                if il2 < 0.0:
-                    _, nx, ny = circle_scored(e, n, a, b, c)
-                found.append((i, (d, nx, ny, feat, idx, j)))
-        found.sort()
-        return [f[1] for f in found], best
-
     def candidates(self, e: float, n: float, reach: float) -> tuple[np.ndarray, np.ndarray, float]:
-        """``(ids, bounds, delta)``: :meth:`near`'s walk as arrays for the compiled search
+        """``(ids, bounds, delta)``: the candidates within ``reach`` of (e, n) for the compiled walk
         (:func:`geofence.lateral_kernel.lateral_binding`): the cell's candidate ids sorted by their distance
         ``bounds`` from the cell centre, and ``delta = |p - c|``; walked in order until
-        ``bound - delta - reach`` exceeds the nearest distance found."""
+        ``bound - delta - reach`` exceeds the nearest distance found, every element with ``d - reach < d_min``
+        is walked."""
         cell = self._cell(e, n, reach)
         return cell.ids, cell.lbs, math.hypot(e - cell.cx, n - cell.cy)
 
     def nearest_distance(self, e: float, n: float) -> float:
-        """The nearest element's ``d`` (circles signed: negative inside); :meth:`near`'s walk, compiled where
-        numba is (:func:`geofence.lateral_kernel.nearest_distance`, the same number)."""
-        if _jit.ACTIVE:
-            ids, lbs, delta = self.candidates(e, n, 0.0)
-            return nearest_distance(self.table, ids, lbs, delta, e, n)
-        return self.near(e, n, 0.0)[1]
+        """The nearest element's ``d`` (circles signed: negative inside): the walk with no reach
+        (:func:`geofence.lateral_kernel.nearest_distance`)."""
+        ids, lbs, delta = self.candidates(e, n, 0.0)
+        return nearest_distance(self.table, ids, lbs, delta, e, n)
 
     def margin_lower_bound(self, e: float, n: float) -> float | None:
         """A lower bound of the lateral margin at (e, n) in O(1) (no walk), or None where the cell is not wholly
@@ -344,13 +279,12 @@ class FenceGrid:
                 return None
         return float(cell.lbs[0]) - math.hypot(e - cell.cx, n - cell.cy)
 
-    def margin_from_index(self, e: float, n: float, nearest_d: float | None = None) -> float | None:
+    def margin_from_index(self, e: float, n: float) -> float | None:
         """The lateral margin at (e, n) where the index gives it exactly, else ``None`` (the caller then scans
         every element). Inside the keep-in (its cell wholly inside, or the row strip's crossing parity):
 
         * inside no keep-out and more than the boundary tolerance from every element, the margin *is* the
-          nearest element's distance (``nearest_d`` when the caller has it from the walk at (e, n), any reach:
-          the same number);
+          nearest element's distance;
         * inside keep-outs by more than the tolerance, the margin is the smallest of their negated depths:
           the polygons whose box holds the point and whose signed distance is >= 0 (the only ones whose term
           can be negative), and the circles, whose smallest ``d`` is then the nearest element's. The full
@@ -361,7 +295,7 @@ class FenceGrid:
         cell = self._cell(e, n, 0.0)
         if cell.ki_state < 0 or (cell.ki_state == 0 and not self._rows.inside(e, n)):
             return None
-        best = self.nearest_distance(e, n) if nearest_d is None else nearest_d
+        best = self.nearest_distance(e, n)
         m = best if best < 0.0 else math.inf  # inside a circle: the deepest one's d
         kb = self._ko_bbox
         for k in cell.ko:

@@ -7,20 +7,19 @@ terms (named tuples: :class:`LateralState`, :class:`FixedWingTurn`,
 :class:`~geofence.margins_kernel.EnvelopeTerms`), which element has the
 smallest activation ``d - room``, and what is the nearest element's distance?
 The room against one element is :func:`fixed_wing_edge_terms` with
-:func:`geofence.rooms.fixed_wing_edge_room_m`, or :func:`multirotor_edge_room_m`:
-the Python reference calls the same functions. :func:`geofence.boundary_shift.activation_margins`
-asks it every step; its plain-Python branches (the full scan, the index walk
-:meth:`geofence.fence_grid.FenceGrid.near`, ``terms_of`` and the binding-edge
-searches) stay as the reference, and ``tests/test_lateral_kernel.py`` checks
-that both give the same :class:`~geofence.boundary_shift.ShiftResult`, bit for
-bit, on random fences and states.
+:func:`geofence.rooms.fixed_wing_edge_room_m`, or :func:`multirotor_edge_room_m`.
+:func:`geofence.margins_kernel.margins` (and so
+:func:`geofence.boundary_shift.activation_margins`) asks it every step; the
+fixed-wing's search scores exactly only the elements a cheap lower bound cannot
+rule out (:func:`_fixed_wing_binding`), and ``tests/test_binding_edge.py`` holds
+it to the exhaustive minimum.
 
-Bit for bit because the kernel does the reference's float operations in the
-reference's order: the room formulas are compiled from their one home in
-:mod:`geofence.rooms` and :mod:`geofence.dynamics` (:func:`geofence.jit.jitable`);
-``sin``, ``atan2``, ``acos`` and ``sqrt`` are the C library's, as in CPython;
-no fused multiply-adds (numba does not contract without ``fastmath``); and
-:func:`~geofence.cpython_math.hypot` is CPython's own algorithm (which is not the C library's).
+Compiled or interpreted, the same floats: the room formulas are compiled from
+their one home in :mod:`geofence.rooms` and :mod:`geofence.dynamics`
+(:func:`geofence.jit.jitable`); ``sin``, ``atan2``, ``acos`` and ``sqrt`` are the
+C library's, as in CPython; no fused multiply-adds (numba does not contract
+without ``fastmath``); and :func:`~geofence.cpython_math.hypot` is CPython's own
+algorithm (which is not the C library's).
 
 Element table ``E`` (one row per element, in :meth:`LocalFence.danger_edges`
 order then the circles): ``(ax, ay, dx, dy, 1/len², nx, ny)`` for an edge,
@@ -55,7 +54,6 @@ __all__ = [
     "MultirotorBrake",
     "Turns",
     "capped_lateral",
-    "circle_scored",
     "edge_scored",
     "element_table",
     "lateral_binding",
@@ -167,9 +165,8 @@ def _multirotor_binding(
     state: LateralState,
     brake: MultirotorBrake,
 ) -> tuple[float, float, int, float, float, float]:
-    """``(activation, 0, position in keep, room, 0, v_n)``: the smallest ``d - base`` over ``keep`` (the
-    reference's ``terms_of`` and ``_binding_edge_no_turn``: the lowest element id ``f_id`` on a tie, the first
-    in the reference's element order)."""
+    """``(activation, 0, position in keep, room, 0, v_n)``: the smallest ``d - base`` over ``keep`` (the lowest
+    element id ``f_id`` on a tie, the first in element order)."""
     ve = state.ve
     vn = state.vn
     worst = math.inf
@@ -191,6 +188,47 @@ def _multirotor_binding(
     return worst, 0.0, wq, wroom, 0.0, wvn
 
 
+# the rows of _fixed_wing_binding's scratch: the exact terms made (non-zero), base, gap (how much farther the
+# reaction arc gets than its end), psi0, the wind towards the element, d - (upper bound of base), sin psi0 (to
+# round-off) and a turn's lower bound of the activation (indexed, not viewed: a view costs a reference count)
+DONE, BASE, GAP, PSI, WIND, LB_BASE, SIN_PSI, LB_TURN = range(FIXED_WING_SCRATCH_ROWS)
+
+
+@jitable
+def _reaction_bounds(
+    f_d: np.ndarray, f_nx: np.ndarray, f_ny: np.ndarray, keep: np.ndarray, state: LateralState, turn: FixedWingTurn,
+    W: np.ndarray,
+) -> None:  # fmt: skip
+    """Fill each kept element's rows ``WIND``, ``LB_BASE`` and ``SIN_PSI`` of the scratch ``W`` for
+    :func:`_fixed_wing_binding`, without transcendental functions per element: for a unit normal ``n`` at angle
+    ``theta``, ``sin(psi - theta) = sin psi·nx - cos psi·ny`` gives the reaction arc
+    (:func:`geofence.rooms.reaction_arc_sines_m`) and ``sin psi0 = nx·sin a - ny·cos a``. Their round-off (about
+    1e-15 of the arc's scale) is covered by a slack of 1e-9 of it; a normal that is not unit (a zero-length edge)
+    gets no bound."""
+    v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, _radius, _inv_omega = turn
+    hu = state.hu
+    straight = abs(rot) < 1e-6
+    sp = math.sin(psi_react0)
+    cp = math.cos(psi_react0)
+    sq = math.sin(psi_react0 - rot)
+    cq = math.cos(psi_react0 - rot)
+    arc = v_turn * t_fw if straight else v_turn / omega_now
+    for q in range(keep.shape[0]):
+        k = keep[q]
+        nx = f_nx[k]
+        ny = f_ny[k]
+        w_n = wind_toward_mps(state, nx, ny)
+        W[WIND, q] = w_n
+        W[DONE, q] = 0.0
+        if abs(nx * nx + ny * ny - 1.0) > 1e-9:  # no bound: scored exactly
+            W[LB_BASE, q] = -math.inf
+            W[SIN_PSI, q] = 0.0
+            continue
+        ub = reaction_arc_sines_m(arc, sp, cp, sq, cq, straight, t_fw, nx, ny, w_n)
+        W[LB_BASE, q] = f_d[k] - ub - hu - 1e-9 * (1.0 + abs(arc) + abs(w_n) * t_fw + abs(hu))
+        W[SIN_PSI, q] = nx * sa - ny * ca
+
+
 @jitable
 def _fixed_wing_binding(
     f_d: np.ndarray,
@@ -205,84 +243,50 @@ def _fixed_wing_binding(
 ) -> tuple[float, float, int, float, float, float]:
     """``(activation, turn sign, position in keep, room, turn angle, v_n)`` of a fixed-wing's binding element
     over ``keep``: per turn ``(s1, delta1)``, ``(s2, delta2)`` the smallest ``d - base - excursion`` (the lowest
-    element id on a tie: ``_binding_edge_scan``'s first in element order), the first turn winning a tie.
+    element id on a tie, the first in element order), the turn with the larger one, the first winning a tie.
 
-    Each element's exact terms (the reference's ``terms_of`` arithmetic: ``reaction_arc_m`` and its gap in one call, the heading
-    ``psi0`` by ``atan2``) are computed only for the elements whose activation can be the smallest: a
-    cheap lower bound without transcendental functions comes first. For a unit normal ``n`` at angle
-    ``theta``, ``sin(psi - theta) = sin psi·nx - cos psi·ny`` gives the reaction arc, and
-    ``sin psi0 = nx·sin a - ny·cos a`` the excursion bound ``R·(1 - s·sin psi0) + max(w_n, 0)·delta/omega``
-    (``_binding_edge_pruned``'s). Their round-off (about 1e-15 of the arc's scale) is covered by a slack of
-    1e-9 of it; a normal that is not unit (a zero-length edge) gets no bound. After the element with the
-    smallest bound, every element whose bound is at most the smallest activation found so far is scored; a
-    bound is at most its activation, so every element that can tie the smallest is scored exactly.
-    ``W``: scratch, at least :data:`FIXED_WING_SCRATCH_ROWS` rows of ``keep``'s length (its rows are the
-    per-element terms below).
+    Each element's exact terms (:func:`fixed_wing_edge_terms`: ``reaction_arc_m`` and its gap in one call, the
+    heading ``psi0`` by ``atan2``) are computed only for the elements whose activation can be the smallest: a
+    cheap lower bound comes first (:func:`_reaction_bounds`, less the turn's excursion bound
+    :func:`geofence.rooms.trochoid_excursion_bound_m` or the reaction arc's); after the element with the smallest
+    bound, every element whose bound is at most the smallest activation found so far is scored exactly. A bound
+    is at most its activation, so every element that can tie the smallest is scored exactly. ``W``: scratch, at
+    least :data:`FIXED_WING_SCRATCH_ROWS` rows of ``keep``'s length (its rows: :data:`DONE` ...).
     """
-    ve = state.ve
-    vn = state.vn
-    hu = state.hu
-    v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, radius, inv_omega = turn
-    s1, delta1, s2, delta2 = turns
     nk = keep.shape[0]
     if nk == 0:
         return math.inf, 0.0, -1, 0.0, 0.0, 0.0
-    done = W[0]  # the exact terms below are computed (non-zero)
-    done[:nk] = 0.0
-    base = W[1]
-    gap = W[2]  # how much farther the reaction arc gets than its end (reaction_arc_gap_m)
-    psi = W[3]
-    wn = W[4]
-    lb_base = W[5]  # d - (upper bound of base)
-    sinp = W[6]  # sin psi0, to round-off
-    lbq = W[7]  # a turn's lower bound of the activation
-    straight = abs(rot) < 1e-6
-    sp = math.sin(psi_react0)
-    cp = math.cos(psi_react0)
-    sq = math.sin(psi_react0 - rot)
-    cq = math.cos(psi_react0 - rot)
-    arc = v_turn * t_fw if straight else v_turn / omega_now
-    for q in range(nk):
-        k = keep[q]
-        nx = f_nx[k]
-        ny = f_ny[k]
-        w_n = wind_toward_mps(state, nx, ny)
-        wn[q] = w_n
-        if abs(nx * nx + ny * ny - 1.0) > 1e-9:  # no bound: scored exactly
-            lb_base[q] = -math.inf
-            sinp[q] = 0.0
-            continue
-        ub = reaction_arc_sines_m(arc, sp, cp, sq, cq, straight, t_fw, nx, ny, w_n)
-        lb_base[q] = f_d[k] - ub - hu - 1e-9 * (1.0 + abs(arc) + abs(w_n) * t_fw + abs(hu))
-        sinp[q] = nx * sa - ny * ca
+    _reaction_bounds(f_d, f_nx, f_ny, keep, state, turn, W)
     b_act = math.inf
     b_s = 0.0
     b_q = -1
     b_room = 0.0
     b_delta = 0.0
     for di in range(2):
-        s = s1 if di == 0 else s2
-        delta = delta1 if di == 0 else delta2
+        s = turns.s1 if di == 0 else turns.s2
+        delta = turns.delta1 if di == 0 else turns.delta2
         seed = -1
         for q in range(nk):
-            w_n = wn[q]
-            ub = trochoid_excursion_bound_m(radius, inv_omega, w_n, sinp[q], s, delta)
-            gap_ub = reaction_arc_bound_m(v_turn, w_n, t_fw)
-            lbq[q] = lb_base[q] - (ub if ub > gap_ub else gap_ub)
-            if seed < 0 or lbq[q] < lbq[seed]:
+            w_n = W[WIND, q]
+            ub = trochoid_excursion_bound_m(turn.radius, turn.inv_omega, w_n, W[SIN_PSI, q], s, delta)
+            gap_ub = reaction_arc_bound_m(turn.v_turn, w_n, turn.t_fw)
+            W[LB_TURN, q] = W[LB_BASE, q] - (ub if ub > gap_ub else gap_ub)
+            if seed < 0 or W[LB_TURN, q] < W[LB_TURN, seed]:
                 seed = q
         worst = math.inf
         wq = -1
         wroom = 0.0
         for r in range(-1, nk):
             q = seed if r < 0 else r
-            if r >= 0 and (q == seed or lbq[q] > worst):
+            if r >= 0 and (q == seed or W[LB_TURN, q] > worst):
                 continue
             k = keep[q]
-            if done[q] == 0.0:
-                base[q], gap[q], psi[q] = fixed_wing_edge_terms(state, turn, f_nx[k], f_ny[k], wn[q])
-                done[q] = 1.0
-            room = fixed_wing_edge_room_m(base[q], gap[q], radius, inv_omega, v_turn, wn[q], psi[q], s, delta)
+            if W[DONE, q] == 0.0:
+                W[BASE, q], W[GAP, q], W[PSI, q] = fixed_wing_edge_terms(state, turn, f_nx[k], f_ny[k], W[WIND, q])
+                W[DONE, q] = 1.0
+            room = fixed_wing_edge_room_m(
+                W[BASE, q], W[GAP, q], turn.radius, turn.inv_omega, turn.v_turn, W[WIND, q], W[PSI, q], s, delta
+            )
             act = f_d[k] - room
             if act < worst or (wq >= 0 and act == worst and f_id[k] < f_id[keep[wq]]):
                 worst = act
@@ -295,7 +299,7 @@ def _fixed_wing_binding(
             b_room = wroom
             b_delta = delta
     k = keep[b_q]
-    return b_act, b_s, b_q, b_room, b_delta, ve * f_nx[k] + vn * f_ny[k]
+    return b_act, b_s, b_q, b_room, b_delta, state.ve * f_nx[k] + state.vn * f_ny[k]
 
 
 @jitable
@@ -317,10 +321,10 @@ def _walk(
 ) -> tuple[int, float]:
     """``(count, nearest d)``: the first ``count`` entries of ``f_id, f_b, f_nx, f_ny`` (the caller's, at least
     ``ids``' length) are set to the candidates walked, the distances they are scored at and the unit
-    directions they are scored along (the reference's arithmetic: an edge's :func:`edge_scored`, the first
-    ``n_line`` being a convex keep-in's; a circle's :func:`circle_scored`), in ``ids`` order; with ``walk``,
+    directions they are scored along (an edge's :func:`edge_scored`, the first ``n_line`` being a convex
+    keep-in's; a circle's ``hypot - radius`` and the direction to its centre), in ``ids`` order; with ``walk``,
     until the bound ``lbs[k] - delta_c - reach`` exceeds the nearest point-segment or circle distance found
-    (:meth:`FenceGrid.near`'s stop rule)."""
+    (every element within ``reach`` of the nearest is walked: each ``d`` is 1-Lipschitz)."""
     m = ids.shape[0]
     cnt = 0
     best = math.inf
@@ -418,15 +422,6 @@ def capped_lateral(lat_act: float, lat_margin: float, d_edge: float, v_n: float)
     return lat_act, (d_edge / v_n if v_n > 1e-9 else math.inf)
 
 
-def circle_scored(e: float, n: float, ce: float, cn: float, r: float) -> tuple[float, float, float]:
-    """``(d, ux, uy)`` of a keep-out circle from (e, n): ``hypot - radius`` (negative inside) and the unit direction
-    to its centre, along which the margins score it; the Python reference's (``math.hypot``; the compiled walk
-    does the same with :func:`hypot`, CPython's algorithm)."""
-    dist = math.hypot(ce - e, cn - n)
-    ux, uy = ((ce - e) / dist, (cn - n) / dist) if dist > 0.0 else (1.0, 0.0)
-    return dist - r, ux, uy
-
-
 def _nearest_distance(E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, delta_c: float, e: float, n: float) -> float:
     """The nearest candidate's ``d`` by :func:`_walk` (reach 0): :meth:`FenceGrid.nearest_distance`."""
     m = ids.shape[0]
@@ -455,12 +450,13 @@ def _lateral_binding(
     """``(activation, turn sign, element id, room, nx, ny, d, v_n, turn angle, d_min)`` of the binding element.
 
     Candidates: the rows ``ids`` of ``E``. ``walk``: they are sorted by ``lbs``, lower bounds of their
-    distance plus ``delta_c`` (an index cell's list, :meth:`FenceGrid.near`'s walk and stop rule); else every
+    distance plus ``delta_c`` (an index cell's list, :meth:`FenceGrid.candidates`; the walk's stop rule:
+    :func:`_walk`); else every
     candidate is scored (the full scan; ``ids`` in element order). Kept: ``d - reach < d_min``. Scored by
     :func:`_fixed_wing_binding` (``turn``, scored for each of ``turns``) or :func:`_multirotor_binding`
-    (``brake``); a tie goes to the lowest element id (the reference's first in element order). Element id -1:
+    (``brake``); a tie goes to the lowest element id (the first in element order). Element id -1:
     no candidate. ``env``: the envelope's terms; ``state``, ``turn``, ``brake``: the per-state terms
-    (:func:`geofence.margins_kernel.lateral_terms`; the other platform kind's are zeros). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges; ``free``: the point
+    (:func:`geofence.margins_kernel.state_terms`; the other platform kind's are zeros). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges; ``free``: the point
     is in the free space (:func:`edge_scored`). Each edge is
     scored by :func:`edge_scored` (``d``, ``nx, ny``: its scored distance and direction; ``d_min`` stays the
     nearest point-segment distance).

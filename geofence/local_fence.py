@@ -24,7 +24,6 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from . import jit as _jit
 from .fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame
 from .heights import AltitudeReference, VerticalExtent
@@ -112,7 +111,6 @@ class LocalFence:
         "recovery_en",
         "recovery_height_m",
         "_inradius",
-        "_no_keepouts",
         "_danger_edges",
         "_gap_edges",
         "_grid",
@@ -154,7 +152,6 @@ class LocalFence:
         self.ceiling_m = fence.ceiling_m
         self.floor_m = fence.floor_m
         self.altitude_reference = fence.altitude_reference
-        self._no_keepouts = not self.keep_out_polygons and not self.keep_out_circles
         n_elements = self.keep_in.n + sum(k.n for k in self.keep_out_polygons) + len(self.keep_out_circles)
         self._use_index = index if index is not None else n_elements >= SMALL_FENCE_ELEMENTS
         self._inradius: tuple[float, float, float] | None = None
@@ -193,7 +190,6 @@ class LocalFence:
             self._grid = FenceGrid(
                 self.danger_edges(),
                 self.keep_out_circles,
-                FEATURE_KEEP_OUT_CIRCLE,
                 self.keep_in,
                 self.keep_out_polygons,
                 line_edges=self.line_scored_edges(),
@@ -209,18 +205,16 @@ class LocalFence:
         return self._line_edges
 
     # ---- scalar margins (per-step)
-    def lateral_margin_m(self, e: float, n: float, nearest_d: float | None = None) -> float:
+    def lateral_margin_m(self, e: float, n: float) -> float:
         """Lateral margin in m: + inside the allowed area, - breached (keep-in or a keep-out).
 
         A step asks it several times at the same estimate (the unit's skip shortcut, its margins, the
         recovery route's projection and carrot): the last answer is remembered (a pure function of (e, n)).
-        ``nearest_d``: the index's nearest element distance at (e, n) when the caller already has it
-        (:meth:`FenceGrid.near`'s ``d_min``), which spares the index's walk.
         """
         if self._memo_en == (e, n):
             return self._memo_margin_m
         grid = self._grid if self._grid is not None else self.grid()
-        m = grid.margin_from_index(e, n, nearest_d) if grid is not None else None
+        m = grid.margin_from_index(e, n) if grid is not None else None
         if m is None:
             m = self.lateral_margin_scan_m(e, n)
         self._memo_en = (e, n)
@@ -244,23 +238,9 @@ class LocalFence:
         return self.lateral_margin_m(e, n) > m
 
     def lateral_margin_scan_m(self, e: float, n: float) -> float:
-        """:meth:`lateral_margin_m` by the full scan of every element (the reference; also the breached case);
-        compiled while :data:`geofence.jit.ACTIVE` (:func:`geofence.scan_kernel.lateral_margin_scan`, the
-        same number)."""
-        if _jit.ACTIVE:
-            return lateral_margin_scan(e, n, *self.scan_tables())
-        m = self.keep_in.signed_distance(e, n)
-        if self._no_keepouts:
-            return m
-        for k in self.keep_out_polygons:
-            d = -k.signed_distance(e, n)
-            if d < m:
-                m = d
-        for ce, cn, r in self.keep_out_circles:
-            d = math.hypot(e - ce, n - cn) - r
-            if d < m:
-                m = d
-        return m
+        """:meth:`lateral_margin_m` by the full scan of every element (also the index's breached case):
+        :func:`geofence.scan_kernel.lateral_margin_scan`."""
+        return lateral_margin_scan(e, n, *self.scan_tables())
 
     def scan_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The compiled scan's tables (cached): the keep-in's edge rows, the keep-outs' rows end to end with
@@ -325,14 +305,7 @@ class LocalFence:
 
     def gap_distance_m(self, e: float, n: float) -> float:
         """Largest floor-gap signed distance (+ inside a gap); ``-inf`` with no gaps."""
-        if _jit.ACTIVE:
-            return self.best_gap(e, n)[1]
-        best = -math.inf
-        for g in self.floor_gaps:
-            d = g.signed_distance(e, n)
-            if d > best:
-                best = d
-        return best
+        return self.best_gap(e, n)[1]
 
     def in_floor_gap(self, e: float, n: float) -> bool:
         """True if (e, n) is inside or on the boundary of a floor gap."""
@@ -453,18 +426,11 @@ class LocalFence:
         return self._gap_edges[gap]
 
     def best_gap(self, e: float, n: float) -> tuple[int, float]:
-        """``(index, signed distance)`` of the floor gap that (e, n) is deepest inside; ``(-1, -inf)`` with no gaps.
-
-        Compiled while :data:`geofence.jit.ACTIVE` (:func:`geofence.scan_kernel.deepest_polygon`, the same numbers).
-        """
-        if _jit.ACTIVE and self.floor_gaps:
-            return deepest_polygon(e, n, *self.gap_table())
-        best, best_d = -1, -math.inf
-        for i, g in enumerate(self.floor_gaps):
-            d = g.signed_distance(e, n)
-            if d > best_d:
-                best, best_d = i, d
-        return best, best_d
+        """``(index, signed distance)`` of the floor gap that (e, n) is deepest inside; ``(-1, -inf)`` with no gaps
+        (:func:`geofence.scan_kernel.deepest_polygon`)."""
+        if not self.floor_gaps:
+            return -1, -math.inf
+        return deepest_polygon(e, n, *self.gap_table())
 
     # ---- whole-fence properties
     def inradius(self) -> tuple[float, float, float]:

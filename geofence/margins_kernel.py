@@ -1,30 +1,19 @@
-"""The activation margins of a state against a fence without an index, compiled whole.
+"""The activation margins of a state against a fence, compiled whole: the one implementation.
 
-It also holds the margins' per-state terms, written once for the kernel and for
-:func:`geofence.boundary_shift.activation_margins`' Python branches alike:
-:func:`lateral_terms` (and :func:`state_terms`, from the state as the kernels
-take it), :func:`vertical_arrests_m` and :func:`vertical_time_to_breach_s`; and
-the two compiled calls an indexed fence's step makes from Python
-(:func:`room_bound`, :func:`state_binding`).
+:func:`geofence.boundary_shift.activation_margins` is a façade over one call here: the per-state terms
+(:func:`state_terms`: reaction time, turn constants, roll-out heading, the room bound), the binding lateral element
+among the candidates (:func:`geofence.lateral_kernel.lateral_binding`), the lateral margin's full scan
+(:func:`geofence.scan_kernel.lateral_margin_scan`), the ceiling, the floor and the floor gap the vehicle is over.
+:func:`margins` scans every element (a fence without a :class:`~geofence.fence_grid.FenceGrid`: the fences
+autopilots store, and most users'); :func:`indexed_margins` searches an index cell's candidates
+(:meth:`geofence.fence_grid.FenceGrid.candidates`, reach :func:`room_bound`): both are :func:`_margins_among`.
+The room formulas are compiled from their one home in :mod:`geofence.rooms` and :mod:`geofence.dynamics`.
+:func:`monitor_margins` is a monitoring unit's step (the skip shortcut :func:`far_from_everything`, then the
+margins) in one call.
 
-One question: :func:`geofence.boundary_shift.activation_margins` for a fence
-small enough to be scanned element by element (no
-:class:`~geofence.fence_grid.FenceGrid`: the fences autopilots store, and most
-users'), as one compiled call: the per-state terms (reaction time, turn
-constants, roll-out heading, the room bound), the binding lateral element
-(:func:`geofence.lateral_kernel.lateral_binding`), the lateral margin's full
-scan (:func:`geofence.scan_kernel.lateral_margin_scan`), the ceiling, the floor
-and the floor gap the vehicle is over. The Python function stays the reference
-(``compiled=False``): the same floats in the same order, the formulas compiled
-from their one home in :mod:`geofence.rooms` and :mod:`geofence.dynamics`, and
-``tests/test_margins_kernel.py`` holds every field of the
-:class:`~geofence.boundary_shift.ShiftResult` equal bit for bit.
-
-The fence's tables (:class:`MarginTables`, built once per fence, packed in one
-float and one int array: a compiled call pays about 0.1 µs per array argument)
-and the envelope's terms (:func:`envelope_terms`) are arrays; the kernel returns
-the result's fields with the binding element's row id in place of its feature,
-index and edge.
+The fence's tables (:class:`MarginTables`, built once per fence, packed in one float and one int array: a
+compiled call pays about 0.1 µs per array argument) and the envelope's terms (:func:`envelope_terms`) are arrays;
+the kernels return the result's fields with the binding element's row id in place of its feature, index and edge.
 """
 
 from __future__ import annotations
@@ -54,16 +43,19 @@ from geofence.rooms import (
 from geofence.scan_kernel import deepest_polygon, lateral_margin_scan, rows_view
 
 __all__ = [
+    "Binding",
+    "Candidates",
     "EnvelopeTerms",
     "MarginTables",
+    "StateTerms",
     "envelope_of_terms",
     "envelope_terms",
     "envelope_tuple",
-    "lateral_terms",
+    "far_from_everything",
+    "indexed_margins",
     "margins",
     "monitor_margins",
     "room_bound",
-    "state_binding",
     "state_terms",
     "vertical_arrests_m",
     "vertical_time_to_breach_s",
@@ -186,6 +178,13 @@ def _column(F: np.ndarray, L: np.ndarray, k: int) -> np.ndarray:
 
 
 @jitable
+def _scalar(F: np.ndarray, L: np.ndarray, i: int) -> float:
+    """Fence scalar ``i`` (:data:`CEILING`, ...) of a packed :class:`MarginTables` (read in place: a view costs a
+    reference count)."""
+    return F[L[2 * SCALARS] + i]
+
+
+@jitable
 def _vector(L: np.ndarray, k: int) -> np.ndarray:
     """Int vector ``k`` of a packed :class:`MarginTables`."""
     start = L[2 * k]
@@ -225,25 +224,76 @@ if numba is not None:
         return impl
 
 
-@jitable
-def lateral_terms(
-    env: EnvelopeTerms, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, speed: float, v_air: float,
-    wspeed: float, extra: float, hu: float, latency_s: float, bank_rad: float, de: float, dn: float, dd: float,
-    g: float,
-) -> tuple[LateralState, FixedWingTurn, MultirotorBrake, Turns, float]:  # fmt: skip
-    """``(state, turn, brake, turns, bound)``: a state's terms for the binding search
-    (:func:`geofence.lateral_kernel.lateral_binding`), the one home of their arithmetic (the margins kernel and
-    :func:`geofence.boundary_shift.activation_margins`' Python branches call it).
+class StateTerms(NamedTuple):
+    """A state's terms for the binding search (:func:`geofence.lateral_kernel.lateral_binding`): the envelope's,
+    the state's own, a fixed-wing's turn and a multirotor's stop (the other kind's are zeros), the two turns a
+    fixed-wing is scored with, and ``bound`` (m): no element farther than the nearest plus this can bind."""
 
-    Arguments as :func:`_margins`'; ``speed``, ``v_air``: the ground and air speed (m/s), ``wspeed`` the wind
-    speed plus ``extra`` (m/s), ``(de, dn)`` the roll-out target from the position and ``dd`` its length (m):
-    the caller's ``hypot`` (CPython's in Python, :func:`geofence.cpython_math.hypot` compiled). Fixed-wing: the
-    reaction phase (the pilot's current turn goes on, and rolling out of the current bank costs up to another
-    roll time, at cruise at least: :func:`~geofence.rooms.fixed_wing_reaction_terms`), the turns to the
-    wind-corrected roll-out heading (:func:`~geofence.rooms.rollout_turns`); multirotor: the worst-case pilot
-    (the tilt limit while below max airspeed) and the climb arrest (it lowers the collective, and with it the
-    horizontal braking force). ``bound``: no element farther than the nearest plus this can bind.
+    env: EnvelopeTerms
+    state: LateralState
+    turn: FixedWingTurn
+    brake: MultirotorBrake
+    turns: Turns
+    bound: float
+
+
+class Candidates(NamedTuple):
+    """The lateral elements a state's binding element is searched among: the rows ``ids`` of the element table
+    ``E``, walked in order of their bounds ``lbs`` (less ``delta_c``) when ``walk`` (an index cell's list,
+    :meth:`geofence.fence_grid.FenceGrid.candidates`), else every one scored; the first ``n_line`` rows are a
+    convex keep-in's edges (:func:`geofence.lateral_kernel.lateral_binding`'s arguments)."""
+
+    E: np.ndarray
+    ids: np.ndarray
+    lbs: np.ndarray
+    walk: bool
+    delta_c: float
+    n_line: int
+
+
+class Binding(NamedTuple):
+    """The binding lateral element of a turn choice: its activation (capped at the lateral margin), turn sign,
+    element id, room, the direction it is scored along, scored distance, closing speed, turn angle and time to
+    breach (:class:`~geofence.boundary_shift.ShiftResult`'s lateral fields)."""
+
+    act: float
+    s: float
+    i: int
+    room: float
+    nx: float
+    ny: float
+    d: float
+    v_n: float
+    angle: float
+    ttb: float
+
+
+MarginFields = tuple[
+    float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float
+]
+""":func:`_margins`' answer: :class:`~geofence.boundary_shift.ShiftResult`'s fields, the binding element's row id in
+place of its feature, index and edge."""
+
+
+@jitable
+def state_terms(
+    V: np.ndarray, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float, latency_s: float,
+    bank_rad: float, wind_extra_mps: float, de: float, dn: float, g: float,
+) -> StateTerms:  # fmt: skip
+    """The :class:`StateTerms` of a state, the one home of their arithmetic; arguments as :func:`_margins`'
+    (``V``: :func:`envelope_terms`; ``(de, dn)``: the roll-out target from the position, m).
+
+    Fixed-wing: the reaction phase (the pilot's current turn goes on, and rolling out of the current bank costs
+    up to another roll time, at cruise at least: :func:`~geofence.rooms.fixed_wing_reaction_terms`), the turns
+    to the wind-corrected roll-out heading (:func:`~geofence.rooms.rollout_turns`); multirotor: the worst-case
+    pilot (the tilt limit while below max airspeed) and the climb arrest (it lowers the collective, and with it
+    the horizontal braking force). Speeds by :func:`geofence.cpython_math.hypot`.
     """
+    env = envelope_of_terms(V)
+    extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
+    speed = hypot(ve, vn)
+    v_air = hypot(ve - wind_e, vn - wind_n)
+    wspeed = hypot(wind_e, wind_n) + extra
     t_r = env.reaction_s + latency_s
     state = LateralState(ve, vn, wind_e, wind_n, extra, hu)
     if env.fixed_wing != 0.0:
@@ -252,174 +302,188 @@ def lateral_terms(
             env.reaction_s, t_r, bank_rad, g,
         )  # fmt: skip
         turn = FixedWingTurn(v_turn, psi_react0, rot, omega_now, t_fw, math.sin(psi_abs), math.cos(psi_abs), radius, inv_omega)
-        turns = Turns(*rollout_turns(de, dn, dd, wind_e, wind_n, v_turn, psi_abs))
+        turns = Turns(*rollout_turns(de, dn, hypot(de, dn), wind_e, wind_n, v_turn, psi_abs))
         bound = fixed_wing_room_bound_m(radius, inv_omega, speed, wspeed, t_fw) + hu
-        return state, turn, MultirotorBrake(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), turns, bound
+        return StateTerms(env, state, turn, MultirotorBrake(0.0, 0.0, 0.0, 0.0, 0.0, 0.0), turns, bound)
     a_tilt = tilt_accel_mps2(env.max_bank_rad, g)
     arrest_t, arrest_loss = climb_arrest_phase(vu, env.vertical_accel_mps2, g)
     bound = multirotor_room_bound_m(speed, t_r, a_tilt, env.k1, env.k2, wspeed, env.braking_mps2, (arrest_t, arrest_loss), hu)
     a_pilot = a_tilt if v_air < env.max_speed_mps else 0.0
     brake = MultirotorBrake(wspeed, speed, a_pilot, t_r, arrest_t, arrest_loss)
     turn = FixedWingTurn(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
-    return state, turn, brake, Turns(0.0, 0.0, 0.0, 0.0), bound
-
-
-@jitable
-def state_terms(
-    V: np.ndarray, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float, latency_s: float,
-    bank_rad: float, wind_extra_mps: float, de: float, dn: float, g: float,
-) -> tuple[EnvelopeTerms, LateralState, FixedWingTurn, MultirotorBrake, Turns, float]:  # fmt: skip
-    """``(env, state, turn, brake, turns, bound)``: :func:`lateral_terms` from the state as :func:`_margins`
-    takes it (``V``: :func:`envelope_terms`; ``(de, dn)``: the roll-out target from the position, m), the
-    speeds by :func:`geofence.cpython_math.hypot`."""
-    env = envelope_of_terms(V)
-    extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0
-    state, turn, brake, turns, bound = lateral_terms(
-        env, ve, vn, vu, wind_e, wind_n, hypot(ve, vn), hypot(ve - wind_e, vn - wind_n), hypot(wind_e, wind_n) + extra,
-        extra, hu, latency_s, bank_rad, de, dn, hypot(de, dn), g,
-    )  # fmt: skip
-    return env, state, turn, brake, turns, bound
+    return StateTerms(env, state, turn, brake, Turns(0.0, 0.0, 0.0, 0.0), bound)
 
 
 def _room_bound(
     V: np.ndarray, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float, latency_s: float,
     bank_rad: float, wind_extra_mps: float, de: float, dn: float, g: float,
 ) -> float:  # fmt: skip
-    """The ``bound`` of :func:`state_terms`: no element farther than the nearest plus this can bind (m)."""
-    return state_terms(V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, de, dn, g)[5]
-
-
-def _state_binding(
-    E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, walk: bool, e: float, n: float, delta_c: float, n_line: int,
-    free: bool, V: np.ndarray, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float,
-    latency_s: float, bank_rad: float, wind_extra_mps: float, de: float, dn: float, g: float, turn_s: float,
-    turn_delta: float,
-) -> tuple[float, float, int, float, float, float, float, float, float, float]:  # fmt: skip
-    """:func:`geofence.lateral_kernel.lateral_binding` of a state (:func:`state_terms`' terms, its reach the
-    bound), for a caller in Python: scalars and arrays cross into compiled code much faster than named tuples.
-    ``turn_s`` 0: the state's own turns; else the one turn ``(turn_s, turn_delta)``."""
-    env, state, turn, brake, turns, bound = state_terms(
-        V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, de, dn, g
-    )
-    if turn_s != 0.0:
-        turns = Turns(turn_s, turn_delta, turn_s, turn_delta)
-    fixed_wing = env.fixed_wing != 0.0
-    return lateral_binding(E, ids, lbs, walk, e, n, bound, delta_c, n_line, free, fixed_wing, env, state, turn, brake, turns)
+    """The ``bound`` of :func:`state_terms` (m): an indexed fence's candidates are the elements within it."""
+    return state_terms(V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, de, dn, g).bound
 
 
 room_bound = compiled(_room_bound)
 """The compiled :func:`_room_bound`."""
 
-state_binding = compiled(_state_binding)
-"""The compiled :func:`_state_binding`."""
+
+@jitable
+def _binding(C: Candidates, e: float, n: float, lat_margin: float, T: StateTerms, turns: Turns) -> Binding:
+    """The :class:`Binding` among the candidates ``C`` for ``turns`` (:func:`geofence.lateral_kernel.lateral_binding`,
+    reach ``T.bound``; from the free space where ``lat_margin >= 0``), its activation capped by ``lat_margin``."""
+    env = T.env
+    act, s, i, room, nx, ny, d, v_n, angle, _ = lateral_binding(
+        C.E, C.ids, C.lbs, C.walk, e, n, T.bound, C.delta_c, C.n_line, lat_margin >= 0.0, env.fixed_wing != 0.0, env,
+        T.state, T.turn, T.brake, turns,
+    )  # fmt: skip
+    act, ttb = capped_lateral(act, lat_margin, d, v_n)
+    return Binding(act, s, i, room, nx, ny, d, v_n, angle, ttb)
+
+
+@jitable
+def _gap_activation(G: np.ndarray, e: float, n: float, T: StateTerms, turns: Turns) -> float:
+    """The activation against a floor gap's edge elements ``G`` (normals out of the gap) from a point inside it
+    (free of it), every edge scored."""
+    cnt = G.shape[0]
+    env = T.env
+    return lateral_binding(
+        G, np.arange(cnt), np.zeros(cnt), False, e, n, T.bound, 0.0, 0, True, env.fixed_wing != 0.0, env, T.state,
+        T.turn, T.brake, turns,
+    )[0]  # fmt: skip
+
+
+class OtherTurn(NamedTuple):
+    """The other turn a fixed-wing over a floor gap may be scored with (:func:`_over_gap`): its direction
+    (0: none) and angle, the floor's activation with its circle, and the activation it must beat (m)."""
+
+    s: float
+    delta: float
+    floor_act: float
+    now: float
+
+
+NO_OTHER_TURN = OtherTurn(0.0, 0.0, 0.0, 0.0)
+
+
+@jitable
+def _over_gap(
+    G: np.ndarray, e: float, n: float, gap_depth_m: float, floor_act: float, climb_m: float, ceiling_act: float,
+    T: StateTerms, lat: Binding,
+) -> tuple[float, OtherTurn]:  # fmt: skip
+    """``(floor activation, other turn)`` over a gap ``gap_depth_m`` deep whose edge elements are ``G``: staying
+    inside it (laterally) also keeps the floor (:func:`floor_with_gap_m`).
+
+    A fixed-wing circles, the way it turns, until it has climbed back ``climb_m`` from its deepest point
+    (:func:`geofence.rooms.gap_circle_turn_rad`). The turn is one for the keep-in and the gap together: where the
+    other turn's circle keeps the gap better, that turn is the one scored (and flown) if its lateral activation
+    allows it (:func:`_margins_among` scores it); it can raise the floor's activation only below the gap's own
+    room."""
+    turns = T.turns
+    if T.env.fixed_wing == 0.0:
+        return floor_with_gap_m(floor_act, _gap_activation(G, e, n, T, turns), gap_depth_m), NO_OTHER_TURN
+    circle = gap_circle_turn_rad(climb_m, T.env.max_climb_mps, T.turn.inv_omega)
+    best = floor_with_gap_m(floor_act, _gap_activation(G, e, n, T, Turns(lat.s, circle, lat.s, circle)), gap_depth_m)
+    if best >= gap_depth_m:
+        return best, NO_OTHER_TURN
+    s_o, delta_o = (turns.s2, turns.delta2) if lat.s == turns.s1 else (turns.s1, turns.delta1)
+    other = floor_with_gap_m(floor_act, _gap_activation(G, e, n, T, Turns(s_o, circle, s_o, circle)), gap_depth_m)
+    now = min(lat.act, best, ceiling_act)
+    if other > best and min(other, ceiling_act) > now:
+        return best, OtherTurn(s_o, delta_o, other, now)
+    return best, NO_OTHER_TURN
+
+
+@jitable
+def _floor(
+    F: np.ndarray, L: np.ndarray, e: float, n: float, h: float, dive_m: float, v_unc: float, ceiling_act: float,
+    T: StateTerms, lat: Binding,
+) -> tuple[float, float, OtherTurn]:  # fmt: skip
+    """``(floor margin, floor activation, other turn)``: ``inf, inf`` without a floor; the gap-aware margin
+    (:meth:`geofence.local_fence.LocalFence.floor_margin_m`) and, over the gap the point is deepest inside
+    (:meth:`~geofence.local_fence.LocalFence.best_gap`), :func:`_over_gap`; else the descent's arrest margin
+    (``dive_m``: how far it goes)."""
+    if _scalar(F, L, HAS_FLOOR) == 0.0:
+        return math.inf, math.inf, NO_OTHER_TURN
+    floor = _scalar(F, L, FLOOR)
+    f_m = h - floor
+    f_act = h - floor - dive_m - v_unc
+    gap_offsets = _vector(L, GAP_OFFSETS)
+    if gap_offsets.shape[0] <= 1:
+        return f_m, f_act, NO_OTHER_TURN
+    gi, gd = deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), gap_offsets)
+    if gd > f_m:
+        f_m = gd
+    if not gd > 0.0:
+        return f_m, f_act, NO_OTHER_TURN
+    edge_offsets = _vector(L, GAP_EDGE_OFFSETS)
+    G = _table(F, L, GAP_EDGES, 7)[edge_offsets[gi] : edge_offsets[gi + 1]]
+    f_act, other = _over_gap(G, e, n, gd, f_act, floor - (h - dive_m - v_unc), ceiling_act, T, lat)
+    return f_m, f_act, other
+
+
+@jitable
+def _margins_among(
+    F: np.ndarray, L: np.ndarray, V: np.ndarray, C: Candidates, e: float, n: float, h: float, ve: float, vn: float,
+    vu: float, wind_e: float, wind_n: float, hu: float, v_unc: float, latency_s: float, bank_rad: float,
+    wind_extra_mps: float, has_target: bool, target_e: float, target_n: float, g: float, lat_margin: float,
+) -> MarginFields:  # fmt: skip
+    """:func:`_margins` with the binding element searched among the candidates ``C``: the one algorithm."""
+    re, rn = (target_e, target_n) if has_target else (_scalar(F, L, RECOVERY_E), _scalar(F, L, RECOVERY_N))
+    T = state_terms(V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, re - e, rn - n, g)
+    if lat_margin != lat_margin:
+        lat_margin = _lateral_margin(F, L, e, n)
+    lat = _binding(C, e, n, lat_margin, T, T.turns)
+    c_m = _scalar(F, L, CEILING) - h
+    c_s, dive = vertical_arrests_m(T.env, vu, T.env.reaction_s + latency_s, v_unc)
+    ceiling_act = c_m - c_s
+    f_m, f_act, other = _floor(F, L, e, n, h, dive, v_unc, ceiling_act, T, lat)
+    if other.s != 0.0:  # the other turn, where its lateral activation allows it
+        o_lat = _binding(C, e, n, lat_margin, T, Turns(other.s, other.delta, other.s, other.delta))
+        if min(o_lat.act, other.floor_act, ceiling_act) > other.now:
+            lat = o_lat
+            f_act = other.floor_act
+    has_floor = _scalar(F, L, HAS_FLOOR) != 0.0
+    f_s = f_m - f_act if has_floor else 0.0
+    v_act = f_act if f_act < ceiling_act else ceiling_act
+    vttb = vertical_time_to_breach_s(c_m, f_m, vu, has_floor)
+    return (
+        v_act if v_act < lat.act else lat.act, lat_margin, lat.room, lat.act, lat.i, lat.nx, lat.ny, lat.d, lat.v_n,
+        lat.ttb, int(lat.s), lat.angle, c_m, c_s, f_m, f_s, v_act, vttb,
+    )  # fmt: skip
 
 
 @jitable
 def _margins(
-    F: np.ndarray,
-    L: np.ndarray,
-    V: np.ndarray,
-    e: float,
-    n: float,
-    h: float,
-    ve: float,
-    vn: float,
-    vu: float,
-    wind_e: float,
-    wind_n: float,
-    hu: float,
-    v_unc: float,
-    latency_s: float,
-    bank_rad: float,
-    wind_extra_mps: float,
-    has_target: bool,
-    target_e: float,
-    target_n: float,
-    g: float,
-    lat_margin: float,
-) -> tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]:  # fmt: skip
-    """:func:`~geofence.boundary_shift.activation_margins` without an index: ``(activation, lateral margin, lateral
-    shift, lateral activation, element id, nx, ny, edge distance, closing speed, time to breach, turn sign,
+    F: np.ndarray, L: np.ndarray, V: np.ndarray, e: float, n: float, h: float, ve: float, vn: float, vu: float,
+    wind_e: float, wind_n: float, hu: float, v_unc: float, latency_s: float, bank_rad: float, wind_extra_mps: float,
+    has_target: bool, target_e: float, target_n: float, g: float, lat_margin: float,
+) -> MarginFields:  # fmt: skip
+    """:func:`~geofence.boundary_shift.activation_margins` scanning every element: ``(activation, lateral margin,
+    lateral shift, lateral activation, element id, nx, ny, edge distance, closing speed, time to breach, turn sign,
     turn angle, ceiling margin, ceiling shift, floor margin, floor shift, vertical activation, vertical time to
-    breach)``; the arguments are the reference's (``h_uncertainty_m`` is ``hu``, ``v_uncertainty_m`` ``v_unc``;
+    breach)``; the arguments are its own (``h_uncertainty_m`` is ``hu``, ``v_uncertainty_m`` ``v_unc``;
     ``has_target``: a ``rollout_target_en`` is given). ``F, L``: a fence's packed :class:`MarginTables`.
-    ``lat_margin``: the lateral margin at (e, n) when the caller has it (:func:`_lateral_margin`), NaN: not yet."""
-    S = _column(F, L, SCALARS)
-    re, rn = (target_e, target_n) if has_target else (S[RECOVERY_E], S[RECOVERY_N])
-    env, state, turn, brake, turns, bound = state_terms(
-        V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, re - e, rn - n, g
-    )
-    fixed_wing = env.fixed_wing != 0.0
-    t_r = env.reaction_s + latency_s
+    ``lat_margin``: the lateral margin at (e, n) when the caller has it, NaN: the full scan's
+    (:func:`_lateral_margin`)."""
+    C = Candidates(_table(F, L, ELEMENTS, 7), _vector(L, IDS), _column(F, L, ZEROS), False, 0.0, int(_scalar(F, L, LINE_EDGES)))
+    return _margins_among(
+        F, L, V, C, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps, has_target,
+        target_e, target_n, g, lat_margin,
+    )  # fmt: skip
 
-    if lat_margin != lat_margin:
-        lat_margin = _lateral_margin(F, L, e, n)
-    E, ids, zeros, n_line = _table(F, L, ELEMENTS, 7), _vector(L, IDS), _column(F, L, ZEROS), int(S[LINE_EDGES])
-    lat_act, s_best, i_bind, room, nx, ny, d_edge, v_n, turn_angle, min_d = lateral_binding(
-        E, ids, zeros, False, e, n, bound, 0.0, n_line, lat_margin >= 0.0, fixed_wing, env, state, turn, brake, turns
-    )
-    lat_act, ttb = capped_lateral(lat_act, lat_margin, d_edge, v_n)
 
-    # vertical
-    c_m = S[CEILING] - h
-    c_s, f_dive = vertical_arrests_m(env, vu, t_r, v_unc)
-    ceiling_act = c_m - c_s
-    if S[HAS_FLOOR] == 0.0:
-        f_m, f_s, f_act = math.inf, 0.0, math.inf
-    else:
-        floor = S[FLOOR]
-        f_m = h - floor
-        f_act = h - floor - f_dive - v_unc
-        gap_offsets = _vector(L, GAP_OFFSETS)
-        n_gaps = gap_offsets.shape[0] - 1
-        if n_gaps > 0:
-            # the gap the point is deepest inside (LocalFence.best_gap)
-            gi, gd = deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), gap_offsets)
-            if gd > f_m:  # the gap-aware floor margin (LocalFence.floor_margin_m)
-                f_m = gd
-            if gd > 0.0:  # over a gap: staying inside it (laterally) also keeps the floor
-                edge_offsets = _vector(L, GAP_EDGE_OFFSETS)
-                G = _table(F, L, GAP_EDGES, 7)[edge_offsets[gi] : edge_offsets[gi + 1]]
-                cnt = G.shape[0]
-                g_turns = turns
-                circle = 0.0
-                if fixed_wing:  # it circles, the way it turns, until it has climbed back from its deepest point
-                    deepest = h - f_dive - v_unc
-                    circle = gap_circle_turn_rad(floor - deepest, env.max_climb_mps, turn.inv_omega)
-                    g_turns = Turns(s_best, circle, s_best, circle)
-                g_ids = np.arange(cnt)
-                g_lbs = np.zeros(cnt)
-                g_act = lateral_binding(
-                    G, g_ids, g_lbs, False, e, n, bound, 0.0, 0, True, fixed_wing, env, state, turn, brake, g_turns
-                )[0]
-                floor_best = floor_with_gap_m(f_act, g_act, gd)
-                if fixed_wing and floor_best < gd:
-                    # the turn is one for the keep-in and the gap together (activation_margins: the reference);
-                    # the other turn's circle can raise the floor's activation only below the gap's own room
-                    s_o, delta_o = (turns.s2, turns.delta2) if s_best == turns.s1 else (turns.s1, turns.delta1)
-                    g_o = lateral_binding(
-                        G, g_ids, g_lbs, False, e, n, bound, 0.0, 0, True, fixed_wing, env, state, turn, brake,
-                        Turns(s_o, circle, s_o, circle),
-                    )[0]  # fmt: skip
-                    floor_o = floor_with_gap_m(f_act, g_o, gd)
-                    now = min(lat_act, floor_best, ceiling_act)
-                    if floor_o > floor_best and min(floor_o, ceiling_act) > now:
-                        o_act, o_s, o_bind, o_room, o_nx, o_ny, o_d, o_vn, o_angle, _ = lateral_binding(
-                            E, ids, zeros, False, e, n, bound, 0.0, n_line, lat_margin >= 0.0, fixed_wing, env,
-                            state, turn, brake, Turns(s_o, delta_o, s_o, delta_o),
-                        )  # fmt: skip
-                        o_lat, o_ttb = capped_lateral(o_act, lat_margin, o_d, o_vn)
-                        if min(o_lat, floor_o, ceiling_act) > now:
-                            lat_act, ttb, s_best, i_bind, room = o_lat, o_ttb, o_s, o_bind, o_room
-                            nx, ny, d_edge, v_n, turn_angle = o_nx, o_ny, o_d, o_vn, o_angle
-                            floor_best = floor_o
-                f_act = floor_best
-        f_s = f_m - f_act
-    v_act = f_act if f_act < ceiling_act else ceiling_act
-    vttb = vertical_time_to_breach_s(c_m, f_m, vu, S[HAS_FLOOR] != 0.0)
-    return (
-        v_act if v_act < lat_act else lat_act, lat_margin, room, lat_act, i_bind, nx, ny, d_edge, v_n, ttb,
-        int(s_best), turn_angle, c_m, c_s, f_m, f_s, v_act, vttb,
+def _indexed_margins(
+    F: np.ndarray, L: np.ndarray, V: np.ndarray, ids: np.ndarray, lbs: np.ndarray, walk: bool, delta_c: float,
+    e: float, n: float, h: float, ve: float, vn: float, vu: float, wind_e: float, wind_n: float, hu: float,
+    v_unc: float, latency_s: float, bank_rad: float, wind_extra_mps: float, has_target: bool, target_e: float,
+    target_n: float, g: float, lat_margin: float,
+) -> MarginFields:  # fmt: skip
+    """:func:`_margins` of an indexed fence, the binding element searched among an index cell's candidates
+    (``ids, lbs, walk, delta_c``: :class:`Candidates`' fields, from :meth:`geofence.fence_grid.FenceGrid.candidates`)
+    and ``lat_margin`` the index's lateral margin at (e, n)."""
+    C = Candidates(_table(F, L, ELEMENTS, 7), ids, lbs, walk, delta_c, int(_scalar(F, L, LINE_EDGES)))
+    return _margins_among(
+        F, L, V, C, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps, has_target,
+        target_e, target_n, g, lat_margin,
     )  # fmt: skip
 
 
@@ -469,7 +533,6 @@ def far_from_everything(
     """:meth:`geofence.unit.GeofenceUnit._far_from_everything` on the tables (its reference): no element, ceiling or
     floor within the largest room the state can need (:func:`geofence.rooms.room_upper_bounds_terms` at the wind
     speed plus ``allowance`` over the time ``t_s``, plus the uncertainties ``hu`` and ``v_unc``), and the lateral margin at (e, n) when it was computed (else NaN)."""
-    S = _column(F, L, SCALARS)
     env = envelope_of_terms(V)
     fixed_wing = env.fixed_wing != 0.0
     w = hypot(wind_e, wind_n) + allowance
@@ -482,15 +545,16 @@ def far_from_everything(
         return False, math.nan
     room += hu
     vroom += v_unc
-    if S[CEILING] - h <= vroom:
+    if _scalar(F, L, CEILING) - h <= vroom:
         return False, math.nan
     lat = _lateral_margin(F, L, e, n)
     if not lat > room:
         return False, lat
-    if S[HAS_FLOOR] == 0.0 or h - S[FLOOR] > vroom:
+    floor = _scalar(F, L, FLOOR)
+    if _scalar(F, L, HAS_FLOOR) == 0.0 or h - floor > vroom:
         return True, lat
     if fixed_wing:  # it circles in a gap while it climbs back: the circle drifts (an upper bound)
-        room += climb_back_drift_m(S[FLOOR] + vroom - h, env.max_climb_mps, w)
+        room += climb_back_drift_m(floor + vroom - h, env.max_climb_mps, w)
     return deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), _vector(L, GAP_OFFSETS))[1] > room, lat
 
 
@@ -522,6 +586,9 @@ def _monitor_margins(
 
 margins = compiled(_margins)
 """The compiled :func:`_margins` (the Python function itself without numba)."""
+
+indexed_margins = compiled(_indexed_margins)
+"""The compiled :func:`_indexed_margins` (the Python function itself without numba)."""
 
 monitor_margins = compiled(_monitor_margins)
 """The compiled :func:`_monitor_margins` (the Python function itself without numba)."""

@@ -5,11 +5,10 @@ One question (and its twin for the floor gaps, :func:`deepest_polygon`):
 (the keep-in's signed distance, less each keep-out polygon's, each circle's
 ``hypot - radius``, the smallest), for a small fence's every step and for the
 breached points of a large one, as one compiled call over float tables built
-once per fence. The per-polygon Python loops
-(:meth:`geofence.polygon.PolygonIndex.signed_distance`) are the reference:
-the same floats in the same order, CPython's ``hypot``
-(:func:`geofence.cpython_math.hypot`), and ``tests/test_lateral_kernel.py``
-holds the two equal bit for bit.
+once per fence: the arithmetic of :meth:`geofence.polygon.PolygonIndex.signed_distance`
+with CPython's ``hypot`` (:func:`geofence.cpython_math.hypot`);
+``tests/test_lateral_kernel.py`` holds it to the vectorised margins
+(:meth:`~geofence.local_fence.LocalFence.lateral_margin_array`).
 """
 
 from __future__ import annotations
@@ -82,7 +81,7 @@ def _lateral_margin_scan(
 ) -> float:
     """:meth:`LocalFence.lateral_margin_scan_m`: the keep-in's signed distance, less every keep-out polygon's
     (rows ``offsets[k]:offsets[k + 1]`` of ``keep_outs``) and every circle's ``hypot - r`` (rows ``(e, n, r)``),
-    the smallest; the same floats in the same order."""
+    the smallest."""
     m = signed_distance_rows(keep_in, e, n)
     for k in range(offsets.shape[0] - 1):
         d = -signed_distance_rows(keep_outs[offsets[k] : offsets[k + 1]], e, n)

@@ -2,7 +2,8 @@
 ``tests/test_architecture.py`` checks it).
 
 Twins: :func:`same_bits` (every field equal bit for bit) and :func:`fly_both_ways` (a flight compiled and on
-the plain-Python reference, the same trajectory bytes).
+the plain-Python reference, the same trajectory bytes). Conformance: :func:`close_fields`; margins computed two
+ways: :func:`same_margins`.
 
 Random fences and states: the frame :data:`FRAME`, the envelopes :data:`FW` (Tern) and :data:`MC` (F450RD),
 :func:`latlon`; :func:`random_fence` (noisy star-shaped keep-ins with keep-out squares and circles) and
@@ -429,5 +430,22 @@ def close_fields(a, b, rel: float = CONFORMANCE_REL) -> bool:
         if x == y or (math.isnan(x) and math.isnan(y)):
             continue
         if not abs(x - y) <= rel * max(abs(x), abs(y)):
+            return False
+    return True
+
+
+SAME_MARGINS_M = 1e-9
+"""Two :class:`~geofence.boundary_shift.ShiftResult` computed two ways that must agree (a fence with and without
+its index): every float field within this many metres (relative beyond a metre)."""
+
+
+def same_margins(a, b, tol: float = SAME_MARGINS_M) -> bool:
+    """Every float field of two results within ``tol`` (times ``1 + |b|``; infinities and NaNs equal to themselves),
+    every string and integer field (the binding element, the turn sign) equal."""
+    for x, y in zip(a, b, strict=True):
+        if isinstance(x, (str, int)):
+            if x != y:
+                return False
+        elif not (x == y or (math.isnan(x) and math.isnan(y)) or abs(x - y) <= tol * (1.0 + abs(y))):
             return False
     return True

@@ -14,8 +14,8 @@ Checked here, for a fixed-wing at sea level and at high sites (the envelope at t
 0.7 of its airspeed, on random concave star keep-ins, U-shaped keep-ins (an inner notch: two reflex corners) and
 star keep-ins with keep-out squares and circles: the manoeuvre the margin scores, flown numerically, leaves the
 allowed area only if the activation margin is negative. A multirotor heading straight at a corner needs the room of
-its full speed, as against a wall. ``tests/test_lateral_kernel.py`` holds the compiled search to the Python
-reference on the same kinds of fences.
+its full speed, as against a wall. ``tests/test_binding_edge.py`` holds the binding search to the exhaustive
+minimum over every element.
 """
 
 import math

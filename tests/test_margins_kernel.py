@@ -1,11 +1,13 @@
-"""Property: the compiled margins of a fence without an index are the reference's, bit for bit.
+"""Properties of the compiled margins (:mod:`geofence.margins_kernel`) beyond the lateral rooms.
 
-:func:`geofence.margins_kernel.margins` answers :func:`activation_margins` for a fence the unit scans element by
-element, as one compiled call. On random fences with keep-outs, a floor and floor gaps (the vertical part and the
-gap the vehicle is over: the floor-gap edges scored as lateral boundaries, the fixed-wing's climb-back drift),
-at states above and below the floor, inside and outside gaps, near the ceiling, climbing and descending, for both
-platform kinds, every field of the :class:`ShiftResult` must equal the plain-Python reference's
-(``compiled=False``) as floats' bits; and the lateral margin the kernel found is the fence's remembered answer.
+On random fences with keep-outs, a floor and floor gaps, at states above and below the floor, inside and outside
+gaps, near the ceiling, climbing and descending, for both platform kinds, the fields of the :class:`ShiftResult`
+agree with independent answers: the plain margins with the vectorised margins of the fence
+(:meth:`LocalFence.lateral_margin_array`, :meth:`~LocalFence.floor_margin_array`), the ceiling's shift with the
+arrest distance, the activation with the smaller of its lateral and vertical parts, the floor's with the larger
+of the descent's arrest margin and (over a gap) the gap's room; and the lateral margin the kernel found is the
+fence's remembered answer. A monitoring unit's step in one call (the skip shortcut, then the margins) answers as
+its plain-Python shortcut does. One conformance test per compiled entry point (``.py_func``, 1e-9 relative).
 """
 
 import math
@@ -24,7 +26,7 @@ from support import (
     probe_points,
     random_fence,
     random_margin_call,
-    same_bits,
+    same_margins,
 )
 
 from geofence.boundary_shift import activation_margins
@@ -32,8 +34,11 @@ from geofence.config import parse_geofence
 from geofence.fence import Fence
 from geofence.interface import VehicleState
 from geofence.jit import COMPILED, use_compiled
-from geofence.margins_kernel import envelope_terms, margins, monitor_margins, room_bound, state_binding
+from geofence.margins_kernel import envelope_terms, indexed_margins, margins, monitor_margins, room_bound
+from geofence.rooms import vertical_arrest_distance_m
 from geofence.unit import GeofenceUnit
+
+TOL_M = 1e-9
 
 
 def fence_with_gaps(seed: int, n_vertices: int, n_squares: int, n_circles: int, n_gaps: int) -> Fence:
@@ -64,10 +69,38 @@ SMALL_FENCES = dict(
 """Random fences a flight scans in full (no index): their shapes, keep-outs and floor gaps."""
 
 
+def check_fields(local, r, e: float, n: float, h: float, vu: float, env, kw: dict) -> None:
+    """The fields of ``r`` (the margins at (e, n, h)) against the fence's own and closed-form answers."""
+    lat = float(local.lateral_margin_array([(e, n)])[0])
+    assert local.lateral_margin_m(e, n) == r.lateral_margin_m  # remembered
+    assert abs(r.lateral_margin_m - lat) <= TOL_M
+    assert r.lateral_activation_m <= r.lateral_margin_m
+    assert r.ceiling_margin_m == local.ceiling_m - h
+    t_r = env.reaction_time_s + kw["latency_s"]
+    climb = vertical_arrest_distance_m(vu, t_r, env.vertical_accel_mps2, env.max_climb_rate_mps)
+    assert abs(r.ceiling_shift_m - (climb + kw["v_uncertainty_m"])) <= TOL_M
+    assert r.activation_margin_m == min(r.lateral_activation_m, r.vertical_activation_m)
+    ceiling_act = r.ceiling_margin_m - r.ceiling_shift_m
+    if local.floor_m is None:
+        assert r.floor_margin_m == math.inf and r.vertical_activation_m == ceiling_act
+        return
+    floor_m = float(local.floor_margin_array([(e, n)], [h])[0])
+    assert abs(r.floor_margin_m - floor_m) <= TOL_M
+    dive = vertical_arrest_distance_m(-vu, t_r, env.vertical_accel_mps2, env.max_descent_rate_mps)
+    arrest = h - local.floor_m - dive - kw["v_uncertainty_m"]
+    floor_act = r.floor_margin_m - r.floor_shift_m
+    gap = float(local.gap_distance_array([(e, n)])[0]) if local.floor_gaps else -math.inf
+    assert floor_act >= arrest - TOL_M  # the larger of the arrest margin and the gap's
+    assert floor_act <= max(arrest, gap) + TOL_M  # the gap's no larger than how deep inside it the point is
+    if gap <= 0.0:
+        assert abs(floor_act - arrest) <= TOL_M
+    assert abs(r.vertical_activation_m - min(ceiling_act, floor_act)) <= TOL_M
+
+
 @settings(max_examples=25, deadline=None)
 @given(**SMALL_FENCES, floor=st.booleans())
 @example(seed=5004, n_vertices=15, n_squares=1, n_circles=1, n_gaps=2, floor=True)  # a tie at a keep-out's corner
-def test_compiled_margins_without_an_index_equal_the_reference(seed, n_vertices, n_squares, n_circles, n_gaps, floor):
+def test_the_margins_agree_with_the_fences_own_answers(seed, n_vertices, n_squares, n_circles, n_gaps, floor):
     fence = (
         fence_with_gaps(seed, n_vertices, n_squares, n_circles, n_gaps)
         if floor
@@ -85,47 +118,37 @@ def test_compiled_margins_without_an_index_equal_the_reference(seed, n_vertices,
             args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True, rollout=True)
             h = rng.choice([30.0, 21.0, 19.0, 5.0, 118.0, 125.0, rng.uniform(0.0, 130.0)])
             args = (args[0], args[1], h, *args[3:])
-            a = activation_margins(local, *args, **kw, compiled=True)  # without numba: the kernel's Python form
-            assert local.lateral_margin_m(e, n) == a.lateral_margin_m  # remembered, and the scan's number
-            ref = activation_margins(local, *args, **kw, compiled=False)
-            assert same_bits(a, ref), (e, n, h, env.kind)
+            r = activation_margins(local, *args, **kw)
+            check_fields(local, r, e, n, h, args[5], env, kw)
 
 
-def test_over_a_gap_below_the_floor_the_gap_binds_both_ways():
-    """A multirotor and a fixed-wing below the floor inside a gap: the floor activation comes from the gap's
-    edges (finite, not the plain floor arrest) in the compiled margins as in the reference."""
+def test_over_a_gap_below_the_floor_the_gap_binds():
+    """A multirotor and a fixed-wing below the floor inside a gap: the floor margin is the gap's (positive) and
+    the vertical activation finite."""
     fence = fence_with_gaps(3, 16, 0, 0, 0)
     gap = tuple(latlon(x, y) for x, y in ((-30, -30), (30, -30), (30, 30), (-30, 30)))
     fence = Fence(keep_in=fence.keep_in, ceiling_m=fence.ceiling_m, floor_m=20.0, floor_gaps=(gap,))
     local = fence.to_local(FRAME)
     for env in (MC, FW):
-        args = (local, 10.0, 5.0, 12.0, 3.0, 1.0, -1.0, env, 2.0, -1.0)
-        a = activation_margins(*args, compiled=True)
-        ref = activation_margins(*args, compiled=False)
-        assert same_bits(a, ref)
+        a = activation_margins(local, 10.0, 5.0, 12.0, 3.0, 1.0, -1.0, env, 2.0, -1.0)
         assert a.floor_margin_m > 0.0 and math.isfinite(a.vertical_activation_m)
 
 
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 10_000), n_gaps=st.integers(1, 4))
-def test_compiled_gap_queries_equal_the_polygon_loops(seed, n_gaps):
-    """:meth:`LocalFence.best_gap` and :meth:`gap_distance_m` compiled (:func:`geofence.scan_kernel.deepest_polygon`)
-    equal the per-gap Python loops, inside, on and around overlapping gaps."""
+def test_the_gap_queries_equal_the_vectorised_distances(seed, n_gaps):
+    """:meth:`LocalFence.best_gap` (compiled, :func:`geofence.scan_kernel.deepest_polygon`) and
+    :meth:`~LocalFence.gap_distance_m` equal :meth:`~LocalFence.gap_distance_array` within 1e-9 m, inside, on and
+    around overlapping gaps, and the gap it names is one that deep."""
     local = fence_with_gaps(seed, 12, 0, 0, n_gaps).to_local(FRAME)
     rng = random.Random(seed)
     points = [(rng.uniform(-90, 90), rng.uniform(-90, 90)) for _ in range(150)]
-    points += [v for g in local.floor_gaps for v in g.vertices]
-    for e, n in points:
-        previous = use_compiled(True)
-        try:
-            got = (local.best_gap(e, n), local.gap_distance_m(e, n))
-        finally:
-            use_compiled(False)
-        try:
-            ref = (local.best_gap(e, n), local.gap_distance_m(e, n))
-        finally:
-            use_compiled(previous)
-        assert repr(got) == repr(ref), (e, n)
+    points += [tuple(v) for g in local.floor_gaps for v in g.vertices]
+    want = local.gap_distance_array(points)
+    for (e, n), d in zip(points, want):
+        gi, gd = local.best_gap(e, n)
+        assert abs(gd - d) <= TOL_M and local.gap_distance_m(e, n) == gd, (e, n)
+        assert abs(local.floor_gaps[gi].signed_distance(e, n) - d) <= TOL_M, (e, n)
 
 
 def _unit_on(fence: Fence, env, seed: int) -> GeofenceUnit:
@@ -144,8 +167,8 @@ def _unit_on(fence: Fence, env, seed: int) -> GeofenceUnit:
 
 
 def monitoring_outcomes(seed: int, n_vertices: int, n_squares: int, n_circles: int, n_gaps: int, floor: str) -> set:
-    """Checks a unit's monitoring steps compiled against the reference (see the property below) on one random
-    fence; returns the ``(platform kind, skipped)`` outcomes met."""
+    """Checks a unit's monitoring steps in one compiled call against its plain-Python skip shortcut then the
+    margins (see the property below) on one random fence; returns the ``(platform kind, skipped)`` outcomes met."""
     if floor == "none":
         fence = random_fence(seed, n_vertices, n_squares, n_circles)
     else:
@@ -185,7 +208,7 @@ def monitoring_outcomes(seed: int, n_vertices: int, n_squares: int, n_circles: i
             got, ref = answers
             assert (got is None) == (ref is None), (e, n, h, env.kind)
             if got is not None:
-                assert same_bits(got, ref), (e, n, h, env.kind)
+                assert same_margins(got, ref), (e, n, h, env.kind)
             outcomes.add((env.kind, got is None))
     return outcomes
 
@@ -194,9 +217,10 @@ def monitoring_outcomes(seed: int, n_vertices: int, n_squares: int, n_circles: i
 @given(**SMALL_FENCES, floor=st.sampled_from(["none", "gaps", "wide gap"]))
 def test_a_monitoring_step_is_the_skip_shortcut_then_the_margins(seed, n_vertices, n_squares, n_circles, n_gaps, floor):
     """A predictive unit's monitoring step in one compiled call (:func:`geofence.boundary_shift.monitor_margins`)
-    answers as the reference does: the skip shortcut (:meth:`GeofenceUnit._far_from_everything`) and, unless it
-    holds, the margins, every field bit for bit; far from everything, near the edges, the ceiling, the floor
-    and its gaps, in winds a multirotor cannot brake against (no bound: never skipped)."""
+    answers as its plain-Python shortcut (:meth:`GeofenceUnit._far_from_everything`, with
+    :func:`geofence.jit.use_compiled` off) and, unless it holds, the margins do (every field within 1e-9 m); far
+    from everything, near the edges, the ceiling, the floor and its gaps, in winds a multirotor cannot brake
+    against (no bound: never skipped)."""
     outcomes = monitoring_outcomes(seed, n_vertices, n_squares, n_circles, n_gaps, floor)
     assert {o for o in outcomes if not o[1]} == {(MC.kind, False), (FW.kind, False)}  # the margins, both kinds
 
@@ -240,7 +264,7 @@ def _kernel_calls(seed: int, n_gaps: int):
 @given(seed=st.integers(0, 10_000), n_gaps=st.integers(0, 3))
 def test_margins_compiled_is_its_python_source(seed, n_gaps):
     for args, _ in _kernel_calls(seed, n_gaps):
-        assert close_fields(margins(*args), margins.py_func(*args)), args[3:6]
+        assert close_fields(margins(*args), margins.py_func(*args), 1e-9), args[3:6]
 
 
 @needs_numba
@@ -250,28 +274,35 @@ def test_monitor_margins_compiled_is_its_python_source(seed, n_gaps):
     for _, args in _kernel_calls(seed, n_gaps):
         far, fields = monitor_margins(*args)
         far_py, fields_py = monitor_margins.py_func(*args)
-        assert far == far_py and close_fields(fields, fields_py), args[3:6]
+        assert far == far_py and close_fields(fields, fields_py, 1e-9), args[3:6]
 
 
 @needs_numba
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 10_000), n_vertices=st.integers(60, 600), n_squares=st.integers(0, 8))
-def test_room_bound_and_state_binding_compiled_are_their_python_source(seed, n_vertices, n_squares):
-    """:func:`geofence.margins_kernel.room_bound` and :func:`~geofence.margins_kernel.state_binding` (the indexed
-    fence's per-step calls from Python), with the state's own turns and with one given turn."""
+def test_room_bound_and_indexed_margins_compiled_are_their_python_source(seed, n_vertices, n_squares):
+    """:func:`geofence.margins_kernel.room_bound` and :func:`~geofence.margins_kernel.indexed_margins` (an indexed
+    fence's per-step calls), over an index cell's candidates and over every element."""
     local = random_fence(seed, n_vertices, n_squares, 2).to_local(FRAME, index=True)
-    E, _meta, _ids, _zeros = local.element_table()
+    F, L = local.margin_tables()
+    _E, _meta, all_ids, zeros = local.element_table()
     rng = random.Random(seed)
     for e, n in probe_points(local, rng, 20):
         for env in (MC, FW):
             args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True)
             _, _, _, ve, vn, vu, _, we, wn = args
             re, rn = local.recovery_en
-            state = (envelope_terms(env), ve, vn, vu, we, wn, kw["h_uncertainty_m"], kw["latency_s"], kw["bank_rad"])
-            state += (kw["wind_extra_mps"], re - e, rn - n, 9.80665)
+            V = envelope_terms(env)
+            hu, v_unc, lat_s, bank, extra = (
+                kw[k] for k in ("h_uncertainty_m", "v_uncertainty_m", "latency_s", "bank_rad", "wind_extra_mps")
+            )
+            state = (V, ve, vn, vu, we, wn, hu, lat_s, bank, extra, re - e, rn - n, 9.80665)
             bound = room_bound(*state)
-            assert close_fields((bound,), (room_bound.py_func(*state),))
-            ids, lbs, delta = local.grid().candidates(e, n, bound)
-            for turn in ((0.0, 0.0), (rng.choice([1.0, -1.0]), rng.uniform(0.0, 6.3))):
-                call = (E, ids, lbs, True, e, n, delta, local.line_scored_edges(), True, *state, *turn)
-                assert close_fields(state_binding(*call), state_binding.py_func(*call)), (e, n, env.kind)
+            assert close_fields((bound,), (room_bound.py_func(*state),), 1e-9)
+            ids, lbs, delta = local.grid().candidates(e, n, bound) if bound < math.inf else (all_ids, zeros, 0.0)
+            lat = local.lateral_margin_m(e, n)
+            for walk in (bound < math.inf, False):
+                cand = (ids, lbs, walk, delta) if walk else (all_ids, zeros, False, 0.0)
+                call = (F, L, V, *cand, e, n, 30.0, ve, vn, vu, we, wn, hu, v_unc, lat_s, bank, extra)
+                call += (False, 0.0, 0.0, 9.80665, lat)
+                assert close_fields(indexed_margins(*call), indexed_margins.py_func(*call), 1e-9), (e, n, env.kind)
