@@ -1,4 +1,4 @@
-"""Benchmark: geofence unit cost per update against fence size: compiled, Python and unindexed, side by side.
+"""Benchmark: geofence unit cost per update against fence size: indexed and unindexed, side by side.
 
 For fences of one family -- a noisy star-shaped keep-in about 6 km across with
 ``V`` vertices and ``K`` square keep-outs (20-40 m buildings on a jittered grid)
@@ -17,9 +17,7 @@ For fences of one family -- a noisy star-shaped keep-in about 6 km across with
 Each case runs three ways in the same run: with the fence index and the
 compiled search (``index``, what a flight uses from
 :data:`geofence.fence_grid.SMALL_FENCE_ELEMENTS` elements on), with the index
-and :func:`geofence.jit.use_compiled` off (``python``: the unit's remaining
-plain-Python twins, its skip shortcut and the recovery planner's segment tests;
-the margins are one compiled call either way), and with the full scan of
+and with the full scan of
 every element (``scan``, no index: what a flight uses below that, its whole
 margin one compiled call); medians of repeats. It prints a table and saves
 ``bench/fence_scale.png`` (log-log).
@@ -43,7 +41,6 @@ from geofence.config import GeofenceConfig
 from geofence.fence import Fence
 from geofence.geodesy import LocalFrame
 from geofence.interface import StickCommand, VehicleState
-from geofence.jit import use_compiled
 from geofence.unit import GeofenceUnit
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
@@ -52,9 +49,8 @@ DT_S = 1.0 / 40.0
 WIND_EN = (6.0 * math.cos(0.7), 6.0 * math.sin(0.7))
 PLATFORMS = ("F450RD", "Tern")
 DEFAULT_FIGURE = Path(__file__).with_name("fence_scale.png")
-VARIANTS = ("index", "python", "scan")
-"""Per case: the index with the compiled search, the index with :func:`geofence.jit.use_compiled` off (the
-unit's plain-Python twins), and the full scan (no index, compiled)."""
+VARIANTS = ("index", "scan")
+"""Per case: the index with the compiled search, and the full scan (no index, compiled)."""
 INDEX_CALLS = 2_000
 """Updates timed per case with the index: 50 s of flight, some 850 m along the boundary at the Tern's cruise speed.
 Long enough to meet stretches where the fixed-wing's route to the recovery point bends round keep-outs (a route
@@ -250,7 +246,7 @@ def main() -> None:
     rows = []
     print(
         f"{'vertices':>9s} {'keep-outs':>9s} {'build s':>8s}  "
-        + "  ".join(f"{p + ' ' + w + ' µs: index/python/scan':>34s}" for p in PLATFORMS for w in ("near", "far"))
+        + "  ".join(f"{p + ' ' + w + ' µs: index/scan':>22s}" for p in PLATFORMS for w in ("near", "far"))
     )
     for nv, nk in sizes:
         t0 = time.perf_counter()
@@ -267,23 +263,19 @@ def main() -> None:
                     ):
                         res[variant] = (math.nan, 0)  # see CITY_LIMIT_KEEP_OUTS, PLANNER_LIMIT_ELEMENTS
                         continue
-                    index, compiled = variant != "scan", variant != "python"
+                    index = variant != "scan"
                     # a full scan of 100k elements costs ~0.1 s per call: time fewer calls there
                     calls = INDEX_CALLS if (index or nv + 4 * nk <= 2000) else (60 if nv + 4 * nk <= 30000 else 12)
                     if args.quick:
                         calls = min(calls, 200)
-                    previous = use_compiled(compiled)
-                    try:
-                        runs = [time_updates(fence, platform, near, index, calls) for _ in range(args.repeats)]
-                    finally:
-                        use_compiled(previous)
+                    runs = [time_updates(fence, platform, near, index, calls) for _ in range(args.repeats)]
                     res[variant] = (statistics.median(r[0] for r in runs), max(r[1] for r in runs))
                 cells.append((platform, near, *(res[v][0] for v in VARIANTS), sum(res[v][1] for v in VARIANTS)))
         rows.append((nv, nk, build, cells))
         print(f"{nv:9d} {nk:9d} {build:8.1f}  " + "  ".join(_cell_text(c) for c in cells), flush=True)
     print("(! = the unit activated during the run: the case measured an override, not monitoring;")
     print(
-        f" nan = not measured: the fixed-wing's Python and full scan above {CITY_LIMIT_KEEP_OUTS:,} keep-outs and its"
+        f" nan = not measured: the fixed-wing's full scan above {CITY_LIMIT_KEEP_OUTS:,} keep-outs and its"
         f" full scan above {PLANNER_LIMIT_ELEMENTS:,} elements, see CITY_LIMIT_KEEP_OUTS and PLANNER_LIMIT_ELEMENTS)"
     )
     partial = bool(args.sizes or args.quick)
@@ -296,8 +288,8 @@ def main() -> None:
 
 
 def _cell_text(c: tuple) -> str:
-    """One platform and position's ``index / python / scan`` µs, ``!`` if the unit activated."""
-    return f"{c[2]:10.1f} / {c[3]:9.1f} / {c[4]:9.1f}" + ("!" if c[5] else " ")
+    """One platform and position's ``index / scan`` µs, ``!`` if the unit activated."""
+    return f"{c[2]:10.1f} / {c[3]:9.1f}" + ("!" if c[4] else " ")
 
 
 def _read_table(path: Path) -> list:
@@ -343,18 +335,7 @@ def _plot(rows, out: Path) -> None:
             colour, marker = styles[(platform, near)]
             label = f"{platform} {'near edge' if near else 'far'}"
             ax.plot(xs, [r[3][k][2] for r in part], color=colour, marker=marker, label=label + ", index")
-            if near:  # the Python reference beside the compiled search (far from the fence both skip it)
-                ax.plot(
-                    xs,
-                    [r[3][k][3] for r in part],
-                    color=colour,
-                    marker=marker,
-                    ls="--",
-                    alpha=0.6,
-                    mfc="none",
-                    label=label + ", index, Python",
-                )
-            ax.plot(xs, [r[3][k][4] for r in part], color=colour, marker=marker, ls=":", alpha=0.5, label=label + ", full scan")
+            ax.plot(xs, [r[3][k][3] for r in part], color=colour, marker=marker, ls=":", alpha=0.5, label=label + ", full scan")
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(xlabel)
@@ -386,7 +367,7 @@ def _plot(rows, out: Path) -> None:
             )
     axes[0].legend(fontsize=7, ncol=2)
     fig.suptitle(
-        "Geofence cost per update vs fence size (solid: indexed, compiled; dashed: indexed, Python reference; dotted: full scan)",
+        "Geofence cost per update vs fence size (solid: indexed; dotted: full scan)",
         fontsize=10,
     )
     fig.savefig(out, dpi=110)

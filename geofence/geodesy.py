@@ -23,7 +23,7 @@ from geographiclib.constants import Constants
 from geographiclib.geodesic import Geodesic
 
 from geofence import jit as _jit
-from geofence.jit import COMPILED, jitable, numba
+from geofence.jit import compiled, jitable
 
 WGS84_A_M: float = Constants.WGS84_a
 WGS84_F: float = Constants.WGS84_f
@@ -85,7 +85,7 @@ def enu_of(T: np.ndarray | tuple, lat_deg: float, lon_deg: float, h_m: float) ->
     )
 
 
-_enu_of_compiled = numba.njit(cache=True)(enu_of) if COMPILED else enu_of
+_enu_of_compiled = compiled(enu_of)
 
 
 @dataclass(frozen=True)
@@ -112,16 +112,15 @@ class LocalFrame:
         object.__setattr__(self, "enu_table", np.array(table, dtype=np.float64))
 
     def to_enu(self, lat_deg: float, lon_deg: float, h_m: float) -> tuple[float, float, float]:
-        """Geodetic point -> (east, north, up) in m (:func:`enu_of`, compiled while :data:`geofence.jit.ACTIVE`)."""
-        if _jit.ACTIVE:
-            return _enu_of_compiled(self.enu_table, lat_deg, lon_deg, h_m)
-        return enu_of(self._enu_tuple, lat_deg, lon_deg, h_m)
+        """Geodetic point -> (east, north, up) in m (:func:`enu_of`, compiled)."""
+        e, n, u = _enu_of_compiled(self.enu_table, lat_deg, lon_deg, h_m)
+        return float(e), float(n), float(u)
 
     def enu_function(self) -> Callable[[float, float, float], tuple[float, float, float]]:
-        """:meth:`to_enu` as one callable for a caller that converts every step: while :data:`geofence.jit.ACTIVE`
-        (when this is asked), the compiled conversion by its entry point with this frame's table bound
-        (:func:`geofence.jit.entry_point`: the table is this frame's own array), else :meth:`to_enu`."""
-        if not _jit.ACTIVE:
+        """:meth:`to_enu` as one callable for a caller that converts every step: the compiled conversion by its
+        entry point with this frame's table bound (:func:`geofence.jit.entry_point`: the table is this frame's own
+        array; without numba, :meth:`to_enu`)."""
+        if not _jit.COMPILED:
             return self.to_enu
         _enu_of_compiled(self.enu_table, self.lat0_deg, self.lon0_deg, self.h0_m)  # (its one specialization)
         return partial(_jit.entry_point(_enu_of_compiled), self.enu_table)

@@ -1,37 +1,28 @@
-"""The optional compiler: which pure-math functions the compiled kernels may call, and whether they are compiled.
+"""The compiler: marks the functions the compiled kernels are built from, and compiles their entry points.
 
-:func:`jitable` marks a plain-Python function of floats (a room formula, the
-drag law's push) that :mod:`geofence.lateral_kernel` calls from machine code.
-Called from Python it *is* the Python function, unchanged: the interpreter
-keeps running the reference. With numba installed the kernels compile these
-functions from the same source, so each formula still has one home.
+Every per-step algorithm is written once, as plain Python over floats, arrays and records that numba can
+compile. :func:`jitable` marks a function a kernel calls from machine code (a room formula, the drag law's
+push): called from Python it *is* the Python function. :func:`compiled` makes a function an entry point of
+compiled code (``njit(cache=True)``). Without numba, or with numba's own ``NUMBA_DISABLE_JIT=1``
+(``COMPILED`` false), both return the function itself: the same source, interpreted (slowly, for a debugger),
+never a second copy.
 
-``COMPILED`` is true when numba is importable and not switched off by its own
-``NUMBA_DISABLE_JIT=1`` (then the kernels run as Python, slowly, for a
-debugger). The kernels compile on first use and cache the machine code beside
-their source (numba's ``cache=True``), so later processes load it.
+:func:`entry_point` gives a kernel's machine code without numba's per-call choice of a specialization (about
+0.02 µs an argument), where that is safe; the per-step callers take it after their first call.
 
-``ACTIVE`` says whether the per-step code takes the kernels (``COMPILED`` by
-default) or the plain-Python reference they are tested against;
-:func:`use_compiled` is the named hook that switches it for a process (the
-benchmarks time both side by side).
-
-:func:`entry_point` gives a kernel's machine code without numba's per-call choice of a specialization
-(about 0.02 µs an argument), where that is safe; the per-step callers take it after their first call, and
-:func:`use_entry_points` is the named hook that switches it off.
-
-The machine code is cached in a folder named by a hash of every source the
-kernels compile from (:func:`kernel_sources_stamp`): numba checks a cached
-kernel against its own file only, and a kernel inlines functions from other
-modules (a room formula, the lateral search), so after an edit to one of those
-it would load stale machine code without a word. A changed source is a new
-folder, compiled afresh; the other folders are removed.
+The machine code is cached in a folder named by a hash of the sources the kernels are built from
+(:func:`kernel_sources`, :func:`kernel_sources_stamp`): numba checks a cached kernel against its own file
+only, and a kernel inlines functions from other modules (a room formula, the lateral search), so after an
+edit to one of those it would load stale machine code without a word. A changed source is a new folder,
+compiled afresh; the other folders are removed. A source that no kernel is built from (a file format, the
+application) leaves the cache alone.
 """
 
 from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shutil
 from pathlib import Path
 from typing import Any, Callable, TypeVar
@@ -51,28 +42,43 @@ except ImportError:  # pragma: no cover - exercised only where numba is missing
     COMPILED = False
 
 
-KERNEL_SOURCES = (
-    "geofence/*.py",
-    "geofence/recovery/*.py",
-    "wind/*.py",
-    "aircraft/sensor*.py",
-    "scenarios/flight/sensing.py",
-    "scenarios/flight/recorder.py",
-    "scenarios/flight/step_kernel.py",
-    "scenarios/flight/pilots/law_kernel.py",
-    "scenarios/flight/pilots/nav_laws.py",
-)
-"""The sources (globs from the repository root) the compiled kernels are built from, their inlined functions
-included."""
+KERNEL_PACKAGES = ("geofence", "wind", "aircraft", "scenarios", "analysis")
+"""The packages (folders under the repository root) searched for compiled modules."""
+
+_USES_JIT = re.compile(r"^\s*(from geofence\.jit import|from geofence import jit\b|import geofence\.jit)", re.M)
+_IMPORTS = re.compile(r"^\s*(?:from|import)\s+((?:" + "|".join(KERNEL_PACKAGES) + r")(?:\.\w+)*)", re.M)
+
+
+def kernel_sources(root: Path) -> list[Path]:
+    """The sources the compiled code is built from: every module of :data:`KERNEL_PACKAGES` that imports this one
+    (it defines a kernel, an entry point or a function a kernel inlines, each marked :func:`jitable` or
+    :func:`compiled`), and the project modules those import (whose constants a kernel may freeze into its machine
+    code). Anything else (a file format, the application, a docstring in them) leaves the cache alone."""
+    compiled = [
+        p
+        for package in KERNEL_PACKAGES
+        for p in sorted((root / package).rglob("*.py"))
+        if p.name == "jit.py" or _USES_JIT.search(p.read_text())
+    ]
+    found = set(compiled)
+    for path in compiled:
+        for dotted in _IMPORTS.findall(path.read_text()):
+            parts = dotted.split(".")
+            for n in range(len(parts), 0, -1):  # the longest prefix that is a module or a package
+                base = root.joinpath(*parts[:n])
+                hit = base.with_suffix(".py") if base.with_suffix(".py").is_file() else base / "__init__.py"
+                if hit.is_file():
+                    found.add(hit)
+                    break
+    return sorted(found)
 
 
 def kernel_sources_stamp(root: Path) -> str:
-    """A hash of the :data:`KERNEL_SOURCES` under ``root`` (their paths and bytes)."""
+    """A hash of the :func:`kernel_sources` under ``root`` (their paths and bytes)."""
     h = hashlib.sha256()
-    for pattern in KERNEL_SOURCES:
-        for path in sorted(root.glob(pattern)):
-            h.update(path.relative_to(root).as_posix().encode())
-            h.update(path.read_bytes())
+    for path in kernel_sources(root):
+        h.update(path.relative_to(root).as_posix().encode())
+        h.update(path.read_bytes())
     return h.hexdigest()[:16]
 
 
@@ -115,32 +121,6 @@ def jitable(fn: F) -> F:
     return _register_jitable(fn)
 
 
-ACTIVE: bool = COMPILED
-"""The per-step code takes the compiled kernels (read at each call; set by :func:`use_compiled`)."""
-
-
-def use_compiled(on: bool) -> bool:
-    """Take the compiled kernels (``True``, the default where numba is) or the plain-Python reference
-    (``False``), process-wide; returns the previous setting. ``True`` without numba stays the reference."""
-    global ACTIVE
-    previous = ACTIVE
-    ACTIVE = bool(on) and COMPILED
-    return previous
-
-
-ENTRY_POINTS: bool = True
-"""Callers take their kernels' entry points (:func:`entry_point`; set by :func:`use_entry_points`)."""
-
-
-def use_entry_points(on: bool) -> bool:
-    """Let :func:`entry_point` answer entry points (``True``, the default) or the kernels themselves (``False``:
-    every call through numba's dispatcher), for the kernels bound from now on; returns the previous setting."""
-    global ENTRY_POINTS
-    previous = ENTRY_POINTS
-    ENTRY_POINTS = bool(on)
-    return previous
-
-
 def entry_point(kernel: Callable) -> Callable:
     """``kernel``'s machine code without numba's per-call choice of a specialization, where that is safe: the entry
     point of its one specialization once it has exactly one and its scalar arguments are all ``float64`` or
@@ -155,7 +135,7 @@ def entry_point(kernel: Callable) -> Callable:
     way). The Tern's closed loop runs 0.3 µs a frame faster this way (``bench/closed_loop.py``), the same
     trajectory bit for bit."""
     overloads = getattr(kernel, "overloads", None)
-    if not ENTRY_POINTS or not overloads or len(overloads) != 1:
+    if not overloads or len(overloads) != 1:
         return kernel
     ((signature, compiled),) = overloads.items()
     for t in signature:

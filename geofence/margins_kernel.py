@@ -19,11 +19,11 @@ the kernels return the result's fields with the binding element's row id in plac
 from __future__ import annotations
 
 import math
+from math import hypot
 from typing import NamedTuple
 
 import numpy as np
 
-from geofence.cpython_math import hypot
 from geofence.dynamics import drag_coefficients
 from geofence.interface import Envelope, PlatformKind
 from geofence.jit import compiled, jitable, numba
@@ -287,7 +287,7 @@ def state_terms(
     up to another roll time, at cruise at least: :func:`~geofence.rooms.fixed_wing_reaction_terms`), the turns
     to the wind-corrected roll-out heading (:func:`~geofence.rooms.rollout_turns`); multirotor: the worst-case
     pilot (the tilt limit while below max airspeed) and the climb arrest (it lowers the collective, and with it
-    the horizontal braking force). Speeds by :func:`geofence.cpython_math.hypot`.
+    the horizontal braking force).
     """
     env = envelope_of_terms(V)
     extra = wind_extra_mps if wind_extra_mps > 0.0 else 0.0

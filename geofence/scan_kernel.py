@@ -6,7 +6,6 @@ One question (and its twin for the floor gaps, :func:`deepest_polygon`):
 ``hypot - radius``, the smallest), for a small fence's every step and for the
 breached points of a large one, as one compiled call over float tables built
 once per fence: the arithmetic of :meth:`geofence.polygon.PolygonIndex.signed_distance`
-with CPython's ``hypot`` (:func:`geofence.cpython_math.hypot`);
 ``tests/test_lateral_kernel.py`` holds it to the vectorised margins
 (:meth:`~geofence.local_fence.LocalFence.lateral_margin_array`).
 """
@@ -14,12 +13,12 @@ with CPython's ``hypot`` (:func:`geofence.cpython_math.hypot`);
 from __future__ import annotations
 
 import math
+from math import hypot
 from typing import Sequence
 
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
-from geofence.cpython_math import hypot
 from geofence.jit import compiled, jitable
 from geofence.polygon import BOUNDARY_TOL_M
 

@@ -48,7 +48,6 @@ from enum import IntEnum
 
 import numpy as np
 
-from geofence import jit as _jit
 from geofence import unit_kernel as _uk
 from geofence.boundary_shift import CompiledMargins, ShiftResult, activation_margins
 from geofence.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource, allowance_in_use_mps
@@ -280,7 +279,7 @@ class GeofenceUnit:
         k = self.config.uncertainty_k_sigma
         extra = self.config.extra_margin_m
         target = None if self._multirotor else (rollout_target or self._rollout_target(s.east_m, s.north_m))
-        if self._compiled is not None and _jit.ACTIVE:  # activation_margins' compiled call, its tables bound
+        if self._compiled is not None:  # activation_margins' compiled call, its tables bound
             wind = self.wind_enu
             return self._compiled.margins(
                 s.east_m, s.north_m, h, s.v_east_mps, s.v_north_mps, s.v_up_mps, wind[0], wind[1],
@@ -299,14 +298,14 @@ class GeofenceUnit:
     def _monitor_margins(self, s: VehicleState, h: float, sigma_h_m: float, sigma_v_m: float, dt_s: float) -> ShiftResult | None:
         """A predictive unit's monitoring step: ``None`` when :meth:`_far_from_everything` holds, else :meth:`_margins`.
 
-        For a fence without an index, while :data:`geofence.jit.ACTIVE`, one compiled call answers both
+        For a fence without an index one compiled call answers both
         (:meth:`geofence.boundary_shift.CompiledMargins.monitor`, the same numbers), unless a fixed-wing's roll-out
         target is not cached for its cell yet (finding it is a route search, made only when the margins are
         needed: the reference's order). After a step the shortcut answered, the next asks it alone first
         (far from everything it usually holds again, and alone it is the cheaper call): the same answers.
         """
         compiled = self._compiled
-        if not self._skipped_last and compiled is not None and _jit.ACTIVE:
+        if not self._skipped_last and compiled is not None:
             e, n = s.east_m, s.north_m
             target = None if self._multirotor else self._rollout_cache.get(rollout_cell(e, n))
             if target is not None or self._multirotor:

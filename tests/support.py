@@ -1,9 +1,8 @@
 """Helpers shared by the test modules (the one place they live: test modules do not import each other,
 ``tests/test_architecture.py`` checks it).
 
-Twins: :func:`same_bits` (every field equal bit for bit) and :func:`fly_both_ways` (a flight compiled and on
-the plain-Python reference, the same trajectory bytes). Conformance: :func:`close_fields`; margins computed two
-ways: :func:`same_margins`.
+Conformance (compiled vs interpreted): :func:`close_fields`; margins computed two ways (an index and none, a
+kernel and its oracle): :func:`same_margins`.
 
 Random fences and states: the frame :data:`FRAME`, the envelopes :data:`FW` (Tern) and :data:`MC` (F450RD),
 :func:`latlon`; :func:`random_fence` (noisy star-shaped keep-ins with keep-out squares and circles) and
@@ -102,34 +101,6 @@ def compare_golden(got: np.ndarray, want: np.ndarray) -> list[str]:
         if err[k] > GOLDEN_TOLERANCE[name]:
             problems.append(f"{name}: {a[k]!r} != golden {b[k]!r} at t = {want[k, 0]:.2f} s")
     return problems
-
-
-def _bits(x) -> object:
-    return x if isinstance(x, str) else float(x).hex()  # a float's exact value (and its sign, inf, nan)
-
-
-def same_bits(a, b) -> bool:
-    """Every field equal bit for bit (numpy or Python floats alike)."""
-    return [_bits(x) for x in a] == [_bits(x) for x in b]
-
-
-def fly_both_ways(sc):
-    """The flight compiled and on the plain-Python reference (:func:`geofence.jit.use_compiled`); asserts the same
-    trajectory bytes and returns both results."""
-    from geofence.jit import use_compiled
-    from scenarios.flight.runner import fly
-
-    runs = []
-    for on in (True, False):
-        previous = use_compiled(on)
-        try:
-            runs.append(fly(sc))
-        finally:
-            use_compiled(previous)
-    a, b = runs
-    assert a.recorder.n == b.recorder.n > 0
-    assert a.recorder.data.tobytes() == b.recorder.data.tobytes()
-    return a, b
 
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)

@@ -1,7 +1,6 @@
 """The compiled kernels' entry points (:func:`geofence.jit.entry_point`): taken only where they are safe, and the
 same numbers as the dispatcher's; a flight that takes them records the trajectory of one that does not."""
 
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -36,27 +35,3 @@ def test_no_entry_point_for_several_specializations_or_integer_scalars():
     i(np.ones(2), 3)  # an int64 scalar: a float passed later would be cut, so no entry point
     assert jit.entry_point(i) is i
     assert jit.entry_point(len) is len  # not a kernel at all
-
-
-def test_a_flight_through_the_entry_points_is_the_flight_through_the_dispatcher():
-    """The per-step kernels (margins, sensing, wind, the fixed-wing recovery step) bind their entry points after
-    their first call; with them switched off (:func:`geofence.jit.use_entry_points`), the same flight records the
-    same bytes."""
-    from scenarios.definition.schema import load_scenario
-    from scenarios.flight.runner import fly
-
-    sc = load_scenario(ROOT / "scenarios" / "geofence_fixedwing_adversarial_wind.yaml")
-    sc = replace(sc, duration_s=25.0)
-    fast = fly(sc)
-    previous = jit.use_entry_points(False)
-    try:
-        slow = fly(sc)
-    finally:
-        jit.use_entry_points(previous)
-    assert fast.unit is not None and fast.unit.activations > 0
-    from geofence.margins_kernel import monitor_margins
-
-    compiled = fast.unit._compiled
-    assert compiled is not None and compiled._monitor_kernel is not monitor_margins  # the entry point was taken
-    assert slow.unit is not None and slow.unit._compiled._monitor_kernel is monitor_margins
-    assert fast.recorder.data.tobytes() == slow.recorder.data.tobytes()

@@ -12,7 +12,6 @@ its plain-Python shortcut does. One conformance test per compiled entry point (`
 
 import math
 import random
-from dataclasses import replace
 
 import pytest
 from hypothesis import example, given, settings
@@ -29,14 +28,12 @@ from support import (
     same_margins,
 )
 
+from geofence import boundary_shift
 from geofence.boundary_shift import activation_margins
-from geofence.config import parse_geofence
 from geofence.fence import Fence
-from geofence.interface import VehicleState
-from geofence.jit import COMPILED, use_compiled
+from geofence.jit import COMPILED
 from geofence.margins_kernel import envelope_terms, indexed_margins, margins, monitor_margins, room_bound
 from geofence.rooms import vertical_arrest_distance_m
-from geofence.unit import GeofenceUnit
 
 TOL_M = 1e-9
 
@@ -151,24 +148,10 @@ def test_the_gap_queries_equal_the_vectorised_distances(seed, n_gaps):
         assert abs(local.floor_gaps[gi].signed_distance(e, n) - d) <= TOL_M, (e, n)
 
 
-def _unit_on(fence: Fence, env, seed: int) -> GeofenceUnit:
-    """A predictive unit with a random turbulence forecast and uncertainty, on ``fence``."""
-    rng = random.Random(seed)
-    cfg = parse_geofence(
-        {
-            "fence": {"keep_in": [[47.0, 8.0], [47.0, 8.01], [47.01, 8.01]], "ceiling_m": 100},
-            "wind_prior": {"speed_mps": 0.0, "from_deg": 0.0, "turbulence_sigma_mps": rng.uniform(0.0, 2.0), "gust_mps": 2.0},
-            "extra_margin_m": rng.uniform(0.0, 3.0),
-        },
-        "test",
-    )
-    cfg = replace(cfg, fence=fence)
-    return GeofenceUnit(cfg, fence.to_local(FRAME), env)
-
-
 def monitoring_outcomes(seed: int, n_vertices: int, n_squares: int, n_circles: int, n_gaps: int, floor: str) -> set:
-    """Checks a unit's monitoring steps in one compiled call against its plain-Python skip shortcut then the
-    margins (see the property below) on one random fence; returns the ``(platform kind, skipped)`` outcomes met."""
+    """Checks monitoring steps (:func:`geofence.boundary_shift.monitor_margins`) against the full margins
+    (:func:`~geofence.boundary_shift.activation_margins`, the oracle) on one random fence (see the property
+    below); returns the ``(platform kind, skipped)`` outcomes met."""
     if floor == "none":
         fence = random_fence(seed, n_vertices, n_squares, n_circles)
     else:
@@ -177,38 +160,30 @@ def monitoring_outcomes(seed: int, n_vertices: int, n_squares: int, n_circles: i
             gap = tuple(latlon(x, y) for x, y in ((-120, -120), (120, -120), (120, 120), (-120, 120)))
             fence = Fence(keep_in=fence.keep_in, ceiling_m=fence.ceiling_m, floor_m=20.0, floor_gaps=(gap,))
     rng = random.Random(seed)
+    local = fence.to_local(FRAME)
+    assert local.grid() is None
     outcomes = set()
     for env in (MC, FW):
-        unit = _unit_on(fence, env, seed)
-        local = unit.fence
-        assert local.grid() is None
         points = probe_points(local, rng, 25) + [(rng.uniform(-80, 80), rng.uniform(-80, 80)) for _ in range(25)]
         for e, n in points:
             speed, course = rng.uniform(0.0, 1.2 * env.max_speed_mps), rng.uniform(-math.pi, math.pi)
+            ve, vn, vu = speed * math.sin(course), speed * math.cos(course), rng.uniform(-3.0, 3.0)
             h = rng.choice([60.0, 45.0, 30.0, 24.0, 21.0, 19.0, 5.0, 110.0, 118.0, rng.uniform(0.0, 125.0)])
-            s = VehicleState(
-                t_s=1.0, east_m=e, north_m=n, agl_m=h, alt_m=h, v_east_mps=speed * math.sin(course),
-                v_north_mps=speed * math.cos(course), v_up_mps=rng.uniform(-3.0, 3.0), roll_rad=rng.uniform(-0.6, 0.6),
+            w, wd = rng.choice([rng.uniform(0.0, 9.0), 40.0]), rng.uniform(-math.pi, math.pi)
+            kw = dict(
+                h_uncertainty_m=rng.uniform(0.0, 9.0), v_uncertainty_m=rng.uniform(0.0, 6.0),
+                latency_s=rng.uniform(0.025, 0.4), bank_rad=rng.uniform(-0.6, 0.6), wind_extra_mps=rng.uniform(0.0, 6.0),
+                rollout_target_en=None if env is MC else (rng.uniform(-50, 50), rng.uniform(-50, 50)),
             )  # fmt: skip
-            w = rng.choice([rng.uniform(0.0, 9.0), 40.0])
-            wd = rng.uniform(-math.pi, math.pi)
-            unit.wind_enu[0], unit.wind_enu[1] = w * math.cos(wd), w * math.sin(wd)
-            unit._latency_s = rng.uniform(0.025, 0.4)
-            sigma_h, sigma_v = rng.uniform(0.0, 3.0), rng.uniform(0.0, 2.0)
-            if env is FW:
-                unit._rollout_target(e, n)  # cached: the compiled call takes it
-            answers = []
-            for on in (True, False):
-                unit._skipped_last = False  # the compiled call (after a skipped step the unit asks the shortcut alone)
-                previous = use_compiled(on)
-                try:
-                    answers.append(unit._monitor_margins(s, h, sigma_h, sigma_v, 0.025))
-                finally:
-                    use_compiled(previous)
-            got, ref = answers
-            assert (got is None) == (ref is None), (e, n, h, env.kind)
-            if got is not None:
-                assert same_margins(got, ref), (e, n, h, env.kind)
+            args = (local, e, n, h, ve, vn, vu)
+            wind = (w * math.cos(wd), w * math.sin(wd))
+            skip_time_s = 2.0 * env.reaction_time_s + kw["latency_s"]
+            got = boundary_shift.monitor_margins(*args, speed, env, *wind, skip_time_s=skip_time_s, **kw)
+            full = activation_margins(*args, env, *wind, **kw)
+            if got is None:  # skipped: sound only if no activation could have been missed
+                assert full.activation_margin_m > 0.0, (e, n, h, env.kind)
+            else:
+                assert same_margins(got, full), (e, n, h, env.kind)
             outcomes.add((env.kind, got is None))
     return outcomes
 
@@ -216,11 +191,10 @@ def monitoring_outcomes(seed: int, n_vertices: int, n_squares: int, n_circles: i
 @settings(max_examples=20, deadline=None)
 @given(**SMALL_FENCES, floor=st.sampled_from(["none", "gaps", "wide gap"]))
 def test_a_monitoring_step_is_the_skip_shortcut_then_the_margins(seed, n_vertices, n_squares, n_circles, n_gaps, floor):
-    """A predictive unit's monitoring step in one compiled call (:func:`geofence.boundary_shift.monitor_margins`)
-    answers as its plain-Python shortcut (:meth:`GeofenceUnit._far_from_everything`, with
-    :func:`geofence.jit.use_compiled` off) and, unless it holds, the margins do (every field within 1e-9 m); far
-    from everything, near the edges, the ceiling, the floor and its gaps, in winds a multirotor cannot brake
-    against (no bound: never skipped)."""
+    """A monitoring step (:func:`geofence.boundary_shift.monitor_margins`) skips only where the full margins
+    (:func:`~geofence.boundary_shift.activation_margins`) are positive (the shortcut never hides an activation),
+    and otherwise answers them (every field within 1e-9 m); far from everything, near the edges, the ceiling,
+    the floor and its gaps, in winds a multirotor cannot brake against (no bound: never skipped)."""
     outcomes = monitoring_outcomes(seed, n_vertices, n_squares, n_circles, n_gaps, floor)
     assert {o for o in outcomes if not o[1]} == {(MC.kind, False), (FW.kind, False)}  # the margins, both kinds
 
