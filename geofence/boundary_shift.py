@@ -123,7 +123,7 @@ class ShiftResult(NamedTuple):
     threatened constraint is the edge (or circle) with the smallest
     ``distance - room``: its ``feature`` / ``feature_index`` / ``edge`` (-1 for
     a circle), the unit direction it is scored along ``normal_e/normal_n`` (its breach-pointing normal, or
-    towards its nearest point where that is an edge's end: :func:`~geofence.lateral_kernel.edge_scored`),
+    towards its nearest point where that is an edge's end: :func:`~geofence.elements.edge_scored`),
     the distance it is scored at ``edge_distance_m``, required ``lateral_shift_m`` (room incl. reaction and
     uncertainty) and ``lateral_activation_m = edge_distance_m -
     lateral_shift_m`` (capped at ``lateral_margin_m`` once breached).

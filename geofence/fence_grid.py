@@ -4,7 +4,7 @@ One question: for a position ``p`` and a *reach* ``r`` (the largest room the
 platform can need against any edge in the current wind, see
 :func:`geofence.margins_kernel.room_bound`), which boundary elements can have
 ``d_s(p) < d_min(p) + r``, where ``d_s`` is the distance an element is scored
-at (:func:`geofence.lateral_kernel.edge_scored`: its distance ``d``, or for a
+at (:func:`geofence.elements.edge_scored`: its distance ``d``, or for a
 convex keep-in's edge its line distance where that is nearer) and ``d_min``
 the nearest element's distance? Only those can bind the activation margin (an
 element's activation is ``d_s - room >= d_s - r``), so the per-step cost
@@ -42,7 +42,7 @@ as :meth:`geofence.polygon.PolygonIndex.signed_distance`.
 
 The per-step walk is compiled (:func:`geofence.lateral_kernel.lateral_binding`
 over :meth:`FenceGrid.candidates`, in :func:`geofence.margins_kernel.indexed_margins`;
-:func:`geofence.lateral_kernel.nearest_distance`). ``tests/test_fence_grid.py``
+:func:`geofence.elements.nearest_distance`). ``tests/test_fence_grid.py``
 compares every answer with the full scan on random fences and states (next to
 corners, inside keep-outs, outside).
 """
@@ -54,7 +54,7 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from .lateral_kernel import element_table, nearest_distance
+from .elements import element_table, nearest_distance
 from .polygon import BOUNDARY_TOL_M, PolygonIndex
 
 SMALL_FENCE_ELEMENTS: int = 256
@@ -129,13 +129,13 @@ class FenceGrid:
         self.block_min_elements = int(block_min_elements)
         """From this many elements on, cells are built from their block's elements (the same cells)."""
         self.line_edges = int(line_edges)
-        """The first ``line_edges`` elements are a convex keep-in's edges (:func:`~geofence.lateral_kernel.edge_scored`)."""
+        """The first ``line_edges`` elements are a convex keep-in's edges (:func:`~geofence.elements.edge_scored`)."""
         self.cell_m = float(cell_m)
         self.half_diag_m = self.cell_m * math.sqrt(0.5)
         s = len(edges)
         self.n_elements = s + len(circles)
         self.table = element_table(edges, circles)
-        """Every element as the compiled walk's float rows (:func:`geofence.lateral_kernel.element_table`)."""
+        """Every element as the compiled walk's float rows (:func:`geofence.elements.element_table`)."""
         e = self.table[:s]
         self._ax, self._ay, self._dx, self._dy, self._il2, self._nx, self._ny = (e[:, k].copy() for k in range(7))
         c = np.array(list(circles), dtype=float).reshape(-1, 3)
@@ -176,7 +176,7 @@ class FenceGrid:
         """``g``: a 1-Lipschitz lower bound of the distance each element (every one, or ``ids``, ascending) is
         scored at, from (x, y), given their distances ``d`` from it: ``d`` itself, but for the first
         :attr:`line_edges` (a convex keep-in's edges, scored at their line distance ``dl`` where the foot lies off
-        the edge: :func:`~geofence.lateral_kernel.edge_scored`) ``min(d, max(dl, 0))``, which can be far below
+        the edge: :func:`~geofence.elements.edge_scored`) ``min(d, max(dl, 0))``, which can be far below
         ``d`` (an edge far along a slightly curved side)."""
         k = self.line_edges if ids is None else int(np.searchsorted(ids, self.line_edges))
         if k == 0:
@@ -260,7 +260,7 @@ class FenceGrid:
 
     def nearest_distance(self, e: float, n: float) -> float:
         """The nearest element's ``d`` (circles signed: negative inside): the walk with no reach
-        (:func:`geofence.lateral_kernel.nearest_distance`)."""
+        (:func:`geofence.elements.nearest_distance`)."""
         ids, lbs, delta = self.candidates(e, n, 0.0)
         return nearest_distance(self.table, ids, lbs, delta, e, n)
 

@@ -27,12 +27,12 @@ order then the circles): ``(ax, ay, dx, dy, 1/len², nx, ny)`` for an edge,
 from __future__ import annotations
 
 import math
-from math import hypot
-from typing import TYPE_CHECKING, NamedTuple, Sequence
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from geofence.dynamics import wind_push_mps2
+from geofence.elements import walk_candidates
 from geofence.jit import compiled, jitable
 
 if TYPE_CHECKING:  # (margins_kernel imports this module)
@@ -52,10 +52,7 @@ __all__ = [
     "MultirotorBrake",
     "Turns",
     "capped_lateral",
-    "edge_scored",
-    "element_table",
     "lateral_binding",
-    "nearest_distance",
 ]
 
 FIXED_WING_SCRATCH_ROWS = 8
@@ -143,13 +140,6 @@ def multirotor_edge_room_m(env: EnvelopeTerms, state: LateralState, brake: Multi
     a_p = brake.a_pilot + push
     arrest = (brake.arrest_t, brake.arrest_loss)
     return multirotor_room_m(v_n, brake.speed, brake.t_r, a_p, env.braking_mps2 - push, arrest) + state.hu
-
-
-def element_table(edges: Sequence[tuple], circles: Sequence[tuple[float, float, float]]) -> np.ndarray:
-    """The kernel's float table of ``edges`` (``danger_edges`` items) then ``circles`` (``(east, north, r)``)."""
-    rows = [(ax, ay, dx, dy, il2, nx, ny) for ax, ay, dx, dy, il2, nx, ny, *_ in edges]
-    rows += [(ce, cn, r, 0.0, -1.0, 0.0, 0.0) for ce, cn, r in circles]
-    return np.array(rows, dtype=np.float64).reshape(-1, 7)
 
 
 @jitable
@@ -301,115 +291,6 @@ def _fixed_wing_binding(
 
 
 @jitable
-def _walk(
-    E: np.ndarray,
-    ids: np.ndarray,
-    lbs: np.ndarray,
-    walk: bool,
-    e: float,
-    n: float,
-    reach: float,
-    delta_c: float,
-    n_line: int,
-    free: bool,
-    f_id: np.ndarray,
-    f_b: np.ndarray,
-    f_nx: np.ndarray,
-    f_ny: np.ndarray,
-) -> tuple[int, float]:
-    """``(count, nearest d)``: the first ``count`` entries of ``f_id, f_b, f_nx, f_ny`` (the caller's, at least
-    ``ids``' length) are set to the candidates walked, the distances they are scored at and the unit
-    directions they are scored along (an edge's :func:`edge_scored`, the first ``n_line`` being a convex
-    keep-in's; a circle's ``hypot - radius`` and the direction to its centre), in ``ids`` order; with ``walk``,
-    until the bound ``lbs[k] - delta_c - reach`` exceeds the nearest point-segment or circle distance found
-    (every element within ``reach`` of the nearest is walked: each ``d`` is 1-Lipschitz)."""
-    m = ids.shape[0]
-    cnt = 0
-    best = math.inf
-    for k in range(m):
-        if walk and lbs[k] - delta_c - reach > best:
-            break
-        i = ids[k]
-        a = E[i, 0]
-        b = E[i, 1]
-        c = E[i, 2]
-        dd = E[i, 3]
-        il2 = E[i, 4]
-        if il2 >= 0.0:
-            d, db, nx, ny = edge_scored(e - a, n - b, c, dd, il2, E[i, 5], E[i, 6], i < n_line, free)
-            f_b[cnt] = db
-        else:
-            dist = hypot(a - e, b - n)
-            if dist > 0.0:
-                nx = (a - e) / dist
-                ny = (b - n) / dist
-            else:
-                nx = 1.0
-                ny = 0.0
-            d = dist - c
-            f_b[cnt] = d
-        f_id[cnt] = i
-        f_nx[cnt] = nx
-        f_ny[cnt] = ny
-        cnt += 1
-        if d < best:
-            best = d
-    return cnt, best
-
-
-@jitable
-def edge_scored(
-    px: float, py: float, dx: float, dy: float, il2: float, nx: float, ny: float, line: bool, free: bool
-) -> tuple[float, float, float, float]:
-    """``(d, scored d, ux, uy)`` of an edge from a point: its point-segment distance ``d``, the distance the
-    margins score it at and the unit direction they score the manoeuvre's excursion along.
-
-    ``(px, py) = p - a`` (``a`` the edge's start), ``(dx, dy) = b - a``, ``il2 = 1/|b - a|²``, ``(nx, ny)`` the
-    breach-pointing unit normal. ``line``: the edge is a convex keep-in's. ``free``: the point is in the free
-    space (lateral margin >= 0).
-
-    A margin scores an element as a distance less the manoeuvre's excursion along one direction; it is sound
-    when the whole element lies at least that distance away along that direction, for then the manoeuvre must
-    reach that far to touch it. Where the perpendicular foot lies on the segment that is the normal and ``d``.
-    Where it lies off the segment, the normal with ``d`` is not sound: a turn drifting in wind leaves through
-    the segment far along it, or heads straight at its end, with less excursion along the normal than ``d``
-    (a divided circle, a U-shaped keep-in's inner corner and a keep-out's corner alike, the last two found by
-    ``tests/test_edge_scoring.py``) (case history: docs/campaigns.md#breach-classes-found-and-fixed). Two
-    sound choices remain:
-
-    * the direction to the segment's nearest point (its end) and ``d``: the nearest point of a convex set, so
-      every point of the segment lies at least ``d`` along that direction; it treats the end as a point;
-    * the normal and the line distance ``-(p - a)·n``, when positive: the whole segment lies on its line.
-      Inside a convex keep-in, crossing any edge's line is leaving the fence, so this is the exact rule there
-      (``line``), and no more pessimistic.
-
-    Where the foot lies on the segment but the point is on the segment's breach side (the edge faces away: the
-    far side of a building, seen past its near side), the normal points away from the edge and does not hold
-    it either. From the free space such an edge is scored like an end: along the direction to its nearest
-    point (the foot), which is sound by the same argument. Before, its normal made a phantom wall behind the
-    point, which flipped a fixed-wing's scored turn within a step, so that it turned the long way round into
-    the building (case history: docs/campaigns.md#breach-classes-found-and-fixed). From a breached point (inside a keep-out or
-    outside the keep-in) the normal stays.
-    """
-    t = (px * dx + py * dy) * il2
-    off = t < 0.0 or t > 1.0
-    t = 0.0 if t < 0.0 else (1.0 if t > 1.0 else t)
-    qx = px - t * dx
-    qy = py - t * dy
-    d = math.sqrt(qx * qx + qy * qy)
-    if off:
-        if line:
-            dl = -(px * nx + py * ny)
-            if dl > 0.0:
-                return d, dl, nx, ny
-        if d > 0.0:
-            return d, d, -qx / d, -qy / d
-    elif free and d > 0.0 and px * nx + py * ny > 0.0:  # faces away from a point in the free space
-        return d, d, -qx / d, -qy / d
-    return d, d, nx, ny
-
-
-@jitable
 def capped_lateral(lat_act: float, lat_margin: float, d_edge: float, v_n: float) -> tuple[float, float]:
     """``(lateral activation, time to breach)`` of a binding element: its activation no larger than the
     lateral margin, and 0 s once breached, else its distance over the closing speed (inf when not closing)."""
@@ -418,13 +299,6 @@ def capped_lateral(lat_act: float, lat_margin: float, d_edge: float, v_n: float)
     if lat_margin <= 0.0:
         return lat_act, 0.0
     return lat_act, (d_edge / v_n if v_n > 1e-9 else math.inf)
-
-
-def _nearest_distance(E: np.ndarray, ids: np.ndarray, lbs: np.ndarray, delta_c: float, e: float, n: float) -> float:
-    """The nearest candidate's ``d`` by :func:`_walk` (reach 0): :meth:`FenceGrid.nearest_distance`."""
-    m = ids.shape[0]
-    W = np.empty((3, m))
-    return _walk(E, ids, lbs, True, e, n, 0.0, delta_c, 0, False, np.empty(m, np.int64), W[0], W[1], W[2])[1]
 
 
 def _lateral_binding(
@@ -449,7 +323,7 @@ def _lateral_binding(
 
     Candidates: the rows ``ids`` of ``E``. ``walk``: they are sorted by ``lbs``, lower bounds of their
     distance plus ``delta_c`` (an index cell's list, :meth:`FenceGrid.candidates`; the walk's stop rule:
-    :func:`_walk`); else every
+    :func:`walk_candidates`); else every
     candidate is scored (the full scan; ``ids`` in element order). Kept: ``d - reach < d_min``. Scored by
     :func:`_fixed_wing_binding` (``turn``, scored for each of ``turns``) or :func:`_multirotor_binding`
     (``brake``); a tie goes to the lowest element id (the first in element order). Element id -1:
@@ -469,7 +343,7 @@ def _lateral_binding(
     f_d = W[0]
     f_nx = W[1]
     f_ny = W[2]
-    cnt, min_d = _walk(E, ids, lbs, walk, e, n, reach, delta_c, n_line, free, f_id, f_d, f_nx, f_ny)
+    cnt, min_d = walk_candidates(E, ids, lbs, walk, e, n, reach, delta_c, n_line, free, f_id, f_d, f_nx, f_ny)
     # the elements that can bind, in element order
     keep = I[1]
     nk = 0
@@ -490,6 +364,3 @@ def _lateral_binding(
 
 lateral_binding = compiled(_lateral_binding)
 """The compiled :func:`_lateral_binding` (the Python function itself without numba)."""
-
-nearest_distance = compiled(_nearest_distance)
-"""The compiled :func:`_nearest_distance`."""

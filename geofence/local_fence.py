@@ -24,11 +24,10 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from .elements import MarginTables, element_table
 from .fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
 from .geodesy import LocalFrame
 from .heights import AltitudeReference, VerticalExtent
-from .lateral_kernel import element_table
-from .margins_kernel import MarginTables
 from .polygon import PolygonIndex, is_convex, pole_of_inaccessibility
 from .scan_kernel import deepest_polygon, lateral_margin_scan, polygon_rows, stacked
 
@@ -198,7 +197,7 @@ class LocalFence:
 
     def line_scored_edges(self) -> int:
         """How many lateral elements, from the first, a margin scores at their line distance where the foot lies
-        off the edge (:func:`geofence.lateral_kernel.edge_scored`): the keep-in's edges when it is
+        off the edge (:func:`geofence.elements.edge_scored`): the keep-in's edges when it is
         convex (they come first in :meth:`danger_edges`), else none (cached)."""
         if self._line_edges is None:
             self._line_edges = self.keep_in.n if is_convex(self.keep_in.vertices) else 0
@@ -250,7 +249,7 @@ class LocalFence:
         return self._scan_table
 
     def margin_tables(self) -> MarginTables:
-        """The compiled margins' tables of this fence (cached; :class:`geofence.margins_kernel.MarginTables`)."""
+        """The compiled margins' tables of this fence (cached; :class:`geofence.elements.MarginTables`)."""
         if self._margin_tables is None:
             E, _meta, ids, _zeros = self.element_table()
             gap_edges = stacked([element_table(self.gap_edges(i), ()) for i in range(len(self.floor_gaps))], 7)
@@ -400,7 +399,7 @@ class LocalFence:
 
     def element_table(self) -> tuple[np.ndarray, tuple[tuple[str, int, int], ...], np.ndarray, np.ndarray]:
         """``(E, meta, ids, zeros)`` for the compiled lateral search (cached): the float table of
-        :meth:`danger_edges` then ``keep_out_circles`` (:func:`geofence.lateral_kernel.element_table`), each
+        :meth:`danger_edges` then ``keep_out_circles`` (:func:`geofence.elements.element_table`), each
         element's ``(feature, feature_index, edge)``, and every element's id in order with a zero bound per
         element (the full scan's candidate list)."""
         if self._element_table is None:

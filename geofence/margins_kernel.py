@@ -25,6 +25,29 @@ from typing import NamedTuple
 import numpy as np
 
 from geofence.dynamics import drag_coefficients
+from geofence.elements import (
+    CEILING,
+    CIRCLES,
+    ELEMENTS,
+    FLOOR,
+    GAP_EDGE_OFFSETS,
+    GAP_EDGES,
+    GAP_OFFSETS,
+    GAP_POLYGONS,
+    HAS_FLOOR,
+    IDS,
+    KEEP_IN,
+    KEEP_OUT_OFFSETS,
+    KEEP_OUTS,
+    LINE_EDGES,
+    RECOVERY_E,
+    RECOVERY_N,
+    ZEROS,
+    fence_scalar,
+    packed_column,
+    packed_table,
+    packed_vector,
+)  # fmt: skip
 from geofence.interface import Envelope, PlatformKind
 from geofence.jit import compiled, jitable, numba
 from geofence.lateral_kernel import FixedWingTurn, LateralState, MultirotorBrake, Turns, capped_lateral, lateral_binding
@@ -40,13 +63,12 @@ from geofence.rooms import (
     tilt_accel_mps2,
     vertical_arrest_distance_m,
 )
-from geofence.scan_kernel import deepest_polygon, lateral_margin_scan, rows_view
+from geofence.scan_kernel import deepest_polygon, lateral_margin_scan
 
 __all__ = [
     "Binding",
     "Candidates",
     "EnvelopeTerms",
-    "MarginTables",
     "StateTerms",
     "envelope_of_terms",
     "envelope_terms",
@@ -87,108 +109,6 @@ ENVELOPE_TERM_COUNT = len(EnvelopeTerms._fields)
 VERTICAL_ACCEL = EnvelopeTerms._fields.index("vertical_accel_mps2")
 MAX_CLIMB = EnvelopeTerms._fields.index("max_climb_mps")
 MAX_DESCENT = EnvelopeTerms._fields.index("max_descent_mps")
-
-# fence scalars
-CEILING, FLOOR, HAS_FLOOR, RECOVERY_E, RECOVERY_N, LINE_EDGES = range(6)
-
-
-# the tables packed in one float and one int array (two arguments: a compiled call pays per array)
-ELEMENTS, KEEP_IN, KEEP_OUTS, CIRCLES, GAP_POLYGONS, GAP_EDGES, ZEROS, SCALARS = range(8)  # float tables
-_FLOAT_COLUMNS = (7, 7, 7, 3, 7, 7, 1, 1)
-IDS, KEEP_OUT_OFFSETS, GAP_OFFSETS, GAP_EDGE_OFFSETS = range(8, 12)  # int vectors
-_HEADER = 2 * 12  # (start, rows) of each
-
-
-class MarginTables(NamedTuple):
-    """A fence's tables for :func:`margins`, packed (see :meth:`geofence.local_fence.LocalFence.margin_tables`).
-
-    Float tables: the lateral elements (:func:`geofence.lateral_kernel.element_table` rows, ``danger_edges``
-    then circles), the lateral margin's scan tables (the keep-in's and keep-outs' polygon rows, the circles),
-    the floor gaps' polygon rows end to end and their edge elements end to end (normals out of the gap), a
-    zero per element, and ``(ceiling, floor (nan without), has floor, recovery east, recovery north, line-scored elements)``.
-    Int vectors: the element ids in order, the keep-outs', gaps' and gap edges' offsets. ``layout``'s first
-    :data:`_HEADER` entries are each part's ``(start, rows)``.
-    """
-
-    floats: np.ndarray
-    layout: np.ndarray
-
-    @classmethod
-    def pack(
-        cls,
-        elements: np.ndarray,
-        ids: np.ndarray,
-        scan_tables: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
-        gap_polygons: tuple[np.ndarray, np.ndarray],
-        gap_edges: tuple[np.ndarray, np.ndarray],
-        ceiling_m: float,
-        floor_m: float | None,
-        recovery_en: tuple[float, float],
-        line_edges: int = 0,
-    ) -> MarginTables:
-        """Pack a fence's tables (:meth:`geofence.local_fence.LocalFence.margin_tables` gives them): its element
-        table and ids, its scan tables ``(keep-in rows, keep-out rows, their offsets, circles)``, the floor
-        gaps' polygon rows and their edge elements (each ``(rows, offsets)``, :func:`geofence.scan_kernel.stacked`),
-        its ceiling and floor (None: none), recovery point, and how many elements are scored at their line distance
-        (:meth:`~geofence.local_fence.LocalFence.line_scored_edges`)."""
-        ki, ko, ko_off, circles = scan_tables
-        re, rn = recovery_en
-        floats = [
-            elements, ki, ko, circles,
-            gap_polygons[0],
-            gap_edges[0],
-            np.zeros((len(ids), 1)),
-            np.array(
-                [ceiling_m, math.nan if floor_m is None else floor_m, float(floor_m is not None), re, rn, float(line_edges)]
-            ).reshape(-1, 1),
-        ]  # fmt: skip
-        ints = [
-            ids,
-            ko_off,
-            gap_polygons[1],
-            gap_edges[1],
-        ]
-        header = np.zeros(_HEADER, np.int64)
-        start = 0
-        for k, (t, cols) in enumerate(zip(floats, _FLOAT_COLUMNS)):
-            assert t.shape[1] == cols
-            header[2 * k], header[2 * k + 1] = start, t.shape[0]
-            start += t.size
-        start = _HEADER
-        for k, v in enumerate(ints, start=len(floats)):
-            header[2 * k], header[2 * k + 1] = start, v.shape[0]
-            start += v.shape[0]
-        return cls(
-            np.concatenate([t.ravel() for t in floats]).astype(np.float64),
-            np.concatenate([header, *ints]).astype(np.int64),
-        )
-
-
-@jitable
-def _table(F: np.ndarray, L: np.ndarray, k: int, cols: int) -> np.ndarray:
-    """Float table ``k`` (``cols`` columns) of a packed :class:`MarginTables`."""
-    return rows_view(F, L[2 * k], L[2 * k + 1], cols)
-
-
-@jitable
-def _column(F: np.ndarray, L: np.ndarray, k: int) -> np.ndarray:
-    """Float table ``k`` of a packed :class:`MarginTables`, of one column, as a vector."""
-    start = L[2 * k]
-    return F[start : start + L[2 * k + 1]]
-
-
-@jitable
-def _scalar(F: np.ndarray, L: np.ndarray, i: int) -> float:
-    """Fence scalar ``i`` (:data:`CEILING`, ...) of a packed :class:`MarginTables` (read in place: a view costs a
-    reference count)."""
-    return F[L[2 * SCALARS] + i]
-
-
-@jitable
-def _vector(L: np.ndarray, k: int) -> np.ndarray:
-    """Int vector ``k`` of a packed :class:`MarginTables`."""
-    start = L[2 * k]
-    return L[start : start + L[2 * k + 1]]
 
 
 def envelope_tuple(env: Envelope) -> EnvelopeTerms:
@@ -401,21 +321,21 @@ def _floor(
     (:meth:`geofence.local_fence.LocalFence.floor_margin_m`) and, over the gap the point is deepest inside
     (:meth:`~geofence.local_fence.LocalFence.best_gap`), :func:`_over_gap`; else the descent's arrest margin
     (``dive_m``: how far it goes)."""
-    if _scalar(F, L, HAS_FLOOR) == 0.0:
+    if fence_scalar(F, L, HAS_FLOOR) == 0.0:
         return math.inf, math.inf, NO_OTHER_TURN
-    floor = _scalar(F, L, FLOOR)
+    floor = fence_scalar(F, L, FLOOR)
     f_m = h - floor
     f_act = h - floor - dive_m - v_unc
-    gap_offsets = _vector(L, GAP_OFFSETS)
+    gap_offsets = packed_vector(L, GAP_OFFSETS)
     if gap_offsets.shape[0] <= 1:
         return f_m, f_act, NO_OTHER_TURN
-    gi, gd = deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), gap_offsets)
+    gi, gd = deepest_polygon(e, n, packed_table(F, L, GAP_POLYGONS, 7), gap_offsets)
     if gd > f_m:
         f_m = gd
     if not gd > 0.0:
         return f_m, f_act, NO_OTHER_TURN
-    edge_offsets = _vector(L, GAP_EDGE_OFFSETS)
-    G = _table(F, L, GAP_EDGES, 7)[edge_offsets[gi] : edge_offsets[gi + 1]]
+    edge_offsets = packed_vector(L, GAP_EDGE_OFFSETS)
+    G = packed_table(F, L, GAP_EDGES, 7)[edge_offsets[gi] : edge_offsets[gi + 1]]
     f_act, other = _over_gap(G, e, n, gd, f_act, floor - (h - dive_m - v_unc), ceiling_act, T, lat)
     return f_m, f_act, other
 
@@ -427,12 +347,12 @@ def _margins_among(
     wind_extra_mps: float, has_target: bool, target_e: float, target_n: float, g: float, lat_margin: float,
 ) -> MarginFields:  # fmt: skip
     """:func:`_margins` with the binding element searched among the candidates ``C``: the one algorithm."""
-    re, rn = (target_e, target_n) if has_target else (_scalar(F, L, RECOVERY_E), _scalar(F, L, RECOVERY_N))
+    re, rn = (target_e, target_n) if has_target else (fence_scalar(F, L, RECOVERY_E), fence_scalar(F, L, RECOVERY_N))
     T = state_terms(V, ve, vn, vu, wind_e, wind_n, hu, latency_s, bank_rad, wind_extra_mps, re - e, rn - n, g)
     if lat_margin != lat_margin:
         lat_margin = _lateral_margin(F, L, e, n)
     lat = _binding(C, e, n, lat_margin, T, T.turns)
-    c_m = _scalar(F, L, CEILING) - h
+    c_m = fence_scalar(F, L, CEILING) - h
     c_s, dive = vertical_arrests_m(T.env, vu, T.env.reaction_s + latency_s, v_unc)
     ceiling_act = c_m - c_s
     f_m, f_act, other = _floor(F, L, e, n, h, dive, v_unc, ceiling_act, T, lat)
@@ -441,7 +361,7 @@ def _margins_among(
         if min(o_lat.act, other.floor_act, ceiling_act) > other.now:
             lat = o_lat
             f_act = other.floor_act
-    has_floor = _scalar(F, L, HAS_FLOOR) != 0.0
+    has_floor = fence_scalar(F, L, HAS_FLOOR) != 0.0
     f_s = f_m - f_act if has_floor else 0.0
     v_act = f_act if f_act < ceiling_act else ceiling_act
     vttb = vertical_time_to_breach_s(c_m, f_m, vu, has_floor)
@@ -464,7 +384,14 @@ def _margins(
     ``has_target``: a ``rollout_target_en`` is given). ``F, L``: a fence's packed :class:`MarginTables`.
     ``lat_margin``: the lateral margin at (e, n) when the caller has it, NaN: the full scan's
     (:func:`_lateral_margin`)."""
-    C = Candidates(_table(F, L, ELEMENTS, 7), _vector(L, IDS), _column(F, L, ZEROS), False, 0.0, int(_scalar(F, L, LINE_EDGES)))
+    C = Candidates(
+        packed_table(F, L, ELEMENTS, 7),
+        packed_vector(L, IDS),
+        packed_column(F, L, ZEROS),
+        False,
+        0.0,
+        int(fence_scalar(F, L, LINE_EDGES)),
+    )
     return _margins_among(
         F, L, V, C, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps, has_target,
         target_e, target_n, g, lat_margin,
@@ -480,7 +407,7 @@ def _indexed_margins(
     """:func:`_margins` of an indexed fence, the binding element searched among an index cell's candidates
     (``ids, lbs, walk, delta_c``: :class:`Candidates`' fields, from :meth:`geofence.fence_grid.FenceGrid.candidates`)
     and ``lat_margin`` the index's lateral margin at (e, n)."""
-    C = Candidates(_table(F, L, ELEMENTS, 7), ids, lbs, walk, delta_c, int(_scalar(F, L, LINE_EDGES)))
+    C = Candidates(packed_table(F, L, ELEMENTS, 7), ids, lbs, walk, delta_c, int(fence_scalar(F, L, LINE_EDGES)))
     return _margins_among(
         F, L, V, C, e, n, h, ve, vn, vu, wind_e, wind_n, hu, v_unc, latency_s, bank_rad, wind_extra_mps, has_target,
         target_e, target_n, g, lat_margin,
@@ -521,7 +448,12 @@ def floor_with_gap_m(floor_act: float, gap_act: float, gap_depth_m: float) -> fl
 def _lateral_margin(F: np.ndarray, L: np.ndarray, e: float, n: float) -> float:
     """The lateral margin at (e, n): :func:`geofence.scan_kernel.lateral_margin_scan` on the packed tables."""
     return lateral_margin_scan(
-        e, n, _table(F, L, KEEP_IN, 7), _table(F, L, KEEP_OUTS, 7), _vector(L, KEEP_OUT_OFFSETS), _table(F, L, CIRCLES, 3)
+        e,
+        n,
+        packed_table(F, L, KEEP_IN, 7),
+        packed_table(F, L, KEEP_OUTS, 7),
+        packed_vector(L, KEEP_OUT_OFFSETS),
+        packed_table(F, L, CIRCLES, 3),
     )
 
 
@@ -545,17 +477,17 @@ def far_from_everything(
         return False, math.nan
     room += hu
     vroom += v_unc
-    if _scalar(F, L, CEILING) - h <= vroom:
+    if fence_scalar(F, L, CEILING) - h <= vroom:
         return False, math.nan
     lat = _lateral_margin(F, L, e, n)
     if not lat > room:
         return False, lat
-    floor = _scalar(F, L, FLOOR)
-    if _scalar(F, L, HAS_FLOOR) == 0.0 or h - floor > vroom:
+    floor = fence_scalar(F, L, FLOOR)
+    if fence_scalar(F, L, HAS_FLOOR) == 0.0 or h - floor > vroom:
         return True, lat
     if fixed_wing:  # it circles in a gap while it climbs back: the circle drifts (an upper bound)
         room += climb_back_drift_m(floor + vroom - h, env.max_climb_mps, w)
-    return deepest_polygon(e, n, _table(F, L, GAP_POLYGONS, 7), _vector(L, GAP_OFFSETS))[1] > room, lat
+    return deepest_polygon(e, n, packed_table(F, L, GAP_POLYGONS, 7), packed_vector(L, GAP_OFFSETS))[1] > room, lat
 
 
 # the positions of a few of _margins' fields (the others by ShiftResult's order, the element id unpacked)

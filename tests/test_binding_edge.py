@@ -17,9 +17,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from support import FRAME, FW, MC, latlon, random_margin_call
 
+from geofence.elements import edge_scored
 from geofence.fence import Fence, KeepOutCircle
 from geofence.lateral_kernel import (
-    edge_scored,
     fixed_wing_edge_terms,
     lateral_binding,
     multirotor_edge_room_m,

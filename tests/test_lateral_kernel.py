@@ -125,7 +125,7 @@ def test_lateral_binding_compiled_is_its_python_source(seed, n_vertices, n_squar
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 10_000), n_vertices=st.integers(60, 600), n_circles=st.integers(0, 4))
 def test_nearest_distance_compiled_is_its_python_source(seed, n_vertices, n_circles):
-    from geofence.lateral_kernel import nearest_distance
+    from geofence.elements import nearest_distance
 
     local = random_fence(seed, n_vertices, 3, n_circles).to_local(FRAME, index=True)
     grid = local.grid()

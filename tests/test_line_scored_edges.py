@@ -6,7 +6,7 @@ edge's normal. To leave through an edge's segment, the vehicle only has to reach
 nearer than the segment when the perpendicular foot lies off it. A long turn drifting in strong wind left a finely
 divided circle that way (campaign seed 27112026, circle-0169: a c172x 86 m out). Inside a convex keep-in, crossing
 any edge's line is leaving it, so those edges are scored at their line distance
-(:func:`geofence.lateral_kernel.edge_scored`). ``tests/test_edge_scoring.py`` holds the same property on concave
+(:func:`geofence.elements.edge_scored`). ``tests/test_edge_scoring.py`` holds the same property on concave
 keep-ins and keep-outs.
 
 Checked here, on random convex keep-ins (ellipses divided into 3 to 400 edges: scanned and indexed), for a

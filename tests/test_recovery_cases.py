@@ -411,7 +411,7 @@ def test_a_fixed_wing_in_a_city_does_not_score_the_far_side_of_a_building():
     from it with its foot on the edge, was scored along its normal, a wall behind the vehicle that made the
     scored turn flip within a step. Handed back with 32 m, re-activated 0.05 s later at -44 m, it turned the
     long way round into a building (+1.4 m at 48.2 s). From the free space such an edge is scored towards its
-    nearest point (:func:`geofence.lateral_kernel.edge_scored`): it stays out of every building."""
+    nearest point (:func:`geofence.elements.edge_scored`): it stays out of every building."""
     res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_city_0058_far_side_of_a_building.yaml"))
     assert res.summary["activations"] >= 1
     assert res.summary["max_excursion_m"] < 0.0 and not res.summary["breached_keep_out"], res.summary["max_excursion_m"]
