@@ -29,9 +29,9 @@ from pathlib import Path
 from aircraft.jsbsim_model import FT_TO_M, M_TO_FT, OWN_SYSTEMS
 from aircraft.profile import PlatformProfile
 from aircraft.stick_platform import StickPlatform
-from geofence.dynamics import G_MPS2, isa_density_ratio
-from geofence.geodesy import LocalFrame, geodetic_to_ecef
+from geofence.geometry.geodesy import LocalFrame, geodetic_to_ecef
 from geofence.interface import PlatformKind, StickCommand
+from geofence.physics.dynamics import G_MPS2, isa_density_ratio
 
 FC_SYSTEM_FILE: Path = OWN_SYSTEMS / "fixedwing_fc.xml"
 

@@ -35,7 +35,7 @@ from pathlib import Path
 
 import jsbsim
 
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import VehicleState
 from geofence.validation import ConfigError
 

@@ -28,7 +28,7 @@ from pathlib import Path
 
 from aircraft.profile import PlatformProfile
 from aircraft.stick_platform import StickPlatform
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import StickCommand
 
 FC_SYSTEM_XML = Path(__file__).parent / "systems" / "multicopter_fc.xml"

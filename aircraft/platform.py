@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import Envelope, StickCommand, VehicleState
 
 

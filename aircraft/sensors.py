@@ -2,7 +2,7 @@
 
 The geofence unit carries its own GNSS receiver, barometer, pitot (fixed-wing
 only) and AHRS. :class:`SensorSuite` turns the simulation truth into the
-messages of :mod:`geofence.measurements`, once per outer-loop step::
+messages of :mod:`geofence.estimation.measurements`, once per outer-loop step::
 
     suite = SensorSuite(SensorConfig(), has_pitot=not env.is_multirotor, seed=scenario.seed)
     fix, air, att = suite.sample(truth)      # fix is None on steps without a new GNSS message
@@ -35,7 +35,7 @@ scenario's optional ``sensors:`` block, see :func:`parse_sensors`):
 * **Pitot airspeed**: reads the *indicated* airspeed, as a real pitot does
   (a differential pressure q = rho V_t^2 / 2 calibrated at sea-level density
   rho0): ``IAS = TAS * sqrt(rho / rho0)``, ISA troposphere density from the
-  true altitude (:func:`geofence.dynamics.isa_density_ratio`; 13 % below TAS
+  true altitude (:func:`geofence.physics.dynamics.isa_density_ratio`; 13 % below TAS
   at 2,800 m AMSL), plus white 0.3 m/s (MS4525DO-class differential pressure
   sensor at cruise speeds); ``None`` for platforms without a pitot. Users
   that need TAS convert back with their own altitude estimate (the wind
@@ -56,7 +56,7 @@ The step is written once: :func:`sensors_step`, compiled by :func:`geofence.jit.
 interpreted without numba or with ``NUMBA_DISABLE_JIT=1``). Its state and constants are the records
 :data:`SENSOR_STATE` and :data:`SENSOR_CONST` over float memory, followed by the delivered GNSS message, the
 outage windows and the ring of pending messages (solved, not yet delivered; rows of
-:data:`geofence.estimator.GPS_FIX`), so that the unit's compiled sensing chain (:mod:`scenarios.flight.sensing`)
+:data:`geofence.estimation.estimator.GPS_FIX`), so that the unit's compiled sensing chain (:mod:`scenarios.flight.sensing`)
 keeps them in its packed array; :class:`SensorSuite` is a façade that owns (or is given) that memory.
 """
 
@@ -68,12 +68,12 @@ from typing import Any
 
 import numpy as np
 
-from geofence.dynamics import isa_density_ratio
-from geofence.estimator import FIX_SIZE, GPS_FIX, EstimatorConfig
-from geofence.geodesy import radii_of_curvature_m
+from geofence.estimation.estimator import FIX_SIZE, GPS_FIX, EstimatorConfig
+from geofence.estimation.measurements import AirData, AttitudeSample, GpsFix
+from geofence.geometry.geodesy import radii_of_curvature_m
 from geofence.interface import VehicleState
 from geofence.jit import compiled, jitable
-from geofence.measurements import AirData, AttitudeSample, GpsFix
+from geofence.physics.dynamics import isa_density_ratio
 from geofence.validation import ConfigError, integer, kind, number, reject_unknown_keys, require_mapping
 
 _TWO_PI = 2.0 * math.pi
@@ -168,7 +168,7 @@ SENSOR_CONST = _float_record(
 STATE_SIZE = SENSOR_STATE.itemsize // 8
 CONST_SIZE = SENSOR_CONST.itemsize // 8
 FIX0 = STATE_SIZE + CONST_SIZE
-"""The slot of the delivered GNSS message (:data:`~geofence.estimator.GPS_FIX`) in a suite's memory."""
+"""The slot of the delivered GNSS message (:data:`~geofence.estimation.estimator.GPS_FIX`) in a suite's memory."""
 OUTAGES0 = FIX0 + FIX_SIZE
 """The slot of the outage windows (``start_s, end_s`` pairs), then the pending messages' ring (:func:`ring_rows`
 messages)."""

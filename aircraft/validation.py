@@ -38,10 +38,10 @@ from dataclasses import dataclass, field
 from aircraft.factory import build_platform
 from aircraft.platform import Platform
 from aircraft.profile import PlatformProfile, load_profile
-from geofence.dynamics import G_MPS2, drag_accel_mps2, drag_coefficients, isa_density_ratio
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import PlatformKind, StickCommand, VehicleState
-from geofence.rooms import turn_radius_m
+from geofence.physics.dynamics import G_MPS2, drag_accel_mps2, drag_coefficients, isa_density_ratio
+from geofence.physics.rooms import turn_radius_m
 
 OUTER_HZ = 40.0
 LAT0_DEG, LON0_DEG, GROUND_ALT_M = 47.0, 8.0, 400.0

@@ -5,7 +5,7 @@ draw it for one speed and one steady wind (by default the platform's cruise
 speed; :mod:`analysis.plots` passes the speed and wind recorded at each
 activation): every boundary is moved toward the allowed side by the room the
 platform needs when it approaches that boundary head-on at that speed in that
-wind (:func:`geofence.rooms.head_on_room_m`, so the downwind edges move further):
+wind (:func:`geofence.physics.rooms.head_on_room_m`, so the downwind edges move further):
 
 * keep-in edges move inward;
 * keep-out polygons grow outward (each edge by the room for a head-on
@@ -27,9 +27,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from geofence.geometry.local_fence import LocalFence
 from geofence.interface import Envelope
-from geofence.local_fence import LocalFence
-from geofence.rooms import head_on_room_m
+from geofence.physics.rooms import head_on_room_m
 
 
 def _speed(env: Envelope, speed_mps: float | None) -> float:

@@ -66,8 +66,8 @@ from scipy.stats import beta, chi2
 from analysis.batch_plots import num, save_figure, truthy
 from analysis.report import RESULTS_CSV, read_results_csv
 from analysis.scoring import SCORED_COLUMNS, score_flight
-from geofence.fence import parse_fence
-from geofence.geodesy import LocalFrame
+from geofence.geometry.fence import parse_fence
+from geofence.geometry.geodesy import LocalFrame
 from geofence.validation import ConfigError
 
 MANIFEST = "campaign.json"
@@ -153,7 +153,7 @@ def peak_sustained_wind_mps(path: str | Path, window_s: float = SUSTAINED_WIND_W
 
 
 def case_fence(case: Mapping):
-    """The :class:`~geofence.local_fence.LocalFence` of a manifest case, in the runner's frame (its start point)."""
+    """The :class:`~geofence.geometry.local_fence.LocalFence` of a manifest case, in the runner's frame (its start point)."""
     st = case["start"]
     frame = LocalFrame(float(st["lat_deg"]), float(st["lon_deg"]), float(st.get("ground_alt_m", 0.0)))
     return parse_fence(case["fence"], f"campaign case {case['case_id']}").to_local(frame)

@@ -1,6 +1,6 @@
 """Fast vectorized fence margins for long recorded arrays (numpy only).
 
-Same numbers as :meth:`geofence.polygon.PolygonIndex.signed_distance_array`
+Same numbers as :meth:`geofence.geometry.polygon.PolygonIndex.signed_distance_array`
 and the ``LocalFence.*_array`` methods (the same formulas, operation for
 operation, so the results are bit-identical), but organised for throughput:
 the samples are cut into chunks, each polygon edge is one pass of in-place
@@ -9,8 +9,8 @@ per chunk), and the chunks are shared between threads (numpy releases the GIL
 inside its loops; chunks are large so that per-call overhead stays small).
 
 Keep-outs with their own floor or ceiling (``LocalFence.keep_out_*_extents``,
-:class:`~geofence.fence.VerticalExtent`) count here only inside their volume
-(:meth:`~geofence.fence.VerticalExtent.volume_margin_array`): this is the
+:class:`~geofence.geometry.fence.VerticalExtent`) count here only inside their volume
+(:meth:`~geofence.geometry.fence.VerticalExtent.volume_margin_array`): this is the
 scoring's view of the airspace. The ``LocalFence`` margins are the unit's,
 which treats every keep-out as full-height, so the two agree exactly when
 every keep-out is full-height.
@@ -26,8 +26,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from geofence.fence import VerticalExtent
-from geofence.polygon import BOUNDARY_TOL_M, PolygonIndex
+from geofence.geometry.fence import VerticalExtent
+from geofence.geometry.polygon import BOUNDARY_TOL_M, PolygonIndex
 
 CHUNK = 65536
 """Samples per chunk (measured on 2 cores: 32-64 k is best on one thread, >= 64 k with two)."""
@@ -185,7 +185,7 @@ def _extents(extents: Sequence[VerticalExtent]) -> list[VerticalExtent | None]:
 
 
 def fence_margins(fence, x, y, h, threads: int | None = None) -> dict[str, np.ndarray]:
-    """Per-sample margins of a :class:`~geofence.local_fence.LocalFence` (m, + safe), in one chunked pass.
+    """Per-sample margins of a :class:`~geofence.geometry.local_fence.LocalFence` (m, + safe), in one chunked pass.
 
     ``x, y``: east, north (m); ``h``: height in the fence's altitude reference.
     Returns ``lateral`` (keep-in and keep-outs), ``keep_out`` (distance outside

@@ -27,7 +27,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from analysis.batch_plots import save_figure  # noqa: E402
-from geofence.unit import Mode  # noqa: E402
+from geofence.unit.geofence_unit import Mode  # noqa: E402
 
 PILOT_COLOUR = "tab:blue"
 OVERRIDE_COLOUR = "tab:red"

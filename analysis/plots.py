@@ -22,7 +22,7 @@ the flight:
   the keep-in edge and to the nearest keep-out, apart), the ceiling and floor
   margins (none drawn over a floor gap, where no floor applies), and the unit's
   activation margin, each with the
-  geofence phases (:class:`geofence.unit.Mode`) shaded and the GPS failure
+  geofence phases (:class:`geofence.unit.geofence_unit.Mode`) shaded and the GPS failure
   marked.
 """
 
@@ -34,7 +34,7 @@ from typing import Any
 
 import matplotlib
 
-from geofence.fence import AltitudeReference
+from geofence.geometry.fence import AltitudeReference
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -45,7 +45,7 @@ from matplotlib.colors import TwoSlopeNorm  # noqa: E402
 from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
-from geofence.unit import Mode  # noqa: E402
+from geofence.unit.geofence_unit import Mode  # noqa: E402
 
 MODE_STYLE = {  # geofence mode -> (label, colour); MONITOR is not shaded on the time axes
     Mode.MONITOR: ("pilot in control", "tab:blue"),
@@ -310,7 +310,7 @@ def flight_figure(
     saves and closes it).
 
     Without a fence the track is coloured by time. With one (a
-    :class:`~geofence.local_fence.LocalFence`; ``envelope`` the platform's
+    :class:`~geofence.geometry.local_fence.LocalFence`; ``envelope`` the platform's
     :class:`~geofence.interface.Envelope`), see the module docstring.
     ``gps_fail_at_s`` (the scenario's ``sensors.gps_fail_at_s``) and
     ``gps_outages`` mark the GPS failure; ``waypoints_en`` (ENU m) and
@@ -539,7 +539,7 @@ def scenario_plot_kwargs(sc) -> dict:
 
     For callers that re-plot saved flights (``geofence-testbed plot``) from ``scenario.yaml``.
     """
-    from geofence.geodesy import LocalFrame
+    from geofence.geometry.geodesy import LocalFrame
 
     kw: dict = {"scenario_wind": getattr(sc, "wind", None)}
     geofence = getattr(sc, "geofence", None)

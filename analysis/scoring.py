@@ -3,7 +3,7 @@
 Input: named trajectory columns (as in ``trajectory.csv``: ``time_s``,
 ``east_m``, ``north_m``, ``agl_m`` or ``alt_m``, optional ``geofence_mode``,
 ``v_east_mps``, ``v_north_mps``, ``ground_speed_mps``) and a
-:class:`~geofence.local_fence.LocalFence` in the same ENU frame. Output: a flat dict
+:class:`~geofence.geometry.local_fence.LocalFence` in the same ENU frame. Output: a flat dict
 of scores, all in SI units:
 
 * ``max_excursion_m``: the farthest the vehicle got beyond the fence, lateral
@@ -15,7 +15,7 @@ of scores, all in SI units:
 * ``activations``: entries into OVERRIDE (from the recorded mode column);
 * ``breached_keep_out``: any sample inside a keep-out zone's volume: inside it
   laterally *and* between its own floor and ceiling when it has them
-  (:class:`~geofence.fence.VerticalExtent`; passing over a building's roof or
+  (:class:`~geofence.geometry.fence.VerticalExtent`; passing over a building's roof or
   under an airspace shelf is no entry). The same volumetric keep-out margin
   enters the lateral and 3-D margins below, so such a pass is no excursion
   either. (The geofence unit itself treats every keep-out as full-height.)
@@ -49,8 +49,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from analysis.fast_margins import fence_margins
-from geofence.fence import AltitudeReference
-from geofence.local_fence import LocalFence
+from geofence.geometry.fence import AltitudeReference
+from geofence.geometry.local_fence import LocalFence
 
 MONITOR_MODE = 0
 OVERRIDE_MODE = 1

@@ -29,7 +29,7 @@ from pathlib import Path
 
 from aircraft.factory import build_platform
 from aircraft.jsbsim_model import JSBSimModel
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from scenarios.definition.schema import load_scenario
 from scenarios.flight.runner import fly
 

@@ -27,10 +27,10 @@ from pathlib import Path
 
 from aircraft.factory import build_platform
 from aircraft.sensors import SensorSuite
-from geofence.config import GeofenceConfig
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import StickCommand, VehicleState
-from geofence.unit import GeofenceUnit
+from geofence.unit.config import GeofenceConfig
+from geofence.unit.geofence_unit import GeofenceUnit
 from scenarios.definition.schema import load_scenario
 from scenarios.flight.sensing import GeofenceSensing
 from wind import SteadyWind

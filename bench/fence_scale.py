@@ -16,7 +16,7 @@ For fences of one family -- a noisy star-shaped keep-in about 6 km across with
 
 Each case runs three ways in the same run: with the fence index and the
 compiled search (``index``, what a flight uses from
-:data:`geofence.fence_grid.SMALL_FENCE_ELEMENTS` elements on), with the index
+:data:`geofence.geometry.fence_grid.SMALL_FENCE_ELEMENTS` elements on), with the index
 and with the full scan of
 every element (``scan``, no index: what a flight uses below that, its whole
 margin one compiled call); medians of repeats. It prints a table and saves
@@ -37,11 +37,11 @@ import time
 from pathlib import Path
 
 from aircraft.profile import load_profile
-from geofence.config import GeofenceConfig
-from geofence.fence import Fence
-from geofence.geodesy import LocalFrame
+from geofence.geometry.fence import Fence
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import StickCommand, VehicleState
-from geofence.unit import GeofenceUnit
+from geofence.unit.config import GeofenceConfig
+from geofence.unit.geofence_unit import GeofenceUnit
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 RADIUS_M = 3000.0

@@ -25,7 +25,7 @@ import numpy as np
 
 from analysis.fast_margins import default_threads
 from analysis.scoring import score_flight, score_many
-from geofence.fence import Fence, KeepOutCircle
+from geofence.geometry.fence import Fence, KeepOutCircle
 
 LAT0, LON0 = -35.3626, 149.1652
 FLIGHT_SAMPLES = 36_000

@@ -1,5 +1,12 @@
 """The geofence unit: fence geometry, boundary shifting, monitor/override logic and guidance.
 
+Sub-packages by question, bottom up, each importing only those below it (``tests/test_architecture.py``):
+``physics`` (how the aircraft moves, the rooms its manoeuvres need), ``geometry`` (where the fence is),
+``estimation`` (where the aircraft is), ``margins`` (how close to acting), ``recovery`` (the way back) and
+``unit`` (the state machine, its configuration, the pre-flight check). Three top-level modules are the
+vocabulary all of them share: ``interface`` (the unit's inputs and outputs), ``validation`` (the parsing kit)
+and ``jit`` (the compiler).
+
 Imports nothing from JSBSim or :mod:`aircraft`, and reads no file; it sees a state estimate, a platform
 :class:`~geofence.interface.Envelope`, the wind and outer-loop sticks, and emits sticks and a mode.
 
@@ -24,13 +31,13 @@ from importlib import import_module
 from typing import Any
 
 _PUBLIC = {
-    "GeofenceUnit": "geofence.unit",
-    "Mode": "geofence.unit",
-    "GeofenceConfig": "geofence.config",
-    "parse_geofence": "geofence.config",
+    "GeofenceUnit": "geofence.unit.geofence_unit",
+    "Mode": "geofence.unit.geofence_unit",
+    "GeofenceConfig": "geofence.unit.config",
+    "parse_geofence": "geofence.unit.config",
     "Fence": "geofence.fence",
-    "LocalFence": "geofence.local_fence",
-    "LocalFrame": "geofence.geodesy",
+    "LocalFence": "geofence.geometry.local_fence",
+    "LocalFrame": "geofence.geometry.geodesy",
     "Envelope": "geofence.interface",
     "VehicleState": "geofence.interface",
     "StickCommand": "geofence.interface",

@@ -79,7 +79,7 @@ class Envelope:
     airspeed ``v``: ``a = drag_linear_per_s·v + drag_quadratic_per_m·v²``. The
     linear part is rotor drag (blade flapping / induced drag), the quadratic
     part the airframe's parasitic drag. Both 0 (the default) means "not
-    identified": :func:`geofence.dynamics.drag_coefficients` then takes a
+    identified": :func:`geofence.physics.dynamics.drag_coefficients` then takes a
     purely quadratic law that balances the tilt limit at ``max_speed_mps``.
     Unused for a fixed-wing (it flies at an airspeed, not against a drag).
     """

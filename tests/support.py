@@ -7,7 +7,7 @@ kernel and its oracle): :func:`same_margins`.
 Random fences and states: the frame :data:`FRAME`, the envelopes :data:`FW` (Tern) and :data:`MC` (F450RD),
 :func:`latlon`; :func:`random_fence` (noisy star-shaped keep-ins with keep-out squares and circles) and
 :func:`dense_fence` (its dense ragged kind), with the states to probe them, :func:`probe_points` and
-:func:`dense_states`, and the random arguments of :func:`geofence.boundary_shift.activation_margins` at a
+:func:`dense_states`, and the random arguments of :func:`geofence.margins.boundary_shift.activation_margins` at a
 state (:func:`random_margin_call`).
 
 Fixed-wing manoeuvres: :func:`model_path_leaves` (the manoeuvre the margin scores, flown numerically: how deep
@@ -36,9 +36,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from aircraft.profile import load_profile
-from geofence.fence import Fence, KeepOutCircle
-from geofence.geodesy import LocalFrame
-from geofence.rooms import turn_constants, turn_rate_radps, vertical_arrest_distance_m, worst_case_lateral_shift_m
+from geofence.geometry.fence import Fence, KeepOutCircle
+from geofence.geometry.geodesy import LocalFrame
+from geofence.physics.rooms import turn_constants, turn_rate_radps, vertical_arrest_distance_m, worst_case_lateral_shift_m
 
 if TYPE_CHECKING:
     from aircraft.multicopter import MulticopterPlatform
@@ -336,7 +336,7 @@ def vertical_room_m(sc, rate_mps: float) -> float:
 def assert_ci_suite_approaches(out: Path) -> dict[str, dict[str, float]]:
     """Check the flown CI suite in ``out`` (a batch output folder with ``*/trajectory.csv`` and ``scenario.yaml``):
     each flight's closest approach to its target edge is below 2 x the platform's worst-case lateral activation
-    room at that wind (:func:`geofence.rooms.worst_case_lateral_shift_m`), and per platform and wind the ceiling
+    room at that wind (:func:`geofence.physics.rooms.worst_case_lateral_shift_m`), and per platform and wind the ceiling
     and the floor were approached within 2 x the vertical room (:func:`vertical_room_m`). Returns the closest
     approaches per flight. ``tests/test_batch.py`` calls it on the CI-suite batch it flies."""
     from scenarios.definition.schema import parse_scenario, read_document
@@ -406,7 +406,7 @@ def close_fields(a, b, rel: float = CONFORMANCE_REL) -> bool:
 
 
 SAME_MARGINS_M = 1e-9
-"""Two :class:`~geofence.boundary_shift.ShiftResult` computed two ways that must agree (a fence with and without
+"""Two :class:`~geofence.margins.boundary_shift.ShiftResult` computed two ways that must agree (a fence with and without
 its index): every float field within this many metres (relative beyond a metre)."""
 
 

@@ -7,8 +7,8 @@ import pytest
 
 from aircraft.profile import load_profile
 from analysis.boundary import activation_field
-from geofence.config import parse_geofence
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
+from geofence.unit.config import parse_geofence
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 ENV = load_profile("F450RD").envelope

@@ -21,8 +21,8 @@ from analysis.formats.fence_files import (
     fence_to_yaml_block,
     load_fence_file,
 )
-from geofence.fence import FenceError
-from geofence.geodesy import LocalFrame, geodesic_destination
+from geofence.geometry.fence import FenceError
+from geofence.geometry.geodesy import LocalFrame, geodesic_destination
 from geofence.validation import ConfigError
 from scenarios.airspace.generate import bounding_rectangle, generate_park, write_geojson
 from scenarios.definition.schema import PilotKind, load_scenario, parse_scenario
@@ -189,7 +189,7 @@ def test_plan_detection_unchanged(tmp_path):
 
 
 def test_yaml_block_round_trip(tmp_path):
-    from geofence.fence import parse_fence
+    from geofence.geometry.fence import parse_fence
 
     imp = load_fence_file(write(tmp_path, collection(keep_in(holes=[INNER_LL]), ceiling_m=45)))
     assert parse_fence(fence_to_yaml_block(imp)["geofence"]["fence"]) == imp.fence
@@ -501,7 +501,10 @@ def test_scenario_inline_keys_override_the_file(site):
 @pytest.mark.parametrize(
     "fence, expect",
     [
-        ("{file: ../fences/nope.geojson}", "s.yaml: geofence.fence.file: no such file '../fences/nope.geojson' (relative to "),
+        (
+            "{file: ../fences/nope.geojson}",
+            "s.yaml: geofence.fence.file: no such file '../fences/nope.geojson' (relative to ",
+        ),
         ("{file: ../fences}", "s.yaml: geofence.fence.file: '../fences' is not a file (relative to "),
         ("{file: 42}", "s.yaml: geofence.fence.file: must be a path to a fence file, got 42"),
         (

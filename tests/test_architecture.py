@@ -95,22 +95,56 @@ def test_scenario_layers_import_one_way(folder, forbidden):
     assert offenders == {}
 
 
+# Inside geofence/, bottom up (docs/architecture.md): the shared leaves and the unit's vocabulary (jit, validation,
+# interface: top-level modules) -> physics (how the aircraft moves, the rooms its manoeuvres need) -> geometry
+# (where the fence is) -> estimation (where the aircraft is) -> margins (how close to acting) -> recovery (the
+# way back) -> unit (the state machine, its configuration and pre-flight check). A sub-package imports only
+# from the top-level modules and the sub-packages below it.
+GEOFENCE_LAYERS = ["physics", "geometry", "estimation", "margins", "recovery", "unit"]
+
+
+@pytest.mark.parametrize("layer", GEOFENCE_LAYERS)
+def test_geofence_subpackages_import_one_way(layer):
+    above = tuple(f"geofence.{q}" for q in GEOFENCE_LAYERS[GEOFENCE_LAYERS.index(layer) + 1 :])
+    offenders = {}
+    for p in (ROOT / "geofence" / layer).rglob("*.py"):
+        bad = sorted(m for m in imported_dotted(p) if m.startswith(above) and m.split(".")[1] != layer)
+        if bad:
+            offenders[str(p.relative_to(ROOT))] = bad
+    assert offenders == {}
+
+
+def test_geofence_top_level_modules_are_its_vocabulary():
+    """Only the shared leaves and the unit's inputs and outputs sit at geofence/'s top level, and they import no
+    sub-package: everything else lives in a sub-package by question."""
+    flat = sorted(p.stem for p in (ROOT / "geofence").glob("*.py") if p.name != "__init__.py")
+    assert flat == ["interface", "jit", "validation"]
+    for stem in flat:
+        uses = {m for m in imported_dotted(ROOT / "geofence" / f"{stem}.py") if m.startswith("geofence.")}
+        assert all(m.split(".")[1] in flat for m in uses), (stem, uses)
+    subs = sorted(p.name for p in (ROOT / "geofence").iterdir() if (p / "__init__.py").exists())
+    assert subs == sorted(GEOFENCE_LAYERS)
+
+
 def test_scenarios_has_no_flat_modules_left():
     """Every module of scenarios/ lives in one of its layers (airspace, definition, campaign, flight, app)."""
     flat = sorted(p.name for p in (ROOT / "scenarios").glob("*.py") if p.name != "__init__.py")
     assert flat == []
 
 
-def test_no_private_names_imported_across_modules():
-    """``from pkg.mod import _private`` nowhere: a module's private names stay its own (tests included)."""
+def test_no_private_names_imported_across_packages():
+    """``from pkg.mod import _private`` only from a sibling module of the same package (a compiled kernel's
+    jitable parts are shared inside its sub-package, ``geofence/recovery/``): a private name never leaves its
+    package (tests included)."""
     offenders = []
     for p in ROOT.rglob("*.py"):
         if {".git", "build"} & set(p.parts) or "egg-info" in str(p):
             continue
+        package = ".".join(p.relative_to(ROOT).parts[:-1])
         for node in ast.walk(ast.parse(p.read_text())):
             if isinstance(node, ast.ImportFrom) and node.module and node.level == 0 and node.module != "__future__":
                 private = [a.name for a in node.names if a.name.startswith("_")]
-                if private:
+                if private and node.module.rsplit(".", 1)[0] != package:
                     offenders.append(f"{p.relative_to(ROOT)}: from {node.module} import {', '.join(private)}")
     assert offenders == []
 

@@ -1,9 +1,9 @@
 """Property: the binding search finds the exhaustive minimum.
 
-:func:`geofence.lateral_kernel.lateral_binding` scores a fixed-wing's elements exactly only where a cheap lower
+:func:`geofence.margins.lateral.lateral_binding` scores a fixed-wing's elements exactly only where a cheap lower
 bound of their activation cannot rule them out (its pruning), and an index cell's walk stops early. Here every
-element of the fence is scored, one by one, from its own room formula (:func:`~geofence.rooms.fixed_wing_edge_room_m`
-for each of the two turns, the better turn kept; :func:`~geofence.lateral_kernel.multirotor_edge_room_m`), and
+element of the fence is scored, one by one, from its own room formula (:func:`~geofence.physics.rooms.fixed_wing_edge_room_m`
+for each of the two turns, the better turn kept; :func:`~geofence.margins.lateral.multirotor_edge_room_m`), and
 the smallest ``d - room`` must be the search's activation (within 1e-9 m), its element one that attains it: on a
 large wavy fence (many edges within a fixed-wing's reach) scanned and indexed, with a keep-out square, duplicated
 keep-outs (exact ties) and circles, for both platform kinds in wind, from the free space and from breached points.
@@ -17,16 +17,16 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from support import FRAME, FW, MC, latlon, random_margin_call
 
-from geofence.elements import edge_scored
-from geofence.fence import Fence, KeepOutCircle
-from geofence.lateral_kernel import (
+from geofence.geometry.elements import edge_scored
+from geofence.geometry.fence import Fence, KeepOutCircle
+from geofence.margins.kernel import envelope_terms, state_terms
+from geofence.margins.lateral import (
     fixed_wing_edge_terms,
     lateral_binding,
     multirotor_edge_room_m,
     wind_toward_mps,
 )
-from geofence.margins_kernel import envelope_terms, state_terms
-from geofence.rooms import fixed_wing_edge_room_m
+from geofence.physics.rooms import fixed_wing_edge_room_m
 
 TOL_M = 1e-9
 

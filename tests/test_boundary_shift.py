@@ -9,12 +9,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geofence.boundary_shift import activation_margins, activation_margins_for_state, check_shift_feasible, uncertainty_margin_m
-from geofence.dynamics import G_MPS2, drag_coefficients, wind_push_mps2
-from geofence.fence import FenceError, parse_fence
-from geofence.geodesy import LocalFrame
+from geofence.geometry.fence import FenceError, parse_fence
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, VehicleState
-from geofence.rooms import (
+from geofence.margins.boundary_shift import (
+    activation_margins,
+    activation_margins_for_state,
+    check_shift_feasible,
+    uncertainty_margin_m,
+)
+from geofence.physics.dynamics import G_MPS2, drag_coefficients, wind_push_mps2
+from geofence.physics.rooms import (
     climb_back_drift_m,
     course_reversal_time_s,
     fixed_wing_room_from_velocity_m,

@@ -50,11 +50,11 @@ from analysis.campaign_report import (
     unprotected_vs_protected,
     write_campaign_report,
 )
-from geofence.dynamics import return_not_assured
-from geofence.fence import parse_fence
-from geofence.geodesy import LocalFrame
-from geofence.polygon import self_intersections, signed_area
-from geofence.rooms import worst_case_lateral_shift_m
+from geofence.geometry.fence import parse_fence
+from geofence.geometry.geodesy import LocalFrame
+from geofence.geometry.polygon import self_intersections, signed_area
+from geofence.physics.dynamics import return_not_assured
+from geofence.physics.rooms import worst_case_lateral_shift_m
 from geofence.validation import ConfigError
 from scenarios.campaign.generator import (
     BREACH_PUSH_FACTOR,

@@ -11,7 +11,7 @@
   folder with ``*/trajectory.csv`` and ``scenario.yaml``): each flight's
   closest approach to its target edge is below 2 x the platform's worst-case
   lateral activation room at that wind
-  (:func:`geofence.rooms.worst_case_lateral_shift_m`), and per
+  (:func:`geofence.physics.rooms.worst_case_lateral_shift_m`), and per
   platform and wind the ceiling and the floor were approached within 2 x the
   vertical room (arrest distance plus k·sigma of the GPS vertical error). It is
   called from the CI-suite batch test in ``tests/test_batch.py`` on the

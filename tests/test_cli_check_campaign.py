@@ -3,7 +3,7 @@
 import subprocess
 import sys
 
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 
 FRAME = LocalFrame(47.3, 8.5, 450.0)
 

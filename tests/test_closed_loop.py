@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geofence.geodesy import LocalFrame, geodesic_destination
+from geofence.geometry.geodesy import LocalFrame, geodesic_destination
 from scenarios.definition.schema import PilotKind, parse_scenario
 from scenarios.flight.runner import fly
 

@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aircraft.profile import load_profile
-from geofence.dead_reckoning import DeadReckoning
+from geofence.estimation.dead_reckoning import DeadReckoning
 from geofence.interface import FixState, VehicleState
 
 MC = load_profile("F450RD").envelope

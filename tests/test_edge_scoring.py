@@ -7,7 +7,7 @@ edge's *normal* the segment can be nearer than ``d``: a turn drifting in wind th
 along the normal than ``d``, and a vehicle heading straight at the end closes on it at its full speed, not the
 normal component. A U-shaped keep-in's inner corner was left by 4.6 m with a margin of +21 m that way, and a keep-out's
 corner and a concave star's the same (this property found them). Such an edge is now scored along the direction to
-its nearest end (:func:`geofence.elements.edge_scored`): every point of the segment lies at least ``d`` along
+its nearest end (:func:`geofence.geometry.elements.edge_scored`): every point of the segment lies at least ``d`` along
 it. A convex keep-in keeps its exact rule, the line distance along the normal (``tests/test_line_scored_edges.py``).
 
 Checked here, for a fixed-wing at sea level and at high sites (the envelope at the site's density) in winds up to
@@ -27,10 +27,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from support import FRAME, FW, MC, G, latlon, model_path_leaves, random_fence, random_flight
 
-from geofence.boundary_shift import activation_margins
-from geofence.dynamics import envelope_at_density, isa_density_ratio
-from geofence.elements import edge_scored
-from geofence.fence import Fence, KeepOutCircle
+from geofence.geometry.elements import edge_scored
+from geofence.geometry.fence import Fence, KeepOutCircle
+from geofence.margins.boundary_shift import activation_margins
+from geofence.physics.dynamics import envelope_at_density, isa_density_ratio
 
 
 def turn_radius(env) -> float:

@@ -1,4 +1,4 @@
-"""The unit's history of estimates (:class:`geofence.estimate_history.EstimateHistory`): states appended one by
+"""The unit's history of estimates (:class:`geofence.estimation.history.EstimateHistory`): states appended one by
 one and blocks of ring rows taken in read back as the same states in the same order, and trimming to a window
 keeps exactly those no older than its start, as a deque of states trimmed the same way does."""
 
@@ -8,7 +8,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geofence.estimate_history import EstimateHistory, state_of_row
+from geofence.estimation.history import EstimateHistory, state_of_row
 from geofence.interface import VehicleState
 
 

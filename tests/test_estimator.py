@@ -9,10 +9,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aircraft.sensors import SensorConfig, SensorSuite
-from geofence.estimator import EstimatorConfig, GeofenceEstimator
-from geofence.geodesy import LocalFrame
+from geofence.estimation.estimator import EstimatorConfig, GeofenceEstimator
+from geofence.estimation.measurements import AirData, AttitudeSample, GpsFix
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import VehicleState
-from geofence.measurements import AirData, AttitudeSample, GpsFix
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 DT = 0.025
@@ -263,7 +263,7 @@ def _kalman_update(x: np.ndarray, P: np.ndarray, H: np.ndarray, z: np.ndarray, R
 
 
 class TextbookEstimator:
-    """The estimator's model in matrix form, written from the module docstring of :mod:`geofence.estimator`: per
+    """The estimator's model in matrix form, written from the module docstring of :mod:`geofence.estimation.estimator`: per
     horizontal axis ``(p, v, a)`` at the newest fix's time of validity (the fusion horizon), predicted there and
     updated with the fix's position and velocity (one joint update: the same as the two scalar ones), then
     extrapolated to the current time; the vertical ``(up, v_up, baro offset)`` at the current time, the baro every
@@ -405,7 +405,7 @@ def test_the_estimator_is_the_textbook_kalman_filter(sensors, baro_referenced):
 def test_compiled_step_conforms_to_its_interpreted_source():
     """Conformance of the one entry point: compiled and interpreted (its own source, ``py_func``) agree to 1e-9 (m,
     m/s, rad) along a noisy flight with an outage and a receiver failure."""
-    from geofence.estimator import FIX_SIZE, STATE_SIZE, estimator_step
+    from geofence.estimation.estimator import FIX_SIZE, STATE_SIZE, estimator_step
 
     if not hasattr(estimator_step, "py_func"):
         pytest.skip("numba is not compiling here: the interpreted run is the only one")
@@ -431,7 +431,7 @@ def test_the_sensing_chain_s_facades_read_its_own_slots():
     from support import ROOT
 
     from aircraft.profile import load_profile
-    from geofence.wind_estimator import WindEstimator, WindEstimatorConfig
+    from geofence.estimation.wind_estimator import WindEstimator, WindEstimatorConfig
     from scenarios.definition.schema import load_scenario
     from scenarios.flight.sensing import GeofenceSensing
 

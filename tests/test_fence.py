@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 from geographiclib.geodesic import Geodesic
 
-from geofence.fence import FenceError, KeepOutCircle, parse_fence
-from geofence.geodesy import LocalFrame, geodesic_destination, geodesic_distance_m
-from geofence.local_fence import LocalFence
-from geofence.polygon import segment_dist2
+from geofence.geometry.fence import FenceError, KeepOutCircle, parse_fence
+from geofence.geometry.geodesy import LocalFrame, geodesic_destination, geodesic_distance_m
+from geofence.geometry.local_fence import LocalFence
+from geofence.geometry.polygon import segment_dist2
 
 BOX = [[47.3975, 8.5450], [47.3990, 8.5450], [47.3990, 8.5475], [47.3975, 8.5475]]
 GOOD = {

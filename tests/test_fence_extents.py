@@ -21,8 +21,7 @@ from aircraft.profile import load_profile
 from analysis.fast_margins import fence_margins
 from analysis.formats.fence_files import fence_to_yaml_block, load_fence_file
 from analysis.scoring import keep_out_margin, score_flight
-from geofence.boundary_shift import activation_margins
-from geofence.fence import (
+from geofence.geometry.fence import (
     DEFAULT_CIRCLE_TOLERANCE_M,
     FULL_HEIGHT,
     Fence,
@@ -32,8 +31,9 @@ from geofence.fence import (
     circle_to_polygon,
     parse_fence,
 )
-from geofence.geodesy import LocalFrame, geodesic_distance_m
-from geofence.local_fence import LocalFence
+from geofence.geometry.geodesy import LocalFrame, geodesic_distance_m
+from geofence.geometry.local_fence import LocalFence
+from geofence.margins.boundary_shift import activation_margins
 from scenarios.definition.schema import load_scenario
 
 ROOT = Path(__file__).parents[1]

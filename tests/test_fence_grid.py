@@ -29,10 +29,10 @@ from support import (
     same_margins,
 )
 
-from geofence.boundary_shift import activation_margins
-from geofence.fence import Fence, KeepOutCircle
-from geofence.fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
-from geofence.local_fence import LocalFence
+from geofence.geometry.fence import Fence, KeepOutCircle
+from geofence.geometry.fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
+from geofence.geometry.local_fence import LocalFence
+from geofence.margins.boundary_shift import activation_margins
 
 
 @settings(max_examples=12, deadline=None)

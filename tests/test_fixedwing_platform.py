@@ -17,9 +17,9 @@ from aircraft.factory import build_platform
 from aircraft.fixedwing import FixedWingPlatform
 from aircraft.jsbsim_model import FT_TO_M, OWN_MODELS
 from aircraft.profile import load_profile
-from geofence.dynamics import isa_density_ratio
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import StickCommand
+from geofence.physics.dynamics import isa_density_ratio
 from wind.config import parse_wind, wind_from_config
 
 G = 9.80665

@@ -1,8 +1,8 @@
 """The closed loop's step (:mod:`scenarios.flight.step_kernel`) and the unit's decisions it takes
-(:func:`geofence.unit_kernel.monitor_pass`, :func:`~geofence.unit_kernel.override_pass`): the same flight twice
+(:func:`geofence.unit.passes.monitor_pass`, :func:`~geofence.unit.passes.override_pass`): the same flight twice
 records the same bytes; the compiled steps are their interpreted source (``py_func``, at 1e-9 relative); and the
 decisions match oracles: sticks pass through unchanged while the unit monitors, and an activation comes at the
-step where the public :func:`geofence.boundary_shift.activation_margins` first reaches 0."""
+step where the public :func:`geofence.margins.boundary_shift.activation_margins` first reaches 0."""
 
 import math
 from dataclasses import replace
@@ -14,12 +14,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from geofence import jit
-from geofence.boundary_shift import activation_margins
-from geofence.config import parse_geofence
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, StickCommand, VehicleState
-from geofence.unit import GeofenceUnit, Mode
-from geofence.unit_kernel import N_UNIT, OVERRIDE_STEP, PASS, monitor_pass, override_pass
+from geofence.margins.boundary_shift import activation_margins
+from geofence.unit.config import parse_geofence
+from geofence.unit.geofence_unit import GeofenceUnit, Mode
+from geofence.unit.passes import N_UNIT, OVERRIDE_STEP, PASS, monitor_pass, override_pass
 from scenarios.definition.schema import load_scenario
 from scenarios.flight.recorder import COLUMNS, Recorder, write_row
 from scenarios.flight.runner import fly

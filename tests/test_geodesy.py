@@ -7,7 +7,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geofence.geodesy import LocalFrame, ecef_to_geodetic, enu_of, geodesic_destination, geodesic_distance_m, geodetic_to_ecef
+from geofence.geometry.geodesy import (
+    LocalFrame,
+    ecef_to_geodetic,
+    enu_of,
+    geodesic_destination,
+    geodesic_distance_m,
+    geodetic_to_ecef,
+)
 
 lats = st.floats(-80.0, 80.0)
 lons = st.floats(-179.0, 179.0)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from scenarios.definition.schema import parse_scenario
 from scenarios.flight.runner import fly
 

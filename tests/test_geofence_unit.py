@@ -6,11 +6,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geofence.boundary_shift import activation_margins_for_state
-from geofence.config import parse_geofence
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, StickCommand, VehicleState
-from geofence.unit import LANDING_EDGE_MARGIN_M, GeofenceUnit, Mode
+from geofence.margins.boundary_shift import activation_margins_for_state
+from geofence.unit.config import parse_geofence
+from geofence.unit.geofence_unit import LANDING_EDGE_MARGIN_M, GeofenceUnit, Mode
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 MC = Envelope(
@@ -153,7 +153,7 @@ def test_a_multirotor_flies_to_its_gap_at_the_lowest_safe_height():
 
 
 def test_envelope_is_scaled_to_the_air_density_at_a_high_site():
-    from geofence.dynamics import envelope_at_density, isa_density_ratio
+    from geofence.physics.dynamics import envelope_at_density, isa_density_ratio
 
     fw = Envelope(
         PlatformKind.FIXED_WING, 16.0, 24.0, 12.0, math.radians(40), math.radians(25), math.radians(28), 5.0, 3.0, 0.6, 5.0, 1.1
@@ -215,8 +215,8 @@ def test_the_landing_aim_stays_inside_the_gap_by_the_edge_margin(half_e, half_n,
 def test_dead_reckoning_room_grows_with_the_descent_and_the_turbulence(agl, higher, sigma, more_sigma):
     """Without a position source the room to descend is the drift (wind error + k·σ + gust) for as long as the
     descent takes, never below the fixed floor: more height or more turbulence never asks for less."""
-    from geofence.unit import DEAD_RECKONING_LANDING_MARGIN_M
-    from geofence.wind_estimator import WIND_ESTIMATE_ERROR_MPS
+    from geofence.estimation.wind_estimator import WIND_ESTIMATE_ERROR_MPS
+    from geofence.unit.geofence_unit import DEAD_RECKONING_LANDING_MARGIN_M
 
     u = unit(wind_prior={"speed_mps": 3.0, "from_deg": 0.0, "turbulence_sigma_mps": sigma}, turbulence_source="forecast")
     v = unit(

@@ -46,7 +46,7 @@ def test_the_same_flight_twice_gives_the_same_bytes():
 def test_the_golden_tables_are_not_trivial():
     """The set covers both platform kinds' overrides: most golden flights record an override (mode 1), and each
     table holds more than 10 s of flight."""
-    from geofence.unit import Mode
+    from geofence.unit.geofence_unit import Mode
 
     tables = {name: read_golden(GOLDEN / f"{name}.csv") for name in NAMES}
     assert len(tables) >= 6

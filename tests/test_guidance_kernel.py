@@ -1,12 +1,12 @@
-"""The fixed-wing recovery's step (:func:`geofence.guidance.fixed_wing_step_on`) against oracles of its manoeuvre.
+"""The fixed-wing recovery's step (:func:`geofence.recovery.guidance.fixed_wing_step_on`) against oracles of its manoeuvre.
 
-A point mass flies the sticks of :class:`~geofence.guidance.FixedWingRecovery` at cruise (roll stick 1 = the bank
+A point mass flies the sticks of :class:`~geofence.recovery.guidance.FixedWingRecovery` at cruise (roll stick 1 = the bank
 limit, turn rate ``g·tan(bank)/V``): its first turn reverses the course inside the room of the turn-radius
 formula, at the bank limit, and rolls out where the air heading points at the roll-out point; after it, the
 vehicle settles on the orbit round the route's end that the vector field and the proportional course loop
 solve for. Flown on a planned route (the compiled step on its arrays), on a straight route and from outside the
 fence (the same step interpreted on the route's own methods). One conformance test holds the compiled entry
-point :data:`~geofence.guidance.fixed_wing_step` to its source interpreted.
+point :data:`~geofence.recovery.guidance.fixed_wing_step` to its source interpreted.
 """
 
 from __future__ import annotations
@@ -19,14 +19,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from support import FRAME, FW, G, close_fields, latlon
 
-from geofence import guidance
-from geofence.control_laws import wrap_pi
-from geofence.fence import Fence
-from geofence.guidance import COURSE_GAIN_PER_S, ROLL_OUT_TOLERANCE_RAD, FixedWingRecovery, Route, StraightRoute
+from geofence.geometry.fence import Fence
 from geofence.interface import VehicleState
 from geofence.jit import COMPILED
-from geofence.recovery import RecoveryPlanner
-from geofence.rooms import turn_radius_m
+from geofence.physics.control_laws import wrap_pi
+from geofence.physics.rooms import turn_radius_m
+from geofence.recovery import RecoveryPlanner, guidance
+from geofence.recovery.guidance import COURSE_GAIN_PER_S, ROLL_OUT_TOLERANCE_RAD, FixedWingRecovery, Route, StraightRoute
 
 DT_S = 0.025
 V_MPS = FW.cruise_speed_mps
@@ -208,7 +207,7 @@ def test_from_outside_the_fence_it_turns_back_in() -> None:
     progress=st.floats(0.0, 1.0),
 )
 def test_compiled_step_conforms_to_its_interpreted_source(e, n, v, yaw, airspeed, wind, turning, turned, progress):
-    """:data:`~geofence.guidance.fixed_wing_step` against its ``py_func`` (the same source, interpreted), on a
+    """:data:`~geofence.recovery.guidance.fixed_wing_step` against its ``py_func`` (the same source, interpreted), on a
     planned route's arrays: every field within 1e-9 relative."""
     route = _square_planner().plan((-600.0, 400.0), (500.0, -300.0))
     assert route is not None

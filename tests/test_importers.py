@@ -23,9 +23,9 @@ from analysis.formats.fence_files import (
     load_fence_file,
     load_rally_file,
 )
-from geofence.fence import Fence, FenceError, parse_fence
-from geofence.geodesy import LocalFrame, geodesic_destination, geodesic_distance_m
-from geofence.polygon import signed_area
+from geofence.geometry.fence import Fence, FenceError, parse_fence
+from geofence.geometry.geodesy import LocalFrame, geodesic_destination, geodesic_distance_m
+from geofence.geometry.polygon import signed_area
 
 REALWORLD = Path(__file__).parents[2] / "shared" / "realworld"
 

@@ -25,7 +25,7 @@ def test_the_kernel_sources_are_the_compiled_modules_and_what_they_import():
     """The stamp covers a module that defines kernels, a module whose functions they inline, and a module whose
     constants they read; not the application nor the file formats (a docstring there recompiles nothing)."""
     names = {p.relative_to(ROOT).as_posix() for p in kernel_sources(ROOT)}
-    assert {"geofence/jit.py", "geofence/rooms.py", "wind/field_kernel.py", "scenarios/flight/step_kernel.py"} <= names
+    assert {"geofence/jit.py", "geofence/physics/rooms.py", "wind/field_kernel.py", "scenarios/flight/step_kernel.py"} <= names
     assert "geofence/interface.py" in names  # imported by compiled modules: its constants may be frozen in
     assert not {"scenarios/app/cli.py", "analysis/formats/fence_files.py", "analysis/report.py"} & names
 
@@ -38,7 +38,10 @@ def test_an_edit_to_any_kernel_source_names_a_new_folder_and_the_old_one_goes(tm
     cli = tmp_path / "scenarios" / "app" / "cli.py"
     cli.write_text(cli.read_text() + "\n# not a kernel source\n")
     assert cache_dir_for(tmp_path) == first  # the application is not compiled: the cache stays
-    rooms = tmp_path / "geofence" / "rooms.py"  # inlined into other modules' kernels
+    formats = tmp_path / "analysis" / "formats" / "fence_files.py"
+    formats.write_text(formats.read_text().replace('"""', '"""An edited docstring. ', 1))
+    assert cache_dir_for(tmp_path) == first  # nor is a file format
+    rooms = tmp_path / "geofence" / "physics" / "rooms.py"  # inlined into other modules' kernels
     rooms.write_text(rooms.read_text().replace("TWO_PI = 2.0 * math.pi", "TWO_PI = 2.0 * math.pi  # edited"))
     second = cache_dir_for(tmp_path)
     assert second is not None and second != first

@@ -1,7 +1,7 @@
 """Properties of the compiled lateral search: its ties and its scan.
 
 Where lateral elements tie exactly, the first in element order binds (with the index and without). The full
-scan of the lateral margin (:func:`geofence.scan_kernel.lateral_margin_scan`) equals the vectorised margins
+scan of the lateral margin (:func:`geofence.geometry.scan.lateral_margin_scan`) equals the vectorised margins
 within 1e-9 m. One conformance test per compiled entry point: the compiled code is its own source interpreted
 (``.py_func``), within 1e-9 relative. (The recovery planner's segment tests and route follower are held to
 shapely and a Dijkstra oracle in ``tests/test_recovery_clear_vector.py``.)
@@ -27,9 +27,9 @@ from support import (
     same_margins,
 )
 
-from geofence.boundary_shift import activation_margins
-from geofence.fence import Fence, KeepOutCircle
+from geofence.geometry.fence import Fence, KeepOutCircle
 from geofence.jit import COMPILED
+from geofence.margins.boundary_shift import activation_margins
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -92,7 +92,7 @@ def test_the_lateral_scan_equals_the_vectorised_margins(seed, n_vertices, n_squa
 
 def _binding_arguments(local, env, rng: random.Random, e: float, n: float) -> tuple:
     """:func:`lateral_binding`'s arguments at (e, n) for a random state, by the public per-state terms."""
-    from geofence.margins_kernel import envelope_terms, state_terms
+    from geofence.margins.kernel import envelope_terms, state_terms
 
     args, kw = random_margin_call(rng, e, n, env, bank_rad=0.7, wrap_heading=True)
     _, _, _, ve, vn, vu, _, we, wn = args
@@ -111,7 +111,7 @@ def _binding_arguments(local, env, rng: random.Random, e: float, n: float) -> tu
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 10_000), n_vertices=st.integers(4, 300), n_squares=st.integers(0, 10), n_circles=st.integers(0, 4))
 def test_lateral_binding_compiled_is_its_python_source(seed, n_vertices, n_squares, n_circles):
-    from geofence.lateral_kernel import lateral_binding
+    from geofence.margins.lateral import lateral_binding
 
     local = random_fence(seed, n_vertices, n_squares, n_circles).to_local(FRAME)
     rng = random.Random(seed)
@@ -125,7 +125,7 @@ def test_lateral_binding_compiled_is_its_python_source(seed, n_vertices, n_squar
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 10_000), n_vertices=st.integers(60, 600), n_circles=st.integers(0, 4))
 def test_nearest_distance_compiled_is_its_python_source(seed, n_vertices, n_circles):
-    from geofence.elements import nearest_distance
+    from geofence.geometry.elements import nearest_distance
 
     local = random_fence(seed, n_vertices, 3, n_circles).to_local(FRAME, index=True)
     grid = local.grid()
@@ -140,8 +140,8 @@ def test_nearest_distance_compiled_is_its_python_source(seed, n_vertices, n_circ
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 10_000), n_vertices=st.integers(4, 300), n_squares=st.integers(0, 10), n_circles=st.integers(0, 4))
 def test_the_lateral_margin_scans_compiled_are_their_python_source(seed, n_vertices, n_squares, n_circles):
-    """:func:`geofence.scan_kernel.lateral_margin_scan` and :func:`~geofence.scan_kernel.deepest_polygon`."""
-    from geofence.scan_kernel import deepest_polygon, lateral_margin_scan
+    """:func:`geofence.geometry.scan.lateral_margin_scan` and :func:`~geofence.geometry.scan.deepest_polygon`."""
+    from geofence.geometry.scan import deepest_polygon, lateral_margin_scan
 
     local = random_fence(seed, n_vertices, n_squares, n_circles).to_local(FRAME)
     tables = local.scan_tables()

@@ -6,7 +6,7 @@ edge's normal. To leave through an edge's segment, the vehicle only has to reach
 nearer than the segment when the perpendicular foot lies off it. A long turn drifting in strong wind left a finely
 divided circle that way (campaign seed 27112026, circle-0169: a c172x 86 m out). Inside a convex keep-in, crossing
 any edge's line is leaving it, so those edges are scored at their line distance
-(:func:`geofence.elements.edge_scored`). ``tests/test_edge_scoring.py`` holds the same property on concave
+(:func:`geofence.geometry.elements.edge_scored`). ``tests/test_edge_scoring.py`` holds the same property on concave
 keep-ins and keep-outs.
 
 Checked here, on random convex keep-ins (ellipses divided into 3 to 400 edges: scanned and indexed), for a
@@ -24,8 +24,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from support import FRAME, FW, MC, G, latlon, model_path_leaves, random_fence, random_flight, same_margins
 
-from geofence.boundary_shift import activation_margins
-from geofence.fence import Fence
+from geofence.geometry.fence import Fence
+from geofence.margins.boundary_shift import activation_margins
 
 
 def convex_fence(n_vertices: int, radius_m: float, aspect: float, turn_rad: float) -> Fence:
@@ -110,7 +110,7 @@ def test_the_reaction_phase_is_scored_at_its_farthest_point():
     2.1 s reaction it first closes on the edge and then turns away. The margin scored where the reaction ends
     (1.6 m towards the edge), not the farthest it gets (3.5 m): the scored manoeuvre left the fence by 1.2 m
     with a margin of +0.8 m (the property above found it). The arc's farthest point is scored now
-    (:func:`geofence.rooms.reaction_arc_gap_m`): the margin is negative."""
+    (:func:`geofence.physics.rooms.reaction_arc_gap_m`): the margin is negative."""
     rng = random.Random(152)
     radius = rng.uniform(4.0, 25.0) * FW.cruise_speed_mps**2 / (G * math.tan(FW.max_bank_rad))
     local = convex_fence(8, radius, 0.625, rng.uniform(0.0, math.pi)).to_local(FRAME)

@@ -11,8 +11,8 @@ import pytest
 
 from analysis.formats.logs import LogError, describe, load_log, read_log
 from analysis.scoring import score_flight
-from geofence.fence import Fence
-from geofence.geodesy import LocalFrame
+from geofence.geometry.fence import Fence
+from geofence.geometry.geodesy import LocalFrame
 from geofence.validation import ConfigError
 
 REALWORLD = Path(__file__).parents[2] / "shared" / "realworld"

@@ -14,11 +14,11 @@ needs against that edge. Here the same manoeuvre is integrated numerically as a 
 The closed forms must agree with the integration (to the integration step), so the margin is exactly
 the manoeuvre it claims to score — no more, no less.
 
-The index (:class:`~geofence.fence_grid.FenceGrid`) only chooses which elements are scored: on random fences the
+The index (:class:`~geofence.geometry.fence_grid.FenceGrid`) only chooses which elements are scored: on random fences the
 same fence with and without it gives the same margins (every field within 1e-9 m, the same binding element),
 for both platform kinds at states next to vertices, inside keep-outs, outside and far inside.
 
-The room formulas themselves (:mod:`geofence.rooms`, the one home each: the compiled kernels call them) are held
+The room formulas themselves (:mod:`geofence.physics.rooms`, the one home each: the compiled kernels call them) are held
 to brute-force integrations too: the trochoid excursion of a turn in wind and the turn-back room, the bounds the
 binding searches prune with, the braking distance with and without a climb arrest, the stopping distance and the
 vertical arrest; and to properties (more speed or more wind towards the edge never needs less room).
@@ -34,11 +34,10 @@ from support import FRAME as FENCE_FRAME
 from support import probe_points, random_fence, random_margin_call, same_margins
 
 from aircraft.profile import load_profile
-from geofence.boundary_shift import activation_margins
-from geofence.config import parse_geofence
-from geofence.dynamics import G_MPS2, drag_coefficients, wind_push_mps2
-from geofence.geodesy import LocalFrame
-from geofence.rooms import (
+from geofence.geometry.geodesy import LocalFrame
+from geofence.margins.boundary_shift import activation_margins
+from geofence.physics.dynamics import G_MPS2, drag_coefficients, wind_push_mps2
+from geofence.physics.rooms import (
     braking_room_m,
     fixed_wing_room_bound_m,
     fixed_wing_room_m,
@@ -54,6 +53,7 @@ from geofence.rooms import (
     turn_rate_radps,
     vertical_arrest_distance_m,
 )
+from geofence.unit.config import parse_geofence
 
 FRAME = LocalFrame(10.0, 20.0, 0.0)
 HALF = 5000.0

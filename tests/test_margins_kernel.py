@@ -1,4 +1,4 @@
-"""Properties of the compiled margins (:mod:`geofence.margins_kernel`) beyond the lateral rooms.
+"""Properties of the compiled margins (:mod:`geofence.margins.kernel`) beyond the lateral rooms.
 
 On random fences with keep-outs, a floor and floor gaps, at states above and below the floor, inside and outside
 gaps, near the ceiling, climbing and descending, for both platform kinds, the fields of the :class:`ShiftResult`
@@ -28,12 +28,12 @@ from support import (
     same_margins,
 )
 
-from geofence import boundary_shift
-from geofence.boundary_shift import activation_margins
-from geofence.fence import Fence
+from geofence.geometry.fence import Fence
 from geofence.jit import COMPILED
-from geofence.margins_kernel import envelope_terms, indexed_margins, margins, monitor_margins, room_bound
-from geofence.rooms import vertical_arrest_distance_m
+from geofence.margins import boundary_shift
+from geofence.margins.boundary_shift import activation_margins
+from geofence.margins.kernel import envelope_terms, indexed_margins, margins, monitor_margins, room_bound
+from geofence.physics.rooms import vertical_arrest_distance_m
 
 TOL_M = 1e-9
 
@@ -134,7 +134,7 @@ def test_over_a_gap_below_the_floor_the_gap_binds():
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 10_000), n_gaps=st.integers(1, 4))
 def test_the_gap_queries_equal_the_vectorised_distances(seed, n_gaps):
-    """:meth:`LocalFence.best_gap` (compiled, :func:`geofence.scan_kernel.deepest_polygon`) and
+    """:meth:`LocalFence.best_gap` (compiled, :func:`geofence.geometry.scan.deepest_polygon`) and
     :meth:`~LocalFence.gap_distance_m` equal :meth:`~LocalFence.gap_distance_array` within 1e-9 m, inside, on and
     around overlapping gaps, and the gap it names is one that deep."""
     local = fence_with_gaps(seed, 12, 0, 0, n_gaps).to_local(FRAME)
@@ -149,8 +149,8 @@ def test_the_gap_queries_equal_the_vectorised_distances(seed, n_gaps):
 
 
 def monitoring_outcomes(seed: int, n_vertices: int, n_squares: int, n_circles: int, n_gaps: int, floor: str) -> set:
-    """Checks monitoring steps (:func:`geofence.boundary_shift.monitor_margins`) against the full margins
-    (:func:`~geofence.boundary_shift.activation_margins`, the oracle) on one random fence (see the property
+    """Checks monitoring steps (:func:`geofence.margins.boundary_shift.monitor_margins`) against the full margins
+    (:func:`~geofence.margins.boundary_shift.activation_margins`, the oracle) on one random fence (see the property
     below); returns the ``(platform kind, skipped)`` outcomes met."""
     if floor == "none":
         fence = random_fence(seed, n_vertices, n_squares, n_circles)
@@ -191,8 +191,8 @@ def monitoring_outcomes(seed: int, n_vertices: int, n_squares: int, n_circles: i
 @settings(max_examples=20, deadline=None)
 @given(**SMALL_FENCES, floor=st.sampled_from(["none", "gaps", "wide gap"]))
 def test_a_monitoring_step_is_the_skip_shortcut_then_the_margins(seed, n_vertices, n_squares, n_circles, n_gaps, floor):
-    """A monitoring step (:func:`geofence.boundary_shift.monitor_margins`) skips only where the full margins
-    (:func:`~geofence.boundary_shift.activation_margins`) are positive (the shortcut never hides an activation),
+    """A monitoring step (:func:`geofence.margins.boundary_shift.monitor_margins`) skips only where the full margins
+    (:func:`~geofence.margins.boundary_shift.activation_margins`) are positive (the shortcut never hides an activation),
     and otherwise answers them (every field within 1e-9 m); far from everything, near the edges, the ceiling,
     the floor and its gaps, in winds a multirotor cannot brake against (no bound: never skipped)."""
     outcomes = monitoring_outcomes(seed, n_vertices, n_squares, n_circles, n_gaps, floor)
@@ -255,7 +255,7 @@ def test_monitor_margins_compiled_is_its_python_source(seed, n_gaps):
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 10_000), n_vertices=st.integers(60, 600), n_squares=st.integers(0, 8))
 def test_room_bound_and_indexed_margins_compiled_are_their_python_source(seed, n_vertices, n_squares):
-    """:func:`geofence.margins_kernel.room_bound` and :func:`~geofence.margins_kernel.indexed_margins` (an indexed
+    """:func:`geofence.margins.kernel.room_bound` and :func:`~geofence.margins.kernel.indexed_margins` (an indexed
     fence's per-step calls), over an index cell's candidates and over every element."""
     local = random_fence(seed, n_vertices, n_squares, 2).to_local(FRAME, index=True)
     F, L = local.margin_tables()

@@ -28,9 +28,9 @@ from aircraft.validation import (
     render_markdown,
     rows_for,
 )
-from geofence.dynamics import isa_density_ratio
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import StickCommand
+from geofence.physics.dynamics import isa_density_ratio
 
 ROOT = Path(__file__).resolve().parents[1]
 LAT0, LON0, H0 = 47.0, 8.0, 400.0

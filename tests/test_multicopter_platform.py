@@ -13,7 +13,7 @@ from support import fly
 
 from aircraft.multicopter import MulticopterPlatform
 from aircraft.profile import load_profile
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import StickCommand
 
 LAT0, LON0, H0 = 44.7258, -93.0759, 285.0

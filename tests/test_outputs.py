@@ -13,9 +13,9 @@ import pytest
 
 from aircraft.profile import load_profile
 from analysis.plots import flight_figure
-from geofence.fence import parse_fence
-from geofence.geodesy import LocalFrame
-from geofence.unit import Mode
+from geofence.geometry.fence import parse_fence
+from geofence.geometry.geodesy import LocalFrame
+from geofence.unit.geofence_unit import Mode
 
 FRAME = LocalFrame(47.4, 8.5, 0.0)
 

@@ -1,15 +1,15 @@
-"""An override's hand-back decision, written once (:func:`geofence.unit_kernel.hand_back`, which both
-:meth:`geofence.unit.GeofenceUnit.update` and the compiled override step, :func:`~geofence.unit_kernel.no_hand_back`,
+"""An override's hand-back decision, written once (:func:`geofence.unit.passes.hand_back`, which both
+:meth:`geofence.unit.geofence_unit.GeofenceUnit.update` and the compiled override step, :func:`~geofence.unit.passes.no_hand_back`,
 ask), against its rule; and the vertical hysteresis at a goal short of the band
-(:func:`~geofence.unit_kernel.vertical_handback_m`) against its closed form."""
+(:func:`~geofence.unit.passes.vertical_handback_m`) against its closed form."""
 
 import math
 
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geofence.rooms import vertical_arrest_distance_m
-from geofence.unit_kernel import hand_back, vertical_handback_m
+from geofence.physics.rooms import vertical_arrest_distance_m
+from geofence.unit.passes import hand_back, vertical_handback_m
 
 near = st.floats(-3.0, 12.0)  # round the hysteresis thresholds (5 m lateral)
 

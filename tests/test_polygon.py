@@ -10,7 +10,7 @@ from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 from shapely.geometry import LinearRing, Point, Polygon
 
-from geofence.polygon import (
+from geofence.geometry.polygon import (
     BOUNDARY_TOL_M,
     PolygonIndex,
     as_vertices,
@@ -224,7 +224,7 @@ def test_polygon_relations_agree_with_shapely(a, b):
 
 def _self_intersections_all_pairs(vertices):
     """Reference: every pair of edges tested (the check before the x-sweep)."""
-    from geofence.polygon import as_vertices, orient2d, segments_intersect
+    from geofence.geometry.polygon import as_vertices, orient2d, segments_intersect
 
     v = [tuple(map(float, p)) for p in as_vertices(vertices)]
     n = len(v)
@@ -261,7 +261,7 @@ def test_self_intersections_sweep_equals_all_pairs(points):
 )
 def test_point_location_vectorised_equals_scalar(points, x, y):
     """Polygons above 64 vertices take the vectorised branch: the same answer as the per-edge loop."""
-    import geofence.polygon as P
+    import geofence.geometry.polygon as P
 
     v = P.as_vertices(points)
     inside, best = False, math.inf

@@ -8,10 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from aircraft.profile import load_profile
-from geofence.config import parse_geofence
-from geofence.dynamics import return_not_assured
-from geofence.geodesy import LocalFrame
-from geofence.preflight import PlannedWaypoint, RoutePart, check_route
+from geofence.geometry.geodesy import LocalFrame
+from geofence.physics.dynamics import return_not_assured
+from geofence.unit.config import parse_geofence
+from geofence.unit.preflight import PlannedWaypoint, RoutePart, check_route
 
 REPO = Path(__file__).resolve().parents[1]
 FRAME = LocalFrame(47.0, 8.0, 400.0)
@@ -122,8 +122,8 @@ def test_a_passing_check_means_the_unit_can_return(wind_mps, sigma_mps, gust_mps
 def test_a_fixed_wing_turn_rolls_in_then_circles_in_the_drifting_air():
     """Calm air: past the waypoint by the roll-in, then a circle of the bank limit's radius tangent to the track.
     In wind the same circle drifts downwind with the turn's time."""
-    from geofence.preflight import turn_samples
-    from geofence.rooms import envelope_turn_radius_m
+    from geofence.physics.rooms import envelope_turn_radius_m
+    from geofence.unit.preflight import turn_samples
 
     a, b, c = PlannedWaypoint(-300.0, 0.0, 80.0), PlannedWaypoint(0.0, 0.0, 80.0), PlannedWaypoint(0.0, 300.0, 80.0)
     r = envelope_turn_radius_m(FW, 16.0)
@@ -179,7 +179,7 @@ def test_the_expected_wind_is_the_forecast_raised_to_the_routes_top_with_its_err
 def test_the_checked_winds_reach_as_far_as_any_wind_the_forecast_allows(speed_mps, bearing_deg, scale, turn_deg, radius_mps):
     """A true mean wind whose forecast is within 20 % and 20 deg of it, estimated within r: the checked winds
     include one at least as strong, one at least as far toward it, and none outside the set."""
-    from geofence.preflight import winds_to_check
+    from geofence.unit.preflight import winds_to_check
 
     b = math.radians(bearing_deg)
     fb = b + math.radians(turn_deg)
@@ -253,7 +253,7 @@ def test_a_near_reversal_is_checked_both_ways_round():
     turned left where the check had turned it right, and was overridden in a mission that had passed). With an
     edge close on the short way's outside the reversal is flagged, and it is flagged the same with the edge on
     the long way's outside; a 90 deg turn is still checked the short way only."""
-    from geofence.preflight import BOTH_WAYS_ABOVE_RAD, turn_samples
+    from geofence.unit.preflight import BOTH_WAYS_ABOVE_RAD, turn_samples
 
     a, b = PlannedWaypoint(-400.0, 0.0, 80.0), PlannedWaypoint(0.0, 0.0, 80.0)
     back = PlannedWaypoint(-400.0, -70.0, 80.0)  # 170 deg to the right of the way in (the short way: right)

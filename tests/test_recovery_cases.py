@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from scenarios.definition.schema import load_scenario, parse_scenario
 from scenarios.flight.runner import fly
 
@@ -335,7 +335,7 @@ def test_a_multirotor_losing_gps_in_a_hard_brake_dead_reckons_from_its_last_fix(
 def test_a_fixed_wing_touching_down_at_flying_speed_in_a_gap_does_not_roll_out_of_it():
     """A c172x's pilot descends at cruise into a floor gap and touches down at 48 m/s with cruise power (campaign
     seed 26112026, floor_gaps-0170). The unit treated any vehicle on the ground as sitting there and let it roll
-    out of the gap below the floor (33 m). Rolling faster than :data:`geofence.unit.SITTING_MAX_GROUND_SPEED_MPS`,
+    out of the gap below the floor (33 m). Rolling faster than :data:`geofence.unit.geofence_unit.SITTING_MAX_GROUND_SPEED_MPS`,
     its margins count: the override lifts it off and it climbs back above the floor inside the gap."""
     res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_floor_gaps_0170_touchdown_rollout.yaml"))
     c = res.recorder.column
@@ -411,7 +411,7 @@ def test_a_fixed_wing_in_a_city_does_not_score_the_far_side_of_a_building():
     from it with its foot on the edge, was scored along its normal, a wall behind the vehicle that made the
     scored turn flip within a step. Handed back with 32 m, re-activated 0.05 s later at -44 m, it turned the
     long way round into a building (+1.4 m at 48.2 s). From the free space such an edge is scored towards its
-    nearest point (:func:`geofence.elements.edge_scored`): it stays out of every building."""
+    nearest point (:func:`geofence.geometry.elements.edge_scored`): it stays out of every building."""
     res = fly(load_scenario(Path(__file__).parent / "data" / "campaign_city_0058_far_side_of_a_building.yaml"))
     assert res.summary["activations"] >= 1
     assert res.summary["max_excursion_m"] < 0.0 and not res.summary["breached_keep_out"], res.summary["max_excursion_m"]

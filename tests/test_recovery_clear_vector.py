@@ -21,8 +21,8 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from geofence import recovery as rp
-from geofence.fence import Fence, KeepOutCircle
-from geofence.geodesy import LocalFrame
+from geofence.geometry.fence import Fence, KeepOutCircle
+from geofence.geometry.geodesy import LocalFrame
 from geofence.jit import COMPILED
 from tests.support import close_fields
 

@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from shapely.geometry import LineString, Point, Polygon
 from shapely.ops import unary_union
 
-from geofence.fence import Fence, FenceError, KeepOutCircle
-from geofence.geodesy import LocalFrame
+from geofence.geometry.fence import Fence, FenceError, KeepOutCircle
+from geofence.geometry.geodesy import LocalFrame
 from geofence.recovery import ORBIT_CUT_STEP_M, RecoveryPlanner, segment_segment_distance
 
 FRAME = LocalFrame(0.0, 0.0, 0.0)

@@ -17,7 +17,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from analysis.formats.fence_files import load_fence_file
-from geofence.fence import FenceError
+from geofence.geometry.fence import FenceError
 from geofence.validation import ConfigError
 from scenarios.app.cli import build_parser, read_trajectory
 from scenarios.definition.schema import read_document

@@ -1,4 +1,4 @@
-"""geofence.rooms: each fast form agrees with its reference form, and the upper bounds bound the rooms.
+"""geofence.physics.rooms: each fast form agrees with its reference form, and the upper bounds bound the rooms.
 
 The per-step loop uses fast forms of the room formulas (precomputed turn
 constants, one call per edge, an inlined skip-shortcut bound). Each is held to
@@ -15,12 +15,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import geofence.boundary_shift as boundary_shift
-import geofence.dynamics as dynamics
-import geofence.wind_estimator as wind_estimator
-from geofence.control_laws import wrap_pi
+import geofence.estimation.wind_estimator as wind_estimator
+import geofence.margins.boundary_shift as boundary_shift
+import geofence.physics.dynamics as dynamics
 from geofence.interface import Envelope, PlatformKind
-from geofence.rooms import (
+from geofence.physics.control_laws import wrap_pi
+from geofence.physics.rooms import (
     G_MPS2,
     TWO_PI,
     braking_room_m,
@@ -100,7 +100,7 @@ def test_one_gravity_constant():
     packages = ("aircraft", "analysis", "geofence", "scenarios", "wind")
     files = [p for pkg in packages for p in (ROOT / pkg).rglob("*.py")]
     defining = sorted(str(p.relative_to(ROOT)) for p in files if assignment.search(p.read_text()))
-    assert defining == ["geofence/dynamics.py"]
+    assert defining == ["geofence/physics/dynamics.py"]
     literal = re.compile(r"[^\w.]9\.8\d*\s*\*|\*\s*9\.8|/\s*\(?9\.8")  # g written as a number in an expression
     assert sorted(str(p.relative_to(ROOT)) for p in files if literal.search(p.read_text())) == []
 

@@ -152,7 +152,7 @@ def test_inline_profile_makes_any_wheel_model_flyable():
 
 
 def test_a_fence_too_small_for_the_platform_says_so_with_the_numbers():
-    from geofence.geodesy import LocalFrame
+    from geofence.geometry.geodesy import LocalFrame
 
     frame = LocalFrame(47.0, 8.0, 400.0)
     box = [list(frame.to_geodetic(e, n, 0.0)[:2]) for e, n in [(-30, -30), (30, -30), (30, 30), (-30, 30)]]

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from analysis.fast_margins import fence_margins, signed_distance
 from analysis.scoring import SCORE_KEYS, margins, score_flight, score_many
-from geofence.fence import Fence, KeepOutCircle
+from geofence.geometry.fence import Fence, KeepOutCircle
 
 LAT0, LON0 = -35.3626, 149.1652
 

@@ -15,8 +15,8 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geofence.guidance import SeedPDGains, SeedPDRecovery, StraightRoute
 from geofence.interface import Envelope, PlatformKind, VehicleState
+from geofence.recovery.guidance import SeedPDGains, SeedPDRecovery, StraightRoute
 from scenarios.app.seed_reproduction import (
     PREDICTIVE_SCENARIO,
     REACTIVE_SCENARIO,

@@ -16,9 +16,9 @@ from aircraft.sensors import (
     parse_sensors,
     stream_generator,
 )
-from geofence.dynamics import isa_density_ratio
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import VehicleState
+from geofence.physics.dynamics import isa_density_ratio
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 DT = 0.025
@@ -165,7 +165,7 @@ def test_the_estimator_is_tuned_to_the_sensors_through_one_map():
     from dataclasses import replace as dc_replace
 
     from aircraft.sensors import ESTIMATOR_NOISE_FIELDS, SensorConfig
-    from geofence.estimator import EstimatorConfig
+    from geofence.estimation.estimator import EstimatorConfig
 
     assert SensorConfig().estimator_config() == EstimatorConfig()
     noisy = dc_replace(SensorConfig(), **{k: 2.0 * getattr(SensorConfig(), k) + 0.1 for k in ESTIMATOR_NOISE_FIELDS})

@@ -2,7 +2,7 @@
 
 A monitoring unit skips the per-edge computation when it decides that no edge, ceiling or floor is within
 reach (its activation margin is then reported as infinite). The guarantee: where it skips, the full activation
-margin (the public :func:`geofence.boundary_shift.activation_margins`) is positive -- for every state, including
+margin (the public :func:`geofence.margins.boundary_shift.activation_margins`) is positive -- for every state, including
 speeds above the envelope's max speed, strong wind with a turbulence and gust allowance, banked fixed-wings,
 floors with gaps and keep-outs, fences with and without their index (the case found once in 80,000 random states
 before: a c172x at 1.27x max speed).
@@ -13,12 +13,12 @@ import math
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from geofence.boundary_shift import activation_margins
-from geofence.config import parse_geofence
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, StickCommand, VehicleState
-from geofence.unit import GeofenceUnit, Mode
-from geofence.unit_kernel import latency_s
+from geofence.margins.boundary_shift import activation_margins
+from geofence.unit.config import parse_geofence
+from geofence.unit.geofence_unit import GeofenceUnit, Mode
+from geofence.unit.passes import latency_s
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 MC = Envelope(

@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from aircraft.jsbsim_model import UnknownAircraftError
 from aircraft.profile import ProfileError
 from analysis.formats.logs import LogError, LogFenceDistanceError, LogIntegrityError
-from geofence.config import GeofenceConfigError
-from geofence.fence import FenceError
+from geofence.geometry.fence import FenceError
+from geofence.unit.config import GeofenceConfigError
 from geofence.validation import (
     ConfigError,
     boolean,
@@ -196,8 +196,8 @@ def test_field_default_reads_the_dataclass():
 
 
 def config_enums() -> list[type[Enum]]:
-    from geofence.config import MultirotorLaw, StateSource, Trigger, TurbulenceSource
-    from geofence.fence import AltitudeReference
+    from geofence.geometry.fence import AltitudeReference
+    from geofence.unit.config import MultirotorLaw, StateSource, Trigger, TurbulenceSource
     from scenarios.definition.schema import SegmentEnd, SpeedDraw
     from wind.config import GustOnset
 

@@ -9,11 +9,11 @@ from hypothesis import strategies as st
 
 from aircraft.profile import load_profile
 from aircraft.sensors import SensorConfig, SensorSuite
-from geofence.dynamics import airspeed_for_drag_mps, drag_accel_mps2, drag_coefficients
-from geofence.estimator import GeofenceEstimator
-from geofence.geodesy import LocalFrame
+from geofence.estimation.estimator import GeofenceEstimator
+from geofence.estimation.wind_estimator import G_MPS2, WindEstimator, WindEstimatorConfig
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, VehicleState
-from geofence.wind_estimator import G_MPS2, WindEstimator, WindEstimatorConfig
+from geofence.physics.dynamics import airspeed_for_drag_mps, drag_accel_mps2, drag_coefficients
 
 FRAME = LocalFrame(47.0, 8.0, 400.0)
 DT = 0.025
@@ -357,7 +357,7 @@ def test_growing_memory_average_is_the_weighted_mean_with_the_prior(prior, sampl
 def test_the_compiled_update_is_the_interpreted_update(multirotor):
     """Conformance of the one entry point: compiled and interpreted (its own source, ``py_func``) agree to
     1e-9 m/s along a noisy manoeuvring stream."""
-    from geofence.wind_estimator import MEMORY_SIZE, STATE_SIZE, wind_estimator_update
+    from geofence.estimation.wind_estimator import MEMORY_SIZE, STATE_SIZE, wind_estimator_update
 
     if not hasattr(wind_estimator_update, "py_func"):
         pytest.skip("numba is not compiling here: the interpreted run is the only one")

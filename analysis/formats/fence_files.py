@@ -1,4 +1,4 @@
-"""Import real-world fence and rally files into a :class:`~geofence.fence.Fence`.
+"""Import real-world fence and rally files into a :class:`~geofence.geometry.fence.Fence`.
 
 Supported formats (detected from the content, not the file name):
 
@@ -39,7 +39,7 @@ Supported formats (detected from the content, not the file name):
     warning. ``geofence`` wins when both are given; a feature with neither is
     an error naming it. A keep-out feature's optional numeric properties
     ``floor_m`` and ``ceiling_m`` (in the fence's altitude reference) give its
-    own :class:`~geofence.fence.VerticalExtent` (every part of a MultiPolygon
+    own :class:`~geofence.geometry.fence.VerticalExtent` (every part of a MultiPolygon
     the same; holes of the keep-in are full-height); ED-269 zone volumes
     (``upperLimit``/``lowerLimit``, with their own units and references) are
     not read: without ``floor_m``/``ceiling_m`` a keep-out is a full-height
@@ -68,7 +68,7 @@ and *prints* "Insufficient points" instead of failing; the RALLY loader
 multiplies the altitude by 1000 and drops the break altitude; and their
 errors name neither the file nor the line. The formats are simple
 whitespace-separated text, so a strict parser here gives exact floats,
-one-line :class:`~geofence.fence.FenceError` messages ``"<file>: line <n>:
+one-line :class:`~geofence.geometry.fence.FenceError` messages ``"<file>: line <n>:
 <problem>"``, and checks pymavlink does not do (vertex-count mismatch, polygon
 with < 3 vertices, coordinates out of range or unset). ``tests/test_importers.py``
 cross-checks the items against pymavlink's loaders on the real files.
@@ -85,7 +85,7 @@ Mapping to :class:`Fence`
   polygons' order. The others are then listed in ``warnings``. A GeoJSON
   keep-in's holes and properties are the chosen polygon's. An inclusion circle
   becomes the keep-in as an inscribed
-  regular polygon (:func:`geofence.fence.circle_to_polygon`: vertices on the
+  regular polygon (:func:`geofence.geometry.fence.circle_to_polygon`: vertices on the
   geodesic circle, so the approximation lies inside the circle and is
   conservative); its vertex count is the smallest
   (>= 16, <= 720) whose chord sag ``r(1 - cos(pi/N))`` is <= ``circle_tolerance_m``
@@ -122,7 +122,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from geofence.fence import (
+from geofence.geometry.fence import (
     DEFAULT_CIRCLE_TOLERANCE_M,
     FULL_HEIGHT,
     MAX_CEILING_M,
@@ -134,8 +134,8 @@ from geofence.fence import (
     VerticalExtent,
     circle_to_polygon,
 )
-from geofence.geodesy import LocalFrame, ecef_to_geodetic, geodetic_to_ecef
-from geofence.polygon import PolygonIndex, polygons_intersect
+from geofence.geometry.geodesy import LocalFrame, ecef_to_geodetic, geodetic_to_ecef
+from geofence.geometry.polygon import PolygonIndex, polygons_intersect
 from geofence.validation import ConfigError, enum_value, field_default, latitude, longitude, number
 
 DEFAULT_CEILING_M = 120.0

@@ -18,7 +18,7 @@ The columns match :mod:`scenarios.flight.recorder` where the log has the data, s
 ``east_m``, ``north_m``, ``up_m``
     ENU about ``frame`` (default: the first valid fix at its altitude).
     ``east_m``/``north_m`` are the lat/lon projected at the frame's height (as
-    :meth:`geofence.local_fence.LocalFence.horizontal_en` recommends for fence
+    :meth:`geofence.geometry.local_fence.LocalFence.horizontal_en` recommends for fence
     margins); ``up_m`` is the full ENU up.
 ``v_east_mps``, ``v_north_mps``, ``v_up_mps``, ``ground_speed_mps``
     GLOBAL_POSITION_INT ``vy``/``vx``/``-vz``; GPS_RAW_INT and DataFlash GPS
@@ -78,7 +78,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.validation import ConfigError
 
 TRAJECTORY_COLUMNS = (

@@ -1,11 +1,17 @@
 """Fence-aware recovery routes: a visibility-graph planner over the clearance-offset free space.
 
+The modules: ``segments`` (segment and circle clearance tests, the segment grid), ``graph`` (the tangent
+graph), ``search`` (the compiled A* and goal trees), ``follower`` (the route follower), ``path``
+(:class:`SafePoint`, :class:`RecoveryPath`), ``planner`` (:class:`RecoveryPlanner`) and ``guidance`` (the
+recovery laws that fly a route: the fixed-wing override step, the multirotor's, the landing). Imports
+``physics`` and ``geometry``, never the margins or the unit.
+
 The geofence unit used to fly straight at the recovery point, which in concave
 fences (L, U, star shapes, corridors) and past keep-outs cuts across forbidden
 ground. :class:`RecoveryPlanner` replaces that straight line by the shortest
 route (up to the conservatism below) that keeps a lateral clearance ``c`` from
 every boundary. Pure planar math in local ENU metres on a
-:class:`~geofence.local_fence.LocalFence`; floor gaps and heights are not involved.
+:class:`~geofence.geometry.local_fence.LocalFence`; floor gaps and heights are not involved.
 
 Free space and admissibility
 ----------------------------
@@ -109,7 +115,7 @@ numba-compilable functions; the entry points are :func:`geofence.jit.compiled` (
 without numba).
 """
 
-from .follower import (
+from geofence.recovery.follower import (
     PROJECTION_CANDIDATES,
     follower_tables,
     path_follow,
@@ -120,7 +126,7 @@ from .follower import (
     route_follow,
     route_rollout,
 )
-from .graph import (
+from geofence.recovery.graph import (
     CIRCLE_SIDES,
     CORNER_STEP_RAD,
     NODE_INFLATION_M,
@@ -129,11 +135,11 @@ from .graph import (
     tangent_pairs,
     tangent_row,
 )
-from .path import (
+from geofence.recovery.path import (
     RecoveryPath,
     SafePoint,
 )
-from .planner import (
+from geofence.recovery.planner import (
     BREACHED_TOL_M,
     FULL_GRAPH_MAX_NODES,
     GRID_CELLS,
@@ -144,13 +150,13 @@ from .planner import (
     RecoveryPlanner,
     Search,
 )
-from .search import (
+from geofence.recovery.search import (
     by_key_in_chunks,
     goal_tree,
     lazy_astar,
     tree_first_leg,
 )
-from .segments import (
+from geofence.recovery.segments import (
     EPS_M,
     FAN_SLACK_M,
     SEGMENT_GRID_MIN_EDGES,

@@ -14,10 +14,9 @@ from math import hypot
 
 import numpy as np
 
+from geofence.geometry.scan import lateral_margin_scan, rows_view
 from geofence.jit import compiled, jitable
-from geofence.scan_kernel import lateral_margin_scan, rows_view
-
-from .segments import EPS_M, _segment_clear
+from geofence.recovery.segments import EPS_M, _segment_clear
 
 
 @jitable

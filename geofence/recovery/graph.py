@@ -15,11 +15,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from geofence.jit import compiled, jitable
-
-from .segments import _fan_clear_grid
+from geofence.recovery.segments import _fan_clear_grid
 
 if TYPE_CHECKING:  # pragma: no cover
-    from geofence.local_fence import LocalFence
+    from geofence.geometry.local_fence import LocalFence
 
 NODE_INFLATION_M: float = 1e-6
 """Nodes sit on clearance circles of radius ``c + NODE_INFLATION_M``."""

@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
 
-from .follower import (
+from geofence.recovery.follower import (
     PROJECTION_CANDIDATES,
     _next_candidate,
     _path_candidates,
@@ -24,10 +24,10 @@ from .follower import (
     path_project,
     path_rollout,
 )
-from .segments import EPS_M, Point
+from geofence.recovery.segments import EPS_M, Point
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .planner import RecoveryPlanner
+    from geofence.recovery.planner import RecoveryPlanner
 
 
 @dataclass(frozen=True)
@@ -131,8 +131,8 @@ class RecoveryPath:
 
         The turn ends heading for the path a turn's length ahead, not for a point near the vehicle: a vertex
         a few metres away, or behind it, would have the turn swing round with every step (the margin scores
-        this turn, :func:`geofence.boundary_shift.activation_margins`, and the guidance flies it,
-        :class:`geofence.guidance.FixedWingRecovery`). After the roll-out the guidance follows
+        this turn, :func:`geofence.margins.boundary_shift.activation_margins`, and the guidance flies it,
+        :class:`geofence.recovery.guidance.FixedWingRecovery`). After the roll-out the guidance follows
         :meth:`lookahead_point`'s carrot, which does test its chord.
         """
         if len(self.points) > 1:

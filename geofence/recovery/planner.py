@@ -15,14 +15,13 @@ from typing import TYPE_CHECKING, Callable, Iterator, NamedTuple, Sequence
 
 import numpy as np
 
-from geofence.polygon import pole_of_inaccessibility
-from geofence.scan_kernel import lateral_margin_scan
-
-from .follower import follower_tables
-from .graph import NODE_INFLATION_M, corner_nodes, file_rows, tangent_pairs, tangent_row
-from .path import RecoveryPath, SafePoint
-from .search import by_key_in_chunks, goal_tree, lazy_astar, tree_first_leg
-from .segments import (
+from geofence.geometry.polygon import pole_of_inaccessibility
+from geofence.geometry.scan import lateral_margin_scan
+from geofence.recovery.follower import follower_tables
+from geofence.recovery.graph import NODE_INFLATION_M, corner_nodes, file_rows, tangent_pairs, tangent_row
+from geofence.recovery.path import RecoveryPath, SafePoint
+from geofence.recovery.search import by_key_in_chunks, goal_tree, lazy_astar, tree_first_leg
+from geofence.recovery.segments import (
     EPS_M,
     SEGMENT_GRID_MIN_EDGES,
     Grid,
@@ -37,7 +36,7 @@ from .segments import (
 )
 
 if TYPE_CHECKING:  # pragma: no cover
-    from geofence.local_fence import LocalFence
+    from geofence.geometry.local_fence import LocalFence
 
 BREACHED_TOL_M: float = 1e-3
 """Tolerance (m) of the certified first-leg test from a start outside the allowed area."""
@@ -115,7 +114,7 @@ class _FirstLegs:
 def _margin_function(fence: "LocalFence") -> Callable[[float, float], float]:
     """``fence.lateral_margin_m`` as a function of ``(e, n)`` for a search that asks it at many points (a safe
     point's polylabel): for a fence without an index, the compiled scan with its tables bound
-    (:meth:`~geofence.local_fence.LocalFence.lateral_margin_scan_m`'s number, without the per-call lookups)."""
+    (:meth:`~geofence.geometry.local_fence.LocalFence.lateral_margin_scan_m`'s number, without the per-call lookups)."""
     if fence.grid() is not None:
         return fence.lateral_margin_m
     ki, ko, offsets, circles = fence.scan_tables()

@@ -17,9 +17,8 @@ from typing import Iterator
 import numpy as np
 
 from geofence.jit import compiled, jitable
-
-from .graph import _file_row, _tangent_row
-from .segments import _element_blocks, _segment_blocker_grid, _segment_box, _segment_clear_grid
+from geofence.recovery.graph import _file_row, _tangent_row
+from geofence.recovery.segments import _element_blocks, _segment_blocker_grid, _segment_box, _segment_clear_grid
 
 
 @jitable

@@ -19,7 +19,7 @@ import numpy as np
 from geofence.jit import compiled, jitable
 
 if TYPE_CHECKING:  # pragma: no cover
-    from geofence.local_fence import LocalFence
+    from geofence.geometry.local_fence import LocalFence
 
 EPS_M: float = 1e-9
 """Rounding slack (m) in the exact admissibility thresholds."""

@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 
 DEFAULT_OUT = Path(__file__).with_name("city_park.geojson")
 DEFAULT_CENTER = (-35.3632, 149.1652)

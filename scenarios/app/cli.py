@@ -305,7 +305,7 @@ def _inclusion_option(sub: argparse.ArgumentParser) -> None:
 OWN_PACKAGES: dict[str, str] = {
     "aircraft": "aircraft.jsbsim_model",
     "analysis": "analysis.scoring",
-    "geofence": "geofence.unit",
+    "geofence": "geofence.unit.geofence_unit",
     "scenarios": "scenarios.app.cli",
     "wind": "wind.dryden",
 }

@@ -37,7 +37,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from geofence.config import MultirotorLaw
+from geofence.unit.config import MultirotorLaw
 
 REPO = Path(__file__).resolve().parents[2]
 REACTIVE_SCENARIO = REPO / "scenarios" / "paper" / "indoor_quad.yaml"
@@ -216,13 +216,13 @@ def ramp_setpoints(
     """Recompute the seed PD law's ramped set-point per row from the transitions, with the law's own code.
 
     Each activation (MONITOR/RECOVERED -> OVERRIDE) starts
-    :meth:`geofence.guidance.SeedPDRecovery.start` from the recorded state of
+    :meth:`geofence.recovery.guidance.SeedPDRecovery.start` from the recorded state of
     that step (re-activations keep the ramp, as the unit does); rows outside
     an override are NaN.
     """
-    from geofence.guidance import SeedPDGains, SeedPDRecovery, StraightRoute
     from geofence.interface import VehicleState
-    from geofence.unit import Mode
+    from geofence.recovery.guidance import SeedPDGains, SeedPDRecovery, StraightRoute
+    from geofence.unit.geofence_unit import Mode
 
     t = np.asarray(traj["time_s"], float)
     mode = np.asarray(traj["geofence_mode"], float)

@@ -26,7 +26,7 @@ max-bank turn radius at cruise ``V^2/(g tan(bank))`` (fixed-wing) or its
 stopping distance from top speed ``v t_r + v^2/(2 a)`` (multirotor), and the
 allowed area's inradius is several times the larger of that room and the
 geofence's worst-case lateral shift in the case's design wind
-(:func:`geofence.rooms.worst_case_lateral_shift_m`). A fence that
+(:func:`geofence.physics.rooms.worst_case_lateral_shift_m`). A fence that
 would not fit (wider than :data:`MAX_FENCE_SPAN_M`, or an infinite shift)
 makes the case skip that platform and try the next one.
 
@@ -44,7 +44,7 @@ and :data:`~scenarios.definition.preflight.FORECAST_DIRECTION_ERROR_DEG`), and t
 Each case's manifest also says whether the wind is within the platform's *authority*
 (:func:`wind_authority`): the mean wind at the start height plus one Dryden sigma there (the
 scenario's own turbulence, by its MIL-F-8785C definition) tested with the same rule the unit applies
-to a forecast it is told (:func:`geofence.dynamics.return_not_assured`). A case beyond it is one no
+to a forecast it is told (:func:`geofence.physics.dynamics.return_not_assured`). A case beyond it is one no
 controller can fly back against for long; the report counts its breaches apart and checks that the
 unit landed instead. The ``design_wind_mps`` (steady + gust + 1.5 rough sigma) only sizes the fence.
 
@@ -68,14 +68,14 @@ import yaml
 
 from aircraft.profile import PlatformProfile, available_profiles, load_profile
 from aircraft.sensors import SensorConfig
-from geofence.boundary_shift import activation_margins
-from geofence.config import GeofenceConfig
-from geofence.dynamics import envelope_at_density, isa_density_ratio, return_not_assured
-from geofence.fence import circle_to_polygon, parse_fence
-from geofence.geodesy import LocalFrame
-from geofence.local_fence import LocalFence
-from geofence.polygon import PolygonIndex, self_intersections
-from geofence.rooms import multicopter_stopping_distance_m, turn_radius_m, worst_case_lateral_shift_m
+from geofence.geometry.fence import circle_to_polygon, parse_fence
+from geofence.geometry.geodesy import LocalFrame
+from geofence.geometry.local_fence import LocalFence
+from geofence.geometry.polygon import PolygonIndex, self_intersections
+from geofence.margins.boundary_shift import activation_margins
+from geofence.physics.dynamics import envelope_at_density, isa_density_ratio, return_not_assured
+from geofence.physics.rooms import multicopter_stopping_distance_m, turn_radius_m, worst_case_lateral_shift_m
+from geofence.unit.config import GeofenceConfig
 from geofence.validation import ConfigError
 from scenarios.airspace.generate import park_boundary_en, place_buildings
 from scenarios.definition.preflight import FORECAST_DIRECTION_ERROR_DEG, FORECAST_SPEED_ERROR
@@ -1284,7 +1284,7 @@ def wind_authority(wind: Mapping[str, Any], agl_m: float, profile: PlatformProfi
     ``mean_wind_mps``: the steady wind there (its height profile applied); ``turbulence_sigma_mps``:
     the Dryden sigma_u there (:func:`wind.dryden.dryden_scales` of the scenario's W20);
     ``beyond_authority``: why return cannot be assured against them
-    (:func:`geofence.dynamics.return_not_assured`, the envelope at the site's density), or None;
+    (:func:`geofence.physics.dynamics.return_not_assured`, the envelope at the site's density), or None;
     ``max_speed_mps``: that envelope's max speed (the report compares the wind a breached flight met with it).
     """
     cfg = parse_wind(dict(wind), "wind")

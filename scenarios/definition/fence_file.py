@@ -8,7 +8,7 @@ properties); ``floor_gaps`` are added (no format carries them); an inline ``reco
 file's return point as the recovery point; ``inclusion_polygon`` picks one of several inclusion areas. A
 ceiling is required: inline, or in the file (a scenario never flies under the importer's silent
 default). The importer's warnings (dropped keep-outs, ignored zones, ...) are kept in
-:attr:`geofence.config.GeofenceConfig.fence_warnings`.
+:attr:`geofence.unit.config.GeofenceConfig.fence_warnings`.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from analysis.formats.fence_files import load_fence_file
-from geofence.config import GeofenceConfigError
-from geofence.fence import AltitudeReference, Fence, FenceError
+from geofence.geometry.fence import AltitudeReference, Fence, FenceError
+from geofence.unit.config import GeofenceConfigError
 from geofence.validation import enum_value, integer, number
 
 FENCE_FILE_KEYS = (

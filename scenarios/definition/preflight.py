@@ -1,4 +1,4 @@
-"""The pre-flight mission check of a scenario: its mission as the unit will see it, through :mod:`geofence.preflight`.
+"""The pre-flight mission check of a scenario: its mission as the unit will see it, through :mod:`geofence.unit.preflight`.
 
 This module owns the translation from a scenario (mission items in WGS-84, the
 platform, the geofence configuration, the sensors) to what the check needs:
@@ -6,10 +6,10 @@ the planned route in the fence's local frame, the planned speed, the expected
 wind (the geofence block's forecast ``wind_prior``, taken as the 10 m wind and raised
 to the mission's highest point by a 1/7 power law), how far the true mean may be from it
 (:data:`FORECAST_SPEED_ERROR`, :data:`FORECAST_DIRECTION_ERROR_DEG`) and the unit's estimate from that
-(:data:`geofence.wind_estimator.WIND_ESTIMATE_ERROR_MPS`, :data:`TURBULENCE_IN_ESTIMATE_SIGMAS`), the unit's reaction latency, its turbulence and
+(:data:`geofence.estimation.wind_estimator.WIND_ESTIMATE_ERROR_MPS`, :data:`TURBULENCE_IN_ESTIMATE_SIGMAS`), the unit's reaction latency, its turbulence and
 gust allowance from that forecast, and its nominal uncertainty margins
 (``k·σ`` of the GNSS errors the sensors declare). The check itself, and what
-it guarantees, lives in :mod:`geofence.preflight`.
+it guarantees, lives in :mod:`geofence.unit.preflight`.
 
 Only missions are checked; a scripted or breach-attempt pilot has no plan.
 """
@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import math
 
-from geofence.config import StateSource
-from geofence.dynamics import envelope_at_density, isa_density_ratio
-from geofence.fence import AltitudeReference
-from geofence.geodesy import LocalFrame
-from geofence.preflight import PlannedWaypoint, PreflightFinding, check_route
-from geofence.wind_estimator import WIND_ESTIMATE_ERROR_MPS
+from geofence.estimation.wind_estimator import WIND_ESTIMATE_ERROR_MPS
+from geofence.geometry.fence import AltitudeReference
+from geofence.geometry.geodesy import LocalFrame
+from geofence.physics.dynamics import envelope_at_density, isa_density_ratio
+from geofence.unit.config import StateSource
+from geofence.unit.preflight import PlannedWaypoint, PreflightFinding, check_route
 from scenarios.definition.schema import PilotKind, Scenario
 from wind.steady import PowerLawProfile
 

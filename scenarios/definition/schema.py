@@ -33,12 +33,12 @@ import yaml
 from aircraft.jsbsim_model import UnknownAircraftError, model_folder
 from aircraft.profile import PlatformProfile, available_profiles, load_profile, parse_profile
 from aircraft.sensors import SensorConfig, parse_sensors
-from geofence.boundary_shift import check_shift_feasible
-from geofence.config import GeofenceConfig, parse_geofence
-from geofence.fence import AltitudeReference, FenceError
-from geofence.geodesy import LocalFrame
+from geofence.geometry.fence import AltitudeReference, FenceError
+from geofence.geometry.geodesy import LocalFrame
+from geofence.geometry.local_fence import LocalFence
 from geofence.interface import PlatformKind
-from geofence.local_fence import LocalFence
+from geofence.margins.boundary_shift import check_shift_feasible
+from geofence.unit.config import GeofenceConfig, parse_geofence
 from geofence.validation import (
     ConfigError,
     enum_value,

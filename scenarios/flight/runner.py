@@ -33,9 +33,9 @@ from typing import Any, Callable
 
 from aircraft.factory import build_platform
 from analysis.scoring import SCORED_COLUMNS, score_flight
-from geofence.geodesy import LocalFrame
-from geofence.local_fence import LocalFence
-from geofence.unit import GeofenceUnit, Mode
+from geofence.geometry.geodesy import LocalFrame
+from geofence.geometry.local_fence import LocalFence
+from geofence.unit.geofence_unit import GeofenceUnit, Mode
 from scenarios.definition.preflight import findings_summary, preflight_findings
 from scenarios.definition.schema import PilotKind, Scenario
 from scenarios.flight.pilots import CompiledLawPilot, Pilot, build_pilot

@@ -2,8 +2,8 @@
 
 :class:`GeofenceSensing` runs the chain as one call per step, :func:`sense_step` (compiled by
 :func:`geofence.jit.compiled`; the same source interpreted without numba or with ``NUMBA_DISABLE_JIT=1``). Each
-link is written once (:func:`aircraft.sensors.sensors_step`, :func:`geofence.estimator.estimator_step`,
-:func:`geofence.wind_estimator.wind_estimator_update`); the chain keeps their memories in one packed array, and
+link is written once (:func:`aircraft.sensors.sensors_step`, :func:`geofence.estimation.estimator.estimator_step`,
+:func:`geofence.estimation.wind_estimator.wind_estimator_update`); the chain keeps their memories in one packed array, and
 :attr:`GeofenceSensing.sensors`, :attr:`GeofenceSensing.estimator` and :attr:`GeofenceSensing.wind` are façades
 over its slices: nothing is copied or synchronised.
 
@@ -19,14 +19,14 @@ import numpy as np
 
 from aircraft import sensors as sk
 from aircraft.sensors import SENSOR_CONST, SensorSuite, sensors_step
-from geofence import estimator as ek
 from geofence import jit
-from geofence import wind_estimator as wk
-from geofence.config import GeofenceConfig, StateSource
-from geofence.estimator import EST_STATE, HORIZON_FIELDS, GeofenceEstimator, estimator_step
-from geofence.geodesy import LocalFrame
+from geofence.estimation import estimator as ek
+from geofence.estimation import wind_estimator as wk
+from geofence.estimation.estimator import EST_STATE, HORIZON_FIELDS, GeofenceEstimator, estimator_step
+from geofence.estimation.wind_estimator import WindEstimator, WindEstimatorConfig, turbulence_sigma_mps, wind_estimator_update
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import Envelope, FixState, VehicleState
-from geofence.wind_estimator import WindEstimator, WindEstimatorConfig, turbulence_sigma_mps, wind_estimator_update
+from geofence.unit.config import GeofenceConfig, StateSource
 from scenarios.definition.schema import Scenario
 from wind.config import wind_from_config
 

@@ -6,20 +6,20 @@ one call of :func:`flight_step` instead of five calls and the Python between the
 it has a compiled form (:func:`scenarios.flight.pilots.law_kernel.law_sticks`; else the pilot's sticks are passed
 in), samples the wind (:func:`wind.field_kernel.wind_sample`), runs the unit's sensors, estimator and wind
 estimator (:func:`scenarios.flight.sensing.sense_step`), asks the unit's monitoring step
-(:func:`geofence.unit_kernel.monitor_pass`) and, on a pass, writes the step's row
+(:func:`geofence.unit.passes.monitor_pass`) and, on a pass, writes the step's row
 (:func:`scenarios.flight.recorder.write_row`). While a fixed-wing override flies,
-:func:`override_flight_step` does the same with the override's step (:func:`geofence.unit_kernel.override_pass`).
+:func:`override_flight_step` does the same with the override's step (:func:`geofence.unit.passes.override_pass`).
 Where a fixed-wing's roll-out target for the estimate's cell is not packed
-(:data:`~geofence.unit_kernel.NEED_TARGET`), the unit finds it and the rest of the same step is asked again
+(:data:`~geofence.unit.passes.NEED_TARGET`), the unit finds it and the rest of the same step is asked again
 (:func:`flight_step_again`, :func:`override_flight_step_again`: from the estimate the first call left, the sensing
 chain not stepped twice). Anything else (an activation, a hand-back, a position lost, ...) is answered by the
-unit's own :meth:`~geofence.unit.GeofenceUnit.update` from the same estimate, and the runner records that row
+unit's own :meth:`~geofence.unit.geofence_unit.GeofenceUnit.update` from the same estimate, and the runner records that row
 itself (:func:`unit_step`, the step the runner takes where no compiled call can: the same call). Compiled where
 numba is, the same functions interpreted where it is not.
 
-:class:`FlightStep` holds the arrays, asks :meth:`~geofence.unit.GeofenceUnit.monitor_ready` and
-:meth:`~geofence.unit.GeofenceUnit.override_ready` after every step the unit took itself, and has the unit take in
-the steps taken for it (:meth:`~geofence.unit.GeofenceUnit.take_in_passes`) before it answers one again.
+:class:`FlightStep` holds the arrays, asks :meth:`~geofence.unit.geofence_unit.GeofenceUnit.monitor_ready` and
+:meth:`~geofence.unit.geofence_unit.GeofenceUnit.override_ready` after every step the unit took itself, and has the unit take in
+the steps taken for it (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_passes`) before it answers one again.
 """
 
 from __future__ import annotations
@@ -29,11 +29,11 @@ from typing import Any, Callable
 import numpy as np
 
 from geofence import jit
-from geofence.dynamics import G_MPS2
 from geofence.interface import FixState, StickCommand, VehicleState
 from geofence.jit import jitable
-from geofence.unit import GeofenceUnit
-from geofence.unit_kernel import (
+from geofence.physics.dynamics import G_MPS2
+from geofence.unit.geofence_unit import GeofenceUnit
+from geofence.unit.passes import (
     FAR,
     HORIZON_MOVED,
     MODE,
@@ -74,11 +74,11 @@ def _flight_step(
     on_ground: bool, p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
 ) -> tuple[int, float, float, float, int, float, float, float, float]:  # fmt: skip
     """One monitoring step from the truth's fields and the pilot's: ``(the unit's answer, the wind sampled (east,
-    north, up), flags, the pilot's sticks (roll, pitch, yaw, throttle))`` (:func:`geofence.unit_kernel.monitor_pass`'s
+    north, up), flags, the pilot's sticks (roll, pitch, yaw, throttle))`` (:func:`geofence.unit.passes.monitor_pass`'s
     answer; the flags: :data:`WIND_LOW`, :data:`SENSE_LOW`). The pilot's sticks are its law's
     (:func:`scenarios.flight.pilots.law_kernel.law_sticks` on its law array ``A``), or where that has none this
     step, those passed in (``p_roll`` ...). On a pass the unit's ring ``H`` and numbers ``U`` keep it
-    (:func:`geofence.unit_kernel.record_pass`) and row ``row`` of ``T`` records it; else ``Out`` holds the step's
+    (:func:`geofence.unit.passes.record_pass`) and row ``row`` of ``T`` records it; else ``Out`` holds the step's
     estimate and what the unit's own step needs (the layout above), for the unit (:data:`UNIT`) or for
     :func:`_flight_step_again` once the roll-out target is found (:data:`NEED_TARGET`). The arrays: the wind
     field's (:meth:`WindArrays.arrays`), the sensing chain's (:meth:`GeofenceSensing.kernel_arrays`), the unit's
@@ -177,7 +177,7 @@ def _flight_step_again(
     on_ground: bool, w_e: float, w_n: float, w_u: float, p_roll: float, p_pitch: float, p_yaw: float,
     p_throttle: float, item: float,
 ) -> tuple[int, float, float, float, float]:  # fmt: skip
-    """The same monitoring step asked again after :data:`~geofence.unit_kernel.NEED_TARGET` (the unit found the
+    """The same monitoring step asked again after :data:`~geofence.unit.passes.NEED_TARGET` (the unit found the
     roll-out target and packed it in ``U``): from the estimate in ``Out`` and the wind and the pilot's sticks the
     first call gave, ``(its answer, the pilot's sticks)`` (the rest as :func:`_flight_step`'s)."""
     est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _unit_inputs_in(Out)
@@ -197,9 +197,9 @@ def _override_flight_step(
     airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool, p_roll: float, p_pitch: float,
     p_yaw: float, p_throttle: float, item: float,
 ) -> tuple[int, float, float, float, int, float, float, float, float]:  # fmt: skip
-    """:func:`_flight_step` for a fixed-wing override's step (:func:`geofence.unit_kernel.override_pass`, on the
+    """:func:`_flight_step` for a fixed-wing override's step (:func:`geofence.unit.passes.override_pass`, on the
     unit's margins tables ``F, L, V`` and its recovery's arrays ``R, PR, QR, K``): the same tuple, its sticks the
-    override's on :data:`~geofence.unit_kernel.OVERRIDE_STEP` (its row recorded then), else the pilot's."""
+    override's on :data:`~geofence.unit.passes.OVERRIDE_STEP` (its row recorded then), else the pilot's."""
     if A[LAW_KIND] != GIVEN:
         p_roll, p_pitch, p_yaw, p_throttle = law_sticks(A, ve, vn, yaw, up)
     w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _wind_and_sensing(
@@ -382,7 +382,7 @@ class FlightStep:
         self, t_s: float, s: VehicleState, row: int, T: np.ndarray, w: tuple[float, float, float],
         pilot: tuple[float, float, float, float], item: int,
     ) -> tuple[int, float, float, float, float]:  # fmt: skip
-        """After :data:`~geofence.unit_kernel.NEED_TARGET`: the unit finds the roll-out target at the step's estimate
+        """After :data:`~geofence.unit.passes.NEED_TARGET`: the unit finds the roll-out target at the step's estimate
         (in ``Out``), and the mode's kernel is asked the same step again (``pilot``: the sticks the first call
         gave): ``(answer, the sticks to send)``."""
         out = self._O

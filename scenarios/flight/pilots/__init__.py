@@ -20,7 +20,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import Envelope, StickCommand, VehicleState
 from scenarios.definition.schema import PilotKind, Scenario
 

@@ -33,8 +33,8 @@ from __future__ import annotations
 
 import math
 
-from geofence.control_laws import climb_rate_to_stick, ground_course_rad, wrap_pi
 from geofence.interface import Envelope, StickCommand, VehicleState
+from geofence.physics.control_laws import climb_rate_to_stick, ground_course_rad, wrap_pi
 from scenarios.definition.schema import BreachAttemptsConfig, BreachDirection, VerticalSense
 from scenarios.flight.pilots.breach_attempts import BreachAttemptsSchedule, PushEnd, push_progress
 from scenarios.flight.pilots.nav_laws import FixedWingNavigator

@@ -23,9 +23,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from geofence.control_laws import course_error_rad
 from geofence.interface import Envelope, VehicleState
 from geofence.jit import jitable
+from geofence.physics.control_laws import course_error_rad
 from scenarios.flight.pilots.nav_laws import course_law_sticks
 
 # the kinds (KIND)

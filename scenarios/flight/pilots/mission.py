@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import Envelope, StickCommand, VehicleState
 from scenarios.definition.schema import MissionConfig
 from scenarios.flight.pilots.nav_laws import FixedWingNavigator, MultirotorNavigator, climb_rate_to_stick

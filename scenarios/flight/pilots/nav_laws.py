@@ -15,14 +15,16 @@ floats throughout: they run on the simulation's per-step path.
 
 Angles are rad, courses and headings clockwise from north, positions ENU m.
 The stick mappings themselves are the shared primitives of
-:mod:`geofence.control_laws`.
+:mod:`geofence.physics.control_laws`.
 """
 
 from __future__ import annotations
 
 import math
 
-from geofence.control_laws import (
+from geofence.interface import Envelope, StickCommand, VehicleState
+from geofence.jit import jitable
+from geofence.physics.control_laws import (
     G_MPS2,
     VelocityController,
     airspeed_to_stick,
@@ -34,8 +36,6 @@ from geofence.control_laws import (
     orbit_course_rad,
     yaw_stick_for_heading,
 )
-from geofence.interface import Envelope, StickCommand, VehicleState
-from geofence.jit import jitable
 
 _TWO_OVER_PI = 2.0 / math.pi
 
@@ -46,7 +46,7 @@ def course_law_sticks(
     altitude_gain_per_s: float, course_gain_per_s: float, env: Envelope,
 ) -> tuple[float, float]:  # fmt: skip
     """``(roll, pitch)`` sticks of :meth:`FixedWingNavigator.sticks` for a course error: the coordinated bank of
-    :func:`~geofence.control_laws.fixed_wing_roll_stick`, and the climb stick ``climb_stick`` or, where it is NaN,
+    :func:`~geofence.physics.control_laws.fixed_wing_roll_stick`, and the climb stick ``climb_stick`` or, where it is NaN,
     the altitude hold of ``target_up_m`` from ``up_m``. ``env``: an :class:`Envelope` or a named tuple of the
     fields it reads (bank limit, climb and descent rates)."""
     if climb_stick != climb_stick:  # (NaN) hold the height

@@ -13,9 +13,9 @@ import math
 
 import numpy as np
 
-from geofence.control_laws import airspeed_to_stick
-from geofence.geodesy import LocalFrame
+from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import Envelope, StickCommand, VehicleState
+from geofence.physics.control_laws import airspeed_to_stick
 from scenarios.definition.schema import ScriptSegment, SegmentEnd
 from scenarios.flight.pilots import law_kernel as lk
 from scenarios.flight.pilots.nav_laws import FixedWingNavigator, MultirotorNavigator

@@ -1,13 +1,13 @@
 """The activation margins of a state against a fence, compiled whole: the one implementation.
 
-:func:`geofence.boundary_shift.activation_margins` is a façade over one call here: the per-state terms
+:func:`geofence.margins.boundary_shift.activation_margins` is a façade over one call here: the per-state terms
 (:func:`state_terms`: reaction time, turn constants, roll-out heading, the room bound), the binding lateral element
-among the candidates (:func:`geofence.lateral_kernel.lateral_binding`), the lateral margin's full scan
-(:func:`geofence.scan_kernel.lateral_margin_scan`), the ceiling, the floor and the floor gap the vehicle is over.
-:func:`margins` scans every element (a fence without a :class:`~geofence.fence_grid.FenceGrid`: the fences
+among the candidates (:func:`geofence.margins.lateral.lateral_binding`), the lateral margin's full scan
+(:func:`geofence.geometry.scan.lateral_margin_scan`), the ceiling, the floor and the floor gap the vehicle is over.
+:func:`margins` scans every element (a fence without a :class:`~geofence.geometry.fence_grid.FenceGrid`: the fences
 autopilots store, and most users'); :func:`indexed_margins` searches an index cell's candidates
-(:meth:`geofence.fence_grid.FenceGrid.candidates`, reach :func:`room_bound`): both are :func:`_margins_among`.
-The room formulas are compiled from their one home in :mod:`geofence.rooms` and :mod:`geofence.dynamics`.
+(:meth:`geofence.geometry.fence_grid.FenceGrid.candidates`, reach :func:`room_bound`): both are :func:`_margins_among`.
+The room formulas are compiled from their one home in :mod:`geofence.physics.rooms` and :mod:`geofence.physics.dynamics`.
 :func:`monitor_margins` is a monitoring unit's step (the skip shortcut :func:`far_from_everything`, then the
 margins) in one call.
 
@@ -24,8 +24,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from geofence.dynamics import drag_coefficients
-from geofence.elements import (
+from geofence.geometry.elements import (
     CEILING,
     CIRCLES,
     ELEMENTS,
@@ -48,10 +47,12 @@ from geofence.elements import (
     packed_table,
     packed_vector,
 )  # fmt: skip
+from geofence.geometry.scan import deepest_polygon, lateral_margin_scan
 from geofence.interface import Envelope, PlatformKind
 from geofence.jit import compiled, jitable, numba
-from geofence.lateral_kernel import FixedWingTurn, LateralState, MultirotorBrake, Turns, capped_lateral, lateral_binding
-from geofence.rooms import (
+from geofence.margins.lateral import FixedWingTurn, LateralState, MultirotorBrake, Turns, capped_lateral, lateral_binding
+from geofence.physics.dynamics import drag_coefficients
+from geofence.physics.rooms import (
     climb_arrest_phase,
     climb_back_drift_m,
     fixed_wing_reaction_terms,
@@ -63,7 +64,6 @@ from geofence.rooms import (
     tilt_accel_mps2,
     vertical_arrest_distance_m,
 )
-from geofence.scan_kernel import deepest_polygon, lateral_margin_scan
 
 __all__ = [
     "Binding",
@@ -86,7 +86,7 @@ __all__ = [
 
 class EnvelopeTerms(NamedTuple):
     """The envelope's numbers the margins read (SI units; ``fixed_wing`` 1.0 or 0.0; ``k1, k2`` its drag law's
-    :func:`~geofence.dynamics.drag_coefficients`). The kernels take them as a float array in this order
+    :func:`~geofence.physics.dynamics.drag_coefficients`). The kernels take them as a float array in this order
     (:func:`envelope_terms`: an array argument costs less to pass) and read them by name
     (:func:`envelope_of_terms`)."""
 
@@ -105,7 +105,7 @@ class EnvelopeTerms(NamedTuple):
 
 
 ENVELOPE_TERM_COUNT = len(EnvelopeTerms._fields)
-# the positions the unit's kernel reads a few of them at (geofence.unit_kernel)
+# the positions the unit's kernel reads a few of them at (geofence.unit.passes)
 VERTICAL_ACCEL = EnvelopeTerms._fields.index("vertical_accel_mps2")
 MAX_CLIMB = EnvelopeTerms._fields.index("max_climb_mps")
 MAX_DESCENT = EnvelopeTerms._fields.index("max_descent_mps")
@@ -145,7 +145,7 @@ if numba is not None:
 
 
 class StateTerms(NamedTuple):
-    """A state's terms for the binding search (:func:`geofence.lateral_kernel.lateral_binding`): the envelope's,
+    """A state's terms for the binding search (:func:`geofence.margins.lateral.lateral_binding`): the envelope's,
     the state's own, a fixed-wing's turn and a multirotor's stop (the other kind's are zeros), the two turns a
     fixed-wing is scored with, and ``bound`` (m): no element farther than the nearest plus this can bind."""
 
@@ -160,8 +160,8 @@ class StateTerms(NamedTuple):
 class Candidates(NamedTuple):
     """The lateral elements a state's binding element is searched among: the rows ``ids`` of the element table
     ``E``, walked in order of their bounds ``lbs`` (less ``delta_c``) when ``walk`` (an index cell's list,
-    :meth:`geofence.fence_grid.FenceGrid.candidates`), else every one scored; the first ``n_line`` rows are a
-    convex keep-in's edges (:func:`geofence.lateral_kernel.lateral_binding`'s arguments)."""
+    :meth:`geofence.geometry.fence_grid.FenceGrid.candidates`), else every one scored; the first ``n_line`` rows are a
+    convex keep-in's edges (:func:`geofence.margins.lateral.lateral_binding`'s arguments)."""
 
     E: np.ndarray
     ids: np.ndarray
@@ -174,7 +174,7 @@ class Candidates(NamedTuple):
 class Binding(NamedTuple):
     """The binding lateral element of a turn choice: its activation (capped at the lateral margin), turn sign,
     element id, room, the direction it is scored along, scored distance, closing speed, turn angle and time to
-    breach (:class:`~geofence.boundary_shift.ShiftResult`'s lateral fields)."""
+    breach (:class:`~geofence.margins.boundary_shift.ShiftResult`'s lateral fields)."""
 
     act: float
     s: float
@@ -191,7 +191,7 @@ class Binding(NamedTuple):
 MarginFields = tuple[
     float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float
 ]
-""":func:`_margins`' answer: :class:`~geofence.boundary_shift.ShiftResult`'s fields, the binding element's row id in
+""":func:`_margins`' answer: :class:`~geofence.margins.boundary_shift.ShiftResult`'s fields, the binding element's row id in
 place of its feature, index and edge."""
 
 
@@ -204,8 +204,8 @@ def state_terms(
     (``V``: :func:`envelope_terms`; ``(de, dn)``: the roll-out target from the position, m).
 
     Fixed-wing: the reaction phase (the pilot's current turn goes on, and rolling out of the current bank costs
-    up to another roll time, at cruise at least: :func:`~geofence.rooms.fixed_wing_reaction_terms`), the turns
-    to the wind-corrected roll-out heading (:func:`~geofence.rooms.rollout_turns`); multirotor: the worst-case
+    up to another roll time, at cruise at least: :func:`~geofence.physics.rooms.fixed_wing_reaction_terms`), the turns
+    to the wind-corrected roll-out heading (:func:`~geofence.physics.rooms.rollout_turns`); multirotor: the worst-case
     pilot (the tilt limit while below max airspeed) and the climb arrest (it lowers the collective, and with it
     the horizontal braking force).
     """
@@ -248,7 +248,7 @@ room_bound = compiled(_room_bound)
 
 @jitable
 def _binding(C: Candidates, e: float, n: float, lat_margin: float, T: StateTerms, turns: Turns) -> Binding:
-    """The :class:`Binding` among the candidates ``C`` for ``turns`` (:func:`geofence.lateral_kernel.lateral_binding`,
+    """The :class:`Binding` among the candidates ``C`` for ``turns`` (:func:`geofence.margins.lateral.lateral_binding`,
     reach ``T.bound``; from the free space where ``lat_margin >= 0``), its activation capped by ``lat_margin``."""
     env = T.env
     act, s, i, room, nx, ny, d, v_n, angle, _ = lateral_binding(
@@ -293,7 +293,7 @@ def _over_gap(
     inside it (laterally) also keeps the floor (:func:`floor_with_gap_m`).
 
     A fixed-wing circles, the way it turns, until it has climbed back ``climb_m`` from its deepest point
-    (:func:`geofence.rooms.gap_circle_turn_rad`). The turn is one for the keep-in and the gap together: where the
+    (:func:`geofence.physics.rooms.gap_circle_turn_rad`). The turn is one for the keep-in and the gap together: where the
     other turn's circle keeps the gap better, that turn is the one scored (and flown) if its lateral activation
     allows it (:func:`_margins_among` scores it); it can raise the floor's activation only below the gap's own
     room."""
@@ -318,8 +318,8 @@ def _floor(
     T: StateTerms, lat: Binding,
 ) -> tuple[float, float, OtherTurn]:  # fmt: skip
     """``(floor margin, floor activation, other turn)``: ``inf, inf`` without a floor; the gap-aware margin
-    (:meth:`geofence.local_fence.LocalFence.floor_margin_m`) and, over the gap the point is deepest inside
-    (:meth:`~geofence.local_fence.LocalFence.best_gap`), :func:`_over_gap`; else the descent's arrest margin
+    (:meth:`geofence.geometry.local_fence.LocalFence.floor_margin_m`) and, over the gap the point is deepest inside
+    (:meth:`~geofence.geometry.local_fence.LocalFence.best_gap`), :func:`_over_gap`; else the descent's arrest margin
     (``dive_m``: how far it goes)."""
     if fence_scalar(F, L, HAS_FLOOR) == 0.0:
         return math.inf, math.inf, NO_OTHER_TURN
@@ -377,7 +377,7 @@ def _margins(
     wind_e: float, wind_n: float, hu: float, v_unc: float, latency_s: float, bank_rad: float, wind_extra_mps: float,
     has_target: bool, target_e: float, target_n: float, g: float, lat_margin: float,
 ) -> MarginFields:  # fmt: skip
-    """:func:`~geofence.boundary_shift.activation_margins` scanning every element: ``(activation, lateral margin,
+    """:func:`~geofence.margins.boundary_shift.activation_margins` scanning every element: ``(activation, lateral margin,
     lateral shift, lateral activation, element id, nx, ny, edge distance, closing speed, time to breach, turn sign,
     turn angle, ceiling margin, ceiling shift, floor margin, floor shift, vertical activation, vertical time to
     breach)``; the arguments are its own (``h_uncertainty_m`` is ``hu``, ``v_uncertainty_m`` ``v_unc``;
@@ -405,7 +405,7 @@ def _indexed_margins(
     target_n: float, g: float, lat_margin: float,
 ) -> MarginFields:  # fmt: skip
     """:func:`_margins` of an indexed fence, the binding element searched among an index cell's candidates
-    (``ids, lbs, walk, delta_c``: :class:`Candidates`' fields, from :meth:`geofence.fence_grid.FenceGrid.candidates`)
+    (``ids, lbs, walk, delta_c``: :class:`Candidates`' fields, from :meth:`geofence.geometry.fence_grid.FenceGrid.candidates`)
     and ``lat_margin`` the index's lateral margin at (e, n)."""
     C = Candidates(packed_table(F, L, ELEMENTS, 7), ids, lbs, walk, delta_c, int(fence_scalar(F, L, LINE_EDGES)))
     return _margins_among(
@@ -417,7 +417,7 @@ def _indexed_margins(
 @jitable
 def vertical_arrests_m(env: EnvelopeTerms, vu: float, t_r: float, v_unc: float) -> tuple[float, float]:
     """``(ceiling shift, dive)`` (m): how far a climb at ``vu`` (m/s) goes before it is arrested, plus the
-    vertical uncertainty ``v_unc``, and how far a descent does (:func:`geofence.rooms.vertical_arrest_distance_m`
+    vertical uncertainty ``v_unc``, and how far a descent does (:func:`geofence.physics.rooms.vertical_arrest_distance_m`
     over the reaction time ``t_r``, the pilot accelerating up to the climb or descent rate meanwhile)."""
     c_s = vertical_arrest_distance_m(vu, t_r, env.vertical_accel_mps2, env.max_climb_mps) + v_unc
     return c_s, vertical_arrest_distance_m(-vu, t_r, env.vertical_accel_mps2, env.max_descent_mps)
@@ -446,7 +446,7 @@ def floor_with_gap_m(floor_act: float, gap_act: float, gap_depth_m: float) -> fl
 
 @jitable
 def _lateral_margin(F: np.ndarray, L: np.ndarray, e: float, n: float) -> float:
-    """The lateral margin at (e, n): :func:`geofence.scan_kernel.lateral_margin_scan` on the packed tables."""
+    """The lateral margin at (e, n): :func:`geofence.geometry.scan.lateral_margin_scan` on the packed tables."""
     return lateral_margin_scan(
         e,
         n,
@@ -462,8 +462,8 @@ def far_from_everything(
     F: np.ndarray, L: np.ndarray, V: np.ndarray, e: float, n: float, h: float, ground_speed: float, ve: float,
     vn: float, vu: float, wind_e: float, wind_n: float, allowance: float, t_s: float, hu: float, v_unc: float, g: float,
 ) -> tuple[bool, float]:  # fmt: skip
-    """:meth:`geofence.unit.GeofenceUnit._far_from_everything` on the tables (its reference): no element, ceiling or
-    floor within the largest room the state can need (:func:`geofence.rooms.room_upper_bounds_terms` at the wind
+    """:meth:`geofence.unit.geofence_unit.GeofenceUnit._far_from_everything` on the tables (its reference): no element, ceiling or
+    floor within the largest room the state can need (:func:`geofence.physics.rooms.room_upper_bounds_terms` at the wind
     speed plus ``allowance`` over the time ``t_s``, plus the uncertainties ``hu`` and ``v_unc``), and the lateral margin at (e, n) when it was computed (else NaN)."""
     env = envelope_of_terms(V)
     fixed_wing = env.fixed_wing != 0.0

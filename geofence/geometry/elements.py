@@ -5,7 +5,7 @@ circle), the packed margin tables of a fence (:class:`MarginTables`: every table
 and one int array, and the accessors :func:`packed_table`, :func:`packed_column`, :func:`packed_vector`,
 :func:`fence_scalar`), how an element is scored from a point (:func:`edge_scored`) and the walk over a fence
 index's candidates in order of their lower bounds (:func:`walk_candidates`, :data:`nearest_distance`).
-Geometry only: no room, no envelope; the margins (:mod:`geofence.margins_kernel`) build on these.
+Geometry only: no room, no envelope; the margins (:mod:`geofence.margins.kernel`) build on these.
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
+from geofence.geometry.scan import rows_view
 from geofence.jit import compiled, jitable
-from geofence.scan_kernel import rows_view
 
 __all__ = [
     "MarginTables", "edge_scored", "element_table", "fence_scalar", "nearest_distance", "packed_column", "packed_table",
@@ -43,9 +43,9 @@ _HEADER = 2 * 12  # (start, rows) of each
 
 
 class MarginTables(NamedTuple):
-    """A fence's tables for :func:`margins`, packed (see :meth:`geofence.local_fence.LocalFence.margin_tables`).
+    """A fence's tables for :func:`margins`, packed (see :meth:`geofence.geometry.local_fence.LocalFence.margin_tables`).
 
-    Float tables: the lateral elements (:func:`geofence.elements.element_table` rows, ``danger_edges``
+    Float tables: the lateral elements (:func:`geofence.geometry.elements.element_table` rows, ``danger_edges``
     then circles), the lateral margin's scan tables (the keep-in's and keep-outs' polygon rows, the circles),
     the floor gaps' polygon rows end to end and their edge elements end to end (normals out of the gap), a
     zero per element, and ``(ceiling, floor (nan without), has floor, recovery east, recovery north, line-scored elements)``.
@@ -69,11 +69,11 @@ class MarginTables(NamedTuple):
         recovery_en: tuple[float, float],
         line_edges: int = 0,
     ) -> MarginTables:
-        """Pack a fence's tables (:meth:`geofence.local_fence.LocalFence.margin_tables` gives them): its element
+        """Pack a fence's tables (:meth:`geofence.geometry.local_fence.LocalFence.margin_tables` gives them): its element
         table and ids, its scan tables ``(keep-in rows, keep-out rows, their offsets, circles)``, the floor
-        gaps' polygon rows and their edge elements (each ``(rows, offsets)``, :func:`geofence.scan_kernel.stacked`),
+        gaps' polygon rows and their edge elements (each ``(rows, offsets)``, :func:`geofence.geometry.scan.stacked`),
         its ceiling and floor (None: none), recovery point, and how many elements are scored at their line distance
-        (:meth:`~geofence.local_fence.LocalFence.line_scored_edges`)."""
+        (:meth:`~geofence.geometry.local_fence.LocalFence.line_scored_edges`)."""
         ki, ko, ko_off, circles = scan_tables
         re, rn = recovery_en
         floats = [

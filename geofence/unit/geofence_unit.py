@@ -9,26 +9,26 @@ State machine (every transition is logged with time and reason)::
                                                                          (fixed-wing, low over the gap)
 
 With the position source lost, the unit navigates to the gap by dead
-reckoning from its last valid estimate (:mod:`geofence.dead_reckoning`).
+reckoning from its last valid estimate (:mod:`geofence.estimation.dead_reckoning`).
 
 * MONITOR and RECOVERED pass the pilot's sticks through unchanged.
 * Return is impossible when the estimated mean wind plus one sigma of the forecast
   turbulence reaches 90 % of the platform's max speed
-  (:func:`geofence.dynamics.return_not_assured`): at an activation, or held for 3 s
+  (:func:`geofence.physics.dynamics.return_not_assured`): at an activation, or held for 3 s
   at any time, the unit goes straight to LAND_IN_GAP (the most reachable floor gap,
   downwind preferred). A multirotor flies there at the lowest safe height and aims
   upwind in the gap.
-* A vehicle on the ground slower than :data:`~geofence.unit_kernel.SITTING_MAX_GROUND_SPEED_MPS` is sitting and never
+* A vehicle on the ground slower than :data:`~geofence.unit.passes.SITTING_MAX_GROUND_SPEED_MPS` is sitting and never
   triggers; a faster one is rolling (a fixed-wing that touched down at flying speed) and triggers as in
   the air.
 * Either a lateral or a vertical trigger starts the whole 3-D override
   (lateral goal: the recovery point; vertical goal: a safe height band).
 * The activation margin is the estimated margin to the fence minus the room
   the platform needs to turn back or stop in the current wind
-  (:mod:`geofence.boundary_shift`), minus k·σ of the estimate; with
+  (:mod:`geofence.margins.boundary_shift`), minus k·σ of the estimate; with
   ``trigger: reactive`` it is the plain margin (act on the line).
 * The envelope is scaled to the air density at the site
-  (:func:`geofence.dynamics.envelope_at_density`, ISA density from the
+  (:func:`geofence.physics.dynamics.envelope_at_density`, ISA density from the
   estimated altitude): a high site or a hot day means faster true airspeeds,
   wider turns and weaker climbs.
 * Hand-back: after at least ``min_override_s``, inside the fence, and either
@@ -48,15 +48,23 @@ from enum import IntEnum
 
 import numpy as np
 
-from geofence import unit_kernel as _uk
-from geofence.boundary_shift import CompiledMargins, ShiftResult, activation_margins
-from geofence.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource, allowance_in_use_mps
-from geofence.control_laws import climb_rate_to_stick, clip
-from geofence.dead_reckoning import DeadReckoning
-from geofence.dynamics import envelope_at_density, isa_density_ratio, return_not_assured, return_wind_limits
-from geofence.estimate_history import EstimateHistory, state_of_row
-from geofence.fence import AltitudeReference
-from geofence.guidance import (
+from geofence.estimation.dead_reckoning import DeadReckoning
+from geofence.estimation.history import EstimateHistory, state_of_row
+from geofence.estimation.wind_estimator import WIND_ESTIMATE_ERROR_MPS
+from geofence.geometry.fence import AltitudeReference
+from geofence.geometry.local_fence import LocalFence
+from geofence.interface import Envelope, FixState, StickCommand, VehicleState
+from geofence.margins.boundary_shift import CompiledMargins, ShiftResult, activation_margins
+from geofence.physics.control_laws import climb_rate_to_stick, clip
+from geofence.physics.dynamics import envelope_at_density, isa_density_ratio, return_not_assured, return_wind_limits
+from geofence.physics.rooms import (
+    climb_back_drift_m,
+    envelope_turn_radius_m,
+    room_upper_bounds_fast_m,
+    vertical_arrest_distance_m,
+)
+from geofence.recovery import Point, RecoveryPlanner
+from geofence.recovery.guidance import (
     FixedWingRecovery,
     LandingGuidance,
     MultirotorVelocityRecovery,
@@ -64,16 +72,9 @@ from geofence.guidance import (
     SeedPDRecovery,
     StraightRoute,
 )
-from geofence.interface import Envelope, FixState, StickCommand, VehicleState
-from geofence.local_fence import LocalFence
-from geofence.recovery import Point, RecoveryPlanner
-from geofence.rooms import (
-    climb_back_drift_m,
-    envelope_turn_radius_m,
-    room_upper_bounds_fast_m,
-    vertical_arrest_distance_m,
-)
-from geofence.unit_kernel import (  # (their home: the monitoring step's kernel reads them too)
+from geofence.unit import passes as _uk
+from geofence.unit.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource, allowance_in_use_mps
+from geofence.unit.passes import (  # (their home: the monitoring step's kernel reads them too)
     DENSITY_REFRESH_M,
     FRESH_ESTIMATE_AGE_S,
     activates,
@@ -85,7 +86,6 @@ from geofence.unit_kernel import (  # (their home: the monitoring step's kernel 
     rollout_cell,
     vertical_handback_m,
 )
-from geofence.wind_estimator import WIND_ESTIMATE_ERROR_MPS
 
 WIND_BEYOND_AUTHORITY_PERSIST_S = 3.0
 TERMINATE_BELOW_AGL_M = 8.0
@@ -244,7 +244,7 @@ class GeofenceUnit:
 
         An upper bound of the lateral room that :func:`activation_margins`
         can return for this state and of the vertical arrest distance
-        (:func:`geofence.rooms.room_upper_bounds_m`, in its fast form: the larger of max speed and
+        (:func:`geofence.physics.rooms.room_upper_bounds_m`, in its fast form: the larger of max speed and
         the current speed, the strongest turn or braking, the wind with its
         allowance, two roll times); when the plain margins exceed both, the full
         per-edge computation cannot trigger and is skipped.
@@ -299,7 +299,7 @@ class GeofenceUnit:
         """A predictive unit's monitoring step: ``None`` when :meth:`_far_from_everything` holds, else :meth:`_margins`.
 
         For a fence without an index one compiled call answers both
-        (:meth:`geofence.boundary_shift.CompiledMargins.monitor`, the same numbers), unless a fixed-wing's roll-out
+        (:meth:`geofence.margins.boundary_shift.CompiledMargins.monitor`, the same numbers), unless a fixed-wing's roll-out
         target is not cached for its cell yet (finding it is a route search, made only when the margins are
         needed: the reference's order). After a step the shortcut answered, the next asks it alone first
         (far from everything it usually holds again, and alone it is the cheaper call): the same answers.
@@ -375,7 +375,7 @@ class GeofenceUnit:
         return (0.5 * (lo + hi) if math.isfinite(lo) else hi - 5.0), False
 
     def _return_impossible(self) -> str | None:
-        """Why return is impossible (or cannot be assured), or None (:func:`geofence.dynamics.return_not_assured`).
+        """Why return is impossible (or cannot be assured), or None (:func:`geofence.physics.dynamics.return_not_assured`).
 
         The turbulence is the forecast's σ only, never the unit's own estimate: that also
         holds the estimate's noise, and landing because of it was measured to cause more breaches than
@@ -501,7 +501,7 @@ class GeofenceUnit:
         """How far inside a multirotor without a position source must be to descend from ``agl_m`` (m).
 
         It drifts at the error of the wind it dead-reckons on for as long as the descent takes: the
-        mean wind's error (:data:`geofence.wind_estimator.WIND_ESTIMATE_ERROR_MPS`) plus the turbulence of those seconds,
+        mean wind's error (:data:`geofence.estimation.wind_estimator.WIND_ESTIMATE_ERROR_MPS`) plus the turbulence of those seconds,
         which no estimate knows (near the ground its time scale is tens of seconds, so it does not
         average out over a descent): the margins' wind allowance ``k·σ + gust``. At least
         :data:`DEAD_RECKONING_LANDING_MARGIN_M`.
@@ -523,7 +523,7 @@ class GeofenceUnit:
         vertex of its route a few metres away saw the direction to it, and with it the scored turn, swing
         round within a step, so that a fixed-wing in a corridor narrower than its turn turned away from the
         corridor towards a vertex behind it (case history: docs/campaigns.md#breach-classes-found-and-fixed). Cached per
-        cell of :data:`geofence.unit_kernel.ROLLOUT_CELL_M`; found with
+        cell of :data:`geofence.unit.passes.ROLLOUT_CELL_M`; found with
         the route clearances of ``sigma_h_m`` (default the unit's, :meth:`_route_clearances`).
         """
         key = rollout_cell(e, n)
@@ -655,22 +655,22 @@ class GeofenceUnit:
             self._sigma_h_m = sigma_h_m
         return est
 
-    # -- the monitoring step on arrays (geofence.unit_kernel) ----------------------------------------------------------
+    # -- the monitoring step on arrays (geofence.unit.passes) ----------------------------------------------------------
     @property
     def monitors_compiled(self) -> bool:
         """A predictive unit whose margins have their array form (a fence without an index): its monitoring steps
-        can be taken by :func:`geofence.unit_kernel.monitor_pass` (see :meth:`monitor_ready`)."""
+        can be taken by :func:`geofence.unit.passes.monitor_pass` (see :meth:`monitor_ready`)."""
         return self._predictive and self._compiled is not None
 
     def monitor_ready(self) -> bool:
-        """Whether :func:`geofence.unit_kernel.monitor_pass` can take the next step: a predictive unit monitoring
+        """Whether :func:`geofence.unit.passes.monitor_pass` can take the next step: a predictive unit monitoring
         (``MONITOR`` or ``RECOVERED``), its margins compiled (a fence without an index), not dead-reckoning.
         Asked again after every step :meth:`update` takes."""
         mode = self.mode
         return (mode is _MONITOR or mode is _RECOVERED) and self.monitors_compiled and not self.dead_reckoning.active
 
     def pack_monitor(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Fill ``U`` (:data:`geofence.unit_kernel.N_UNIT` floats) with what the monitoring step reads; returns its
+        """Fill ``U`` (:data:`geofence.unit.passes.N_UNIT` floats) with what the monitoring step reads; returns its
         compiled margins' tables and envelope terms ``(F, L, V)``. Valid until the next :meth:`update`."""
         compiled = self._compiled
         assert compiled is not None
@@ -707,7 +707,7 @@ class GeofenceUnit:
         """Find the roll-out target of the cell of (e, n) where none is cached (a route search, as :meth:`update`
         would for margins there, with the step's ``sigma_h_m``, or where it is not finite the last finite one,
         which ``U`` keeps with the passes not yet taken in), and pack the targets round it in ``U``: a compiled
-        step that answered :data:`~geofence.unit_kernel.NEED_TARGET` is asked again."""
+        step that answered :data:`~geofence.unit.passes.NEED_TARGET` is asked again."""
         cached = len(self._rollout_cache)
         target = self._rollout_target(e, n, sigma_h_m if math.isfinite(sigma_h_m) else float(U[_uk.SIGMA_H]))
         k = _uk.target_slot(U, e, n)
@@ -717,7 +717,7 @@ class GeofenceUnit:
             self._pack_targets(U, e, n)
 
     def _pack_targets(self, U: np.ndarray, e: float, n: float) -> None:
-        """The fixed-wing roll-out targets cached round the cell of (e, n) (:data:`geofence.unit_kernel.TARGET_CELLS`
+        """The fixed-wing roll-out targets cached round the cell of (e, n) (:data:`geofence.unit.passes.TARGET_CELLS`
         each way)."""
         ce, cn = rollout_cell(e, n)
         U[_uk.HAS_TARGETS], U[_uk.CELL_E], U[_uk.CELL_N] = 1.0, ce, cn
@@ -747,7 +747,7 @@ class GeofenceUnit:
         U[_uk.PASSES] = U[_uk.HAS_MARGINS] = U[_uk.HORIZON_MOVED] = U[_uk.RECOVERY_MOVED] = 0.0
 
     def override_ready(self) -> bool:
-        """Whether :func:`geofence.unit_kernel.override_pass` can take the next step: a fixed-wing override (of a unit
+        """Whether :func:`geofence.unit.passes.override_pass` can take the next step: a fixed-wing override (of a unit
         that :attr:`monitors_compiled`) whose recovery has its compiled step (:meth:`FixedWingRecovery.compiled_step`),
         not dead-reckoning. Asked again after every step :meth:`update` takes."""
         recovery = self.recovery
@@ -782,7 +782,7 @@ class GeofenceUnit:
         return F, L, compiled._terms, R, P, Q, K
 
     def _pack_hand_back(self, U: np.ndarray) -> None:
-        """What the hand-back test reads (:meth:`_handback_ok`; :func:`geofence.unit_kernel.override_pass` after the
+        """What the hand-back test reads (:meth:`_handback_ok`; :func:`geofence.unit.passes.override_pass` after the
         minimum override period)."""
         cfg, fence = self.config, self.fence
         U[_uk.HANDBACK_MARGIN], U[_uk.RECOVERY_RADIUS] = cfg.handback_margin_m, cfg.recovery_radius_m
@@ -797,8 +797,8 @@ class GeofenceUnit:
 
     def take_in_passes(self, U: np.ndarray, H: np.ndarray, horizon: FixState | None) -> None:
         """Take in the steps compiled calls took since the last time (the passes of
-        :func:`geofence.unit_kernel.monitor_pass`, the override steps of :func:`geofence.unit_kernel.override_pass`),
-        as :meth:`update` would have taken them one by one: what :func:`geofence.unit_kernel.record_pass` kept in
+        :func:`geofence.unit.passes.monitor_pass`, the override steps of :func:`geofence.unit.passes.override_pass`),
+        as :meth:`update` would have taken them one by one: what :func:`geofence.unit.passes.record_pass` kept in
         ``U`` and the ring ``H`` (:meth:`history_rows` long), and the recovery's state. ``horizon``: the fusion
         horizon before them (the sensing chain's). Then none are pending."""
         passes = int(U[_uk.PASSES])
@@ -961,7 +961,7 @@ class GeofenceUnit:
         return self.recovery.sticks(est, h, t_s, dt_s)
 
     def _handback_ok(self, s: VehicleState, r: ShiftResult, act: float) -> bool:
-        """:func:`geofence.unit_kernel.hand_back` on these margins (its climb back cleared once done): a predictive
+        """:func:`geofence.unit.passes.hand_back` on these margins (its climb back cleared once done): a predictive
         unit's hysteresis is the activation margins' (:meth:`_vertical_handback_at_goal_m`), a reactive one's the
         plain margins'."""
         cfg = self.config
@@ -989,7 +989,7 @@ class GeofenceUnit:
         :meth:`_goal_height`'s room, half the vertical
         activation margin the vehicle has at rest at the goal height when that
         is less: at rest the pilot may still climb or dive at once
-        (:func:`~geofence.rooms.vertical_arrest_distance_m` from 0 m/s), and an
+        (:func:`~geofence.physics.rooms.vertical_arrest_distance_m` from 0 m/s), and an
         explicit recovery height 0.3 m under an indoor ceiling leaves 0.09 m
         of margin there (the indoor seed quad, 0.11 m of hysteresis: it was
         never handed back). Half of it keeps the hysteresis against the altitude

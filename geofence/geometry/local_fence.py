@@ -1,18 +1,18 @@
 """The fence in a local ENU frame: :class:`LocalFence`, with the fast margins the 40 Hz loop asks.
 
-:meth:`geofence.fence.Fence.to_local` builds one: the WGS-84 fence projected into a
-:class:`~geofence.geodesy.LocalFrame` with precomputed
-:class:`~geofence.polygon.PolygonIndex` objects, fast scalar margins (plain
+:meth:`geofence.geometry.fence.Fence.to_local` builds one: the WGS-84 fence projected into a
+:class:`~geofence.geometry.geodesy.LocalFrame` with precomputed
+:class:`~geofence.geometry.polygon.PolygonIndex` objects, fast scalar margins (plain
 Python floats) and vectorized ``*_array`` versions for analysis. For a fence of
 more than a few dozen elements the per-step lateral queries are answered from a
-:class:`~geofence.fence_grid.FenceGrid` (only the elements within reach; the
+:class:`~geofence.geometry.fence_grid.FenceGrid` (only the elements within reach; the
 same answers as the full scan, which stays as ``lateral_margin_scan_m``). The
 margins, heights and the projection error bound are documented in
-:mod:`geofence.fence`; the per-edge view the margins iterate is :class:`DangerEdge`.
+:mod:`geofence.geometry.fence`; the per-edge view the margins iterate is :class:`DangerEdge`.
 
 Every margin here is the geofence unit's, and treats each keep-out as
 full-height. The keep-outs' own floors and ceilings
-(:class:`~geofence.fence.VerticalExtent`) are carried along as
+(:class:`~geofence.geometry.fence.VerticalExtent`) are carried along as
 ``keep_out_polygon_extents`` and ``keep_out_circle_extents`` for analysis: the
 scoring counts a keep-out entry only inside the keep-out's volume.
 """
@@ -24,15 +24,15 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from .elements import MarginTables, element_table
-from .fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
-from .geodesy import LocalFrame
-from .heights import AltitudeReference, VerticalExtent
-from .polygon import PolygonIndex, is_convex, pole_of_inaccessibility
-from .scan_kernel import deepest_polygon, lateral_margin_scan, polygon_rows, stacked
+from geofence.geometry.elements import MarginTables, element_table
+from geofence.geometry.fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
+from geofence.geometry.geodesy import LocalFrame
+from geofence.geometry.heights import AltitudeReference, VerticalExtent
+from geofence.geometry.polygon import PolygonIndex, is_convex, pole_of_inaccessibility
+from geofence.geometry.scan import deepest_polygon, lateral_margin_scan, polygon_rows, stacked
 
 if TYPE_CHECKING:
-    from .fence import Fence, PolygonLL
+    from geofence.geometry.fence import Fence, PolygonLL
 
 
 FEATURE_KEEP_IN = "keep_in"
@@ -85,7 +85,7 @@ class LocalFence:
     ``keep_out_polygons`` and ``floor_gaps`` (tuples of PolygonIndex),
     ``keep_out_circles`` (tuple of ``(east_m, north_m, radius_m)``),
     ``keep_out_polygon_extents`` and ``keep_out_circle_extents`` (one
-    :class:`~geofence.fence.VerticalExtent` per keep-out, in the same order;
+    :class:`~geofence.geometry.fence.VerticalExtent` per keep-out, in the same order;
     not used by any margin here: the unit treats every keep-out as
     full-height), ``has_keep_out_extents`` (any of them bounded), ``ceiling_m``, ``floor_m`` (``None`` = no floor), ``altitude_reference``,
     ``recovery_en`` (east, north of the recovery point) and
@@ -124,8 +124,8 @@ class LocalFence:
     )
 
     def __init__(self, fence: Fence, frame: LocalFrame, *, index: bool | None = None) -> None:
-        """``index``: answer the per-step lateral queries from a :class:`~geofence.fence_grid.FenceGrid`
-        (``None``: when the fence has at least :data:`~geofence.fence_grid.SMALL_FENCE_ELEMENTS` elements;
+        """``index``: answer the per-step lateral queries from a :class:`~geofence.geometry.fence_grid.FenceGrid`
+        (``None``: when the fence has at least :data:`~geofence.geometry.fence_grid.SMALL_FENCE_ELEMENTS` elements;
         ``False``: always the full scan, the reference the index is tested against)."""
         self.fence = fence
         self.frame = frame
@@ -197,7 +197,7 @@ class LocalFence:
 
     def line_scored_edges(self) -> int:
         """How many lateral elements, from the first, a margin scores at their line distance where the foot lies
-        off the edge (:func:`geofence.elements.edge_scored`): the keep-in's edges when it is
+        off the edge (:func:`geofence.geometry.elements.edge_scored`): the keep-in's edges when it is
         convex (they come first in :meth:`danger_edges`), else none (cached)."""
         if self._line_edges is None:
             self._line_edges = self.keep_in.n if is_convex(self.keep_in.vertices) else 0
@@ -238,7 +238,7 @@ class LocalFence:
 
     def lateral_margin_scan_m(self, e: float, n: float) -> float:
         """:meth:`lateral_margin_m` by the full scan of every element (also the index's breached case):
-        :func:`geofence.scan_kernel.lateral_margin_scan`."""
+        :func:`geofence.geometry.scan.lateral_margin_scan`."""
         return lateral_margin_scan(e, n, *self.scan_tables())
 
     def scan_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -249,7 +249,7 @@ class LocalFence:
         return self._scan_table
 
     def margin_tables(self) -> MarginTables:
-        """The compiled margins' tables of this fence (cached; :class:`geofence.elements.MarginTables`)."""
+        """The compiled margins' tables of this fence (cached; :class:`geofence.geometry.elements.MarginTables`)."""
         if self._margin_tables is None:
             E, _meta, ids, _zeros = self.element_table()
             gap_edges = stacked([element_table(self.gap_edges(i), ()) for i in range(len(self.floor_gaps))], 7)
@@ -260,7 +260,7 @@ class LocalFence:
         return self._margin_tables
 
     def gap_table(self) -> tuple[np.ndarray, np.ndarray]:
-        """The floor gaps' polygon rows end to end and their offsets (cached; :func:`geofence.scan_kernel.stacked`)."""
+        """The floor gaps' polygon rows end to end and their offsets (cached; :func:`geofence.geometry.scan.stacked`)."""
         if self._gap_table is None:
             self._gap_table = stacked([polygon_rows(g.edge_tuples()) for g in self.floor_gaps], 7)
         return self._gap_table
@@ -399,7 +399,7 @@ class LocalFence:
 
     def element_table(self) -> tuple[np.ndarray, tuple[tuple[str, int, int], ...], np.ndarray, np.ndarray]:
         """``(E, meta, ids, zeros)`` for the compiled lateral search (cached): the float table of
-        :meth:`danger_edges` then ``keep_out_circles`` (:func:`geofence.elements.element_table`), each
+        :meth:`danger_edges` then ``keep_out_circles`` (:func:`geofence.geometry.elements.element_table`), each
         element's ``(feature, feature_index, edge)``, and every element's id in order with a zero bound per
         element (the full scan's candidate list)."""
         if self._element_table is None:
@@ -426,7 +426,7 @@ class LocalFence:
 
     def best_gap(self, e: float, n: float) -> tuple[int, float]:
         """``(index, signed distance)`` of the floor gap that (e, n) is deepest inside; ``(-1, -inf)`` with no gaps
-        (:func:`geofence.scan_kernel.deepest_polygon`)."""
+        (:func:`geofence.geometry.scan.deepest_polygon`)."""
         if not self.floor_gaps:
             return -1, -math.inf
         return deepest_polygon(e, n, *self.gap_table())

@@ -1,13 +1,13 @@
 """The lateral margin of a point by the full scan of every element, compiled.
 
 One question (and its twin for the floor gaps, :func:`deepest_polygon`):
-:meth:`geofence.local_fence.LocalFence.lateral_margin_scan_m`
+:meth:`geofence.geometry.local_fence.LocalFence.lateral_margin_scan_m`
 (the keep-in's signed distance, less each keep-out polygon's, each circle's
 ``hypot - radius``, the smallest), for a small fence's every step and for the
 breached points of a large one, as one compiled call over float tables built
-once per fence: the arithmetic of :meth:`geofence.polygon.PolygonIndex.signed_distance`
+once per fence: the arithmetic of :meth:`geofence.geometry.polygon.PolygonIndex.signed_distance`
 ``tests/test_lateral_kernel.py`` holds it to the vectorised margins
-(:meth:`~geofence.local_fence.LocalFence.lateral_margin_array`).
+(:meth:`~geofence.geometry.local_fence.LocalFence.lateral_margin_array`).
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from typing import Sequence
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
+from geofence.geometry.polygon import BOUNDARY_TOL_M
 from geofence.jit import compiled, jitable
-from geofence.polygon import BOUNDARY_TOL_M
 
 __all__ = ["deepest_polygon", "lateral_margin_scan", "polygon_rows", "rows_view", "signed_distance_rows", "stacked"]
 

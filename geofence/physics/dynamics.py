@@ -1,7 +1,7 @@
 """The point-mass dynamics the unit assumes for a platform: the one home of the drag law and of gravity.
 
 ``G_MPS2 = 9.80665 m/s²`` (standard gravity) is defined here and imported by
-every other module that needs g (the room formulas in :mod:`geofence.rooms`,
+every other module that needs g (the room formulas in :mod:`geofence.physics.rooms`,
 the wind estimator, the control laws, dead reckoning).
 
 A multirotor's horizontal air drag per unit mass at airspeed ``v`` (m/s) is

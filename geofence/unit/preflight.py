@@ -4,7 +4,7 @@ Autopilots check a mission against the fence at upload (is every waypoint
 inside?). The geofence unit acts earlier than the fence line, at its
 activation boundary, so a mission that merely stays inside can still be
 overridden. This module flies the planned route *on paper* through the same
-:func:`geofence.boundary_shift.activation_margins` the unit uses in flight,
+:func:`geofence.margins.boundary_shift.activation_margins` the unit uses in flight,
 at the planned speed, in the expected wind (with the unit's turbulence and
 gust allowance) and with the unit's nominal uncertainty margins, and reports
 every leg, turn and loiter where the activation margin would fall below a
@@ -29,7 +29,7 @@ What "on paper" means (the autopilot's flight, idealised):
   ArduPlane and PX4 loiter at the last waypoint). Unchecked, a fixed-wing's orbit
   after a mission took it within the activation margin of a wall, overridden though it passed
   (case history: docs/campaigns.md#fresh-seeds-in-the-order-they-were-flown); it joins that orbit from the
-  waypoint itself, outward along the autopilot's vector field (:func:`geofence.control_laws.orbit_course_rad`,
+  waypoint itself, outward along the autopilot's vector field (:func:`geofence.physics.control_laws.orbit_course_rad`,
   its default gain), so the join is checked too: every 10 deg at 0.25, 0.5, 0.75 and 0.9 of the radius, on
   the field's course there (any arrival direction). Unchecked, a fixed-wing joining the orbit outward
   from its last waypoint was overridden after its mission though it passed
@@ -57,12 +57,12 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Sequence
 
-from geofence.boundary_shift import activation_margins
-from geofence.control_laws import orbit_course_rad
-from geofence.dynamics import return_not_assured
+from geofence.geometry.local_fence import LocalFence
 from geofence.interface import Envelope
-from geofence.local_fence import LocalFence
-from geofence.rooms import envelope_turn_radius_m
+from geofence.margins.boundary_shift import activation_margins
+from geofence.physics.control_laws import orbit_course_rad
+from geofence.physics.dynamics import return_not_assured
+from geofence.physics.rooms import envelope_turn_radius_m
 
 HEADING_STEP_RAD = math.radians(10.0)
 BOTH_WAYS_ABOVE_RAD = math.radians(120.0)
@@ -335,7 +335,7 @@ def check_route(
     allowances the unit adds in flight (``turbulence_sigma_mps``: the forecast's σ behind
     ``wind_extra_mps``). One finding per offending stretch, with its smallest margin. An empty
     list means the route passes. When the expected wind is beyond what the platform can be sure
-    to fly back against (:func:`geofence.dynamics.return_not_assured`), the unit lands as soon as
+    to fly back against (:func:`geofence.physics.dynamics.return_not_assured`), the unit lands as soon as
     it flies: the one finding is then the wind itself.
     """
     findings: list[PreflightFinding] = []

@@ -5,7 +5,7 @@ is propagated with what the unit still measures:
 
 * multirotor: the AHRS attitude gives the horizontal thrust of a
   tilt-controlled vehicle, ``g·tan(tilt)`` in the tilt direction, and the
-  platform's drag law (:mod:`geofence.dynamics`) the air drag at the
+  platform's drag law (:mod:`geofence.physics.dynamics`) the air drag at the
   dead-reckoned airspeed ``v_ground - wind`` (last wind estimate):
   ``a = g·tan(tilt)·u_tilt - a_drag(|v_air|)·v_air/|v_air|``. Without the
   drag term a vehicle holding its position against a steady wind (tilted
@@ -27,8 +27,8 @@ import math
 from collections.abc import Iterable
 from dataclasses import replace
 
-from geofence.dynamics import G_MPS2, drag_accel_mps2, drag_coefficients
 from geofence.interface import Envelope, FixState, VehicleState
+from geofence.physics.dynamics import G_MPS2, drag_accel_mps2, drag_coefficients
 
 
 class DeadReckoning:

@@ -11,7 +11,7 @@ Fixed-wing (a pitot airspeed is given)
     reads the indicated airspeed (:mod:`aircraft.sensors`); it is converted to
     true airspeed with the unit's own altitude estimate,
     ``V_t = V_i / sqrt(sigma(alt))`` (ISA density ratio,
-    :func:`geofence.dynamics.isa_density_ratio`; at 2,800 m AMSL ``V_t`` is
+    :func:`geofence.physics.dynamics.isa_density_ratio`; at 2,800 m AMSL ``V_t`` is
     15 % above ``V_i``, so taking IAS for TAS would bias the wind by
     several m/s upwind). ``airspeed_is_indicated = False`` takes the reading as
     TAS. Heading and airspeed errors average out over turns; a first-order
@@ -25,7 +25,7 @@ Multirotor (no airspeed sensor): the horizontal force balance
         a_ground = f_thrust_h - D(|v_air|) * v_air / |v_air|,    v_air = v_ground - wind
 
     with ``D(v) = k1 v + k2 v^2`` the platform's drag law
-    (:func:`geofence.dynamics.drag_coefficients`, the one home of that
+    (:func:`geofence.physics.dynamics.drag_coefficients`, the one home of that
     formula; ``drag_c1_per_s`` / ``drag_c2_per_m`` override k1 / k2). The
     thrust points along the body's -z axis ``t_hat`` (from the attitude); its
     size follows from the vertical balance ``T/m * t_up = g + a_up`` (vertical
@@ -34,7 +34,7 @@ Multirotor (no airspeed sensor): the horizontal force balance
     ``d = f_thrust_h - a_ground`` points along ``v_air`` and has size
     ``D(|v_air|)``, so::
 
-        v_air = D^-1(|d|) * d / |d|      (geofence.dynamics.airspeed_for_drag_mps)
+        v_air = D^-1(|d|) * d / |d|      (geofence.physics.dynamics.airspeed_for_drag_mps)
         wind  = v_ground - v_air
 
     This holds while the vehicle accelerates, so no sample is thrown away for
@@ -85,9 +85,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from geofence.dynamics import G_MPS2, airspeed_for_drag_mps, drag_coefficients, isa_density_ratio
 from geofence.interface import Envelope, VehicleState
 from geofence.jit import compiled, jitable
+from geofence.physics.dynamics import G_MPS2, airspeed_for_drag_mps, drag_coefficients, isa_density_ratio
 
 WIND_ESTIMATE_ERROR_MPS = 1.0
 """How far the estimate of the mean wind may be from the true mean once converged (m/s): issue 10's requirement,

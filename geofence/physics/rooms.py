@@ -12,8 +12,8 @@ culling and the unit's skip shortcut rely on. The compiled kernels call these
 same functions (:func:`geofence.jit.jitable`): to change a formula, edit it here. Where the per-step loop needs a fast form
 (precomputed turn constants, one call per edge), it stands next to its
 reference form and ``tests/test_rooms.py`` checks that the two agree to 1e-9
-relative. :mod:`geofence.boundary_shift` assembles these rooms into activation
-margins; gravity and the drag law come from :mod:`geofence.dynamics`. Pure
+relative. :mod:`geofence.margins.boundary_shift` assembles these rooms into activation
+margins; gravity and the drag law come from :mod:`geofence.physics.dynamics`. Pure
 functions on floats (plus :class:`~geofence.interface.Envelope` for the
 envelope-level rooms).
 
@@ -76,7 +76,7 @@ vehicle may keep accelerating toward the edge at the tilt limit
 ``v1 = v + a_p·t``; and while a climb is being arrested (``v_up/a_z``
 seconds) the collective cut lowers the braking deceleration to
 ``a_eff·(1 - a_z/g)`` (:func:`braking_room_m`). Wind: the platform's drag law
-(:mod:`geofence.dynamics`) gives the push ``a_w`` of the wind at zero ground
+(:mod:`geofence.physics.dynamics`) gives the push ``a_w`` of the wind at zero ground
 speed, taken as pushing towards the edge throughout: ``a_eff = a_brake - a_w``
 (conservative); ``a_eff <= 0`` (cannot hold against the wind) gives infinite
 room.
@@ -94,10 +94,10 @@ from __future__ import annotations
 
 import math
 
-from .control_laws import wrap_pi
-from .dynamics import G_MPS2, drag_coefficients, wind_push_mps2
-from .interface import Envelope, PlatformKind
-from .jit import jitable
+from geofence.interface import Envelope, PlatformKind
+from geofence.jit import jitable
+from geofence.physics.control_laws import wrap_pi
+from geofence.physics.dynamics import G_MPS2, drag_coefficients, wind_push_mps2
 
 __all__ = [
     "G_MPS2",
@@ -446,7 +446,7 @@ def multirotor_room_bound_m(
     climb_arrest: tuple[float, float], hu: float,
 ) -> float:  # fmt: skip
     """Upper bound of a multirotor's room against any edge, plus ``hu``, m: :func:`multirotor_room_m` head-on at
-    the ground speed, with the largest pilot acceleration and wind push (:func:`~geofence.dynamics.wind_push_mps2`
+    the ground speed, with the largest pilot acceleration and wind push (:func:`~geofence.physics.dynamics.wind_push_mps2`
     at ``|W|``, its drag law ``k1, k2``) and the weakest braking; a relative slack covers round-off (the room
     grows with each, so no edge farther than the nearest plus this bound can bind)."""
     push_max = wind_push_mps2(k1, k2, wind_speed_mps, wind_speed_mps)
@@ -543,7 +543,7 @@ def multicopter_stopping_distance_m(
 
     ``speed_mps`` (default ``|v_n|``) is the full ground speed (the vehicle
     brakes along its velocity); ``wind_push_mps2`` from
-    :func:`geofence.dynamics.wind_push_mps2`.
+    :func:`geofence.physics.dynamics.wind_push_mps2`.
     0 when not closing; ``inf`` when the wind push is >= the braking deceleration.
     """
     if v_normal_mps <= 0.0:
@@ -700,7 +700,7 @@ def room_upper_bounds_terms(
     g: float,
 ) -> tuple[float, float]:
     """:func:`room_upper_bounds_m` on the envelope's numbers (``k1, k2``: its drag law's
-    :func:`~geofence.dynamics.drag_coefficients`), composed of the room formulas' bounds."""
+    :func:`~geofence.physics.dynamics.drag_coefficients`), composed of the room formulas' bounds."""
     w = wind_speed_mps
     if fixed_wing:
         v = max_speed_mps if max_speed_mps > airspeed_mps else airspeed_mps

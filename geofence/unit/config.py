@@ -42,9 +42,9 @@ from dataclasses import dataclass, field
 from enum import StrEnum
 from typing import Any
 
-from geofence.fence import MAX_CEILING_M, Fence, parse_fence
-from geofence.guidance import SeedPDGains
+from geofence.geometry.fence import MAX_CEILING_M, Fence, parse_fence
 from geofence.jit import jitable
+from geofence.recovery.guidance import SeedPDGains
 from geofence.validation import (
     ConfigError,
     enum_value,
@@ -101,7 +101,7 @@ class TurbulenceSource(StrEnum):
 @jitable
 def wind_allowance_mps(k_sigma: float, sigma_mps: float, gust_mps: float) -> float:
     """The turbulence and gust allowance added to the wind in every margin, ``k * sigma + gust_mps`` (m/s): the one
-    home of that formula (compiled too, for the unit's monitoring step: :mod:`geofence.unit_kernel`)."""
+    home of that formula (compiled too, for the unit's monitoring step: :mod:`geofence.unit.passes`)."""
     return k_sigma * sigma_mps + gust_mps
 
 

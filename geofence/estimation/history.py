@@ -3,7 +3,7 @@
 One question: which estimates did the unit see since a time, oldest first? The unit appends each step's state
 (:meth:`EstimateHistory.append`) and keeps those no older than a window before the newest
 (:meth:`EstimateHistory.trim`). A compiled step keeps its states as rows of a ring (the layout of
-:data:`geofence.unit_kernel.RING_COLUMNS`: :class:`~geofence.interface.VehicleState`'s fields in order, then
+:data:`geofence.unit.passes.RING_COLUMNS`: :class:`~geofence.interface.VehicleState`'s fields in order, then
 ``on_ground``); the unit takes them in as one block of rows (:meth:`EstimateHistory.extend_rows`), and they
 become states only when they are read: dead reckoning starts rarely, a compiled flight takes its steps in often.
 """

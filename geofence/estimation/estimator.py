@@ -1,7 +1,7 @@
 """The geofence unit's own state estimator: GNSS + baro + AHRS -> a :class:`VehicleState` estimate.
 
 The unit must not trust the autopilot's navigation, so it runs its own small
-linear Kalman filter on its own sensors (:mod:`geofence.measurements`).
+linear Kalman filter on its own sensors (:mod:`geofence.estimation.measurements`).
 
 Horizontal (east and north, independent axes)
     A constant-acceleration kinematic model per axis, state ``(p, v, a)``,
@@ -63,7 +63,7 @@ Output
     the geofence works in ENU). Attitude is the latest AHRS sample;
     ``airspeed_mps`` is the true airspeed: the pitot's indicated reading
     converted with the ISA density at the estimated altitude
-    (:func:`geofence.dynamics.isa_density_ratio`), or the ground speed
+    (:func:`geofence.physics.dynamics.isa_density_ratio`), or the ground speed
     without a pitot.
 
 The step is written once: :func:`estimator_step`, compiled by :func:`geofence.jit.compiled` (the same source
@@ -81,11 +81,11 @@ from typing import Any
 
 import numpy as np
 
-from geofence.dynamics import isa_density_ratio
-from geofence.geodesy import LocalFrame, enu_of, radii_of_curvature_m
+from geofence.estimation.measurements import AirData, AttitudeSample, GpsFix
+from geofence.geometry.geodesy import LocalFrame, enu_of, radii_of_curvature_m
 from geofence.interface import FixState, VehicleState
 from geofence.jit import compiled, jitable
-from geofence.measurements import AirData, AttitudeSample, GpsFix
+from geofence.physics.dynamics import isa_density_ratio
 
 
 @dataclass(frozen=True)
@@ -160,7 +160,7 @@ EST_CONST = _float_record(
 """The estimator's constants from its frame and :class:`EstimatorConfig` (:func:`estimator_constants`)."""
 
 GPS_FIX = _float_record(*GpsFix._fields)
-"""A GNSS message as floats, :class:`~geofence.measurements.GpsFix`'s fields in order (``valid`` 0 or 1): the row
+"""A GNSS message as floats, :class:`~geofence.estimation.measurements.GpsFix`'s fields in order (``valid`` 0 or 1): the row
 the simulated receiver delivers (:mod:`aircraft.sensors`) and :func:`estimator_step` fuses."""
 
 STATE_SIZE = EST_STATE.itemsize // 8

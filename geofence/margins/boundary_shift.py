@@ -6,10 +6,10 @@ estimate-uncertainty margin; vertically by the room to arrest a climb or a
 descent. The geofence acts when the *activation margin* (distance to an edge
 minus the room needed against that edge) reaches zero. This module is the
 façade: :func:`activation_margins` (and :class:`CompiledMargins`, its tables
-bound once) is one call of the compiled margins, :mod:`geofence.margins_kernel`,
+bound once) is one call of the compiled margins, :mod:`geofence.margins.kernel`,
 the one implementation, for a fence with an index or without; the room formulas
 themselves (turn, trochoid excursion, reaction travel, braking, arrest, their
-upper bounds and the head-on room) live in :mod:`geofence.rooms`, whose
+upper bounds and the head-on room) live in :mod:`geofence.physics.rooms`, whose
 docstring derives them.
 
 Conventions: ENU metres and m/s; angles in rad. For an edge, ``n`` is the unit
@@ -21,14 +21,14 @@ Fixed-wing: the manoeuvre scored
 --------------------------------
 :func:`activation_margins` uses the maneuver the override flies: keep the
 current state for the reaction time (the pilot's current turn goes on:
-:func:`~geofence.rooms.reaction_arc_m`), then turn at the bank limit in
+:func:`~geofence.physics.rooms.reaction_arc_m`), then turn at the bank limit in
 direction ``s`` until the air heading is the wind-corrected heading towards
 the recovery point (a course reversal, ``Delta = pi``, within 1 m of it), then
 fly straight. For each edge it takes the exact maximum of the trochoid
 excursion ``x(theta)`` over that turn
-(:func:`~geofence.rooms.trochoid_excursion_m`), or the reaction arc's farthest
+(:func:`~geofence.physics.rooms.trochoid_excursion_m`), or the reaction arc's farthest
 point when that lies farther (banked away from an edge, the aircraft first
-closes on it: :func:`~geofence.rooms.reaction_arc_gap_m`), and chooses the direction ``s``
+closes on it: :func:`~geofence.physics.rooms.reaction_arc_gap_m`), and chooses the direction ``s``
 with the larger worst-edge activation margin (both directions are scored
 against *all* edges, so convex corners and narrow corridors are handled).
 Assumed: constant airspeed -- the larger of the current one and cruise, since
@@ -46,12 +46,12 @@ itself, which is what :func:`check_shift_feasible` reports for the whole fence.
 
 Multirotor: the manoeuvre scored
 --------------------------------
-The worst-case pilot (:func:`~geofence.rooms.multirotor_room_m`): until the
+The worst-case pilot (:func:`~geofence.physics.rooms.multirotor_room_m`): until the
 override acts (``t_react`` plus the control-step ``latency_s``) the vehicle may
 keep accelerating toward the edge at the tilt limit (while below max
 airspeed) plus the wind's push, then brakes at the braking deceleration net of
 the push, weakened while a climb is being arrested
-(:func:`~geofence.rooms.braking_room_m`). Both the pilot's acceleration and
+(:func:`~geofence.physics.rooms.braking_room_m`). Both the pilot's acceleration and
 the climb arrest were measured to matter in closed loop (an F450 at full tilt
 and full climb overshot by 1.3 m without them, 0 with).
 
@@ -59,7 +59,7 @@ Turbulence and gusts: ``wind_extra_mps`` (k·σ of the turbulence plus a gust
 allowance, chosen by the caller) is added to the wind component towards every
 edge and to the wind speed, for the whole manoeuvre, on both platform kinds.
 
-Vertical: the arrest distance (:func:`~geofence.rooms.vertical_arrest_distance_m`)
+Vertical: the arrest distance (:func:`~geofence.physics.rooms.vertical_arrest_distance_m`)
 for a climb towards the ceiling and a descent towards the floor.
 
 Uncertainty
@@ -77,14 +77,14 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from . import jit as _jit
-from .fence import AltitudeReference, FenceError
-from .interface import Envelope, PlatformKind, VehicleState
-from .local_fence import LocalFence
-from .margins_kernel import envelope_terms, indexed_margins, room_bound
-from .margins_kernel import margins as margins_kernel
-from .margins_kernel import monitor_margins as monitor_margins_kernel
-from .rooms import G_MPS2, vertical_arrest_distance_m, worst_case_lateral_shift_m
+from geofence import jit as _jit
+from geofence.geometry.fence import AltitudeReference, FenceError
+from geofence.geometry.local_fence import LocalFence
+from geofence.interface import Envelope, PlatformKind, VehicleState
+from geofence.margins.kernel import envelope_terms, indexed_margins, room_bound
+from geofence.margins.kernel import margins as margins_kernel
+from geofence.margins.kernel import monitor_margins as monitor_margins_kernel
+from geofence.physics.rooms import G_MPS2, vertical_arrest_distance_m, worst_case_lateral_shift_m
 
 __all__ = [
     "CompiledMargins",
@@ -123,7 +123,7 @@ class ShiftResult(NamedTuple):
     threatened constraint is the edge (or circle) with the smallest
     ``distance - room``: its ``feature`` / ``feature_index`` / ``edge`` (-1 for
     a circle), the unit direction it is scored along ``normal_e/normal_n`` (its breach-pointing normal, or
-    towards its nearest point where that is an edge's end: :func:`~geofence.elements.edge_scored`),
+    towards its nearest point where that is an edge's end: :func:`~geofence.geometry.elements.edge_scored`),
     the distance it is scored at ``edge_distance_m``, required ``lateral_shift_m`` (room incl. reaction and
     uncertainty) and ``lateral_activation_m = edge_distance_m -
     lateral_shift_m`` (capped at ``lateral_margin_m`` once breached).
@@ -179,7 +179,7 @@ def activation_margins(
     g: float = G_MPS2,
 ) -> ShiftResult:
     """Required shifts and activation margins for a state (see :class:`ShiftResult`), one compiled call
-    (:mod:`geofence.margins_kernel`; :meth:`CompiledMargins.margins` with the tables bound once).
+    (:mod:`geofence.margins.kernel`; :meth:`CompiledMargins.margins` with the tables bound once).
 
     ``(e, n)`` ENU position and ``h`` height in the fence's altitude reference
     (m); ``(ve, vn, vu)`` ground velocity (m/s); ``(wind_e, wind_n)`` the steady
@@ -201,7 +201,7 @@ def activation_margins(
     hover: the override keeps it circling at the bank limit, the way it turns,
     until it has climbed back above the floor from the deepest point its
     descent reaches, and the circle drifts with the wind: its gap room is that
-    whole circling turn (:func:`geofence.rooms.gap_circle_turn_rad`). That turn
+    whole circling turn (:func:`geofence.physics.rooms.gap_circle_turn_rad`). That turn
     is one for the keep-in and the gap together: the keep-in's best turn, or
     the other one where its circle keeps the gap better and its lateral
     activation allows it (then the result's turn, lateral element and room are
@@ -223,7 +223,7 @@ _ENVELOPE_TERMS_KEPT = 64
 
 
 def _envelope_terms(envelope: Envelope) -> np.ndarray:
-    """:func:`geofence.margins_kernel.envelope_terms` of ``envelope``, cached by identity."""
+    """:func:`geofence.margins.kernel.envelope_terms` of ``envelope``, cached by identity."""
     cached = _ENVELOPE_TERMS.get(id(envelope))
     if cached is None or cached[0] is not envelope:
         if len(_ENVELOPE_TERMS) >= _ENVELOPE_TERMS_KEPT:
@@ -236,11 +236,11 @@ class CompiledMargins:
     """The compiled margins of one fence and one envelope, their tables bound once.
 
     :meth:`margins` is :func:`activation_margins` and :meth:`monitor` is :func:`monitor_margins` (the same
-    numbers: :func:`geofence.margins_kernel.margins`, :func:`~geofence.margins_kernel.indexed_margins` for a fence
-    with an index, and :func:`~geofence.margins_kernel.monitor_margins`), with positional arguments and the fence's
+    numbers: :func:`geofence.margins.kernel.margins`, :func:`~geofence.margins.kernel.indexed_margins` for a fence
+    with an index, and :func:`~geofence.margins.kernel.monitor_margins`), with positional arguments and the fence's
     tables and the envelope's terms looked up at construction, not per call: the unit asks one of them every step
-    (:class:`geofence.unit.GeofenceUnit` keeps one per envelope for a fence without an index).
-    ``envelope``: an :class:`Envelope`, or its :func:`~geofence.margins_kernel.envelope_terms` already made.
+    (:class:`geofence.unit.geofence_unit.GeofenceUnit` keeps one per envelope for a fence without an index).
+    ``envelope``: an :class:`Envelope`, or its :func:`~geofence.margins.kernel.envelope_terms` already made.
     """
 
     __slots__ = ("fence", "_tables", "_terms", "_meta", "_grid", "_margins_kernel", "_monitor_kernel")
@@ -277,7 +277,7 @@ class CompiledMargins:
         return self._result(e, n, r)
 
     def _indexed(self, e: float, n: float, h: float, state: tuple) -> tuple:
-        """:func:`geofence.margins_kernel.indexed_margins` over the index's candidates within the state's room bound
+        """:func:`geofence.margins.kernel.indexed_margins` over the index's candidates within the state's room bound
         (every element where it is unbounded) and its lateral margin."""
         assert self._grid is not None
         fence = self.fence
@@ -334,10 +334,10 @@ def monitor_margins(
     latency_s: float, skip_time_s: float, bank_rad: float, wind_extra_mps: float,
     rollout_target_en: tuple[float, float] | None, g: float = G_MPS2,
 ) -> ShiftResult | None:  # fmt: skip
-    """A monitoring unit's step in one compiled call (:func:`geofence.margins_kernel.monitor_margins`; every
+    """A monitoring unit's step in one compiled call (:func:`geofence.margins.kernel.monitor_margins`; every
     element scanned: for a fence without an index): ``None`` when the unit's skip shortcut holds (no
     element, ceiling or floor within the largest room the state can need over ``skip_time_s``, see
-    :meth:`geofence.unit.GeofenceUnit._far_from_everything`), else :func:`activation_margins`
+    :meth:`geofence.unit.geofence_unit.GeofenceUnit._far_from_everything`), else :func:`activation_margins`
     (the other arguments are its own; ``ground_speed_mps``: the state's). :meth:`CompiledMargins.monitor` with
     its tables bound once."""
     return CompiledMargins(fence, envelope).monitor(

@@ -4,18 +4,18 @@ One question: given the fence's lateral elements (keep-in and keep-out edges,
 keep-out circles) as one float table, a candidate list and the state's room
 terms (named tuples: :class:`LateralState`, :class:`FixedWingTurn`,
 :class:`MultirotorBrake`, :class:`Turns`, the envelope's
-:class:`~geofence.margins_kernel.EnvelopeTerms`), which element has the
+:class:`~geofence.margins.kernel.EnvelopeTerms`), which element has the
 smallest activation ``d - room``, and what is the nearest element's distance?
 The room against one element is :func:`fixed_wing_edge_terms` with
-:func:`geofence.rooms.fixed_wing_edge_room_m`, or :func:`multirotor_edge_room_m`.
-:func:`geofence.margins_kernel.margins` (and so
-:func:`geofence.boundary_shift.activation_margins`) asks it every step; the
+:func:`geofence.physics.rooms.fixed_wing_edge_room_m`, or :func:`multirotor_edge_room_m`.
+:func:`geofence.margins.kernel.margins` (and so
+:func:`geofence.margins.boundary_shift.activation_margins`) asks it every step; the
 fixed-wing's search scores exactly only the elements a cheap lower bound cannot
 rule out (:func:`_fixed_wing_binding`), and ``tests/test_binding_edge.py`` holds
 it to the exhaustive minimum.
 
 Compiled or interpreted, the same source: the room formulas are compiled from
-their one home in :mod:`geofence.rooms` and :mod:`geofence.dynamics`
+their one home in :mod:`geofence.physics.rooms` and :mod:`geofence.physics.dynamics`
 (:func:`geofence.jit.jitable`); the compiled run agrees with the interpreted one
 to rounding (``tests/test_lateral_kernel.py``: 1e-9 relative).
 
@@ -31,13 +31,13 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from geofence.dynamics import wind_push_mps2
-from geofence.elements import walk_candidates
+from geofence.geometry.elements import walk_candidates
 from geofence.jit import compiled, jitable
+from geofence.physics.dynamics import wind_push_mps2
 
 if TYPE_CHECKING:  # (margins_kernel imports this module)
-    from geofence.margins_kernel import EnvelopeTerms
-from geofence.rooms import (
+    from geofence.margins.kernel import EnvelopeTerms
+from geofence.physics.rooms import (
     fixed_wing_edge_room_m,
     multirotor_room_m,
     reaction_arc_bound_m,
@@ -72,7 +72,7 @@ class LateralState(NamedTuple):
 
 
 class FixedWingTurn(NamedTuple):
-    """A fixed-wing's manoeuvre terms (:func:`geofence.rooms.fixed_wing_reaction_terms`): the turn speed (m/s),
+    """A fixed-wing's manoeuvre terms (:func:`geofence.physics.rooms.fixed_wing_reaction_terms`): the turn speed (m/s),
     the air heading at the reaction's start (rad, ENU), the reaction's rotation (rad) and rate (rad/s, + =
     clockwise), the reaction time (s), ``sin``/``cos`` of the heading where the turn starts, and the turn
     constants ``R`` (m), ``1/omega`` (s). Zeros for a multirotor."""
@@ -91,7 +91,7 @@ class FixedWingTurn(NamedTuple):
 class MultirotorBrake(NamedTuple):
     """A multirotor's stop terms: the wind speed with its allowance (m/s), the ground speed (m/s), the pilot's
     tilt acceleration (m/s², 0 at max airspeed), the reaction time (s) and the climb arrest
-    (:func:`geofence.rooms.climb_arrest_phase`: s, fraction). Zeros for a fixed-wing."""
+    (:func:`geofence.physics.rooms.climb_arrest_phase`: s, fraction). Zeros for a fixed-wing."""
 
     wspeed: float
     speed: float
@@ -122,7 +122,7 @@ def fixed_wing_edge_terms(
     state: LateralState, turn: FixedWingTurn, nx: float, ny: float, w_n: float
 ) -> tuple[float, float, float]:
     """``(base, gap, psi0)`` of one element for a fixed-wing, whatever the turn: the reaction travel plus the
-    uncertainty (m), how much farther the reaction arc gets (m; :func:`geofence.rooms.reaction_arc_terms_m`),
+    uncertainty (m), how much farther the reaction arc gets (m; :func:`geofence.physics.rooms.reaction_arc_terms_m`),
     and the air heading where the turn starts relative to the direction ``(nx, ny)`` (rad)."""
     end, gap = reaction_arc_terms_m(turn.v_turn, turn.psi_react0, turn.rot, turn.omega_now, turn.t_fw, nx, ny, w_n)
     sa = turn.sa
@@ -134,7 +134,7 @@ def fixed_wing_edge_terms(
 def multirotor_edge_room_m(env: EnvelopeTerms, state: LateralState, brake: MultirotorBrake, v_n: float, w_n: float) -> float:
     """A multirotor's room against one element, plus the uncertainty, m: the worst-case pilot accelerates
     towards it at the tilt limit (while below max airspeed) helped by the wind's push until the override acts,
-    then it brakes against that push (:func:`geofence.rooms.multirotor_room_m`); ``v_n``, ``w_n``: the ground
+    then it brakes against that push (:func:`geofence.physics.rooms.multirotor_room_m`); ``v_n``, ``w_n``: the ground
     velocity and the wind towards it (m/s)."""
     push = wind_push_mps2(env.k1, env.k2, brake.wspeed, w_n)
     a_p = brake.a_pilot + push
@@ -190,7 +190,7 @@ def _reaction_bounds(
     """Fill each kept element's rows ``WIND``, ``LB_BASE`` and ``SIN_PSI`` of the scratch ``W`` for
     :func:`_fixed_wing_binding`, without transcendental functions per element: for a unit normal ``n`` at angle
     ``theta``, ``sin(psi - theta) = sin psi·nx - cos psi·ny`` gives the reaction arc
-    (:func:`geofence.rooms.reaction_arc_sines_m`) and ``sin psi0 = nx·sin a - ny·cos a``. Their round-off (about
+    (:func:`geofence.physics.rooms.reaction_arc_sines_m`) and ``sin psi0 = nx·sin a - ny·cos a``. Their round-off (about
     1e-15 of the arc's scale) is covered by a slack of 1e-9 of it; a normal that is not unit (a zero-length edge)
     gets no bound."""
     v_turn, psi_react0, rot, omega_now, t_fw, sa, ca, _radius, _inv_omega = turn
@@ -236,7 +236,7 @@ def _fixed_wing_binding(
     Each element's exact terms (:func:`fixed_wing_edge_terms`: ``reaction_arc_m`` and its gap in one call, the
     heading ``psi0`` by ``atan2``) are computed only for the elements whose activation can be the smallest: a
     cheap lower bound comes first (:func:`_reaction_bounds`, less the turn's excursion bound
-    :func:`geofence.rooms.trochoid_excursion_bound_m` or the reaction arc's); after the element with the smallest
+    :func:`geofence.physics.rooms.trochoid_excursion_bound_m` or the reaction arc's); after the element with the smallest
     bound, every element whose bound is at most the smallest activation found so far is scored exactly. A bound
     is at most its activation, so every element that can tie the smallest is scored exactly. ``W``: scratch, at
     least :data:`FIXED_WING_SCRATCH_ROWS` rows of ``keep``'s length (its rows: :data:`DONE` ...).
@@ -328,7 +328,7 @@ def _lateral_binding(
     :func:`_fixed_wing_binding` (``turn``, scored for each of ``turns``) or :func:`_multirotor_binding`
     (``brake``); a tie goes to the lowest element id (the first in element order). Element id -1:
     no candidate. ``env``: the envelope's terms; ``state``, ``turn``, ``brake``: the per-state terms
-    (:func:`geofence.margins_kernel.state_terms`; the other platform kind's are zeros). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges; ``free``: the point
+    (:func:`geofence.margins.kernel.state_terms`; the other platform kind's are zeros). ``n_line``: the first ``n_line`` elements are a convex keep-in's edges; ``free``: the point
     is in the free space (:func:`edge_scored`). Each edge is
     scored by :func:`edge_scored` (``d``, ``nx, ny``: its scored distance and direction; ``d_min`` stays the
     nearest point-segment distance).

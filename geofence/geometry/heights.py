@@ -1,8 +1,8 @@
 """What a fence's heights mean: the altitude reference they are measured from, and a keep-out's own
 vertical extent (its floor and ceiling).
 
-The one home of these two types. :mod:`geofence.fence` (the WGS-84 fence and its parser) and
-:mod:`geofence.local_fence` (its projected, per-step form) both use them; keeping them here lets the
+The one home of these two types. :mod:`geofence.geometry.fence` (the WGS-84 fence and its parser) and
+:mod:`geofence.geometry.local_fence` (its projected, per-step form) both use them; keeping them here lets the
 local form depend on the fence model's types without importing the fence model, so the two modules
 import one way (``fence`` -> ``local_fence``).
 """
@@ -31,7 +31,7 @@ class VerticalExtent(NamedTuple):
     """A keep-out's own floor and ceiling (m, in the fence's altitude reference); ``None`` = unbounded.
 
     ``VerticalExtent()`` is a full-height keep-out (the default). The geofence unit treats every keep-out
-    as full-height (see :mod:`geofence.fence`); the scoring uses :meth:`volume_margin_array`.
+    as full-height (see :mod:`geofence.geometry.fence`); the scoring uses :meth:`volume_margin_array`.
     """
 
     floor_m: float | None = None

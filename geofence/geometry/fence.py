@@ -22,13 +22,13 @@ behaviour do not depend on the extents. The **scoring**
 (:mod:`analysis.scoring`) counts a keep-out entry only inside the keep-out's
 volume, with :meth:`VerticalExtent.volume_margin_array`.
 
-:meth:`Fence.to_local` projects it into a :class:`~geofence.geodesy.LocalFrame`
+:meth:`Fence.to_local` projects it into a :class:`~geofence.geometry.geodesy.LocalFrame`
 (by default one at the keep-in vertices' centre) and returns a
-:class:`~geofence.local_fence.LocalFence` (its own module) with precomputed :class:`~geofence.polygon.PolygonIndex`
+:class:`~geofence.geometry.local_fence.LocalFence` (its own module) with precomputed :class:`~geofence.geometry.polygon.PolygonIndex`
 objects and fast scalar margins (plain Python floats, for the 40 Hz loop) plus
 vectorized ``*_array`` versions for analysis. For a fence of more than a few
 dozen elements the per-step lateral queries are answered from a
-:class:`~geofence.fence_grid.FenceGrid` (only the elements within reach; the
+:class:`~geofence.geometry.fence_grid.FenceGrid` (only the elements within reach; the
 same answers as the full scan, which stays as ``lateral_margin_scan_m``).
 
 Margins (all in m, positive = inside/safe, negative = breached)
@@ -78,16 +78,16 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from .geodesy import LocalFrame, ecef_to_geodetic, geodesic_destination, geodesic_distance_m, geodetic_to_ecef
-from .heights import ALTITUDE_REFERENCES, FULL_HEIGHT, AltitudeReference, VerticalExtent  # noqa: F401 (re-exported)
-from .local_fence import LocalFence
-from .polygon import (
+from geofence.geometry.geodesy import LocalFrame, ecef_to_geodetic, geodesic_destination, geodesic_distance_m, geodetic_to_ecef
+from geofence.geometry.heights import ALTITUDE_REFERENCES, FULL_HEIGHT, AltitudeReference, VerticalExtent  # noqa: F401 (re-exported)
+from geofence.geometry.local_fence import LocalFence
+from geofence.geometry.polygon import (
     polygon_covers_polygon,
     polygons_intersect,
     self_intersections,
     signed_area,
 )
-from .validation import ConfigError, enum_value, field_default, latitude, longitude, number, reject_unknown_keys
+from geofence.validation import ConfigError, enum_value, field_default, latitude, longitude, number, reject_unknown_keys
 
 
 class FenceError(ConfigError):

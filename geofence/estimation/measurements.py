@@ -2,7 +2,7 @@
 
 The geofence is an independent add-on unit: it does not read the autopilot's
 state, it reads these three messages from its own GNSS receiver, air-data
-sensors and AHRS, and estimates the state itself (:mod:`geofence.estimator`).
+sensors and AHRS, and estimates the state itself (:mod:`geofence.estimation.estimator`).
 In the simulation they are produced from truth by :mod:`aircraft.sensors`; on
 real hardware a driver fills them from the receivers' messages.
 

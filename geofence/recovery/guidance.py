@@ -24,7 +24,7 @@ sticks every step. They see only the estimate and the :class:`Envelope`.
   height; cruise airspeed. With ``hold_below_m`` set (below the floor inside a
   gap) it keeps circling at the bank limit the way it turned, climbing at its
   limit, until above that height: the circle the margins scored
-  (:func:`geofence.rooms.gap_circle_turn_rad`); a straight leg to the route
+  (:func:`geofence.physics.rooms.gap_circle_turn_rad`); a straight leg to the route
   would leave the gap below the floor.
 * :class:`LandingGuidance`: go to a landing point (a floor gap) and descend;
   a multirotor descends only while nearly stopped over it
@@ -33,7 +33,7 @@ sticks every step. They see only the estimate and the :class:`Envelope`.
 The fixed-wing recovery's step is written once, :func:`fixed_wing_step_on`, over its route's two queries (the
 roll-out point, the follower's step) and the jitable laws below (:func:`fixed_wing_recovery_pitch`,
 :func:`turned_through_rad`, :func:`rolls_out`, :func:`fixed_wing_follow_roll`) and those of
-:mod:`geofence.control_laws`. On a planned route's arrays it is one compiled call (:data:`fixed_wing_step`: the
+:mod:`geofence.physics.control_laws`. On a planned route's arrays it is one compiled call (:data:`fixed_wing_step`: the
 route follower of :mod:`geofence.recovery` and the stick law together), which the unit's compiled override
 pass calls too; where that follower does not answer (a breached vehicle, whose chords only the route's Python
 methods certify; a :class:`StraightRoute`) :meth:`FixedWingRecovery.sticks` runs the same function interpreted,
@@ -51,7 +51,9 @@ from typing import Callable, NamedTuple, Protocol
 import numpy as np
 
 from geofence import jit as _jit
-from geofence.control_laws import (
+from geofence.interface import Envelope, StickCommand, VehicleState
+from geofence.jit import compiled, jitable
+from geofence.physics.control_laws import (
     VelocityController,
     air_heading_to_rad,
     airspeed_to_stick,
@@ -67,10 +69,8 @@ from geofence.control_laws import (
     wrap_pi,
     yaw_stick_for_heading,
 )
-from geofence.interface import Envelope, StickCommand, VehicleState
-from geofence.jit import compiled, jitable
+from geofence.physics.rooms import turn_radius_m
 from geofence.recovery import RecoveryPath, route_arrays, route_follow, route_rollout
-from geofence.rooms import turn_radius_m
 
 ALTITUDE_GAIN_PER_S = 1.0
 FIXED_WING_ALTITUDE_GAIN_PER_S = 0.35
@@ -486,7 +486,7 @@ class FixedWingRecovery:
         slow_turn: bool = False,
     ) -> None:
         """Begin the override. ``slow_turn``: the first turn does not fit at the current speed (the unit's call,
-        :data:`geofence.unit.SLOW_TURN_SHORTFALL`): it is flown at the minimum speed (still above the stall at
+        :data:`geofence.unit.geofence_unit.SLOW_TURN_SHORTFALL`): it is flown at the minimum speed (still above the stall at
         the bank limit: the profiles measure it as a steady speed). A turn's radius is ``V²/(g·tan φ)`` and
         its rate ``g·tan φ / V``: the slower, the tighter and the quicker, and the less the wind drifts it
         meanwhile; the margin scored it at the airspeed the vehicle has now, so slowing down only adds room.

@@ -1,4 +1,4 @@
-"""The geofence unit's steps on arrays: :meth:`geofence.unit.GeofenceUnit.update` while it passes the pilot's
+"""The geofence unit's steps on arrays: :meth:`geofence.unit.geofence_unit.GeofenceUnit.update` while it passes the pilot's
 sticks through, and while a fixed-wing override flies, as functions a compiled per-step kernel calls.
 
 One question each. :func:`monitor_pass`: given this step's estimate (the sensing chain's numbers), does a
@@ -7,13 +7,13 @@ margins? The answer is :data:`PASS` (and the margins), :data:`PASS_HANDBACK` (pa
 over: back to ``MONITOR``), :data:`NEED_TARGET` (near a boundary, a fixed-wing's roll-out target for this cell is
 not packed: the unit finds it, and the step is asked again) or :data:`UNIT`: anything else (an activation, a
 stale or lost position, an envelope to re-scale to the air density, a wind beyond authority), which the unit's
-own :meth:`~geofence.unit.GeofenceUnit.update` then answers from the same estimate.
+own :meth:`~geofence.unit.geofence_unit.GeofenceUnit.update` then answers from the same estimate.
 :func:`override_pass`: which sticks does a fixed-wing override send at this step (:data:`OVERRIDE_STEP`; after
 its minimum override period, with its margins: it is not outside and may not hand back yet), or must the unit
 answer (:data:`UNIT`: a re-activation, a possible hand-back, a lost position, ...; :data:`NEED_TARGET` as above)? The unit packs what a step reads in one float
-array (:meth:`~geofence.unit.GeofenceUnit.pack_monitor`, :meth:`~geofence.unit.GeofenceUnit.pack_override`,
+array (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.pack_monitor`, :meth:`~geofence.unit.geofence_unit.GeofenceUnit.pack_override`,
 layout below); :func:`record_pass` keeps what each step taken so changes, and the unit takes it in before it
-answers a step again (:meth:`~geofence.unit.GeofenceUnit.take_in_passes`). ``update`` is the reference: the
+answers a step again (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_passes`). ``update`` is the reference: the
 same tests in the same order on the same numbers (``tests/test_flight_step.py`` flies flights both ways and
 compares their bytes).
 
@@ -29,10 +29,8 @@ from math import hypot
 
 import numpy as np
 
-from geofence.config import allowance_in_use_mps
-from geofence.guidance import fixed_wing_step
 from geofence.jit import compiled, jitable
-from geofence.margins_kernel import (
+from geofence.margins.kernel import (
     ACTIVATION_FIELD,
     CEILING_MARGIN_FIELD,
     CLOSING_FIELD,
@@ -45,10 +43,12 @@ from geofence.margins_kernel import (
     margins,
     monitor_margins,
 )
-from geofence.margins_kernel import MAX_CLIMB as TERM_MAX_CLIMB  # (the envelope terms' positions)
-from geofence.margins_kernel import MAX_DESCENT as TERM_MAX_DESCENT
-from geofence.margins_kernel import VERTICAL_ACCEL as TERM_VERTICAL_ACCEL
-from geofence.rooms import vertical_arrest_distance_m
+from geofence.margins.kernel import MAX_CLIMB as TERM_MAX_CLIMB  # (the envelope terms' positions)
+from geofence.margins.kernel import MAX_DESCENT as TERM_MAX_DESCENT
+from geofence.margins.kernel import VERTICAL_ACCEL as TERM_VERTICAL_ACCEL
+from geofence.physics.rooms import vertical_arrest_distance_m
+from geofence.recovery.guidance import fixed_wing_step
+from geofence.unit.config import allowance_in_use_mps
 
 RECOVERED_HOLD_S = 1.0
 """After a hand-back the unit stays ``RECOVERED`` this long (s) before ``MONITOR``."""
@@ -71,7 +71,7 @@ UNIT = 2
 OVERRIDE_STEP = 3  # (override_pass) the override's sticks, by its compiled step
 NEED_TARGET = 4
 """The margins need the roll-out target of the estimate's cell and it is not among those packed: the unit finds it
-(:meth:`~geofence.unit.GeofenceUnit.find_rollout_target`, a route search where it has none cached), and the caller
+(:meth:`~geofence.unit.geofence_unit.GeofenceUnit.find_rollout_target`, a route search where it has none cached), and the caller
 asks the same step again from the same estimate (nothing was kept or recorded)."""
 
 # the unit's packed numbers (GeofenceUnit.pack_monitor), each a float
@@ -114,7 +114,7 @@ ACTIVATION = PASSES + 10  # the last pass's activation margin (inf: far)
 HAS_MARGINS = PASSES + 11  # 1: a pass computed margins: the last such pass's position and fields follow
 MARGINS_E = PASSES + 12
 MARGINS_N = PASSES + 13
-MARGINS0 = PASSES + 14  # 18 fields (geofence.margins_kernel._margins)
+MARGINS0 = PASSES + 14  # 18 fields (geofence.margins.kernel._margins)
 HORIZON_MOVED = MARGINS0 + 18  # 1: a pass brought a new fusion horizon, its FixState fields follow
 HORIZON0 = HORIZON_MOVED + 1  # 5 fields
 # a fixed-wing override's step (GeofenceUnit.pack_override; the recovery's state written back by override_pass)
@@ -159,8 +159,8 @@ def latency_s(dt_s: float, estimate_age_s: float) -> float:
 
 @jitable
 def return_assured(wind_e: float, wind_n: float, allowance_mps: float, limit_mps: float) -> bool:
-    """The wind with its allowance is under the return limit (:func:`geofence.dynamics.return_wind_limits`): the
-    test of :func:`geofence.dynamics.return_not_assured` against limits computed once per envelope."""
+    """The wind with its allowance is under the return limit (:func:`geofence.physics.dynamics.return_wind_limits`): the
+    test of :func:`geofence.physics.dynamics.return_not_assured` against limits computed once per envelope."""
     return hypot(wind_e, wind_n) + allowance_mps < limit_mps
 
 
@@ -235,9 +235,9 @@ def monitor_pass(
     g: float,
 ) -> tuple[int, bool, tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]]:  # fmt: skip
     """``(answer, far, margins)`` of a monitoring step (see the module): ``far`` when the skip shortcut held
-    (margins not computed), else the margins' fields (:func:`geofence.margins_kernel.monitor_margins`). ``U``: the
+    (margins not computed), else the margins' fields (:func:`geofence.margins.kernel.monitor_margins`). ``U``: the
     unit's packed numbers; ``F, L, V``: its compiled margins' tables and envelope terms; the rest are
-    :meth:`~geofence.unit.GeofenceUnit.update`'s arguments, the estimate's fields among them."""
+    :meth:`~geofence.unit.geofence_unit.GeofenceUnit.update`'s arguments, the estimate's fields among them."""
     if not (position_valid and estimate_age_s <= FRESH_ESTIMATE_AGE_S):
         return UNIT, False, NOT_NEEDED
     recovered = U[MODE] != U[MONITOR_MODE]
@@ -283,7 +283,7 @@ def record_pass(
 ) -> None:  # fmt: skip
     """Keep what a step the unit did not answer itself changes in it (a pass :func:`monitor_pass` let through, or
     an override step :func:`override_pass` took), for it to take in later
-    (:meth:`~geofence.unit.GeofenceUnit.take_in_passes`): the estimate in the ring ``H`` (the unit's history of the
+    (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_passes`): the estimate in the ring ``H`` (the unit's history of the
     last seconds), the inputs it keeps, whether the skip shortcut held (``far``), the activation margin (inf: far,
     NaN: not needed), the margins when the step computed them (``has_margins``), the fusion horizon when it moved
     (``horizon``: its fields)."""
@@ -328,14 +328,14 @@ def override_pass(
     sigma_h_m: float, sigma_v_m: float, estimate_age_s: float, turbulence_sigma_mps: float, g: float,
 ) -> tuple[int, float, float, float, float, bool, tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]]:  # fmt: skip
     """``(answer, roll, pitch, throttle, activation margin, has margins, margins)`` of a fixed-wing override's
-    step: :data:`OVERRIDE_STEP` and the sticks of :meth:`~geofence.guidance.FixedWingRecovery.sticks` (its compiled
-    step :data:`~geofence.guidance.fixed_wing_step` on the arrays ``R, P, Q, K`` of
-    :meth:`~geofence.guidance.FixedWingRecovery.compiled_step`; the recovery's state moves on in ``U``), or
+    step: :data:`OVERRIDE_STEP` and the sticks of :meth:`~geofence.recovery.guidance.FixedWingRecovery.sticks` (its compiled
+    step :data:`~geofence.recovery.guidance.fixed_wing_step` on the arrays ``R, P, Q, K`` of
+    :meth:`~geofence.recovery.guidance.FixedWingRecovery.compiled_step`; the recovery's state moves on in ``U``), or
     :data:`UNIT` (a stale or lost position, a wind beyond authority, a route the compiled step does not answer).
     Within the minimum override period the margins are not needed (activation NaN, ``has margins`` false); after
     it they are computed (``F, L, V``: the compiled margins' tables and envelope terms, the roll-out target from
     those packed in ``U``: :data:`NEED_TARGET` where it is not), and a step that re-activates (still outside) or
-    may hand back is the unit's (:data:`UNIT`): :meth:`~geofence.unit.GeofenceUnit.update`'s path for an override
+    may hand back is the unit's (:data:`UNIT`): :meth:`~geofence.unit.geofence_unit.GeofenceUnit.update`'s path for an override
     step, the same tests in its order."""
     if not (position_valid and estimate_age_s <= FRESH_ESTIMATE_AGE_S):
         return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
@@ -400,7 +400,7 @@ def vertical_handback_m(
     max_climb_mps: float, max_descent_mps: float, uncertainty_m: float,
 ) -> float:  # fmt: skip
     """The vertical hand-back hysteresis an override's goal height allows, m (see
-    :meth:`geofence.unit.GeofenceUnit._vertical_handback_at_goal_m`): ``hysteresis_m``, or where the goal
+    :meth:`geofence.unit.geofence_unit.GeofenceUnit._vertical_handback_at_goal_m`): ``hysteresis_m``, or where the goal
     ``goal_h_m`` is short of the band (NaN: it is not) half the vertical activation margin at rest there when that
     is less (``floor_m`` NaN: none; ``reaction_s``: with the latency; ``uncertainty_m``: ``k·σ_v + extra``)."""
     if not math.isfinite(goal_h_m):

@@ -2,9 +2,9 @@
 
 One question: for a position ``p`` and a *reach* ``r`` (the largest room the
 platform can need against any edge in the current wind, see
-:func:`geofence.margins_kernel.room_bound`), which boundary elements can have
+:func:`geofence.margins.kernel.room_bound`), which boundary elements can have
 ``d_s(p) < d_min(p) + r``, where ``d_s`` is the distance an element is scored
-at (:func:`geofence.elements.edge_scored`: its distance ``d``, or for a
+at (:func:`geofence.geometry.elements.edge_scored`: its distance ``d``, or for a
 convex keep-in's edge its line distance where that is nearer) and ``d_min``
 the nearest element's distance? Only those can bind the activation margin (an
 element's activation is ``d_s - room >= d_s - r``), so the per-step cost
@@ -38,11 +38,11 @@ keep-in (no keep-in edge within its half diagonal) and which keep-out
 polygons' bounding boxes meet it; in a cell the keep-in boundary crosses, the
 crossing parity is counted over the edges of one horizontal row strip (the
 only edges that can straddle the point's latitude line), with the same test
-as :meth:`geofence.polygon.PolygonIndex.signed_distance`.
+as :meth:`geofence.geometry.polygon.PolygonIndex.signed_distance`.
 
-The per-step walk is compiled (:func:`geofence.lateral_kernel.lateral_binding`
-over :meth:`FenceGrid.candidates`, in :func:`geofence.margins_kernel.indexed_margins`;
-:func:`geofence.elements.nearest_distance`). ``tests/test_fence_grid.py``
+The per-step walk is compiled (:func:`geofence.margins.lateral.lateral_binding`
+over :meth:`FenceGrid.candidates`, in :func:`geofence.margins.kernel.indexed_margins`;
+:func:`geofence.geometry.elements.nearest_distance`). ``tests/test_fence_grid.py``
 compares every answer with the full scan on random fences and states (next to
 corners, inside keep-outs, outside).
 """
@@ -54,12 +54,12 @@ from typing import NamedTuple, Sequence
 
 import numpy as np
 
-from .elements import element_table, nearest_distance
-from .polygon import BOUNDARY_TOL_M, PolygonIndex
+from geofence.geometry.elements import element_table, nearest_distance
+from geofence.geometry.polygon import BOUNDARY_TOL_M, PolygonIndex
 
 SMALL_FENCE_ELEMENTS: int = 256
 """Fences with fewer lateral elements than this are scanned in full: the scan's whole-margins compiled call
-(:mod:`geofence.margins_kernel`) is cheaper than the index's bookkeeping up to about 400 elements near an edge
+(:mod:`geofence.margins.kernel`) is cheaper than the index's bookkeeping up to about 400 elements near an edge
 (``bench/fence_scale.py``, 2026-11-26: 200 edges 7.4 against 8.8 µs per update for the F450RD, 8.3 against 11.8
 for the Tern; 700 edges 9.1 against 8.7 and 10.8 against 12.6)."""
 
@@ -109,7 +109,7 @@ class _Cell(NamedTuple):
 
 
 class FenceGrid:
-    """The candidate-set index of one :class:`~geofence.local_fence.LocalFence` (see the module docstring).
+    """The candidate-set index of one :class:`~geofence.geometry.local_fence.LocalFence` (see the module docstring).
 
     ``edges``: the :meth:`LocalFence.danger_edges` items ``(ax, ay, dx, dy,
     inv_len2, nx, ny, ...)``; ``circles``: ``(east, north, radius)``;
@@ -129,13 +129,13 @@ class FenceGrid:
         self.block_min_elements = int(block_min_elements)
         """From this many elements on, cells are built from their block's elements (the same cells)."""
         self.line_edges = int(line_edges)
-        """The first ``line_edges`` elements are a convex keep-in's edges (:func:`~geofence.elements.edge_scored`)."""
+        """The first ``line_edges`` elements are a convex keep-in's edges (:func:`~geofence.geometry.elements.edge_scored`)."""
         self.cell_m = float(cell_m)
         self.half_diag_m = self.cell_m * math.sqrt(0.5)
         s = len(edges)
         self.n_elements = s + len(circles)
         self.table = element_table(edges, circles)
-        """Every element as the compiled walk's float rows (:func:`geofence.elements.element_table`)."""
+        """Every element as the compiled walk's float rows (:func:`geofence.geometry.elements.element_table`)."""
         e = self.table[:s]
         self._ax, self._ay, self._dx, self._dy, self._il2, self._nx, self._ny = (e[:, k].copy() for k in range(7))
         c = np.array(list(circles), dtype=float).reshape(-1, 3)
@@ -176,7 +176,7 @@ class FenceGrid:
         """``g``: a 1-Lipschitz lower bound of the distance each element (every one, or ``ids``, ascending) is
         scored at, from (x, y), given their distances ``d`` from it: ``d`` itself, but for the first
         :attr:`line_edges` (a convex keep-in's edges, scored at their line distance ``dl`` where the foot lies off
-        the edge: :func:`~geofence.elements.edge_scored`) ``min(d, max(dl, 0))``, which can be far below
+        the edge: :func:`~geofence.geometry.elements.edge_scored`) ``min(d, max(dl, 0))``, which can be far below
         ``d`` (an edge far along a slightly curved side)."""
         k = self.line_edges if ids is None else int(np.searchsorted(ids, self.line_edges))
         if k == 0:
@@ -251,7 +251,7 @@ class FenceGrid:
 
     def candidates(self, e: float, n: float, reach: float) -> tuple[np.ndarray, np.ndarray, float]:
         """``(ids, bounds, delta)``: the candidates within ``reach`` of (e, n) for the compiled walk
-        (:func:`geofence.lateral_kernel.lateral_binding`): the cell's candidate ids sorted by their distance
+        (:func:`geofence.margins.lateral.lateral_binding`): the cell's candidate ids sorted by their distance
         ``bounds`` from the cell centre, and ``delta = |p - c|``; walked in order until
         ``bound - delta - reach`` exceeds the nearest distance found, every element with ``d - reach < d_min``
         is walked."""
@@ -260,7 +260,7 @@ class FenceGrid:
 
     def nearest_distance(self, e: float, n: float) -> float:
         """The nearest element's ``d`` (circles signed: negative inside): the walk with no reach
-        (:func:`geofence.elements.nearest_distance`)."""
+        (:func:`geofence.geometry.elements.nearest_distance`)."""
         ids, lbs, delta = self.candidates(e, n, 0.0)
         return nearest_distance(self.table, ids, lbs, delta, e, n)
 

@@ -15,7 +15,7 @@ and by the testbed's mission autopilot alike (they are the stick semantics of
   overshoot).
 
 The laws of floats are :func:`geofence.jit.jitable`: the compiled fixed-wing recovery step
-(:data:`geofence.guidance.fixed_wing_step`) calls them from the same source. Those taking a state ``s`` or an
+(:data:`geofence.recovery.guidance.fixed_wing_step`) calls them from the same source. Those taking a state ``s`` or an
 envelope ``env`` read only named float attributes, so compiled code passes a named tuple of those fields.
 """
 
@@ -23,9 +23,9 @@ from __future__ import annotations
 
 import math
 
-from geofence.dynamics import G_MPS2, drag_coefficients
 from geofence.interface import Envelope, StickCommand, VehicleState
 from geofence.jit import jitable
+from geofence.physics.dynamics import G_MPS2, drag_coefficients
 
 
 @jitable
@@ -141,7 +141,7 @@ class VelocityController:
     toward) the loop adds the drag feed-forward: the thrust that holds the
     commanded velocity against the air, ``(k1 + k2·|v_a|)·v_a`` with
     ``v_a = v_cmd - W`` and the platform's drag law
-    (:mod:`geofence.dynamics`). Without it, a P loop in a steady wind
+    (:mod:`geofence.physics.dynamics`). Without it, a P loop in a steady wind
     settles ``a_drag/k_v`` m/s off the command (2 m/s for a small quad in
     9 m/s of wind) until the integrator catches up, seconds later. The
     integrator trims what is left; it is frozen while the acceleration demand
