@@ -1,7 +1,8 @@
 """Print the layer-level import matrix of this checkout: python docs/import_table.py (from the repository root).
 
-Rows and columns are the layers, bottom up: the packages, with scenarios/ split into its
-subpackages (airspace: the park generator; definition: scenario data; campaign: the case generator;
+Rows and columns are the layers, bottom up: the packages, with geofence/ split into its
+sub-packages (its top-level modules interface, validation and jit first, then physics, geometry, estimation,
+margins, recovery, unit) and scenarios/ into its subpackages (airspace: the park generator; definition: scenario data; campaign: the case generator;
 flight: the simulated flight; app: CLI, batch, experiments). A cell counts the files of the row layer that import the column
 layer; a number above the diagonal would be an upward import. The architecture test
 (tests/test_architecture.py) fails on any.
@@ -13,6 +14,12 @@ from pathlib import Path
 
 LAYERS = [
     "geofence",
+    "geofence.physics",
+    "geofence.geometry",
+    "geofence.estimation",
+    "geofence.margins",
+    "geofence.recovery",
+    "geofence.unit",
     "wind",
     "aircraft",
     "analysis",
