@@ -35,7 +35,7 @@ _PUBLIC = {
     "Mode": "geofence.unit.geofence_unit",
     "GeofenceConfig": "geofence.unit.config",
     "parse_geofence": "geofence.unit.config",
-    "Fence": "geofence.fence",
+    "Fence": "geofence.geometry.fence",
     "LocalFence": "geofence.geometry.local_fence",
     "LocalFrame": "geofence.geometry.geodesy",
     "Envelope": "geofence.interface",

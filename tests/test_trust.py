@@ -444,7 +444,7 @@ def test_the_code_fingerprint_changes_with_any_code_file_and_only_with_code(tmp_
     assert base == code_fingerprint(tmp_path) and len(base) == 64
     (tmp_path / "scenarios" / "new_case.yaml").write_text("name: x\n")
     assert code_fingerprint(tmp_path) == base, "a scenario file is the input, not the code"
-    unit = tmp_path / "geofence" / "unit.py"
+    unit = tmp_path / "geofence" / "unit" / "geofence_unit.py"
     unit.write_text(unit.read_text() + "\n# an edit\n")
     edited = code_fingerprint(tmp_path)
     assert edited != base

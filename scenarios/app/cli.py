@@ -29,6 +29,7 @@ import os
 import signal
 import sys
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
 EXIT_BAD_INPUT = 2
@@ -537,7 +538,9 @@ def _cmd_run(args) -> int:
         bar = _progress(sc, quiet=args.quiet)
         on_step, notice = progress_steps(bar)
         try:
-            result = run_scenario(sc, args.out, on_step=on_step, plot=not args.no_plot, scenario_hash=spec.scenario_hash)
+            result = run_scenario(
+                sc, args.out, on_step=_stops_when_interrupted(on_step), plot=not args.no_plot, scenario_hash=spec.scenario_hash
+            )
         finally:
             if notice is not None:
                 notice.cancel()
@@ -596,16 +599,46 @@ def _writable(folder: Path) -> bool:
     return True
 
 
+_INTERRUPTED: list[bool] = [False]
+"""Set by Ctrl-C or SIGTERM: a flight's next step stops it (see :func:`_stops_when_interrupted`)."""
+
+
 def _sigterm_interrupts() -> None:
-    """SIGTERM ends a run like Ctrl-C: finished results are kept, temporary files removed, exit 130."""
+    """SIGTERM ends a run like Ctrl-C: finished results are kept, temporary files removed, exit 130. Both also
+    set :data:`_INTERRUPTED`: a KeyboardInterrupt raised while numba compiles the kernels is swallowed by its
+    ctypes callback (the run went on to its end, exit 0), so the flight's next step raises it again."""
 
     def handler(signum, frame):
+        _INTERRUPTED[0] = True
         raise KeyboardInterrupt
+
+    default_hook = sys.unraisablehook
+
+    def quiet_interrupt(unraisable) -> None:  # the swallowed one: not a traceback on the console
+        if unraisable.exc_type is not None and issubclass(unraisable.exc_type, KeyboardInterrupt):
+            return
+        default_hook(unraisable)
+
+    sys.unraisablehook = quiet_interrupt
 
     try:
         signal.signal(signal.SIGTERM, handler)
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            signal.signal(signal.SIGINT, handler)
     except ValueError:  # pragma: no cover - not the main thread (main() called from a thread)
         pass
+
+
+def _stops_when_interrupted(on_step: Callable[[float], None] | None) -> Callable[[float], None]:
+    """``on_step`` (or nothing) that first raises KeyboardInterrupt if a signal interrupted the run."""
+
+    def step(dt_s: float) -> None:
+        if _INTERRUPTED[0]:
+            raise KeyboardInterrupt
+        if on_step is not None:
+            on_step(dt_s)
+
+    return step
 
 
 def _version() -> str:
