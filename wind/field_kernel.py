@@ -113,11 +113,12 @@ class WindArrays:
         self._no_pool = np.zeros(NORMALS_PER_STEP)
         self._no_gusts = np.zeros((0, GUST_COLUMNS))
         self._kernel: Callable = wind_sample
+        self._args = self.arrays()
 
     def sample(self, t_s: float, east_m: float, north_m: float, up_m: float, airspeed_mps: float) -> Vec3:
         """The field's ``sample`` (the same numbers)."""
         kernel = self._kernel
-        e, n, u, low = kernel(*self.arrays(), t_s, east_m, north_m, up_m, airspeed_mps)
+        e, n, u, low = kernel(*self._args, t_s, east_m, north_m, up_m, airspeed_mps)
         if kernel is wind_sample:  # after its first call, by its entry point (geofence.jit: the arrays are ours,
             self._kernel = entry_point(kernel)  # the pool and the table rebuilt as they were made: float64, C)
         if low:
@@ -136,11 +137,13 @@ class WindArrays:
         """The turbulence's next block of noise, after a sample said its pool runs low (the pool is a new array)."""
         if self._dryden is not None:
             self._dryden.refill()
+            self._args = self.arrays()
 
     def first_activation(self, t_s: float) -> None:
         """:meth:`GustTrain.first_activation`: the activation-timed gusts join the schedule, onsets from ``t_s``."""
         if self._gusts is not None:
             self._gusts.first_activation(t_s)
+            self._args = self.arrays()
 
 
 def compiled_wind(field: WindField) -> WindArrays | None:
