@@ -213,7 +213,7 @@ def test_margins_inside_overlapping_keep_outs_equal_the_full_scan(seed, n_square
     reach_m=st.sampled_from([0.0, 30.0, 170.0, 600.0]),
 )
 def test_cells_built_from_their_block_are_the_cells_of_the_full_pass(seed, n_vertices, n_squares, n_circles, reach_m):
-    """A cell built from its block's elements (:meth:`FenceGrid._block_ids`, the blocks of a large fence) keeps
+    """A cell built from its block's elements (:meth:`FenceGrid.blocks_built`, the blocks of a large fence) keeps
     the same candidates, bounds, containment and keep-out boxes as the pass over every element: at points near
     vertices, inside keep-outs, far inside and outside, for reaches from none to beyond a block."""
     local = random_fence(seed, n_vertices, n_squares, n_circles, dense=True).to_local(FRAME, index=True)
@@ -223,7 +223,7 @@ def test_cells_built_from_their_block_are_the_cells_of_the_full_pass(seed, n_ver
     full = FenceGrid(*args, line_edges=line, block_min_elements=10**9)
     rng = random.Random(seed + 3)
     for e, n in probe_points(local, rng, 120):
-        a, b = blocks._cell(e, n, reach_m), full._cell(e, n, reach_m)
+        a, b = blocks.cell_at(e, n, reach_m), full.cell_at(e, n, reach_m)
         assert a.ids.tolist() == b.ids.tolist() and a.lbs.tolist() == b.lbs.tolist(), (e, n)
         assert (a.built_for, a.cx, a.cy, a.u, a.ki_state, a.ko) == (b.built_for, b.cx, b.cy, b.u, b.ki_state, b.ko)
-    assert blocks._blocks and not full._blocks
+    assert blocks.blocks_built > 0 and full.blocks_built == 0

@@ -51,25 +51,26 @@ Axes: u along the mean horizontal wind at h (north if calm), v 90 deg to its
 left (counter-clockwise seen from above), w up; rotated to ENU on output.
 
 Noise: standard normals from ``numpy.random.default_rng(seed)``, drawn in
-blocks and consumed five per step, so a given seed and sequence of sample
-times reproduces the same series. The state starts from the stationary
-distribution (no start-up transient).
+blocks of :data:`POOL_NORMALS` and consumed five per step, so a given seed and
+sequence of sample times reproduces the same series. The state starts from the
+stationary distribution (no start-up transient).
 
-Cost: ``sample`` runs once per outer-loop step, so it is written for the
-interpreter: plain floats, constants of the configuration computed once in
-``__init__``, and the noise block stored as rows of five (one row per step).
+Written once: a sample is :func:`dryden_sample`, a compiled function over the
+:data:`DRYDEN` record (the constants, the filter states, the last sample) and
+the noise pool; :class:`DrydenTurbulence` is the façade that owns that memory
+(or lives in a caller's slice of it: the compiled sampler
+:mod:`wind.field_kernel`) and draws the noise blocks.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 from math import exp, expm1, sqrt
 
 import numpy as np
 
-from geofence.jit import jitable
-from wind.field import ZERO, Vec3, WindField
+from geofence.jit import compiled, jitable
+from wind.field import ZERO, Vec3, WindField, convection_speed_mps
 
 FT_M = 0.3048
 KT_MPS = 1852.0 / 3600.0
@@ -163,9 +164,7 @@ def turbulence_step(
     ``started``, drawn from the stationary distribution) by the step's five normals, and the output on the mean
     wind's axes (north-aligned in calm air)."""
     wspd = sqrt(mean_e * mean_e + mean_n * mean_n)
-    v = airspeed_mps if airspeed_mps > min_speed_mps else min_speed_mps
-    if wspd > v:
-        v = wspd
+    v = convection_speed_mps(airspeed_mps, min_speed_mps, wspd)
     lu, lw, su, sw = _scales(up_m, hmin_ft, sigma_w)
     if not started:  # start from the stationary distribution
         state = (n0, n1, 0.5 * (n1 + n2), n3, 0.5 * (n3 + n4))
@@ -183,6 +182,61 @@ def turbulence_step(
     return state, (tu * ce - tv * cn, tu * cn + tv * ce, tw)
 
 
+DRYDEN = np.dtype(
+    (
+        np.record,
+        [
+            ("min_speed_mps", np.float64),  # the constants: the convection speed's floor
+            ("hmin_ft", np.float64),  # the floor height of the scales
+            ("sigma_w_mps", np.float64),  # 0.1 W20
+            ("has_t", np.float64),  # 1 once sampled: t_s and the filter states hold
+            ("t_s", np.float64),  # the last sample's time
+            ("xu", np.float64),  # the unit-variance filter states
+            ("xv1", np.float64),
+            ("xv2", np.float64),
+            ("xw1", np.float64),
+            ("xw2", np.float64),
+            ("east_mps", np.float64),  # the last sample (ENU)
+            ("north_mps", np.float64),
+            ("up_mps", np.float64),
+            ("pool_index", np.float64),  # the next unused normal of the pool
+        ],
+    )
+)
+"""A turbulence's constants and state, a record over float memory (a flag is 0 or 1)."""
+DRYDEN_SIZE = DRYDEN.itemsize // 8
+"""Float64 slots of the memory a :class:`DrydenTurbulence` lives in."""
+
+
+@compiled
+def dryden_sample(
+    D: np.ndarray, pool: np.ndarray, t_s: float, up_m: float, airspeed_mps: float, mean_e: float, mean_n: float
+) -> tuple[float, float, float, bool]:
+    """``(east, north, up m/s, the pool runs low)``: the turbulence at ``t_s`` and height ``up_m`` of the state
+    ``D`` (:data:`DRYDEN`'s slots, advanced in place) in the mean wind ``(mean_e, mean_n)``, by
+    :func:`turbulence_step` and the pool's next five normals; the same time again gives the last sample. "Low":
+    fewer than five normals are left for the next step (draw the next block)."""
+    d = D.view(DRYDEN)[0]
+    has_last = d.has_t != 0.0
+    last = d.t_s
+    if has_last and t_s == last:
+        return d.east_mps, d.north_mps, d.up_mps, d.pool_index + NORMALS_PER_STEP > pool.shape[0]
+    if has_last and not t_s > last:
+        raise ValueError("DrydenTurbulence.sample: time went backwards; call reset()")
+    i = int(d.pool_index)
+    state, out = turbulence_step(
+        (d.xu, d.xv1, d.xv2, d.xw1, d.xw2), has_last, t_s - last if has_last else 0.0, mean_e, mean_n, up_m,
+        airspeed_mps, d.min_speed_mps, d.hmin_ft, d.sigma_w_mps, pool[i], pool[i + 1], pool[i + 2], pool[i + 3],
+        pool[i + 4],
+    )  # fmt: skip
+    d.pool_index = i + NORMALS_PER_STEP
+    d.xu, d.xv1, d.xv2, d.xw1, d.xw2 = state
+    d.t_s = t_s
+    d.has_t = 1.0
+    d.east_mps, d.north_mps, d.up_mps = out
+    return out[0], out[1], out[2], d.pool_index + NORMALS_PER_STEP > pool.shape[0]
+
+
 class DrydenTurbulence:
     """Seeded Dryden turbulence (zero mean), a :class:`~wind.field.WindField`.
 
@@ -190,12 +244,11 @@ class DrydenTurbulence:
     (``"light"``, ``"moderate"``, ``"severe"``). ``mean_wind`` (usually the
     scenario's steady wind) sets the turbulence axes and the convection speed;
     without it the axes are north-aligned and V = max(airspeed, floor).
+    ``memory``: :data:`DRYDEN_SIZE` contiguous float64 slots to live in (a
+    caller's compiled step reads and writes the same state); fresh when omitted.
     """
 
-    __slots__ = (
-        "w20_mps", "seed", "mean_wind", "min_speed_mps", "min_height_m", "_rng", "_rows",
-        "_t", "_out", "_state", "_mean_fn", "_hmin_ft", "_sigma_w",
-    )  # fmt: skip
+    __slots__ = ("w20_mps", "seed", "mean_wind", "min_speed_mps", "min_height_m", "memory", "pool", "_rng", "_mean_fn")
 
     def __init__(
         self,
@@ -206,6 +259,7 @@ class DrydenTurbulence:
         mean_wind: WindField | None = None,
         min_speed_mps: float = 1.0,
         min_height_m: float = 10.0 * FT_M,
+        memory: np.ndarray | None = None,
     ) -> None:
         if (w20_mps is None) == (severity is None):
             raise ValueError("DrydenTurbulence: give exactly one of w20_mps or severity")
@@ -220,25 +274,40 @@ class DrydenTurbulence:
             raise ValueError(f"turbulence min_speed_mps must be > 0, got {min_speed_mps!r}")
         if not (math.isfinite(min_height_m) and min_height_m > 0.0):
             raise ValueError(f"turbulence min_height_m must be > 0, got {min_height_m!r}")
+        if memory is None:
+            memory = np.zeros(DRYDEN_SIZE)
+        if memory.shape != (DRYDEN_SIZE,) or memory.dtype != np.float64 or not memory.flags.c_contiguous:
+            raise ValueError(f"DrydenTurbulence memory: expected {DRYDEN_SIZE} contiguous float64 slots")
         self.w20_mps = float(w20_mps)
         self.seed = seed
         self.mean_wind = mean_wind
         self.min_speed_mps = float(min_speed_mps)
         self.min_height_m = float(min_height_m)
+        self.memory = memory
         self._mean_fn = mean_wind.mean if mean_wind is not None else None
-        # per-step constants of the scales (the same expressions as dryden_scales)
-        self._hmin_ft = self.min_height_m / FT_M
-        self._sigma_w = 0.1 * self.w20_mps
         self.reset()
+
+    def copy_into(self, memory: np.ndarray) -> DrydenTurbulence:
+        """A fresh copy of this turbulence (the same configuration and seed, not yet sampled) living in ``memory``."""
+        return DrydenTurbulence(
+            self.w20_mps, seed=self.seed, mean_wind=self.mean_wind, min_speed_mps=self.min_speed_mps,
+            min_height_m=self.min_height_m, memory=memory,
+        )  # fmt: skip
 
     def reset(self) -> None:
         """Back to the initial seeded state: the next sample() restarts the series."""
+        self.memory[:] = 0.0
+        d = self.memory.view(DRYDEN)[0]
+        d.min_speed_mps, d.hmin_ft, d.sigma_w_mps = self.min_speed_mps, self.min_height_m / FT_M, 0.1 * self.w20_mps
         self._rng = np.random.default_rng(self.seed)
-        self._rows: Iterator[list[float]] = iter(())
-        self._t: float | None = None
-        self._out: Vec3 = (0.0, 0.0, 0.0)
-        self._state = (0.0, 0.0, 0.0, 0.0, 0.0)
-        """The filter states (xu, xv1, xv2, xw1, xw2), unit variance (see the module docstring)."""
+        self.pool: np.ndarray = self._rng.standard_normal(POOL_NORMALS)
+        """The noise :func:`dryden_sample` draws from (a new array after :meth:`refill`)."""
+
+    def refill(self) -> None:
+        """The next block of :data:`POOL_NORMALS` normals after the unused rest of the pool (a new array)."""
+        d = self.memory.view(DRYDEN)[0]
+        self.pool = np.concatenate((self.pool[int(d.pool_index) :], self._rng.standard_normal(POOL_NORMALS)))
+        d.pool_index = 0.0
 
     def scales(self, up_m: float) -> tuple[float, float, float, float]:
         """(L_u = L_v in m, L_w in m, sigma_u = sigma_v in m/s, sigma_w in m/s) at ``up_m`` AGL."""
@@ -247,31 +316,12 @@ class DrydenTurbulence:
     def mean(self, up_m: float) -> Vec3:
         return (0.0, 0.0, 0.0)
 
-    def _refill(self) -> list[float]:
-        """Draw the next block of :data:`POOL_NORMALS` normals; return its first row of five."""
-        # the block's normals in draw order, five to a row: one row per step
-        self._rows = iter(self._rng.standard_normal(POOL_NORMALS).reshape(-1, NORMALS_PER_STEP).tolist())
-        return next(self._rows)
-
     def sample(self, t_s: float, east_m: float, north_m: float, up_m: float, airspeed_mps: float) -> Vec3:
-        last = self._t
-        if t_s == last:
-            return self._out
-        if last is not None and not t_s > last:
-            raise ValueError(f"DrydenTurbulence.sample: time went backwards ({t_s!r} s after {last!r} s); call reset()")
-
         me, mn, _ = self._mean_fn(up_m) if self._mean_fn is not None else ZERO
-        row = next(self._rows, None)
-        if row is None:
-            row = self._refill()
-        n0, n1, n2, n3, n4 = row
-        self._state, out = turbulence_step(
-            self._state, last is not None, t_s - last if last is not None else 0.0, me, mn, up_m, airspeed_mps,
-            self.min_speed_mps, self._hmin_ft, self._sigma_w, n0, n1, n2, n3, n4,
-        )  # fmt: skip
-        self._t = t_s
-        self._out = out
-        return out
+        e, n, u, low = dryden_sample(self.memory, self.pool, t_s, up_m, airspeed_mps, me, mn)
+        if low:
+            self.refill()
+        return (e, n, u)
 
     def __repr__(self) -> str:
         return f"DrydenTurbulence(w20_mps={self.w20_mps!r}, seed={self.seed!r}, mean_wind={self.mean_wind!r})"

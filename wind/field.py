@@ -10,8 +10,9 @@ Conventions used by every field in this package:
   east). :func:`toward_unit` converts one to the other.
 * ``up_m`` is the height above the local ground (AGL), not altitude ASL.
 
-``sample`` is on the simulation's per-step path: implementations use plain
-Python floats (no numpy on tiny arrays) and must be cheap. Stateful fields
+``sample`` is on the simulation's per-step path and must be cheap: the
+stateful parts sample by compiled functions over their own memory (the same
+functions :mod:`wind.field_kernel` sums in one compiled call). Stateful fields
 (turbulence, gusts) require monotonically non-decreasing ``t_s``; calling twice
 with the same ``t_s`` returns the same vector.
 """
@@ -21,6 +22,8 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from typing import Protocol, runtime_checkable
+
+from geofence.jit import jitable
 
 Vec3 = tuple[float, float, float]
 
@@ -138,10 +141,13 @@ def effective_speed(airspeed_mps: float, mean_wind: WindField | None, up_m: floa
     in wind still sees frozen turbulence convected past it by the mean wind,
     and in calm air it sees it at the floor speed (never zero).
     """
+    e, n, _ = mean_wind.mean(up_m) if mean_wind is not None else ZERO
+    return convection_speed_mps(airspeed_mps, floor_mps, math.sqrt(e * e + n * n))
+
+
+@jitable
+def convection_speed_mps(airspeed_mps: float, floor_mps: float, mean_speed_mps: float) -> float:
+    """``max(airspeed, mean wind speed, floor)``: the speed of frozen turbulence past the aircraft
+    (:func:`effective_speed`, the Dryden filters' time scales)."""
     v = airspeed_mps if airspeed_mps > floor_mps else floor_mps
-    if mean_wind is not None:
-        e, n, _ = mean_wind.mean(up_m)
-        w = math.sqrt(e * e + n * n)
-        if w > v:
-            v = w
-    return v
+    return mean_speed_mps if mean_speed_mps > v else v

@@ -49,6 +49,13 @@ that step). The first sample of a train has no previous position: then the
 gust purely time-based instead: then x = penetration_speed_mps * (t - onset),
 and the rise time is length_m / penetration_speed_mps for every platform
 (useful to apply the identical disturbance to different aircraft).
+
+Written once: the shape is :func:`gust_shape` (and :func:`gust_passed`), a
+train's sample :func:`gusts_sample`, a compiled function over the train's
+:data:`GUST_TRAIN` record and its gust table (a row a gust, columns
+:data:`GUST_COLUMNS`); :class:`GustTrain` is the façade that owns them (or
+lives in a caller's slice of memory: the compiled sampler
+:mod:`wind.field_kernel`) and schedules the gusts.
 """
 
 from __future__ import annotations
@@ -59,6 +66,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from geofence.jit import compiled, jitable
 from wind.field import ZERO, Vec3, WindField, toward_unit
 
 MAX_RISE_TIME_S = 5.0
@@ -66,6 +74,119 @@ MAX_RISE_TIME_S = 5.0
 
 MAX_VELOCITY_DT_S = 1.0
 """Longer steps (s): the positions are too far apart to difference into a velocity (the airspeed stands in)."""
+
+ONSET, AMPLITUDE, LENGTH, HOLD, VERTICAL, PENETRATION, FLOOR, TOWARD_E, TOWARD_N, TRAVELLED, PASSED = range(11)
+"""The gust table's columns: onset (s), amplitude (m/s), length and hold (m), vertical (m/s), penetration speed
+(m/s; NaN: convected), speed floor (m/s), the unit vector toward (east, north); then the state: the distance
+travelled (m) and whether the gust has gone by (1.0)."""
+GUST_COLUMNS = 11
+
+GUST_TRAIN = np.dtype(
+    (
+        np.record,
+        [
+            ("has_t", np.float64),  # 1 once sampled: t_s holds
+            ("t_s", np.float64),  # the last sample's time
+            ("has_pos", np.float64),  # 1 once a position was given
+            ("east_m", np.float64),  # the last sample's position
+            ("north_m", np.float64),
+            ("wind_east_mps", np.float64),  # the last sample
+            ("wind_north_mps", np.float64),
+            ("wind_up_mps", np.float64),
+            ("first_live", np.float64),  # the first gust of the table that has not gone by
+        ],
+    )
+)
+"""A gust train's state, a record over float memory (a flag is 0 or 1)."""
+GUST_TRAIN_SIZE = GUST_TRAIN.itemsize // 8
+"""Float64 slots of the memory a :class:`GustTrain` lives in."""
+
+
+@jitable
+def gust_shape(length_m: float, hold_m: float, x_m: float) -> float:
+    """The 1-cos shape factor in [0, 1] of a gust of ``length_m`` and ``hold_m`` at penetration distance ``x_m``."""
+    d = length_m
+    if x_m <= 0.0:
+        return 0.0
+    if x_m < d:
+        return 0.5 * (1.0 - math.cos(math.pi * x_m / d))
+    x_m -= d + hold_m
+    if x_m <= 0.0:
+        return 1.0
+    if x_m < d:
+        return 0.5 * (1.0 + math.cos(math.pi * x_m / d))
+    return 0.0
+
+
+@jitable
+def gust_passed(length_m: float, hold_m: float, x_m: float) -> bool:
+    """Whether the gust has gone by at ``x_m``: :func:`gust_shape`'s last branch (never for rise-and-hold);
+    ``x - (d + hold)`` grows with x, so once true it stays true for every larger distance."""
+    return x_m - (length_m + hold_m) >= length_m
+
+
+@jitable
+def _relative_speed_mps(
+    s: np.record, has_last: bool, dt: float, east_m: float, north_m: float, airspeed_mps: float, mean_e: float,
+    mean_n: float,
+) -> float:  # fmt: skip
+    """The speed of the vehicle relative to the mean air mass that carries the frozen gusts: from the positions
+    of this and the last sample, or (none, or a step over :data:`MAX_VELOCITY_DT_S`) max(airspeed, |mean|)."""
+    if s.has_pos != 0.0 and 0.0 < dt <= MAX_VELOCITY_DT_S:
+        re = (east_m - s.east_m) / dt - mean_e
+        rn = (north_m - s.north_m) / dt - mean_n
+        return math.sqrt(re * re + rn * rn)
+    w = math.sqrt(mean_e * mean_e + mean_n * mean_n)
+    return airspeed_mps if airspeed_mps > w else w
+
+
+@compiled
+def gusts_sample(
+    S: np.ndarray, G: np.ndarray, t_s: float, east_m: float, north_m: float, airspeed_mps: float, mean_e: float,
+    mean_n: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """The sum of the gusts of table ``G`` (a row a gust, sorted by onset; its last two columns advanced in place)
+    at ``t_s`` and the position (``east_m``, ``north_m``), in the mean wind ``(mean_e, mean_n)``; ``S``:
+    :data:`GUST_TRAIN`'s slots, advanced in place. The same time again gives the last sample."""
+    s = S.view(GUST_TRAIN)[0]
+    has_last = s.has_t != 0.0
+    last = s.t_s
+    if has_last and t_s == last:
+        return s.wind_east_mps, s.wind_north_mps, s.wind_up_mps
+    if has_last and not t_s > last:
+        raise ValueError("GustTrain.sample: time went backwards; call reset()")
+    dt = t_s - last if has_last else 0.0
+    v = _relative_speed_mps(s, has_last, dt, east_m, north_m, airspeed_mps, mean_e, mean_n)
+    s.t_s, s.has_t = t_s, 1.0
+    s.has_pos, s.east_m, s.north_m = 1.0, east_m, north_m
+    n_gusts = G.shape[0]
+    live = int(s.first_live)
+    e = n = u = 0.0
+    for i in range(live, n_gusts):
+        g = G[i]
+        if t_s <= g[ONSET]:
+            break  # sorted by onset
+        if g[PASSED] != 0.0:
+            continue  # gone by: no more wind from it
+        if not math.isnan(g[PENETRATION]):
+            x = g[PENETRATION] * (t_s - g[ONSET])
+        else:
+            t0 = g[ONSET] if not has_last or last < g[ONSET] else last
+            x = g[TRAVELLED] + (v if v > g[FLOOR] else g[FLOOR]) * (t_s - t0)
+            g[TRAVELLED] = x
+        k = gust_shape(g[LENGTH], g[HOLD], x)
+        if k != 0.0:
+            a = g[AMPLITUDE] * k
+            e += a * g[TOWARD_E]
+            n += a * g[TOWARD_N]
+            u += g[VERTICAL] * k
+        elif gust_passed(g[LENGTH], g[HOLD], x):
+            g[PASSED] = 1.0
+            while live < n_gusts and G[live, PASSED] != 0.0:
+                live += 1
+            s.first_live = live
+    s.wind_east_mps, s.wind_north_mps, s.wind_up_mps = e, n, u
+    return e, n, u
 
 
 @dataclass(frozen=True, slots=True)
@@ -98,26 +219,13 @@ class Gust:
             raise ValueError(f"gust penetration_speed_mps must be > 0, got {p!r}")
 
     def shape(self, x_m: float) -> float:
-        """Shape factor in [0, 1] at penetration distance ``x_m`` past the onset."""
-        d = self.length_m
-        if x_m <= 0.0:
-            return 0.0
-        if x_m < d:
-            return 0.5 * (1.0 - math.cos(math.pi * x_m / d))
-        x_m -= d + self.hold_m
-        if x_m <= 0.0:
-            return 1.0
-        if x_m < d:
-            return 0.5 * (1.0 + math.cos(math.pi * x_m / d))
-        return 0.0
+        """Shape factor in [0, 1] at penetration distance ``x_m`` past the onset (:func:`gust_shape`)."""
+        return gust_shape(self.length_m, self.hold_m, x_m)
 
     def passed(self, x_m: float) -> bool:
-        """Whether the gust has gone by at penetration distance ``x_m``: :meth:`shape` is 0 there and beyond.
-
-        The same test as :meth:`shape`'s last branch (never true for rise-and-hold); ``x - (d + hold)`` grows
-        with x, so once true it stays true for every larger distance.
-        """
-        return x_m - (self.length_m + self.hold_m) >= self.length_m
+        """Whether the gust has gone by at penetration distance ``x_m`` (:func:`gust_passed`): :meth:`shape` is 0
+        there and beyond."""
+        return gust_passed(self.length_m, self.hold_m, x_m)
 
     @property
     def extent_m(self) -> float:
@@ -134,33 +242,33 @@ class Gust:
         return (a * e, a * n, self.vertical_mps * k)
 
 
+def gust_table(gusts: tuple[Gust, ...], travelled_m: np.ndarray, min_speed_mps: float, max_rise_time_s: float) -> np.ndarray:
+    """The table :func:`gusts_sample` steps: a row of :data:`GUST_COLUMNS` a gust (``gusts`` sorted by onset), the
+    distances travelled so far ``travelled_m``, none gone by; float64, C order, whatever the number of gusts."""
+    G = np.zeros((len(gusts), GUST_COLUMNS))
+    for row, g in zip(G, gusts, strict=True):
+        p = math.nan if g.penetration_speed_mps is None else g.penetration_speed_mps
+        floor = max(min_speed_mps, g.length_m / max_rise_time_s)
+        row[:PASSED] = (g.onset_s, g.amplitude_mps, g.length_m, g.hold_m, g.vertical_mps, p, floor, *toward_unit(g.from_deg), 0.0)
+    G[:, TRAVELLED] = travelled_m
+    return G
+
+
 class GustTrain:
     """A schedule of discrete gusts, a :class:`~wind.field.WindField` (zero mean).
 
     ``mean_wind`` (the air mass that convects the gusts), ``min_speed_mps``
     and ``max_rise_time_s`` set the penetration speed of the gusts that have no
     fixed ``penetration_speed_mps`` (see the module docstring). Overlapping
-    gusts add.
+    gusts add. ``memory``: :data:`GUST_TRAIN_SIZE` contiguous float64 slots to
+    live in (a caller's compiled step reads and writes the same state); fresh
+    when omitted.
     """
 
     __slots__ = (
-        "gusts",
-        "mean_wind",
-        "min_speed_mps",
-        "max_rise_time_s",
-        "_mean_fn",
-        "_t",
-        "_out",
-        "_x",
-        "_dirs",
-        "_floor",
-        "_pos",
-        "_timed",
-        "after_first_activation",
-        "_armed",
-        "_passed",
-        "_first_live",
-    )
+        "gusts", "mean_wind", "min_speed_mps", "max_rise_time_s", "after_first_activation", "memory", "table",
+        "_mean_fn", "_timed", "_armed",
+    )  # fmt: skip
 
     def __init__(
         self,
@@ -169,39 +277,44 @@ class GustTrain:
         min_speed_mps: float = 1.0,
         max_rise_time_s: float = MAX_RISE_TIME_S,
         after_first_activation: Iterable[Gust] = (),
+        memory: np.ndarray | None = None,
     ) -> None:
         self._timed: tuple[Gust, ...] = tuple(sorted(gusts, key=lambda g: g.onset_s))
         self.after_first_activation: tuple[Gust, ...] = tuple(after_first_activation)
         """Gusts whose ``onset_s`` counts from the geofence's first activation (see :meth:`first_activation`)."""
-        self.gusts: tuple[Gust, ...] = self._timed
         if not (math.isfinite(min_speed_mps) and min_speed_mps > 0.0):
             raise ValueError(f"gust min_speed_mps must be > 0, got {min_speed_mps!r}")
         if math.isnan(max_rise_time_s) or not max_rise_time_s > 0.0:
             raise ValueError(f"gust max_rise_time_s must be > 0 (inf: no length floor), got {max_rise_time_s!r}")
+        if memory is None:
+            memory = np.zeros(GUST_TRAIN_SIZE)
+        if memory.shape != (GUST_TRAIN_SIZE,) or memory.dtype != np.float64 or not memory.flags.c_contiguous:
+            raise ValueError(f"GustTrain memory: expected {GUST_TRAIN_SIZE} contiguous float64 slots")
+        self.memory = memory
         self.mean_wind = mean_wind
         self.min_speed_mps = float(min_speed_mps)
         self.max_rise_time_s = float(max_rise_time_s)
         self._mean_fn = mean_wind.mean if mean_wind is not None else None
         self.reset()
 
-    def _schedule(self, gusts: tuple[Gust, ...], x: list[float]) -> None:
-        """Set the gusts in effect (sorted by onset) and their distances travelled so far."""
-        self.gusts = gusts
-        self._x = x
-        self._dirs = tuple(toward_unit(g.from_deg) for g in gusts)
-        self._floor = tuple(max(self.min_speed_mps, g.length_m / self.max_rise_time_s) for g in gusts)
-        # The gusts that have gone by (Gust.passed), and the first that has not: sample skips the first ones, and
-        # returns zero at once while the first live gust has not begun (or when all have gone by).
-        self._passed = [False] * len(gusts)
-        self._first_live = 0
+    def copy_into(self, memory: np.ndarray) -> GustTrain:
+        """A fresh copy of this train (the same gusts and speeds, not yet sampled, unarmed) living in ``memory``."""
+        return GustTrain(
+            self._timed, self.mean_wind, self.min_speed_mps, self.max_rise_time_s, self.after_first_activation, memory
+        )
+
+    def _schedule(self, gusts: tuple[Gust, ...], travelled_m: np.ndarray) -> None:
+        """Set the gusts in effect (sorted by onset) and their distances travelled so far; none gone by."""
+        self.gusts: tuple[Gust, ...] = gusts
+        self.table: np.ndarray = gust_table(gusts, travelled_m, self.min_speed_mps, self.max_rise_time_s)
+        """The gusts as :func:`gusts_sample` steps them (a new array after :meth:`first_activation`)."""
+        self.memory.view(GUST_TRAIN)[0].first_live = 0.0
 
     def reset(self) -> None:
         """Back to the start: no distance travelled into any gust; the activation-timed gusts unarmed again."""
-        self._t: float | None = None
-        self._pos: tuple[float, float] | None = None
-        self._out: Vec3 = ZERO
+        self.memory[:] = 0.0
         self._armed = False
-        self._schedule(self._timed, [0.0] * len(self._timed))
+        self._schedule(self._timed, np.zeros(len(self._timed)))
 
     def first_activation(self, t_s: float) -> None:
         """The geofence overrode the pilot for the first time at ``t_s``: schedule the activation-timed gusts.
@@ -212,9 +325,10 @@ class GustTrain:
             self._armed = True
             return
         self._armed = True
-        pairs = list(zip(self.gusts, self._x)) + [(replace(g, onset_s=t_s + g.onset_s), 0.0) for g in self.after_first_activation]
+        pairs = list(zip(self.gusts, self.table[:, TRAVELLED].tolist()))
+        pairs += [(replace(g, onset_s=t_s + g.onset_s), 0.0) for g in self.after_first_activation]
         pairs.sort(key=lambda p: p[0].onset_s)
-        self._schedule(tuple(g for g, _ in pairs), [x for _, x in pairs])
+        self._schedule(tuple(g for g, _ in pairs), np.array([x for _, x in pairs]))
 
     @classmethod
     def random(
@@ -258,65 +372,8 @@ class GustTrain:
         return (0.0, 0.0, 0.0)
 
     def sample(self, t_s: float, east_m: float, north_m: float, up_m: float, airspeed_mps: float) -> Vec3:
-        last = self._t
-        if t_s == last:
-            return self._out
-        if last is not None and not t_s > last:
-            raise ValueError(f"GustTrain.sample: time went backwards ({t_s!r} s after {last!r} s); call reset()")
-        self._t = t_s
-        pos = self._pos
-        self._pos = (east_m, north_m)
-        gusts = self.gusts
-        n_gusts = len(gusts)
-        live = self._first_live
-        if live == n_gusts or t_s <= gusts[live].onset_s:
-            self._out = ZERO
-            return ZERO
-
-        # speed of the vehicle relative to the mean air mass that carries the frozen gusts
-        me = mn = 0.0
-        if self._mean_fn is not None:
-            me, mn, _ = self._mean_fn(up_m)
-        dt = t_s - last if last is not None else 0.0
-        if pos is not None and 0.0 < dt <= MAX_VELOCITY_DT_S:
-            re = (east_m - pos[0]) / dt - me
-            rn = (north_m - pos[1]) / dt - mn
-            v = math.sqrt(re * re + rn * rn)
-        else:  # no previous position: the airspeed stands in
-            w = math.sqrt(me * me + mn * mn)
-            v = airspeed_mps if airspeed_mps > w else w
-        e = n = u = 0.0
-        xs = self._x
-        floors = self._floor
-        dirs = self._dirs
-        passed = self._passed
-        for i in range(live, n_gusts):
-            g = gusts[i]
-            if t_s <= g.onset_s:
-                break  # sorted by onset
-            if passed[i]:
-                continue  # gone by: no more wind from it
-            if g.penetration_speed_mps is not None:
-                x = g.penetration_speed_mps * (t_s - g.onset_s)
-            else:
-                t0 = g.onset_s if last is None or last < g.onset_s else last
-                f = floors[i]
-                x = xs[i] + (v if v > f else f) * (t_s - t0)
-                xs[i] = x
-            k = g.shape(x)
-            if k != 0.0:
-                de, dn = dirs[i]
-                a = g.amplitude_mps * k
-                e += a * de
-                n += a * dn
-                u += g.vertical_mps * k
-            elif g.passed(x):
-                passed[i] = True
-                while live < n_gusts and passed[live]:
-                    live += 1
-                self._first_live = live
-        self._out = (e, n, u)
-        return self._out
+        me, mn, _ = self._mean_fn(up_m) if self._mean_fn is not None else ZERO
+        return gusts_sample(self.memory, self.table, t_s, east_m, north_m, airspeed_mps, me, mn)
 
     def __repr__(self) -> str:
         return f"GustTrain({list(self.gusts)!r})"

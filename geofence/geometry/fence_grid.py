@@ -87,8 +87,8 @@ MAX_CACHED_CANDIDATES: int = 4_000_000
 can hold most of its elements, and scattered queries (an inradius search) visit thousands of cells."""
 
 
-class _Cell(NamedTuple):
-    """One cache cell: what every query at a point inside it starts from (built by :meth:`FenceGrid._cell`)."""
+class Cell(NamedTuple):
+    """One cache cell: what every query at a point inside it starts from (:meth:`FenceGrid.cell_at`)."""
 
     built_for: float
     """The reach (m) its candidate list covers."""
@@ -144,7 +144,7 @@ class FenceGrid:
         self._keep_outs = tuple(keep_outs)
         kb = np.array([k.bbox for k in keep_outs], dtype=float).reshape(-1, 4)
         self._ko_bbox = kb
-        self._cells: dict[tuple[int, int], _Cell] = {}
+        self._cells: dict[tuple[int, int], Cell] = {}
         self._blocks: dict[tuple[int, int], tuple[float, np.ndarray]] = {}  # block -> (reach, ids): _block_ids
         self._cached = 0
         self._rows = _RowStrips(keep_in)
@@ -217,7 +217,7 @@ class FenceGrid:
         self._cached += len(ids)
         return ids
 
-    def _cell(self, e: float, n: float, reach: float) -> _Cell:
+    def _cell(self, e: float, n: float, reach: float) -> Cell:
         c = self.cell_m
         key = (math.floor(e / c), math.floor(n / c))
         cell = self._cells.get(key)
@@ -240,7 +240,7 @@ class FenceGrid:
         kb = self._ko_bbox
         lo_x, lo_y, hi_x, hi_y = key[0] * c, key[1] * c, (key[0] + 1) * c, (key[1] + 1) * c
         ko = tuple(np.flatnonzero((kb[:, 0] <= hi_x) & (kb[:, 2] >= lo_x) & (kb[:, 1] <= hi_y) & (kb[:, 3] >= lo_y)).tolist())
-        cell = _Cell(built_for, cx, cy, sel, g[at], u, ki_state, ko)
+        cell = Cell(built_for, cx, cy, sel, g[at], u, ki_state, ko)
         if len(self._cells) >= MAX_CELLS or self._cached + len(sel) > MAX_CACHED_CANDIDATES:
             self._cells.clear()
             self._blocks.clear()
@@ -248,6 +248,18 @@ class FenceGrid:
         self._cells[key] = cell
         self._cached += len(sel)
         return cell
+
+    def cell_at(self, e: float, n: float, reach: float) -> Cell:
+        """The cell a query at (e, n) for ``reach`` starts from, built (or rebuilt for a larger reach) as the
+        query would: its candidates and their bounds, the keep-in containment and the keep-out boxes that meet
+        it. Every query below starts here; it is public so that a cell can be inspected."""
+        return self._cell(e, n, reach)
+
+    @property
+    def blocks_built(self) -> int:
+        """The blocks whose pass over every element has been made (0 while cells look at every element: a
+        fence of fewer than ``block_min_elements`` elements)."""
+        return len(self._blocks)
 
     def candidates(self, e: float, n: float, reach: float) -> tuple[np.ndarray, np.ndarray, float]:
         """``(ids, bounds, delta)``: the candidates within ``reach`` of (e, n) for the compiled walk

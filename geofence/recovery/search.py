@@ -86,6 +86,16 @@ def _box_key_bound(sx: float, sy: float, gx: float, gy: float, box: np.ndarray, 
 
 
 @jitable
+def _heapify_boxes(blb: np.ndarray) -> np.ndarray:
+    """The boxes ``0 .. len(blb) - 1`` as a heap by their lower bounds ``blb`` (:func:`_key_less`)."""
+    nb = blb.shape[0]
+    boxes = np.arange(nb)
+    for pos in range(nb // 2 - 1, -1, -1):
+        _key_sift_down(boxes, blb, pos, nb)
+    return boxes
+
+
+@jitable
 def _release_boxes(
     sx: float, sy: float, gx: float, gy: float, P: np.ndarray, box_start: np.ndarray, box_items: np.ndarray,
     blb: np.ndarray, boxes: np.ndarray, n_boxes: int, open_key: float, leg: np.ndarray, keys: np.ndarray,
@@ -94,7 +104,10 @@ def _release_boxes(
     """:func:`_lazy_astar`'s release of the boxes whose nodes can come next: while the smallest box bound (heap
     ``boxes[:n_boxes]`` by ``blb``) is at most the smallest key waiting (first leg in ``cand[:size]``, or the
     open node's ``open_key``), its nodes get their first leg ``leg`` and key ``keys`` and join ``cand``.
-    Returns ``(size, n_boxes)`` after."""
+    Returns ``(size, n_boxes)`` after.
+
+    Every node left out has a key above that bound, so the next first leg and the choice between it and the
+    next open node are those of a heap of every node, ties included."""
     while n_boxes > 0:
         bound = keys[cand[0]] if size > 0 else np.inf
         if open_key < bound:
@@ -132,6 +145,36 @@ def _best_node(touched: np.ndarray, n_touched: int, dist: np.ndarray, goal_d: np
 
 
 @jitable
+def _touch(touched: np.ndarray, n_touched: int, dist: np.ndarray, i: int) -> int:
+    """Node ``i`` about to be given a distance: listed in ``touched`` if it had none. Returns ``n_touched``."""
+    if dist[i] == np.inf:
+        touched[n_touched] = i
+        n_touched += 1
+    return n_touched
+
+
+@jitable
+def _relax_row(
+    i: int, d: float, gx: float, gy: float, P: np.ndarray, row_start: np.ndarray, row_len: np.ndarray,
+    store_j: np.ndarray, store_w: np.ndarray, dist: np.ndarray, pred: np.ndarray, touched: np.ndarray,
+    n_touched: int, open_: list,
+) -> int:  # fmt: skip
+    """:func:`_lazy_astar`'s expansion of node ``i`` at distance ``d``: each node of its row reached shorter
+    through it gets that distance, ``i`` as predecessor, and joins the open heap ``open_`` keyed by the distance
+    plus its straight length to the goal. Returns ``n_touched``."""
+    at = row_start[i]
+    for k in range(at, at + row_len[i]):
+        j = store_j[k]
+        nd = d + store_w[k]
+        if nd < dist[j]:
+            n_touched = _touch(touched, n_touched, dist, j)
+            dist[j] = nd
+            pred[j] = i
+            heapq.heappush(open_, (nd + hypot(P[j, 0] - gx, P[j, 1] - gy), nd, j))
+    return n_touched
+
+
+@jitable
 def _lazy_astar(
     sx: float, sy: float, gx: float, gy: float, thr: float, node_thr: float, P: np.ndarray, cones: np.ndarray,
     is_corner: np.ndarray, goal_d: np.ndarray, edges: np.ndarray, circles: np.ndarray, x0: float, y0: float,
@@ -141,63 +184,40 @@ def _lazy_astar(
 ) -> tuple[np.ndarray, np.ndarray, int, int]:  # fmt: skip
     """The A* search of a lazy graph with a segment grid, from a start (sx, sy) in the free space
     towards the goal (gx, gy), in one compiled call: ``(dist, pred, first legs found, best node)`` (``first
-    legs found`` -1: the edge store is full, grow it and call again; ``best node``: the node of the smallest
-    ``dist + goal_d``, the first on a tie, -1 when none is finite).
+    legs found`` -1: the edge store is full, grow it and call again; ``best node``: :func:`_best_node`).
 
-    The same search step for step: first legs taken in key order (a heap of node indices by
-    :func:`_key_less`, the stable sort's order) and tested as their key comes up, the open nodes in a heap of
-    ``(key, distance, node)``, the same stops. ``goal_d``: each node's straight length to the goal, infinite
-    where it does not see it. A node's graph edges (:func:`~geofence.recovery.graph._tangent_row`'s candidates, clear
-    at ``node_thr``) are found on its first expansion and kept in ``row_start``/``row_len`` (-1: not yet)
-    over ``store_j``/``store_w`` (``used[0]`` entries filled), across calls.
-
-    The first legs' heap does not start with every node: the nodes come in boxes (``box``, rows
-    ``xmin, xmax, ymin, ymax``; box ``c`` holds ``box_items[box_start[c]:box_start[c + 1]]``), and a box's nodes
-    join the heap once the box's lower bound of their keys (:func:`_box_key_bound`) is at most the smallest key
-    waiting (first leg or open node). Every node left out has a key above that, so the next first leg and the
-    choice between it and the next open node are those of the heap of every node, ties included.
-    """
+    First legs are taken in key order (a heap of node indices by :func:`_key_less`, the stable sort's order)
+    and tested as their key comes up, the open nodes in a heap of ``(key, distance, node)``. ``goal_d``: each
+    node's straight length to the goal, infinite where it does not see it. A node's graph edges
+    (:func:`~geofence.recovery.graph._tangent_row`'s candidates, clear at ``node_thr``) are found on its first
+    expansion and kept in ``row_start``/``row_len`` (-1: not yet) over ``store_j``/``store_w`` (``used[0]``
+    entries filled), across calls. The nodes join the first legs' heap box by box (``box``: rows ``xmin, xmax,
+    ymin, ymax``; box ``c`` holds ``box_items[box_start[c]:box_start[c + 1]]``; :func:`_release_boxes`)."""
     n = P.shape[0]
-    dist = np.full(n, np.inf)
-    pred = np.full(n, -1, np.int64)
-    leg = np.empty(n)
-    keys = np.empty(n)
-    touched = np.empty(n, np.int64)  # the nodes given a finite distance, for the best node
-    n_touched = 0
-    nb = box.shape[0]
-    blb = np.empty(nb)
-    for c in range(nb):
+    dist, pred, leg, keys = np.full(n, np.inf), np.full(n, -1, np.int64), np.empty(n), np.empty(n)
+    touched, cand = np.empty(n, np.int64), np.empty(n, np.int64)  # touched: given a finite distance
+    n_boxes, size, n_touched, n_first, best_goal = box.shape[0], 0, 0, 0, np.inf
+    blb = np.empty(n_boxes)
+    for c in range(n_boxes):
         blb[c] = _box_key_bound(sx, sy, gx, gy, box, c)
-    boxes = np.arange(nb)
-    n_boxes = nb
-    for pos in range(nb // 2 - 1, -1, -1):
-        _key_sift_down(boxes, blb, pos, n_boxes)
-    cand = np.empty(n, np.int64)
-    size = 0
+    boxes = _heapify_boxes(blb)
     open_ = [(0.0, 0.0, 0)]
     open_.pop()
-    best_goal = np.inf
-    n_first = 0
     while True:
         open_key = open_[0][0] if len(open_) > 0 else np.inf
         size, n_boxes = _release_boxes(sx, sy, gx, gy, P, box_start, box_items, blb, boxes, n_boxes, open_key, leg,
                                        keys, cand, size)  # fmt: skip
-        if size > 0 and (len(open_) == 0 or keys[cand[0]] < open_[0][0]):  # the next untested first leg first
+        if size > 0 and (len(open_) == 0 or keys[cand[0]] < open_key):  # the next untested first leg first
             i = _key_pop(cand, keys, size)
             size -= 1
-            key = keys[i]
-            d = leg[i]
+            key, d = keys[i], leg[i]
             if key >= best_goal:
                 break
-            if d >= dist[i]:
+            if d >= dist[i] or not _segment_clear_grid(sx, sy, P[i, 0], P[i, 1], thr, edges, circles, x0, y0, cell,
+                                                       nx, ny, start, items):  # fmt: skip
                 continue
-            if not _segment_clear_grid(sx, sy, P[i, 0], P[i, 1], thr, edges, circles, x0, y0, cell, nx, ny, start, items):
-                continue
-            if dist[i] == np.inf:
-                touched[n_touched] = i
-                n_touched += 1
-            dist[i] = d
-            pred[i] = -1
+            n_touched = _touch(touched, n_touched, dist, i)
+            dist[i], pred[i] = d, -1
             n_first += 1
         elif len(open_) > 0:
             key, d, i = heapq.heappop(open_)
@@ -209,21 +229,12 @@ def _lazy_astar(
             break  # no open node can shorten the best route found to the goal
         if goal_d[i] < np.inf:
             best_goal = min(best_goal, d + goal_d[i])
-        if row_start[i] < 0:  # node i's graph edges, found on its first expansion
-            if not _file_row(i, _tangent_row(i, P, cones, is_corner), P, node_thr, edges, circles, x0, y0, cell, nx,
-                             ny, start, items, row_start, row_len, store_j, store_w, used):  # fmt: skip
-                return dist, pred, -1, -1
-        at = row_start[i]
-        for k in range(at, at + row_len[i]):
-            j = store_j[k]
-            nd = d + store_w[k]
-            if nd < dist[j]:
-                if dist[j] == np.inf:
-                    touched[n_touched] = j
-                    n_touched += 1
-                dist[j] = nd
-                pred[j] = i
-                heapq.heappush(open_, (nd + hypot(P[j, 0] - gx, P[j, 1] - gy), nd, j))
+        if row_start[i] < 0 and not _file_row(i, _tangent_row(i, P, cones, is_corner), P, node_thr, edges, circles,
+                                              x0, y0, cell, nx, ny, start, items, row_start, row_len, store_j,
+                                              store_w, used):  # fmt: skip
+            return dist, pred, -1, -1  # node i's graph edges, found on its first expansion: the store is full
+        n_touched = _relax_row(i, d, gx, gy, P, row_start, row_len, store_j, store_w, dist, pred, touched, n_touched,
+                               open_)  # fmt: skip
     return dist, pred, n_first, _best_node(touched, n_touched, dist, goal_d)
 
 
@@ -275,6 +286,63 @@ def _goal_tree(
 
 
 @jitable
+def _release_tree_boxes(
+    sx: float, sy: float, P: np.ndarray, D: np.ndarray, box_start: np.ndarray, box_items: np.ndarray,
+    blb: np.ndarray, boxes: np.ndarray, n_boxes: int, keys: np.ndarray, cand: np.ndarray, size: int,
+) -> tuple[int, int]:  # fmt: skip
+    """:func:`_tree_first_leg`'s release of the boxes whose nodes can come next: while the smallest box bound is
+    finite and at most the smallest key waiting, its nodes with a route (``D`` finite) get their key ``leg + D``
+    and join ``cand``. Returns ``(size, n_boxes)`` after."""
+    while n_boxes > 0:
+        if blb[boxes[0]] == np.inf or (size > 0 and blb[boxes[0]] > keys[cand[0]]):
+            break
+        c = _key_pop(boxes, blb, n_boxes)
+        n_boxes -= 1
+        for p in range(box_start[c], box_start[c + 1]):
+            i = box_items[p]
+            if D[i] == np.inf:
+                continue
+            ex = P[i, 0] - sx
+            ey = P[i, 1] - sy
+            keys[i] = math.sqrt(ex * ex + ey * ey) + D[i]
+            _key_push(cand, keys, size, i)
+            size += 1
+    return size, n_boxes
+
+
+@jitable
+def _remember(recent: np.ndarray, n_recent: int, next_recent: int, k: int) -> tuple[int, int]:
+    """Element ``k`` blocked a leg: kept in the ring ``recent`` (the last few blockers). Returns ``(n_recent,
+    next_recent)`` after."""
+    recent[next_recent] = k
+    return (n_recent + 1 if n_recent < recent.shape[0] else n_recent), (next_recent + 1) % recent.shape[0]
+
+
+@jitable
+def _leg_blocked_nearby(
+    sx: float, sy: float, ex: float, ey: float, thr: float, edges: np.ndarray, circles: np.ndarray, x0: float,
+    y0: float, cell: float, nx: int, ny: int, start: np.ndarray, items: np.ndarray, recent: np.ndarray,
+    n_recent: int, next_recent: int,
+) -> tuple[bool, int, int]:  # fmt: skip
+    """Whether the leg (sx, sy) -> (ex, ey) is blocked at ``thr`` by an element that blocked one of the last legs
+    (nearby legs share them) or by one filed in the end's own grid cell (a leg to a node is often blocked
+    there, and that element is remembered): ``(blocked, n_recent, next_recent)``. Not blocked here is not
+    clear: the caller tests the whole grid next."""
+    box_i = _segment_box(sx, sy, ex, ey, thr)
+    for r in range(n_recent):
+        if _element_blocks(sx, sy, ex, ey, thr, box_i, edges, circles, recent[r]):
+            return True, n_recent, next_recent
+    ci = min(max(int((ex - x0) // cell), 0), nx - 1)
+    cj = min(max(int((ey - y0) // cell), 0), ny - 1)
+    c = cj * nx + ci
+    for p in range(start[c], start[c + 1]):
+        if _element_blocks(sx, sy, ex, ey, thr, box_i, edges, circles, items[p]):
+            n_recent, next_recent = _remember(recent, n_recent, next_recent, items[p])
+            return True, n_recent, next_recent
+    return False, n_recent, next_recent
+
+
+@jitable
 def _tree_first_leg(
     sx: float, sy: float, thr: float, P: np.ndarray, D: np.ndarray, edges: np.ndarray, circles: np.ndarray,
     x0: float, y0: float, cell: float, nx: int, ny: int, start: np.ndarray, items: np.ndarray, box: np.ndarray,
@@ -288,64 +356,32 @@ def _tree_first_leg(
     smallest ``D`` in it) is at most the smallest key waiting: the same order as a heap of every node. A route
     through any later node is no shorter, so with exact ``D`` no other node's first leg is tested."""
     n = P.shape[0]
-    nb = box.shape[0]
-    blb = np.empty(nb)
-    for c in range(nb):
+    n_boxes = box.shape[0]
+    blb = np.empty(n_boxes)
+    for c in range(n_boxes):
         blb[c] = (_box_distance(sx, sy, box, c) + box_d[c]) * (1.0 - 1e-12) - 1e-9
-    boxes = np.arange(nb)
-    n_boxes = nb
-    for pos in range(nb // 2 - 1, -1, -1):
-        _key_sift_down(boxes, blb, pos, n_boxes)
+    boxes = _heapify_boxes(blb)
     keys = np.empty(n)
     cand = np.empty(n, np.int64)
     size = 0
     recent = np.empty(8, np.int64)
-    n_recent = 0
-    next_recent = 0
+    n_recent = next_recent = 0
     while True:
-        while n_boxes > 0:
-            if blb[boxes[0]] == np.inf or (size > 0 and blb[boxes[0]] > keys[cand[0]]):
-                break
-            c = _key_pop(boxes, blb, n_boxes)
-            n_boxes -= 1
-            for p in range(box_start[c], box_start[c + 1]):
-                i = box_items[p]
-                if D[i] == np.inf:
-                    continue
-                ex = P[i, 0] - sx
-                ey = P[i, 1] - sy
-                keys[i] = math.sqrt(ex * ex + ey * ey) + D[i]
-                _key_push(cand, keys, size, i)
-                size += 1
+        size, n_boxes = _release_tree_boxes(sx, sy, P, D, box_start, box_items, blb, boxes, n_boxes, keys, cand, size)
         if size == 0:
             return -1
         i = _key_pop(cand, keys, size)
         size -= 1
-        blocked = False
-        box_i = _segment_box(sx, sy, P[i, 0], P[i, 1], thr)
-        for r in range(n_recent):  # the elements that blocked the last legs first: nearby legs share them
-            if _element_blocks(sx, sy, P[i, 0], P[i, 1], thr, box_i, edges, circles, recent[r]):
-                blocked = True
-                break
-        if not blocked:  # then the elements filed in the node's own cell: a leg to a node is often blocked there
-            ci = min(max(int((P[i, 0] - x0) // cell), 0), nx - 1)
-            cj = min(max(int((P[i, 1] - y0) // cell), 0), ny - 1)
-            c = cj * nx + ci
-            for p in range(start[c], start[c + 1]):
-                if _element_blocks(sx, sy, P[i, 0], P[i, 1], thr, box_i, edges, circles, items[p]):
-                    blocked = True
-                    recent[next_recent] = items[p]
-                    next_recent = (next_recent + 1) % recent.shape[0]
-                    n_recent = n_recent + 1 if n_recent < recent.shape[0] else n_recent
-                    break
+        blocked, n_recent, next_recent = _leg_blocked_nearby(
+            sx, sy, P[i, 0], P[i, 1], thr, edges, circles, x0, y0, cell, nx, ny, start, items, recent, n_recent,
+            next_recent,
+        )  # fmt: skip
         if blocked:
             continue
         k = _segment_blocker_grid(sx, sy, P[i, 0], P[i, 1], thr, edges, circles, x0, y0, cell, nx, ny, start, items)
         if k < 0:
             return i
-        recent[next_recent] = k
-        next_recent = (next_recent + 1) % recent.shape[0]
-        n_recent = n_recent + 1 if n_recent < recent.shape[0] else n_recent
+        n_recent, next_recent = _remember(recent, n_recent, next_recent, k)
 
 
 lazy_astar = compiled(_lazy_astar)
