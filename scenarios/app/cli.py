@@ -74,6 +74,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", type=Path, default=Path("out"), metavar="DIR", help="output folder (default: ./out)")
     run.add_argument("--quiet", action="store_true", help="no progress display, only the final lines")
     run.add_argument("--no-plot", action="store_true", help="skip flight.png/flight.svg (ground track, altitude, speed)")
+    _mavlink_run_options(run)
 
     batch = sub.add_parser(
         "batch",
@@ -288,6 +289,84 @@ def build_parser() -> argparse.ArgumentParser:
         description="List aircraft that have a platform profile, and the example scenarios shipped with the testbed.",
     )
     return parser
+
+
+def _mavlink_run_options(run: argparse.ArgumentParser) -> None:
+    """``run``'s MAVLink flags: the flight as a MAVLink vehicle, and its telemetry log."""
+    g = run.add_argument_group(
+        "MAVLink vehicle",
+        "With --mavlink the flight has no in-process geofence unit: it publishes its telemetry (system 1, "
+        "component 1; ATTITUDE and GLOBAL_POSITION_INT at 50 Hz capped at the control rate, GPS_RAW_INT per fix, "
+        "SCALED_PRESSURE and VFR_HUD 10 Hz, WIND 2 Hz, HEARTBEAT 1 Hz) and flies the sticks a companion commands "
+        "(RC_CHANNELS_OVERRIDE from system 255, or MANUAL_CONTROL with --mavlink-autopilot px4) in place of the "
+        "pilot's. summary.json is still scored against the scenario's fence and gains a 'link' block.",
+    )
+    g.add_argument("--mavlink", metavar="URL", help="pymavlink URL to speak on, e.g. udpout:127.0.0.1:14550")
+    g.add_argument(
+        "--mavlink-autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+        help="whose HEARTBEAT and override conventions (default ardupilot)",
+    )  # fmt: skip
+    g.add_argument(
+        "--lockstep", action="store_true",
+        help="after each tick's ATTITUDE wait for the companion's NAMED_VALUE_FLOAT GF_MARGIN of that tick "
+        "(deterministic; default: paced to wall-clock time, never waiting)",
+    )  # fmt: skip
+    g.add_argument(
+        "--lockstep-timeout-s", type=float, default=10.0, metavar="S", help="lock-step wait bound, wall s (default 10)"
+    )
+    g.add_argument(
+        "--rc-override-time-s", type=float, default=3.0, metavar="S",
+        help="ArduPilot RC_OVERRIDE_TIME: an override channel reverts to the pilot this long after its last "
+        "override (default 3; -1 never)",
+    )  # fmt: skip
+    g.add_argument(
+        "--tlog", type=Path, metavar="FILE",
+        help="also write the flight as a MAVLink 2 telemetry log (one scenario only): with --mavlink every message "
+        "sent and received, else the recorded trajectory as the vehicle's telemetry",
+    )  # fmt: skip
+
+
+def _check_mavlink_run_options(args) -> None:
+    from geofence.validation import ConfigError
+
+    if args.tlog is not None:
+        if len(args.scenarios) != 1:
+            raise ConfigError("--tlog: give exactly one scenario")
+        check_output_file(args.tlog, "--tlog")
+    if args.mavlink is None and args.lockstep:
+        raise ConfigError("--lockstep: needs --mavlink URL")
+    if not args.lockstep_timeout_s > 0.0:
+        raise ConfigError(f"--lockstep-timeout-s: must be > 0, got {args.lockstep_timeout_s:g}")
+
+
+def _fly_and_write(sc, spec, args, on_step):
+    """Fly one scenario of ``run`` (in process, or as a MAVLink vehicle) and write its folder and tlog."""
+    from scenarios.flight.runner import run_scenario, write_result
+
+    if args.mavlink is None:
+        result = run_scenario(sc, args.out, on_step=on_step, plot=not args.no_plot, scenario_hash=spec.scenario_hash)
+        if args.tlog is not None:
+            from geofence.interface import PlatformKind
+            from scenarios.link.sticks import Autopilot
+            from scenarios.link.tlog import write_trajectory_tlog
+
+            traj = {name: result.recorder.column(name) for name in result.recorder.columns}
+            kind = PlatformKind(result.summary["platform_kind"])
+            write_trajectory_tlog(traj, args.tlog, kind, autopilot=Autopilot(args.mavlink_autopilot))
+        return result
+    from scenarios.flight.mavlink_vehicle import LinkOptions, fly_mavlink
+    from scenarios.link.sticks import Autopilot
+
+    opts = LinkOptions(
+        url=args.mavlink, autopilot=Autopilot(args.mavlink_autopilot), lockstep=args.lockstep,
+        lockstep_timeout_s=args.lockstep_timeout_s, rc_override_time_s=args.rc_override_time_s, tlog=args.tlog,
+    )  # fmt: skip
+    result = fly_mavlink(sc, opts, on_step=on_step)
+    text = Path(sc.source).read_text() if sc.source is not None and Path(sc.source).is_file() else None
+    write_result(result, args.out, scenario_text=text, plot=not args.no_plot, scenario_hash=spec.scenario_hash)
+    if result.summary.get("error"):
+        print(f"error: {sc.name}: {result.summary['error']}", file=sys.stderr)
+    return result
 
 
 def _inclusion_option(sub: argparse.ArgumentParser) -> None:
@@ -525,12 +604,12 @@ def _cmd_run(args) -> int:
     from scenarios.app.batch import check_unique_names
     from scenarios.definition.schema import load_scenario, read_document
     from scenarios.definition.sweep import expand
-    from scenarios.flight.runner import run_scenario
 
     scenarios = [load_scenario(p) for p in args.scenarios]  # validate everything before flying anything
     specs = [expand(read_document(p), str(p), p.stem)[0] for p in args.scenarios]
     check_unique_names(specs)
     check_output_dir(args.out, "--out")
+    _check_mavlink_run_options(args)
     for w in dict.fromkeys(w for sc in scenarios for w in sc.warnings):
         print(f"warning: {w}", file=sys.stderr)
     failed = 0
@@ -538,9 +617,7 @@ def _cmd_run(args) -> int:
         bar = _progress(sc, quiet=args.quiet)
         on_step, notice = progress_steps(bar)
         try:
-            result = run_scenario(
-                sc, args.out, on_step=_stops_when_interrupted(on_step), plot=not args.no_plot, scenario_hash=spec.scenario_hash
-            )
+            result = _fly_and_write(sc, spec, args, _stops_when_interrupted(on_step))
         finally:
             if notice is not None:
                 notice.cancel()
