@@ -9,6 +9,8 @@ Subcommands:
 * ``seed-reproduction DIR``: fly the seed work's indoor quad with the reactive and our predictive fence.
 * ``score-log LOG --fence FILE``: score a real flight log (tlog / DataFlash .bin) against a fence file.
 * ``import-fence FILE``: turn a GeoJSON / QGC .plan / WPL 110 / MAVProxy fence file into a scenario ``geofence:`` block.
+* ``export-fence IN --to FORMAT --out FILE``: write a scenario's or a file's fence as .plan / WPL 110 / MAVProxy /
+  GeoJSON / KML.
 * ``validate SCENARIO.yaml...``: check scenario files without flying them.
 * ``list``: the aircraft that can fly and the shipped example scenarios.
 * ``check SCENARIO.yaml...``: the pre-flight mission check (where would the geofence override the mission?).
@@ -186,6 +188,8 @@ def build_parser() -> argparse.ArgumentParser:
     imp.add_argument("--force", action="store_true", help="overwrite OUT.yaml if it exists")
     _inclusion_option(imp)
 
+    _export_fence_parser(sub)
+
     val = sub.add_parser(
         "validate",
         help="check scenario files without flying",
@@ -289,6 +293,57 @@ def build_parser() -> argparse.ArgumentParser:
         description="List aircraft that have a platform profile, and the example scenarios shipped with the testbed.",
     )
     return parser
+
+
+def _export_fence_parser(sub) -> None:
+    ex = sub.add_parser(
+        "export-fence",
+        help="write a fence as a ground-station file (.plan, WPL 110, MAVProxy, GeoJSON, KML)",
+        description=(
+            "Read a fence (a scenario file's geofence.fence, or any fence file import-fence reads) and write it as "
+            "FORMAT: qgc_plan (QGroundControl .plan: polygons and circles, the breach return point, rally points), "
+            "qgc_wpl_110 (mission items 5000-5004 and rally 5100), mavproxy_fence (old FENCE_POINT text: the return "
+            "point and the keep-in polygon only), geojson (RFC 7946, properties.geofence roles, ceiling_m/floor_m; "
+            "circles as polygons) or kml (Google Earth: extruded polygons up to the ceiling). Coordinates keep every "
+            "digit: import-fence reads the same vertices back. What the format cannot carry (the ceiling in the "
+            "MAVLink formats, keep-outs in MAVProxy text, circles in GeoJSON/KML) is said on stderr."
+        ),
+    )
+    ex.add_argument("fence_in", type=Path, metavar="IN", help="SCENARIO.yaml or a fence file")
+    ex.add_argument("--to", required=True, choices=("qgc_plan", "qgc_wpl_110", "mavproxy_fence", "geojson", "kml"), metavar="FORMAT",
+                    help="qgc_plan, qgc_wpl_110, mavproxy_fence, geojson or kml")  # fmt: skip
+    ex.add_argument("--out", type=Path, required=True, metavar="FILE", help="the file to write (replaced)")
+    ex.add_argument("--ceiling", type=float, default=None, metavar="M", help="with a fence file IN: its ceiling, m above home")
+    _inclusion_option(ex)
+
+
+def _cmd_export_fence(args) -> int:
+    from analysis.formats.fence_files import export_fence, load_fence_file
+    from geofence.validation import ConfigError
+
+    check_output_file(args.out, "--out")
+    rally: tuple = ()
+    if args.fence_in.suffix.lower() in (".yaml", ".yml"):
+        from scenarios.definition.schema import load_scenario
+
+        sc = load_scenario(args.fence_in)
+        if sc.geofence is None:
+            raise ConfigError(f"{args.fence_in}: geofence: the scenario has no fence to export")
+        fence = sc.geofence.fence
+    else:
+        imported = load_fence_file(args.fence_in, ceiling_m=args.ceiling, inclusion_polygon=args.inclusion_polygon)
+        fence, rally = imported.fence, imported.rally_points
+        for w in imported.warnings:
+            print(f"warning: {args.fence_in}: {w}", file=sys.stderr)
+    exported = export_fence(fence, args.to, rally)
+    for w in exported.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.out.with_name(f".{args.out.name}.tmp")
+    tmp.write_text(exported.text)
+    os.replace(tmp, args.out)
+    print(f"wrote {args.out}")
+    return 0
 
 
 def _mavlink_run_options(run: argparse.ArgumentParser) -> None:
@@ -441,6 +496,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_score_log(args)
         if args.command == "import-fence":
             return _cmd_import_fence(args)
+        if args.command == "export-fence":
+            return _cmd_export_fence(args)
         if args.command == "validate":
             return _cmd_validate(args)
         if args.command == "list":
