@@ -1,16 +1,18 @@
 """``run --tlog``: a simulated flight written as a MAVLink 2 telemetry log that pymavlink, mavlogdump and
-``score-log`` read, scoring the same peak excursion as the in-process flight within the telemetry quantisation."""
+``score-log`` read, scoring the same peak excursion as the in-process flight within the telemetry quantisation;
+and ``score-log`` on a PX4 ULog."""
 
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import subprocess
 import sys
 
 import pytest
 
-from tests.support import ROOT
+from tests.support import ROOT, SHARED_REALWORLD
 
 pytestmark = pytest.mark.closed_loop
 
@@ -71,3 +73,44 @@ def test_score_log_of_the_tlog_matches_the_flight(flight):
     for key in ("max_excursion_m", "max_lateral_excursion_m", "max_vertical_excursion_m", "min_margin_m"):
         assert scores[key] == pytest.approx(summary[key], abs=QUANTISATION_M), key
     assert scores["time_outside_s"] == summary["time_outside_s"]
+
+
+# --------------------------------------------------------------------------- PX4 ULog in score-log
+
+ULOG = SHARED_REALWORLD / "pyulog_sample_px4_events.ulg"
+
+
+def square_fence_geojson(path, lat0: float, lon0: float, half_side_m: float) -> None:
+    """A keep-in square of ``half_side_m`` about (lat0, lon0), as GeoJSON."""
+    dlat = half_side_m / 111_132.0
+    dlon = half_side_m / (111_320.0 * math.cos(math.radians(lat0)))
+    ring = [[lon0 - dlon, lat0 - dlat], [lon0 + dlon, lat0 - dlat], [lon0 + dlon, lat0 + dlat], [lon0 - dlon, lat0 + dlat]]
+    geometry = {"type": "Polygon", "coordinates": [ring + [ring[0]]]}
+    path.write_text(json.dumps({"type": "Feature", "properties": {"geofence": "keep_in"}, "geometry": geometry}))
+
+
+@pytest.mark.skipif(not ULOG.is_file(), reason="shared/realworld is not beside the repo")
+def test_score_log_reads_a_px4_ulog(tmp_path):
+    from analysis.formats.logs import load_log
+
+    traj, info = load_log(ULOG)
+    assert info.log_format == "ulog" and info.position_source == "vehicle_global_position"
+    assert info.n_positions == 109 and info.simulated and "AUTO_TAKEOFF" in info.modes
+    lat0, lon0 = float(traj["lat_deg"][0]), float(traj["lon_deg"][0])
+    fence = tmp_path / "square.geojson"
+    square_fence_geojson(fence, lat0, lon0, 100.0)
+    proc = cli("score-log", str(ULOG), "--fence", str(fence), "--json")
+    assert proc.returncode == 0, proc.stderr
+    scores = json.loads(proc.stdout)
+    # the vehicle stays within centimetres of home (PROVENANCE.md): inside, 100 m from every edge
+    assert scores["max_lateral_excursion_m"] == pytest.approx(-100.0, abs=0.5)
+    assert scores["time_outside_s"] == 0.0
+
+
+def test_a_broken_ulog_is_one_error_line(tmp_path):
+    bad = tmp_path / "bad.ulg"
+    bad.write_bytes(b"ULog\x01\x12\x35" + b"\x00" * 40)
+    fence = tmp_path / "square.geojson"
+    square_fence_geojson(fence, 47.0, 8.0, 100.0)
+    proc = cli("score-log", str(bad), "--fence", str(fence))
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr and str(bad) in proc.stderr
