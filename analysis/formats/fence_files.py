@@ -1189,3 +1189,230 @@ def summarize(imported: ImportedFence) -> str:
         lines.append(f"  rally points: {len(imported.rally_points)}")
     lines += [f"  warning: {w}" for w in imported.warnings]
     return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- writing
+EXPORT_FORMATS = ("qgc_plan", "qgc_wpl_110", "mavproxy_fence", "geojson", "kml")
+"""The formats :func:`export_fence` writes (``kml`` is written only: nothing here reads it back)."""
+EXPORT_SUFFIX = {"qgc_plan": ".plan", "qgc_wpl_110": ".waypoints", "mavproxy_fence": ".txt", "geojson": ".geojson", "kml": ".kml"}
+
+
+@dataclass(frozen=True)
+class ExportedFence:
+    """A fence written in one format: the file's text and what the format could not carry."""
+
+    text: str
+    warnings: tuple[str, ...] = ()
+
+
+def export_fence(fence: Fence, fmt: str, rally_points: Sequence[RallyPoint] = ()) -> ExportedFence:
+    """``fence`` (and ``rally_points``) as a file of ``fmt`` (:data:`EXPORT_FORMATS`).
+
+    Coordinates are written with every digit of the float (``repr``), so :func:`load_fence_file` reads back the
+    same vertices, circle centres and radii. What a format cannot carry is stated in ``warnings``: none of the
+    MAVLink/QGC formats has a ceiling or floor, floor gaps or a keep-out's own vertical extent; GeoJSON and KML
+    have no circle (written as the inscribed polygon of :func:`~geofence.geometry.fence.circle_to_polygon`); the
+    old MAVProxy format holds the keep-in polygon and the return point only.
+    """
+    writers = {
+        "qgc_plan": _export_plan, "qgc_wpl_110": _export_wpl110, "mavproxy_fence": _export_mavproxy,
+        "geojson": _export_geojson, "kml": _export_kml,
+    }  # fmt: skip
+    if fmt not in writers:
+        raise ConfigError(f"--to: unknown fence format {fmt!r}; expected one of {', '.join(EXPORT_FORMATS)}")
+    warnings: list[str] = []
+    text = writers[fmt](fence, tuple(rally_points), warnings)
+    return ExportedFence(text, tuple(warnings))
+
+
+def _vertical_losses(f: Fence, fmt: str, warnings: list[str]) -> None:
+    warnings.append(f"{fmt} carries no ceiling ({f.ceiling_m:g} m {f.altitude_reference.value}): give it again on import")
+    if f.floor_m is not None:
+        warnings.append(f"{fmt} carries no floor ({f.floor_m:g} m): dropped")
+    if f.floor_gaps:
+        warnings.append(f"{fmt} carries no floor gaps: {len(f.floor_gaps)} dropped")
+    n = sum(1 for x in f.keep_out_polygon_extents if not x.full_height) + sum(
+        1 for c in f.keep_out_circles if not c.extent.full_height
+    )
+    if n:
+        warnings.append(f"{fmt} carries no keep-out floor/ceiling: {n} keep-out(s) written as full-height columns")
+
+
+def _ll(poly: PolygonLL) -> list[list[float]]:
+    return [[float(lat), float(lon)] for lat, lon in poly]
+
+
+def _export_plan(f: Fence, rally: tuple[RallyPoint, ...], warnings: list[str]) -> str:
+    _vertical_losses(f, "qgc_plan", warnings)
+    polygons: list[dict[str, Any]] = []
+    circles: list[dict[str, Any]] = []
+    if f.keep_in_circle is not None:
+        lat, lon, r = f.keep_in_circle
+        circles.append({"circle": {"center": [lat, lon], "radius": r}, "inclusion": True, "version": 1})
+    else:
+        polygons.append({"inclusion": True, "polygon": _ll(f.keep_in), "version": 1})
+    polygons += [{"inclusion": False, "polygon": _ll(p), "version": 1} for p in f.keep_out_polygons]
+    circles += [
+        {"circle": {"center": [c.center_lat_deg, c.center_lon_deg], "radius": c.radius_m}, "inclusion": False, "version": 1}
+        for c in f.keep_out_circles
+    ]
+    geo: dict[str, Any] = {"circles": circles, "polygons": polygons, "version": 2}
+    if f.recovery_point is not None:
+        rp = list(f.recovery_point)
+        geo["breachReturn"] = rp + [0.0] * (3 - len(rp))
+    home = f.recovery_point[:2] if f.recovery_point is not None else f.keep_in[0]
+    doc = {
+        "fileType": "Plan", "groundStation": "geofence-testbed", "version": 1, "geoFence": geo,
+        "mission": {"cruiseSpeed": 15, "firmwareType": 3, "hoverSpeed": 5, "items": [],
+                    "plannedHomePosition": [home[0], home[1], 0.0], "vehicleType": 2, "version": 2},
+        "rallyPoints": {"points": [[p.lat_deg, p.lon_deg, p.alt_m] for p in rally], "version": 2},
+    }  # fmt: skip
+    return json.dumps(doc, indent=4) + "\n"
+
+
+def _wpl_line(seq: int, cmd: int, p1: float, lat: float, lon: float, alt: float = 0.0, frame: int = 0) -> str:
+    return "\t".join([str(seq), "0", str(frame), str(cmd), repr(float(p1)), "0.0", "0.0", "0.0", repr(float(lat)), repr(float(lon)), repr(float(alt)), "1"])  # fmt: skip
+
+
+def _export_wpl110(f: Fence, rally: tuple[RallyPoint, ...], warnings: list[str]) -> str:
+    _vertical_losses(f, "qgc_wpl_110", warnings)
+    rows: list[tuple[int, float, float, float, float]] = []  # cmd, p1, lat, lon, alt
+    if f.recovery_point is not None:
+        rp = f.recovery_point
+        rows.append((MAV_CMD_NAV_FENCE_RETURN_POINT, 0.0, rp[0], rp[1], rp[2] if len(rp) > 2 else 0.0))
+    if f.keep_in_circle is not None:
+        lat, lon, r = f.keep_in_circle
+        rows.append((MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, r, lat, lon, 0.0))
+    else:
+        rows += [(MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, len(f.keep_in), lat, lon, 0.0) for lat, lon in f.keep_in]
+    for p in f.keep_out_polygons:
+        rows += [(MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION, len(p), lat, lon, 0.0) for lat, lon in p]
+    rows += [
+        (MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, c.radius_m, c.center_lat_deg, c.center_lon_deg, 0.0) for c in f.keep_out_circles
+    ]
+    lines = ["QGC WPL 110"] + [_wpl_line(i, *row) for i, row in enumerate(rows)]
+    frames = {"relative": 3, "amsl": 0, "terrain": 10}
+    lines += [
+        _wpl_line(len(rows) + i, MAV_CMD_NAV_RALLY_POINT, 0.0, p.lat_deg, p.lon_deg, p.alt_m, frames.get(p.alt_reference, 3))
+        for i, p in enumerate(rally)
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _export_mavproxy(f: Fence, rally: tuple[RallyPoint, ...], warnings: list[str]) -> str:
+    _vertical_losses(f, "mavproxy_fence", warnings)
+    if f.keep_in_circle is not None:
+        warnings.append("mavproxy_fence has no circle: the keep-in circle is written as its inscribed polygon")
+    if f.keep_out_polygons or f.keep_out_circles:
+        warnings.append(f"mavproxy_fence has no keep-outs: {len(f.keep_out_polygons) + len(f.keep_out_circles)} dropped")
+    if rally:
+        warnings.append("mavproxy_fence has no rally points: write them with the rally format")
+    rp = f.recovery_point[:2] if f.recovery_point is not None else (0.0, 0.0)
+    pts = [rp, *f.keep_in, f.keep_in[0]]
+    return "".join(f"{float(lat)!r} {float(lon)!r}\n" for lat, lon in pts)
+
+
+def _keep_out_ring(c: KeepOutCircle) -> PolygonLL:
+    """A keep-out circle as a polygon that contains it (conservative: the edges are tangent to the circle, or
+    outside it): the inscribed polygon of :func:`circle_to_polygon` on the radius ``r / cos(pi / n)``."""
+    _, n, _ = circle_to_polygon(c.center_lat_deg, c.center_lon_deg, c.radius_m)
+    verts, _, _ = circle_to_polygon(c.center_lat_deg, c.center_lon_deg, c.radius_m / math.cos(math.pi / n))
+    return verts
+
+
+def _export_geojson(f: Fence, rally: tuple[RallyPoint, ...], warnings: list[str]) -> str:
+    def ring(poly: PolygonLL) -> list[list[float]]:
+        pts = [[float(lon), float(lat)] for lat, lon in poly]
+        return pts + [pts[0]]
+
+    def feature(role: str, name: str, geometry: dict, **props: Any) -> dict:
+        return {"type": "Feature", "properties": {"geofence": role, "name": name, **props}, "geometry": geometry}
+
+    if f.keep_in_circle is not None:
+        warnings.append("geojson has no circle: the keep-in circle is written as its inscribed polygon")
+    top: dict[str, Any] = {"ceiling_m": f.ceiling_m, "altitude_reference": f.altitude_reference.value}
+    if f.floor_m is not None:
+        top["floor_m"] = f.floor_m
+    if f.floor_gaps:
+        warnings.append(f"geojson (as read here) carries no floor gaps: {len(f.floor_gaps)} dropped")
+    feats = [feature("keep_in", "keep_in", {"type": "Polygon", "coordinates": [ring(f.keep_in)]})]
+    extents = f.keep_out_polygon_extents or (FULL_HEIGHT,) * len(f.keep_out_polygons)
+    for i, (p, x) in enumerate(zip(f.keep_out_polygons, extents)):
+        feats.append(feature("keep_out", f"keep_out {i}", {"type": "Polygon", "coordinates": [ring(p)]}, **_extent_props(x)))
+    if f.keep_out_circles:
+        warnings.append(f"geojson has no circle: {len(f.keep_out_circles)} keep-out circle(s) written as polygons around them")
+    for i, c in enumerate(f.keep_out_circles):
+        poly = _keep_out_ring(c)
+        feats.append(
+            feature(
+                "keep_out", f"keep_out circle {i}", {"type": "Polygon", "coordinates": [ring(poly)]}, **_extent_props(c.extent)
+            )
+        )
+    if f.recovery_point is not None:
+        rp = f.recovery_point
+        props = {"alt_m": rp[2]} if len(rp) > 2 else {}
+        feats.append(feature("return_point", "return point", {"type": "Point", "coordinates": [rp[1], rp[0]]}, **props))
+    for i, rally_point in enumerate(rally):
+        where = [rally_point.lon_deg, rally_point.lat_deg]
+        feats.append(feature("rally", f"rally {i}", {"type": "Point", "coordinates": where}, alt_m=rally_point.alt_m))
+    return json.dumps({"type": "FeatureCollection", "properties": top, "features": feats}, indent=1) + "\n"
+
+
+def _extent_props(x: VerticalExtent) -> dict[str, float]:
+    out = {}
+    if x.floor_m is not None:
+        out["floor_m"] = x.floor_m
+    if x.ceiling_m is not None:
+        out["ceiling_m"] = x.ceiling_m
+    return out
+
+
+def _export_kml(f: Fence, rally: tuple[RallyPoint, ...], warnings: list[str]) -> str:
+    """KML 2.2 (Google Earth): the keep-in and keep-outs as extruded polygons up to their ceiling (relative to the
+    ground), the return and rally points as placemarks. Written with :mod:`xml.etree.ElementTree`."""
+    import xml.etree.ElementTree as ET
+
+    ns = "http://www.opengis.net/kml/2.2"
+    root = ET.Element("kml", xmlns=ns)
+    doc = ET.SubElement(root, "Document")
+    ET.SubElement(doc, "name").text = "geofence"
+    for sid, colour in (("keep_in", "4000ff00"), ("keep_out", "400000ff")):
+        style = ET.SubElement(doc, "Style", id=sid)
+        ET.SubElement(ET.SubElement(style, "PolyStyle"), "color").text = colour
+
+    def polygon(name: str, style: str, poly: PolygonLL, top_m: float) -> None:
+        pm = ET.SubElement(doc, "Placemark")
+        ET.SubElement(pm, "name").text = name
+        ET.SubElement(pm, "styleUrl").text = f"#{style}"
+        pg = ET.SubElement(pm, "Polygon")
+        ET.SubElement(pg, "extrude").text = "1"
+        ET.SubElement(pg, "altitudeMode").text = "relativeToGround"
+        ring = ET.SubElement(ET.SubElement(pg, "outerBoundaryIs"), "LinearRing")
+        pts = [*poly, poly[0]]
+        ET.SubElement(ring, "coordinates").text = " ".join(f"{float(lon)!r},{float(lat)!r},{top_m!r}" for lat, lon in pts)
+
+    def point(name: str, lat: float, lon: float, alt: float) -> None:
+        pm = ET.SubElement(doc, "Placemark")
+        ET.SubElement(pm, "name").text = name
+        pt = ET.SubElement(pm, "Point")
+        ET.SubElement(pt, "altitudeMode").text = "relativeToGround"
+        ET.SubElement(pt, "coordinates").text = f"{float(lon)!r},{float(lat)!r},{float(alt)!r}"
+
+    if f.keep_in_circle is not None:
+        warnings.append("kml has no circle: the keep-in circle is written as its inscribed polygon")
+    polygon("keep_in", "keep_in", f.keep_in, float(f.ceiling_m))
+    extents = f.keep_out_polygon_extents or (FULL_HEIGHT,) * len(f.keep_out_polygons)
+    for i, (p, x) in enumerate(zip(f.keep_out_polygons, extents)):
+        polygon(f"keep_out {i}", "keep_out", p, float(x.ceiling_m if x.ceiling_m is not None else f.ceiling_m))
+    for i, c in enumerate(f.keep_out_circles):
+        top = float(c.extent.ceiling_m if c.extent.ceiling_m is not None else f.ceiling_m)
+        polygon(f"keep_out circle {i}", "keep_out", _keep_out_ring(c), top)
+    if f.keep_out_circles:
+        warnings.append(f"kml has no circle: {len(f.keep_out_circles)} keep-out circle(s) written as polygons around them")
+    if f.recovery_point is not None:
+        rp = f.recovery_point
+        point("return point", rp[0], rp[1], rp[2] if len(rp) > 2 else 0.0)
+    for i, rally_point in enumerate(rally):
+        point(f"rally {i}", rally_point.lat_deg, rally_point.lon_deg, rally_point.alt_m)
+    ET.indent(root)
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"

@@ -1,4 +1,4 @@
-"""Read a real flight log (MAVLink telemetry ``.tlog`` or ArduPilot DataFlash ``.bin``) into trajectory columns.
+"""Read a real flight log (MAVLink ``.tlog``, ArduPilot DataFlash ``.bin``, PX4 ULog ``.ulg``) into trajectory columns.
 
 The columns match :mod:`scenarios.flight.recorder` where the log has the data, so
 :func:`analysis.scoring.score_flight` works on them unchanged:
@@ -12,7 +12,8 @@ The columns match :mod:`scenarios.flight.recorder` where the log has the data, s
     WGS-84 position, altitude above mean sea level as the autopilot reports it.
 ``agl_m``
     height above home: GLOBAL_POSITION_INT ``relative_alt``; DataFlash
-    ``POS.RelHomeAlt`` (interpolated to the GPS samples). With neither
+    ``POS.RelHomeAlt`` (interpolated to the GPS samples); ULog ``alt`` minus
+    ``home_position.alt``. With neither
     (GPS_RAW_INT fallback, a .bin without POS) it is ``alt_m`` minus the first
     sample's ``alt_m`` and ``LogInfo.agl_source`` says so.
 ``east_m``, ``north_m``, ``up_m``
@@ -55,6 +56,11 @@ limits of :class:`SanityLimits`):
 :func:`check_near_fence` refuses a log whose median position is far from a
 fence (a wrong fence file). A tlog carrying several vehicles keeps the system id
 that sent the most position messages.
+
+A ULog is read with pyulog: ``vehicle_global_position`` (the estimator's
+lat/lon/alt AMSL; velocities by differentiation), else ``vehicle_gps_position``
+(the receiver's fixes with ``fix_type`` >= 3 and its NED velocity); the time
+axis is the log's microseconds since boot; ``mode`` is ``vehicle_status.nav_state``.
 
 pymavlink is used for decoding (``mavutil.mavlink_connection(path,
 dialect="ardupilotmega")``); messages are read once, row by row, into
@@ -132,7 +138,7 @@ class LogInfo:
     """What a log is: for a report next to its scores."""
 
     path: str
-    log_format: str  # "tlog" or "dataflash"
+    log_format: str  # "tlog", "dataflash" or "ulog"
     vehicle_type: str  # e.g. "FIXED_WING", "QUADROTOR" ("UNKNOWN" if not stated)
     autopilot: str  # e.g. "ARDUPILOTMEGA", or the firmware string of a .bin
     position_source: str  # message type the trajectory came from
@@ -179,7 +185,7 @@ def load_log(
         head = fh.read(3)
     is_dataflash = head == b"\xa3\x95\x80"  # DataFlash binary: HEAD1, HEAD2, FMT id 128
     if head == b"ULo" or p.suffix.lower() == ".ulg":
-        raise LogError(f"{name}: PX4 ULog (.ulg) logs are not supported yet (only .tlog and DataFlash .bin)")
+        return _read_ulog(p, name, frame, limits)
     if not is_dataflash and p.suffix.lower() == ".bin":
         raise LogError(f"{name}: not a DataFlash log (it does not start with the DataFlash header A3 95 80)")
     # pymavlink prints to stdout/stderr on garbage (thousands of lines): keep it, count it, never show it
@@ -480,6 +486,78 @@ def _read_dataflash(p: Path, name: str, frame: LocalFrame | None, limits: Sanity
         simulated,
         limits,
     )
+
+
+# --------------------------------------------------------------------------- PX4 ULog
+PX4_NAV_STATES = {
+    0: "MANUAL", 1: "ALTCTL", 2: "POSCTL", 3: "AUTO_MISSION", 4: "AUTO_LOITER", 5: "AUTO_RTL", 10: "ACRO",
+    12: "DESCEND", 13: "TERMINATION", 14: "OFFBOARD", 15: "STAB", 17: "AUTO_TAKEOFF", 18: "AUTO_LAND",
+    19: "AUTO_FOLLOW_TARGET", 20: "AUTO_PRECLAND", 21: "ORBIT", 22: "AUTO_VTOL_TAKEOFF",
+}  # fmt: skip
+"""PX4 ``vehicle_status.nav_state`` numbers and names (msg/VehicleStatus.msg)."""
+_ULOG_TOPICS = ["vehicle_global_position", "vehicle_gps_position", "vehicle_status", "home_position"]
+
+
+def _read_ulog(p: Path, name: str, frame: LocalFrame | None, limits: SanityLimits):
+    try:
+        from pyulog import ULog
+    except ImportError:  # pragma: no cover - a dependency of the package
+        raise LogError(f"{name}: reading a PX4 ULog needs pyulog (pip install pyulog)") from None
+    try:
+        with _silenced():
+            ulog = ULog(str(p), _ULOG_TOPICS)
+    except Exception as exc:  # pyulog raises many types on garbage
+        raise LogError(f"{name}: pyulog cannot read it ({type(exc).__name__}: {exc})") from None
+    topics = {d.name: d.data for d in ulog.data_list if d.multi_id == 0}
+    counts = collections.Counter({d.name: len(d.data["timestamp"]) for d in ulog.data_list})
+    vel: tuple[np.ndarray | None, ...] = (None, None, None)
+    if "vehicle_global_position" in topics:
+        d = topics["vehicle_global_position"]
+        lat, lon, alt = (np.asarray(d[k], dtype=float) for k in ("lat", "lon", "alt"))
+        ok, source = _valid(lat, lon), "vehicle_global_position"
+    elif "vehicle_gps_position" in topics:
+        d = topics["vehicle_gps_position"]
+        new = "latitude_deg" in d  # (PX4 >= 1.14: degrees and metres; before: 1e-7 deg and mm)
+        lat = np.asarray(d["latitude_deg"] if new else d["lat"] * 1e-7, dtype=float)
+        lon = np.asarray(d["longitude_deg"] if new else d["lon"] * 1e-7, dtype=float)
+        alt = np.asarray(d["altitude_msl_m"] if new else d["alt"] * 1e-3, dtype=float)
+        vel = (np.asarray(d["vel_e_m_s"], float), np.asarray(d["vel_n_m_s"], float), -np.asarray(d["vel_d_m_s"], float))
+        ok, source = _valid(lat, lon) & (np.asarray(d["fix_type"]) >= 3), "vehicle_gps_position"
+    else:
+        raise LogError(f"{name}: no vehicle_global_position or vehicle_gps_position topic")
+    t = np.asarray(d["timestamp"], dtype=float) * 1e-6
+    home = topics.get("home_position")
+    if home is not None and len(home["alt"]):
+        agl, agl_source = alt - float(home["alt"][-1]), "alt minus home_position.alt"
+    else:
+        agl = alt - alt[ok][0] if ok.any() else alt
+        agl_source = "alt_m minus the first sample's alt_m (no home_position)"
+    cols = {
+        "msg_index": np.arange(len(t)), "lat_deg": lat, "lon_deg": lon, "alt_m": alt, "agl_m": agl,
+        "v_east_mps": vel[0], "v_north_mps": vel[1], "v_up_mps": vel[2], "vehicle_time_s": t,
+    }  # fmt: skip
+    integrity = _Integrity(t, 0, 0, "corrupt ULog chunks", 0)
+    info = ulog.msg_info_dict
+    status = topics.get("vehicle_status")
+    return _finish(
+        name, "ulog", cols, _ulog_modes(status, t), ok, frame, integrity, counts, _ulog_vehicle_type(status),
+        str(info.get("sys_name", "PX4")).upper(), source, agl_source, "SITL" in str(info.get("ver_hw", "")), limits,
+    )  # fmt: skip
+
+
+def _ulog_modes(status: dict | None, t: np.ndarray) -> np.ndarray:
+    """The nav_state name in force at each time of ``t`` ("UNKNOWN" before the first vehicle_status)."""
+    if status is None or not len(status["timestamp"]):
+        return np.full(len(t), "UNKNOWN")
+    ts = np.asarray(status["timestamp"], dtype=float) * 1e-6
+    names = np.array(["UNKNOWN"] + [PX4_NAV_STATES.get(int(v), f"NAV_STATE_{int(v)}") for v in status["nav_state"]])
+    return names[np.searchsorted(ts, t, side="right")]
+
+
+def _ulog_vehicle_type(status: dict | None) -> str:
+    if status is None or "vehicle_type" not in status or not len(status["vehicle_type"]):
+        return "UNKNOWN"  # vehicle_type: 1 rotary wing, 2 fixed wing (VehicleStatus.msg)
+    return {1: "QUADROTOR", 2: "FIXED_WING", 3: "GROUND_ROVER"}.get(int(status["vehicle_type"][-1]), "UNKNOWN")
 
 
 # --------------------------------------------------------------------------- common

@@ -9,6 +9,8 @@ Subcommands:
 * ``seed-reproduction DIR``: fly the seed work's indoor quad with the reactive and our predictive fence.
 * ``score-log LOG --fence FILE``: score a real flight log (tlog / DataFlash .bin) against a fence file.
 * ``import-fence FILE``: turn a GeoJSON / QGC .plan / WPL 110 / MAVProxy fence file into a scenario ``geofence:`` block.
+* ``export-fence IN --to FORMAT --out FILE``: write a scenario's or a file's fence as .plan / WPL 110 / MAVProxy /
+  GeoJSON / KML.
 * ``validate SCENARIO.yaml...``: check scenario files without flying them.
 * ``list``: the aircraft that can fly and the shipped example scenarios.
 * ``check SCENARIO.yaml...``: the pre-flight mission check (where would the geofence override the mission?).
@@ -77,6 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--out", type=Path, default=Path("out"), metavar="DIR", help="output folder (default: ./out)")
     run.add_argument("--quiet", action="store_true", help="no progress display, only the final lines")
     run.add_argument("--no-plot", action="store_true", help="skip flight.png/flight.svg (ground track, altitude, speed)")
+    _mavlink_run_options(run)
 
     batch = sub.add_parser(
         "batch",
@@ -187,6 +190,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     imp.add_argument("--force", action="store_true", help="overwrite OUT.yaml if it exists")
     _inclusion_option(imp)
+
+    _export_fence_parser(sub)
 
     val = sub.add_parser(
         "validate",
@@ -331,6 +336,135 @@ def _companion_parser(sub: Any) -> None:
     comp.add_argument("--report", type=Path, metavar="FILE.json", help="write the link and override report here")
 
 
+def _export_fence_parser(sub) -> None:
+    ex = sub.add_parser(
+        "export-fence",
+        help="write a fence as a ground-station file (.plan, WPL 110, MAVProxy, GeoJSON, KML)",
+        description=(
+            "Read a fence (a scenario file's geofence.fence, or any fence file import-fence reads) and write it as "
+            "FORMAT: qgc_plan (QGroundControl .plan: polygons and circles, the breach return point, rally points), "
+            "qgc_wpl_110 (mission items 5000-5004 and rally 5100), mavproxy_fence (old FENCE_POINT text: the return "
+            "point and the keep-in polygon only), geojson (RFC 7946, properties.geofence roles, ceiling_m/floor_m; "
+            "circles as polygons) or kml (Google Earth: extruded polygons up to the ceiling). Coordinates keep every "
+            "digit: import-fence reads the same vertices back. What the format cannot carry (the ceiling in the "
+            "MAVLink formats, keep-outs in MAVProxy text, circles in GeoJSON/KML) is said on stderr."
+        ),
+    )
+    ex.add_argument("fence_in", type=Path, metavar="IN", help="SCENARIO.yaml or a fence file")
+    ex.add_argument("--to", required=True, choices=("qgc_plan", "qgc_wpl_110", "mavproxy_fence", "geojson", "kml"), metavar="FORMAT",
+                    help="qgc_plan, qgc_wpl_110, mavproxy_fence, geojson or kml")  # fmt: skip
+    ex.add_argument("--out", type=Path, required=True, metavar="FILE", help="the file to write (replaced)")
+    ex.add_argument("--ceiling", type=float, default=None, metavar="M", help="with a fence file IN: its ceiling, m above home")
+    _inclusion_option(ex)
+
+
+def _cmd_export_fence(args) -> int:
+    from analysis.formats.fence_files import export_fence, load_fence_file
+    from geofence.validation import ConfigError
+
+    check_output_file(args.out, "--out")
+    rally: tuple = ()
+    if args.fence_in.suffix.lower() in (".yaml", ".yml"):
+        from scenarios.definition.schema import load_scenario
+
+        sc = load_scenario(args.fence_in)
+        if sc.geofence is None:
+            raise ConfigError(f"{args.fence_in}: geofence: the scenario has no fence to export")
+        fence = sc.geofence.fence
+    else:
+        imported = load_fence_file(args.fence_in, ceiling_m=args.ceiling, inclusion_polygon=args.inclusion_polygon)
+        fence, rally = imported.fence, imported.rally_points
+        for w in imported.warnings:
+            print(f"warning: {args.fence_in}: {w}", file=sys.stderr)
+    exported = export_fence(fence, args.to, rally)
+    for w in exported.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.out.with_name(f".{args.out.name}.tmp")
+    tmp.write_text(exported.text)
+    os.replace(tmp, args.out)
+    print(f"wrote {args.out}")
+    return 0
+
+
+def _mavlink_run_options(run: argparse.ArgumentParser) -> None:
+    """``run``'s MAVLink flags: the flight as a MAVLink vehicle, and its telemetry log."""
+    g = run.add_argument_group(
+        "MAVLink vehicle",
+        "With --mavlink the flight has no in-process geofence unit: it publishes its telemetry (system 1, "
+        "component 1; ATTITUDE and GLOBAL_POSITION_INT at 50 Hz capped at the control rate, GPS_RAW_INT per fix, "
+        "SCALED_PRESSURE and VFR_HUD 10 Hz, WIND 2 Hz, HEARTBEAT 1 Hz) and flies the sticks a companion commands "
+        "(RC_CHANNELS_OVERRIDE from system 255, or MANUAL_CONTROL with --mavlink-autopilot px4) in place of the "
+        "pilot's. summary.json is still scored against the scenario's fence and gains a 'link' block.",
+    )
+    g.add_argument("--mavlink", metavar="URL", help="pymavlink URL to speak on, e.g. udpout:127.0.0.1:14550")
+    g.add_argument(
+        "--mavlink-autopilot", choices=("ardupilot", "px4"), default="ardupilot",
+        help="whose HEARTBEAT and override conventions (default ardupilot)",
+    )  # fmt: skip
+    g.add_argument(
+        "--lockstep", action="store_true",
+        help="after each tick's ATTITUDE wait for the companion's NAMED_VALUE_FLOAT GF_MARGIN of that tick "
+        "(deterministic; default: paced to wall-clock time, never waiting)",
+    )  # fmt: skip
+    g.add_argument(
+        "--lockstep-timeout-s", type=float, default=10.0, metavar="S", help="lock-step wait bound, wall s (default 10)"
+    )
+    g.add_argument(
+        "--rc-override-time-s", type=float, default=3.0, metavar="S",
+        help="ArduPilot RC_OVERRIDE_TIME: an override channel reverts to the pilot this long after its last "
+        "override (default 3; -1 never)",
+    )  # fmt: skip
+    g.add_argument(
+        "--tlog", type=Path, metavar="FILE",
+        help="also write the flight as a MAVLink 2 telemetry log (one scenario only): with --mavlink every message "
+        "sent and received, else the recorded trajectory as the vehicle's telemetry",
+    )  # fmt: skip
+
+
+def _check_mavlink_run_options(args) -> None:
+    from geofence.validation import ConfigError
+
+    if args.tlog is not None:
+        if len(args.scenarios) != 1:
+            raise ConfigError("--tlog: give exactly one scenario")
+        check_output_file(args.tlog, "--tlog")
+    if args.mavlink is None and args.lockstep:
+        raise ConfigError("--lockstep: needs --mavlink URL")
+    if not args.lockstep_timeout_s > 0.0:
+        raise ConfigError(f"--lockstep-timeout-s: must be > 0, got {args.lockstep_timeout_s:g}")
+
+
+def _fly_and_write(sc, spec, args, on_step):
+    """Fly one scenario of ``run`` (in process, or as a MAVLink vehicle) and write its folder and tlog."""
+    from scenarios.flight.runner import run_scenario, write_result
+
+    if args.mavlink is None:
+        result = run_scenario(sc, args.out, on_step=on_step, plot=not args.no_plot, scenario_hash=spec.scenario_hash)
+        if args.tlog is not None:
+            from geofence.interface import PlatformKind
+            from scenarios.link.sticks import Autopilot
+            from scenarios.link.tlog import write_trajectory_tlog
+
+            traj = {name: result.recorder.column(name) for name in result.recorder.columns}
+            kind = PlatformKind(result.summary["platform_kind"])
+            write_trajectory_tlog(traj, args.tlog, kind, autopilot=Autopilot(args.mavlink_autopilot))
+        return result
+    from scenarios.flight.mavlink_vehicle import LinkOptions, fly_mavlink
+    from scenarios.link.sticks import Autopilot
+
+    opts = LinkOptions(
+        url=args.mavlink, autopilot=Autopilot(args.mavlink_autopilot), lockstep=args.lockstep,
+        lockstep_timeout_s=args.lockstep_timeout_s, rc_override_time_s=args.rc_override_time_s, tlog=args.tlog,
+    )  # fmt: skip
+    result = fly_mavlink(sc, opts, on_step=on_step)
+    text = Path(sc.source).read_text() if sc.source is not None and Path(sc.source).is_file() else None
+    write_result(result, args.out, scenario_text=text, plot=not args.no_plot, scenario_hash=spec.scenario_hash)
+    if result.summary.get("error"):
+        print(f"error: {sc.name}: {result.summary['error']}", file=sys.stderr)
+    return result
+
+
 def _inclusion_option(sub: argparse.ArgumentParser) -> None:
     sub.add_argument(
         "--inclusion-polygon",
@@ -403,6 +537,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_score_log(args)
         if args.command == "import-fence":
             return _cmd_import_fence(args)
+        if args.command == "export-fence":
+            return _cmd_export_fence(args)
         if args.command == "validate":
             return _cmd_validate(args)
         if args.command == "list":
@@ -570,12 +706,12 @@ def _cmd_run(args) -> int:
     from scenarios.app.batch import check_unique_names
     from scenarios.definition.schema import load_scenario, read_document
     from scenarios.definition.sweep import expand
-    from scenarios.flight.runner import run_scenario
 
     scenarios = [load_scenario(p) for p in args.scenarios]  # validate everything before flying anything
     specs = [expand(read_document(p), str(p), p.stem)[0] for p in args.scenarios]
     check_unique_names(specs)
     check_output_dir(args.out, "--out")
+    _check_mavlink_run_options(args)
     for w in dict.fromkeys(w for sc in scenarios for w in sc.warnings):
         print(f"warning: {w}", file=sys.stderr)
     failed = 0
@@ -583,9 +719,7 @@ def _cmd_run(args) -> int:
         bar = _progress(sc, quiet=args.quiet)
         on_step, notice = progress_steps(bar)
         try:
-            result = run_scenario(
-                sc, args.out, on_step=_stops_when_interrupted(on_step), plot=not args.no_plot, scenario_hash=spec.scenario_hash
-            )
+            result = _fly_and_write(sc, spec, args, _stops_when_interrupted(on_step))
         finally:
             if notice is not None:
                 notice.cancel()

@@ -35,6 +35,7 @@ from aircraft.factory import build_platform
 from analysis.scoring import SCORED_COLUMNS, score_flight
 from geofence.geometry.geodesy import LocalFrame
 from geofence.geometry.local_fence import LocalFence
+from geofence.interface import Envelope
 from geofence.unit.geofence_unit import GeofenceUnit, Mode
 from scenarios.definition.preflight import findings_summary, preflight_findings
 from scenarios.definition.schema import PilotKind, Scenario
@@ -71,28 +72,10 @@ class FlightResult:
 def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> FlightResult:
     """Fly ``scenario`` in closed loop and return the recorded flight (nothing is written)."""
     wall0 = time.perf_counter()
-    st = scenario.start
-    frame = scenario.frame
-    platform = build_platform(scenario.profile)
-    env = platform.envelope
-    wind = wind_from_config(scenario.wind, scenario.seed) if scenario.wind is not None else CalmWind()
-    # the wind's arrays sampled by one compiled call (the same numbers), where the field is one wind_from_config
-    # builds; else the field objects
-    wind_arrays = compiled_wind(wind)
-    sampler: WindField | WindArrays = wind if wind_arrays is None else wind_arrays  # sample() and the activation hook
-    sample_wind = sampler.sample
-    # the start is settled in the wind at t = 0 (platforms keep a wind set before reset)
-    platform.set_wind_enu(*sample_wind(0.0, 0.0, 0.0, st.agl_m, st.airspeed_mps or env.cruise_speed_mps))
-    platform.reset(frame, st.lat_deg, st.lon_deg, st.agl_m, st.heading_deg, st.airspeed_mps)
-
-    frames_per_step = scenario.frames_per_step  # (the platform's dt_s is 1 / profile.frame_rate_hz)
-    dt_s = frames_per_step * platform.dt_s
-    n_steps = int(math.ceil(scenario.duration_s / dt_s))
-    recorder = Recorder(n_steps + 1)
-
-    truth = platform.truth()
-    t0 = truth.t_s
-    pilot = build_pilot(scenario, frame, env, truth, dt_s)
+    setup = set_up_flight(scenario)
+    frame, platform, env, wind, wind_arrays = setup.frame, setup.platform, setup.env, setup.wind, setup.wind_arrays
+    sampler, sample_wind, frames_per_step, dt_s = setup.sampler, setup.sample_wind, setup.frames_per_step, setup.dt_s
+    n_steps, recorder, t0, pilot = setup.n_steps, setup.recorder, setup.t0, setup.pilot
     fence: LocalFence | None = None
     unit: GeofenceUnit | None = None
     own: GeofenceSensing | None = None
@@ -177,7 +160,79 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     # a flight is complete when it ran to its end: the mission finished, a script ran its
     # duration, or the geofence ended it by landing in a floor gap / terminating there
     completed = error is None and (pilot.finished or geofence_ended if mission else True)
-    summary: dict[str, Any] = {
+    summary = flight_summary(scenario, env, pilot, recorder, completed, geofence_ended, error, wall, loop_wall, frames, dt_s)
+    if unit is not None and fence is not None:
+        summary["preflight"] = findings_summary(preflight_findings(scenario))
+        traj = {name: recorder.column(name) for name in SCORED_COLUMNS}
+        summary.update(score_flight(traj, fence))
+        summary["activations"] = unit.activations
+        first = unit.first_activation_s
+        summary["first_activation_s"] = None if first is None else round(first, 3)  # as the transitions' times
+        summary["final_mode"] = unit.mode.name
+        summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
+    return FlightResult(
+        scenario=scenario, summary=summary, recorder=recorder, frame=frame, pilot=pilot, unit=unit, fence=fence,
+        compiled_steps=0 if fused is None else fused.steps,
+    )  # fmt: skip
+
+
+@dataclass
+class FlightSetup:
+    """What a flight is flown with before its first step: the platform reset at the start, settled in the wind at
+    t = 0, the wind (its field, its compiled arrays where it has them, the sampler), the step, the recorder and
+    the pilot (:func:`set_up_flight`)."""
+
+    frame: LocalFrame
+    platform: Any
+    env: Envelope
+    wind: WindField
+    wind_arrays: WindArrays | None
+    sampler: WindField | WindArrays
+    sample_wind: Callable[..., Any]
+    frames_per_step: int
+    dt_s: float
+    n_steps: int
+    recorder: Recorder
+    t0: float
+    pilot: Pilot
+
+
+def set_up_flight(scenario: Scenario) -> FlightSetup:
+    """The platform, wind, recorder and pilot of ``scenario``, the platform reset at its start (for :func:`fly` and
+    the MAVLink vehicle, :mod:`scenarios.flight.mavlink_vehicle`)."""
+    st = scenario.start
+    frame = scenario.frame
+    platform = build_platform(scenario.profile)
+    env = platform.envelope
+    wind = wind_from_config(scenario.wind, scenario.seed) if scenario.wind is not None else CalmWind()
+    # the wind's arrays sampled by one compiled call (the same numbers), where the field is one wind_from_config
+    # builds; else the field objects
+    wind_arrays = compiled_wind(wind)
+    sampler: WindField | WindArrays = wind if wind_arrays is None else wind_arrays  # sample() and the activation hook
+    sample_wind = sampler.sample
+    # the start is settled in the wind at t = 0 (platforms keep a wind set before reset)
+    platform.set_wind_enu(*sample_wind(0.0, 0.0, 0.0, st.agl_m, st.airspeed_mps or env.cruise_speed_mps))
+    platform.reset(frame, st.lat_deg, st.lon_deg, st.agl_m, st.heading_deg, st.airspeed_mps)
+
+    frames_per_step = scenario.frames_per_step  # (the platform's dt_s is 1 / profile.frame_rate_hz)
+    dt_s = frames_per_step * platform.dt_s
+    n_steps = int(math.ceil(scenario.duration_s / dt_s))
+    recorder = Recorder(n_steps + 1)
+
+    truth = platform.truth()
+    t0 = truth.t_s
+    pilot = build_pilot(scenario, frame, env, truth, dt_s)
+    return FlightSetup(
+        frame, platform, env, wind, wind_arrays, sampler, sample_wind, frames_per_step, dt_s, n_steps, recorder, t0, pilot
+    )
+
+
+def flight_summary(
+    scenario: Scenario, env: Envelope, pilot: Pilot, recorder: Recorder, completed: bool, geofence_ended: bool,
+    error: str | None, wall: float, loop_wall: float, frames: int, dt_s: float,
+) -> dict[str, Any]:  # fmt: skip
+    """The summary keys every flight has (the geofence's scores and transitions are added by the caller)."""
+    return {
         "scenario": scenario.name,
         "aircraft": scenario.aircraft,
         "platform_kind": env.kind.value,
@@ -202,19 +257,6 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         "max_ground_speed_mps": round(float(recorder.column("ground_speed_mps").max()), 2) if recorder.n else 0.0,
         "error": error,
     }
-    if unit is not None and fence is not None:
-        summary["preflight"] = findings_summary(preflight_findings(scenario))
-        traj = {name: recorder.column(name) for name in SCORED_COLUMNS}
-        summary.update(score_flight(traj, fence))
-        summary["activations"] = unit.activations
-        first = unit.first_activation_s
-        summary["first_activation_s"] = None if first is None else round(first, 3)  # as the transitions' times
-        summary["final_mode"] = unit.mode.name
-        summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
-    return FlightResult(
-        scenario=scenario, summary=summary, recorder=recorder, frame=frame, pilot=pilot, unit=unit, fence=fence,
-        compiled_steps=0 if fused is None else fused.steps,
-    )  # fmt: skip
 
 
 def write_result(
