@@ -76,11 +76,15 @@ def imported_dotted(path: Path) -> set[str]:
 
 
 # Inside scenarios/, bottom up: airspace (the park generator, data) -> definition (scenario data) -> campaign (the
-# case generator) -> flight (the simulated flight) -> app (CLI, batch, experiments).
+# case generator) -> link (the MAVLink vocabulary) -> flight (the simulated flight) -> app (CLI, batch, experiments).
 SCENARIO_LAYER_FORBIDDEN = [
-    ("scenarios/airspace", ("scenarios.definition", "scenarios.campaign", "scenarios.flight", "scenarios.app")),
-    ("scenarios/definition", ("scenarios.campaign", "scenarios.flight", "scenarios.app")),
-    ("scenarios/campaign", ("scenarios.flight", "scenarios.app")),
+    (
+        "scenarios/airspace",
+        ("scenarios.definition", "scenarios.campaign", "scenarios.link", "scenarios.flight", "scenarios.app"),
+    ),
+    ("scenarios/definition", ("scenarios.campaign", "scenarios.link", "scenarios.flight", "scenarios.app")),
+    ("scenarios/campaign", ("scenarios.link", "scenarios.flight", "scenarios.app")),
+    ("scenarios/link", ("scenarios.flight", "scenarios.app")),
     ("scenarios/flight", ("scenarios.campaign", "scenarios.app")),
 ]
 

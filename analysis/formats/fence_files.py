@@ -118,7 +118,7 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, cast
+from typing import Any, NamedTuple, cast
 
 import numpy as np
 
@@ -291,6 +291,58 @@ def load_fence_file(
     raw = _raw_from_text(
         _read_text(Path(path)), name, max_vertices=max_vertices, max_polygons=max_polygons, keep_in_index=inclusion_polygon or 0
     )
+    return _build_imported(
+        raw, name, ceiling_m=ceiling_m, floor_m=floor_m, altitude_reference=altitude_reference, rally_path=rally_path,
+        circle_tolerance_m=circle_tolerance_m, return_point_as_recovery=return_point_as_recovery, floor_gaps=floor_gaps,
+        recovery_point=recovery_point, max_vertices=max_vertices, max_polygons=max_polygons,
+        inclusion_polygon=inclusion_polygon,
+    )  # fmt: skip
+
+
+class FenceItem(NamedTuple):
+    """One fence or rally item as a WPL 110 line or a MAVLink ``MISSION_ITEM_INT`` carries it (deg, m)."""
+
+    where: str
+    """How messages name the item (``line 12``, ``item 3``)."""
+    frame: int
+    command: int
+    params: tuple[float, ...]
+    """``param1 .. param4, lat_deg, lon_deg, alt_m``."""
+
+
+def fence_from_items(items: Sequence[FenceItem], name: str, **options: Any) -> ImportedFence:
+    """The fence of a mission item list (commands 5000-5004; 5100 rally items are kept as ``rally_points``), checked
+    and built exactly as a WPL 110 file of those items; ``options``: :func:`load_fence_file`'s keyword arguments
+    (not ``rally_path``). Raises :class:`FenceError` (``"<name>: <item>: <problem>"``)."""
+    raw = _Raw("mavlink_mission")
+    _read_items(items, name, raw)
+    return _build_imported(raw, name, **options)
+
+
+def rally_from_items(items: Sequence[FenceItem], name: str) -> tuple[RallyPoint, ...]:
+    """The rally points of a mission item list (command 5100; fence items are checked and ignored)."""
+    raw = _Raw("mavlink_mission")
+    _read_items(items, name, raw)
+    return tuple(raw.rally)
+
+
+def _build_imported(
+    raw: _Raw,
+    name: str,
+    *,
+    ceiling_m: float | None = None,
+    floor_m: float | None = None,
+    altitude_reference: str | None = None,
+    rally_path: str | Path | None = None,
+    circle_tolerance_m: float = DEFAULT_CIRCLE_TOLERANCE_M,
+    return_point_as_recovery: bool = True,
+    floor_gaps: Sequence[PolygonLL] = (),
+    recovery_point: tuple[float, ...] | None = None,
+    max_vertices: int = MAX_FENCE_VERTICES,
+    max_polygons: int = MAX_FENCE_POLYGONS,
+    inclusion_polygon: int | None = None,
+) -> ImportedFence:
+    """:func:`load_fence_file` after the file was read: the items of ``raw`` checked as a whole, the fence built."""
     if raw.fmt != "geojson":  # GeoJSON is checked before its coordinates are read
         polys = [*raw.inc_polys, *raw.exc_polys]
         _check_size(name, sum(len(p) for p in polys), len(polys), max_vertices, max_polygons)
@@ -764,7 +816,8 @@ def _parse_wpl110(text: str, name: str) -> _Raw:
     raw = _Raw("qgc_wpl_110")
     lines = text.splitlines()
     header_seen = False
-    items = []
+    items: list[FenceItem] = []
+    seqs: list[int] = []
     for lineno, line in enumerate(lines, 1):
         s = line.strip()
         if not s or s.startswith("#"):
@@ -784,29 +837,34 @@ def _parse_wpl110(text: str, name: str) -> _Raw:
         except ValueError:
             raise FenceError(f"{name}: {where}: seq, frame and command must be integers") from None
         p = [_float(t, name, where, f"field {k + 5}") for k, t in enumerate(a[4:11])]
-        items.append((lineno, seq, frame, cmd, p))
-    if items and [it[1] for it in items] != list(range(items[0][1], items[0][1] + len(items))):
+        seqs.append(seq)
+        items.append(FenceItem(where, frame, cmd, tuple(p)))
+    if seqs and seqs != list(range(seqs[0], seqs[0] + len(seqs))):
         raw.warnings.append("item sequence numbers are not consecutive; items were read in file order")
+    _read_items(items, name, raw)
+    return raw
 
-    group: list | None = None  # [cmd, count, first_lineno, vertices]
+
+def _read_items(items: Sequence[FenceItem], name: str, raw: _Raw) -> None:
+    """Fence and rally items (a WPL 110 file's lines, a MAVLink mission's items) into ``raw``, each checked."""
+    group: list | None = None  # [cmd, count, first item's where, vertices]
 
     def close_group() -> None:
         nonlocal group
         if group is None:
             return
-        cmd, count, ln, verts = group
+        cmd, count, first, verts = group
         if len(verts) != count:
             raise FenceError(
-                f"{name}: line {ln}: vertex count mismatch: {_WPL_NAMES[cmd]} polygon declares "
+                f"{name}: {first}: vertex count mismatch: {_WPL_NAMES[cmd]} polygon declares "
                 f"{count} vertices (param1) but has {len(verts)}"
             )
-        poly = _close_polygon(verts, name, f"line {ln}")
+        poly = _close_polygon(verts, name, first)
         (raw.inc_polys if cmd == MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION else raw.exc_polys).append(poly)
         group = None
 
     ignored: dict[int, int] = {}
-    for ln, _seq, frame, cmd, p in items:
-        where = f"line {ln}"
+    for where, frame, cmd, p in items:
         if cmd in (MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION):
             latlon = _check_latlon(p[4], p[5], name, where)
             count = p[0]
@@ -817,11 +875,10 @@ def _parse_wpl110(text: str, name: str) -> _Raw:
                     raise FenceError(
                         f"{name}: {where}: {_WPL_NAMES[cmd]} param1 (vertex count) must be an integer >= 3, got {count:g}"
                     )
-                group = [cmd, int(count), ln, []]
+                group = [cmd, int(count), where, []]
             elif count != group[1]:
                 raise FenceError(
-                    f"{name}: {where}: vertex count mismatch: param1 {count:g} differs from "
-                    f"{group[1]} declared at line {group[2]}"
+                    f"{name}: {where}: vertex count mismatch: param1 {count:g} differs from {group[1]} declared at {group[2]}"
                 )
             group[3].append(latlon)
             continue
@@ -852,7 +909,6 @@ def _parse_wpl110(text: str, name: str) -> _Raw:
     close_group()
     if ignored:
         raw.warnings.append("ignored non-fence item(s): " + ", ".join(f"{n}x cmd {c}" for c, n in sorted(ignored.items())))
-    return raw
 
 
 # ---- old MAVProxy fence / rally text

@@ -16,6 +16,8 @@ Subcommands:
 * ``check SCENARIO.yaml...``: the pre-flight mission check (where would the geofence override the mission?).
 * ``validate-models``: fly every platform through standard manoeuvres, write docs/validation.md.
 * ``campaign generate DIR`` / ``campaign report RESULTS --campaign DIR``: the adversarial efficacy campaign.
+* ``companion --connect URL (--scenario FILE | --fence FILE --profile NAME)``: the geofence unit as a MAVLink
+  companion computer (its own estimator, RC_CHANNELS_OVERRIDE / MANUAL_CONTROL, the fence over the mission protocol).
 
 Bad input (a missing or malformed file, an unknown aircraft, a value out of
 range, a scenario that cannot make sense, two flights of the same name, an
@@ -33,6 +35,7 @@ import sys
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 EXIT_BAD_INPUT = 2
 EXIT_FLIGHT_FAILED = 1
@@ -287,12 +290,50 @@ def build_parser() -> argparse.ArgumentParser:
         help="the folder written by 'campaign generate' (holds campaign.json)",
     )
 
+    _companion_parser(sub)
+
     sub.add_parser(
         "list",
         help="list flyable aircraft and shipped scenarios",
         description="List aircraft that have a platform profile, and the example scenarios shipped with the testbed.",
     )
     return parser
+
+
+def _companion_parser(sub: Any) -> None:
+    """The ``companion`` sub-command: the geofence unit as its own process on a MAVLink 2 link."""
+    comp = sub.add_parser(
+        "companion",
+        help="run the geofence unit as a MAVLink companion computer",
+        description="The geofence unit as its own process: reads the vehicle's telemetry into its own estimator, "
+        "overrides with RC_CHANNELS_OVERRIDE (ArduPilot) or MANUAL_CONTROL (PX4), hands back and releases, serves "
+        "its fence over the mission protocol, and measures the link. Exits 0 when the vehicle powers off, after "
+        "--max-duration-s, or on Ctrl-C / SIGTERM.",
+    )
+    comp.add_argument(
+        "--connect", required=True, metavar="URL", help="udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT or a serial device"
+    )
+    comp.add_argument(
+        "--scenario", type=Path, metavar="FILE", help="take the fence, profile, sensors and geofence settings from a scenario"
+    )
+    comp.add_argument("--fence", metavar="FILE", help="a fence file (.plan, WPL 110, MAVProxy, GeoJSON), with --profile")
+    comp.add_argument("--profile", metavar="NAME|FILE", help="the platform profile: a shipped model name or a profile YAML")
+    comp.add_argument(
+        "--ceiling-m", type=float, metavar="M", help="the fence ceiling with --fence (default: the file's, else 120 m AGL)"
+    )
+    comp.add_argument("--autopilot", choices=("ardupilot", "px4"), help="default: from the vehicle's HEARTBEAT")
+    comp.add_argument("--max-duration-s", type=float, metavar="S", help="stop after this long (wall time)")
+    comp.add_argument(
+        "--source-system",
+        type=int,
+        default=255,
+        metavar="ID",
+        help="our MAVLink system id (ArduPilot's SYSID_MYGCS; default 255)",
+    )
+    comp.add_argument(
+        "--target-system", type=int, metavar="ID", help="the vehicle's system id (default: the first vehicle heard)"
+    )
+    comp.add_argument("--report", type=Path, metavar="FILE.json", help="write the link and override report here")
 
 
 def _export_fence_parser(sub) -> None:
@@ -516,6 +557,10 @@ def main(argv: list[str] | None = None) -> int:
             )
         if args.command == "campaign":
             return _cmd_campaign(args)
+        if args.command == "companion":
+            from scenarios.app.companion import run_companion
+
+            return run_companion(args)
     except _user_errors() as exc:
         print(f"error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
