@@ -248,6 +248,41 @@ class OwnSensing:
         est.on_ground = p is not None and p.relative_alt <= ON_GROUND_AGL_M * 1000.0 and abs(p.vz) < 30
         return est
 
+    def take_fix(self, fix: GpsFix) -> None:
+        """A GNSS fix to fuse at the next :meth:`step` (as a GPS_RAW_INT would bring)."""
+        self._fix = fix
+
+    def update_unit(self, unit: GeofenceUnit, t_s: float, est: VehicleState, dt_s: float, valid: bool) -> StickCommand:
+        """One :meth:`GeofenceUnit.update` on this sensing's estimate, sigmas, wind and fusion horizon."""
+        e, w = self.estimator, self.wind
+        return unit.update(
+            t_s, est, _NEUTRAL, dt_s, wind_en=w.wind_enu, position_valid=valid, sigma_h_m=e.sigma_h_m,
+            sigma_v_m=e.sigma_v_m, turbulence_sigma_mps=w.turbulence_sigma_mps, estimate_age_s=e.data_age_s,
+            horizon=e.horizon_state(),
+        )  # fmt: skip
+
+
+_WARM_UP_DT_S = 0.25  # (16 steps of 0.25 s: past the minimum override time)
+
+
+def _warm_up_states(local: Any, frame: LocalFrame, max_speed_mps: float, h_m: float) -> list[VehicleState]:
+    """Two steps at the fence's recovery point, then 14 over its first keep-in vertex, flying outward at 0.8 of
+    the envelope's speed (:meth:`Companion.warm_up`)."""
+    (re, rn), (ve, vn) = local.recovery_en, (float(x) for x in local.keep_in.vertices[0])
+    d = max(math.hypot(ve - re, vn - rn), 1e-3)
+    speed = 0.8 * max_speed_mps
+    states = []
+    for k in range(16):
+        at = 0.0 if k < 2 else 1.0
+        states.append(
+            VehicleState(
+                t_s=k * _WARM_UP_DT_S, east_m=re + at * (ve - re), north_m=rn + at * (vn - rn), up_m=h_m, agl_m=h_m,
+                alt_m=frame.h0_m + h_m, v_east_mps=speed * (ve - re) / d, v_north_mps=speed * (vn - rn) / d,
+                airspeed_mps=speed,
+            )
+        )  # fmt: skip
+    return states
+
 
 # --------------------------------------------------------------------------- the companion
 class Companion:
@@ -287,27 +322,32 @@ class Companion:
 
     def warm_up(self) -> None:
         """Compile the unit's and the estimators' kernels before the first ATTITUDE (a lock-stepped vehicle waits
-        for each step's reply): a throwaway unit and sensing flown at the recovery point, then out over a vertex."""
+        for each step's reply, and a first landing must not stall on a compile): throwaway units flown from the
+        recovery point out over a vertex, one on given states, one through the sensing chain whose fixes stop
+        half-way (the position lost: dead reckoning from the fusion horizon, then the landing)."""
         cfg, fence = self.setup.config, self.setup.config.fence
         frame = self.setup.frame or fence.default_frame()
         local = fence.to_local(frame)
-        unit, sensing = GeofenceUnit(cfg, local, self.env), OwnSensing(frame, self.setup)
-        sensing.estimator.step(self.setup.dt_s, GpsFix(0.0, *frame.to_geodetic(0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 1.0, 1.0))
-        sensing.wind.update(sensing.estimator.state, None, self.setup.dt_s, True)
-        (re, rn), (ve, vn) = local.recovery_en, (float(x) for x in local.keep_in.vertices[0])
-        h = 0.5 * (cfg.fence.ceiling_m + (cfg.fence.floor_m or 0.0))
-        d = max(math.hypot(ve - re, vn - rn), 1e-3)
-        speed, dt = 0.8 * self.env.max_speed_mps, 0.25  # (12 steps of 0.25 s: past the minimum override time)
-        lander = GeofenceUnit(cfg, local, self.env)
-        for k in range(16):
-            at = 0.0 if k < 2 else 1.0
-            e, n = re + at * (ve - re), rn + at * (vn - rn)
-            s = VehicleState(
-                t_s=k * dt, east_m=e, north_m=n, up_m=h, agl_m=h, alt_m=frame.h0_m + h,
-                v_east_mps=speed * (ve - re) / d, v_north_mps=speed * (vn - rn) / d, airspeed_mps=speed,
-            )  # fmt: skip
-            unit.update(s.t_s, s, _NEUTRAL, dt, wind_en=(0.0, 0.0), sigma_h_m=1.0, sigma_v_m=1.0)
-            lander.update(s.t_s, s, _NEUTRAL, dt, wind_en=(0.0, 0.0), position_valid=k < 8, sigma_h_m=1.0, sigma_v_m=1.0)
+        unit, lander, sensing = (
+            GeofenceUnit(cfg, local, self.env),
+            GeofenceUnit(cfg, local, self.env),
+            OwnSensing(frame, self.setup),
+        )
+        h_m = 0.5 * (cfg.fence.ceiling_m + (cfg.fence.floor_m or 0.0))
+        for s in _warm_up_states(local, frame, self.env.max_speed_mps, h_m):
+            unit.update(s.t_s, s, _NEUTRAL, _WARM_UP_DT_S, wind_en=(0.0, 0.0), sigma_h_m=1.0, sigma_v_m=1.0)
+        (re, rn), t_s = local.recovery_en, 0.0
+        lat, lon, alt = frame.to_geodetic(re, rn, h_m)
+        while lander.mode is not Mode.LAND_IN_GAP and t_s < 10.0:  # at the recovery point, the fixes stop at 2 s
+            if t_s < 2.0:
+                sensing.take_fix(GpsFix(t_s, lat, lon, alt, 0.0, 0.0, 0.0, 1.0, 1.0))
+            est = sensing.step(_WARM_UP_DT_S, None)
+            sensing.update_unit(lander, t_s, est, _WARM_UP_DT_S, sensing.estimator.position_valid)
+            t_s += _WARM_UP_DT_S
+        for _ in range(8):  # the landing's first steps
+            est = sensing.step(_WARM_UP_DT_S, None)
+            sensing.update_unit(lander, t_s, est, _WARM_UP_DT_S, False)
+            t_s += _WARM_UP_DT_S
 
     def _replace_fence(self, fence: Fence) -> str | None:
         """The mission server's accepted upload: a new unit on it while monitoring, else refused."""
@@ -462,12 +502,7 @@ class Companion:
 
     def _unit_step(self, est: VehicleState, dt: float, valid: bool) -> None:
         assert self.unit is not None and self.sensing is not None
-        e, w = self.sensing.estimator, self.sensing.wind
-        cmd = self.unit.update(
-            self.t_s, est, _NEUTRAL, dt, wind_en=w.wind_enu, position_valid=valid, sigma_h_m=e.sigma_h_m,
-            sigma_v_m=e.sigma_v_m, turbulence_sigma_mps=w.turbulence_sigma_mps, estimate_age_s=e.data_age_s,
-            horizon=e.horizon_state(),
-        )  # fmt: skip
+        cmd = self.sensing.update_unit(self.unit, self.t_s, est, dt, valid)
         mode = self.unit.mode
         if mode in OVERRIDING:
             self._command(cmd)
