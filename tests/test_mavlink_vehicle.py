@@ -61,6 +61,10 @@ class Companion(threading.Thread):
             self.types.append(kind)
             if kind == "HEARTBEAT" and msg.system_status == mavutil.mavlink.MAV_STATE_POWEROFF:
                 self.poweroff += 1
+            elif kind == "HEARTBEAT":  # (a lock-stepped vehicle starts when a companion's heartbeat comes back)
+                self.conn.mav.heartbeat_send(
+                    mavutil.mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0
+                )
             elif kind == "GPS_RAW_INT":
                 self.gps_usec.append(msg.time_usec)
             elif kind == "ATTITUDE":
@@ -127,7 +131,8 @@ def test_lockstep_override_then_release(tmp_path):
     assert rate["GLOBAL_POSITION_INT"] == pytest.approx(40.0, rel=0.05)
     assert rate["SCALED_PRESSURE"] == pytest.approx(10.0, rel=0.1) and rate["VFR_HUD"] == pytest.approx(10.0, rel=0.1)
     assert rate["WIND"] == pytest.approx(2.0, rel=0.3) and rate["GPS_RAW_INT"] == pytest.approx(5.0, rel=0.2)
-    assert link["sent"]["HEARTBEAT"] == math.floor(sim) + 1 + 3  # 1 Hz from t = 0, and three POWEROFF at the end
+    # 1 Hz from t = 0, three POWEROFF at the end, and the start's (every 0.5 s until the companion answers: one or two)
+    assert math.floor(sim) + 1 + 3 + 1 <= link["sent"]["HEARTBEAT"] <= math.floor(sim) + 1 + 3 + 2
     assert companion.types[-1] == "HEARTBEAT" and companion.poweroff == 3
     assert companion.attitude_ms == sorted(companion.attitude_ms)
     assert np.all(np.diff(companion.gps_usec) == 200_000)  # each fix once, stamped with its time of validity
@@ -147,7 +152,7 @@ def test_px4_manual_control_times_out(tmp_path):
 
 
 def test_run_cli_lockstep_timeout_is_an_error_line(tmp_path):
-    port = free_udp_port()  # nobody answers
+    port = free_udp_port()  # nobody answers: the start's wait times out
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.run(
         [sys.executable, "-m", "scenarios.app.cli", "run", str(SCENARIO), "--out", str(tmp_path), "--quiet", "--no-plot",
@@ -155,5 +160,5 @@ def test_run_cli_lockstep_timeout_is_an_error_line(tmp_path):
         capture_output=True, text=True, timeout=300, env=env, cwd=ROOT,
     )  # fmt: skip
     assert proc.returncode == 1, proc.stderr
-    assert "lock-step: no GF_MARGIN" in proc.stdout + proc.stderr
+    assert "lock-step: no companion HEARTBEAT within 0.5 s" in proc.stdout + proc.stderr
     assert "Traceback" not in proc.stderr

@@ -404,8 +404,8 @@ def _mavlink_run_options(run: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     g.add_argument(
         "--lockstep", action="store_true",
-        help="after each tick's ATTITUDE wait for the companion's NAMED_VALUE_FLOAT GF_MARGIN of that tick "
-        "(deterministic; default: paced to wall-clock time, never waiting)",
+        help="start when the companion's HEARTBEAT comes back, then after each tick's ATTITUDE wait for its "
+        "NAMED_VALUE_FLOAT GF_MARGIN of that tick (deterministic; default: paced to wall-clock time, never waiting)",
     )  # fmt: skip
     g.add_argument(
         "--lockstep-timeout-s", type=float, default=10.0, metavar="S", help="lock-step wait bound, wall s (default 10)"

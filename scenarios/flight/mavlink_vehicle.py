@@ -9,14 +9,15 @@ the companion on the other end of the link is the geofence. Per control step (a 
    delivered GNSS fix as GPS_RAW_INT, GLOBAL_POSITION_INT (truth: the autopilot's estimate), SCALED_PRESSURE of
    the barometer, VFR_HUD of the pitot, WIND (the wind at the vehicle), HEARTBEAT, and last the AHRS attitude as
    ATTITUDE, the tick's frame marker;
-3. with ``lockstep``: wait (wall-time bound ``lockstep_timeout_s``) for the companion's GF_MARGIN of this tick;
+3. with ``lockstep``: wait (wall-time bound ``lockstep_timeout_s``) for the companion's GF_MARGIN of this tick
+   (and, before the first tick, for its HEARTBEAT: the vehicle may be started first);
    without: paced to wall-clock time, never waiting;
 4. every override received so far taken in (:class:`scenarios.link.sticks.OverrideInput`): the sticks flown are
    the honoured override channels in place of the pilot's; the pilot is told whether it has control;
 5. the row recorded (the companion's reported GF_MODE and GF_MARGIN in the mode and margin columns), the sticks
    latched, the platform stepped.
 
-At the end it sends three HEARTBEATs with system_status POWEROFF, 50 ms apart. The summary is fly()'s, scored
+It answers TIMESYNC requests at once (the companion's round-trip latency). At the end it sends three HEARTBEATs with system_status POWEROFF, 50 ms apart. The summary is fly()'s, scored
 against the scenario's fence, with a ``link`` block: messages sent per type and their rates (per simulated
 second), overrides accepted and refused, how long and when an override was honoured, the lock-step wait.
 With ``tlog`` every message sent and received is logged, stamped with the flight's start time plus the
@@ -45,6 +46,7 @@ from scenarios.link.telemetry import GF_MARGIN_NAME, GF_MODE_NAME, TelemetryRate
 from scenarios.link.tlog import TlogWriter
 
 POWEROFF_HEARTBEATS = 3
+MAV_TYPE_ONBOARD_CONTROLLER = 18  # (common.xml MAV_TYPE)
 POWEROFF_SPACING_S = 0.05
 
 
@@ -131,7 +133,22 @@ class VehicleLink:
         self.stats.received[msg.get_type()] += 1
         if self.tlog is not None:
             self.tlog.write(msg.get_msgbuf(), self.epoch_s + self.t_s)
+        if msg.get_type() == "TIMESYNC" and msg.tc1 == 0:  # a request: answered at once, as autopilots do
+            self.send(self.conn.mav.timesync_encode(time.monotonic_ns(), msg.ts1))
         return msg
+
+    def wait_for_companion(self, kind: Any, autopilot: Autopilot, timeout_s: float) -> None:
+        """Lock-step start: HEARTBEATs every 0.5 s until an onboard computer's HEARTBEAT comes back (a companion
+        listening on udpin learns the vehicle's address from the first one that reaches it)."""
+        deadline = time.perf_counter() + timeout_s
+        while time.perf_counter() < deadline:
+            self.send(telemetry.heartbeat(kind, autopilot))
+            wait_until = min(deadline, time.perf_counter() + 0.5)
+            while (left := wait_until - time.perf_counter()) > 0.0:
+                msg = self.poll(left)
+                if msg is not None and msg.get_type() == "HEARTBEAT" and msg.type == MAV_TYPE_ONBOARD_CONTROLLER:
+                    return
+        raise LockstepTimeout(f"lock-step: no companion HEARTBEAT within {timeout_s:g} s")
 
     def close(self) -> None:
         self.conn.close()
@@ -228,6 +245,8 @@ def fly_mavlink(scenario: Scenario, opts: LinkOptions, on_step: Callable[[float]
     step = 0
     loop0 = time.perf_counter()
     try:
+        if opts.lockstep:
+            link.wait_for_companion(env.kind, opts.autopilot, opts.lockstep_timeout_s)
         step = _loop(scenario, setup, suite, link, companion, opts, on_step)
     except (LockstepTimeout, FloatingPointError) as exc:
         error = str(exc)
