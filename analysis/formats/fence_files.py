@@ -1274,28 +1274,49 @@ def _wpl_line(seq: int, cmd: int, p1: float, lat: float, lon: float, alt: float 
     return "\t".join([str(seq), "0", str(frame), str(cmd), repr(float(p1)), "0.0", "0.0", "0.0", repr(float(lat)), repr(float(lon)), repr(float(alt)), "1"])  # fmt: skip
 
 
-def _export_wpl110(f: Fence, rally: tuple[RallyPoint, ...], warnings: list[str]) -> str:
-    _vertical_losses(f, "qgc_wpl_110", warnings)
-    rows: list[tuple[int, float, float, float, float]] = []  # cmd, p1, lat, lon, alt
+def fence_items(f: Fence) -> list[FenceItem]:
+    """The mission items of a fence, the inverse of :func:`fence_from_items`: the return point (5000), the keep-in
+    circle (5003) or polygon vertices (5001, param1 = vertex count), the keep-out vertices (5002) and circles (5004,
+    param1 = radius m). What a WPL 110 file and a MAVLink fence upload carry; the ceiling and floor are not among
+    them."""
+    rows: list[tuple[int, float, float, float, float, int]] = []  # cmd, p1, lat, lon, alt, frame
     if f.recovery_point is not None:
         rp = f.recovery_point
-        rows.append((MAV_CMD_NAV_FENCE_RETURN_POINT, 0.0, rp[0], rp[1], rp[2] if len(rp) > 2 else 0.0))
+        rows.append((MAV_CMD_NAV_FENCE_RETURN_POINT, 0.0, rp[0], rp[1], rp[2] if len(rp) > 2 else 0.0, 0))
     if f.keep_in_circle is not None:
         lat, lon, r = f.keep_in_circle
-        rows.append((MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, r, lat, lon, 0.0))
+        rows.append((MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, r, lat, lon, 0.0, 0))
     else:
-        rows += [(MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, len(f.keep_in), lat, lon, 0.0) for lat, lon in f.keep_in]
+        rows += [(MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, len(f.keep_in), lat, lon, 0.0, 0) for lat, lon in f.keep_in]
     for p in f.keep_out_polygons:
-        rows += [(MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION, len(p), lat, lon, 0.0) for lat, lon in p]
+        rows += [(MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION, len(p), lat, lon, 0.0, 0) for lat, lon in p]
     rows += [
-        (MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, c.radius_m, c.center_lat_deg, c.center_lon_deg, 0.0) for c in f.keep_out_circles
+        (MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, c.radius_m, c.center_lat_deg, c.center_lon_deg, 0.0, 0) for c in f.keep_out_circles
     ]
-    lines = ["QGC WPL 110"] + [_wpl_line(i, *row) for i, row in enumerate(rows)]
-    frames = {"relative": 3, "amsl": 0, "terrain": 10}
-    lines += [
-        _wpl_line(len(rows) + i, MAV_CMD_NAV_RALLY_POINT, 0.0, p.lat_deg, p.lon_deg, p.alt_m, frames.get(p.alt_reference, 3))
+    return [
+        FenceItem(f"item {i}", frame, cmd, (float(p1), 0.0, 0.0, 0.0, lat, lon, alt))
+        for i, (cmd, p1, lat, lon, alt, frame) in enumerate(rows)
+    ]
+
+
+RALLY_FRAMES = {"relative": 3, "amsl": 0, "terrain": 10}
+"""A rally point's altitude reference -> its item's MAV_FRAME (GLOBAL_RELATIVE_ALT, GLOBAL, GLOBAL_TERRAIN_ALT)."""
+
+
+def rally_items(rally: Sequence[RallyPoint]) -> list[FenceItem]:
+    """The mission items of rally points (5100), the inverse of :func:`rally_from_items`."""
+    return [
+        FenceItem(f"item {i}", RALLY_FRAMES.get(p.alt_reference, 3), MAV_CMD_NAV_RALLY_POINT, (0.0, 0.0, 0.0, 0.0, p.lat_deg, p.lon_deg, p.alt_m))
         for i, p in enumerate(rally)
-    ]
+    ]  # fmt: skip
+
+
+def _export_wpl110(f: Fence, rally: tuple[RallyPoint, ...], warnings: list[str]) -> str:
+    _vertical_losses(f, "qgc_wpl_110", warnings)
+    lines = ["QGC WPL 110"]
+    for i, it in enumerate(fence_items(f) + rally_items(rally)):
+        p1, _, _, _, lat, lon, alt = it.params
+        lines.append(_wpl_line(i, it.command, p1, lat, lon, alt, it.frame))
     return "\n".join(lines) + "\n"
 
 

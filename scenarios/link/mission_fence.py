@@ -29,7 +29,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
-from analysis.formats.fence_files import FenceItem, RallyPoint, fence_from_items, rally_from_items
+from analysis.formats.fence_files import FenceItem, RallyPoint, fence_from_items, fence_items, rally_from_items, rally_items
 from geofence.geometry.fence import Fence, FenceError
 from geofence.validation import ConfigError
 from scenarios.link.connection import Link, mavlink, now_s, receive
@@ -86,30 +86,19 @@ def fence_item(item: MissionItem) -> FenceItem:
 
 
 def mission_items_from_fence(fence: Fence) -> list[MissionItem]:
-    """The mission items of a fence: the keep-in (circle 5003 or polygon 5001), keep-outs 5002/5004, return 5000."""
-    out: list[tuple[int, float, float, float]] = []  # (command, param1, lat, lon)
-    if fence.keep_in_circle is not None:
-        lat, lon, r = fence.keep_in_circle
-        out.append((5003, r, lat, lon))
-    else:
-        out += [(5001, len(fence.keep_in), lat, lon) for lat, lon in fence.keep_in]
-    for poly in fence.keep_out_polygons:
-        out += [(5002, len(poly), lat, lon) for lat, lon in poly]
-    out += [(5004, c.radius_m, c.center_lat_deg, c.center_lon_deg) for c in fence.keep_out_circles]
-    items = [_global_item(i, cmd, p1, lat, lon, 0.0) for i, (cmd, p1, lat, lon) in enumerate(out)]
-    if fence.recovery_point is not None:
-        rp = fence.recovery_point
-        items.append(_global_item(len(items), 5000, 0.0, rp[0], rp[1], rp[2] if len(rp) > 2 else 0.0))
-    return items
+    """The MISSION_ITEM_INT list of a fence (:func:`analysis.formats.fence_files.fence_items`: return point 5000,
+    the keep-in 5003 or 5001, keep-outs 5002/5004)."""
+    return [_mission_item(i, it) for i, it in enumerate(fence_items(fence))]
 
 
 def mission_items_from_rally(points: Sequence[RallyPoint]) -> list[MissionItem]:
-    frame = mavlink.MAV_FRAME_GLOBAL_RELATIVE_ALT
-    return [_global_item(i, 5100, 0.0, p.lat_deg, p.lon_deg, p.alt_m, frame) for i, p in enumerate(points)]
+    """The MISSION_ITEM_INT list of rally points (5100, altitude relative to home)."""
+    return [_mission_item(i, it) for i, it in enumerate(rally_items(points))]
 
 
-def _global_item(seq: int, cmd: int, p1: float, lat: float, lon: float, alt: float, frame: int = 0) -> MissionItem:
-    return MissionItem(seq, frame, cmd, float(p1), 0.0, 0.0, 0.0, round(lat * 1e7), round(lon * 1e7), float(alt))
+def _mission_item(seq: int, item: FenceItem) -> MissionItem:
+    p1, p2, p3, p4, lat, lon, alt = item.params
+    return MissionItem(seq, item.frame, item.command, p1, p2, p3, p4, round(lat * 1e7), round(lon * 1e7), float(alt))
 
 
 def check_item(item: MissionItem, mission_type: int) -> int:
