@@ -7,7 +7,7 @@ Subcommands:
   resumably; write results.csv and report.md.
 * ``plot DIR`` / ``compare DIR``: regenerate figures / the platform comparison from saved results.
 * ``seed-reproduction DIR``: fly the seed work's indoor quad with the reactive and our predictive fence.
-* ``score-log LOG --fence FILE``: score a real flight log (tlog / DataFlash .bin) against a fence file.
+* ``score-log LOG --fence FILE``: score a real flight log (tlog / DataFlash .bin / PX4 .ulg) against a fence file.
 * ``import-fence FILE``: turn a GeoJSON / QGC .plan / WPL 110 / MAVProxy fence file into a scenario ``geofence:`` block.
 * ``export-fence IN --to FORMAT --out FILE``: write a scenario's or a file's fence as .plan / WPL 110 / MAVProxy /
   GeoJSON / KML.
@@ -135,7 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
         "score-log",
         help="score a real flight log against a fence file",
         description=(
-            "Read a MAVLink telemetry log (.tlog) or an ArduPilot DataFlash log (.bin) and a fence file "
+            "Read a MAVLink telemetry log (.tlog), an ArduPilot DataFlash log (.bin) or a PX4 ULog (.ulg) and a fence file "
             "(QGroundControl .plan, QGC WPL 110 fence items, MAVProxy fence text, GeoJSON airspace), and print the breach "
             "scores: peak excursion beyond the fence (m), time outside (s), minimum margin (m). Only GeoJSON files can "
             "carry a ceiling, so give one with --ceiling (m above home). The log is checked first: a log with too many "
@@ -143,7 +143,7 @@ def build_parser() -> argparse.ArgumentParser:
             "otherwise it is scored over its clean part, with a warning on stderr saying what was dropped."
         ),
     )
-    score.add_argument("log", type=Path, metavar="LOG", help=".tlog or .bin flight log")
+    score.add_argument("log", type=Path, metavar="LOG", help=".tlog, .bin or .ulg flight log")
     score.add_argument("--fence", type=Path, required=True, metavar="FILE", help="fence file (.plan, WPL 110, MAVProxy, GeoJSON)")
     score.add_argument(
         "--ceiling", type=float, default=None, metavar="M", help="ceiling, m above home (default: the file's, else 120)"

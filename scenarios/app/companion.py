@@ -185,14 +185,18 @@ class LinkMeter:
         """The figures: ``attitude_receive_lag`` (receive time - ATTITUDE time, above its least) only for a vehicle
         that runs in real time (a lock-stepped one runs at the companion's pace: see ``sim_s_per_wall_s``)."""
         span = max(now_s() - self.t0_s, 1e-9)
-        rates = {}
-        for kind, n in sorted(self.received.items()):
-            dt = self.last_s[kind] - self.first_s[kind]
-            rates[kind] = {"count": n, "rate_hz": round((n - 1) / dt, 2) if n > 1 and dt > 0 else None}
         low = min(self._offsets) if self._offsets else 0.0
         sim_span = self._sim_span_s()
         wall_span = self.last_s.get("ATTITUDE", 0.0) - self.first_s.get("ATTITUDE", 0.0)
-        ratio = sim_span / wall_span if wall_span > 0 else None
+        ratio = sim_span / wall_span if wall_span > 0 and sim_span > 0 else None
+        rates = {}
+        for kind, n in sorted(self.received.items()):
+            dt = self.last_s[kind] - self.first_s[kind]
+            hz = (n - 1) / dt if n > 1 and dt > 0 else None
+            rates[kind] = {  # per wall second, and per second of the vehicle's clock (they differ when lock-stepped)
+                "count": n, "rate_hz": None if hz is None else round(hz, 2),
+                "rate_per_vehicle_s_hz": None if hz is None or ratio is None else round(hz / ratio, 2),
+            }  # fmt: skip
         real_time = ratio is not None and abs(ratio - 1.0) < 0.05
         return {
             "duration_s": round(span, 3),
@@ -583,10 +587,13 @@ class Companion:
 def print_report(report: dict[str, Any], out: Any = sys.stdout) -> None:
     """A few lines of the report for the console."""
     link = report["link"]
-    rates = ", ".join(f"{k} {v['rate_hz']}" for k, v in link["received"].items() if v["rate_hz"] is not None)
+    clock = "vehicle" if link["sim_s_per_wall_s"] is not None else "wall"
+    key = "rate_per_vehicle_s_hz" if clock == "vehicle" else "rate_hz"
+    rates = ", ".join(f"{k} {v[key]}" for k, v in link["received"].items() if v[key] is not None)
     print(f"companion: {report['exit_reason']}; mode {report['mode']}, {report['activations']} activation(s), "
           f"{report['overrides_sent']} override and {report['releases_sent']} release message(s) sent", file=out)  # fmt: skip
-    print(f"companion: link {link['duration_s']:.1f} s; received Hz: {rates}", file=out)
+    pace = f" ({link['sim_s_per_wall_s']:g} vehicle s per wall s)" if clock == "vehicle" else ""
+    print(f"companion: link {link['duration_s']:.1f} s{pace}; received per {clock} s, Hz: {rates}", file=out)
     print(f"companion: dropped {link['dropped_total']} message(s) {link['dropped_per_sender']}; "
           f"TIMESYNC RTT {link['timesync_rtt']}; step processing {link['processing']}", file=out)  # fmt: skip
 

@@ -33,6 +33,7 @@ class TlogWriter:
 
     def __init__(self, path: str | Path, system: int = 1, component: int = 1) -> None:
         self.path = Path(path)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
         self._file: BinaryIO = open(self.path, "wb")
         self._stamp_us = 0
         self.link = mav.MAVLink(self, srcSystem=system, srcComponent=component)
