@@ -34,17 +34,14 @@ from geofence.jit import jitable
 from geofence.physics.dynamics import G_MPS2
 from geofence.unit.geofence_unit import GeofenceUnit
 from geofence.unit.passes import (
-    FAR,
-    HORIZON_MOVED,
-    MODE,
-    MONITOR_MODE,
-    N_UNIT,
+    MONITOR_NUMBER,
     NEED_TARGET,
     OVERRIDE_STEP,
     PASS,
     PASS_HANDBACK,
     RING_COLUMNS,
     UNIT,
+    UNIT_STATE,
     monitor_pass,
     override_pass,
     record_pass,
@@ -118,7 +115,7 @@ def _monitor_rest(
         U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, far, r[0], not far, r, new_horizon,
         horizon,
     )  # fmt: skip
-    mode = U[MODE] if answer == PASS else U[MONITOR_MODE]  # (a completed hand-back is recorded as MONITOR)
+    mode = U.view(UNIT_STATE)[0].mode if answer == PASS else MONITOR_NUMBER  # (a completed hand-back: MONITOR)
     write_row(
         T, int(row), t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, w_e, w_n, w_u, p_roll,
         p_pitch, p_yaw, p_throttle, p_roll, p_pitch, p_yaw, p_throttle, mode, item, est[4], est[5], est[7], we, wn,
@@ -231,13 +228,14 @@ def _override_rest(
     if answer == UNIT or answer == NEED_TARGET:
         _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
         return answer, p_roll, p_pitch, p_yaw, p_throttle
+    u = U.view(UNIT_STATE)[0]
     record_pass(
-        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, U[FAR] != 0.0, activation,
+        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, u.skipped_last != 0.0, activation,
         has_margins, r, new_horizon, horizon,
     )  # fmt: skip
     write_row(
         T, int(row), t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, w_e, w_n, w_u, p_roll,
-        p_pitch, p_yaw, p_throttle, c_roll, c_pitch, 0.0, c_throttle, U[MODE], item, est[4], est[5], est[7], we, wn,
+        p_pitch, p_yaw, p_throttle, c_roll, c_pitch, 0.0, c_throttle, u.mode, item, est[4], est[5], est[7], we, wn,
         activation,
     )  # fmt: skip
     return answer, c_roll, c_pitch, 0.0, c_throttle
@@ -291,7 +289,7 @@ class FlightStep:
         self.wind = wind
         self.recorder = recorder
         self.dt_s = dt_s
-        self._U = np.zeros(N_UNIT)
+        self._U = unit.memory  # (the unit's record: the passes read and write it in place)
         self._H = np.zeros((unit.history_rows(dt_s), RING_COLUMNS))
         self._O = np.zeros(N_OUT)
         self._A = law_array() if pilot_law is None else pilot_law  # (kind GIVEN: the pilot's sticks passed in)
@@ -342,10 +340,10 @@ class FlightStep:
         unit = self.unit
         if unit.monitor_ready():
             self._dispatcher = flight_step
-            self._tables = unit.pack_monitor(self._U)
+            self._tables = unit.margins_tables()
         elif unit.override_ready():
             self._dispatcher = override_flight_step
-            self._tables = unit.pack_override(self._U)
+            self._tables = unit.override_arrays()
         else:
             self.ready = False
             return
@@ -373,10 +371,8 @@ class FlightStep:
         """The unit takes in the steps taken so far; the sensing chain keeps its newest fusion horizon
         (``new_horizon``: it moved at this step). Returns that horizon."""
         sensing = self.sensing
-        before = sensing.horizon
-        moved = new_horizon or self._U[HORIZON_MOVED] != 0.0
-        self.unit.take_in_passes(self._U, self._H, before)
-        return sensing.stepped(moved, False)
+        moved = self.unit.take_in_ring(self._H, sensing.horizon)
+        return sensing.stepped(new_horizon or moved, False)
 
     def _again(
         self, t_s: float, s: VehicleState, row: int, T: np.ndarray, w: tuple[float, float, float],
@@ -386,7 +382,7 @@ class FlightStep:
         (in ``Out``), and the mode's kernel is asked the same step again (``pilot``: the sticks the first call
         gave): ``(answer, the sticks to send)``."""
         out = self._O
-        self.unit.find_rollout_target(self._U, float(out[EST0 + 4]), float(out[EST0 + 5]), float(out[SIGMA_H]))
+        self.unit.find_rollout_target(float(out[EST0 + 4]), float(out[EST0 + 5]), float(out[SIGMA_H]))
         dispatcher = _AGAIN[self._dispatcher]
         kernel = self._entry_points.get(dispatcher, dispatcher)
         args = (
