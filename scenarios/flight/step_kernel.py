@@ -24,7 +24,7 @@ the steps taken for it (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
@@ -63,6 +63,42 @@ _new_tuple = tuple.__new__
 _NO_STICKS = (0.0, 0.0, 0.0, 0.0)
 
 
+class Truth(NamedTuple):
+    """The truth's fields a step reads and records, in the order the entry points take them."""
+
+    t_s: float
+    lat_deg: float
+    lon_deg: float
+    alt_m: float
+    east_m: float
+    north_m: float
+    up_m: float
+    agl_m: float
+    v_east_mps: float
+    v_north_mps: float
+    v_up_mps: float
+    airspeed_mps: float
+    roll_rad: float
+    pitch_rad: float
+    yaw_rad: float
+    on_ground: bool
+
+
+class SensedStep(NamedTuple):
+    """The sensing chain's outputs at a step (:func:`scenarios.flight.sensing.sense_step`'s, as the unit takes them)."""
+
+    est: tuple
+    """The estimate's 15 fields (:class:`~geofence.interface.VehicleState`'s order, ``on_ground`` apart)."""
+    wind_e_mps: float
+    wind_n_mps: float
+    position_valid: bool
+    sigma_h_m: float
+    sigma_v_m: float
+    new_horizon: bool
+    data_age_s: float
+    turbulence_sigma_mps: float
+
+
 def _flight_step(
     FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
     F: np.ndarray, L: np.ndarray, V: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray,
@@ -74,94 +110,118 @@ def _flight_step(
     north, up), flags, the pilot's sticks (roll, pitch, yaw, throttle))`` (:func:`geofence.unit.passes.monitor_pass`'s
     answer; the flags: :data:`WIND_LOW`, :data:`SENSE_LOW`). The pilot's sticks are its law's
     (:func:`scenarios.flight.pilots.law_kernel.law_sticks` on its law array ``A``), or where that has none this
-    step, those passed in (``p_roll`` ...). On a pass the unit's ring ``H`` and numbers ``U`` keep it
+    step, those passed in (``p_roll`` ...). On a pass the unit's record ``U`` and ring ``H`` keep it
     (:func:`geofence.unit.passes.record_pass`) and row ``row`` of ``T`` records it; else ``Out`` holds the step's
     estimate and what the unit's own step needs (the layout above), for the unit (:data:`UNIT`) or for
     :func:`_flight_step_again` once the roll-out target is found (:data:`NEED_TARGET`). The arrays: the wind
     field's (:meth:`WindArrays.arrays`), the sensing chain's (:meth:`GeofenceSensing.kernel_arrays`), the unit's
-    margins tables, envelope terms and packed numbers (:meth:`GeofenceUnit.pack_monitor`)."""
+    margins tables and envelope terms (:meth:`GeofenceUnit.margins_tables`) and record (:attr:`GeofenceUnit.memory`)."""
+    truth = Truth(t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, on_ground)
+    pilot = _pilot_sticks(A, truth, (p_roll, p_pitch, p_yaw, p_throttle))
+    wind, flags, sensed = _wind_and_sensing(FZ, wind_pool, GX, P, pools, idx, dt_s, truth)
+    answer = _monitor_rest((F, L, V), U, H, T, Out, P[_H0:_H1], row, dt_s, item, truth, wind, sensed, pilot)
+    return answer, wind[0], wind[1], wind[2], flags, pilot[0], pilot[1], pilot[2], pilot[3]
+
+
+@jitable
+def _pilot_sticks(A: np.ndarray, truth: Truth, given: tuple) -> tuple[float, float, float, float]:
+    """The pilot's sticks: its law's (:func:`scenarios.flight.pilots.law_kernel.law_sticks` on ``A``), or where that
+    has none, those ``given``."""
     if A[LAW_KIND] != GIVEN:
-        p_roll, p_pitch, p_yaw, p_throttle = law_sticks(A, ve, vn, yaw, up)
-    w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _wind_and_sensing(
-        FZ, wind_pool, GX, P, pools, idx, dt_s, t, lat, lon, alt, e, n, agl, ve, vn, vu, airspeed, roll, pitch, yaw
-    )  # fmt: skip
-    answer = _monitor_rest(
-        F, L, V, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll,
-        pitch, yaw, on_ground, w_e, w_n, w_u, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence,
-        p_roll, p_pitch, p_yaw, p_throttle, item,
-    )  # fmt: skip
-    return answer, w_e, w_n, w_u, flags, p_roll, p_pitch, p_yaw, p_throttle
+        return law_sticks(A, truth.v_east_mps, truth.v_north_mps, truth.yaw_rad, truth.up_m)
+    return given
 
 
 @jitable
 def _monitor_rest(
-    F: np.ndarray, L: np.ndarray, V: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray,
-    horizon: np.ndarray, row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float,
-    up: float, agl: float, ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
-    on_ground: bool, w_e: float, w_n: float, w_u: float, est: tuple, we: float, wn: float, valid: bool,
-    sigma_h: float, sigma_v: float, new_horizon: bool, age: float, turbulence: float, p_roll: float, p_pitch: float,
-    p_yaw: float, p_throttle: float, item: float,
+    tables: tuple, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, horizon: np.ndarray, row: float,
+    dt_s: float, item: float, truth: Truth, wind: tuple, sensed: SensedStep, pilot: tuple,
 ) -> int:  # fmt: skip
     """A monitoring step after the wind and the sensing chain: the unit's answer, its pass kept and recorded (or
-    ``Out`` filled for the unit). ``horizon``: the sensing chain's fusion horizon fields."""
+    ``Out`` filled for the unit). ``tables``: the margins' ``(F, L, V)``; ``horizon``: the sensing chain's fusion
+    horizon fields; ``wind``: the wind sampled (east, north, up); ``pilot``: the pilot's sticks."""
+    F, L, V = tables
+    s, est = sensed, sensed.est
     answer, far, r = monitor_pass(
-        U, F, L, V, t, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11], on_ground, we, wn,
-        valid, sigma_h, sigma_v, age, turbulence, G_MPS2,
+        U, F, L, V, truth.t_s, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11],
+        truth.on_ground, s.wind_e_mps, s.wind_n_mps, s.position_valid, s.sigma_h_m, s.sigma_v_m, s.data_age_s,
+        s.turbulence_sigma_mps, G_MPS2,
     )  # fmt: skip
     if answer == UNIT or answer == NEED_TARGET:
-        _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
+        _for_the_unit(Out, sensed)
         return answer
-    record_pass(
-        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, far, r[0], not far, r, new_horizon,
-        horizon,
-    )  # fmt: skip
+    _keep(U, H, horizon, dt_s, truth, sensed, far, r[0], not far, r)
     mode = U.view(UNIT_STATE)[0].mode if answer == PASS else MONITOR_NUMBER  # (a completed hand-back: MONITOR)
-    write_row(
-        T, int(row), t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, w_e, w_n, w_u, p_roll,
-        p_pitch, p_yaw, p_throttle, p_roll, p_pitch, p_yaw, p_throttle, mode, item, est[4], est[5], est[7], we, wn,
-        r[0],
-    )  # fmt: skip
+    _write(T, row, item, truth, wind, pilot, pilot, mode, sensed, r[0])
     return answer
+
+
+@jitable
+def _keep(
+    U: np.ndarray, H: np.ndarray, horizon: np.ndarray, dt_s: float, truth: Truth, sensed: SensedStep, far: bool,
+    activation: float, has_margins: bool, r: tuple,
+) -> None:  # fmt: skip
+    """A step taken for the unit, kept in its record and ring (:func:`geofence.unit.passes.record_pass`)."""
+    s = sensed
+    record_pass(
+        U, H, truth.t_s, s.est, truth.on_ground, dt_s, s.wind_e_mps, s.wind_n_mps, s.sigma_h_m, s.sigma_v_m,
+        s.data_age_s, s.turbulence_sigma_mps, far, activation, has_margins, r, s.new_horizon, horizon,
+    )  # fmt: skip
+
+
+@jitable
+def _write(
+    T: np.ndarray, row: float, item: float, truth: Truth, wind: tuple, pilot: tuple, cmd: tuple, mode: float,
+    sensed: SensedStep, activation: float,
+) -> None:  # fmt: skip
+    """Row ``row`` of ``T`` (:func:`scenarios.flight.recorder.write_row`): the truth, the wind sampled, the pilot's
+    and the sent sticks (``cmd``), the mode, the mission item, the estimate and the activation margin."""
+    x, est = truth, sensed.est
+    write_row(
+        T, int(row), x.t_s, x.lat_deg, x.lon_deg, x.alt_m, x.east_m, x.north_m, x.up_m, x.agl_m, x.v_east_mps,
+        x.v_north_mps, x.v_up_mps, x.airspeed_mps, x.roll_rad, x.pitch_rad, x.yaw_rad, wind[0], wind[1], wind[2],
+        pilot[0], pilot[1], pilot[2], pilot[3], cmd[0], cmd[1], cmd[2], cmd[3], mode, item, est[4], est[5], est[7],
+        sensed.wind_e_mps, sensed.wind_n_mps, activation,
+    )  # fmt: skip
 
 
 @jitable
 def _wind_and_sensing(
     FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
-    dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float, agl: float, ve: float, vn: float,
-    vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
+    dt_s: float, truth: Truth,
 ) -> tuple:  # fmt: skip
-    """Every step's start: the wind sampled at the truth, and the unit's sensing chain: ``(wind east, north, up,
-    flags, then the chain's estimate, wind estimate, validity, sigmas, new horizon, data age, turbulence)``."""
-    w_e, w_n, w_u, w_low = wind_sample(FZ, wind_pool, GX, t, e, n, agl, airspeed)
+    """Every step's start: the wind sampled at the truth, and the unit's sensing chain: ``((wind east, north, up),
+    flags, the chain's outputs)``."""
+    x = truth
+    w_e, w_n, w_u, w_low = wind_sample(FZ, wind_pool, GX, x.t_s, x.east_m, x.north_m, x.agl_m, x.airspeed_mps)
     est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence, s_low = sense_step(
-        P, pools, idx, dt_s, t, lat, lon, alt, ve, vn, vu, airspeed, roll, pitch, yaw
+        P, pools, idx, dt_s, x.t_s, x.lat_deg, x.lon_deg, x.alt_m, x.v_east_mps, x.v_north_mps, x.v_up_mps,
+        x.airspeed_mps, x.roll_rad, x.pitch_rad, x.yaw_rad,
     )  # fmt: skip
     flags = (WIND_LOW if w_low else 0) + (SENSE_LOW if s_low else 0)
-    return w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence
+    return (w_e, w_n, w_u), flags, SensedStep(est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
 
 
 @jitable
-def _for_the_unit(
-    Out: np.ndarray, est: tuple, we: float, wn: float, valid: bool, sigma_h: float, sigma_v: float, new_horizon: bool,
-    age: float, turbulence: float,
-) -> None:  # fmt: skip
+def _for_the_unit(Out: np.ndarray, sensed: SensedStep) -> None:
     """What a step the unit answers itself needs, into ``Out`` (the layout above)."""
+    s = sensed
     for k in range(15):
-        Out[EST0 + k] = est[k]
-    Out[WIND_EST_E], Out[WIND_EST_N], Out[VALID], Out[SIGMA_H], Out[SIGMA_V] = we, wn, valid, sigma_h, sigma_v
-    Out[NEW_HORIZON], Out[AGE], Out[TURBULENCE] = new_horizon, age, turbulence
+        Out[EST0 + k] = s.est[k]
+    Out[WIND_EST_E], Out[WIND_EST_N], Out[VALID] = s.wind_e_mps, s.wind_n_mps, s.position_valid
+    Out[SIGMA_H], Out[SIGMA_V] = s.sigma_h_m, s.sigma_v_m
+    Out[NEW_HORIZON], Out[AGE], Out[TURBULENCE] = s.new_horizon, s.data_age_s, s.turbulence_sigma_mps
 
 
 @jitable
-def _unit_inputs_in(Out: np.ndarray) -> tuple:
-    """What :func:`_for_the_unit` wrote into ``Out``: ``(estimate (its 15 fields), wind estimate east, north,
-    validity, sigma_h, sigma_v, new horizon, data age, turbulence)``."""
+def _unit_inputs_in(Out: np.ndarray) -> SensedStep:
+    """What :func:`_for_the_unit` wrote into ``Out``."""
     o = EST0
     est = (
         Out[o], Out[o + 1], Out[o + 2], Out[o + 3], Out[o + 4], Out[o + 5], Out[o + 6], Out[o + 7], Out[o + 8],
         Out[o + 9], Out[o + 10], Out[o + 11], Out[o + 12], Out[o + 13], Out[o + 14],
     )  # fmt: skip
-    return (
+    return SensedStep(
         est, Out[WIND_EST_E], Out[WIND_EST_N], Out[VALID] != 0.0, Out[SIGMA_H], Out[SIGMA_V], Out[NEW_HORIZON] != 0.0,
         Out[AGE], Out[TURBULENCE],
     )  # fmt: skip
@@ -175,13 +235,12 @@ def _flight_step_again(
     p_throttle: float, item: float,
 ) -> tuple[int, float, float, float, float]:  # fmt: skip
     """The same monitoring step asked again after :data:`~geofence.unit.passes.NEED_TARGET` (the unit found the
-    roll-out target and packed it in ``U``): from the estimate in ``Out`` and the wind and the pilot's sticks the
-    first call gave, ``(its answer, the pilot's sticks)`` (the rest as :func:`_flight_step`'s)."""
-    est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _unit_inputs_in(Out)
+    roll-out target and shows it in its record ``U``): from the estimate in ``Out`` and the wind and the pilot's
+    sticks the first call gave, ``(its answer, the pilot's sticks)`` (the rest as :func:`_flight_step`'s)."""
+    truth = Truth(t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, on_ground)
+    pilot = (p_roll, p_pitch, p_yaw, p_throttle)
     answer = _monitor_rest(
-        F, L, V, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll,
-        pitch, yaw, on_ground, w_e, w_n, w_u, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence,
-        p_roll, p_pitch, p_yaw, p_throttle, item,
+        (F, L, V), U, H, T, Out, P[_H0:_H1], row, dt_s, item, truth, (w_e, w_n, w_u), _unit_inputs_in(Out), pilot
     )  # fmt: skip
     return answer, p_roll, p_pitch, p_yaw, p_throttle
 
@@ -197,48 +256,38 @@ def _override_flight_step(
     """:func:`_flight_step` for a fixed-wing override's step (:func:`geofence.unit.passes.override_pass`, on the
     unit's margins tables ``F, L, V`` and its recovery's arrays ``R, PR, QR, K``): the same tuple, its sticks the
     override's on :data:`~geofence.unit.passes.OVERRIDE_STEP` (its row recorded then), else the pilot's."""
-    if A[LAW_KIND] != GIVEN:
-        p_roll, p_pitch, p_yaw, p_throttle = law_sticks(A, ve, vn, yaw, up)
-    w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _wind_and_sensing(
-        FZ, wind_pool, GX, P, pools, idx, dt_s, t, lat, lon, alt, e, n, agl, ve, vn, vu, airspeed, roll, pitch, yaw
+    truth = Truth(t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, on_ground)
+    pilot = _pilot_sticks(A, truth, (p_roll, p_pitch, p_yaw, p_throttle))
+    wind, flags, sensed = _wind_and_sensing(FZ, wind_pool, GX, P, pools, idx, dt_s, truth)
+    answer, sticks = _override_rest(
+        (F, L, V, R, PR, QR, K), U, H, T, Out, P[_H0:_H1], row, dt_s, item, truth, wind, sensed, pilot
     )  # fmt: skip
-    answer, s_roll, s_pitch, s_yaw, s_throttle = _override_rest(
-        F, L, V, R, PR, QR, K, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu,
-        airspeed, roll, pitch, yaw, on_ground, w_e, w_n, w_u, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age,
-        turbulence, p_roll, p_pitch, p_yaw, p_throttle, item,
-    )  # fmt: skip
-    return answer, w_e, w_n, w_u, flags, s_roll, s_pitch, s_yaw, s_throttle
+    return answer, wind[0], wind[1], wind[2], flags, sticks[0], sticks[1], sticks[2], sticks[3]
 
 
 @jitable
 def _override_rest(
-    F: np.ndarray, L: np.ndarray, V: np.ndarray, R: np.ndarray, PR: np.ndarray, QR: np.ndarray, K: np.ndarray,
-    U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, horizon: np.ndarray, row: float, dt_s: float,
-    t: float, lat: float, lon: float, alt: float, e: float, n: float, up: float, agl: float, ve: float, vn: float,
-    vu: float, airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool, w_e: float, w_n: float,
-    w_u: float, est: tuple, we: float, wn: float, valid: bool, sigma_h: float, sigma_v: float, new_horizon: bool,
-    age: float, turbulence: float, p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
-) -> tuple[int, float, float, float, float]:  # fmt: skip
+    arrays: tuple, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, horizon: np.ndarray, row: float,
+    dt_s: float, item: float, truth: Truth, wind: tuple, sensed: SensedStep, pilot: tuple,
+) -> tuple[int, tuple[float, float, float, float]]:  # fmt: skip
     """An override step after the wind and the sensing chain: ``(answer, the sticks to send)``, its step kept and
-    recorded (or ``Out`` filled for the unit)."""
+    recorded (or ``Out`` filled for the unit). ``arrays``: the margins' ``(F, L, V)`` and the recovery's ``(R, PR,
+    QR, K)``; the rest as :func:`_monitor_rest`'s."""
+    F, L, V, R, PR, QR, K = arrays
+    s, est = sensed, sensed.est
     answer, c_roll, c_pitch, c_throttle, activation, has_margins, r = override_pass(
-        U, F, L, V, R, PR, QR, K, t, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11], est[13],
-        est[14], we, wn, valid, sigma_h, sigma_v, age, turbulence, G_MPS2,
+        U, F, L, V, R, PR, QR, K, truth.t_s, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11],
+        est[13], est[14], s.wind_e_mps, s.wind_n_mps, s.position_valid, s.sigma_h_m, s.sigma_v_m, s.data_age_s,
+        s.turbulence_sigma_mps, G_MPS2,
     )  # fmt: skip
     if answer == UNIT or answer == NEED_TARGET:
-        _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
-        return answer, p_roll, p_pitch, p_yaw, p_throttle
+        _for_the_unit(Out, sensed)
+        return answer, (pilot[0], pilot[1], pilot[2], pilot[3])
     u = U.view(UNIT_STATE)[0]
-    record_pass(
-        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, u.skipped_last != 0.0, activation,
-        has_margins, r, new_horizon, horizon,
-    )  # fmt: skip
-    write_row(
-        T, int(row), t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, w_e, w_n, w_u, p_roll,
-        p_pitch, p_yaw, p_throttle, c_roll, c_pitch, 0.0, c_throttle, u.mode, item, est[4], est[5], est[7], we, wn,
-        activation,
-    )  # fmt: skip
-    return answer, c_roll, c_pitch, 0.0, c_throttle
+    _keep(U, H, horizon, dt_s, truth, sensed, u.skipped_last != 0.0, activation, has_margins, r)
+    cmd = (c_roll, c_pitch, 0.0, c_throttle)
+    _write(T, row, item, truth, wind, pilot, cmd, u.mode, sensed, activation)
+    return answer, cmd
 
 
 def _override_flight_step_again(
@@ -249,12 +298,12 @@ def _override_flight_step_again(
     p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
 ) -> tuple[int, float, float, float, float]:  # fmt: skip
     """:func:`_flight_step_again` for a fixed-wing override's step: ``(answer, the sticks to send)``."""
-    est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _unit_inputs_in(Out)
-    return _override_rest(
-        F, L, V, R, PR, QR, K, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu,
-        airspeed, roll, pitch, yaw, on_ground, w_e, w_n, w_u, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age,
-        turbulence, p_roll, p_pitch, p_yaw, p_throttle, item,
+    truth = Truth(t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, on_ground)
+    answer, sticks = _override_rest(
+        (F, L, V, R, PR, QR, K), U, H, T, Out, P[_H0:_H1], row, dt_s, item, truth, (w_e, w_n, w_u),
+        _unit_inputs_in(Out), (p_roll, p_pitch, p_yaw, p_throttle),
     )  # fmt: skip
+    return answer, sticks[0], sticks[1], sticks[2], sticks[3]
 
 
 flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = jit.compiled(_flight_step)
