@@ -9,7 +9,6 @@ from hypothesis import strategies as st
 from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import Envelope, PlatformKind, StickCommand, VehicleState
 from geofence.margins.boundary_shift import activation_margins_for_state
-from geofence.recovery import RecoveryPlanner
 from geofence.unit.config import parse_geofence
 from geofence.unit.geofence_unit import LANDING_EDGE_MARGIN_M, GeofenceUnit, Mode
 
@@ -233,25 +232,17 @@ def test_dead_reckoning_room_grows_with_the_descent_and_the_turbulence(agl, high
         assert u.dead_reckoning_room_m(0.0) == DEAD_RECKONING_LANDING_MARGIN_M
 
 
-def test_prepare_routes_builds_the_route_graph_up_front_and_routes_do_not_change(monkeypatch):
-    """``prepare_routes`` builds the planner of the current clearance and has it prepare its graph now, for the
-    recovery point (a flight would build it at its first route search); the routes it then plans are the ones
-    planned without it."""
-    prepared = []
-    original = RecoveryPlanner.prepare
-
-    def prepare(planner, goals=()):
-        prepared.append((planner, tuple(goals)))
-        original(planner, goals)
-
-    monkeypatch.setattr(RecoveryPlanner, "prepare", prepare)
+def test_prepare_routes_builds_the_planner_up_front_and_routes_do_not_change():
+    """``prepare_routes`` builds the planner of the current clearance now (a flight would build it at its first
+    route search; that its graph is then built is :meth:`RecoveryPlanner.prepare`'s own contract); the routes it
+    then plans are the ones planned without it."""
     early, late = unit(), unit()
     assert not early.route_planners()
     early.prepare_routes()
     clearance = early.route_clearances()[0]
-    assert early.route_planners() == {clearance: early.route_planner(clearance)}
-    assert prepared == [(early.route_planner(clearance), (early.fence.recovery_en,))]
-    assert early.route_planner(clearance).nodes
-    a = early.route_planner(clearance).plan((-150.0, 30.0), (0.0, 0.0))
+    assert list(early.route_planners()) == [clearance]
+    planner = early.route_planners()[clearance]
+    assert planner is early.route_planner(clearance) and planner.clearance_m == clearance and planner.nodes
+    a = planner.plan((-150.0, 30.0), (0.0, 0.0))
     b = late.route_planner(clearance).plan((-150.0, 30.0), (0.0, 0.0))
     assert a is not None and b is not None and a.points == b.points

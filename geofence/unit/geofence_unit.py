@@ -38,6 +38,9 @@ reckoning from its last valid estimate (:mod:`geofence.estimation.dead_reckoning
 The unit sees only a state estimate, the platform :class:`Envelope`, a wind
 estimate, and the pilot's :class:`StickCommand`. Heights ``h`` are in the
 fence's altitude reference (AGL or AMSL).
+
+The unit's per-step state is one record it owns (:data:`geofence.unit.passes.UNIT_STATE`), which its compiled
+passes read and write in place (see :class:`GeofenceUnit`).
 """
 
 from __future__ import annotations
@@ -176,8 +179,6 @@ class GeofenceUnit:
 
     activation_margin_m = _Field("activation_margin_m")
     """The last step's activation margin, m (inf: far from everything, not computed in detail; NaN: not needed)."""
-    _k_sigma = _Field("k_sigma")
-    _extra_margin_m = _Field("extra_margin_m")
     _forecast_allowance_mps = _Field("forecast_allowance_mps")
     _estimated_turbulence = _Flag("estimated_turbulence")
     _agl = _Flag("agl")

@@ -5,21 +5,28 @@ One question each. :func:`monitor_pass`: given this step's estimate (the sensing
 predictive unit that monitors (``MONITOR`` or ``RECOVERED``) keep passing the sticks through, and with which
 margins? The answer is :data:`PASS` (and the margins), :data:`PASS_HANDBACK` (pass, and ``RECOVERED``'s hold is
 over: back to ``MONITOR``), :data:`NEED_TARGET` (near a boundary, a fixed-wing's roll-out target for this cell is
-not packed: the unit finds it, and the step is asked again) or :data:`UNIT`: anything else (an activation, a
+not in the record's window on the unit's cache: the unit finds it, and the step is asked again) or :data:`UNIT`: anything else (an activation, a
 stale or lost position, an envelope to re-scale to the air density, a wind beyond authority), which the unit's
 own :meth:`~geofence.unit.geofence_unit.GeofenceUnit.update` then answers from the same estimate.
 :func:`override_pass`: which sticks does a fixed-wing override send at this step (:data:`OVERRIDE_STEP`; after
 its minimum override period, with its margins: it is not outside and may not hand back yet), or must the unit
-answer (:data:`UNIT`: a re-activation, a possible hand-back, a lost position, ...; :data:`NEED_TARGET` as above)? The unit packs what a step reads in one float
-array (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.pack_monitor`, :meth:`~geofence.unit.geofence_unit.GeofenceUnit.pack_override`,
-layout below); :func:`record_pass` keeps what each step taken so changes, and the unit takes it in before it
-answers a step again (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_passes`). ``update`` is the reference: the
-same tests in the same order on the same numbers (``tests/test_flight_step.py`` flies flights both ways and
-compares their bytes).
+answer (:data:`UNIT`: a re-activation, a possible hand-back, a lost position, ...; :data:`NEED_TARGET` as
+above)?
+
+The unit's per-step state is one record, :data:`UNIT_STATE` (named float64 fields over float memory, the pattern
+of :mod:`geofence.estimation.estimator`), which the unit owns
+(:attr:`~geofence.unit.geofence_unit.GeofenceUnit.memory`) and whose fields its attributes are: the passes read
+it and :func:`record_pass` writes in it what each step taken so changes, as ``update`` would, so nothing is
+packed or taken back. Only what lives in the unit's Python objects is handed over, by name: the estimates' ring,
+the last margins and the fusion horizon (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_ring`), a
+fixed-wing recovery's step state (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.override_arrays`).
+``update`` is the reference: the same tests in the same order on the same numbers
+(``tests/test_flight_step.py`` flies flights both ways and compares their bytes).
 
 It also owns the few constants both read: when an estimate is fresh, when the envelope is re-scaled, when a
-vehicle on the ground is sitting, the hand-back hold and the roll-out target cache's cells; and the formula of
-the vertical hand-back hysteresis at an override's goal (:func:`vertical_handback_m`).
+vehicle on the ground is sitting, the hand-back hold and the roll-out target cache's cells; the unit's modes
+(:class:`Mode`); and the formula of the vertical hand-back hysteresis at an override's goal
+(:func:`vertical_handback_m`).
 """
 
 from __future__ import annotations
@@ -72,7 +79,7 @@ PASS_HANDBACK = 1
 UNIT = 2
 OVERRIDE_STEP = 3  # (override_pass) the override's sticks, by its compiled step
 NEED_TARGET = 4
-"""The margins need the roll-out target of the estimate's cell and it is not among those packed: the unit finds it
+"""The margins need the roll-out target of the estimate's cell and it is not in the record's window: the unit finds it
 (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.find_rollout_target`, a route search where it has none cached), and the caller
 asks the same step again from the same estimate (nothing was kept or recorded)."""
 

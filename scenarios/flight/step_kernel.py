@@ -9,7 +9,7 @@ estimator (:func:`scenarios.flight.sensing.sense_step`), asks the unit's monitor
 (:func:`geofence.unit.passes.monitor_pass`) and, on a pass, writes the step's row
 (:func:`scenarios.flight.recorder.write_row`). While a fixed-wing override flies,
 :func:`override_flight_step` does the same with the override's step (:func:`geofence.unit.passes.override_pass`).
-Where a fixed-wing's roll-out target for the estimate's cell is not packed
+Where a fixed-wing's roll-out target for the estimate's cell is not in the unit's record
 (:data:`~geofence.unit.passes.NEED_TARGET`), the unit finds it and the rest of the same step is asked again
 (:func:`flight_step_again`, :func:`override_flight_step_again`: from the estimate the first call left, the sensing
 chain not stepped twice). Anything else (an activation, a hand-back, a position lost, ...) is answered by the
@@ -17,9 +17,11 @@ unit's own :meth:`~geofence.unit.geofence_unit.GeofenceUnit.update` from the sam
 itself (:func:`unit_step`, the step the runner takes where no compiled call can: the same call). Compiled where
 numba is, the same functions interpreted where it is not.
 
-:class:`FlightStep` holds the arrays, asks :meth:`~geofence.unit.geofence_unit.GeofenceUnit.monitor_ready` and
-:meth:`~geofence.unit.geofence_unit.GeofenceUnit.override_ready` after every step the unit took itself, and has the unit take in
-the steps taken for it (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_passes`) before it answers one again.
+:class:`FlightStep` holds the arrays (the unit's own record among them, read and written in place), asks
+:meth:`~geofence.unit.geofence_unit.GeofenceUnit.monitor_ready` and
+:meth:`~geofence.unit.geofence_unit.GeofenceUnit.override_ready` after every step the unit took itself, and hands
+the steps taken for it over to the unit's Python objects (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_ring`:
+their estimates' ring) before it answers one again.
 """
 
 from __future__ import annotations
@@ -325,8 +327,9 @@ class FlightStep:
 
     Built by :meth:`build` where every part has its compiled form; :attr:`ready` says whether the unit's next step
     can be taken this way (:meth:`GeofenceUnit.monitor_ready`: a monitoring step; :meth:`GeofenceUnit.override_ready`:
-    a fixed-wing override's), and :meth:`step` takes it. The unit takes in the steps taken so when it next answers
-    one itself, at a hand-back, and at :meth:`finish`.
+    a fixed-wing override's), and :meth:`step` takes it. The steps taken so are handed over to the unit's Python
+    objects (:meth:`GeofenceUnit.take_in_ring`) when it next answers one itself, at a hand-back, and at
+    :meth:`finish`.
     """
 
     def __init__(
@@ -383,7 +386,7 @@ class FlightStep:
         return cls(unit, sensing, wind, recorder, dt_s, pilot_law)
 
     def refresh(self) -> None:
-        """Ask the unit again whether a compiled call can take its next step, and pack its numbers (after every step
+        """Ask the unit again whether a compiled call can take its next step, and which arrays it reads (after every step
         it took itself, and every step the runner took without this call: the wind field may have refilled its
         noise pool)."""
         unit = self.unit
@@ -409,16 +412,16 @@ class FlightStep:
 
     def _bind(self) -> None:
         """The kernel's leading arguments in one tuple: the wind field's, the sensing chain's, the mode's tables and
-        the unit's numbers and ring (after any of them is replaced)."""
+        the unit's record and ring (after any of them is replaced)."""
         self._lead = (*self._wind_args, *self._sense_args, *self._tables, self._U, self._H)
 
     def finish(self) -> None:
-        """The unit takes in the steps taken so far (at the end of the flight; the sensing chain's horizon too)."""
+        """The steps taken so far handed over to the unit (at the end of the flight; the sensing chain's horizon too)."""
         self._take_in(False)
 
     def _take_in(self, new_horizon: bool) -> FixState | None:
-        """The unit takes in the steps taken so far; the sensing chain keeps its newest fusion horizon
-        (``new_horizon``: it moved at this step). Returns that horizon."""
+        """The steps taken so far handed over to the unit (:meth:`GeofenceUnit.take_in_ring`); the sensing chain keeps
+        its newest fusion horizon (``new_horizon``: it moved at this step). Returns that horizon."""
         sensing = self.sensing
         moved = self.unit.take_in_ring(self._H, sensing.horizon)
         return sensing.stepped(new_horizon or moved, False)
