@@ -44,6 +44,7 @@ from geofence.unit.passes import (
     RING_COLUMNS,
     UNIT,
     UNIT_STATE,
+    float_record,
     monitor_pass,
     override_pass,
     record_pass,
@@ -54,10 +55,6 @@ from scenarios.flight.recorder import Recorder, write_row
 from scenarios.flight.sensing import HORIZON_IN_P, GeofenceSensing, Sensed, sense_step
 from wind.field_kernel import WindArrays, wind_sample
 
-# what a step the unit answers itself needs (UNIT), one float array
-EST0 = 0  # the estimate's 15 fields (VehicleState's order, on_ground apart)
-WIND_EST_E, WIND_EST_N, VALID, SIGMA_H, SIGMA_V, NEW_HORIZON, AGE, TURBULENCE = range(15, 23)
-N_OUT = 23
 WIND_LOW, SENSE_LOW = 1, 2
 """The flags a step returns: the wind field's noise pool runs low, the sensors' pools run low."""
 _H0, _H1 = HORIZON_IN_P.start, HORIZON_IN_P.stop
@@ -101,6 +98,12 @@ class SensedStep(NamedTuple):
     turbulence_sigma_mps: float
 
 
+STEP_OUT = float_record(("est", (15,)), *SensedStep._fields[1:])
+"""What a step the unit answers itself needs (:data:`~geofence.unit.passes.UNIT`, or after
+:data:`~geofence.unit.passes.NEED_TARGET`), a record over the float array ``Out``: :class:`SensedStep`'s fields in
+order (a flag 0 or 1)."""
+
+
 def _flight_step(
     FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
     F: np.ndarray, L: np.ndarray, V: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray,
@@ -114,7 +117,7 @@ def _flight_step(
     (:func:`scenarios.flight.pilots.law_kernel.law_sticks` on its law array ``A``), or where that has none this
     step, those passed in (``p_roll`` ...). On a pass the unit's record ``U`` and ring ``H`` keep it
     (:func:`geofence.unit.passes.record_pass`) and row ``row`` of ``T`` records it; else ``Out`` holds the step's
-    estimate and what the unit's own step needs (the layout above), for the unit (:data:`UNIT`) or for
+    estimate and what the unit's own step needs (:data:`STEP_OUT`), for the unit (:data:`UNIT`) or for
     :func:`_flight_step_again` once the roll-out target is found (:data:`NEED_TARGET`). The arrays: the wind
     field's (:meth:`WindArrays.arrays`), the sensing chain's (:meth:`GeofenceSensing.kernel_arrays`), the unit's
     margins tables and envelope terms (:meth:`GeofenceUnit.margins_tables`) and record (:attr:`GeofenceUnit.memory`)."""
@@ -206,26 +209,24 @@ def _wind_and_sensing(
 
 @jitable
 def _for_the_unit(Out: np.ndarray, sensed: SensedStep) -> None:
-    """What a step the unit answers itself needs, into ``Out`` (the layout above)."""
-    s = sensed
+    """What a step the unit answers itself needs, into ``Out`` (:data:`STEP_OUT`)."""
+    s, o = sensed, Out.view(STEP_OUT)[0]
     for k in range(15):
-        Out[EST0 + k] = s.est[k]
-    Out[WIND_EST_E], Out[WIND_EST_N], Out[VALID] = s.wind_e_mps, s.wind_n_mps, s.position_valid
-    Out[SIGMA_H], Out[SIGMA_V] = s.sigma_h_m, s.sigma_v_m
-    Out[NEW_HORIZON], Out[AGE], Out[TURBULENCE] = s.new_horizon, s.data_age_s, s.turbulence_sigma_mps
+        o.est[k] = s.est[k]
+    o.wind_e_mps, o.wind_n_mps, o.position_valid = s.wind_e_mps, s.wind_n_mps, s.position_valid
+    o.sigma_h_m, o.sigma_v_m = s.sigma_h_m, s.sigma_v_m
+    o.new_horizon, o.data_age_s, o.turbulence_sigma_mps = s.new_horizon, s.data_age_s, s.turbulence_sigma_mps
 
 
 @jitable
 def _unit_inputs_in(Out: np.ndarray) -> SensedStep:
     """What :func:`_for_the_unit` wrote into ``Out``."""
-    o = EST0
-    est = (
-        Out[o], Out[o + 1], Out[o + 2], Out[o + 3], Out[o + 4], Out[o + 5], Out[o + 6], Out[o + 7], Out[o + 8],
-        Out[o + 9], Out[o + 10], Out[o + 11], Out[o + 12], Out[o + 13], Out[o + 14],
-    )  # fmt: skip
+    o = Out.view(STEP_OUT)[0]
+    e = o.est
+    est = (e[0], e[1], e[2], e[3], e[4], e[5], e[6], e[7], e[8], e[9], e[10], e[11], e[12], e[13], e[14])
     return SensedStep(
-        est, Out[WIND_EST_E], Out[WIND_EST_N], Out[VALID] != 0.0, Out[SIGMA_H], Out[SIGMA_V], Out[NEW_HORIZON] != 0.0,
-        Out[AGE], Out[TURBULENCE],
+        est, o.wind_e_mps, o.wind_n_mps, o.position_valid != 0.0, o.sigma_h_m, o.sigma_v_m, o.new_horizon != 0.0,
+        o.data_age_s, o.turbulence_sigma_mps,
     )  # fmt: skip
 
 
@@ -343,7 +344,7 @@ class FlightStep:
         self.dt_s = dt_s
         self._U = unit.memory  # (the unit's record: the passes read and write it in place)
         self._H = np.zeros((unit.history_rows(dt_s), RING_COLUMNS))
-        self._O = np.zeros(N_OUT)
+        self._O = np.zeros(STEP_OUT.itemsize // 8)
         self._A = law_array() if pilot_law is None else pilot_law  # (kind GIVEN: the pilot's sticks passed in)
         self._dispatcher: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = flight_step
         self._kernel = self._dispatcher  # the mode's kernel, by its entry point after its first call
@@ -433,12 +434,12 @@ class FlightStep:
         """After :data:`~geofence.unit.passes.NEED_TARGET`: the unit finds the roll-out target at the step's estimate
         (in ``Out``), and the mode's kernel is asked the same step again (``pilot``: the sticks the first call
         gave): ``(answer, the sticks to send)``."""
-        out = self._O
-        self.unit.find_rollout_target(float(out[EST0 + 4]), float(out[EST0 + 5]), float(out[SIGMA_H]))
+        out = self._sensed_out()
+        self.unit.find_rollout_target(out.est[4], out.est[5], out.sigma_h_m)
         dispatcher = _AGAIN[self._dispatcher]
         kernel = self._entry_points.get(dispatcher, dispatcher)
         args = (
-            self._sense_args[0], *self._tables, self._U, self._H, T, out, float(row), self.dt_s, t_s, s.lat_deg,
+            self._sense_args[0], *self._tables, self._U, self._H, T, self._O, float(row), self.dt_s, t_s, s.lat_deg,
             s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps, s.v_up_mps,
             s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, *w, *pilot, float(item),
         )  # fmt: skip
@@ -493,15 +494,21 @@ class FlightStep:
             self.refresh()
             return w, pilot
         # the unit answers this step itself, from the same estimate
-        o: list[Any] = self._O.tolist()
-        horizon = self._take_in(o[NEW_HORIZON] != 0.0)
-        est = VehicleState(*o[EST0 : EST0 + 15])
+        o = self._sensed_out()
+        horizon = self._take_in(o.new_horizon != 0.0)
+        est = VehicleState(*o.est)
         est.on_ground = s.on_ground  # touchdown switch / the flight controller's land detector
         sensed = _new_tuple(
             Sensed,
-            (est, (o[WIND_EST_E], o[WIND_EST_N]), o[VALID] != 0.0, o[SIGMA_H], o[SIGMA_V], horizon, o[AGE], o[TURBULENCE]),
+            (est, (o.wind_e_mps, o.wind_n_mps), o.position_valid != 0.0, o.sigma_h_m, o.sigma_v_m, horizon, o.data_age_s,
+             o.turbulence_sigma_mps),
         )  # fmt: skip
         return w, self.by_unit(truth, t_s, w, pilot, item, sensed)
+
+    def _sensed_out(self) -> SensedStep:
+        """What the kernel left in ``Out`` for the unit (:data:`STEP_OUT`), as Python floats (the flags 0 or 1)."""
+        v: list[Any] = self._O.tolist()
+        return _new_tuple(SensedStep, (tuple(v[:15]), *v[15:]))
 
     def by_unit(
         self, truth: VehicleState, t_s: float, w: tuple[float, float, float], pilot: StickCommand, item: int,
