@@ -152,9 +152,7 @@ class _Flag(_Field):
         unit.memory[self.slot] = value
 
 
-_MODES = tuple(Mode)
 _MODE_SLOT = field_slot("mode")
-_RETURN_SLOT = field_slot("return_allowance_mps")  # (and return_limit_mps after it)
 
 
 @dataclass(frozen=True)
@@ -173,17 +171,16 @@ class GeofenceUnit:
 
     Its per-step state is one record, :data:`~geofence.unit.passes.UNIT_STATE`, in :attr:`memory`: the attributes
     below that are :class:`_Field` s are that record's fields, which the compiled passes
-    (:mod:`geofence.unit.passes`) read and write too; nothing is copied between the two. What lives in Python
-    objects (the history of estimates, the fence's memo, a fixed-wing recovery's state) is handed over by
+    (:mod:`geofence.unit.passes`) read and write too; nothing is copied between the two. The record's constants
+    (the configuration's, the fence's and the envelope's numbers) are written where they are derived, once per
+    unit or per envelope (:meth:`_configure_record`, :meth:`_build_laws`); :attr:`mode` is written through its
+    setter (the passes only read it). What lives in Python
+    objects (the history of estimates, the wind list its guidance laws share, the fence's memo, a fixed-wing
+    recovery's state) is handed over by
     :meth:`take_in_ring` and :meth:`override_arrays`."""
 
     activation_margin_m = _Field("activation_margin_m")
     """The last step's activation margin, m (inf: far from everything, not computed in detail; NaN: not needed)."""
-    _forecast_allowance_mps = _Field("forecast_allowance_mps")
-    _estimated_turbulence = _Flag("estimated_turbulence")
-    _agl = _Flag("agl")
-    _vertical_handback_m = _Field("vertical_handback_m")
-    _multirotor = _Flag("multirotor")
     _density_alt_m = _Field("density_alt_m")  # (NaN: never scaled)
     _mode_since_s = _Field("mode_since_s")
     _latency_s = _Field("latency_s")
@@ -220,11 +217,9 @@ class GeofenceUnit:
         self._last: ShiftResult | None = None
         self._last_fields: tuple[CompiledMargins, list[float]] | None = None  # (fields not made a ShiftResult yet)
         self.activation_margin_m = math.inf
-        self.wind_enu: Any = self._record.wind_en_mps  # (a view of the record's field, shared with the guidance laws)
-        self.wind_enu[0], self.wind_enu[1] = config.wind_prior_enu[0], config.wind_prior_enu[1]
+        self.wind_enu = [config.wind_prior_enu[0], config.wind_prior_enu[1]]  # (shared with the guidance laws)
         self._planners: dict[float, RecoveryPlanner] = {}
         self._rollout_cache: dict[tuple[int, int], tuple[float, float]] = {}
-        self._agl = fence.altitude_reference is AltitudeReference.AGL
         self._clearances: tuple[float, ...] = ()
         self._clearances_for: tuple = ()  # (sigma_h, envelope) the clearances were computed for
         self._compiled: CompiledMargins | None = None  # the compiled margins of a fence without an index
@@ -242,11 +237,15 @@ class GeofenceUnit:
         self._goal_h_m = math.nan
 
     def _configure_record(self, config: GeofenceConfig, fence: LocalFence) -> None:
-        """The record's numbers from the configuration and the fence (set once)."""
+        """The record's constants from the configuration and the fence (set once; the few that :meth:`update` reads
+        are kept as attributes too, written here only)."""
         u = self._record
         u.k_sigma, u.extra_margin_m, u.gust_mps = config.uncertainty_k_sigma, config.extra_margin_m, config.gust_mps
+        self._agl = fence.altitude_reference is AltitudeReference.AGL
         self._estimated_turbulence = config.turbulence_source is TurbulenceSource.ESTIMATE
         self._forecast_allowance_mps = config.wind_allowance_mps(config.turbulence_sigma_mps)
+        u.agl, u.estimated_turbulence = self._agl, self._estimated_turbulence
+        u.forecast_allowance_mps = self._forecast_allowance_mps
         u.forecast_sigma_mps, u.turbulence_k_sigma = config.turbulence_sigma_mps, config.turbulence_k_sigma
         u.min_override_s, u.handback_margin_m = config.min_override_s, config.handback_margin_m
         u.recovery_e_m, u.recovery_n_m = fence.recovery_en
@@ -259,28 +258,25 @@ class GeofenceUnit:
         )
         self._height_limits = (lo, fence.ceiling_m)
         # the vertical hand-back hysteresis, at most a tenth of the vertical band (an indoor fence is 1 m high)
-        self._vertical_handback_m = min(config.vertical_handback_m, 0.1 * (fence.ceiling_m - lo))
+        self._vertical_handback_m = u.vertical_handback_m = min(config.vertical_handback_m, 0.1 * (fence.ceiling_m - lo))
 
     @property
     def mode(self) -> Mode:
-        """The state machine's mode (the record keeps its number)."""
-        return _MODES[int(self.memory.item(_MODE_SLOT))]
+        """The state machine's mode (the record keeps its number, written by this setter only)."""
+        return self._mode
 
     @mode.setter
     def mode(self, mode: Mode) -> None:
-        self.memory[_MODE_SLOT] = int(mode)
-
-    @property
-    def _return_wind_limits(self) -> tuple[float, float]:
-        """:func:`geofence.physics.dynamics.return_wind_limits` of the envelope in use (the record keeps them)."""
-        m, k = self.memory, _RETURN_SLOT
-        return m.item(k), m.item(k + 1)
+        self._mode = mode
+        self.memory[_MODE_SLOT] = mode
 
     # -- helpers -------------------------------------------------------------
     def _build_laws(self, env: Envelope) -> None:
         """The guidance laws and dead reckoning for envelope ``env``."""
         self.env = env
         self._multirotor = env.is_multirotor
+        u = self._record
+        u.multirotor, u.reaction_time_s = self._multirotor, env.reaction_time_s
         if self.fence.grid() is None:
             self._compiled = CompiledMargins(self.fence, env)
         config = self.config
@@ -295,9 +291,9 @@ class GeofenceUnit:
         turn_r = envelope_turn_radius_m(env)
         self.landing = LandingGuidance(env, spiral_radius_m=max(1.2 * turn_r, 10.0), wind_enu=self.wind_enu)
         self.dead_reckoning = DeadReckoning(env)
-        u = self._record
-        u.return_allowance_mps, u.return_limit_mps = return_wind_limits(config.turbulence_sigma_mps, env)
-        u.reaction_time_s = env.reaction_time_s
+        self._return_wind_limits = u.return_allowance_mps, u.return_limit_mps = return_wind_limits(
+            config.turbulence_sigma_mps, env
+        )
 
     def _scale_to_density(self, alt_m: float) -> None:
         """Scale the envelope to the ISA density at ``alt_m`` (AMSL); :meth:`update` asks it while monitoring, when
@@ -835,7 +831,8 @@ class GeofenceUnit:
         """The hand-over of the steps compiled calls took since the last time (the passes of
         :func:`geofence.unit.passes.monitor_pass`, the override steps of :func:`geofence.unit.passes.override_pass`)
         to what lives in Python objects, as :meth:`update` would have kept them: their estimates (the ring ``H``,
-        :meth:`history_rows` long) into the history and :attr:`estimate`, the fusion horizon (``horizon``: the one
+        :meth:`history_rows` long) into the history and :attr:`estimate`, the wind estimate into the list the
+        guidance laws share (:attr:`wind_enu`), the fusion horizon (``horizon``: the one
         before them, the sensing chain's), the last margins they computed (the fence's memo, :attr:`last`), and a
         fixed-wing recovery's step state. Everything else they changed is in the record already. Returns whether
         they moved the fusion horizon."""
@@ -851,6 +848,7 @@ class GeofenceUnit:
         self._history.extend_rows(block)  # (states again only when dead reckoning replays them)
         self._history.trim(float(u.last_t_s) - REPLAY_WINDOW_S)
         self.estimate = self._last_valid = state_of_row(block[-1].tolist())
+        self.wind_enu[0], self.wind_enu[1] = u.wind_en_mps.tolist()
         moved = u.horizon_moved != 0.0
         self._last_horizon = FixState(*u.horizon.tolist()) if moved else horizon
         if u.has_margins != 0.0:

@@ -120,14 +120,15 @@ UNIT_STATE = float_record(
     # the envelope's (set as it is scaled to the air density; density_alt_m NaN: never)
     "reaction_time_s", "return_allowance_mps", "return_limit_mps", "multirotor", "density_alt_m",
     # the unit's state, which update and the passes both read and write
-    "mode", "mode_since_s", "latency_s", ("wind_en_mps", (2,)), "turbulence_est_mps", "sigma_h_m", "sigma_v_m",
+    "mode", "mode_since_s", "latency_s", "turbulence_est_mps", "sigma_h_m", "sigma_v_m",
     "position_valid", "strong_wind_since_s", "skipped_last", "activation_margin_m",  # (strong wind NaN: none)
     "period_start_s", "climb_back_m", "goal_h_m", "goal_short_of_band",  # the override's (climb back NaN: none)
     # a window on the roll-out target cache: (has, east, north) of the cells round (cell_e, cell_n), south first
     "has_targets", "cell_e", "cell_n", ("targets", (TARGET_SIDE, TARGET_SIDE, 3)),
     # the hand-over to the unit's Python objects (GeofenceUnit.take_in_ring): the ring of estimates' bookkeeping,
-    # the last margins computed (for the fence's memo and ShiftResult) and the fusion horizon
-    "ring_next", "ring_rows", "last_t_s", "has_margins", "margins_e_m", "margins_n_m", ("margins", (MARGIN_FIELDS,)),
+    # the wind estimate (the list the unit shares with its guidance laws), the last margins computed (for the
+    # fence's memo and ShiftResult) and the fusion horizon
+    "ring_next", "ring_rows", "last_t_s", ("wind_en_mps", (2,)), "has_margins", "margins_e_m", "margins_n_m", ("margins", (MARGIN_FIELDS,)),
     "horizon_moved", ("horizon", (5,)),
     # the hand-over with a fixed-wing recovery's compiled step (GeofenceUnit.override_arrays)
     "thr", "clearance_m", "turn_throttle", "throttle", "progress_m", "turning", "turned_rad", "last_yaw_rad",
