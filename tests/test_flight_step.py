@@ -19,7 +19,7 @@ from geofence.interface import Envelope, PlatformKind, StickCommand, VehicleStat
 from geofence.margins.boundary_shift import activation_margins
 from geofence.unit.config import parse_geofence
 from geofence.unit.geofence_unit import GeofenceUnit, Mode
-from geofence.unit.passes import N_UNIT, OVERRIDE_STEP, PASS, monitor_pass, override_pass
+from geofence.unit.passes import OVERRIDE_STEP, PASS, monitor_pass, override_pass
 from scenarios.definition.schema import load_scenario
 from scenarios.flight.recorder import COLUMNS, Recorder, write_row
 from scenarios.flight.runner import fly
@@ -170,8 +170,8 @@ def test_monitor_pass_compiled_is_its_interpreted_source(e, n, speed, course, ag
     u = _unit(MC)
     ve, vn = speed * math.cos(course), speed * math.sin(course)
     u.update(0.0, _state(0.0, 0.0, 0.0), PILOT, DT, wind_en=(0.0, 0.0))  # (scaled to the site's density)
-    U = np.zeros(N_UNIT)
-    F, L, V = u.pack_monitor(U)
+    U = u.memory  # (the unit's record)
+    F, L, V = u.margins_tables()
     args = (DT, DT, 400.0 + agl, e, n, agl, ve, vn, 0.0, 0.0, on_ground, wind, -wind, True, sigma_h, 0.5 * sigma_h)
     args += (0.1, 0.5, G)
     got = monitor_pass(U.copy(), F, L, V, *args)
@@ -201,17 +201,16 @@ def test_override_pass_compiled_is_its_interpreted_source(de, dn, speed, course,
     u = UNIT_IN_OVERRIDE
     if not u.override_ready():
         pytest.skip("the Tern's recovery has no compiled step here")
-    U = np.zeros(N_UNIT)
-    F, L, V, R, P, Q, K = u.pack_override(U)
+    F, L, V, R, P, Q, K = u.override_arrays()
     est = u.estimate
     assert est is not None
     e, n = est.east_m + de, est.north_m + dn
-    u.find_rollout_target(U, e, n, 0.0)  # (the cell's target packed: a route search where none is cached)
+    u.find_rollout_target(e, n, 0.0)  # (the cell's target in the record: a route search where none is cached)
     ve, vn = speed * math.cos(course), speed * math.sin(course)
     t = est.t_s + later_s
     args = (t, DT, 400.0 + agl, e, n, agl, ve, vn, 0.0, 0.1, math.pi / 2 - course, speed, 1.0, 0.0, True, 0.0, 0.0)
     args += (0.0, 0.5, G)
-    Ug, Uw = U.copy(), U.copy()
+    Ug, Uw = u.memory.copy(), u.memory.copy()
     got = override_pass(Ug, F, L, V, R, P, Q, K, *args)
     want = override_pass.py_func(Uw, F, L, V, R, P, Q, K, *args)
     assert got[0] == want[0]

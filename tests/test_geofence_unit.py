@@ -232,15 +232,17 @@ def test_dead_reckoning_room_grows_with_the_descent_and_the_turbulence(agl, high
         assert u.dead_reckoning_room_m(0.0) == DEAD_RECKONING_LANDING_MARGIN_M
 
 
-def test_prepare_routes_builds_the_route_graph_up_front_and_routes_do_not_change():
-    """``prepare_routes`` builds the planner of the current clearance and its graph now (a flight would build it
-    at its first route search); the routes it then plans are the ones planned without it."""
+def test_prepare_routes_builds_the_planner_up_front_and_routes_do_not_change():
+    """``prepare_routes`` builds the planner of the current clearance now (a flight would build it at its first
+    route search; that its graph is then built is :meth:`RecoveryPlanner.prepare`'s own contract); the routes it
+    then plans are the ones planned without it."""
     early, late = unit(), unit()
-    assert not early._planners
+    assert not early.route_planners()
     early.prepare_routes()
-    (planner,) = early._planners.values()
-    assert planner._graph_built and planner.nodes
-    clearance = early._route_clearances()[0]
-    a = early._planner(clearance).plan((-150.0, 30.0), (0.0, 0.0))
-    b = late._planner(clearance).plan((-150.0, 30.0), (0.0, 0.0))
+    clearance = early.route_clearances()[0]
+    assert list(early.route_planners()) == [clearance]
+    planner = early.route_planners()[clearance]
+    assert planner is early.route_planner(clearance) and planner.clearance_m == clearance and planner.nodes
+    a = planner.plan((-150.0, 30.0), (0.0, 0.0))
+    b = late.route_planner(clearance).plan((-150.0, 30.0), (0.0, 0.0))
     assert a is not None and b is not None and a.points == b.points

@@ -38,13 +38,16 @@ reckoning from its last valid estimate (:mod:`geofence.estimation.dead_reckoning
 The unit sees only a state estimate, the platform :class:`Envelope`, a wind
 estimate, and the pilot's :class:`StickCommand`. Heights ``h`` are in the
 fence's altitude reference (AGL or AMSL).
+
+The unit's per-step state is one record it owns (:data:`geofence.unit.passes.UNIT_STATE`), which its compiled
+passes read and write in place (see :class:`GeofenceUnit`).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from enum import IntEnum
+from typing import Any
 
 import numpy as np
 
@@ -72,12 +75,18 @@ from geofence.recovery.guidance import (
     SeedPDRecovery,
     StraightRoute,
 )
-from geofence.unit import passes as _uk
 from geofence.unit.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource, allowance_in_use_mps
 from geofence.unit.passes import (  # (their home: the monitoring step's kernel reads them too)
     DENSITY_REFRESH_M,
     FRESH_ESTIMATE_AGE_S,
+    TARGET_CELLS,
+    TARGET_SIDE,
+    UNIT_SIZE,
+    UNIT_STATE,
+    Mode,
     activates,
+    field_slot,
+    goal_short_of_band_h_m,
     hand_back,
     hold_over,
     latency_s,
@@ -85,6 +94,7 @@ from geofence.unit.passes import (  # (their home: the monitoring step's kernel 
     return_assured,
     rollout_cell,
     vertical_handback_m,
+    window_cell,
 )
 
 WIND_BEYOND_AUTHORITY_PERSIST_S = 3.0
@@ -110,18 +120,39 @@ SLOW_TURN_MAX_WIND_FRACTION = 0.5
 still make way against it to face its route."""
 
 
-class Mode(IntEnum):
-    MONITOR = 0
-    OVERRIDE = 1
-    RECOVERED = 2
-    LAND_IN_GAP = 3
-    TERMINATE = 4
-
-
 # the modes as module constants for the per-step code (a global is read in a tenth of an enum class attribute's time)
 _MONITOR, _OVERRIDE, _RECOVERED, _LAND_IN_GAP, _TERMINATE = (
     Mode.MONITOR, Mode.OVERRIDE, Mode.RECOVERED, Mode.LAND_IN_GAP, Mode.TERMINATE,
 )  # fmt: skip
+
+
+class _Field:
+    """An attribute of :class:`GeofenceUnit` that is a field of its record (:data:`~geofence.unit.passes.UNIT_STATE`):
+    read and written in the record's memory, which the compiled passes read and write too."""
+
+    __slots__ = ("slot",)
+
+    def __init__(self, name: str) -> None:
+        self.slot = field_slot(name)
+
+    def __get__(self, unit: Any, owner: Any = None) -> float:
+        return unit.memory.item(self.slot)
+
+    def __set__(self, unit: Any, value: float) -> None:
+        unit.memory[self.slot] = value
+
+
+class _Flag(_Field):
+    """A flag of the record (0 or 1) as a bool."""
+
+    def __get__(self, unit: Any, owner: Any = None) -> bool:
+        return unit.memory.item(self.slot) != 0.0
+
+    def __set__(self, unit: Any, value: bool) -> None:  # type: ignore[override]
+        unit.memory[self.slot] = value
+
+
+_MODE_SLOT = field_slot("mode")
 
 
 @dataclass(frozen=True)
@@ -136,15 +167,46 @@ class Transition:
 
 
 class GeofenceUnit:
-    """The platform-independent geofence: ``update(...)`` once per outer-loop step."""
+    """The platform-independent geofence: ``update(...)`` once per outer-loop step.
+
+    Its per-step state is one record, :data:`~geofence.unit.passes.UNIT_STATE`, in :attr:`memory`: the attributes
+    below that are :class:`_Field` s are that record's fields, which the compiled passes
+    (:mod:`geofence.unit.passes`) read and write too; nothing is copied between the two. The record's constants
+    (the configuration's, the fence's and the envelope's numbers) are written where they are derived, once per
+    unit or per envelope (:meth:`_configure_record`, :meth:`_build_laws`); :attr:`mode` is written through its
+    setter (the passes only read it). What lives in Python
+    objects (the history of estimates, the wind list its guidance laws share, the fence's memo, a fixed-wing
+    recovery's state) is handed over by
+    :meth:`take_in_ring` and :meth:`override_arrays`."""
+
+    activation_margin_m = _Field("activation_margin_m")
+    """The last step's activation margin, m (inf: far from everything, not computed in detail; NaN: not needed)."""
+    _density_alt_m = _Field("density_alt_m")  # (NaN: never scaled)
+    _mode_since_s = _Field("mode_since_s")
+    _latency_s = _Field("latency_s")
+    _turbulence_est_mps = _Field("turbulence_est_mps")
+    _sigma_h_m = _Field("sigma_h_m")  # (the last finite one)
+    _sigma_v_m = _Field("sigma_v_m")
+    _position_valid = _Flag("position_valid")
+    _strong_wind_since_s = _Field("strong_wind_since_s")  # (NaN: the return is assured)
+    _skipped_last = _Flag("skipped_last")  # the last monitoring step's skip shortcut held
+    _override_period_start_s = _Field("period_start_s")
+    _climb_back_to_m = _Field("climb_back_m")  # the override's climb-back height, below the floor in a gap (NaN: none)
+    _goal_h_m = _Field("goal_h_m")  # the override's goal height (set as it starts)
+    _goal_short_of_band = _Flag("goal_short_of_band")  # an explicit goal or the band's middle (no room by construction)
 
     def __init__(self, config: GeofenceConfig, fence: LocalFence, envelope: Envelope):
+        self.memory = np.zeros(UNIT_SIZE)
+        """The unit's record's float memory (:data:`~geofence.unit.passes.UNIT_STATE`), which a compiled step passes to
+        the passes."""
+        self._record = self.memory.view(UNIT_STATE)[0]
+        self._targets: np.ndarray = self._record.targets  # (a view: the window on the roll-out target cache)
         self.config = config
         self.fence = fence
         self.base_envelope = envelope
         """The profile's envelope (sea-level-ish); :attr:`env` is it scaled to the air density at the site."""
         self.env = envelope
-        self._density_alt_m: float | None = None
+        self._density_alt_m = math.nan
         self.mode = Mode.MONITOR
         self.transitions: list[Transition] = []
         self.activations = 0
@@ -155,31 +217,40 @@ class GeofenceUnit:
         self._last: ShiftResult | None = None
         self._last_fields: tuple[CompiledMargins, list[float]] | None = None  # (fields not made a ShiftResult yet)
         self.activation_margin_m = math.inf
-        self.wind_enu = [config.wind_prior_enu[0], config.wind_prior_enu[1]]
-        self._turbulence_est_mps = 0.0
-        self._latency_s = 0.0
+        self.wind_enu = [config.wind_prior_enu[0], config.wind_prior_enu[1]]  # (shared with the guidance laws)
         self._planners: dict[float, RecoveryPlanner] = {}
         self._rollout_cache: dict[tuple[int, int], tuple[float, float]] = {}
-        self._agl = fence.altitude_reference is AltitudeReference.AGL
         self._clearances: tuple[float, ...] = ()
         self._clearances_for: tuple = ()  # (sigma_h, envelope) the clearances were computed for
         self._compiled: CompiledMargins | None = None  # the compiled margins of a fence without an index
         self._predictive = config.trigger is Trigger.PREDICTIVE
-        self._estimated_turbulence = config.turbulence_source is TurbulenceSource.ESTIMATE
-        self._forecast_allowance_mps = config.wind_allowance_mps(config.turbulence_sigma_mps)
+        self._configure_record(config, fence)
         self._build_laws(envelope)
-        self._mode_since_s = 0.0
-        self._strong_wind_since_s: float | None = None
+        self._strong_wind_since_s = math.nan
         self._position_valid = True
         self._last_valid: VehicleState | None = None
         self._last_horizon: FixState | None = None
         self._history = EstimateHistory()
         self.estimate: VehicleState | None = None
         """The state the unit acted on last (its estimate, or its dead reckoning)."""
-        self._override_period_start_s = 0.0
-        self._climb_back_to_m: float | None = None  # the override's climb-back height, below the floor in a gap
-        self._goal_h_m = math.nan  # the override's goal height (set as it starts)
-        self._goal_short_of_band = False  # that goal is an explicit one or the band's middle (no room by construction)
+        self._climb_back_to_m = math.nan
+        self._goal_h_m = math.nan
+
+    def _configure_record(self, config: GeofenceConfig, fence: LocalFence) -> None:
+        """The record's constants from the configuration and the fence (set once; the few that :meth:`update` reads
+        are kept as attributes too, written here only)."""
+        u = self._record
+        u.k_sigma, u.extra_margin_m, u.gust_mps = config.uncertainty_k_sigma, config.extra_margin_m, config.gust_mps
+        self._agl = fence.altitude_reference is AltitudeReference.AGL
+        self._estimated_turbulence = config.turbulence_source is TurbulenceSource.ESTIMATE
+        self._forecast_allowance_mps = config.wind_allowance_mps(config.turbulence_sigma_mps)
+        u.agl, u.estimated_turbulence = self._agl, self._estimated_turbulence
+        u.forecast_allowance_mps = self._forecast_allowance_mps
+        u.forecast_sigma_mps, u.turbulence_k_sigma = config.turbulence_sigma_mps, config.turbulence_k_sigma
+        u.min_override_s, u.handback_margin_m = config.min_override_s, config.handback_margin_m
+        u.recovery_e_m, u.recovery_n_m = fence.recovery_en
+        u.recovery_radius_m, u.ceiling_m = config.recovery_radius_m, fence.ceiling_m
+        u.floor_m = math.nan if fence.floor_m is None else fence.floor_m
         lo = (
             fence.floor_m
             if fence.floor_m is not None
@@ -187,16 +258,25 @@ class GeofenceUnit:
         )
         self._height_limits = (lo, fence.ceiling_m)
         # the vertical hand-back hysteresis, at most a tenth of the vertical band (an indoor fence is 1 m high)
-        self._vertical_handback_m = min(config.vertical_handback_m, 0.1 * (fence.ceiling_m - lo))
-        self._sigma_v_m = 0.0
-        self._sigma_h_m = 0.0
-        self._skipped_last = False  # the last monitoring step's skip shortcut held
+        self._vertical_handback_m = u.vertical_handback_m = min(config.vertical_handback_m, 0.1 * (fence.ceiling_m - lo))
+
+    @property
+    def mode(self) -> Mode:
+        """The state machine's mode (the record keeps its number, written by this setter only)."""
+        return self._mode
+
+    @mode.setter
+    def mode(self, mode: Mode) -> None:
+        self._mode = mode
+        self.memory[_MODE_SLOT] = mode
 
     # -- helpers -------------------------------------------------------------
     def _build_laws(self, env: Envelope) -> None:
         """The guidance laws and dead reckoning for envelope ``env``."""
         self.env = env
         self._multirotor = env.is_multirotor
+        u = self._record
+        u.multirotor, u.reaction_time_s = self._multirotor, env.reaction_time_s
         if self.fence.grid() is None:
             self._compiled = CompiledMargins(self.fence, env)
         config = self.config
@@ -211,14 +291,21 @@ class GeofenceUnit:
         turn_r = envelope_turn_radius_m(env)
         self.landing = LandingGuidance(env, spiral_radius_m=max(1.2 * turn_r, 10.0), wind_enu=self.wind_enu)
         self.dead_reckoning = DeadReckoning(env)
-        self._return_wind_limits = return_wind_limits(config.turbulence_sigma_mps, env)
+        self._return_wind_limits = u.return_allowance_mps, u.return_limit_mps = return_wind_limits(
+            config.turbulence_sigma_mps, env
+        )
 
     def _scale_to_density(self, alt_m: float) -> None:
         """Scale the envelope to the ISA density at ``alt_m`` (AMSL); :meth:`update` asks it while monitoring, when
         the altitude moved :data:`DENSITY_REFRESH_M` or more since the last time."""
         self._density_alt_m = alt_m
         self._build_laws(envelope_at_density(self.base_envelope, isa_density_ratio(alt_m)))
-        self._rollout_cache.clear()  # the route clearances follow the (true-airspeed) turn radius
+        self._clear_rollout_targets()  # the route clearances follow the (true-airspeed) turn radius
+
+    def _clear_rollout_targets(self) -> None:
+        """Forget the roll-out targets found (the cache, and the record's window on it)."""
+        self._rollout_cache.clear()
+        self._record.has_targets = 0.0
 
     def _switch(self, t_s: float, to: Mode, reason: str) -> None:
         self.transitions.append(Transition(t_s, self.mode, to, reason))
@@ -397,7 +484,7 @@ class GeofenceUnit:
                 return found[1] if found is not None else fence.recovery_en
             # a fixed-wing spirals down: the nearest point (by route) where its spiral fits inside
             r = self.landing.spiral_radius_m
-            if fence.lateral_margin_m(s.east_m, s.north_m) >= r + self._route_clearances()[0]:
+            if fence.lateral_margin_m(s.east_m, s.north_m) >= r + self.route_clearances()[0]:
                 return s.east_m, s.north_m
             found = self._point_with_room(s, r)
             return found[1] if found is not None else fence.recovery_en
@@ -431,7 +518,13 @@ class GeofenceUnit:
         return ge - offset * we / w, gn - offset * wn / w
 
     # -- routes inside the fence ------------------------------------------------
-    def _planner(self, clearance_m: float) -> RecoveryPlanner:
+    def route_planners(self) -> dict[float, RecoveryPlanner]:
+        """The recovery-route planners built so far, by lateral clearance (m; a new dict)."""
+        return dict(self._planners)
+
+    def route_planner(self, clearance_m: float) -> RecoveryPlanner:
+        """The recovery-route planner of a lateral clearance (m, one of :meth:`route_clearances`), built on first use
+        and kept."""
         p = self._planners.get(clearance_m)
         if p is None:
             p = self._planners[clearance_m] = RecoveryPlanner(self.fence, clearance_m)
@@ -444,9 +537,9 @@ class GeofenceUnit:
         (:meth:`RecoveryPlanner.prepare`). Otherwise the searches build the graph as they go, mid-flight (about
         half a second for the nodes of a 10,000-vertex fence with 500 keep-outs, then some 25 µs for each node a
         search first expands). Routes as short either way."""
-        self._planner(self._route_clearances()[0]).prepare(goals=(self.fence.recovery_en,))
+        self.route_planner(self.route_clearances()[0]).prepare(goals=(self.fence.recovery_en,))
 
-    def _route_clearances(self, sigma_h_m: float | None = None) -> tuple[float, ...]:
+    def route_clearances(self, sigma_h_m: float | None = None) -> tuple[float, ...]:
         """Lateral clearances to try, largest first (m, rounded up to whole metres so planners can be reused).
 
         A fixed-wing wants its turn radius, a multirotor a few metres; both add
@@ -468,15 +561,15 @@ class GeofenceUnit:
 
     def _route(self, start_en: tuple[float, float], goal_en: tuple[float, float], sigma_h_m: float | None = None) -> Route:
         """A route from ``start_en`` (the estimate's position) to ``goal_en`` inside the allowed area
-        (:mod:`geofence.recovery_path`), with the clearances of :meth:`_route_clearances` (``sigma_h_m``).
+        (:mod:`geofence.recovery_path`), with the clearances of :meth:`route_clearances` (``sigma_h_m``).
 
         The largest clearance that reaches the goal wins; failing all, the
         partial route that ends nearest it; with no admissible first leg at
         all, the straight line (the only thing left to fly).
         """
         partial = None
-        for c in self._route_clearances(sigma_h_m):
-            path = self._planner(c).plan(start_en, goal_en)
+        for c in self.route_clearances(sigma_h_m):
+            path = self.route_planner(c).plan(start_en, goal_en)
             if path is None:
                 continue
             if path.reached_goal and len(path.points) >= 2:
@@ -491,7 +584,7 @@ class GeofenceUnit:
         goal = self.fence.recovery_en
         if isinstance(self.recovery, FixedWingRecovery):
             orbit_r = self.recovery.orbit_radius_m
-            if self.fence.lateral_margin_m(*goal) < orbit_r + self._route_clearances()[0]:
+            if self.fence.lateral_margin_m(*goal) < orbit_r + self.route_clearances()[0]:
                 found = self._point_with_room(s, orbit_r)
                 if found is not None:
                     return found
@@ -512,7 +605,7 @@ class GeofenceUnit:
     def _point_with_room(self, s: VehicleState, radius_m: float) -> tuple[Route, tuple[float, float]] | None:
         """The route to, and the nearest point (by route) where a circle of ``radius_m`` keeps the largest route
         clearance from every boundary; None if no reachable point has that room."""
-        found = self._planner(self._route_clearances()[0]).safe_point_with_radius((s.east_m, s.north_m), radius_m)
+        found = self.route_planner(self.route_clearances()[0]).safe_point_with_radius((s.east_m, s.north_m), radius_m)
         return None if found is None else (found[1], found[0].en)
 
     def _rollout_target(self, e: float, n: float, sigma_h_m: float | None = None) -> tuple[float, float]:
@@ -524,7 +617,7 @@ class GeofenceUnit:
         round within a step, so that a fixed-wing in a corridor narrower than its turn turned away from the
         corridor towards a vertex behind it (case history: docs/campaigns.md#breach-classes-found-and-fixed). Cached per
         cell of :data:`geofence.unit.passes.ROLLOUT_CELL_M`; found with
-        the route clearances of ``sigma_h_m`` (default the unit's, :meth:`_route_clearances`).
+        the route clearances of ``sigma_h_m`` (default the unit's, :meth:`route_clearances`).
         """
         key = rollout_cell(e, n)
         t = self._rollout_cache.get(key)
@@ -534,8 +627,11 @@ class GeofenceUnit:
             route = self._route((e, n), self.fence.recovery_en, sigma_h_m)
             t = route.rollout_point(e, n, recovery.lookahead_m)
             if len(self._rollout_cache) > 20000:
-                self._rollout_cache.clear()
+                self._clear_rollout_targets()
             self._rollout_cache[key] = t
+            inside, i, j = window_cell(self._record, e, n)
+            if inside:  # (the window shows the cache)
+                self._targets[i, j] = 1.0, t[0], t[1]
         return t
 
     def _below_floor_in_gap(self, s: VehicleState, h: float) -> bool:
@@ -601,7 +697,7 @@ class GeofenceUnit:
         self.recovery.start(s, route, goal_h, h, t_s, r.turn_sign, r.turn_angle_rad, hold, self._turn_does_not_fit(r))
         self._goal_h_m = goal_h
         self._goal_short_of_band = not in_band
-        self._climb_back_to_m = hold
+        self._climb_back_to_m = math.nan if hold is None else hold
         self._override_period_start_s = t_s
         self._switch(t_s, Mode.OVERRIDE, reason)
 
@@ -669,82 +765,33 @@ class GeofenceUnit:
         mode = self.mode
         return (mode is _MONITOR or mode is _RECOVERED) and self.monitors_compiled and not self.dead_reckoning.active
 
-    def pack_monitor(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Fill ``U`` (:data:`geofence.unit.passes.N_UNIT` floats) with what the monitoring step reads; returns its
-        compiled margins' tables and envelope terms ``(F, L, V)``. Valid until the next :meth:`update`."""
+    def margins_tables(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The compiled margins' tables and envelope terms ``(F, L, V)`` the passes read (with :attr:`memory`); valid
+        until the next :meth:`update` (which may re-scale the envelope)."""
         compiled = self._compiled
         assert compiled is not None
-        self._pack_margins_inputs(U)
-        self._pack_kept(U)
-        self._pack_estimate_targets(U)
         F, L = compiled._tables
         return F, L, compiled._terms
 
-    def _pack_margins_inputs(self, U: np.ndarray) -> None:
-        """What a compiled step's margins read besides the estimate: the configuration's and envelope's numbers."""
-        cfg = self.config
-        U[_uk.K_SIGMA] = cfg.uncertainty_k_sigma
-        U[_uk.EXTRA] = cfg.extra_margin_m
-        U[_uk.REACTION_S] = self.env.reaction_time_s
-        U[_uk.FORECAST_ALLOWANCE] = self._forecast_allowance_mps
-        U[_uk.ESTIMATED_TURBULENCE] = float(self._estimated_turbulence)
-        U[_uk.FORECAST_SIGMA] = cfg.turbulence_sigma_mps
-        U[_uk.TURBULENCE_K] = cfg.turbulence_k_sigma
-        U[_uk.GUST] = cfg.gust_mps
-        U[_uk.MULTIROTOR] = float(self._multirotor)
-        U[_uk.DENSITY_ALT] = math.nan if self._density_alt_m is None else self._density_alt_m
-
-    def _pack_estimate_targets(self, U: np.ndarray) -> None:
-        """The fixed-wing roll-out targets cached round the estimate's cell (:meth:`_pack_targets`; none for a
-        multirotor, or before an estimate)."""
-        est = self.estimate
-        if self._multirotor or est is None:
-            U[_uk.HAS_TARGETS] = 0.0
-        else:
-            self._pack_targets(U, est.east_m, est.north_m)
-
-    def find_rollout_target(self, U: np.ndarray, e: float, n: float, sigma_h_m: float) -> None:
+    def find_rollout_target(self, e: float, n: float, sigma_h_m: float) -> None:
         """Find the roll-out target of the cell of (e, n) where none is cached (a route search, as :meth:`update`
-        would for margins there, with the step's ``sigma_h_m``, or where it is not finite the last finite one,
-        which ``U`` keeps with the passes not yet taken in), and pack the targets round it in ``U``: a compiled
-        step that answered :data:`~geofence.unit.passes.NEED_TARGET` is asked again."""
-        cached = len(self._rollout_cache)
-        target = self._rollout_target(e, n, sigma_h_m if math.isfinite(sigma_h_m) else float(U[_uk.SIGMA_H]))
-        k = _uk.target_slot(U, e, n)
-        if k >= 0 and len(self._rollout_cache) > cached:  # its slot among those packed (the cache not cleared)
-            U[k], U[k + 1], U[k + 2] = 1.0, target[0], target[1]
-        else:  # round this cell
-            self._pack_targets(U, e, n)
+        would for margins there, with the step's ``sigma_h_m``, or where it is not finite the last finite one) and
+        show it in the record's window (centred on that cell where it was not in it): a compiled step that answered
+        :data:`~geofence.unit.passes.NEED_TARGET` is asked again."""
+        self._rollout_target(e, n, sigma_h_m if math.isfinite(sigma_h_m) else self._sigma_h_m)
+        if not window_cell(self._record, e, n)[0]:
+            self._window_round(e, n)
 
-    def _pack_targets(self, U: np.ndarray, e: float, n: float) -> None:
-        """The fixed-wing roll-out targets cached round the cell of (e, n) (:data:`geofence.unit.passes.TARGET_CELLS`
-        each way)."""
+    def _window_round(self, e: float, n: float) -> None:
+        """The record's window on the roll-out target cache, centred on the cell of (e, n)
+        (:data:`geofence.unit.passes.TARGET_CELLS` each way)."""
         ce, cn = rollout_cell(e, n)
-        U[_uk.HAS_TARGETS], U[_uk.CELL_E], U[_uk.CELL_N] = 1.0, ce, cn
-        cache = self._rollout_cache
-        reach = _uk.TARGET_CELLS
-        k = _uk.TARGETS0
-        for dn in range(-reach, reach + 1):
-            for de in range(-reach, reach + 1):
-                target = cache.get((ce + de, cn + dn))
-                if target is None:
-                    U[k] = 0.0
-                else:
-                    U[k], U[k + 1], U[k + 2] = 1.0, target[0], target[1]
-                k += 3
-
-    def _pack_kept(self, U: np.ndarray) -> None:
-        """What the unit keeps that a compiled step may leave as it is (then taken in unchanged), and no step
-        pending."""
-        U[_uk.MODE] = float(self.mode)
-        U[_uk.MONITOR_MODE] = float(Mode.MONITOR)
-        U[_uk.MODE_SINCE] = self._mode_since_s
-        U[_uk.RETURN_ALLOWANCE], U[_uk.RETURN_LIMIT] = self._return_wind_limits
-        U[_uk.AGL] = float(self._agl)
-        U[_uk.SIGMA_H] = self._sigma_h_m  # (a step keeps it only where finite)
-        U[_uk.FAR] = float(self._skipped_last)
-        U[_uk.ACTIVATION] = self.activation_margin_m
-        U[_uk.PASSES] = U[_uk.HAS_MARGINS] = U[_uk.HORIZON_MOVED] = U[_uk.RECOVERY_MOVED] = 0.0
+        u, cache, targets = self._record, self._rollout_cache, self._targets
+        u.has_targets, u.cell_e, u.cell_n = 1.0, ce, cn
+        for i in range(TARGET_SIDE):
+            for j in range(TARGET_SIDE):
+                target = cache.get((ce + j - TARGET_CELLS, cn + i - TARGET_CELLS))
+                targets[i, j] = (0.0, 0.0, 0.0) if target is None else (1.0, target[0], target[1])
 
     def override_ready(self) -> bool:
         """Whether :func:`geofence.unit.passes.override_pass` can take the next step: a fixed-wing override (of a unit
@@ -759,83 +806,64 @@ class GeofenceUnit:
             and recovery.compiled_step() is not None
         )
 
-    def pack_override(self, U: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Fill ``U`` with what an override step reads (see :meth:`override_ready`); returns its compiled margins'
-        tables and envelope terms and its recovery's compiled step's arrays ``(F, L, V, R, P, Q, K)``. Valid until
-        the next :meth:`update`."""
+    def override_arrays(self) -> tuple[np.ndarray, ...]:
+        """The arrays an override step reads besides :attr:`memory` (see :meth:`override_ready`): the compiled margins'
+        tables and envelope terms and the recovery's compiled step's arrays ``(F, L, V, R, P, Q, K)``, valid until the
+        next :meth:`update`. The hand-over to the record of what the recovery (a Python object) keeps: its route
+        follower's chord arguments and its step's state (taken back by :meth:`take_in_ring`)."""
         recovery = self.recovery
-        compiled = self._compiled
-        assert isinstance(recovery, FixedWingRecovery) and compiled is not None
+        assert isinstance(recovery, FixedWingRecovery)
         arrays = recovery.compiled_step()
         assert arrays is not None
         R, P, Q, K, thr, clearance = arrays
-        self._pack_margins_inputs(U)
-        self._pack_kept(U)
-        self._pack_estimate_targets(U)
-        U[_uk.PERIOD_START], U[_uk.MIN_OVERRIDE] = self._override_period_start_s, self.config.min_override_s
-        self._pack_hand_back(U)
-        U[_uk.THR], U[_uk.CLEARANCE] = thr, clearance
+        u = self._record
+        u.thr, u.clearance_m = thr, clearance
         progress, turning, turned, last_yaw, turn_throttle, throttle = recovery.step_state()
-        U[_uk.PROGRESS], U[_uk.TURNING], U[_uk.TURNED], U[_uk.LAST_YAW] = progress, float(turning), turned, last_yaw
-        U[_uk.TURN_THROTTLE], U[_uk.THROTTLE] = turn_throttle, throttle
-        F, L = compiled._tables
-        return F, L, compiled._terms, R, P, Q, K
-
-    def _pack_hand_back(self, U: np.ndarray) -> None:
-        """What the hand-back test reads (:meth:`_handback_ok`; :func:`geofence.unit.passes.override_pass` after the
-        minimum override period)."""
-        cfg, fence = self.config, self.fence
-        U[_uk.HANDBACK_MARGIN], U[_uk.RECOVERY_RADIUS] = cfg.handback_margin_m, cfg.recovery_radius_m
-        U[_uk.RECOVERY_E], U[_uk.RECOVERY_N] = fence.recovery_en
-        U[_uk.CLIMB_BACK] = math.nan if self._climb_back_to_m is None else self._climb_back_to_m
-        U[_uk.VERTICAL_HYSTERESIS], U[_uk.GOAL_H] = self._vertical_handback_m, self._goal_short_of_band_h_m()
-        U[_uk.CEILING_M], U[_uk.FLOOR_M] = fence.ceiling_m, math.nan if fence.floor_m is None else fence.floor_m
+        u.progress_m, u.turning, u.turned_rad, u.last_yaw_rad = progress, float(turning), turned, last_yaw
+        u.turn_throttle, u.throttle, u.recovery_moved = turn_throttle, throttle, 0.0
+        return (*self.margins_tables(), R, P, Q, K)
 
     def history_rows(self, dt_s: float) -> int:
         """Rows a ring of estimates needs to hold the unit's history (:data:`REPLAY_WINDOW_S`) at steps of ``dt_s``."""
         return math.ceil(REPLAY_WINDOW_S / dt_s) + 4
 
-    def take_in_passes(self, U: np.ndarray, H: np.ndarray, horizon: FixState | None) -> None:
-        """Take in the steps compiled calls took since the last time (the passes of
-        :func:`geofence.unit.passes.monitor_pass`, the override steps of :func:`geofence.unit.passes.override_pass`),
-        as :meth:`update` would have taken them one by one: what :func:`geofence.unit.passes.record_pass` kept in
-        ``U`` and the ring ``H`` (:meth:`history_rows` long), and the recovery's state. ``horizon``: the fusion
-        horizon before them (the sensing chain's). Then none are pending."""
-        passes = int(U[_uk.PASSES])
+    def take_in_ring(self, H: np.ndarray, horizon: FixState | None) -> bool:
+        """The hand-over of the steps compiled calls took since the last time (the passes of
+        :func:`geofence.unit.passes.monitor_pass`, the override steps of :func:`geofence.unit.passes.override_pass`)
+        to what lives in Python objects, as :meth:`update` would have kept them: their estimates (the ring ``H``,
+        :meth:`history_rows` long) into the history and :attr:`estimate`, the wind estimate into the list the
+        guidance laws share (:attr:`wind_enu`), the fusion horizon (``horizon``: the one
+        before them, the sensing chain's), the last margins they computed (the fence's memo, :attr:`last`), and a
+        fixed-wing recovery's step state. Everything else they changed is in the record already. Returns whether
+        they moved the fusion horizon."""
+        u = self._record
+        passes = int(u.ring_rows)
         if passes == 0:
-            return
+            return False
         rows = min(passes, len(H))
-        end = int(U[_uk.RING_NEXT])
-        history = self._history
+        end = int(u.ring_next)
         start = end - rows
         # oldest to newest, a copy (the ring is written on)
         block = H[start:end].copy() if start >= 0 else np.concatenate((H[start:], H[:end]))
-        history.extend_rows(block)  # (states again only when dead reckoning replays them)
-        history.trim(U[_uk.LAST_T] - REPLAY_WINDOW_S)
+        self._history.extend_rows(block)  # (states again only when dead reckoning replays them)
+        self._history.trim(float(u.last_t_s) - REPLAY_WINDOW_S)
         self.estimate = self._last_valid = state_of_row(block[-1].tolist())
-        if U[_uk.HORIZON_MOVED] != 0.0:
-            horizon = FixState(*U[_uk.HORIZON0 : _uk.HORIZON0 + 5].tolist())
-        self._last_horizon = horizon
-        self._latency_s = float(U[_uk.LATENCY])
-        self.wind_enu[0], self.wind_enu[1] = float(U[_uk.WIND_E]), float(U[_uk.WIND_N])
-        self._turbulence_est_mps = float(U[_uk.TURBULENCE_EST])
-        self._position_valid = True
-        self._sigma_v_m, self._sigma_h_m = float(U[_uk.SIGMA_V]), float(U[_uk.SIGMA_H])
-        self._strong_wind_since_s = None
-        self._skipped_last = U[_uk.FAR] != 0.0
-        self.activation_margin_m = float(U[_uk.ACTIVATION])
-        if U[_uk.HAS_MARGINS] != 0.0:
+        self.wind_enu[0], self.wind_enu[1] = u.wind_en_mps.tolist()
+        moved = u.horizon_moved != 0.0
+        self._last_horizon = FixState(*u.horizon.tolist()) if moved else horizon
+        if u.has_margins != 0.0:
             compiled = self._compiled
             assert compiled is not None  # (the compiled step runs only where it is)
-            fields = U[_uk.MARGINS0 : _uk.MARGINS0 + 18].tolist()
-            self.fence.remember_margin(float(U[_uk.MARGINS_E]), float(U[_uk.MARGINS_N]), fields[1])
+            fields = u.margins.tolist()
+            self.fence.remember_margin(float(u.margins_e_m), float(u.margins_n_m), fields[1])
             self._last = None
             self._last_fields = (compiled, fields)
-        if U[_uk.RECOVERY_MOVED] != 0.0:
+        if u.recovery_moved != 0.0:
             recovery = self.recovery
             assert isinstance(recovery, FixedWingRecovery)
-            recovery.set_step_state(float(U[_uk.PROGRESS]), U[_uk.TURNING] != 0.0, float(U[_uk.TURNED]), float(U[_uk.LAST_YAW]))
-        U[_uk.PASSES] = U[_uk.HAS_MARGINS] = U[_uk.HORIZON_MOVED] = U[_uk.RECOVERY_MOVED] = 0.0
+            recovery.set_step_state(float(u.progress_m), u.turning != 0.0, float(u.turned_rad), float(u.last_yaw_rad))
+        u.ring_rows = u.has_margins = u.horizon_moved = u.recovery_moved = 0.0
+        return bool(moved)
 
     def complete_hand_back(self, t_s: float) -> None:
         """``RECOVERED`` held long enough: back to ``MONITOR``."""
@@ -884,10 +912,8 @@ class GeofenceUnit:
         h = est.agl_m if self._agl else est.alt_m  # self.height(est)
         mode = self.mode
         if (
-            mode is _MONITOR
-            and position_valid
-            and (self._density_alt_m is None or not abs(est.alt_m - self._density_alt_m) < DENSITY_REFRESH_M)
-        ):  # never scaled, or the altitude moved (not "<": a NaN altitude rescales)
+            mode is _MONITOR and position_valid and not abs(est.alt_m - self._density_alt_m) < DENSITY_REFRESH_M
+        ):  # never scaled (NaN), or the altitude moved (not "<": a NaN altitude rescales)
             self._scale_to_density(est.alt_m)
         if mode is _LAND_IN_GAP or mode is _TERMINATE:
             return self._land(t_s, est, h, dt_s)
@@ -899,11 +925,12 @@ class GeofenceUnit:
         # return_not_assured's test against its limits (computed once per envelope); its message only when it fails
         impossible = None if return_assured(we, wn, allowance, limit) else self._return_impossible()
         if impossible is None:
-            self._strong_wind_since_s = None
+            self._strong_wind_since_s = math.nan
         else:
-            if self._strong_wind_since_s is None:
-                self._strong_wind_since_s = t_s
-            if t_s - self._strong_wind_since_s >= WIND_BEYOND_AUTHORITY_PERSIST_S:
+            since = self._strong_wind_since_s
+            if since != since:  # (NaN: it starts now)
+                self._strong_wind_since_s = since = t_s
+            if t_s - since >= WIND_BEYOND_AUTHORITY_PERSIST_S:
                 self._start_landing(t_s, est, h, impossible)
                 return self._land(t_s, est, h, dt_s)
 
@@ -971,14 +998,13 @@ class GeofenceUnit:
         else:
             vertical_ok = min(r.ceiling_margin_m, r.floor_margin_m) > 0.0
             lateral = r.lateral_margin_m - cfg.extra_margin_m
-        climb_back = self._climb_back_to_m
         re, rn = self.fence.recovery_en
         climbed, ok = hand_back(
-            math.nan if climb_back is None else climb_back, self.height(s), vertical_ok, lateral, r.closing_speed_mps,
+            self._climb_back_to_m, self.height(s), vertical_ok, lateral, r.closing_speed_mps,
             cfg.handback_margin_m, math.hypot(re - s.east_m, rn - s.north_m), cfg.recovery_radius_m,
         )  # fmt: skip
         if climbed:
-            self._climb_back_to_m = None
+            self._climb_back_to_m = math.nan
         return ok
 
     def _vertical_handback_at_goal_m(self) -> float:
@@ -1007,8 +1033,7 @@ class GeofenceUnit:
         """The override's goal height where it is short of the band (an explicit recovery height, or the middle of a
         band too thin for :meth:`_goal_height`'s room), else NaN: a goal in the band leaves the hysteresis and the
         settling room by construction."""
-        goal = self._goal_h_m
-        return goal if math.isfinite(goal) and self._goal_short_of_band else math.nan
+        return goal_short_of_band_h_m(self._goal_h_m, self._goal_short_of_band)
 
     def _landing_edge_margin_m(self) -> float:
         """How far inside the keep-in, or inside a floor gap, a multirotor's estimate must be to descend there (m):

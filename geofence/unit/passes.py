@@ -5,27 +5,36 @@ One question each. :func:`monitor_pass`: given this step's estimate (the sensing
 predictive unit that monitors (``MONITOR`` or ``RECOVERED``) keep passing the sticks through, and with which
 margins? The answer is :data:`PASS` (and the margins), :data:`PASS_HANDBACK` (pass, and ``RECOVERED``'s hold is
 over: back to ``MONITOR``), :data:`NEED_TARGET` (near a boundary, a fixed-wing's roll-out target for this cell is
-not packed: the unit finds it, and the step is asked again) or :data:`UNIT`: anything else (an activation, a
+not in the record's window on the unit's cache: the unit finds it, and the step is asked again) or :data:`UNIT`: anything else (an activation, a
 stale or lost position, an envelope to re-scale to the air density, a wind beyond authority), which the unit's
 own :meth:`~geofence.unit.geofence_unit.GeofenceUnit.update` then answers from the same estimate.
 :func:`override_pass`: which sticks does a fixed-wing override send at this step (:data:`OVERRIDE_STEP`; after
 its minimum override period, with its margins: it is not outside and may not hand back yet), or must the unit
-answer (:data:`UNIT`: a re-activation, a possible hand-back, a lost position, ...; :data:`NEED_TARGET` as above)? The unit packs what a step reads in one float
-array (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.pack_monitor`, :meth:`~geofence.unit.geofence_unit.GeofenceUnit.pack_override`,
-layout below); :func:`record_pass` keeps what each step taken so changes, and the unit takes it in before it
-answers a step again (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_passes`). ``update`` is the reference: the
-same tests in the same order on the same numbers (``tests/test_flight_step.py`` flies flights both ways and
-compares their bytes).
+answer (:data:`UNIT`: a re-activation, a possible hand-back, a lost position, ...; :data:`NEED_TARGET` as
+above)?
+
+The unit's per-step state is one record, :data:`UNIT_STATE` (named float64 fields over float memory, the pattern
+of :mod:`geofence.estimation.estimator`), which the unit owns
+(:attr:`~geofence.unit.geofence_unit.GeofenceUnit.memory`) and whose fields its attributes are: the passes read
+it and :func:`record_pass` writes in it what each step taken so changes, as ``update`` would, so nothing is
+packed or taken back. Only what lives in the unit's Python objects is handed over, by name: the estimates' ring,
+the last margins and the fusion horizon (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_ring`), a
+fixed-wing recovery's step state (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.override_arrays`).
+``update`` is the reference: the same tests in the same order on the same numbers
+(``tests/test_flight_step.py`` flies flights both ways and compares their bytes).
 
 It also owns the few constants both read: when an estimate is fresh, when the envelope is re-scaled, when a
-vehicle on the ground is sitting, the hand-back hold and the roll-out target cache's cells; and the formula of
-the vertical hand-back hysteresis at an override's goal (:func:`vertical_handback_m`).
+vehicle on the ground is sitting, the hand-back hold and the roll-out target cache's cells; the unit's modes
+(:class:`Mode`); and the formula of the vertical hand-back hysteresis at an override's goal
+(:func:`vertical_handback_m`).
 """
 
 from __future__ import annotations
 
 import math
+from enum import IntEnum
 from math import hypot
+from typing import Any
 
 import numpy as np
 
@@ -70,76 +79,77 @@ PASS_HANDBACK = 1
 UNIT = 2
 OVERRIDE_STEP = 3  # (override_pass) the override's sticks, by its compiled step
 NEED_TARGET = 4
-"""The margins need the roll-out target of the estimate's cell and it is not among those packed: the unit finds it
+"""The margins need the roll-out target of the estimate's cell and it is not in the record's window: the unit finds it
 (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.find_rollout_target`, a route search where it has none cached), and the caller
 asks the same step again from the same estimate (nothing was kept or recorded)."""
 
-# the unit's packed numbers (GeofenceUnit.pack_monitor), each a float
-K_SIGMA = 0  # uncertainty_k_sigma
-EXTRA = 1  # extra_margin_m
-REACTION_S = 2  # the (density-scaled) envelope's reaction time
-FORECAST_ALLOWANCE = 3  # the forecast's wind allowance, m/s
-ESTIMATED_TURBULENCE = 4  # 1: turbulence_source estimate
-FORECAST_SIGMA = 5  # turbulence_sigma_mps
-TURBULENCE_K = 6  # turbulence_k_sigma
-GUST = 7  # gust_mps
-RETURN_ALLOWANCE = 8  # return_wind_limits
-RETURN_LIMIT = 9
-AGL = 10  # 1: the fence's heights are AGL
-MULTIROTOR = 11  # 1: no roll-out target
-DENSITY_ALT = 12  # the altitude the envelope was scaled at (NaN: never)
-MODE = 13  # the unit's mode, as a number
-MONITOR_MODE = 14  # MONITOR's number (any other mode packed is RECOVERED)
-MODE_SINCE = 15  # when the mode began, s
-HAS_TARGETS = 16  # 1: the roll-out targets cached round cell (CELL_E, CELL_N) follow from TARGETS0
-CELL_E = 17
-CELL_N = 18
-TARGETS0 = 19  # (has, east, north) of each cell within TARGET_CELLS of that one, row by row from the south-west
 TARGET_CELLS = 2
-"""The cached roll-out targets packed reach this many cells round the estimate's (5 x 5 cells): a vehicle crossing
-into a neighbouring cell still finds its target without the unit (at 30 m/s a 10 m cell lasts 13 steps)."""
-_SIDE = 2 * TARGET_CELLS + 1
-# what the passes leave for the unit to take in (GeofenceUnit.take_in_passes): written by record_pass
-PASSES = TARGETS0 + 3 * _SIDE * _SIDE  # passes since the unit last took them in
-RING_NEXT = PASSES + 1  # the estimates' ring's row the next pass writes
-LAST_T = PASSES + 2  # the last pass's time, s
-LATENCY = PASSES + 3
-WIND_E = PASSES + 4  # the wind estimate
-WIND_N = PASSES + 5
-TURBULENCE_EST = PASSES + 6
-SIGMA_V = PASSES + 7
-SIGMA_H = PASSES + 8  # the last finite one (packed: the unit's)
-FAR = PASSES + 9  # 1: the last pass's skip shortcut held
-ACTIVATION = PASSES + 10  # the last pass's activation margin (inf: far)
-HAS_MARGINS = PASSES + 11  # 1: a pass computed margins: the last such pass's position and fields follow
-MARGINS_E = PASSES + 12
-MARGINS_N = PASSES + 13
-MARGINS0 = PASSES + 14  # 18 fields (geofence.margins.kernel._margins)
-HORIZON_MOVED = MARGINS0 + 18  # 1: a pass brought a new fusion horizon, its FixState fields follow
-HORIZON0 = HORIZON_MOVED + 1  # 5 fields
-# a fixed-wing override's step (GeofenceUnit.pack_override; the recovery's state written back by override_pass)
-PERIOD_START = HORIZON0 + 5  # the override period's start, s
-MIN_OVERRIDE = PERIOD_START + 1  # min_override_s
-THR = PERIOD_START + 2  # the route follower's chord threshold argument (NaN: found by the call)
-CLEARANCE = PERIOD_START + 3
-TURN_THROTTLE = PERIOD_START + 4  # the throttle stick while the first turn lasts
-THROTTLE = PERIOD_START + 5  # and after it
-PROGRESS = PERIOD_START + 6  # the route's progress, m
-TURNING = PERIOD_START + 7  # 1: the first turn lasts
-TURNED = PERIOD_START + 8  # how far it has turned, rad
-LAST_YAW = PERIOD_START + 9
-RECOVERY_MOVED = PERIOD_START + 10  # 1: override steps moved the recovery's state (the four above)
-# after the minimum override period: the hand-back's numbers (GeofenceUnit._handback_ok)
-HANDBACK_MARGIN = PERIOD_START + 11  # handback_margin_m
-RECOVERY_E = PERIOD_START + 12  # the fence's recovery point
-RECOVERY_N = PERIOD_START + 13
-RECOVERY_RADIUS = PERIOD_START + 14  # recovery_radius_m
-CLIMB_BACK = PERIOD_START + 15  # the height the override climbs back to before it may hand back (NaN: none)
-VERTICAL_HYSTERESIS = PERIOD_START + 16  # the unit's vertical hand-back hysteresis, m
-GOAL_H = PERIOD_START + 17  # the override's goal height where it is short of the band (NaN: in the band)
-CEILING_M = PERIOD_START + 18
-FLOOR_M = PERIOD_START + 19  # (NaN: no floor)
-N_UNIT = FLOOR_M + 1
+"""The record's window on the unit's roll-out target cache reaches this many cells round its centre cell (5 x 5
+cells): a vehicle crossing into a neighbouring cell still finds its target without the unit (at 30 m/s a 10 m
+cell lasts 13 steps)."""
+TARGET_SIDE = 2 * TARGET_CELLS + 1
+MARGIN_FIELDS = 18
+"""The margins' fields (:func:`geofence.margins.kernel.margins`' tuple)."""
+
+
+class Mode(IntEnum):
+    """The unit's state machine (see :mod:`geofence.unit.geofence_unit`); the record keeps it as its number."""
+
+    MONITOR = 0
+    OVERRIDE = 1
+    RECOVERED = 2
+    LAND_IN_GAP = 3
+    TERMINATE = 4
+
+
+MONITOR_NUMBER = float(Mode.MONITOR)
+"""``MONITOR`` as the record's ``mode`` holds it (a completed hand-back is recorded as ``MONITOR``)."""
+
+
+def float_record(*fields: str | tuple[str, tuple[int, ...]]) -> np.dtype:
+    """A record dtype of float64 fields (a ``(name, shape)`` pair: an array of floats), viewable over float memory."""
+    spec = [(f, np.float64) if isinstance(f, str) else (f[0], np.float64, f[1]) for f in fields]
+    return np.dtype((np.record, spec))
+
+
+UNIT_STATE = float_record(
+    # the configuration's and the fence's numbers (set once, as the unit is built)
+    "k_sigma", "extra_margin_m", "forecast_allowance_mps", "estimated_turbulence", "forecast_sigma_mps",
+    "turbulence_k_sigma", "gust_mps", "agl", "min_override_s", "handback_margin_m", "recovery_e_m", "recovery_n_m",
+    "recovery_radius_m", "vertical_handback_m", "ceiling_m", "floor_m",  # (floor NaN: none)
+    # the envelope's (set as it is scaled to the air density; density_alt_m NaN: never)
+    "reaction_time_s", "return_allowance_mps", "return_limit_mps", "multirotor", "density_alt_m",
+    # the unit's state, which update and the passes both read and write
+    "mode", "mode_since_s", "latency_s", "turbulence_est_mps", "sigma_h_m", "sigma_v_m",
+    "position_valid", "strong_wind_since_s", "skipped_last", "activation_margin_m",  # (strong wind NaN: none)
+    "period_start_s", "climb_back_m", "goal_h_m", "goal_short_of_band",  # the override's (climb back NaN: none)
+    # a window on the roll-out target cache: (has, east, north) of the cells round (cell_e, cell_n), south first
+    "has_targets", "cell_e", "cell_n", ("targets", (TARGET_SIDE, TARGET_SIDE, 3)),
+    # the hand-over to the unit's Python objects (GeofenceUnit.take_in_ring): the ring of estimates' bookkeeping,
+    # the wind estimate (the list the unit shares with its guidance laws), the last margins computed (for the
+    # fence's memo and ShiftResult) and the fusion horizon
+    "ring_next", "ring_rows", "last_t_s", ("wind_en_mps", (2,)), "has_margins", "margins_e_m", "margins_n_m", ("margins", (MARGIN_FIELDS,)),
+    "horizon_moved", ("horizon", (5,)),
+    # the hand-over with a fixed-wing recovery's compiled step (GeofenceUnit.override_arrays)
+    "thr", "clearance_m", "turn_throttle", "throttle", "progress_m", "turning", "turned_rad", "last_yaw_rad",
+    "recovery_moved",
+)  # fmt: skip
+"""The unit's per-step state, one record over float memory (every field float64: a flag is 0 or 1, the mode its
+number) that :class:`~geofence.unit.geofence_unit.GeofenceUnit` owns (:attr:`~geofence.unit.geofence_unit.GeofenceUnit.memory`):
+its attributes that the passes read or write are this record's fields, so the compiled passes and ``update``
+read and write the same storage."""
+
+UNIT_SIZE = UNIT_STATE.itemsize // 8
+"""Float64 slots of the unit's record."""
+
+
+def field_slot(name: str) -> int:
+    """The first float slot of a :data:`UNIT_STATE` field."""
+    fields = UNIT_STATE.fields
+    assert fields is not None
+    return int(fields[name][1]) // 8
+
+
 RING_COLUMNS = 16
 """A ring row: the estimate's 15 fields in :class:`~geofence.interface.VehicleState`'s order, then ``on_ground``."""
 
@@ -200,31 +210,48 @@ def hand_back(
 
 
 @jitable
-def target_slot(U: np.ndarray, e: float, n: float) -> int:
-    """Where the roll-out target of the cell of (e, n) is packed in ``U`` (its ``has`` flag; then east, north), or
-    -1 where that cell is not among those packed (:data:`TARGET_CELLS` round the cell packed at ``CELL_E, CELL_N``)."""
-    if U[HAS_TARGETS] != 0.0:
+def window_cell(u: Any, e: float, n: float) -> tuple[bool, int, int]:
+    """``(in the window, row, column)``: where the cell of (e, n) is in the record ``u``'s window on the roll-out
+    target cache (:data:`TARGET_CELLS` round the cell ``cell_e, cell_n``; not in it where the window is empty)."""
+    if u.has_targets != 0.0:
         cell_e, cell_n = rollout_cell(e, n)
-        de, dn = cell_e - U[CELL_E], cell_n - U[CELL_N]
+        de, dn = cell_e - u.cell_e, cell_n - u.cell_n
         if abs(de) <= TARGET_CELLS and abs(dn) <= TARGET_CELLS:
-            return TARGETS0 + 3 * (int(dn + TARGET_CELLS) * _SIDE + int(de + TARGET_CELLS))
-    return -1
+            return True, int(dn + TARGET_CELLS), int(de + TARGET_CELLS)
+    return False, 0, 0
 
 
 @jitable
-def cached_target(U: np.ndarray, e: float, n: float) -> tuple[bool, float, float]:
-    """``(found, east, north)``: the roll-out target cached for the cell of (e, n) among those packed in ``U``
-    (:func:`target_slot`; not found: the unit finds it)."""
-    k = target_slot(U, e, n)
-    if k >= 0 and U[k] != 0.0:
-        return True, U[k + 1], U[k + 2]
+def cached_target(u: Any, e: float, n: float) -> tuple[bool, float, float]:
+    """``(found, east, north)``: the roll-out target of the cell of (e, n) in the record ``u``'s window
+    (:func:`window_cell`; not found: the unit finds it)."""
+    inside, i, j = window_cell(u, e, n)
+    if inside and u.targets[i, j, 0] != 0.0:
+        return True, u.targets[i, j, 1], u.targets[i, j, 2]
     return False, 0.0, 0.0
 
 
 @jitable
-def _pass(U: np.ndarray, recovered: bool, t_s: float) -> int:
+def goal_short_of_band_h_m(goal_h_m: float, short_of_band: bool) -> float:
+    """The override's goal height where it is short of the band (an explicit recovery height, or the middle of a
+    band too thin for the goal's room), else NaN: a goal in the band leaves the hysteresis and the settling room
+    by construction."""
+    return goal_h_m if math.isfinite(goal_h_m) and short_of_band else math.nan
+
+
+@jitable
+def _pass(u: Any, recovered: bool, t_s: float) -> int:
     """A pass's answer: :data:`PASS_HANDBACK` once ``RECOVERED`` has held (:func:`hold_over`), else :data:`PASS`."""
-    return PASS_HANDBACK if hold_over(recovered, t_s, U[MODE_SINCE]) else PASS
+    return PASS_HANDBACK if hold_over(recovered, t_s, u.mode_since_s) else PASS
+
+
+@jitable
+def _allowance(u: Any, turbulence_sigma_mps: float) -> float:
+    """The wind allowance in use (:func:`geofence.unit.config.allowance_in_use_mps`) on the record's numbers."""
+    return allowance_in_use_mps(
+        u.estimated_turbulence != 0.0, turbulence_sigma_mps, u.forecast_sigma_mps, u.turbulence_k_sigma, u.gust_mps,
+        u.forecast_allowance_mps,
+    )  # fmt: skip
 
 
 @compiled
@@ -236,43 +263,42 @@ def monitor_pass(
 ) -> tuple[int, bool, tuple[float, float, float, float, int, float, float, float, float, float, int, float, float, float, float, float, float, float]]:  # fmt: skip
     """``(answer, far, margins)`` of a monitoring step (see the module): ``far`` when the skip shortcut held
     (margins not computed), else the margins' fields (:func:`geofence.margins.kernel.monitor_margins`). ``U``: the
-    unit's packed numbers; ``F, L, V``: its compiled margins' tables and envelope terms; the rest are
-    :meth:`~geofence.unit.geofence_unit.GeofenceUnit.update`'s arguments, the estimate's fields among them."""
+    unit's record's memory (:data:`UNIT_STATE`, read only); ``F, L, V``: its compiled margins' tables and envelope
+    terms; the rest are :meth:`~geofence.unit.geofence_unit.GeofenceUnit.update`'s arguments, the estimate's fields
+    among them."""
+    u = U.view(UNIT_STATE)[0]
     if not (position_valid and estimate_age_s <= FRESH_ESTIMATE_AGE_S):
         return UNIT, False, NOT_NEEDED
-    recovered = U[MODE] != U[MONITOR_MODE]
-    if not recovered and not abs(alt - U[DENSITY_ALT]) < DENSITY_REFRESH_M:  # (NaN: never scaled)
+    recovered = u.mode != MONITOR_NUMBER
+    if not recovered and not abs(alt - u.density_alt_m) < DENSITY_REFRESH_M:  # (NaN: never scaled)
         return UNIT, False, NOT_NEEDED
-    if not return_assured(wind_e, wind_n, U[RETURN_ALLOWANCE], U[RETURN_LIMIT]):
+    if not return_assured(wind_e, wind_n, u.return_allowance_mps, u.return_limit_mps):
         return UNIT, False, NOT_NEEDED
-    allowance = allowance_in_use_mps(
-        U[ESTIMATED_TURBULENCE] != 0.0, turbulence_sigma_mps, U[FORECAST_SIGMA], U[TURBULENCE_K], U[GUST],
-        U[FORECAST_ALLOWANCE],
-    )  # fmt: skip
+    allowance = _allowance(u, turbulence_sigma_mps)
     latency = latency_s(dt_s, estimate_age_s)
-    k_sigma, extra = U[K_SIGMA], U[EXTRA]
+    k_sigma, extra = u.k_sigma, u.extra_margin_m
     hu, v_unc = k_sigma * sigma_h_m + extra, k_sigma * sigma_v_m + extra
-    skip_time_s = 2.0 * U[REACTION_S] + latency
+    skip_time_s = 2.0 * u.reaction_time_s + latency
     ground_speed = hypot(ve, vn)
-    h = agl if U[AGL] != 0.0 else alt
+    h = agl if u.agl != 0.0 else alt
     has_target = False
     target_e = target_n = 0.0
-    if U[MULTIROTOR] == 0.0:  # the roll-out target of the estimate's cell, if the unit has it cached
-        has_target, target_e, target_n = cached_target(U, e, n)
+    if u.multirotor == 0.0:  # the roll-out target of the estimate's cell, if the unit has it cached
+        has_target, target_e, target_n = cached_target(u, e, n)
         if not has_target:  # not needed far from everything; else the unit finds it (a route search)
             far_only = far_from_everything(
                 F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, skip_time_s, hu, v_unc, g
             )[0]  # fmt: skip
             if not far_only:
                 return NEED_TARGET, False, NOT_NEEDED
-            return _pass(U, recovered, t_s), True, NOT_NEEDED
+            return _pass(u, recovered, t_s), True, NOT_NEEDED
     far, r = monitor_margins(
         F, L, V, e, n, h, ground_speed, ve, vn, vu, wind_e, wind_n, allowance, skip_time_s, hu, v_unc, latency, roll,
         has_target, target_e, target_n, g,
     )  # fmt: skip
     if not far and activates(r[0], on_ground, ground_speed):
         return UNIT, False, r  # an activation: the unit starts its override
-    return _pass(U, recovered, t_s), far, r
+    return _pass(u, recovered, t_s), far, r
 
 
 @jitable
@@ -281,43 +307,43 @@ def record_pass(
     sigma_h_m: float, sigma_v_m: float, estimate_age_s: float, turbulence_sigma_mps: float, far: bool,
     activation_m: float, has_margins: bool, margins: tuple, new_horizon: bool, horizon: np.ndarray,
 ) -> None:  # fmt: skip
-    """Keep what a step the unit did not answer itself changes in it (a pass :func:`monitor_pass` let through, or
-    an override step :func:`override_pass` took), for it to take in later
-    (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_passes`): the estimate in the ring ``H`` (the unit's history of the
-    last seconds), the inputs it keeps, whether the skip shortcut held (``far``), the activation margin (inf: far,
-    NaN: not needed), the margins when the step computed them (``has_margins``), the fusion horizon when it moved
-    (``horizon``: its fields)."""
-    row = int(U[RING_NEXT])
+    """What a step the unit did not answer itself changes in it (a pass :func:`monitor_pass` let through, or an
+    override step :func:`override_pass` took), written in its record (``U``'s memory) as :meth:`update` would: the
+    inputs it keeps, whether the skip shortcut held (``far``), the activation margin (inf: far, NaN: not needed);
+    and for the hand-over to its Python objects (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_ring`)
+    the estimate in the ring ``H`` (the unit's history of the last seconds), the margins when the step computed
+    them (``has_margins``), the fusion horizon when it moved (``horizon``: its fields)."""
+    u = U.view(UNIT_STATE)[0]
+    row = int(u.ring_next)
     for k in range(15):
         H[row, k] = est[k]
     H[row, 15] = on_ground
-    U[RING_NEXT] = row + 1 if row + 1 < H.shape[0] else 0
-    U[PASSES] += 1.0
-    U[LAST_T] = t_s
-    U[LATENCY] = latency_s(dt_s, estimate_age_s)
-    U[WIND_E], U[WIND_N], U[TURBULENCE_EST], U[SIGMA_V] = wind_e, wind_n, turbulence_sigma_mps, sigma_v_m
+    u.ring_next = row + 1 if row + 1 < H.shape[0] else 0
+    u.ring_rows += 1.0
+    u.last_t_s = t_s
+    u.latency_s = latency_s(dt_s, estimate_age_s)
+    u.wind_en_mps[0], u.wind_en_mps[1] = wind_e, wind_n
+    u.turbulence_est_mps, u.sigma_v_m = turbulence_sigma_mps, sigma_v_m
     if math.isfinite(sigma_h_m):
-        U[SIGMA_H] = sigma_h_m
-    U[FAR] = far
-    U[ACTIVATION] = activation_m
+        u.sigma_h_m = sigma_h_m
+    u.position_valid, u.strong_wind_since_s = 1.0, math.nan  # (a pass: a fresh position, the return assured)
+    u.skipped_last = far
+    u.activation_margin_m = activation_m
     if has_margins:
-        U[HAS_MARGINS], U[MARGINS_E], U[MARGINS_N] = 1.0, est[4], est[5]
-        m = MARGINS0  # (one by one: two of the fields are ints)
-        U[m], U[m + 1], U[m + 2], U[m + 3], U[m + 4], U[m + 5] = (
-            margins[0],
-            margins[1],
-            margins[2],
-            margins[3],
-            margins[4],
-            margins[5],
-        )
-        U[m + 6], U[m + 7], U[m + 8], U[m + 9], U[m + 10] = margins[6], margins[7], margins[8], margins[9], margins[10]
-        U[m + 11], U[m + 12], U[m + 13], U[m + 14] = margins[11], margins[12], margins[13], margins[14]
-        U[m + 15], U[m + 16], U[m + 17] = margins[15], margins[16], margins[17]
+        u.has_margins, u.margins_e_m, u.margins_n_m = 1.0, est[4], est[5]
+        _keep_margins(u.margins, margins)
     if new_horizon:
-        U[HORIZON_MOVED] = 1.0
+        u.horizon_moved = 1.0
         for k in range(5):
-            U[HORIZON0 + k] = horizon[k]
+            u.horizon[k] = horizon[k]
+
+
+@jitable
+def _keep_margins(m: np.ndarray, r: tuple) -> None:
+    """The margins' fields ``r`` into the record's ``margins`` (one by one: two of the fields are ints)."""
+    m[0], m[1], m[2], m[3], m[4], m[5] = r[0], r[1], r[2], r[3], r[4], r[5]
+    m[6], m[7], m[8], m[9], m[10], m[11] = r[6], r[7], r[8], r[9], r[10], r[11]
+    m[12], m[13], m[14], m[15], m[16], m[17] = r[12], r[13], r[14], r[15], r[16], r[17]
 
 
 @compiled
@@ -330,30 +356,28 @@ def override_pass(
     """``(answer, roll, pitch, throttle, activation margin, has margins, margins)`` of a fixed-wing override's
     step: :data:`OVERRIDE_STEP` and the sticks of :meth:`~geofence.recovery.guidance.FixedWingRecovery.sticks` (its compiled
     step :data:`~geofence.recovery.guidance.fixed_wing_step` on the arrays ``R, P, Q, K`` of
-    :meth:`~geofence.recovery.guidance.FixedWingRecovery.compiled_step`; the recovery's state moves on in ``U``), or
-    :data:`UNIT` (a stale or lost position, a wind beyond authority, a route the compiled step does not answer).
-    Within the minimum override period the margins are not needed (activation NaN, ``has margins`` false); after
-    it they are computed (``F, L, V``: the compiled margins' tables and envelope terms, the roll-out target from
-    those packed in ``U``: :data:`NEED_TARGET` where it is not), and a step that re-activates (still outside) or
-    may hand back is the unit's (:data:`UNIT`): :meth:`~geofence.unit.geofence_unit.GeofenceUnit.update`'s path for an override
-    step, the same tests in its order."""
+    :meth:`~geofence.recovery.guidance.FixedWingRecovery.compiled_step`; the recovery's state moves on in the record
+    ``U``), or :data:`UNIT` (a stale or lost position, a wind beyond authority, a route the compiled step does not
+    answer). Within the minimum override period the margins are not needed (activation NaN, ``has margins``
+    false); after it they are computed (``F, L, V``: the compiled margins' tables and envelope terms, the roll-out
+    target from the record's window: :data:`NEED_TARGET` where it is not), and a step that re-activates (still
+    outside) or may hand back is the unit's (:data:`UNIT`): :meth:`~geofence.unit.geofence_unit.GeofenceUnit.update`'s
+    path for an override step, the same tests in its order."""
+    u = U.view(UNIT_STATE)[0]
     if not (position_valid and estimate_age_s <= FRESH_ESTIMATE_AGE_S):
         return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
-    if not return_assured(wind_e, wind_n, U[RETURN_ALLOWANCE], U[RETURN_LIMIT]):
+    if not return_assured(wind_e, wind_n, u.return_allowance_mps, u.return_limit_mps):
         return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
-    h = agl if U[AGL] != 0.0 else alt
+    h = agl if u.agl != 0.0 else alt
     activation = math.nan  # (not needed, nor computed, until the minimum override has passed)
     has_margins = False
     r = NOT_NEEDED
-    if not t_s - U[PERIOD_START] < U[MIN_OVERRIDE]:
-        has_target, target_e, target_n = cached_target(U, e, n)
+    if not t_s - u.period_start_s < u.min_override_s:
+        has_target, target_e, target_n = cached_target(u, e, n)
         if not has_target:
             return NEED_TARGET, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
-        k_sigma, extra = U[K_SIGMA], U[EXTRA]
-        allowance = allowance_in_use_mps(
-            U[ESTIMATED_TURBULENCE] != 0.0, turbulence_sigma_mps, U[FORECAST_SIGMA], U[TURBULENCE_K], U[GUST],
-            U[FORECAST_ALLOWANCE],
-        )  # fmt: skip
+        k_sigma, extra = u.k_sigma, u.extra_margin_m
+        allowance = _allowance(u, turbulence_sigma_mps)
         latency = latency_s(dt_s, estimate_age_s)
         r = margins(
             F, L, V, e, n, h, ve, vn, vu, wind_e, wind_n, k_sigma * sigma_h_m + extra, k_sigma * sigma_v_m + extra,
@@ -361,35 +385,37 @@ def override_pass(
         )  # fmt: skip
         if outside(r[LATERAL_MARGIN_FIELD], r[CEILING_MARGIN_FIELD], r[FLOOR_MARGIN_FIELD]):
             return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED  # still outside: the unit re-activates
-        if not no_hand_back(U, V, r, e, n, h, latency, sigma_v_m):
+        if not no_hand_back(u, V, r, e, n, h, latency, sigma_v_m):
             return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED  # the unit's hand-back test
         activation, has_margins = r[ACTIVATION_FIELD], True
-    turning = U[TURNING] != 0.0
-    throttle = U[TURN_THROTTLE] if turning else U[THROTTLE]
+    turning = u.turning != 0.0
+    throttle = u.turn_throttle if turning else u.throttle
     thr, c_roll, c_pitch, progress, turning, turned, last_yaw = fixed_wing_step(
-        R, P, Q, K, U[PROGRESS], U[THR], U[CLEARANCE], e, n, ve, vn, yaw, airspeed, hypot(ve, vn), h, wind_e, wind_n,
-        turning, U[TURNED], U[LAST_YAW],
+        R, P, Q, K, u.progress_m, u.thr, u.clearance_m, e, n, ve, vn, yaw, airspeed, hypot(ve, vn), h, wind_e, wind_n,
+        turning, u.turned_rad, u.last_yaw_rad,
     )  # fmt: skip
     if not thr > 0.0:
         return UNIT, 0.0, 0.0, 0.0, math.nan, False, NOT_NEEDED
-    U[PROGRESS], U[TURNING], U[TURNED], U[LAST_YAW] = progress, turning, turned, last_yaw
-    U[RECOVERY_MOVED] = 1.0
+    u.progress_m, u.turning, u.turned_rad, u.last_yaw_rad = progress, turning, turned, last_yaw
+    u.recovery_moved = 1.0
     return OVERRIDE_STEP, c_roll, c_pitch, throttle, activation, has_margins, r
 
 
 @jitable
 def no_hand_back(
-    U: np.ndarray, V: np.ndarray, r: tuple, e: float, n: float, h: float, latency: float, sigma_v_m: float
+    u: Any, V: np.ndarray, r: tuple, e: float, n: float, h: float, latency: float, sigma_v_m: float
 ) -> bool:  # fmt: skip
     """Sure that a predictive override's :func:`hand_back` on these margins (the hysteresis of
-    :func:`vertical_handback_m`) neither hands back nor clears its climb back (else the unit answers the step)."""
+    :func:`vertical_handback_m`; ``u``: the unit's record) neither hands back nor clears its climb back (else the
+    unit answers the step)."""
     hysteresis = vertical_handback_m(
-        U[VERTICAL_HYSTERESIS], U[GOAL_H], U[CEILING_M], U[FLOOR_M], U[REACTION_S] + latency,
-        V[TERM_VERTICAL_ACCEL], V[TERM_MAX_CLIMB], V[TERM_MAX_DESCENT], U[K_SIGMA] * sigma_v_m + U[EXTRA],
+        u.vertical_handback_m, goal_short_of_band_h_m(u.goal_h_m, u.goal_short_of_band != 0.0), u.ceiling_m,
+        u.floor_m, u.reaction_time_s + latency, V[TERM_VERTICAL_ACCEL], V[TERM_MAX_CLIMB], V[TERM_MAX_DESCENT],
+        u.k_sigma * sigma_v_m + u.extra_margin_m,
     )  # fmt: skip
     climbed, ok = hand_back(
-        U[CLIMB_BACK], h, r[VERTICAL_ACTIVATION_FIELD] >= hysteresis, r[LATERAL_ACTIVATION_FIELD], r[CLOSING_FIELD],
-        U[HANDBACK_MARGIN], hypot(U[RECOVERY_E] - e, U[RECOVERY_N] - n), U[RECOVERY_RADIUS],
+        u.climb_back_m, h, r[VERTICAL_ACTIVATION_FIELD] >= hysteresis, r[LATERAL_ACTIVATION_FIELD], r[CLOSING_FIELD],
+        u.handback_margin_m, hypot(u.recovery_e_m - e, u.recovery_n_m - n), u.recovery_radius_m,
     )  # fmt: skip
     return not climbed and not ok
 

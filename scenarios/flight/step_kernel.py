@@ -9,7 +9,7 @@ estimator (:func:`scenarios.flight.sensing.sense_step`), asks the unit's monitor
 (:func:`geofence.unit.passes.monitor_pass`) and, on a pass, writes the step's row
 (:func:`scenarios.flight.recorder.write_row`). While a fixed-wing override flies,
 :func:`override_flight_step` does the same with the override's step (:func:`geofence.unit.passes.override_pass`).
-Where a fixed-wing's roll-out target for the estimate's cell is not packed
+Where a fixed-wing's roll-out target for the estimate's cell is not in the unit's record
 (:data:`~geofence.unit.passes.NEED_TARGET`), the unit finds it and the rest of the same step is asked again
 (:func:`flight_step_again`, :func:`override_flight_step_again`: from the estimate the first call left, the sensing
 chain not stepped twice). Anything else (an activation, a hand-back, a position lost, ...) is answered by the
@@ -17,14 +17,16 @@ unit's own :meth:`~geofence.unit.geofence_unit.GeofenceUnit.update` from the sam
 itself (:func:`unit_step`, the step the runner takes where no compiled call can: the same call). Compiled where
 numba is, the same functions interpreted where it is not.
 
-:class:`FlightStep` holds the arrays, asks :meth:`~geofence.unit.geofence_unit.GeofenceUnit.monitor_ready` and
-:meth:`~geofence.unit.geofence_unit.GeofenceUnit.override_ready` after every step the unit took itself, and has the unit take in
-the steps taken for it (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_passes`) before it answers one again.
+:class:`FlightStep` holds the arrays (the unit's own record among them, read and written in place), asks
+:meth:`~geofence.unit.geofence_unit.GeofenceUnit.monitor_ready` and
+:meth:`~geofence.unit.geofence_unit.GeofenceUnit.override_ready` after every step the unit took itself, and hands
+the steps taken for it over to the unit's Python objects (:meth:`~geofence.unit.geofence_unit.GeofenceUnit.take_in_ring`:
+their estimates' ring) before it answers one again.
 """
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, NamedTuple
 
 import numpy as np
 
@@ -34,17 +36,15 @@ from geofence.jit import jitable
 from geofence.physics.dynamics import G_MPS2
 from geofence.unit.geofence_unit import GeofenceUnit
 from geofence.unit.passes import (
-    FAR,
-    HORIZON_MOVED,
-    MODE,
-    MONITOR_MODE,
-    N_UNIT,
+    MONITOR_NUMBER,
     NEED_TARGET,
     OVERRIDE_STEP,
     PASS,
     PASS_HANDBACK,
     RING_COLUMNS,
     UNIT,
+    UNIT_STATE,
+    float_record,
     monitor_pass,
     override_pass,
     record_pass,
@@ -55,15 +55,53 @@ from scenarios.flight.recorder import Recorder, write_row
 from scenarios.flight.sensing import HORIZON_IN_P, GeofenceSensing, Sensed, sense_step
 from wind.field_kernel import WindArrays, wind_sample
 
-# what a step the unit answers itself needs (UNIT), one float array
-EST0 = 0  # the estimate's 15 fields (VehicleState's order, on_ground apart)
-WIND_EST_E, WIND_EST_N, VALID, SIGMA_H, SIGMA_V, NEW_HORIZON, AGE, TURBULENCE = range(15, 23)
-N_OUT = 23
 WIND_LOW, SENSE_LOW = 1, 2
 """The flags a step returns: the wind field's noise pool runs low, the sensors' pools run low."""
 _H0, _H1 = HORIZON_IN_P.start, HORIZON_IN_P.stop
 _new_tuple = tuple.__new__
 _NO_STICKS = (0.0, 0.0, 0.0, 0.0)
+
+
+class Truth(NamedTuple):
+    """The truth's fields a step reads and records, in the order the entry points take them."""
+
+    t_s: float
+    lat_deg: float
+    lon_deg: float
+    alt_m: float
+    east_m: float
+    north_m: float
+    up_m: float
+    agl_m: float
+    v_east_mps: float
+    v_north_mps: float
+    v_up_mps: float
+    airspeed_mps: float
+    roll_rad: float
+    pitch_rad: float
+    yaw_rad: float
+    on_ground: bool
+
+
+class SensedStep(NamedTuple):
+    """The sensing chain's outputs at a step (:func:`scenarios.flight.sensing.sense_step`'s, as the unit takes them)."""
+
+    est: tuple
+    """The estimate's 15 fields (:class:`~geofence.interface.VehicleState`'s order, ``on_ground`` apart)."""
+    wind_e_mps: float
+    wind_n_mps: float
+    position_valid: bool
+    sigma_h_m: float
+    sigma_v_m: float
+    new_horizon: bool
+    data_age_s: float
+    turbulence_sigma_mps: float
+
+
+STEP_OUT = float_record(("est", (15,)), *SensedStep._fields[1:])
+"""What a step the unit answers itself needs (:data:`~geofence.unit.passes.UNIT`, or after
+:data:`~geofence.unit.passes.NEED_TARGET`), a record over the float array ``Out``: :class:`SensedStep`'s fields in
+order (a flag 0 or 1)."""
 
 
 def _flight_step(
@@ -77,96 +115,118 @@ def _flight_step(
     north, up), flags, the pilot's sticks (roll, pitch, yaw, throttle))`` (:func:`geofence.unit.passes.monitor_pass`'s
     answer; the flags: :data:`WIND_LOW`, :data:`SENSE_LOW`). The pilot's sticks are its law's
     (:func:`scenarios.flight.pilots.law_kernel.law_sticks` on its law array ``A``), or where that has none this
-    step, those passed in (``p_roll`` ...). On a pass the unit's ring ``H`` and numbers ``U`` keep it
+    step, those passed in (``p_roll`` ...). On a pass the unit's record ``U`` and ring ``H`` keep it
     (:func:`geofence.unit.passes.record_pass`) and row ``row`` of ``T`` records it; else ``Out`` holds the step's
-    estimate and what the unit's own step needs (the layout above), for the unit (:data:`UNIT`) or for
+    estimate and what the unit's own step needs (:data:`STEP_OUT`), for the unit (:data:`UNIT`) or for
     :func:`_flight_step_again` once the roll-out target is found (:data:`NEED_TARGET`). The arrays: the wind
     field's (:meth:`WindArrays.arrays`), the sensing chain's (:meth:`GeofenceSensing.kernel_arrays`), the unit's
-    margins tables, envelope terms and packed numbers (:meth:`GeofenceUnit.pack_monitor`)."""
+    margins tables and envelope terms (:meth:`GeofenceUnit.margins_tables`) and record (:attr:`GeofenceUnit.memory`)."""
+    truth = Truth(t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, on_ground)
+    pilot = _pilot_sticks(A, truth, (p_roll, p_pitch, p_yaw, p_throttle))
+    wind, flags, sensed = _wind_and_sensing(FZ, wind_pool, GX, P, pools, idx, dt_s, truth)
+    answer = _monitor_rest((F, L, V), U, H, T, Out, P[_H0:_H1], row, dt_s, item, truth, wind, sensed, pilot)
+    return answer, wind[0], wind[1], wind[2], flags, pilot[0], pilot[1], pilot[2], pilot[3]
+
+
+@jitable
+def _pilot_sticks(A: np.ndarray, truth: Truth, given: tuple) -> tuple[float, float, float, float]:
+    """The pilot's sticks: its law's (:func:`scenarios.flight.pilots.law_kernel.law_sticks` on ``A``), or where that
+    has none, those ``given``."""
     if A[LAW_KIND] != GIVEN:
-        p_roll, p_pitch, p_yaw, p_throttle = law_sticks(A, ve, vn, yaw, up)
-    w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _wind_and_sensing(
-        FZ, wind_pool, GX, P, pools, idx, dt_s, t, lat, lon, alt, e, n, agl, ve, vn, vu, airspeed, roll, pitch, yaw
-    )  # fmt: skip
-    answer = _monitor_rest(
-        F, L, V, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll,
-        pitch, yaw, on_ground, w_e, w_n, w_u, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence,
-        p_roll, p_pitch, p_yaw, p_throttle, item,
-    )  # fmt: skip
-    return answer, w_e, w_n, w_u, flags, p_roll, p_pitch, p_yaw, p_throttle
+        return law_sticks(A, truth.v_east_mps, truth.v_north_mps, truth.yaw_rad, truth.up_m)
+    return given
 
 
 @jitable
 def _monitor_rest(
-    F: np.ndarray, L: np.ndarray, V: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray,
-    horizon: np.ndarray, row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float,
-    up: float, agl: float, ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
-    on_ground: bool, w_e: float, w_n: float, w_u: float, est: tuple, we: float, wn: float, valid: bool,
-    sigma_h: float, sigma_v: float, new_horizon: bool, age: float, turbulence: float, p_roll: float, p_pitch: float,
-    p_yaw: float, p_throttle: float, item: float,
+    tables: tuple, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, horizon: np.ndarray, row: float,
+    dt_s: float, item: float, truth: Truth, wind: tuple, sensed: SensedStep, pilot: tuple,
 ) -> int:  # fmt: skip
     """A monitoring step after the wind and the sensing chain: the unit's answer, its pass kept and recorded (or
-    ``Out`` filled for the unit). ``horizon``: the sensing chain's fusion horizon fields."""
+    ``Out`` filled for the unit). ``tables``: the margins' ``(F, L, V)``; ``horizon``: the sensing chain's fusion
+    horizon fields; ``wind``: the wind sampled (east, north, up); ``pilot``: the pilot's sticks."""
+    F, L, V = tables
+    s, est = sensed, sensed.est
     answer, far, r = monitor_pass(
-        U, F, L, V, t, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11], on_ground, we, wn,
-        valid, sigma_h, sigma_v, age, turbulence, G_MPS2,
+        U, F, L, V, truth.t_s, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11],
+        truth.on_ground, s.wind_e_mps, s.wind_n_mps, s.position_valid, s.sigma_h_m, s.sigma_v_m, s.data_age_s,
+        s.turbulence_sigma_mps, G_MPS2,
     )  # fmt: skip
     if answer == UNIT or answer == NEED_TARGET:
-        _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
+        _for_the_unit(Out, sensed)
         return answer
-    record_pass(
-        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, far, r[0], not far, r, new_horizon,
-        horizon,
-    )  # fmt: skip
-    mode = U[MODE] if answer == PASS else U[MONITOR_MODE]  # (a completed hand-back is recorded as MONITOR)
-    write_row(
-        T, int(row), t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, w_e, w_n, w_u, p_roll,
-        p_pitch, p_yaw, p_throttle, p_roll, p_pitch, p_yaw, p_throttle, mode, item, est[4], est[5], est[7], we, wn,
-        r[0],
-    )  # fmt: skip
+    _keep(U, H, horizon, dt_s, truth, sensed, far, r[0], not far, r)
+    mode = U.view(UNIT_STATE)[0].mode if answer == PASS else MONITOR_NUMBER  # (a completed hand-back: MONITOR)
+    _write(T, row, item, truth, wind, pilot, pilot, mode, sensed, r[0])
     return answer
+
+
+@jitable
+def _keep(
+    U: np.ndarray, H: np.ndarray, horizon: np.ndarray, dt_s: float, truth: Truth, sensed: SensedStep, far: bool,
+    activation: float, has_margins: bool, r: tuple,
+) -> None:  # fmt: skip
+    """A step taken for the unit, kept in its record and ring (:func:`geofence.unit.passes.record_pass`)."""
+    s = sensed
+    record_pass(
+        U, H, truth.t_s, s.est, truth.on_ground, dt_s, s.wind_e_mps, s.wind_n_mps, s.sigma_h_m, s.sigma_v_m,
+        s.data_age_s, s.turbulence_sigma_mps, far, activation, has_margins, r, s.new_horizon, horizon,
+    )  # fmt: skip
+
+
+@jitable
+def _write(
+    T: np.ndarray, row: float, item: float, truth: Truth, wind: tuple, pilot: tuple, cmd: tuple, mode: float,
+    sensed: SensedStep, activation: float,
+) -> None:  # fmt: skip
+    """Row ``row`` of ``T`` (:func:`scenarios.flight.recorder.write_row`): the truth, the wind sampled, the pilot's
+    and the sent sticks (``cmd``), the mode, the mission item, the estimate and the activation margin."""
+    x, est = truth, sensed.est
+    write_row(
+        T, int(row), x.t_s, x.lat_deg, x.lon_deg, x.alt_m, x.east_m, x.north_m, x.up_m, x.agl_m, x.v_east_mps,
+        x.v_north_mps, x.v_up_mps, x.airspeed_mps, x.roll_rad, x.pitch_rad, x.yaw_rad, wind[0], wind[1], wind[2],
+        pilot[0], pilot[1], pilot[2], pilot[3], cmd[0], cmd[1], cmd[2], cmd[3], mode, item, est[4], est[5], est[7],
+        sensed.wind_e_mps, sensed.wind_n_mps, activation,
+    )  # fmt: skip
 
 
 @jitable
 def _wind_and_sensing(
     FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
-    dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float, agl: float, ve: float, vn: float,
-    vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
+    dt_s: float, truth: Truth,
 ) -> tuple:  # fmt: skip
-    """Every step's start: the wind sampled at the truth, and the unit's sensing chain: ``(wind east, north, up,
-    flags, then the chain's estimate, wind estimate, validity, sigmas, new horizon, data age, turbulence)``."""
-    w_e, w_n, w_u, w_low = wind_sample(FZ, wind_pool, GX, t, e, n, agl, airspeed)
+    """Every step's start: the wind sampled at the truth, and the unit's sensing chain: ``((wind east, north, up),
+    flags, the chain's outputs)``."""
+    x = truth
+    w_e, w_n, w_u, w_low = wind_sample(FZ, wind_pool, GX, x.t_s, x.east_m, x.north_m, x.agl_m, x.airspeed_mps)
     est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence, s_low = sense_step(
-        P, pools, idx, dt_s, t, lat, lon, alt, ve, vn, vu, airspeed, roll, pitch, yaw
+        P, pools, idx, dt_s, x.t_s, x.lat_deg, x.lon_deg, x.alt_m, x.v_east_mps, x.v_north_mps, x.v_up_mps,
+        x.airspeed_mps, x.roll_rad, x.pitch_rad, x.yaw_rad,
     )  # fmt: skip
     flags = (WIND_LOW if w_low else 0) + (SENSE_LOW if s_low else 0)
-    return w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence
+    return (w_e, w_n, w_u), flags, SensedStep(est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
 
 
 @jitable
-def _for_the_unit(
-    Out: np.ndarray, est: tuple, we: float, wn: float, valid: bool, sigma_h: float, sigma_v: float, new_horizon: bool,
-    age: float, turbulence: float,
-) -> None:  # fmt: skip
-    """What a step the unit answers itself needs, into ``Out`` (the layout above)."""
+def _for_the_unit(Out: np.ndarray, sensed: SensedStep) -> None:
+    """What a step the unit answers itself needs, into ``Out`` (:data:`STEP_OUT`)."""
+    s, o = sensed, Out.view(STEP_OUT)[0]
     for k in range(15):
-        Out[EST0 + k] = est[k]
-    Out[WIND_EST_E], Out[WIND_EST_N], Out[VALID], Out[SIGMA_H], Out[SIGMA_V] = we, wn, valid, sigma_h, sigma_v
-    Out[NEW_HORIZON], Out[AGE], Out[TURBULENCE] = new_horizon, age, turbulence
+        o.est[k] = s.est[k]
+    o.wind_e_mps, o.wind_n_mps, o.position_valid = s.wind_e_mps, s.wind_n_mps, s.position_valid
+    o.sigma_h_m, o.sigma_v_m = s.sigma_h_m, s.sigma_v_m
+    o.new_horizon, o.data_age_s, o.turbulence_sigma_mps = s.new_horizon, s.data_age_s, s.turbulence_sigma_mps
 
 
 @jitable
-def _unit_inputs_in(Out: np.ndarray) -> tuple:
-    """What :func:`_for_the_unit` wrote into ``Out``: ``(estimate (its 15 fields), wind estimate east, north,
-    validity, sigma_h, sigma_v, new horizon, data age, turbulence)``."""
-    o = EST0
-    est = (
-        Out[o], Out[o + 1], Out[o + 2], Out[o + 3], Out[o + 4], Out[o + 5], Out[o + 6], Out[o + 7], Out[o + 8],
-        Out[o + 9], Out[o + 10], Out[o + 11], Out[o + 12], Out[o + 13], Out[o + 14],
-    )  # fmt: skip
-    return (
-        est, Out[WIND_EST_E], Out[WIND_EST_N], Out[VALID] != 0.0, Out[SIGMA_H], Out[SIGMA_V], Out[NEW_HORIZON] != 0.0,
-        Out[AGE], Out[TURBULENCE],
+def _unit_inputs_in(Out: np.ndarray) -> SensedStep:
+    """What :func:`_for_the_unit` wrote into ``Out``."""
+    o = Out.view(STEP_OUT)[0]
+    e = o.est
+    est = (e[0], e[1], e[2], e[3], e[4], e[5], e[6], e[7], e[8], e[9], e[10], e[11], e[12], e[13], e[14])
+    return SensedStep(
+        est, o.wind_e_mps, o.wind_n_mps, o.position_valid != 0.0, o.sigma_h_m, o.sigma_v_m, o.new_horizon != 0.0,
+        o.data_age_s, o.turbulence_sigma_mps,
     )  # fmt: skip
 
 
@@ -178,13 +238,12 @@ def _flight_step_again(
     p_throttle: float, item: float,
 ) -> tuple[int, float, float, float, float]:  # fmt: skip
     """The same monitoring step asked again after :data:`~geofence.unit.passes.NEED_TARGET` (the unit found the
-    roll-out target and packed it in ``U``): from the estimate in ``Out`` and the wind and the pilot's sticks the
-    first call gave, ``(its answer, the pilot's sticks)`` (the rest as :func:`_flight_step`'s)."""
-    est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _unit_inputs_in(Out)
+    roll-out target and shows it in its record ``U``): from the estimate in ``Out`` and the wind and the pilot's
+    sticks the first call gave, ``(its answer, the pilot's sticks)`` (the rest as :func:`_flight_step`'s)."""
+    truth = Truth(t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, on_ground)
+    pilot = (p_roll, p_pitch, p_yaw, p_throttle)
     answer = _monitor_rest(
-        F, L, V, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll,
-        pitch, yaw, on_ground, w_e, w_n, w_u, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence,
-        p_roll, p_pitch, p_yaw, p_throttle, item,
+        (F, L, V), U, H, T, Out, P[_H0:_H1], row, dt_s, item, truth, (w_e, w_n, w_u), _unit_inputs_in(Out), pilot
     )  # fmt: skip
     return answer, p_roll, p_pitch, p_yaw, p_throttle
 
@@ -200,47 +259,38 @@ def _override_flight_step(
     """:func:`_flight_step` for a fixed-wing override's step (:func:`geofence.unit.passes.override_pass`, on the
     unit's margins tables ``F, L, V`` and its recovery's arrays ``R, PR, QR, K``): the same tuple, its sticks the
     override's on :data:`~geofence.unit.passes.OVERRIDE_STEP` (its row recorded then), else the pilot's."""
-    if A[LAW_KIND] != GIVEN:
-        p_roll, p_pitch, p_yaw, p_throttle = law_sticks(A, ve, vn, yaw, up)
-    w_e, w_n, w_u, flags, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _wind_and_sensing(
-        FZ, wind_pool, GX, P, pools, idx, dt_s, t, lat, lon, alt, e, n, agl, ve, vn, vu, airspeed, roll, pitch, yaw
+    truth = Truth(t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, on_ground)
+    pilot = _pilot_sticks(A, truth, (p_roll, p_pitch, p_yaw, p_throttle))
+    wind, flags, sensed = _wind_and_sensing(FZ, wind_pool, GX, P, pools, idx, dt_s, truth)
+    answer, sticks = _override_rest(
+        (F, L, V, R, PR, QR, K), U, H, T, Out, P[_H0:_H1], row, dt_s, item, truth, wind, sensed, pilot
     )  # fmt: skip
-    answer, s_roll, s_pitch, s_yaw, s_throttle = _override_rest(
-        F, L, V, R, PR, QR, K, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu,
-        airspeed, roll, pitch, yaw, on_ground, w_e, w_n, w_u, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age,
-        turbulence, p_roll, p_pitch, p_yaw, p_throttle, item,
-    )  # fmt: skip
-    return answer, w_e, w_n, w_u, flags, s_roll, s_pitch, s_yaw, s_throttle
+    return answer, wind[0], wind[1], wind[2], flags, sticks[0], sticks[1], sticks[2], sticks[3]
 
 
 @jitable
 def _override_rest(
-    F: np.ndarray, L: np.ndarray, V: np.ndarray, R: np.ndarray, PR: np.ndarray, QR: np.ndarray, K: np.ndarray,
-    U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, horizon: np.ndarray, row: float, dt_s: float,
-    t: float, lat: float, lon: float, alt: float, e: float, n: float, up: float, agl: float, ve: float, vn: float,
-    vu: float, airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool, w_e: float, w_n: float,
-    w_u: float, est: tuple, we: float, wn: float, valid: bool, sigma_h: float, sigma_v: float, new_horizon: bool,
-    age: float, turbulence: float, p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
-) -> tuple[int, float, float, float, float]:  # fmt: skip
+    arrays: tuple, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, horizon: np.ndarray, row: float,
+    dt_s: float, item: float, truth: Truth, wind: tuple, sensed: SensedStep, pilot: tuple,
+) -> tuple[int, tuple[float, float, float, float]]:  # fmt: skip
     """An override step after the wind and the sensing chain: ``(answer, the sticks to send)``, its step kept and
-    recorded (or ``Out`` filled for the unit)."""
+    recorded (or ``Out`` filled for the unit). ``arrays``: the margins' ``(F, L, V)`` and the recovery's ``(R, PR,
+    QR, K)``; the rest as :func:`_monitor_rest`'s."""
+    F, L, V, R, PR, QR, K = arrays
+    s, est = sensed, sensed.est
     answer, c_roll, c_pitch, c_throttle, activation, has_margins, r = override_pass(
-        U, F, L, V, R, PR, QR, K, t, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11], est[13],
-        est[14], we, wn, valid, sigma_h, sigma_v, age, turbulence, G_MPS2,
+        U, F, L, V, R, PR, QR, K, truth.t_s, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11],
+        est[13], est[14], s.wind_e_mps, s.wind_n_mps, s.position_valid, s.sigma_h_m, s.sigma_v_m, s.data_age_s,
+        s.turbulence_sigma_mps, G_MPS2,
     )  # fmt: skip
     if answer == UNIT or answer == NEED_TARGET:
-        _for_the_unit(Out, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence)
-        return answer, p_roll, p_pitch, p_yaw, p_throttle
-    record_pass(
-        U, H, t, est, on_ground, dt_s, we, wn, sigma_h, sigma_v, age, turbulence, U[FAR] != 0.0, activation,
-        has_margins, r, new_horizon, horizon,
-    )  # fmt: skip
-    write_row(
-        T, int(row), t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, w_e, w_n, w_u, p_roll,
-        p_pitch, p_yaw, p_throttle, c_roll, c_pitch, 0.0, c_throttle, U[MODE], item, est[4], est[5], est[7], we, wn,
-        activation,
-    )  # fmt: skip
-    return answer, c_roll, c_pitch, 0.0, c_throttle
+        _for_the_unit(Out, sensed)
+        return answer, (pilot[0], pilot[1], pilot[2], pilot[3])
+    u = U.view(UNIT_STATE)[0]
+    _keep(U, H, horizon, dt_s, truth, sensed, u.skipped_last != 0.0, activation, has_margins, r)
+    cmd = (c_roll, c_pitch, 0.0, c_throttle)
+    _write(T, row, item, truth, wind, pilot, cmd, u.mode, sensed, activation)
+    return answer, cmd
 
 
 def _override_flight_step_again(
@@ -251,12 +301,12 @@ def _override_flight_step_again(
     p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
 ) -> tuple[int, float, float, float, float]:  # fmt: skip
     """:func:`_flight_step_again` for a fixed-wing override's step: ``(answer, the sticks to send)``."""
-    est, we, wn, valid, sigma_h, sigma_v, new_horizon, age, turbulence = _unit_inputs_in(Out)
-    return _override_rest(
-        F, L, V, R, PR, QR, K, U, H, T, Out, P[_H0:_H1], row, dt_s, t, lat, lon, alt, e, n, up, agl, ve, vn, vu,
-        airspeed, roll, pitch, yaw, on_ground, w_e, w_n, w_u, est, we, wn, valid, sigma_h, sigma_v, new_horizon, age,
-        turbulence, p_roll, p_pitch, p_yaw, p_throttle, item,
+    truth = Truth(t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, on_ground)
+    answer, sticks = _override_rest(
+        (F, L, V, R, PR, QR, K), U, H, T, Out, P[_H0:_H1], row, dt_s, item, truth, (w_e, w_n, w_u),
+        _unit_inputs_in(Out), (p_roll, p_pitch, p_yaw, p_throttle),
     )  # fmt: skip
+    return answer, sticks[0], sticks[1], sticks[2], sticks[3]
 
 
 flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = jit.compiled(_flight_step)
@@ -278,8 +328,9 @@ class FlightStep:
 
     Built by :meth:`build` where every part has its compiled form; :attr:`ready` says whether the unit's next step
     can be taken this way (:meth:`GeofenceUnit.monitor_ready`: a monitoring step; :meth:`GeofenceUnit.override_ready`:
-    a fixed-wing override's), and :meth:`step` takes it. The unit takes in the steps taken so when it next answers
-    one itself, at a hand-back, and at :meth:`finish`.
+    a fixed-wing override's), and :meth:`step` takes it. The steps taken so are handed over to the unit's Python
+    objects (:meth:`GeofenceUnit.take_in_ring`) when it next answers one itself, at a hand-back, and at
+    :meth:`finish`.
     """
 
     def __init__(
@@ -291,9 +342,9 @@ class FlightStep:
         self.wind = wind
         self.recorder = recorder
         self.dt_s = dt_s
-        self._U = np.zeros(N_UNIT)
+        self._U = unit.memory  # (the unit's record: the passes read and write it in place)
         self._H = np.zeros((unit.history_rows(dt_s), RING_COLUMNS))
-        self._O = np.zeros(N_OUT)
+        self._O = np.zeros(STEP_OUT.itemsize // 8)
         self._A = law_array() if pilot_law is None else pilot_law  # (kind GIVEN: the pilot's sticks passed in)
         self._dispatcher: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = flight_step
         self._kernel = self._dispatcher  # the mode's kernel, by its entry point after its first call
@@ -336,16 +387,16 @@ class FlightStep:
         return cls(unit, sensing, wind, recorder, dt_s, pilot_law)
 
     def refresh(self) -> None:
-        """Ask the unit again whether a compiled call can take its next step, and pack its numbers (after every step
+        """Ask the unit again whether a compiled call can take its next step, and which arrays it reads (after every step
         it took itself, and every step the runner took without this call: the wind field may have refilled its
         noise pool)."""
         unit = self.unit
         if unit.monitor_ready():
             self._dispatcher = flight_step
-            self._tables = unit.pack_monitor(self._U)
+            self._tables = unit.margins_tables()
         elif unit.override_ready():
             self._dispatcher = override_flight_step
-            self._tables = unit.pack_override(self._U)
+            self._tables = unit.override_arrays()
         else:
             self.ready = False
             return
@@ -362,21 +413,19 @@ class FlightStep:
 
     def _bind(self) -> None:
         """The kernel's leading arguments in one tuple: the wind field's, the sensing chain's, the mode's tables and
-        the unit's numbers and ring (after any of them is replaced)."""
+        the unit's record and ring (after any of them is replaced)."""
         self._lead = (*self._wind_args, *self._sense_args, *self._tables, self._U, self._H)
 
     def finish(self) -> None:
-        """The unit takes in the steps taken so far (at the end of the flight; the sensing chain's horizon too)."""
+        """The steps taken so far handed over to the unit (at the end of the flight; the sensing chain's horizon too)."""
         self._take_in(False)
 
     def _take_in(self, new_horizon: bool) -> FixState | None:
-        """The unit takes in the steps taken so far; the sensing chain keeps its newest fusion horizon
-        (``new_horizon``: it moved at this step). Returns that horizon."""
+        """The steps taken so far handed over to the unit (:meth:`GeofenceUnit.take_in_ring`); the sensing chain keeps
+        its newest fusion horizon (``new_horizon``: it moved at this step). Returns that horizon."""
         sensing = self.sensing
-        before = sensing.horizon
-        moved = new_horizon or self._U[HORIZON_MOVED] != 0.0
-        self.unit.take_in_passes(self._U, self._H, before)
-        return sensing.stepped(moved, False)
+        moved = self.unit.take_in_ring(self._H, sensing.horizon)
+        return sensing.stepped(new_horizon or moved, False)
 
     def _again(
         self, t_s: float, s: VehicleState, row: int, T: np.ndarray, w: tuple[float, float, float],
@@ -385,12 +434,12 @@ class FlightStep:
         """After :data:`~geofence.unit.passes.NEED_TARGET`: the unit finds the roll-out target at the step's estimate
         (in ``Out``), and the mode's kernel is asked the same step again (``pilot``: the sticks the first call
         gave): ``(answer, the sticks to send)``."""
-        out = self._O
-        self.unit.find_rollout_target(self._U, float(out[EST0 + 4]), float(out[EST0 + 5]), float(out[SIGMA_H]))
+        out = self._sensed_out()
+        self.unit.find_rollout_target(out.est[4], out.est[5], out.sigma_h_m)
         dispatcher = _AGAIN[self._dispatcher]
         kernel = self._entry_points.get(dispatcher, dispatcher)
         args = (
-            self._sense_args[0], *self._tables, self._U, self._H, T, out, float(row), self.dt_s, t_s, s.lat_deg,
+            self._sense_args[0], *self._tables, self._U, self._H, T, self._O, float(row), self.dt_s, t_s, s.lat_deg,
             s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps, s.v_up_mps,
             s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, *w, *pilot, float(item),
         )  # fmt: skip
@@ -445,15 +494,21 @@ class FlightStep:
             self.refresh()
             return w, pilot
         # the unit answers this step itself, from the same estimate
-        o: list[Any] = self._O.tolist()
-        horizon = self._take_in(o[NEW_HORIZON] != 0.0)
-        est = VehicleState(*o[EST0 : EST0 + 15])
+        o = self._sensed_out()
+        horizon = self._take_in(o.new_horizon != 0.0)
+        est = VehicleState(*o.est)
         est.on_ground = s.on_ground  # touchdown switch / the flight controller's land detector
         sensed = _new_tuple(
             Sensed,
-            (est, (o[WIND_EST_E], o[WIND_EST_N]), o[VALID] != 0.0, o[SIGMA_H], o[SIGMA_V], horizon, o[AGE], o[TURBULENCE]),
+            (est, (o.wind_e_mps, o.wind_n_mps), o.position_valid != 0.0, o.sigma_h_m, o.sigma_v_m, horizon, o.data_age_s,
+             o.turbulence_sigma_mps),
         )  # fmt: skip
         return w, self.by_unit(truth, t_s, w, pilot, item, sensed)
+
+    def _sensed_out(self) -> SensedStep:
+        """What the kernel left in ``Out`` for the unit (:data:`STEP_OUT`), as Python floats (the flags 0 or 1)."""
+        v: list[Any] = self._O.tolist()
+        return _new_tuple(SensedStep, (tuple(v[:15]), *v[15:]))
 
     def by_unit(
         self, truth: VehicleState, t_s: float, w: tuple[float, float, float], pilot: StickCommand, item: int,
