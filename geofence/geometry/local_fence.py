@@ -78,6 +78,11 @@ def _edge_items(p: PolygonIndex, feature: str, index: int, sign: float) -> tuple
     return tuple(out)
 
 
+INRADIUS_MEMORY = 64
+"""How many (fence, frame) inradii :meth:`LocalFence.inradius` remembers (a polylabel search costs up to ~25 ms)."""
+_INRADII: dict[tuple[Fence, LocalFrame], tuple[float, float, float]] = {}
+
+
 class LocalFence:
     """A :class:`Fence` projected into a :class:`LocalFrame` (ENU metres), with fast margins.
 
@@ -433,8 +438,17 @@ class LocalFence:
 
     # ---- whole-fence properties
     def inradius(self) -> tuple[float, float, float]:
-        """``(east, north, r)``: centre and radius of the largest circle inside the allowed area."""
+        """``(east, north, r)``: centre and radius of the largest circle inside the allowed area. A pure function of
+        the fence and the frame, remembered for the last :data:`INRADIUS_MEMORY` of them (a scenario's variants,
+        its validation and its flight each project the same fence again)."""
         if self._inradius is None:
-            size = max(self.keep_in.bbox[2] - self.keep_in.bbox[0], self.keep_in.bbox[3] - self.keep_in.bbox[1])
-            self._inradius = pole_of_inaccessibility(self.lateral_margin_m, self.keep_in.bbox, precision_m=max(0.01, 1e-4 * size))
+            key = (self.fence, self.frame)
+            found = _INRADII.pop(key, None)
+            if found is None:
+                size = max(self.keep_in.bbox[2] - self.keep_in.bbox[0], self.keep_in.bbox[3] - self.keep_in.bbox[1])
+                found = pole_of_inaccessibility(self.lateral_margin_m, self.keep_in.bbox, precision_m=max(0.01, 1e-4 * size))
+            _INRADII[key] = found  # (the newest last)
+            while len(_INRADII) > INRADIUS_MEMORY:
+                del _INRADII[next(iter(_INRADII))]
+            self._inradius = found
         return self._inradius

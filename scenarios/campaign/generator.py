@@ -1487,11 +1487,17 @@ def _assemble(
 
 
 # --------------------------------------------------------------------------- the campaign
+_OWN_TEXT_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+"""Reads back the documents the generator itself wrote: libyaml's C parser (about 8x faster) where PyYAML has it.
+Never for a user's file: a hostile document (deep nesting) crashes the C parser, where the Python one refuses it
+in one line (``scenarios.definition.schema.read_document``)."""
+
+
 def _validate(text: str, where: str) -> None:
     from scenarios.definition.schema import parse_scenario
 
     try:
-        parse_scenario(yaml.safe_load(text), where=where)
+        parse_scenario(yaml.load(text, Loader=_OWN_TEXT_LOADER), where=where)  # noqa: S506 - a SafeLoader
     except ConfigError as exc:
         raise CampaignError(f"generator bug: the schema rejects a generated scenario: {exc}") from None
 
