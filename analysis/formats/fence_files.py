@@ -1342,6 +1342,17 @@ def _keep_out_ring(c: KeepOutCircle) -> PolygonLL:
 
 
 def _export_geojson(f: Fence, rally: tuple[RallyPoint, ...], warnings: list[str]) -> str:
+    feats, top = geojson_fence_features(f, rally, warnings)
+    return json.dumps({"type": "FeatureCollection", "properties": top, "features": feats}, indent=1) + "\n"
+
+
+def geojson_fence_features(
+    f: Fence, rally: Sequence[RallyPoint], warnings: list[str]
+) -> tuple[list[dict[str, Any]], dict[str, Any]]:
+    """The GeoJSON features of a fence (``properties.geofence`` roles, rings closed, [lon, lat], in the fence's
+    vertex order) and the collection's ``properties`` (ceiling, floor, altitude reference): what
+    :func:`export_fence` writes, for any file that carries the fence among other features."""
+
     def ring(poly: PolygonLL) -> list[list[float]]:
         pts = [[float(lon), float(lat)] for lat, lon in poly]
         return pts + [pts[0]]
@@ -1376,7 +1387,7 @@ def _export_geojson(f: Fence, rally: tuple[RallyPoint, ...], warnings: list[str]
     for i, rally_point in enumerate(rally):
         where = [rally_point.lon_deg, rally_point.lat_deg]
         feats.append(feature("rally", f"rally {i}", {"type": "Point", "coordinates": where}, alt_m=rally_point.alt_m))
-    return json.dumps({"type": "FeatureCollection", "properties": top, "features": feats}, indent=1) + "\n"
+    return feats, top
 
 
 def _extent_props(x: VerticalExtent) -> dict[str, float]:
@@ -1388,36 +1399,71 @@ def _extent_props(x: VerticalExtent) -> dict[str, float]:
     return out
 
 
+KML_NAMESPACE = "http://www.opengis.net/kml/2.2"
+
+
 def _export_kml(f: Fence, rally: tuple[RallyPoint, ...], warnings: list[str]) -> str:
-    """KML 2.2 (Google Earth): the keep-in and keep-outs as extruded polygons up to their ceiling (relative to the
-    ground), the return and rally points as placemarks. Written with :mod:`xml.etree.ElementTree`."""
+    """KML 2.2 (Google Earth): the keep-in and keep-outs as extruded polygons up to their ceiling, the return and
+    rally points as placemarks (:func:`kml_fence_placemarks`). Written with :mod:`xml.etree.ElementTree`."""
     import xml.etree.ElementTree as ET
 
-    ns = "http://www.opengis.net/kml/2.2"
-    root = ET.Element("kml", xmlns=ns)
+    root = ET.Element("kml", xmlns=KML_NAMESPACE)
     doc = ET.SubElement(root, "Document")
     ET.SubElement(doc, "name").text = "geofence"
+    kml_fence_styles(doc)
+    kml_fence_placemarks(doc, f, rally, warnings)
+    return kml_text(root)
+
+
+def kml_text(root: Any) -> str:
+    """A KML element tree as the text of a file (indented, with its XML declaration)."""
+    import xml.etree.ElementTree as ET
+
+    ET.indent(root)
+    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+
+
+def kml_fence_styles(doc: Any) -> None:
+    """The ``keep_in`` and ``keep_out`` polygon styles :func:`kml_fence_placemarks` refers to, added to ``doc``."""
+    import xml.etree.ElementTree as ET
+
     for sid, colour in (("keep_in", "4000ff00"), ("keep_out", "400000ff")):
         style = ET.SubElement(doc, "Style", id=sid)
         ET.SubElement(ET.SubElement(style, "PolyStyle"), "color").text = colour
 
+
+def kml_fence_placemarks(
+    parent: Any, f: Fence, rally: Sequence[RallyPoint], warnings: list[str], ground_alt_m: float | None = None
+) -> None:
+    """The fence's placemarks, added to the KML element ``parent``: the keep-in and keep-outs as extruded polygons
+    up to their ceilings, the return and rally points as points. Heights: an AMSL fence's are absolute; an AGL
+    fence's are relative to the ground, or, given ``ground_alt_m`` (the flight's flat ground, m), absolute above
+    it, as a flight's track is drawn."""
+    import xml.etree.ElementTree as ET
+
+    absolute = ground_alt_m is not None or f.altitude_reference is AltitudeReference.AMSL
+    mode = "absolute" if absolute else "relativeToGround"
+    lift = float(ground_alt_m) if ground_alt_m is not None and f.altitude_reference is AltitudeReference.AGL else 0.0
+
     def polygon(name: str, style: str, poly: PolygonLL, top_m: float) -> None:
-        pm = ET.SubElement(doc, "Placemark")
+        pm = ET.SubElement(parent, "Placemark")
         ET.SubElement(pm, "name").text = name
         ET.SubElement(pm, "styleUrl").text = f"#{style}"
         pg = ET.SubElement(pm, "Polygon")
         ET.SubElement(pg, "extrude").text = "1"
-        ET.SubElement(pg, "altitudeMode").text = "relativeToGround"
+        ET.SubElement(pg, "altitudeMode").text = mode
         ring = ET.SubElement(ET.SubElement(pg, "outerBoundaryIs"), "LinearRing")
         pts = [*poly, poly[0]]
-        ET.SubElement(ring, "coordinates").text = " ".join(f"{float(lon)!r},{float(lat)!r},{top_m!r}" for lat, lon in pts)
+        top = top_m + lift
+        ET.SubElement(ring, "coordinates").text = " ".join(f"{float(lon)!r},{float(lat)!r},{top!r}" for lat, lon in pts)
 
-    def point(name: str, lat: float, lon: float, alt: float) -> None:
-        pm = ET.SubElement(doc, "Placemark")
+    def point(name: str, lat: float, lon: float, alt: float, relative: bool) -> None:
+        pm = ET.SubElement(parent, "Placemark")
         ET.SubElement(pm, "name").text = name
         pt = ET.SubElement(pm, "Point")
-        ET.SubElement(pt, "altitudeMode").text = "relativeToGround"
-        ET.SubElement(pt, "coordinates").text = f"{float(lon)!r},{float(lat)!r},{float(alt)!r}"
+        ET.SubElement(pt, "altitudeMode").text = "relativeToGround" if relative and ground_alt_m is None else "absolute"
+        up = float(alt) + (float(ground_alt_m) if ground_alt_m is not None and relative else 0.0)
+        ET.SubElement(pt, "coordinates").text = f"{float(lon)!r},{float(lat)!r},{up!r}"
 
     if f.keep_in_circle is not None:
         warnings.append("kml has no circle: the keep-in circle is written as its inscribed polygon")
@@ -1432,8 +1478,6 @@ def _export_kml(f: Fence, rally: tuple[RallyPoint, ...], warnings: list[str]) ->
         warnings.append(f"kml has no circle: {len(f.keep_out_circles)} keep-out circle(s) written as polygons around them")
     if f.recovery_point is not None:
         rp = f.recovery_point
-        point("return point", rp[0], rp[1], rp[2] if len(rp) > 2 else 0.0)
+        point("return point", rp[0], rp[1], rp[2] if len(rp) > 2 else 0.0, f.altitude_reference is AltitudeReference.AGL)
     for i, rally_point in enumerate(rally):
-        point(f"rally {i}", rally_point.lat_deg, rally_point.lon_deg, rally_point.alt_m)
-    ET.indent(root)
-    return '<?xml version="1.0" encoding="UTF-8"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+        point(f"rally {i}", rally_point.lat_deg, rally_point.lon_deg, rally_point.alt_m, rally_point.alt_reference != "amsl")

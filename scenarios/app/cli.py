@@ -11,6 +11,8 @@ Subcommands:
 * ``import-fence FILE``: turn a GeoJSON / QGC .plan / WPL 110 / MAVProxy fence file into a scenario ``geofence:`` block.
 * ``export-fence IN --to FORMAT --out FILE``: write a scenario's or a file's fence as .plan / WPL 110 / MAVProxy /
   GeoJSON / KML.
+* ``export-flight RUN_DIR --to geojson|kml --out FILE``: a flown flight's track (coloured by geofence mode), its
+  transitions, peak excursion and fence for QGIS / Google Earth.
 * ``validate SCENARIO.yaml...``: check scenario files without flying them.
 * ``list``: the aircraft that can fly and the shipped example scenarios.
 * ``check SCENARIO.yaml...``: the pre-flight mission check (where would the geofence override the mission?).
@@ -192,6 +194,7 @@ def build_parser() -> argparse.ArgumentParser:
     _inclusion_option(imp)
 
     _export_fence_parser(sub)
+    _export_flight_parser(sub)
 
     val = sub.add_parser(
         "validate",
@@ -387,6 +390,78 @@ def _cmd_export_fence(args) -> int:
     return 0
 
 
+def _export_flight_parser(sub) -> None:
+    ex = sub.add_parser(
+        "export-flight",
+        help="write a flown flight as GeoJSON (QGIS) or KML (Google Earth)",
+        description=(
+            "Read a flight folder written by run/batch (trajectory.csv, summary.json, scenario.yaml) and write its "
+            "track as 3-D lines (lon, lat, alt_m), one per run of a geofence mode, coloured by mode (GeoJSON "
+            "properties.mode and stroke; KML one styled Placemark per segment, altitudeMode absolute), a point per "
+            "mode transition and at the peak excursion, and the scenario's fence. The track is thinned by "
+            "Ramer-Douglas-Peucker in the local ENU frame (every dropped sample within --tolerance of the kept line; "
+            "mode changes, transitions and the peak are kept); the file states the tolerance and the error left."
+        ),
+    )
+    ex.add_argument("run_dir", type=Path, metavar="RUN_DIR", help="a flight folder written by run or batch")
+    ex.add_argument("--to", required=True, choices=("geojson", "kml"), metavar="FORMAT", help="geojson or kml")
+    ex.add_argument("--out", type=Path, required=True, metavar="FILE", help="the file to write (replaced)")
+    ex.add_argument("--tolerance", type=float, default=0.5, metavar="M",
+                    help="decimation tolerance, m (3-D; 0 keeps every sample; default 0.5)")  # fmt: skip
+    ex.add_argument("--max-points", type=int, default=50_000, metavar="N",
+                    help="most track vertices: past them the tolerance is doubled until the track fits (default 50000)")  # fmt: skip
+    ex.add_argument("--extrude", action="store_true", help="KML: draw the track as a curtain down to the ground")
+
+
+def read_flight_folder(folder: Path) -> tuple[dict, dict, Any]:
+    """A flight folder's trajectory columns, summary and scenario, or a one-line :class:`ConfigError` naming the
+    file and the problem."""
+    import json
+
+    from analysis.formats.flight_export import TRACK_COLUMNS
+    from geofence.validation import ConfigError
+    from scenarios.definition.schema import parse_scenario, read_document
+    from scenarios.flight.recorder import read_trajectory_csv
+
+    if not folder.is_dir():
+        raise ConfigError(f"{folder}: not a flight folder (not a folder): give one written by run or batch")
+    for file in ("trajectory.csv", "summary.json", "scenario.yaml"):
+        if not (folder / file).is_file():
+            raise ConfigError(f"{folder}: not a flight folder (no {file}): give one written by run or batch")
+    try:
+        summary = json.loads((folder / "summary.json").read_text())
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{folder / 'summary.json'}: not JSON ({' '.join(str(exc).split())[:80]})") from None
+    if not isinstance(summary, dict):
+        raise ConfigError(f"{folder / 'summary.json'}: not a flight summary (not a JSON object)")
+    sc = parse_scenario(read_document(folder / "scenario.yaml"), str(folder / "scenario.yaml"), folder.name)
+    traj = read_trajectory_csv(folder / "trajectory.csv", TRACK_COLUMNS)
+    return traj, summary, sc
+
+
+def _cmd_export_flight(args) -> int:
+    from analysis.formats.flight_export import export_flight, transitions_from_summary
+
+    check_output_file(args.out, "--out")
+    traj, summary, sc = read_flight_folder(args.run_dir)
+    exported = export_flight(
+        traj, args.to, name=str(args.run_dir / "trajectory.csv"), title=sc.name,
+        transitions=transitions_from_summary(summary.get("mode_transitions"), str(args.run_dir / "summary.json")),
+        fence=sc.geofence.fence if sc.geofence is not None else None, local_fence=sc.local_fence(),
+        ground_alt_m=sc.start.ground_alt_m, tolerance_m=args.tolerance, max_points=args.max_points, extrude=args.extrude,
+    )  # fmt: skip
+    for w in exported.warnings:
+        print(f"warning: {w}", file=sys.stderr)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = args.out.with_name(f".{args.out.name}.tmp")
+    tmp.write_text(exported.text)
+    os.replace(tmp, args.out)
+    d = exported.decimated
+    print(f"wrote {args.out}: {len(exported.segments)} segments, {len(d.indices)} of {len(traj['time_s'])} samples "
+          f"(within {exported.tolerance_m:g} m; largest deviation {d.max_error_m:.3f} m)")  # fmt: skip
+    return 0
+
+
 def _mavlink_run_options(run: argparse.ArgumentParser) -> None:
     """``run``'s MAVLink flags: the flight as a MAVLink vehicle, and its telemetry log."""
     g = run.add_argument_group(
@@ -539,6 +614,8 @@ def main(argv: list[str] | None = None) -> int:
             return _cmd_import_fence(args)
         if args.command == "export-fence":
             return _cmd_export_fence(args)
+        if args.command == "export-flight":
+            return _cmd_export_flight(args)
         if args.command == "validate":
             return _cmd_validate(args)
         if args.command == "list":
