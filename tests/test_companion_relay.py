@@ -301,6 +301,21 @@ def test_a_waypoint_mission_goes_to_the_vehicle_untouched(relay):
     assert gcs.mav_loss == 0
 
 
+@pytest.mark.slow
+def test_a_ground_station_of_the_companions_system_id_uploads_waypoints_too(relay):
+    """MAVProxy and QGC send as 255 (component 0 or 190), the companion's own system: the vehicle's requests to
+    255/0 are the ground station's, not the companion's."""
+    gcs, ours = relay.gcs, relay.gcs.mav
+    gcs.mav = mavlink.MAVLink(gcs, srcSystem=COMPANION[0], srcComponent=0)
+    gcs.mav.robust_parsing = True
+    try:
+        wps = [w._replace(z=35.0) for w in WAYPOINTS]
+        assert upload(gcs, wps, VEHICLE, mavlink.MAV_MISSION_TYPE_MISSION) == mavlink.MAV_MISSION_ACCEPTED
+        assert relay.vehicle.waypoints == wps
+    finally:
+        gcs.mav = ours
+
+
 # --------------------------------------------------------------------------- MAVProxy as the ground station
 MAVPROXY = shutil.which("mavproxy.py")
 ROW = "{seq}\t0\t0\t{cmd}\t{p1:.6f}\t0.000000\t0.000000\t0.000000\t{lat:.6f}\t{lon:.6f}\t0.000000\t1"

@@ -22,6 +22,11 @@ dead-reckoning and land-in-gap logic fly), and its commands keep going out. The 
 the mission protocol (:class:`scenarios.link.mission_fence.FenceServer`; a new fence is refused while the unit is
 not monitoring). HEARTBEAT 1 Hz as MAV_COMP_ID_ONBOARD_COMPUTER; TIMESYNC 1 Hz (and answered).
 
+Relay mode (``--gcs URL``): a second link to a ground station. Everything is relayed both ways
+(:class:`scenarios.link.router.Router`) except fence and rally-point transfers the ground station addresses to the
+vehicle, which the same FenceServer answers as the vehicle's ids and does not forward; the companion's HEARTBEAT,
+STATUSTEXT and GF_MODE go to both links.
+
 The link is measured (:class:`LinkMeter`): messages and rates per type, sequence gaps per sender (dropped
 messages), TIMESYNC round trips, ATTITUDE time vs receive time, and the step's processing time (ATTITUDE received
 -> GF_MARGIN sent); printed at exit and written to ``--report``. It exits 0 when its vehicle's HEARTBEAT says
@@ -67,7 +72,7 @@ from scenarios.link.connection import (
     send_statustext,
 )
 from scenarios.link.mission_fence import FenceServer
-from scenarios.link.router import Router, addressed_to, fence_transfer_for
+from scenarios.link.router import Router, addressed_to, fence_transfer_for, is_fence_transfer
 from scenarios.link.sticks import Autopilot, manual_control, rc_override, rc_release
 
 TELEMETRY_LOSS_S = 1.0
@@ -409,12 +414,20 @@ class Companion:
         t = now_s()
         self.meter.received_message(msg, t)
         try:
-            if self.server.handle(msg, t):
+            if self._for_server(msg) and self.server.handle(msg, t):
                 return True
             self._on_message(msg, t)
         except Exception as exc:  # a message that breaks a handler must not stop the geofence: counted, reported
             self._handler_error(msg, exc)
         return False
+
+    def _for_server(self, msg: Any) -> bool:
+        """Whether the fence server sees a vehicle-link message: all of them, but in relay mode only fence transfers
+        for the companion's own component (the vehicle's answers to a ground station of our system id, component 0,
+        are the ground station's)."""
+        if self.router is None:
+            return True
+        return is_fence_transfer(msg) and getattr(msg, "target_component", -1) == self.conn.mav.srcComponent
 
     def _from_gcs(self, msg: Any) -> None:
         """Relay mode: a fence/rally transfer addressed to the vehicle (or to the companion) is answered here, as
