@@ -6,7 +6,8 @@ the companion process. The ground station sees the vehicle's telemetry and the c
 with no lost sequence numbers; its COMMAND_LONG reaches the vehicle and the ACK comes back; a fence it addresses to
 the vehicle is answered by the companion as the vehicle (ACCEPTED, downloadable) and never reaches the vehicle; a bad
 one and hostile bytes leave the accepted fence in place; a waypoint mission reaches the vehicle untouched. MAVProxy
-as the ground station does the same (skipped without it). The renumbering of spliced frames is checked alone.
+as the ground station does the same (skipped without it). The renumbering of spliced frames is checked alone, and
+a bad --gcs is one line, exit 2.
 """
 
 from __future__ import annotations
@@ -381,3 +382,18 @@ def test_mavproxy_uploads_a_fence_to_the_vehicle_through_the_companion(tmp_path)
     assert report["fence_server"]["accepted"] == 1
     assert report["relay"]["taken_from_gcs"]["MISSION_COUNT"] >= 1
     assert report["relay"]["forwarded_to_vehicle"].get("HEARTBEAT", 0) > 0  # MAVProxy's, on to the vehicle
+
+
+@pytest.mark.parametrize(
+    ("gcs", "says"),
+    [("udpin:127.0.0.1:{port}", "the same link as --connect"), ("bogus:x", "--gcs 'bogus:x': expected udpin")],
+)
+def test_a_bad_ground_station_link_is_one_line_and_exit_2(tmp_path, capsys, gcs, says):
+    from scenarios.app.cli import main
+
+    (tmp_path / "start.txt").write_text(START_WPL)
+    port = free_udp_port()
+    argv = ["companion", "--connect", f"udpin:127.0.0.1:{port}", "--gcs", gcs.format(port=port)]
+    assert main([*argv, "--fence", str(tmp_path / "start.txt"), "--profile", "F450"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and says in err[0], err

@@ -63,6 +63,7 @@ from scenarios.link.connection import (
     COMPANION_COMPONENT_ID,
     COMPANION_SYSTEM_ID,
     Link,
+    LinkError,
     mavlink,
     now_s,
     open_link,
@@ -661,6 +662,14 @@ def print_report(report: dict[str, Any], out: Any = sys.stdout) -> None:
           f"TIMESYNC RTT {link['timesync_rtt']}; step processing {link['processing']}", file=out)  # fmt: skip
 
 
+def _open_gcs(url: str, source_system: int) -> Link:
+    """The ground-station link of relay mode (a bad URL named as ``--gcs``)."""
+    try:
+        return open_link(url, source_system, COMPANION_COMPONENT_ID)
+    except LinkError as exc:
+        raise LinkError(str(exc).replace("--connect", "--gcs", 1)) from None
+
+
 def run_companion(args: Any) -> int:
     """The ``companion`` sub-command (arguments: see :func:`scenarios.app.cli.build_parser`)."""
     if args.scenario is not None:
@@ -676,8 +685,10 @@ def run_companion(args: Any) -> int:
     setup.target_system = args.target_system
     if args.max_duration_s is not None and not args.max_duration_s > 0:
         raise ConfigError(f"--max-duration-s: must be > 0, got {args.max_duration_s:g}")
+    if args.gcs is not None and args.gcs == args.connect:
+        raise ConfigError(f"--gcs {args.gcs!r}: the same link as --connect (relay mode needs two)")
+    gcs = None if args.gcs is None else _open_gcs(args.gcs, args.source_system)
     conn = open_link(args.connect, args.source_system, COMPANION_COMPONENT_ID)
-    gcs = None if args.gcs is None else open_link(args.gcs, args.source_system, COMPANION_COMPONENT_ID)
     companion = Companion(conn, setup, math.inf if args.max_duration_s is None else args.max_duration_s, gcs)
     companion.warm_up()
     previous = signal.signal(signal.SIGTERM, companion.stop)
