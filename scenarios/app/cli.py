@@ -18,8 +18,9 @@ Subcommands:
 * ``check SCENARIO.yaml...``: the pre-flight mission check (where would the geofence override the mission?).
 * ``validate-models``: fly every platform through standard manoeuvres, write docs/validation.md.
 * ``campaign generate DIR`` / ``campaign report RESULTS --campaign DIR``: the adversarial efficacy campaign.
-* ``companion --connect URL (--scenario FILE | --fence FILE --profile NAME)``: the geofence unit as a MAVLink
-  companion computer (its own estimator, RC_CHANNELS_OVERRIDE / MANUAL_CONTROL, the fence over the mission protocol).
+* ``companion --connect URL (--scenario FILE | --fence FILE --profile NAME) [--gcs URL]``: the geofence unit as a
+  MAVLink companion computer (its own estimator, RC_CHANNELS_OVERRIDE / MANUAL_CONTROL, the fence over the mission
+  protocol); with ``--gcs`` between a ground station and the vehicle, taking the fence uploads addressed to it.
 
 Bad input (a missing or malformed file, an unknown aircraft, a value out of
 range, a scenario that cannot make sense, two flights of the same name, an
@@ -310,11 +311,20 @@ def _companion_parser(sub: Any) -> None:
         help="run the geofence unit as a MAVLink companion computer",
         description="The geofence unit as its own process: reads the vehicle's telemetry into its own estimator, "
         "overrides with RC_CHANNELS_OVERRIDE (ArduPilot) or MANUAL_CONTROL (PX4), hands back and releases, serves "
-        "its fence over the mission protocol, and measures the link. Exits 0 when the vehicle powers off, after "
+        "its fence over the mission protocol, and measures the link. With --gcs it sits between a ground station "
+        "and the vehicle: every message is relayed both ways, except fence and rally-point transfers the ground "
+        "station addresses to the vehicle, which the companion answers as the vehicle (validated whole, replacing "
+        "its own fence, not forwarded); waypoint missions pass untouched. Exits 0 when the vehicle powers off, after "
         "--max-duration-s, or on Ctrl-C / SIGTERM.",
     )
     comp.add_argument(
         "--connect", required=True, metavar="URL", help="udpin:HOST:PORT, udpout:HOST:PORT, tcp:HOST:PORT or a serial device"
+    )
+    comp.add_argument(
+        "--gcs",
+        metavar="URL",
+        help="relay mode: the ground station's link (udpout:HOST:PORT to a GCS listening, udpin:HOST:PORT for one "
+        "that connects, tcp or serial); it keeps seeing and commanding the vehicle through the companion",
     )
     comp.add_argument(
         "--scenario", type=Path, metavar="FILE", help="take the fence, profile, sensors and geofence settings from a scenario"

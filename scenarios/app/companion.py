@@ -22,6 +22,11 @@ dead-reckoning and land-in-gap logic fly), and its commands keep going out. The 
 the mission protocol (:class:`scenarios.link.mission_fence.FenceServer`; a new fence is refused while the unit is
 not monitoring). HEARTBEAT 1 Hz as MAV_COMP_ID_ONBOARD_COMPUTER; TIMESYNC 1 Hz (and answered).
 
+Relay mode (``--gcs URL``): a second link to a ground station. Everything is relayed both ways
+(:class:`scenarios.link.router.Router`) except fence and rally-point transfers the ground station addresses to the
+vehicle, which the same FenceServer answers as the vehicle's ids and does not forward; the companion's HEARTBEAT,
+STATUSTEXT and GF_MODE go to both links.
+
 The link is measured (:class:`LinkMeter`): messages and rates per type, sequence gaps per sender (dropped
 messages), TIMESYNC round trips, ATTITUDE time vs receive time, and the step's processing time (ATTITUDE received
 -> GF_MARGIN sent); printed at exit and written to ``--report``. It exits 0 when its vehicle's HEARTBEAT says
@@ -58,6 +63,7 @@ from scenarios.link.connection import (
     COMPANION_COMPONENT_ID,
     COMPANION_SYSTEM_ID,
     Link,
+    LinkError,
     mavlink,
     now_s,
     open_link,
@@ -67,6 +73,7 @@ from scenarios.link.connection import (
     send_statustext,
 )
 from scenarios.link.mission_fence import FenceServer
+from scenarios.link.router import Router, addressed_to, fence_transfer_for, is_fence_transfer
 from scenarios.link.sticks import Autopilot, manual_control, rc_override, rc_release
 
 TELEMETRY_LOSS_S = 1.0
@@ -292,8 +299,11 @@ def _warm_up_states(local: Any, frame: LocalFrame, max_speed_mps: float, h_m: fl
 class Companion:
     """The companion's loop over one connection (see the module docstring): :meth:`run` until the end."""
 
-    def __init__(self, conn: Link, setup: CompanionSetup, max_duration_s: float = math.inf) -> None:
+    def __init__(self, conn: Link, setup: CompanionSetup, max_duration_s: float = math.inf, gcs: Link | None = None) -> None:
         self.conn, self.setup, self.max_duration_s = conn, setup, max_duration_s
+        self.gcs = gcs
+        """The ground-station link in relay mode (:meth:`_from_gcs`), else None."""
+        self.router = None if gcs is None else Router(conn, gcs)
         self.env = setup.profile.envelope
         self.meter = LinkMeter()
         self.autopilot = setup.autopilot
@@ -380,33 +390,79 @@ class Companion:
                     self.exit_reason = f"max duration {self.max_duration_s:g} s"
                     break
                 self._periodic(t)
-                msg = receive(self.conn, 0.005)
-                while msg is not None and not self._stop:
-                    self._dispatch(msg)
-                    msg = receive(self.conn)
+                self._receive(0.005)
         except KeyboardInterrupt:
             self.exit_reason = "interrupted"
         self._release(final=True)
         return 0
 
-    def _dispatch(self, msg: Any) -> None:
+    def _receive(self, timeout_s: float) -> None:
+        """What arrived within ``timeout_s``: the vehicle's messages, then (relay) the ground station's."""
+        if self.router is None:
+            msg = receive(self.conn, timeout_s)
+        else:
+            self.router.wait(timeout_s)
+            msg = receive(self.conn)
+        while msg is not None and not self._stop:
+            if not self._dispatch(msg) and self.router is not None:
+                self.router.to_gcs(msg)
+            msg = receive(self.conn)
+        while self.gcs is not None and not self._stop and (msg := receive(self.gcs)) is not None:
+            self._from_gcs(msg)
+
+    def _dispatch(self, msg: Any) -> bool:
+        """One message from the vehicle link: True when it was for the companion alone (not to be relayed)."""
         t = now_s()
         self.meter.received_message(msg, t)
         try:
-            if self.server.handle(msg, t):
-                return
+            if self._for_server(msg) and self.server.handle(msg, t):
+                return True
             self._on_message(msg, t)
         except Exception as exc:  # a message that breaks a handler must not stop the geofence: counted, reported
-            self.handler_errors += 1
-            if self.handler_errors <= 5:
-                self._say(f"GF: {msg.get_type()} ignored: {type(exc).__name__}", mavlink.MAV_SEVERITY_ERROR)
-                print(f"companion: {msg.get_type()}: {type(exc).__name__}: {exc}", file=sys.stderr)
+            self._handler_error(msg, exc)
+        return False
+
+    def _for_server(self, msg: Any) -> bool:
+        """Whether the fence server sees a vehicle-link message: all of them, but in relay mode only fence transfers
+        for the companion's own component (the vehicle's answers to a ground station of our system id, component 0,
+        are the ground station's)."""
+        if self.router is None:
+            return True
+        return is_fence_transfer(msg) and getattr(msg, "target_component", -1) == self.conn.mav.srcComponent
+
+    def _from_gcs(self, msg: Any) -> None:
+        """Relay mode: a fence/rally transfer addressed to the vehicle (or to the companion) is answered here, as
+        the id addressed, and not forwarded; before the vehicle is known such a transfer is dropped; all else goes
+        to the vehicle untouched."""
+        assert self.router is not None and self.gcs is not None
+        kind, me = msg.get_type(), (self.gcs.mav.srcSystem, self.gcs.mav.srcComponent)
+        try:
+            if self.target is None and fence_transfer_for(msg, None):
+                self.router.dropped[kind] += 1
+                return
+            if self.target is not None and fence_transfer_for(msg, self.target):
+                self.server.handle(msg, now_s(), face=self.router.face_as(self.target))
+                self.router.taken[kind] += 1
+                return
+            if addressed_to(msg, me) and self.server.handle(msg, now_s(), face=self.gcs):
+                self.router.taken[kind] += 1
+                return
+        except Exception as exc:  # hostile input from the ground station: counted, reported, not forwarded
+            return self._handler_error(msg, exc)
+        self.router.to_vehicle(msg)
+
+    def _handler_error(self, msg: Any, exc: Exception) -> None:
+        self.handler_errors += 1
+        if self.handler_errors <= 5:
+            self._say(f"GF: {msg.get_type()} ignored: {type(exc).__name__}", mavlink.MAV_SEVERITY_ERROR)
+            print(f"companion: {msg.get_type()}: {type(exc).__name__}: {exc}", file=sys.stderr)
 
     def _periodic(self, t: float) -> None:
         self.server.poll(t)
         if t >= self._next_heartbeat_s:
             self._next_heartbeat_s = t + 1.0
-            send_heartbeat(self.conn, mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID)
+            for link in self._own_links():
+                send_heartbeat(link, mavlink.MAV_TYPE_ONBOARD_CONTROLLER, mavlink.MAV_AUTOPILOT_INVALID)
             stamp = time.monotonic_ns()
             self._timesync = {k: v for k, v in self._timesync.items() if t - v < 5.0}
             self._timesync[stamp] = t
@@ -414,7 +470,8 @@ class Companion:
             self._sent("HEARTBEAT", "TIMESYNC")
         if t >= self._next_mode_s:
             self._next_mode_s = t + 1.0
-            send_named_int(self.conn, telemetry.GF_MODE_NAME, self._boot_ms(), int(self.mode))
+            for link in self._own_links():
+                send_named_int(link, telemetry.GF_MODE_NAME, self._boot_ms(), int(self.mode))
             self._sent("NAMED_VALUE_INT")
         if self.armed and t - self._last_telemetry_s > TELEMETRY_LOSS_S:
             self._lost_step(t)
@@ -559,12 +616,18 @@ class Companion:
             self._say(text, _MODE_SEVERITY[tr.to_mode])
         if mode is not self.mode:
             self.mode = mode
-            send_named_int(self.conn, telemetry.GF_MODE_NAME, self._boot_ms(), int(mode))
+            for link in self._own_links():
+                send_named_int(link, telemetry.GF_MODE_NAME, self._boot_ms(), int(mode))
             self._sent("NAMED_VALUE_INT")
 
     def _say(self, text: str, severity: int = mavlink.MAV_SEVERITY_INFO) -> None:
-        send_statustext(self.conn, text, severity)
+        for link in self._own_links():
+            send_statustext(link, text, severity)
         self._sent("STATUSTEXT")
+
+    def _own_links(self) -> tuple[Link, ...]:
+        """Where the companion's HEARTBEAT, STATUSTEXT and GF_MODE go: the vehicle, and the ground station."""
+        return (self.conn,) if self.gcs is None else (self.conn, self.gcs)
 
     def report(self) -> dict[str, Any]:
         unit = self.unit
@@ -580,6 +643,7 @@ class Companion:
             "telemetry_lost_steps": self.lost_steps,
             "handler_errors": self.handler_errors,
             "fence_server": {k: v for k, v in vars(self.server.stats).items()},
+            "relay": None if self.router is None else self.router.report(),
             "link": self.meter.report(),
         }
 
@@ -598,6 +662,14 @@ def print_report(report: dict[str, Any], out: Any = sys.stdout) -> None:
           f"TIMESYNC RTT {link['timesync_rtt']}; step processing {link['processing']}", file=out)  # fmt: skip
 
 
+def _open_gcs(url: str, source_system: int) -> Link:
+    """The ground-station link of relay mode (a bad URL named as ``--gcs``)."""
+    try:
+        return open_link(url, source_system, COMPANION_COMPONENT_ID)
+    except LinkError as exc:
+        raise LinkError(str(exc).replace("--connect", "--gcs", 1)) from None
+
+
 def run_companion(args: Any) -> int:
     """The ``companion`` sub-command (arguments: see :func:`scenarios.app.cli.build_parser`)."""
     if args.scenario is not None:
@@ -613,16 +685,22 @@ def run_companion(args: Any) -> int:
     setup.target_system = args.target_system
     if args.max_duration_s is not None and not args.max_duration_s > 0:
         raise ConfigError(f"--max-duration-s: must be > 0, got {args.max_duration_s:g}")
+    if args.gcs is not None and args.gcs == args.connect:
+        raise ConfigError(f"--gcs {args.gcs!r}: the same link as --connect (relay mode needs two)")
+    gcs = None if args.gcs is None else _open_gcs(args.gcs, args.source_system)
     conn = open_link(args.connect, args.source_system, COMPANION_COMPONENT_ID)
-    companion = Companion(conn, setup, math.inf if args.max_duration_s is None else args.max_duration_s)
+    companion = Companion(conn, setup, math.inf if args.max_duration_s is None else args.max_duration_s, gcs)
     companion.warm_up()
     previous = signal.signal(signal.SIGTERM, companion.stop)
-    print(f"companion: listening on {args.connect} as {args.source_system}/{COMPANION_COMPONENT_ID}", flush=True)
+    relay = "" if gcs is None else f", relaying to the ground station on {args.gcs}"
+    print(f"companion: listening on {args.connect} as {args.source_system}/{COMPANION_COMPONENT_ID}{relay}", flush=True)
     try:
         code = companion.run()
     finally:
         signal.signal(signal.SIGTERM, previous)
         conn.close()
+        if gcs is not None:
+            gcs.close()
     report = companion.report()
     print_report(report)
     if args.report is not None:

@@ -19,7 +19,8 @@ callback takes, replaces the fence in use; anything else is NACKed and changes n
 coming is re-requested ``retries`` times, ``item_timeout_s`` apart, then abandoned (``OPERATION_CANCELLED``); the
 old fence stays. Messages for another system or component, from another sender than the upload's, or out of order
 are not taken as items. A download returns the accepted items as they were uploaded (initially the items of the
-fence the companion started with, :func:`mission_items_from_fence`).
+fence the companion started with, :func:`mission_items_from_fence`). Each transfer is answered from the ``face``
+it came in on (:meth:`FenceServer.handle`): the server's own link and ids, or another id it answers for.
 """
 
 from __future__ import annotations
@@ -141,9 +142,18 @@ def result_of_error(message: str) -> int:
     return mavlink.MAV_MISSION_INVALID
 
 
+class Peer(NamedTuple):
+    """Who a transfer is with, and the ``face`` (a link whose ``.mav`` encoder carries the id the sender
+    addressed) that answers it."""
+
+    system: int
+    component: int
+    face: Any
+
+
 @dataclass
 class _Upload:
-    peer: tuple[int, int]
+    peer: Peer
     mission_type: int
     count: int
     deadline_s: float
@@ -187,7 +197,7 @@ class FenceServer:
         self._on_event = on_event or (lambda text: None)
         self._items = {FENCE: mission_items_from_fence(fence), RALLY: mission_items_from_rally(self.rally_points)}
         self._upload: _Upload | None = None
-        self._downloads: dict[tuple[int, int, int], list[MissionItem]] = {}
+        self._downloads: dict[tuple[Peer, int], list[MissionItem]] = {}
         self.item_timeout_s, self.retries, self.max_items = item_timeout_s, retries, max_items
         self._handlers = {
             "MISSION_COUNT": self._on_count,
@@ -208,17 +218,19 @@ class FenceServer:
     def uploading(self) -> bool:
         return self._upload is not None
 
-    def handle(self, msg: Any, t_s: float | None = None) -> bool:
-        """Take one received message; True when it was a mission-protocol message addressed to us."""
+    def handle(self, msg: Any, t_s: float | None = None, face: Link | None = None) -> bool:
+        """Take one received message; True when it was a mission-protocol message addressed to us. ``face``
+        (default: the server's own link): the link and ids it came in as, and answers from (a relay answers a
+        ground station as the vehicle it addressed)."""
         handler = self._handlers.get(msg.get_type())
         if handler is None:
             return False
-        mav = self.conn.mav
+        face = self.conn if face is None else face
+        mav = face.mav
         if getattr(msg, "target_system", -1) != mav.srcSystem or msg.target_component not in (mav.srcComponent, 0):
             self.stats.ignored += 1
             return False
-        peer = (msg.get_srcSystem(), msg.get_srcComponent())
-        handler(msg, peer, now_s() if t_s is None else t_s)
+        handler(msg, Peer(msg.get_srcSystem(), msg.get_srcComponent(), face), now_s() if t_s is None else t_s)
         return True
 
     def poll(self, t_s: float | None = None) -> None:
@@ -236,7 +248,7 @@ class FenceServer:
         self._finish(up, mavlink.MAV_MISSION_OPERATION_CANCELLED, f"upload abandoned: no item {len(up.items)} came")
 
     # ---- upload
-    def _on_count(self, msg: Any, peer: tuple[int, int], t: float) -> None:
+    def _on_count(self, msg: Any, peer: Peer, t: float) -> None:
         mt, n = msg.mission_type, msg.count
         up = self._upload
         if up is not None and up.peer != peer:
@@ -251,7 +263,7 @@ class FenceServer:
         self._upload = _Upload(peer, mt, n, t + self.item_timeout_s, retries_left=self.retries)
         self._request(self._upload)
 
-    def _on_item(self, msg: Any, peer: tuple[int, int], t: float) -> None:
+    def _on_item(self, msg: Any, peer: Peer, t: float) -> None:
         up = self._upload
         if up is None or up.peer != peer or msg.mission_type != up.mission_type:
             self.stats.ignored += 1
@@ -296,59 +308,59 @@ class FenceServer:
         what = "fence" if up.mission_type == FENCE else "rally points"
         self._finish(up, mavlink.MAV_MISSION_ACCEPTED, f"{what} accepted: {up.count} items")
 
-    def _clear(self, peer: tuple[int, int], mission_type: int) -> None:
+    def _clear(self, peer: Peer, mission_type: int) -> None:
         if mission_type == FENCE:  # the companion never flies without a fence
             self.stats.refused += 1
             return self._ack(peer, FENCE, mavlink.MAV_MISSION_DENIED, "refused: clearing the fence")
         self.rally_points, self._items[RALLY] = (), []
         self._ack(peer, RALLY, mavlink.MAV_MISSION_ACCEPTED, "rally points cleared")
 
-    def _on_clear(self, msg: Any, peer: tuple[int, int], t: float) -> None:
+    def _on_clear(self, msg: Any, peer: Peer, t: float) -> None:
         if msg.mission_type in (FENCE, RALLY):
             self._clear(peer, msg.mission_type)
 
     def _request(self, up: _Upload) -> None:
-        self.conn.mav.mission_request_int_send(up.peer[0], up.peer[1], len(up.items), up.mission_type)
+        up.peer.face.mav.mission_request_int_send(up.peer[0], up.peer[1], len(up.items), up.mission_type)
 
     def _finish(self, up: _Upload, result: int, text: str) -> None:
         self._upload = None
         self._ack(up.peer, up.mission_type, result, text)
 
-    def _ack(self, peer: tuple[int, int], mission_type: int, result: int, text: str) -> None:
+    def _ack(self, peer: Peer, mission_type: int, result: int, text: str) -> None:
         self.stats.last_result, self.stats.last_message = result, text
-        self.conn.mav.mission_ack_send(peer[0], peer[1], result, mission_type)
+        peer.face.mav.mission_ack_send(peer[0], peer[1], result, mission_type)
         self._on_event(text)
 
     # ---- download
-    def _on_request_list(self, msg: Any, peer: tuple[int, int], t: float) -> None:
+    def _on_request_list(self, msg: Any, peer: Peer, t: float) -> None:
         mt = msg.mission_type
         if mt not in (FENCE, RALLY):
             return self._ack(peer, mt, mavlink.MAV_MISSION_UNSUPPORTED, f"download of mission type {mt} refused")
-        self._downloads[(*peer, mt)] = items = self.items(mt)
+        self._downloads[(peer, mt)] = items = self.items(mt)
         if len(self._downloads) > 16:  # senders that never finish their downloads
             del self._downloads[next(iter(self._downloads))]
-        self.conn.mav.mission_count_send(peer[0], peer[1], len(items), mt)
+        peer.face.mav.mission_count_send(peer[0], peer[1], len(items), mt)
 
-    def _on_request(self, msg: Any, peer: tuple[int, int], t: float) -> None:
+    def _on_request(self, msg: Any, peer: Peer, t: float) -> None:
         mt = msg.mission_type
-        items = self._downloads.get((*peer, mt))
+        items = self._downloads.get((peer, mt))
         if items is None:
             items = self.items(mt)
         if not 0 <= msg.seq < len(items):
             return self._ack(peer, mt, mavlink.MAV_MISSION_INVALID_SEQUENCE, f"request of item {msg.seq}: no such item")
         i = items[msg.seq]
         if msg.get_type() == "MISSION_REQUEST":
-            self.conn.mav.mission_item_send(
+            peer.face.mav.mission_item_send(
                 peer[0], peer[1], i.seq, i.frame, i.command, 0, 1, i.param1, i.param2, i.param3, i.param4,
                 i.x / 1e7, i.y / 1e7, i.z, mt,
             )  # fmt: skip
             return
-        self.conn.mav.mission_item_int_send(
+        peer.face.mav.mission_item_int_send(
             peer[0], peer[1], i.seq, i.frame, i.command, 0, 1, i.param1, i.param2, i.param3, i.param4, i.x, i.y, i.z, mt
         )
 
-    def _on_ack(self, msg: Any, peer: tuple[int, int], t: float) -> None:
-        if self._downloads.pop((*peer, msg.mission_type), None) is not None:
+    def _on_ack(self, msg: Any, peer: Peer, t: float) -> None:
+        if self._downloads.pop((peer, msg.mission_type), None) is not None:
             self.stats.downloads += 1
 
 
