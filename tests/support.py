@@ -29,6 +29,7 @@ from __future__ import annotations
 import csv
 import math
 import random
+import socket
 from collections import defaultdict
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -420,3 +421,20 @@ def same_margins(a, b, tol: float = SAME_MARGINS_M) -> bool:
         elif not (x == y or (math.isnan(x) and math.isnan(y)) or abs(x - y) <= tol * (1.0 + abs(y))):
             return False
     return True
+
+
+# ---------------------------------------------------------------------------------------------- MAVLink links
+def free_udp_port() -> int:
+    """A loopback UDP port free at the moment of asking (bound to port 0, then released)."""
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+SQUARE_FENCE_WPL = """QGC WPL 110
+0\t0\t0\t5001\t4\t0\t0\t0\t47.3960000\t8.5430000\t0\t1
+1\t0\t0\t5001\t4\t0\t0\t0\t47.3960000\t8.5470000\t0\t1
+2\t0\t0\t5001\t4\t0\t0\t0\t47.3980000\t8.5470000\t0\t1
+3\t0\t0\t5001\t4\t0\t0\t0\t47.3980000\t8.5430000\t0\t1
+"""
+"""A 300 x 220 m keep-in square near Zurich (the PX4 SITL site) as a WPL 110 fence file, for the link tests."""

@@ -14,13 +14,13 @@ from __future__ import annotations
 import json
 import math
 import os
-import socket
 import subprocess
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
+from support import SQUARE_FENCE_WPL, free_udp_port
 
 from aircraft.profile import load_profile
 from geofence.estimation.measurements import AirData, AttitudeSample, GpsFix
@@ -33,20 +33,9 @@ from scenarios.link.sticks import COM_RC_LOSS_T_S, Autopilot, OverrideInput, rc_
 
 ROOT = Path(__file__).resolve().parents[1]
 LAT0, LON0, GROUND_M = 47.397, 8.545, 500.0
-FENCE_WPL = """QGC WPL 110
-0\t0\t0\t5001\t4\t0\t0\t0\t47.3960000\t8.5430000\t0\t1
-1\t0\t0\t5001\t4\t0\t0\t0\t47.3960000\t8.5470000\t0\t1
-2\t0\t0\t5001\t4\t0\t0\t0\t47.3980000\t8.5470000\t0\t1
-3\t0\t0\t5001\t4\t0\t0\t0\t47.3980000\t8.5430000\t0\t1
-"""
+FENCE_WPL = SQUARE_FENCE_WPL
 DT_S = 0.025
 GPS_EVERY, GPS_LATENCY_S = 8, 0.2  # a fix every 0.2 s, 0.2 s old
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 @dataclass

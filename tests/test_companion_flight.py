@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import json
 import os
-import socket
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 import pytest
+from support import free_udp_port
 
 from scenarios.definition.schema import load_scenario
 from scenarios.flight.runner import fly
@@ -37,12 +37,6 @@ COMPANION_AFTER_S = 20.0
 """The companion ends this soon after the vehicle powered off."""
 PEAK_TOLERANCE_M = {"multicopter": 0.5, "fixedwing": 1.0}
 """How near the in-process flight's peak excursion the two-process one must be (see the module docstring)."""
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def cli(*args: str, out: Path, **kw) -> subprocess.Popen:

@@ -17,7 +17,6 @@ import json
 import os
 import random
 import shutil
-import socket
 import subprocess
 import sys
 import threading
@@ -28,6 +27,7 @@ from pathlib import Path
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from support import SQUARE_FENCE_WPL, free_udp_port
 
 from geofence.estimation.measurements import AttitudeSample
 from geofence.geometry.geodesy import LocalFrame
@@ -40,19 +40,8 @@ from scenarios.link.sticks import Autopilot
 
 ROOT = Path(__file__).resolve().parents[1]
 LAT0, LON0, GROUND_M = 47.397, 8.545, 500.0
-START_WPL = """QGC WPL 110
-0\t0\t0\t5001\t4\t0\t0\t0\t47.3960000\t8.5430000\t0\t1
-1\t0\t0\t5001\t4\t0\t0\t0\t47.3960000\t8.5470000\t0\t1
-2\t0\t0\t5001\t4\t0\t0\t0\t47.3980000\t8.5470000\t0\t1
-3\t0\t0\t5001\t4\t0\t0\t0\t47.3980000\t8.5430000\t0\t1
-"""
+START_WPL = SQUARE_FENCE_WPL
 VEHICLE, GCS, COMPANION = (1, 1), (250, 190), (255, 191)
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def item(seq: int, cmd: int, p1: float, lat: float, lon: float, frame: int = 0, z: float = 0.0) -> MissionItem:

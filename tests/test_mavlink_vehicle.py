@@ -7,7 +7,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import os
-import socket
 import subprocess
 import sys
 import threading
@@ -26,15 +25,10 @@ from tests.support import ROOT
 pytestmark = pytest.mark.closed_loop
 
 from pymavlink import mavutil  # noqa: E402  (after scenarios.link: MAVLink 2)
+from support import free_udp_port  # noqa: E402
 
 SCENARIO = ROOT / "scenarios" / "geofence_multicopter_keep_in_circle.yaml"
 OVERRIDE = StickCommand(roll=-0.6, pitch=0.4, yaw=0.2, throttle=0.5)
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 class Companion(threading.Thread):

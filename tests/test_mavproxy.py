@@ -9,13 +9,13 @@ import json
 import os
 import queue
 import shutil
-import socket
 import subprocess
 import sys
 import threading
 from pathlib import Path
 
 import pytest
+from support import SQUARE_FENCE_WPL, free_udp_port
 
 ROOT = Path(__file__).resolve().parents[1]
 MAVPROXY = shutil.which("mavproxy.py")
@@ -24,12 +24,7 @@ pytestmark = [
     pytest.mark.skipif(MAVPROXY is None or importlib.util.find_spec("MAVProxy") is None, reason="MAVProxy not installed"),
 ]
 
-START = """QGC WPL 110
-0\t0\t0\t5001\t4\t0\t0\t0\t47.3960000\t8.5430000\t0\t1
-1\t0\t0\t5001\t4\t0\t0\t0\t47.3960000\t8.5470000\t0\t1
-2\t0\t0\t5001\t4\t0\t0\t0\t47.3980000\t8.5470000\t0\t1
-3\t0\t0\t5001\t4\t0\t0\t0\t47.3980000\t8.5430000\t0\t1
-"""
+START = SQUARE_FENCE_WPL
 ROW = "{seq}\t0\t0\t{cmd}\t{p1:.6f}\t0.000000\t0.000000\t0.000000\t{lat:.6f}\t{lon:.6f}\t0.000000\t1"
 UPLOAD = [(5001, 3, 47.3972, 8.5452), (5001, 3, 47.3972, 8.5465), (5001, 3, 47.3985, 8.5462), (5004, 20, 47.3977, 8.546), (5000, 0, 47.3976, 8.5458)]  # fmt: skip
 BOWTIE = [(5001, 4, 47.3965, 8.5435), (5001, 4, 47.3975, 8.5465), (5001, 4, 47.3965, 8.5465), (5001, 4, 47.3975, 8.5435)]  # fmt: skip
@@ -38,12 +33,6 @@ BOWTIE = [(5001, 4, 47.3965, 8.5435), (5001, 4, 47.3975, 8.5465), (5001, 4, 47.3
 def wpl(items) -> str:
     rows = [ROW.format(seq=i, cmd=c, p1=p1, lat=lat, lon=lon) for i, (c, p1, lat, lon) in enumerate(items)]
     return "QGC WPL 110\n" + "\n".join(rows) + "\n"
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 class Lines:

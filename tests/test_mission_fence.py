@@ -13,6 +13,7 @@ import time
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from support import free_udp_port
 
 from analysis.formats.fence_files import load_fence_file
 from geofence.geometry.fence import Fence
@@ -35,12 +36,6 @@ SQUARE = ((LAT0, LON0), (LAT0, LON0 + D), (LAT0 + D, LON0 + D), (LAT0 + D, LON0)
 BASE = Fence(keep_in=SQUARE, ceiling_m=80.0)
 SERVER = (255, 191)
 CLIENT_ID = (250, 190)
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def item(seq: int, cmd: int, p1: float, lat: float, lon: float, z: float = 0.0, frame: int = 0) -> MissionItem:
