@@ -150,7 +150,7 @@ def test_run_cli_lockstep_timeout_is_an_error_line(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     proc = subprocess.run(
         [sys.executable, "-m", "scenarios.app.cli", "run", str(SCENARIO), "--out", str(tmp_path), "--quiet", "--no-plot",
-         "--mavlink", f"udpout:127.0.0.1:{port}", "--lockstep", "--lockstep-timeout-s", "0.5"],
+         "--mavlink", f"udpout:127.0.0.1:{port}", "--lockstep", "--lockstep-start-timeout-s", "0.5"],
         capture_output=True, text=True, timeout=300, env=env, cwd=ROOT,
     )  # fmt: skip
     assert proc.returncode == 1, proc.stderr

@@ -493,8 +493,13 @@ def _mavlink_run_options(run: argparse.ArgumentParser) -> None:
         "NAMED_VALUE_FLOAT GF_MARGIN of that tick (deterministic; default: paced to wall-clock time, never waiting)",
     )  # fmt: skip
     g.add_argument(
-        "--lockstep-timeout-s", type=float, default=10.0, metavar="S", help="lock-step wait bound, wall s (default 10)"
+        "--lockstep-timeout-s", type=float, default=10.0, metavar="S", help="lock-step wait bound per tick, wall s (default 10)"
     )
+    g.add_argument(
+        "--lockstep-start-timeout-s", type=float, default=120.0, metavar="S",
+        help="how long to wait for the companion's first HEARTBEAT, wall s (default 120: a companion on a cold "
+        "cache compiles for about a minute before it listens)",
+    )  # fmt: skip
     g.add_argument(
         "--rc-override-time-s", type=float, default=3.0, metavar="S",
         help="ArduPilot RC_OVERRIDE_TIME: an override channel reverts to the pilot this long after its last "
@@ -518,6 +523,8 @@ def _check_mavlink_run_options(args) -> None:
         raise ConfigError("--lockstep: needs --mavlink URL")
     if not args.lockstep_timeout_s > 0.0:
         raise ConfigError(f"--lockstep-timeout-s: must be > 0, got {args.lockstep_timeout_s:g}")
+    if not args.lockstep_start_timeout_s > 0.0:
+        raise ConfigError(f"--lockstep-start-timeout-s: must be > 0, got {args.lockstep_start_timeout_s:g}")
 
 
 def _fly_and_write(sc, spec, args, on_step):
@@ -540,7 +547,8 @@ def _fly_and_write(sc, spec, args, on_step):
 
     opts = LinkOptions(
         url=args.mavlink, autopilot=Autopilot(args.mavlink_autopilot), lockstep=args.lockstep,
-        lockstep_timeout_s=args.lockstep_timeout_s, rc_override_time_s=args.rc_override_time_s, tlog=args.tlog,
+        lockstep_timeout_s=args.lockstep_timeout_s, lockstep_start_timeout_s=args.lockstep_start_timeout_s,
+        rc_override_time_s=args.rc_override_time_s, tlog=args.tlog,
     )  # fmt: skip
     result = fly_mavlink(sc, opts, on_step=on_step)
     text = Path(sc.source).read_text() if sc.source is not None and Path(sc.source).is_file() else None

@@ -10,7 +10,8 @@ the companion on the other end of the link is the geofence. Per control step (a 
    the barometer, VFR_HUD of the pitot, WIND (the wind at the vehicle), HEARTBEAT, and last the AHRS attitude as
    ATTITUDE, the tick's frame marker;
 3. with ``lockstep``: wait (wall-time bound ``lockstep_timeout_s``) for the companion's GF_MARGIN of this tick
-   (and, before the first tick, for its HEARTBEAT: the vehicle may be started first);
+   (and, before the first tick, up to ``lockstep_start_timeout_s`` for its HEARTBEAT: the vehicle may be started
+   first);
    without: paced to wall-clock time, never waiting;
 4. every override received so far taken in (:class:`scenarios.link.sticks.OverrideInput`): the sticks flown are
    the honoured override channels in place of the pilot's; the pilot is told whether it has control;
@@ -58,6 +59,9 @@ class LinkOptions:
     autopilot: Autopilot = Autopilot.ARDUPILOT
     lockstep: bool = False
     lockstep_timeout_s: float = 10.0
+    lockstep_start_timeout_s: float = 120.0
+    """How long a lock-stepped vehicle waits for the companion's first HEARTBEAT (a companion on a cold numba cache
+    compiles its kernels for about a minute before it listens)."""
     rc_override_time_s: float = RC_OVERRIDE_TIME_S
     rates: TelemetryRates = TelemetryRates()
     system: int = 1
@@ -246,7 +250,7 @@ def fly_mavlink(scenario: Scenario, opts: LinkOptions, on_step: Callable[[float]
     loop0 = time.perf_counter()
     try:
         if opts.lockstep:
-            link.wait_for_companion(env.kind, opts.autopilot, opts.lockstep_timeout_s)
+            link.wait_for_companion(env.kind, opts.autopilot, opts.lockstep_start_timeout_s)
         step = _loop(scenario, setup, suite, link, companion, opts, on_step)
     except (LockstepTimeout, FloatingPointError) as exc:
         error = str(exc)
