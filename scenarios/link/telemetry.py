@@ -8,7 +8,7 @@ message objects; decoders turn received messages back into :class:`GpsFix`, :cla
 ==================  ======================================================================================
 message             fields (quantisation of the decoded value)
 ==================  ======================================================================================
-ATTITUDE            the AHRS roll, pitch, yaw in rad (float32, about 1e-7 rad); yaw sent in (-pi, pi],
+ATTITUDE            the AHRS roll, pitch, yaw in rad (float32, about 1e-7 rad); yaw sent in [-pi, pi),
                     decoded to [0, 2 pi); time_boot_ms = round(t_s * 1000). The tick's frame marker.
 GLOBAL_POSITION_INT lat/lon 1e-7 deg (half an LSB: 5e-8 deg), alt mm MSL, relative_alt mm above home (the
                     frame origin), vx/vy/vz cm/s NED (0.5 cm/s), hdg cdeg.
@@ -43,6 +43,7 @@ from pymavlink import mavutil
 from geofence.estimation.measurements import AirData, AttitudeSample, GpsFix
 from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import PlatformKind, VehicleState
+from geofence.physics.control_laws import wrap_pi
 from scenarios.link.sticks import Autopilot
 
 mav: Any = mavutil.mavlink
@@ -96,9 +97,10 @@ def _e7(deg: float) -> int:
     return int(round(deg * 1e7))
 
 
-def _wrap_pi(a: float) -> float:
-    a = math.fmod(a, _TWO_PI)
-    return a - _TWO_PI if a > math.pi else (a + _TWO_PI if a <= -math.pi else a)
+def heading_rad(a: float) -> float:
+    """An angle as a heading in [0, 2 pi) (``%`` alone gives 2 pi for a tiny negative angle)."""
+    h = a % _TWO_PI
+    return 0.0 if h >= _TWO_PI else h
 
 
 def _cdeg(angle_rad: float) -> int:
@@ -119,12 +121,12 @@ def heartbeat(kind: PlatformKind, autopilot: Autopilot, *, powering_off: bool = 
 
 def attitude(att: AttitudeSample, rates_radps: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> Any:
     """ATTITUDE of an AHRS sample (the tick's frame marker)."""
-    return mav.MAVLink_attitude_message(time_boot_ms(att.t_s), att.roll_rad, att.pitch_rad, _wrap_pi(att.yaw_rad), *rates_radps)
+    return mav.MAVLink_attitude_message(time_boot_ms(att.t_s), att.roll_rad, att.pitch_rad, wrap_pi(att.yaw_rad), *rates_radps)
 
 
 def attitude_sample(msg: Any) -> AttitudeSample:
     """The AHRS sample an ATTITUDE carries (yaw in [0, 2 pi))."""
-    return AttitudeSample(msg.time_boot_ms / 1000.0, float(msg.roll), float(msg.pitch), float(msg.yaw) % _TWO_PI)
+    return AttitudeSample(msg.time_boot_ms / 1000.0, float(msg.roll), float(msg.pitch), heading_rad(float(msg.yaw)))
 
 
 def global_position_int(state: VehicleState, home_alt_m: float) -> Any:
