@@ -11,6 +11,11 @@ when its name is in :data:`SLOW_TESTS`: the tests that took more than about 3 s 
 (``python3 -m pytest -m "slow or not slow" --durations=60`` lists them again).
 """
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
 from hypothesis import settings
 
@@ -84,3 +89,29 @@ def pytest_collection_modifyitems(config, items):
         name = getattr(item, "originalname", item.name)
         if item.get_closest_marker("closed_loop") or module in SLOW_MODULES or name in SLOW_TESTS:
             item.add_marker(pytest.mark.slow)
+
+
+WARM_UP_FLIGHTS = ("geofence_multicopter_adversarial_calm", "geofence_fixedwing_adversarial_calm")
+"""Flown for their first 15 s (each overrides) before the tests start, one process each, in parallel."""
+_WARM_UP = """
+import dataclasses, sys
+from scenarios.definition.schema import load_scenario
+from scenarios.flight.runner import fly
+fly(dataclasses.replace(load_scenario(sys.argv[1]), duration_s=15.0))
+"""
+
+
+def pytest_sessionstart(session):
+    """Compile the kernels once, before any test: on a cold numba cache (a clean clone) every worker and every
+    flying subprocess a test starts would otherwise compile the same kernels at the same time (about 36 s of CPU
+    each). In the controller only (not in an xdist worker), and only where numba compiles."""
+    if hasattr(session.config, "workerinput") or os.environ.get("NUMBA_DISABLE_JIT") == "1":
+        return
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")]))
+    procs = [
+        subprocess.Popen([sys.executable, "-c", _WARM_UP, str(root / "scenarios" / f"{name}.yaml")], cwd=root, env=env)
+        for name in WARM_UP_FLIGHTS
+    ]
+    for p in procs:
+        p.wait(timeout=600)  # (a failure here shows again, with its traceback, in the tests that fly)
