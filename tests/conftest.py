@@ -2,9 +2,7 @@
 
 Hypothesis runs without its per-example deadline: the compiled kernels compile on their first call (a second
 or more from a cold numba cache, as in a clean clone), and which example pays for that depends on the test
-order. Timing belongs in ``bench/``, not in the tests. Each property draws 50 examples in the suite (its CI-sized
-slice; a test that sets its own ``max_examples`` keeps it); ``HYPOTHESIS_PROFILE=thorough`` draws 1,000 (the
-documented full run, CONTRIBUTING.md).
+order. Timing belongs in ``bench/``, not in the tests.
 
 Tiers. ``python3 -m pytest`` runs the fast tier (``-m "not slow"`` in pyproject.toml); ``python3 -m pytest -m
 "slow or not slow"`` runs everything (what ``.ci/run`` runs). A test is in the slow tier when it is marked
@@ -21,9 +19,8 @@ from pathlib import Path
 import pytest
 from hypothesis import settings
 
-settings.register_profile("testbed", deadline=None, max_examples=50)
-settings.register_profile("thorough", deadline=None, max_examples=1000)
-settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "testbed"))
+settings.register_profile("testbed", deadline=None)
+settings.load_profile("testbed")
 
 SLOW_MODULES = {
     "test_batch",  # whole batches in subprocesses, a Dask cluster
