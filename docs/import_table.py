@@ -26,6 +26,7 @@ LAYERS = [
     "scenarios.airspace",
     "scenarios.definition",
     "scenarios.campaign",
+    "scenarios.link",
     "scenarios.flight",
     "scenarios.app",
 ]

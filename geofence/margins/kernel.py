@@ -50,7 +50,15 @@ from geofence.geometry.elements import (
 from geofence.geometry.scan import deepest_polygon, lateral_margin_scan
 from geofence.interface import Envelope, PlatformKind
 from geofence.jit import compiled, jitable, numba
-from geofence.margins.lateral import FixedWingTurn, LateralState, MultirotorBrake, Turns, capped_lateral, lateral_binding
+from geofence.margins.lateral import (
+    EnvelopeTerms,
+    FixedWingTurn,
+    LateralState,
+    MultirotorBrake,
+    Turns,
+    capped_lateral,
+    lateral_binding,
+)
 from geofence.physics.dynamics import drag_coefficients
 from geofence.physics.rooms import (
     climb_arrest_phase,
@@ -82,26 +90,6 @@ __all__ = [
     "vertical_arrests_m",
     "vertical_time_to_breach_s",
 ]
-
-
-class EnvelopeTerms(NamedTuple):
-    """The envelope's numbers the margins read (SI units; ``fixed_wing`` 1.0 or 0.0; ``k1, k2`` its drag law's
-    :func:`~geofence.physics.dynamics.drag_coefficients`). The kernels take them as a float array in this order
-    (:func:`envelope_terms`: an array argument costs less to pass) and read them by name
-    (:func:`envelope_of_terms`)."""
-
-    fixed_wing: float
-    reaction_s: float
-    max_bank_rad: float
-    cruise_mps: float
-    min_speed_mps: float
-    max_speed_mps: float
-    braking_mps2: float
-    vertical_accel_mps2: float
-    max_climb_mps: float
-    k1: float
-    k2: float
-    max_descent_mps: float
 
 
 ENVELOPE_TERM_COUNT = len(EnvelopeTerms._fields)

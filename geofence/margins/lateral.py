@@ -4,7 +4,7 @@ One question: given the fence's lateral elements (keep-in and keep-out edges,
 keep-out circles) as one float table, a candidate list and the state's room
 terms (named tuples: :class:`LateralState`, :class:`FixedWingTurn`,
 :class:`MultirotorBrake`, :class:`Turns`, the envelope's
-:class:`~geofence.margins.kernel.EnvelopeTerms`), which element has the
+:class:`EnvelopeTerms`), which element has the
 smallest activation ``d - room``, and what is the nearest element's distance?
 The room against one element is :func:`fixed_wing_edge_terms` with
 :func:`geofence.physics.rooms.fixed_wing_edge_room_m`, or :func:`multirotor_edge_room_m`.
@@ -27,16 +27,13 @@ order then the circles): ``(ax, ay, dx, dy, 1/len², nx, ny)`` for an edge,
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
 from geofence.geometry.elements import walk_candidates
 from geofence.jit import compiled, jitable
 from geofence.physics.dynamics import wind_push_mps2
-
-if TYPE_CHECKING:  # (margins_kernel imports this module)
-    from geofence.margins.kernel import EnvelopeTerms
 from geofence.physics.rooms import (
     fixed_wing_edge_room_m,
     multirotor_room_m,
@@ -46,7 +43,30 @@ from geofence.physics.rooms import (
     trochoid_excursion_bound_m,
 )
 
+
+class EnvelopeTerms(NamedTuple):
+    """The envelope's numbers the margins read (SI units; ``fixed_wing`` 1.0 or 0.0; ``k1, k2`` its drag law's
+    :func:`~geofence.physics.dynamics.drag_coefficients`). The kernels take them as a float array in this order
+    (:func:`geofence.margins.kernel.envelope_terms`: an array argument costs less to pass) and read them by name
+    (:func:`geofence.margins.kernel.envelope_of_terms`). Defined here, below the kernel that packs them, because
+    every lateral room reads them."""
+
+    fixed_wing: float
+    reaction_s: float
+    max_bank_rad: float
+    cruise_mps: float
+    min_speed_mps: float
+    max_speed_mps: float
+    braking_mps2: float
+    vertical_accel_mps2: float
+    max_climb_mps: float
+    k1: float
+    k2: float
+    max_descent_mps: float
+
+
 __all__ = [
+    "EnvelopeTerms",
     "FixedWingTurn",
     "LateralState",
     "MultirotorBrake",
