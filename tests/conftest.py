@@ -115,3 +115,11 @@ def pytest_sessionstart(session):
     ]
     for p in procs:
         p.wait(timeout=600)  # (a failure here shows again, with its traceback, in the tests that fly)
+
+
+def pytest_xdist_auto_num_workers(config):
+    """``-n auto``: one worker more than the cores on a small machine. About a minute of the suite waits on
+    sockets and subprocesses (the MAVLink link tests, a real-time flight, MAVProxy, the batch and signal tests),
+    and a spare worker runs other tests meanwhile."""
+    cores = os.cpu_count() or 1
+    return cores + 1 if cores <= 4 else cores

@@ -211,8 +211,9 @@ def relay(tmp_path_factory) -> Iterator[Setup]:
     assert proc.returncode == 0
     assert not vehicle.errors
     report = json.loads((tmp_path / "report.json").read_text())
-    assert report["fence_server"]["accepted"] == 1 and report["handler_errors"] == 0
-    assert report["relay"]["taken_from_gcs"]["MISSION_COUNT"] >= 3
+    # (only what holds whichever of this module's tests ran here: xdist may share them out among workers, each
+    # with its own companion; what a test did is checked in that test)
+    assert report["handler_errors"] == 0 and report["fence_server"]["accepted"] <= 1
 
 
 def seen_vehicle(gcs, timeout_s: float) -> list:
