@@ -54,15 +54,11 @@ def wait_for_line(path: Path, text: str, proc: subprocess.Popen, timeout_s: floa
     raise AssertionError(f"no {text!r} in {path} within {timeout_s} s")
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("kind", ["multicopter", "fixedwing"])
-def test_the_companion_process_keeps_the_vehicle_process_inside(tmp_path, kind):
-    scenario = ROOT / "scenarios" / f"geofence_{kind}_adversarial_calm.yaml"
-    sc = load_scenario(scenario)
-    in_process = fly(sc).summary  # (also compiles the kernels both processes load from the cache)
-
+def fly_both(tmp_path: Path, scenario: Path, report_path: Path, lockstep: bool) -> float:
+    """The companion, then (once it listens) the vehicle, as two processes on one loopback UDP port; both must end
+    by themselves with exit 0 (the vehicle within :data:`VEHICLE_BOUND_S`, the companion :data:`COMPANION_AFTER_S`
+    after it). Returns the vehicle's wall time, s; its outputs are in ``tmp_path / "out"``."""
     port = free_udp_port()
-    report_path = tmp_path / "companion.json"
     companion = cli(
         "companion", "--connect", f"udpin:127.0.0.1:{port}", "--scenario", str(scenario), "--report", str(report_path),
         "--max-duration-s", str(VEHICLE_BOUND_S + COMPANION_AFTER_S), out=tmp_path / "companion.out",
@@ -72,16 +68,28 @@ def test_the_companion_process_keeps_the_vehicle_process_inside(tmp_path, kind):
         wait_for_line(tmp_path / "companion.out", "companion: listening", companion)
         t0 = time.monotonic()
         vehicle = cli(
-            "run", str(scenario), "--mavlink", f"udpout:127.0.0.1:{port}", "--lockstep", "--out", str(tmp_path / "out"),
-            "--no-plot", out=tmp_path / "vehicle.out",
+            "run", str(scenario), "--mavlink", f"udpout:127.0.0.1:{port}", *(["--lockstep"] if lockstep else []),
+            "--out", str(tmp_path / "out"), "--no-plot", out=tmp_path / "vehicle.out",
         )  # fmt: skip
         assert vehicle.wait(timeout=VEHICLE_BOUND_S) == 0, (tmp_path / "vehicle.out").read_text()[-2000:]
-        vehicle_s = time.monotonic() - t0
+        wall_s = time.monotonic() - t0
         assert companion.wait(timeout=COMPANION_AFTER_S) == 0, (tmp_path / "companion.out").read_text()
     finally:
         for p in (vehicle, companion):
             if p is not None and p.poll() is None:
                 p.kill()
+    return wall_s
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("kind", ["multicopter", "fixedwing"])
+def test_the_companion_process_keeps_the_vehicle_process_inside(tmp_path, kind):
+    scenario = ROOT / "scenarios" / f"geofence_{kind}_adversarial_calm.yaml"
+    sc = load_scenario(scenario)
+    in_process = fly(sc).summary  # (also compiles the kernels both processes load from the cache)
+
+    report_path = tmp_path / "companion.json"
+    vehicle_s = fly_both(tmp_path, scenario, report_path, lockstep=True)
 
     flown = json.loads((tmp_path / "out" / sc.name / "summary.json").read_text())
     report = json.loads(report_path.read_text())
@@ -120,27 +128,8 @@ def test_a_real_time_vehicle_and_its_companion(tmp_path):
     scenario = tmp_path / "short.yaml"
     scenario.write_text(yaml.safe_dump(doc))
     fly(load_scenario(scenario))  # (the kernels compiled before the clock matters)
-    port = free_udp_port()
     report_path = tmp_path / "companion.json"
-    companion = cli(
-        "companion", "--connect", f"udpin:127.0.0.1:{port}", "--scenario", str(scenario), "--report", str(report_path),
-        "--max-duration-s", "120", out=tmp_path / "companion.out",
-    )  # fmt: skip
-    vehicle = None
-    try:
-        wait_for_line(tmp_path / "companion.out", "companion: listening", companion)
-        t0 = time.monotonic()
-        vehicle = cli(
-            "run", str(scenario), "--mavlink", f"udpout:127.0.0.1:{port}", "--out", str(tmp_path / "out"), "--no-plot",
-            out=tmp_path / "vehicle.out",
-        )  # fmt: skip
-        assert vehicle.wait(timeout=120) == 0, (tmp_path / "vehicle.out").read_text()[-2000:]
-        wall_s = time.monotonic() - t0
-        assert companion.wait(timeout=COMPANION_AFTER_S) == 0, (tmp_path / "companion.out").read_text()
-    finally:
-        for p in (vehicle, companion):
-            if p is not None and p.poll() is None:
-                p.kill()
+    wall_s = fly_both(tmp_path, scenario, report_path, lockstep=False)
     link = json.loads(report_path.read_text())["link"]
     assert wall_s >= REAL_TIME_FLIGHT_S  # paced to the clock
     assert link["sim_s_per_wall_s"] == pytest.approx(1.0, abs=0.05)
