@@ -55,7 +55,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -64,6 +63,7 @@ import numpy as np
 from scipy.stats import beta, chi2
 
 from analysis.batch_plots import num, save_figure, truthy
+from analysis.formats.replace import replace_text, replacing
 from analysis.report import RESULTS_CSV, read_results_csv
 from analysis.scoring import SCORED_COLUMNS, score_flight
 from geofence.geometry.fence import parse_fence
@@ -829,14 +829,8 @@ def write_campaign_report(batch_dir: str | Path, manifest_path: str | Path, *, o
     plot_excursions(rows, out_dir / "campaign_excursion")
     plot_breach_bounds(rows, out_dir / "campaign_breach_bounds")
     flights = out_dir / FLIGHTS_CSV
-    tmp = flights.with_name(f".{flights.name}.tmp")
-    with open(tmp, "w", newline="") as fh:
+    with replacing(flights, newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=FLIGHT_COLUMNS)
         writer.writeheader()
         writer.writerows(flight_summaries(rows))
-    os.replace(tmp, flights)
-    path = out_dir / REPORT_MD
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text("\n".join(campaign_report_lines(rows, manifest)))
-    os.replace(tmp, path)
-    return path
+    return replace_text(out_dir / REPORT_MD, "\n".join(campaign_report_lines(rows, manifest)))

@@ -27,7 +27,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
 import re
 import sys
 from collections.abc import Mapping, Sequence
@@ -48,6 +47,7 @@ from analysis.batch_plots import (
     truthy,
     variant_of,
 )
+from analysis.formats.replace import replace_text, replacing
 from analysis.scoring import SCORE_KEYS
 
 SUMMARY = "summary.json"
@@ -212,13 +212,11 @@ def write_results_csv(rows: Sequence[Mapping], path: str | Path) -> Path:
     if partial is not None:
         rows = [dict(r, batch_partial=True, batch_flights=f"{partial[0]}/{partial[1]}") for r in rows]
     cols = result_columns(rows)
-    tmp = path.with_name(f".{path.name}.tmp")
-    with open(tmp, "w", newline="") as fh:
+    with replacing(path, newline="") as fh:
         w = csv.writer(fh)
         w.writerow(cols)
         for r in rows:
             w.writerow([_cell(r.get(c)) for c in cols])
-    os.replace(tmp, path)
     return path
 
 
@@ -373,7 +371,4 @@ def write_report(out_dir: str | Path, rows: Sequence[Mapping], title: str | None
     lines.append("")
 
     path = out_dir / REPORT_MD
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text("\n".join(lines))
-    os.replace(tmp, path)
-    return path
+    return replace_text(path, "\n".join(lines))

@@ -5,6 +5,7 @@
   ``geofence:`` block.
 * :mod:`analysis.formats.logs`: MAVLink ``.tlog`` and DataFlash ``.bin`` flight logs into the recorder's
   trajectory columns, so that a real flight is scored like a simulated one.
+* :mod:`analysis.formats.replace`: an output file written whole (a temporary file renamed over it).
 
 The geofence unit reads no file: these sit above it (the scenario loader and the CLI call them).
 """

@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from analysis.formats.replace import replace_text
 from geofence.geometry.geodesy import LocalFrame
 
 DEFAULT_OUT = Path(__file__).with_name("city_park.geojson")
@@ -301,10 +302,7 @@ def write_geojson(doc: dict, path: str | Path) -> Path:
     head = {k: v for k, v in doc.items() if k != "features"}
     lines = [json.dumps(f, separators=(",", ":")) for f in doc["features"]]
     text = json.dumps(head, separators=(",", ":"))[:-1] + ',"features":[\n' + ",\n".join(lines) + "\n]}\n"
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    tmp.replace(path)
-    return path
+    return replace_text(path, text)
 
 
 def build_parser() -> argparse.ArgumentParser:

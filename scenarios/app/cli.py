@@ -40,6 +40,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from analysis.formats.replace import replace_text
+
 EXIT_BAD_INPUT = 2
 EXIT_FLIGHT_FAILED = 1
 EXIT_INTERRUPTED = 130
@@ -392,10 +394,7 @@ def _cmd_export_fence(args) -> int:
     exported = export_fence(fence, args.to, rally)
     for w in exported.warnings:
         print(f"warning: {w}", file=sys.stderr)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.out.with_name(f".{args.out.name}.tmp")
-    tmp.write_text(exported.text)
-    os.replace(tmp, args.out)
+    replace_text(args.out, exported.text)
     print(f"wrote {args.out}")
     return 0
 
@@ -462,10 +461,7 @@ def _cmd_export_flight(args) -> int:
     )  # fmt: skip
     for w in exported.warnings:
         print(f"warning: {w}", file=sys.stderr)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = args.out.with_name(f".{args.out.name}.tmp")
-    tmp.write_text(exported.text)
-    os.replace(tmp, args.out)
+    replace_text(args.out, exported.text)
     d = exported.decimated
     print(f"wrote {args.out}: {len(exported.segments)} segments, {len(d.indices)} of {len(traj['time_s'])} samples "
           f"(within {exported.tolerance_m:g} m; largest deviation {d.max_error_m:.3f} m)")  # fmt: skip
@@ -1087,10 +1083,7 @@ def _cmd_import_fence(args) -> int:
         print(f"warning: {w}", file=sys.stderr)
     text = yaml.safe_dump(_rounded(fence_to_yaml_block(imported)), sort_keys=False)
     if out is not None:
-        out.parent.mkdir(parents=True, exist_ok=True)
-        tmp = out.with_name(f".{out.name}.tmp")
-        tmp.write_text(text)
-        os.replace(tmp, out)
+        replace_text(out, text)
         print(f"wrote {out}")
     else:
         print(text, end="")
