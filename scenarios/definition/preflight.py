@@ -21,7 +21,7 @@ import math
 from geofence.estimation.wind_estimator import WIND_ESTIMATE_ERROR_MPS
 from geofence.geometry.fence import AltitudeReference
 from geofence.geometry.geodesy import LocalFrame
-from geofence.physics.dynamics import envelope_at_density, isa_density_ratio
+from geofence.physics.dynamics import envelope_at_density
 from geofence.unit.config import StateSource
 from geofence.unit.preflight import PlannedWaypoint, PreflightFinding, check_route
 from scenarios.definition.schema import PilotKind, Scenario
@@ -101,7 +101,7 @@ def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
     frame = scenario.frame
     fence = cfg.fence.to_local(frame)
     env = scenario.profile.envelope
-    env = envelope_at_density(env, isa_density_ratio(st.ground_alt_m + max(st.agl_m, 0.0)))
+    env = envelope_at_density(env, st.density_ratio)
     speed = scenario.mission.speed_mps or env.cruise_speed_mps
     k = cfg.uncertainty_k_sigma
     sensors = scenario.sensors

@@ -38,6 +38,7 @@ from geofence.geometry.geodesy import LocalFrame
 from geofence.geometry.local_fence import LocalFence
 from geofence.interface import PlatformKind
 from geofence.margins.boundary_shift import check_shift_feasible
+from geofence.physics.dynamics import envelope_at_density, isa_density_ratio
 from geofence.unit.config import GeofenceConfig, parse_geofence
 from geofence.validation import (
     ConfigError,
@@ -55,7 +56,7 @@ from scenarios.definition.fence_file import fence_file_path, fence_from_file
 from wind.config import WindConfig, parse_wind
 
 MISSION_ITEM_TYPES = ("takeoff", "waypoint", "loiter", "land")
-ALLOWABLE = ("start_outside_fence", "mission_outside_fence", "wind_above_platform_speed")
+ALLOWABLE = ("start_outside_fence", "mission_outside_fence", "wind_above_platform_speed", "fence_too_small_at_site")
 """Inconsistencies a scenario may ask for deliberately, with ``allow: [...]``."""
 POLE_LIMIT_DEG = 88.0
 """Latitudes beyond +/- this (within ~220 km of a pole) are refused."""
@@ -79,6 +80,16 @@ class StartConfig:
     def frame(self) -> LocalFrame:
         """The flight's local ENU frame: origin at the start point, on the ground."""
         return LocalFrame(self.lat_deg, self.lon_deg, self.ground_alt_m)
+
+    @property
+    def altitude_m(self) -> float:
+        """The start point's altitude, m (ground elevation plus the start height)."""
+        return self.ground_alt_m + max(self.agl_m, 0.0)
+
+    @property
+    def density_ratio(self) -> float:
+        """The ISA air-density ratio at the start point: the site's density the fence is judged at."""
+        return isa_density_ratio(self.altitude_m)
 
 
 @dataclass(frozen=True)
@@ -568,6 +579,7 @@ def parse_scenario(
         geofence = _parse_geofence_block(
             raw["geofence"], f"{where}: geofence", start, profile, wind, scenario_base_dir(where, source, base_dir)
         )
+        _check_fence_at_site(geofence, start, profile, wind, f"{where}: geofence", allow, warnings)
         _check_inside_fence(geofence, start, mission if pilot.kind is PilotKind.MISSION else None, where, allow, warnings)
 
     return Scenario(
@@ -726,6 +738,35 @@ def _parse_geofence_block(
         msg = str(exc)
         raise FenceError(msg if msg.startswith(where) else f"{where}.fence: {msg}") from None
     return cfg
+
+
+def _check_fence_at_site(
+    cfg: GeofenceConfig,
+    start: StartConfig,
+    profile: PlatformProfile,
+    wind: WindConfig | None,
+    where: str,
+    allow: frozenset[str],
+    warnings: list[str],
+) -> None:
+    """Judge the fence with the envelope the platform has at the site's air density, not at sea level.
+
+    Profiles are measured low; at a high site a fixed-wing flies the same indicated speeds at a higher true
+    airspeed, so its turn radius grows by ``1/sigma``. A fence that fits the sea-level turn but not the site's
+    is refused with the numbers, unless ``allow: [fence_too_small_at_site]`` (then it flies, with a warning).
+    """
+    sigma = start.density_ratio
+    if sigma >= 1.0:
+        return
+    env = envelope_at_density(profile.envelope, sigma)
+    wind_speed = wind.speed_mps if wind is not None else 0.0
+    try:
+        check_shift_feasible(cfg.fence.to_local(start.frame), env, wind_speed)
+    except FenceError as exc:
+        msg = f"{where}.fence: at the site's air density (ISA sigma {sigma:.2f} at {start.altitude_m:,.0f} m) the {exc}"
+        if "fence_too_small_at_site" not in allow:
+            raise FenceError(f"{msg}; list fence_too_small_at_site under allow: to fly it anyway") from None
+        warnings.append(f"allowed: {msg}")
 
 
 def _parse_start(raw: Any, where: str) -> StartConfig:
