@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import Any
 
 from analysis.formats.replace import replace_text
+from scenarios.app import characterize
 
 EXIT_BAD_INPUT = 2
 EXIT_FLIGHT_FAILED = 1
@@ -303,6 +304,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="list flyable aircraft and shipped scenarios",
         description="List aircraft that have a platform profile, and the example scenarios shipped with the testbed.",
     )
+    characterize.register(sub)
     return parser
 
 
@@ -608,6 +610,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.command in ("run", "batch", "seed-reproduction"):
         _sigterm_interrupts()
     try:
+        if getattr(args, "handler", None) is not None:  # a subcommand that registers its own handler
+            return args.handler(args)
         if args.command == "run":
             return _cmd_run(args)
         if args.command == "batch":
