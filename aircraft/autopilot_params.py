@@ -126,7 +126,11 @@ def read_param_file(path: Path) -> ParamFile:
 def _parse_line(line: str) -> tuple[Firmware, str, str] | None:
     """One data line as ``(firmware, name, value text)``, or None if its shape is neither format's."""
     fields = line.split("\t") if "\t" in line.strip() else None
-    if fields is not None and len(fields) == 5 and all(f.strip().lstrip("-").isdigit() for f in (fields[0], fields[1], fields[4])):
+    if (
+        fields is not None
+        and len(fields) == 5
+        and all(f.strip().lstrip("-").isdigit() for f in (fields[0], fields[1], fields[4]))
+    ):
         return Firmware.PX4, fields[2].strip(), fields[3].strip()
     parts = line.split(",") if "," in line else line.split()
     if len(parts) == 2:
@@ -200,11 +204,11 @@ def check_speed_order(env: dict[str, float], found: dict[str, Derived], where: s
     """``min <= cruise <= max`` over the merged envelope; the message names the parameter at fault."""
     for low, high in (("min_speed_mps", "cruise_speed_mps"), ("cruise_speed_mps", "max_speed_mps")):
         if env[low] > env[high]:
-            bad = found.get(low) or found.get(high)
-            other = high if bad is found.get(low) else low
-            key = low if bad is found.get(low) else high
-            raise ConfigError(f"{where}: {bad.param}: gives {key} = {env[key]:g} m/s, must be "
-                              f"{'<=' if key == low else '>='} {other} ({env[other]:g} m/s)")  # fmt: skip
+            key = low if low in found else high  # the base profile's own speeds are in order: one was derived
+            other = high if key == low else low
+            bad = found[key]
+            rel = "<=" if key == low else ">="
+            raise ConfigError(f"{where}: {bad.param}: gives {key} = {env[key]:g} m/s, must be {rel} {other} ({env[other]:g} m/s)")
 
 
 def base_envelope_values(base: PlatformProfile) -> dict[str, float]:

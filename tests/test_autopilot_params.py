@@ -17,7 +17,9 @@ from geofence.validation import ConfigError
 from scenarios.app.characterize import profile_text
 
 REPO = Path(__file__).parents[1]
-ARDU_COPTER = "# MAVProxy save\nANGLE_MAX 3500\nWPNAV_SPEED,800\nLOIT_SPEED 1250\nPILOT_SPEED_UP 300\nPILOT_SPEED_DN 0\nSERIAL0_BAUD 115\n"
+ARDU_COPTER = (
+    "# MAVProxy save\nANGLE_MAX 3500\nWPNAV_SPEED,800\nLOIT_SPEED 1250\nPILOT_SPEED_UP 300\nPILOT_SPEED_DN 0\nSERIAL0_BAUD 115\n"
+)
 PX4_PLANE = (
     "# Onboard parameters for Vehicle 1\n# Vehicle-Id Component-Id Name Value Type\n"
     "1\t1\tFW_R_LIM\t45.000000000000000000\t9\n1\t1\tFW_P_LIM_MAX\t25\t9\n1\t1\tFW_AIRSPD_TRIM\t15\t9\n"

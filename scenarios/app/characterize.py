@@ -78,6 +78,8 @@ def profile_text(params, kind, base, base_name: str, where: str) -> str:
     origin = f"from base profile {base_name} (measured on {base.model}), not measured on this airframe"
     lines = [f"# Profile characterized from the {params.firmware.value} parameters in {where}.", "# Envelope figures:"]
     for key in env:
-        lines.append(f"#   {key}: " + (f"from {found[key].param} in {where}" if key in found else f"not in the parameters: {origin}"))
+        lines.append(
+            f"#   {key}: " + (f"from {found[key].param} in {where}" if key in found else f"not in the parameters: {origin}")
+        )
     lines.append(f"# frame_rate_hz and gains: {origin}.")
     return "\n".join(lines) + "\n" + yaml.safe_dump(doc, sort_keys=False)

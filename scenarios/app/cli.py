@@ -17,6 +17,7 @@ Subcommands:
 * ``list``: the aircraft that can fly and the shipped example scenarios.
 * ``check SCENARIO.yaml...``: the pre-flight mission check (where would the geofence override the mission?).
 * ``validate-models``: fly every platform through standard manoeuvres, write docs/validation.md.
+* ``characterize --from-params FILE --kind KIND --out PROFILE.yaml``: a profile from autopilot parameters.
 * ``campaign generate DIR`` / ``campaign report RESULTS --campaign DIR``: the adversarial efficacy campaign.
 * ``companion --connect URL (--scenario FILE | --fence FILE --profile NAME) [--gcs URL]``: the geofence unit as a
   MAVLink companion computer (its own estimator, RC_CHANNELS_OVERRIDE / MANUAL_CONTROL, the fence over the mission
