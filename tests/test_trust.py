@@ -192,9 +192,11 @@ def test_temporary_model_folders_go_when_loaded_closed_or_interrupted(tmp_path, 
 def test_ctrl_c_and_sigterm_leave_no_temporary_folders(tmp_path):
     """Ctrl-C on a run; SIGTERM to a whole batch (parent and workers, as a job killer sends it): exit 130, nothing left."""
     env, tmp = private_tmp(tmp_path)
-    src = write(tmp_path / "long.yaml", short_scripted("long", duration_s=1200))
+    doc = short_scripted("long", duration_s=7200)
+    doc["pilot"]["segments"][0]["duration_s"] = 7200  # tens of seconds of wall time: still flying when signalled
+    src = write(tmp_path / "long.yaml", doc)
     for sig, args in (
-        (signal.SIGINT, ("run", src, "--quiet", "--no-plot")),
+        (signal.SIGINT, ("run", src, "--no-plot")),  # its progress bar says when it is flying
         (signal.SIGTERM, ("batch", src, "--jobs", "2", "--quiet", "--no-report", "--no-flight-plots")),
     ):
         out = tmp_path / f"out_{sig.name}"
@@ -209,13 +211,18 @@ def test_ctrl_c_and_sigterm_leave_no_temporary_folders(tmp_path):
             start_new_session=True,
             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
         )
+        head = ""
+        if sig == signal.SIGINT:  # signalled once flying (not during the imports): the bar counts sim seconds
+            while "sim s" not in head and proc.poll() is None:
+                head += proc.stderr.read(1)
         deadline = time.monotonic() + 60
         while not (out.is_dir() or sig == signal.SIGINT) and time.monotonic() < deadline:
             time.sleep(0.05)  # the batch has planned and is starting its workers
-        time.sleep(2.5)  # loading and flying
+        time.sleep(1.5)  # flying
         os.killpg(proc.pid, sig)
         _, err = proc.communicate(timeout=120)
-        assert proc.returncode == 130, err
+        err = head + err
+        assert proc.returncode == 130, err[-2000:]
         assert "Traceback" not in err, err
         assert not jsbsim_folders(tmp), f"{sig.name} left temporary JSBSim folders"
         assert not list(out.glob(".*.tmp")) if out.is_dir() else True, "a temporary flight folder was left behind"
