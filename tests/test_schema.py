@@ -1,5 +1,6 @@
 """Scenario YAML validation: every bad input becomes one line naming file, field and problem."""
 
+import math
 import re
 from pathlib import Path
 
@@ -149,6 +150,67 @@ def test_inline_profile_makes_any_wheel_model_flyable():
     assert sc.profile.model == "c172p"
     assert sc.profile.envelope.max_bank_rad == pytest.approx(0.43633, rel=1e-4)
     assert sc.profile.gains  # inherited from the c172x profile
+
+
+def _profile_doc(**envelope):
+    """A complete fixed-wing profile in the file format of aircraft/profiles/*.yaml (the c172x's figures)."""
+    from aircraft.profile import load_profile
+
+    c172 = load_profile("c172x")
+    env = {"cruise_speed_mps": 50, "max_speed_mps": 58, "min_speed_mps": 38, "max_bank_deg": 35, "max_pitch_deg": 15,
+           "max_yaw_rate_deg_s": 7.5, "max_climb_rate_mps": 3, "max_descent_rate_mps": 4, "braking_decel_mps2": 0.8,
+           "vertical_accel_mps2": 4.0, "reaction_time_s": 1.5}  # fmt: skip
+    env.update(envelope)
+    return {"model": "c172p", "kind": "fixed_wing", "envelope": env, "gains": dict(c172.gains)}
+
+
+def test_a_profile_file_beside_the_scenario_is_flown(tmp_path):
+    """``profile: FILE`` (e.g. a characterized profile) is read relative to the scenario's folder."""
+    (tmp_path / "profiles").mkdir()
+    (tmp_path / "profiles" / "mine.yaml").write_text(yaml.safe_dump(_profile_doc(max_bank_deg=25)))
+    src = tmp_path / "s.yaml"
+    src.write_text(yaml.safe_dump(with_(aircraft="c172p", profile="profiles/mine.yaml", mission=None)))
+    doc = yaml.safe_load(src.read_text())
+    del doc["mission"]
+    doc["pilot"] = {"type": "scripted", "segments": [{"duration_s": 5, "course_deg": 0}]}
+    doc["start"]["agl_m"] = 300
+    src.write_text(yaml.safe_dump(doc))
+    sc = load_scenario(src)
+    assert sc.profile.model == "c172p" and sc.profile.envelope.max_bank_rad == pytest.approx(math.radians(25))
+
+
+@pytest.mark.parametrize(
+    "content, expected",
+    [
+        (None, r"^x/s\.yaml.*nope\.yaml: no such profile file"),
+        ("envelope: [", r"^\S*nope\.yaml: malformed YAML"),
+        ("BAD", r"^\S*nope\.yaml\.envelope\.max_bank_deg: "),
+    ],
+)
+def test_a_bad_profile_file_is_one_line_naming_it(tmp_path, content, expected):
+    if content == "BAD":
+        content = yaml.safe_dump(_profile_doc(max_bank_deg=95))
+    if content is not None:
+        (tmp_path / "nope.yaml").write_text(content)
+    with pytest.raises(ConfigError) as exc:
+        parse_scenario(with_(aircraft="c172p", profile="nope.yaml"), "x/s.yaml", base_dir=tmp_path)
+    msg = str(exc.value)
+    assert "\n" not in msg and re.search(expected, msg), msg
+
+
+def test_editing_a_profile_file_refiles_the_flight_in_a_resumed_batch(tmp_path):
+    """The profile file is part of the flight's identity, as a fence file is (a resumed batch re-flies it)."""
+    from scenarios.app.batch import plan
+
+    (tmp_path / "mine.yaml").write_text(yaml.safe_dump(_profile_doc()))
+    doc = with_(aircraft="c172p", profile="mine.yaml")
+    doc["start"]["agl_m"] = 300
+    del doc["mission"]
+    doc["pilot"] = {"type": "scripted", "segments": [{"duration_s": 5, "course_deg": 0}]}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
+    before = plan([tmp_path / "s.yaml"])[0].scenario_hash
+    (tmp_path / "mine.yaml").write_text(yaml.safe_dump(_profile_doc(max_bank_deg=30)))
+    assert plan([tmp_path / "s.yaml"])[0].scenario_hash != before
 
 
 def test_a_fence_too_small_for_the_platform_says_so_with_the_numbers():

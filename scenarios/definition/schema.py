@@ -467,13 +467,13 @@ def _yaml_children(node: yaml.Node) -> list[yaml.Node]:
     return []
 
 
-def read_document(path: str | Path) -> Any:
+def read_document(path: str | Path, what: str = "scenario file") -> Any:
     """Read a YAML file; any problem (malformed YAML, a key given twice in one mapping) is a one-line
-    :class:`ConfigError` naming the file."""
+    :class:`ConfigError` naming the file (``what`` it should have been, when it is missing)."""
     path = Path(path)
     where = str(path)
     if not path.is_file():
-        raise ConfigError(f"{where}: no such scenario file")
+        raise ConfigError(f"{where}: no such {what}")
     try:
         raw = yaml.load(path.read_text(), Loader=UniqueKeyLoader)  # noqa: S506 - a SafeLoader
     except DocumentTooLarge as exc:
@@ -519,15 +519,27 @@ def scenario_base_dir(where: str, source: Path | str | None = None, base_dir: Pa
 
 
 def referenced_files(document: Any, base_dir: Path | str | None) -> list[Path]:
-    """The files a scenario document reads besides itself (its ``geofence.fence.file``), resolved; [] if none.
+    """The files a scenario document reads besides itself (a ``profile:`` file, its ``geofence.fence.file``),
+    resolved; [] if none.
 
     For content hashes (:func:`scenarios.app.batch.plan`): editing such a file changes the flight.
     """
-    geofence = document.get("geofence") if isinstance(document, dict) else None
-    fence = geofence.get("fence") if isinstance(geofence, dict) else None
-    if not isinstance(fence, dict) or not isinstance(fence.get("file"), str) or not fence["file"].strip():
+    if not isinstance(document, dict):
         return []
-    return [fence_file_path(fence["file"], "geofence.fence", base_dir)]
+    found = []
+    if isinstance(document.get("profile"), str) and document["profile"].strip():
+        found.append(profile_file_path(document["profile"], base_dir))
+    geofence = document.get("geofence")
+    fence = geofence.get("fence") if isinstance(geofence, dict) else None
+    if isinstance(fence, dict) and isinstance(fence.get("file"), str) and fence["file"].strip():
+        found.append(fence_file_path(fence["file"], "geofence.fence", base_dir))
+    return found
+
+
+def profile_file_path(file: str, base_dir: Path | str | None) -> Path:
+    """A ``profile:`` file's path: as given if absolute, else relative to ``base_dir`` (the scenario's folder)."""
+    path = Path(file).expanduser()
+    return path if path.is_absolute() or base_dir is None else Path(base_dir) / path
 
 
 def parse_scenario(
@@ -547,7 +559,7 @@ def parse_scenario(
             raise ConfigError(f"{where}: {key}: missing (required)")
 
     aircraft = string(raw["aircraft"], f"{where}: aircraft")
-    profile = _parse_aircraft_profile(aircraft, raw.get("profile"), where)
+    profile = _parse_aircraft_profile(aircraft, raw.get("profile"), where, scenario_base_dir(where, source, base_dir))
 
     duration_s = number(raw["duration_s"], f"{where}: duration_s", strictly_positive=True, maximum=24 * 3600)
     seed = integer(raw.get("seed", 0), f"{where}: seed", minimum=0)
@@ -700,14 +712,23 @@ def _check_inside_fence(
             )
 
 
-def _parse_aircraft_profile(aircraft: str, inline: Any, where: str) -> PlatformProfile:
-    """The shipped profile of ``aircraft``, or an inline ``profile:`` block (any JSBSim model with standard controls)."""
+def _parse_aircraft_profile(aircraft: str, inline: Any, where: str, base_dir: Path | None) -> PlatformProfile:
+    """The shipped profile of ``aircraft``, an inline ``profile:`` block, or a ``profile:`` file (the format of
+    ``aircraft/profiles/*.yaml``, e.g. written by ``characterize``) for any JSBSim model with standard controls."""
     try:
         model_folder(aircraft)
     except UnknownAircraftError:
         raise ConfigError(
             f"{where}: aircraft: unknown aircraft {aircraft!r} (flyable with a shipped profile: {', '.join(available_profiles())})"
         ) from None
+    if isinstance(inline, str):
+        if not inline.strip():
+            raise ConfigError(f"{where}: profile: an empty file name")
+        path = profile_file_path(inline, base_dir)
+        if not path.is_file():
+            raise ConfigError(f"{where}: profile: {path}: no such profile file (a relative one is in the scenario's folder)")
+        raw = read_document(path, "profile file")
+        return parse_profile(raw, aircraft, str(path))
     if inline is not None:
         return parse_profile(inline, aircraft, f"{where}: profile")
     if aircraft not in available_profiles():
