@@ -177,7 +177,6 @@ FIX0 = STATE_SIZE + CONST_SIZE
 OUTAGES0 = FIX0 + FIX_SIZE
 """The slot of the fault table (:data:`FAULT_COLUMNS` per row: the outage windows, the failure and a scenario's
 ``faults:``), then the pending messages' ring (:func:`ring_rows` messages)."""
-FAULTS0 = OUTAGES0
 
 # The sensor fault table: one row per fault, FAULT_COLUMNS floats. The kernel reads a row as active at t when
 # onset_s <= t < end_s; a row that starts at the unit's first activation has onset_s = end_s = inf until

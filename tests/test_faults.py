@@ -257,3 +257,36 @@ def test_propulsion_loss_on_a_fixed_wing_bleeds_its_airspeed_and_height():
     assert a("airspeed_mps")[_at(lost, 8.0)] < b("airspeed_mps")[_at(nominal, 8.0)] - 4.0
     assert a("agl_m")[-1] < b("agl_m")[-1] - 4.0
     assert np.all(a("cmd_throttle") == 0.0)  # the sticks asked for cruise all along
+
+
+def test_the_compiled_sensors_step_conforms_with_every_sensor_fault():
+    """The fault branches of the one entry point: compiled and interpreted (``py_func``) agree to 1e-9 along a
+    climbing turn with every sensor fault, one of them timed from an activation (the loss, shorter, tested apart)."""
+    from aircraft.sensors import FIX0, OUTAGES0, sensors_step
+
+    if not hasattr(sensors_step, "py_func"):
+        pytest.skip("numba is not compiling here: the interpreted run is the only one")
+    raw = [
+        {"kind": "gnss_degraded", "at_s": 5, "duration_s": 20, "rate_hz": 1, "latency_s": 0.6, "bias_m": 4},
+        {"kind": "gnss_walkoff", "at_first_activation": True, "delay_s": 1, "drift_mps": 2, "direction_deg": 30},
+        {"kind": "baro_drift", "at_s": 3, "drift_m": -2, "drift_rate_mps": 0.2},
+        {"kind": "pitot_blocked", "at_s": 12, "duration_s": 5},
+        {"kind": "compass_error", "at_s": 15, "error_deg": 12},
+        {"kind": "gnss_loss", "at_s": 33, "duration_s": 2},
+    ]
+    rows = sensor_fault_rows(parse_faults(raw, "c.yaml: faults", PlatformKind.FIXED_WING, 60.0, True))
+    a, b = (SensorSuite(SensorConfig(), seed=3, faults=rows) for _ in range(2))
+    for k in range(int(40.0 * 40)):
+        t = k / 40.0
+        if k == 400:  # the unit's first activation, at 10 s
+            a.trigger_faults(t)
+            b.trigger_faults(t)
+        lat, lon, h = FRAME.to_geodetic(50.0 * math.sin(0.2 * t), 50.0 * math.cos(0.2 * t), 30.0 + t)
+        fields = (t, lat, lon, h, 10.0 * math.cos(0.2 * t), -10.0 * math.sin(0.2 * t), 1.0, 20.0 + 0.1 * t, 0.3, 0.05, 0.2 * t)
+        got = sensors_step(a.memory, a.pools, a.idx, *fields)
+        ref = sensors_step.py_func(b.memory, b.pools, b.idx, *fields)
+        assert got == pytest.approx(ref, abs=1e-9, nan_ok=True), k
+        assert a.memory[FIX0:OUTAGES0] == pytest.approx(b.memory[FIX0:OUTAGES0], abs=1e-9, nan_ok=True)
+        assert got[-1] == a.refill() | False and ref[-1] == b.refill() | False
+    assert np.array_equal(a.faults, b.faults, equal_nan=True)
+    assert a.faults[1, 1] == 11.0  # the walk-off's onset, from the activation
