@@ -60,7 +60,7 @@ from a stream; a stream's numbers do not depend on how many are drawn at a time)
 The step is written once: :func:`sensors_step`, compiled by :func:`geofence.jit.compiled` (the same source
 interpreted without numba or with ``NUMBA_DISABLE_JIT=1``). Its state and constants are the records
 :data:`SENSOR_STATE` and :data:`SENSOR_CONST` over float memory, followed by the delivered GNSS message, the
-outage windows and the ring of pending messages (solved, not yet delivered; rows of
+fault table (:func:`fault_table`: the outage windows, the failure and the faults) and the ring of pending messages (solved, not yet delivered; rows of
 :data:`geofence.estimation.estimator.GPS_FIX`), so that the unit's compiled sensing chain (:mod:`scenarios.flight.sensing`)
 keeps them in its packed array; :class:`SensorSuite` is a façade that owns (or is given) that memory.
 """
@@ -483,7 +483,10 @@ class SensorSuite:
 
     ``memory``: a float64 array of :func:`memory_size` slots to live in (a caller's compiled step that packs its
     states into one array passes its slice); a fresh array when omitted. The noise is in :attr:`pools` (a row of
-    drawn normals per stream, read from :attr:`idx` on), topped up by :meth:`refill`.
+    drawn normals per stream, read from :attr:`idx` on), topped up by :meth:`refill`. ``faults``: rows of
+    :func:`fault_row` (a scenario's sensor faults, :func:`scenarios.definition.faults.sensor_fault_rows`), after
+    ``config``'s outages and failure in :attr:`faults`; those timed from the unit's first activation start at
+    :meth:`trigger_faults`.
     """
 
     def __init__(

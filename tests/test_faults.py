@@ -290,3 +290,12 @@ def test_the_compiled_sensors_step_conforms_with_every_sensor_fault():
         assert got[-1] == a.refill() | False and ref[-1] == b.refill() | False
     assert np.array_equal(a.faults, b.faults, equal_nan=True)
     assert a.faults[1, 1] == 11.0  # the walk-off's onset, from the activation
+
+
+@pytest.mark.closed_loop
+def test_a_sensor_fault_timed_from_the_first_activation_starts_then():
+    res = _tern_at_an_edge([{"kind": "gnss_loss", "at_first_activation": True, "delay_s": 1.0}])
+    first = res.summary["first_activation_s"]
+    assert first is not None and res.summary["faults"] == [{"kind": "gnss_loss", "onset_s": round(first + 1.0, 3)}]
+    lost = [tr.t_s for tr in res.unit.transitions if "position source lost" in tr.reason]
+    assert lost and first + 1.0 <= lost[0] <= first + 2.5, res.summary["mode_transitions"]

@@ -51,7 +51,7 @@ class Sensed(NamedTuple):
 
 # The chain's memories, packed end to end in one float array (a compiled call pays about 0.1 us per array
 # argument): the state estimator's (state, constants), the wind estimator's and, last, the sensors' (state,
-# constants, the delivered fix, the outage windows and the pending GNSS ring: its size follows their configuration).
+# constants, the delivered fix, the fault table and the pending GNSS ring: its size follows their configuration).
 _X0 = 0
 _K0 = _X0 + ek.STATE_SIZE
 _W0 = _K0 + ek.CONST_SIZE
