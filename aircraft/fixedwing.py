@@ -172,6 +172,18 @@ class FixedWingPlatform(StickPlatform):
         self._fresh = False
         self.model.step(n_frames)
 
+    def cut_propulsion(self) -> None:
+        """Loss of propulsion (a scenario's ``propulsion_loss`` fault), until the next :meth:`reset`: the
+        controller's throttle output is held at 0 (its trim far below its clip at 0, so its speed hold cannot
+        raise it: every engine kind), and each engine is stopped with its magnetos off (a piston engine stays
+        dead; the propeller windmills). The controller keeps flying bank and climb on the elevator."""
+        m = self.model
+        m.set("fc/throttle-trim", -1.0e3)
+        m.set("fcs/throttle-cmd-norm", 0.0)
+        m.set("propulsion/magneto_cmd", 0.0)
+        for i in range(m.fdm.get_propulsion().get_num_engines()):
+            m.set(f"propulsion/engine[{i}]/set-running", 0.0)
+
     # -- diagnostics -----------------------------------------------------------
     def fc(self, name: str) -> float:
         """Read a controller or JSBSim property (diagnostics, not for the per-step path)."""

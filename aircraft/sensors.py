@@ -27,7 +27,12 @@ scenario's optional ``sensors:`` block, see :func:`parse_sensors`):
   ~0.1-0.2 s; PX4 EKF2's default ``EKF2_GPS_DELAY`` is 0.11 s).
 * **GNSS loss**: from ``gps_fail_at_s`` on, and inside any ``gps_outages``
   window ``[start, end)``, the receiver keeps reporting at its rate but with
-  ``valid = False`` (no fix).
+  ``valid = False`` (no fix). Both are rows of the suite's fault table (GNSS_LOSS), as a
+  scenario's ``faults:`` are.
+* **Faults** (:func:`fault_row`, a scenario's ``faults:`` block via :mod:`scenarios.definition.faults`): a
+  GNSS loss, a degraded receiver (its rate, latency and wandering bias), a walk-off (position drifting at a
+  constant velocity, the reported velocity consistent with it), a barometer offset or drift, a pitot frozen at
+  its reading, a heading error. None draws noise: the streams stay as they are without it.
 * **Barometer**: white 0.3 m (MS5611-class sensor in flight, prop-wash
   included; the datasheet's 0.012 mbar RMS at OSR 4096 is ~0.1 m static)
   plus a Gauss-Markov drift, 1 m sigma, tau = 300 s (weather and temperature
@@ -55,7 +60,7 @@ from a stream; a stream's numbers do not depend on how many are drawn at a time)
 The step is written once: :func:`sensors_step`, compiled by :func:`geofence.jit.compiled` (the same source
 interpreted without numba or with ``NUMBA_DISABLE_JIT=1``). Its state and constants are the records
 :data:`SENSOR_STATE` and :data:`SENSOR_CONST` over float memory, followed by the delivered GNSS message, the
-outage windows and the ring of pending messages (solved, not yet delivered; rows of
+fault table (:func:`fault_table`: the outage windows, the failure and the faults) and the ring of pending messages (solved, not yet delivered; rows of
 :data:`geofence.estimation.estimator.GPS_FIX`), so that the unit's compiled sensing chain (:mod:`scenarios.flight.sensing`)
 keeps them in its packed array; :class:`SensorSuite` is a façade that owns (or is given) that memory.
 """
@@ -159,7 +164,7 @@ SENSOR_STATE = _float_record(
 SENSOR_CONST = _float_record(
     "period_s", "latency_s", "prefill", "has_pitot",
     "gps_h_white_m", "gps_v_white_m", "gps_vel_h_mps", "gps_vel_v_mps", "baro_noise_m", "airspeed_noise_mps",
-    "h_acc_m", "v_acc_m", "fail_at_s", "n_outages",  # fail_at_s: inf without a failure
+    "h_acc_m", "v_acc_m", "n_faults",  # n_faults: rows of the fault table (outages and failure included)
     "gps_h_bias_m", "gps_v_bias_m", "gps_bias_tau_s", "baro_drift_sigma_m", "baro_drift_tau_s",
     "ahrs_roll_pitch_rad", "ahrs_yaw_rad", "ahrs_tau_s",
 )  # fmt: skip
@@ -170,20 +175,59 @@ CONST_SIZE = SENSOR_CONST.itemsize // 8
 FIX0 = STATE_SIZE + CONST_SIZE
 """The slot of the delivered GNSS message (:data:`~geofence.estimation.estimator.GPS_FIX`) in a suite's memory."""
 OUTAGES0 = FIX0 + FIX_SIZE
-"""The slot of the outage windows (``start_s, end_s`` pairs), then the pending messages' ring (:func:`ring_rows`
-messages)."""
+"""The slot of the fault table (:data:`FAULT_COLUMNS` per row: the outage windows, the failure and a scenario's
+``faults:``), then the pending messages' ring (:func:`ring_rows` messages)."""
+
+# The sensor fault table: one row per fault, FAULT_COLUMNS floats. The kernel reads a row as active at t when
+# onset_s <= t < end_s; a row that starts at the unit's first activation has onset_s = end_s = inf until
+# SensorSuite.trigger_faults writes them (onset = activation + delay_s, end = onset + duration_s).
+FAULT_COLUMNS = 9
+F_KIND, F_ONSET, F_END, F_P0, F_P1, F_P2, F_AFTER_ACTIVATION, F_DELAY, F_DURATION = range(FAULT_COLUMNS)
+GNSS_LOSS, GNSS_DEGRADED, GNSS_WALKOFF, BARO_DRIFT, PITOT_BLOCKED, COMPASS_ERROR = 1.0, 2.0, 3.0, 4.0, 5.0, 6.0
+"""A row's kind and its parameters (p0, p1, p2; NaN: unchanged): GNSS_LOSS (none); GNSS_DEGRADED (fix period s,
+latency s, horizontal bias sigma m); GNSS_WALKOFF (drift east, north m/s); BARO_DRIFT (offset m, rate m/s);
+PITOT_BLOCKED (the reading it froze at, NaN until its onset); COMPASS_ERROR (heading error rad)."""
 
 
-def ring_rows(cfg: SensorConfig) -> int:
+def fault_row(
+    kind: float, onset_s: float = 0.0, duration_s: float = math.inf, params: tuple[float, ...] = (),
+    after_activation: bool = False,
+) -> np.ndarray:  # fmt: skip
+    """One row of the sensor fault table: from ``onset_s`` (or, ``after_activation``, that long after the unit's
+    first activation) for ``duration_s``; ``params``: up to three, NaN for those not given."""
+    row = np.full(FAULT_COLUMNS, math.nan)
+    row[F_KIND] = kind
+    row[F_P0 : F_P0 + len(params)] = params
+    row[F_AFTER_ACTIVATION], row[F_DELAY], row[F_DURATION] = float(after_activation), onset_s, duration_s
+    row[F_ONSET], row[F_END] = (math.inf, math.inf) if after_activation else (onset_s, onset_s + duration_s)
+    return row
+
+
+def fault_table(cfg: SensorConfig, faults: np.ndarray | None = None) -> np.ndarray:
+    """The fault table of a suite: ``cfg``'s outage windows and failure (GNSS_LOSS rows), then ``faults``."""
+    rows = [fault_row(GNSS_LOSS, a, b - a) for a, b in cfg.gps_outages]
+    if cfg.gps_fail_at_s is not None:
+        rows.append(fault_row(GNSS_LOSS, cfg.gps_fail_at_s))
+    table = np.array(rows).reshape(-1, FAULT_COLUMNS)
+    return table if faults is None else np.vstack([table, np.asarray(faults, float).reshape(-1, FAULT_COLUMNS)])
+
+
+def ring_rows(cfg: SensorConfig, faults: np.ndarray | None = None) -> int:
     """Rows of the pending GNSS messages' ring: more than are ever pending, the solutions of one latency (one per
-    fix period) plus the pre-filled first one and a margin."""
-    return int(math.ceil(cfg.gps_latency_s * cfg.gps_rate_hz)) + 4
+    fix period) plus the pre-filled first one and a margin; with degraded-receiver ``faults``, their longest
+    latency at the fastest rate."""
+    latency_s, rate_hz = cfg.gps_latency_s, cfg.gps_rate_hz
+    for row in () if faults is None else np.asarray(faults).reshape(-1, FAULT_COLUMNS):
+        if row[F_KIND] == GNSS_DEGRADED:
+            latency_s = max(latency_s, 0.0 if math.isnan(row[F_P1]) else row[F_P1])
+            rate_hz = max(rate_hz, 0.0 if math.isnan(row[F_P0]) else 1.0 / row[F_P0])
+    return int(math.ceil(latency_s * rate_hz)) + 4
 
 
-def memory_size(cfg: SensorConfig) -> int:
-    """Float64 slots of the memory a :class:`SensorSuite` of ``cfg`` lives in: its state, constants, delivered
-    message, outage windows and pending ring."""
-    return OUTAGES0 + 2 * len(cfg.gps_outages) + FIX_SIZE * ring_rows(cfg)
+def memory_size(cfg: SensorConfig, faults: np.ndarray | None = None) -> int:
+    """Float64 slots of the memory a :class:`SensorSuite` of ``cfg`` (and sensor ``faults``) lives in: its state,
+    constants, delivered message, fault table and pending ring."""
+    return OUTAGES0 + fault_table(cfg, faults).size + FIX_SIZE * ring_rows(cfg, faults)
 
 
 @compiled
@@ -197,26 +241,27 @@ def sensors_step(
     ``airspeed`` is NaN without a pitot; the air data and attitude are of time ``t``."""
     s = M[:STATE_SIZE].view(SENSOR_STATE)[0]
     c = M[STATE_SIZE:FIX0].view(SENSOR_CONST)[0]
-    n_out = int(c.n_outages)
-    outages = M[OUTAGES0 : OUTAGES0 + 2 * n_out].reshape(-1, 2)
-    ring = M[OUTAGES0 + 2 * n_out :].view(GPS_FIX)
+    n_rows = int(c.n_faults)
+    faults = M[OUTAGES0 : OUTAGES0 + FAULT_COLUMNS * n_rows].reshape(-1, FAULT_COLUMNS)
+    ring = M[OUTAGES0 + FAULT_COLUMNS * n_rows :].view(GPS_FIX)
     dt = 0.0 if s.has_t_last == 0.0 else t - s.t_last_s
     if dt < 0.0:
         raise ValueError("sensor time went backwards")
     s.t_last_s = t
     s.has_t_last = 1.0
-    gnss_epochs(s, c, outages, ring, pools, idx, t, lat_deg, lon_deg, alt, ve, vn, vu)
+    gnss_epochs(s, c, faults, ring, pools, idx, t, lat_deg, lon_deg, alt, ve, vn, vu)
     delivered = False
     if t >= s.next_arrival_s:
-        deliver(s, c, ring, M[FIX0:OUTAGES0].view(GPS_FIX), t)
+        deliver(s, c, faults, ring, M[FIX0:OUTAGES0].view(GPS_FIX), t)
         delivered = True
     # barometer: pressure altitude referenced at start-up to the true altitude (+ drift)
     if dt > 0.0:
         s.baro_drift_m = gauss_markov(s.baro_drift_m, c.baro_drift_sigma_m, c.baro_drift_tau_s, dt, pools, idx, BARO_STREAM)
-    baro = alt + s.baro_drift_m + c.baro_noise_m * draw(pools, idx, BARO_STREAM)
+    baro = alt + s.baro_drift_m + c.baro_noise_m * draw(pools, idx, BARO_STREAM) + baro_fault_m(faults, t)
     airspeed = math.nan
     if c.has_pitot != 0.0:  # indicated airspeed: the true airspeed scaled by sqrt(rho / rho0)
-        airspeed = airspeed_true * math.sqrt(isa_density_ratio(alt)) + c.airspeed_noise_mps * draw(pools, idx, PITOT_STREAM)
+        ias = pitot_fault_ias(faults, t, airspeed_true * math.sqrt(isa_density_ratio(alt)))
+        airspeed = ias + c.airspeed_noise_mps * draw(pools, idx, PITOT_STREAM)
         if airspeed < 0.0:
             airspeed = 0.0
     if dt > 0.0:
@@ -228,10 +273,74 @@ def sensors_step(
     for k in range(pools.shape[0]):
         if pools.shape[1] - idx[k] < MAX_DRAWS_PER_STEP:
             low = True
+    yaw_err = s.ahrs_yaw_err_rad + compass_fault_rad(faults, t)
     return (
         delivered, airspeed, baro, roll + s.ahrs_roll_err_rad, pitch + s.ahrs_pitch_err_rad,
-        (yaw + s.ahrs_yaw_err_rad) % _TWO_PI, low,
+        (yaw + yaw_err) % _TWO_PI, low,
     )  # fmt: skip
+
+
+@jitable
+def active(f: np.ndarray, kind: float, t: float) -> bool:
+    """Fault row ``f`` is of ``kind`` and active at ``t`` (``onset_s <= t < end_s``)."""
+    return f[F_KIND] == kind and f[F_ONSET] <= t < f[F_END]
+
+
+@jitable
+def baro_fault_m(faults: np.ndarray, t: float) -> float:
+    """The barometer's added error at ``t`` from its drift faults (offset + rate x time since onset)."""
+    err = 0.0
+    for k in range(faults.shape[0]):
+        f = faults[k]
+        if active(f, BARO_DRIFT, t):
+            err += (0.0 if math.isnan(f[F_P0]) else f[F_P0]) + (0.0 if math.isnan(f[F_P1]) else f[F_P1] * (t - f[F_ONSET]))
+    return err
+
+
+@jitable
+def pitot_fault_ias(faults: np.ndarray, t: float, ias: float) -> float:
+    """The pitot's noise-free reading at ``t``: ``ias``, or while blocked the reading it froze at its onset."""
+    for k in range(faults.shape[0]):
+        f = faults[k]
+        if active(f, PITOT_BLOCKED, t):
+            if math.isnan(f[F_P0]):
+                f[F_P0] = ias
+            return f[F_P0]
+    return ias
+
+
+@jitable
+def compass_fault_rad(faults: np.ndarray, t: float) -> float:
+    """The heading's added error at ``t`` from its compass faults, rad."""
+    err = 0.0
+    for k in range(faults.shape[0]):
+        if active(faults[k], COMPASS_ERROR, t):
+            err += faults[k, F_P0]
+    return err
+
+
+@jitable
+def degraded(faults: np.ndarray, t: float, column: int, nominal: float) -> float:
+    """A degraded receiver's ``column`` (fix period, latency or bias sigma) at ``t``, else ``nominal``."""
+    for k in range(faults.shape[0]):
+        f = faults[k]
+        if active(f, GNSS_DEGRADED, t) and not math.isnan(f[column]):
+            return f[column]
+    return nominal
+
+
+@jitable
+def walkoff_m(faults: np.ndarray, t: float) -> tuple[float, float, float, float]:
+    """The walk-off faults' position offset (east, north, m) and velocity offset (east, north, m/s) at ``t``."""
+    oe = on = we = wn = 0.0
+    for k in range(faults.shape[0]):
+        f = faults[k]
+        if active(f, GNSS_WALKOFF, t):
+            oe += f[F_P0] * (t - f[F_ONSET])
+            on += f[F_P1] * (t - f[F_ONSET])
+            we += f[F_P0]
+            wn += f[F_P1]
+    return oe, on, we, wn
 
 
 @jitable
@@ -255,7 +364,7 @@ def gauss_markov(value: float, sigma: float, tau_s: float, dt: float, pools: np.
 
 @jitable
 def gnss_epochs(
-    s: Any, c: Any, outages: np.ndarray, ring: np.ndarray, pools: np.ndarray, idx: np.ndarray, t: float,
+    s: Any, c: Any, faults: np.ndarray, ring: np.ndarray, pools: np.ndarray, idx: np.ndarray, t: float,
     lat_deg: float, lon_deg: float, alt: float, ve: float, vn: float, vu: float,
 ) -> None:  # fmt: skip
     """The receiver's solutions due by ``t`` queued: at the first call with ``prefill`` the previous epoch's (the
@@ -267,7 +376,7 @@ def gnss_epochs(
             n_rad, m_rad = radii_of_curvature_m(lat_r)
             de, dn, du = ve * lat, vn * lat, vu * lat
             solve(
-                s, c, outages, ring, pools, idx, t - lat, lat_deg - math.degrees(dn / (m_rad + alt)),
+                s, c, faults, ring, pools, idx, t - lat, lat_deg - math.degrees(dn / (m_rad + alt)),
                 lon_deg - math.degrees(de / ((n_rad + alt) * math.cos(lat_r))), alt - du, ve, vn, vu,
             )  # fmt: skip
             s.next_epoch_s = t - lat + c.period_s
@@ -275,25 +384,24 @@ def gnss_epochs(
             s.next_epoch_s = t
         s.has_next_epoch = 1.0
     if t >= s.next_epoch_s - _EPS_S:
-        solve(s, c, outages, ring, pools, idx, t, lat_deg, lon_deg, alt, ve, vn, vu)
+        solve(s, c, faults, ring, pools, idx, t, lat_deg, lon_deg, alt, ve, vn, vu)
+        period = degraded(faults, t, F_P0, c.period_s)
         while s.next_epoch_s <= t + _EPS_S:
-            s.next_epoch_s += c.period_s
+            s.next_epoch_s += period
 
 
 @jitable
-def gps_lost(c: Any, outages: np.ndarray, t: float) -> bool:
-    """The receiver has no fix at ``t`` (failure or outage window, :meth:`SensorConfig.gps_lost`)."""
-    if t >= c.fail_at_s:
-        return True
-    for w in range(outages.shape[0]):
-        if outages[w, 0] <= t < outages[w, 1]:
+def gps_lost(faults: np.ndarray, t: float) -> bool:
+    """The receiver has no fix at ``t`` (a GNSS_LOSS row: the failure, an outage window or a fault)."""
+    for k in range(faults.shape[0]):
+        if active(faults[k], GNSS_LOSS, t):
             return True
     return False
 
 
 @jitable
 def solve(
-    s: Any, c: Any, outages: np.ndarray, ring: np.ndarray, pools: np.ndarray, idx: np.ndarray, t: float,
+    s: Any, c: Any, faults: np.ndarray, ring: np.ndarray, pools: np.ndarray, idx: np.ndarray, t: float,
     lat_deg: float, lon_deg: float, alt: float, ve: float, vn: float, vu: float,
 ) -> None:  # fmt: skip
     """The receiver's solution at an epoch (time of validity ``t``), appended to the pending ring; the bias keeps
@@ -306,11 +414,15 @@ def solve(
     bn = gauss_markov(s.gps_bias_n_m, c.gps_h_bias_m, tau, dt, pools, idx, GPS_STREAM)
     bu = gauss_markov(s.gps_bias_u_m, c.gps_v_bias_m, tau, dt, pools, idx, GPS_STREAM)
     s.gps_bias_e_m, s.gps_bias_n_m, s.gps_bias_u_m = be, bn, bu
-    de = be + c.gps_h_white_m * draw(pools, idx, GPS_STREAM)
-    dn = bn + c.gps_h_white_m * draw(pools, idx, GPS_STREAM)
-    du = bu + c.gps_v_white_m * draw(pools, idx, GPS_STREAM)
-    nve = c.gps_vel_h_mps * draw(pools, idx, GPS_STREAM)
-    nvn = c.gps_vel_h_mps * draw(pools, idx, GPS_STREAM)
+    # a degraded receiver's bias: the same wandering process scaled to its sigma (horizontal; vertical twice it)
+    h_scale = degraded(faults, t, F_P2, c.gps_h_bias_m) / c.gps_h_bias_m if c.gps_h_bias_m > 0.0 else 1.0
+    v_scale = 2.0 * degraded(faults, t, F_P2, 0.5 * c.gps_v_bias_m) / c.gps_v_bias_m if c.gps_v_bias_m > 0.0 else 1.0
+    oe, on, we, wn = walkoff_m(faults, t)
+    de = h_scale * be + oe + c.gps_h_white_m * draw(pools, idx, GPS_STREAM)
+    dn = h_scale * bn + on + c.gps_h_white_m * draw(pools, idx, GPS_STREAM)
+    du = v_scale * bu + c.gps_v_white_m * draw(pools, idx, GPS_STREAM)
+    nve = we + c.gps_vel_h_mps * draw(pools, idx, GPS_STREAM)
+    nvn = wn + c.gps_vel_h_mps * draw(pools, idx, GPS_STREAM)
     nvu = c.gps_vel_v_mps * draw(pools, idx, GPS_STREAM)
     count = int(s.ring_count)
     if count >= ring.shape[0]:  # not reached: ring_rows() holds every solution of one latency and more
@@ -318,9 +430,9 @@ def solve(
     r = ring[(int(s.ring_head) + count) % ring.shape[0]]
     s.ring_count = count + 1
     if count == 0:
-        s.next_arrival_s = t + c.latency_s - _EPS_S
+        s.next_arrival_s = t + degraded(faults, t, F_P1, c.latency_s) - _EPS_S
     r.t_s = t
-    if gps_lost(c, outages, t):
+    if gps_lost(faults, t):
         r.lat_deg = r.lon_deg = r.alt_m = r.v_east_mps = r.v_north_mps = r.v_up_mps = math.nan
         r.horizontal_accuracy_m = r.vertical_accuracy_m = math.inf
         r.valid = 0.0
@@ -336,21 +448,23 @@ def solve(
 
 
 @jitable
-def deliver(s: Any, c: Any, ring: np.ndarray, fix: np.ndarray, t: float) -> None:
+def deliver(s: Any, c: Any, faults: np.ndarray, ring: np.ndarray, fix: np.ndarray, t: float) -> None:
     """The pending messages that have arrived by ``t`` (at least one) popped off the ring; if several are due (a
-    slow caller), the newest wins: it is written to ``fix[0]``."""
+    slow caller), the newest wins: it is written to ``fix[0]``. A message's latency is the receiver's at its time
+    of validity (a degraded receiver's while one is)."""
     head = int(s.ring_head)
     count = int(s.ring_count)
     fix[0] = ring[head]
     head = (head + 1) % ring.shape[0]
     count -= 1
-    while count > 0 and t >= ring[head].t_s + c.latency_s - _EPS_S:
+    while count > 0 and t >= ring[head].t_s + degraded(faults, ring[head].t_s, F_P1, c.latency_s) - _EPS_S:
         fix[0] = ring[head]
         head = (head + 1) % ring.shape[0]
         count -= 1
     s.ring_head = head
     s.ring_count = count
-    s.next_arrival_s = ring[head].t_s + c.latency_s - _EPS_S if count > 0 else math.inf
+    t_v = ring[head].t_s
+    s.next_arrival_s = t_v + degraded(faults, t_v, F_P1, c.latency_s) - _EPS_S if count > 0 else math.inf
 
 
 class SensorSuite:
@@ -369,18 +483,22 @@ class SensorSuite:
 
     ``memory``: a float64 array of :func:`memory_size` slots to live in (a caller's compiled step that packs its
     states into one array passes its slice); a fresh array when omitted. The noise is in :attr:`pools` (a row of
-    drawn normals per stream, read from :attr:`idx` on), topped up by :meth:`refill`.
+    drawn normals per stream, read from :attr:`idx` on), topped up by :meth:`refill`. ``faults``: rows of
+    :func:`fault_row` (a scenario's sensor faults, :func:`scenarios.definition.faults.sensor_fault_rows`), after
+    ``config``'s outages and failure in :attr:`faults`; those timed from the unit's first activation start at
+    :meth:`trigger_faults`.
     """
 
     def __init__(
         self, config: SensorConfig | None = None, *, has_pitot: bool = True, seed: int | None = None,
-        prefill: bool = True, memory: np.ndarray | None = None,
+        prefill: bool = True, memory: np.ndarray | None = None, faults: np.ndarray | None = None,
     ) -> None:  # fmt: skip
         self.config = cfg = config or SensorConfig()
         self.has_pitot = has_pitot
         self.prefill = prefill
         self.seed = s = cfg.seed if cfg.seed is not None else (seed if seed is not None else 0)
-        size = memory_size(cfg)
+        table = fault_table(cfg, faults)
+        size = memory_size(cfg, faults)
         if memory is None:
             memory = np.zeros(size)
         if memory.shape != (size,) or memory.dtype != np.float64 or not memory.flags.c_contiguous:
@@ -392,8 +510,10 @@ class SensorSuite:
         self.idx = np.zeros(len(SENSOR_STREAMS), np.int64)
         memory[:] = 0.0
         self._state = memory[:STATE_SIZE].view(SENSOR_STATE)[0]
-        _fill_constants(memory[STATE_SIZE:FIX0].view(SENSOR_CONST)[0], cfg, has_pitot, prefill)
-        memory[OUTAGES0 : OUTAGES0 + 2 * len(cfg.gps_outages)] = np.ravel(cfg.gps_outages)
+        _fill_constants(memory[STATE_SIZE:FIX0].view(SENSOR_CONST)[0], cfg, has_pitot, prefill, len(table))
+        self.faults = memory[OUTAGES0 : OUTAGES0 + table.size].reshape(-1, FAULT_COLUMNS)
+        """The fault table (:data:`FAULT_COLUMNS` per row), in the suite's memory: the step reads it."""
+        self.faults[:] = table
         self._start_stationary()
         self._state.next_arrival_s = math.inf
         self._fix = memory[FIX0:OUTAGES0]
@@ -443,6 +563,13 @@ class SensorSuite:
                 low = True
         return low
 
+    def trigger_faults(self, t_s: float) -> None:
+        """The unit first activated at ``t_s``: the faults that start then (``at_first_activation``) are timed."""
+        for f in self.faults:
+            if f[F_AFTER_ACTIVATION] != 0.0 and math.isinf(f[F_ONSET]):
+                f[F_ONSET] = t_s + f[F_DELAY]
+                f[F_END] = f[F_ONSET] + f[F_DURATION]
+
     # -- introspection (tests, logs) ---------------------------------------------
     @property
     def gps_bias_enu_m(self) -> tuple[float, float, float]:
@@ -451,15 +578,14 @@ class SensorSuite:
         return (float(st.gps_bias_e_m), float(st.gps_bias_n_m), float(st.gps_bias_u_m))
 
 
-def _fill_constants(c: Any, cfg: SensorConfig, has_pitot: bool, prefill: bool) -> None:
+def _fill_constants(c: Any, cfg: SensorConfig, has_pitot: bool, prefill: bool, n_faults: int) -> None:
     """The :data:`SENSOR_CONST` record ``c`` of a suite tuned by ``cfg``."""
     c.period_s, c.latency_s, c.prefill, c.has_pitot = 1.0 / cfg.gps_rate_hz, cfg.gps_latency_s, prefill, has_pitot
     c.gps_h_white_m, c.gps_v_white_m = cfg.gps_h_white_m, cfg.gps_v_white_m
     c.gps_vel_h_mps, c.gps_vel_v_mps = cfg.gps_vel_h_noise_mps, cfg.gps_vel_v_noise_mps
     c.baro_noise_m, c.airspeed_noise_mps = cfg.baro_noise_m, cfg.airspeed_noise_mps
     c.h_acc_m, c.v_acc_m = cfg.gps_h_sigma_m, cfg.gps_v_sigma_m
-    c.fail_at_s = cfg.gps_fail_at_s if cfg.gps_fail_at_s is not None else math.inf
-    c.n_outages = len(cfg.gps_outages)
+    c.n_faults = n_faults
     c.gps_h_bias_m, c.gps_v_bias_m, c.gps_bias_tau_s = cfg.gps_h_bias_m, cfg.gps_v_bias_m, cfg.gps_bias_tau_s
     c.baro_drift_sigma_m, c.baro_drift_tau_s = cfg.baro_drift_m, cfg.baro_drift_tau_s
     c.ahrs_roll_pitch_rad, c.ahrs_yaw_rad = math.radians(cfg.ahrs_roll_pitch_deg), math.radians(cfg.ahrs_yaw_deg)

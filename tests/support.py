@@ -19,6 +19,9 @@ protocol).
 CI suite: :func:`assert_ci_suite_approaches` (the flown ``scenarios/ci`` suite approached every edge, the
 ceiling and the floor), with :func:`scenario_local_fence`, :func:`target_edge` and :func:`vertical_room_m`.
 
+Faults: :func:`fault_scenario_doc` (a short scripted flight in a square keep-in, with a ``faults:`` list) and
+:func:`fly_doc` (a scenario document parsed and flown).
+
 Golden flights: a scenario under ``tests/data/golden/`` flown in closed loop, its trajectory sampled at
 :data:`GOLDEN_STRIDE` and kept as ``<name>.csv`` beside it, compared with tolerances the way JSBSim's own
 regression tests compare tables (:func:`compare_golden`).
@@ -438,3 +441,33 @@ SQUARE_FENCE_WPL = """QGC WPL 110
 3\t0\t0\t5001\t4\t0\t0\t0\t47.3980000\t8.5430000\t0\t1
 """
 """A 300 x 220 m keep-in square near Zurich (the PX4 SITL site) as a WPL 110 fence file, for the link tests."""
+
+
+def fault_scenario_doc(
+    aircraft: str, faults: list | None, *, duration_s: float = 12.0, half_m: float = 400.0, agl_m: float = 60.0,
+    start_en: tuple[float, float] = (0.0, 0.0), heading_deg: float = 0.0, segments: list | None = None, seed: int = 3,
+) -> dict:  # fmt: skip
+    """A scenario document: ``aircraft`` flying scripted ``segments`` (default: centred sticks for the whole flight)
+    from ``start_en`` in a keep-in square of half side ``half_m`` about :data:`FRAME`'s origin, with ``faults``."""
+    lat, lon, _ = FRAME.to_geodetic(start_en[0], start_en[1], 0.0)
+    square = [(-half_m, -half_m), (half_m, -half_m), (half_m, half_m), (-half_m, half_m)]
+    hold = {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": 0.0}
+    doc = {
+        "aircraft": aircraft,
+        "duration_s": duration_s,
+        "seed": seed,
+        "start": {"lat_deg": lat, "lon_deg": lon, "ground_alt_m": FRAME.h0_m, "agl_m": agl_m, "heading_deg": heading_deg},
+        "pilot": {"type": "scripted", "segments": segments or [{"duration_s": duration_s, "sticks": hold}]},
+        "geofence": {"fence": {"keep_in": [list(latlon(e, n)) for e, n in square], "ceiling_m": 150}},
+    }
+    if faults is not None:
+        doc["faults"] = faults
+    return doc
+
+
+def fly_doc(doc: dict, name: str = "fault_case"):
+    """Parse a scenario document (as the file ``<name>.yaml``) and fly it: the :class:`FlightResult`."""
+    from scenarios.definition.schema import parse_scenario
+    from scenarios.flight.runner import fly as fly_scenario
+
+    return fly_scenario(parse_scenario(doc, f"{name}.yaml"))

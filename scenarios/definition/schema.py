@@ -52,6 +52,7 @@ from geofence.validation import (
     require_mapping,
     string,
 )
+from scenarios.definition.faults import Fault, parse_faults
 from scenarios.definition.fence_file import fence_file_path, fence_from_file
 from wind.config import WindConfig, parse_wind
 
@@ -348,6 +349,8 @@ class Scenario:
     """Inconsistencies the scenario asks for deliberately (see :data:`ALLOWABLE`)."""
     warnings: tuple[str, ...] = ()
     """One line each: the allowed inconsistencies this scenario actually has."""
+    faults: tuple[Fault, ...] = ()
+    """Failures injected into the flight (:mod:`scenarios.definition.faults`)."""
 
     @property
     def frame(self) -> LocalFrame:
@@ -381,6 +384,7 @@ _TOP_KEYS = frozenset(
         "control_rate_hz",
         "geofence",
         "allow",
+        "faults",
     }
 )
 
@@ -583,6 +587,7 @@ def parse_scenario(
 
     wind = parse_wind(raw["wind"], f"{where}: wind") if raw.get("wind") is not None else None
     sensors = parse_sensors(raw.get("sensors"), f"{where}: sensors")
+    faults = parse_faults(raw.get("faults"), f"{where}: faults", profile.kind, duration_s, raw.get("geofence") is not None)
 
     warnings: list[str] = []
     _check_wind(wind, profile, aircraft, where, allow, warnings)
@@ -611,6 +616,7 @@ def parse_scenario(
         sensors=sensors,
         allow=allow,
         warnings=tuple(warnings),
+        faults=faults,
     )
 
 

@@ -35,12 +35,13 @@ from aircraft.factory import build_platform
 from analysis.scoring import SCORED_COLUMNS, score_flight
 from geofence.geometry.geodesy import LocalFrame
 from geofence.geometry.local_fence import LocalFence
-from geofence.interface import Envelope
+from geofence.interface import Envelope, StickCommand
 from geofence.unit.geofence_unit import GeofenceUnit, Mode
+from scenarios.definition.faults import FC_KINDS, Fault, FaultKind
 from scenarios.definition.preflight import findings_summary, preflight_findings
 from scenarios.definition.schema import PilotKind, Scenario
 from scenarios.flight.pilots import CompiledLawPilot, Pilot, build_pilot
-from scenarios.flight.recorder import Recorder
+from scenarios.flight.recorder import COLUMN_INDEX, Recorder
 from scenarios.flight.sensing import GeofenceSensing
 from scenarios.flight.step_kernel import FlightStep, unit_step
 from wind.config import wind_from_config
@@ -103,6 +104,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         unit, own, wind_arrays, isinstance(wind, CalmWind), recorder, dt_s,
         None if law_pilot is None else law_pilot.law_array(),
     )  # fmt: skip
+    faults = FlightFaults(scenario.faults, platform, recorder, own) if scenario.faults else None
     loop0 = time.perf_counter()
     try:
         for step in range(n_steps + 1):
@@ -136,6 +138,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                     if fused is not None:
                         fused.wind_changed()
                     wind_told = True
+            if faults is not None:  # (between the unit's sticks and the platform; the unit is not told)
+                cmd = faults.apply(t, cmd, None if unit is None else unit.first_activation_s)
             latch(cmd)
             ended_by_geofence = mode >= land_in_gap and truth.on_ground  # landed in a gap / terminated
             if finished_at is None and (pilot.finished or ended_by_geofence):
@@ -170,10 +174,63 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         summary["first_activation_s"] = None if first is None else round(first, 3)  # as the transitions' times
         summary["final_mode"] = unit.mode.name
         summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
+    if faults is not None:
+        summary["faults"] = faults.summary()
     return FlightResult(
         scenario=scenario, summary=summary, recorder=recorder, frame=frame, pilot=pilot, unit=unit, fence=fence,
         compiled_steps=0 if fused is None else fused.steps,
     )  # fmt: skip
+
+
+class FlightFaults:
+    """A flight's faults as the runner applies them (see :mod:`scenarios.definition.faults`): the flight
+    controller's between the unit's sticks and the platform (ignoring an override: the platform gets the pilot's
+    sticks, recorded in the step's row; freezing: the last sticks it got before), the loss of propulsion (once, at
+    its onset, :meth:`aircraft.fixedwing.FixedWingPlatform.cut_propulsion`), and the timing of those that start
+    at the unit's first activation (the sensors' too: :meth:`aircraft.sensors.SensorSuite.trigger_faults`)."""
+
+    def __init__(self, faults: tuple[Fault, ...], platform: Any, recorder: Recorder, sensing: GeofenceSensing | None):
+        self.faults = faults
+        self.platform = platform
+        self.recorder = recorder
+        self.sensing = sensing
+        self.onsets: list[float | None] = [None] * len(faults)
+        """Each fault's onset time once it started (None: not yet, or never)."""
+        self.first_activation_s: float | None = None
+        self._last: StickCommand = StickCommand()
+        self._pilot = slice(COLUMN_INDEX["pilot_roll"], COLUMN_INDEX["pilot_throttle"] + 1)
+
+    def apply(self, t_s: float, cmd: StickCommand, first_activation_s: float | None) -> StickCommand:
+        """The sticks the platform gets at ``t_s`` for the unit's ``cmd`` (after the step's row is recorded)."""
+        if first_activation_s is not None and self.first_activation_s is None:
+            self.first_activation_s = first_activation_s
+            if self.sensing is not None and self.sensing.compiled:
+                self.sensing.sensors.trigger_faults(first_activation_s)
+        sent, frozen = cmd, False
+        for i, f in enumerate(self.faults):
+            if self.onsets[i] is None:
+                onset = f.onset_s(self.first_activation_s)
+                if onset is None or t_s < onset:
+                    continue
+                self.onsets[i] = onset
+                if f.kind is FaultKind.PROPULSION_LOSS:
+                    self.platform.cut_propulsion()
+            if f.kind not in FC_KINDS or not f.active(t_s, self.first_activation_s):
+                continue
+            if f.kind is FaultKind.FC_FREEZES:
+                sent, frozen = self._last, True
+            elif not frozen:
+                T, n = self.recorder.next_row()
+                sent = StickCommand(*T[n - 1, self._pilot].tolist())
+        self._last = sent
+        return sent
+
+    def summary(self) -> list[dict[str, Any]]:
+        """``[{kind, onset_s}]``: each fault and when it started (None: it never did)."""
+        return [
+            {"kind": f.kind.value, "onset_s": None if onset is None else round(onset, 3)}
+            for f, onset in zip(self.faults, self.onsets)
+        ]
 
 
 @dataclass

@@ -8,7 +8,7 @@ link is written once (:func:`aircraft.sensors.sensors_step`, :func:`geofence.est
 over its slices: nothing is copied or synchronised.
 
 With ``state_source: truth`` (e.g. indoor motion capture) the unit gets the
-true state and the true steady wind instead.
+true state and the true steady wind instead (a scenario's sensor faults then change nothing).
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from geofence.estimation.wind_estimator import WindEstimator, WindEstimatorConfi
 from geofence.geometry.geodesy import LocalFrame
 from geofence.interface import Envelope, FixState, VehicleState
 from geofence.unit.config import GeofenceConfig, StateSource
+from scenarios.definition.faults import sensor_fault_rows
 from scenarios.definition.schema import Scenario
 from wind.config import wind_from_config
 
@@ -50,7 +51,7 @@ class Sensed(NamedTuple):
 
 # The chain's memories, packed end to end in one float array (a compiled call pays about 0.1 us per array
 # argument): the state estimator's (state, constants), the wind estimator's and, last, the sensors' (state,
-# constants, the delivered fix, the outage windows and the pending GNSS ring: its size follows their configuration).
+# constants, the delivered fix, the fault table and the pending GNSS ring: its size follows their configuration).
 _X0 = 0
 _K0 = _X0 + ek.STATE_SIZE
 _W0 = _K0 + ek.CONST_SIZE
@@ -113,10 +114,11 @@ class GeofenceSensing:
         self._truth_wind = None
         if self.truth_source and scenario.wind is not None:
             self._truth_wind = wind_from_config(scenario.wind, scenario.seed)
-        P = np.zeros(_S0 + sk.memory_size(sc))  # the step reads and writes P; the objects are façades over it
+        faults = sensor_fault_rows(scenario.faults)  # (the unit's sensors give them; the unit is not told)
+        P = np.zeros(_S0 + sk.memory_size(sc, faults))  # the step reads and writes P; the objects are façades over it
         self.estimator = GeofenceEstimator(frame, sc.estimator_config(), memory=P[_X0:_W0])
         self.wind = WindEstimator(env, WindEstimatorConfig(prior_enu=cfg.wind_prior_enu), memory=P[_W0:_S0])
-        self.sensors = SensorSuite(sc, has_pitot=not env.is_multirotor, seed=scenario.seed, memory=P[_S0:])
+        self.sensors = SensorSuite(sc, has_pitot=not env.is_multirotor, seed=scenario.seed, memory=P[_S0:], faults=faults)
         self._X = P[_X0:_K0]
         self._args: tuple[Any, ...] = (P, self.sensors.pools, self.sensors.idx)
         self._kernel: Callable[..., tuple[Any, ...]] = sense_step
