@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from aircraft.fixedwing import FixedWingPlatform
-from aircraft.jsbsim_model import FT_TO_M, JSBSimModel, add_model_dir, model_folder
+from aircraft.jsbsim_model import DERIVE_SUFFIX, FT_TO_M, JSBSimModel, add_model_dir, derive_model_xml, model_folder
 from aircraft.profile import PlatformProfile, load_profile, parse_profile
 from aircraft.validation import (
     FRAME,
@@ -147,7 +147,11 @@ def check_flyable(model: str) -> tuple[float, float]:
         raise CharacterizationError(
             f"characterize {model}: {engines} engines: the fixed-wing controller drives one throttle; single-engine only"
         )
-    text = "".join(p.read_text(errors="replace") for p in sorted(folder.rglob("*.xml")))
+    folders = [folder]
+    derive = folder / f"{model}{DERIVE_SUFFIX}"
+    if derive.is_file():  # a derived model of ours: the controls are in its base's files
+        folders.append(model_folder(derive_model_xml(derive)[0]))
+    text = "".join(p.read_text(errors="replace") for f in folders for p in sorted(f.rglob("*.xml")))
     missing = [c for c in STANDARD_CONTROLS if c not in text]
     if missing or area_m2 < 0.05:
         what = ", ".join(missing) if missing else "a wing"

@@ -16,7 +16,7 @@ import sys
 import numpy as np
 import pytest
 
-from aircraft.characterization import MAX_SPEED_MARGIN, MIN_SPEED_MARGIN, choose_speeds
+from aircraft.characterization import MAX_SPEED_MARGIN, MIN_SPEED_MARGIN, check_flyable, choose_speeds
 from aircraft.fixedwing import FixedWingPlatform
 from aircraft.jsbsim_model import model_folder
 from aircraft.profile import PROFILES_DIR, available_profiles, load_profile, parse_profile
@@ -69,6 +69,12 @@ def test_a_model_in_aircraft_dir_is_found_there(tmp_path):
     assert r.returncode == 2 and "characterize myball: no engine" in r.stderr, r.stderr
     r = _cli("nosuch", "--aircraft-dir", str(tmp_path / "models"), "--out", str(tmp_path / "p.yaml"))
     assert r.returncode == 2 and "holds no nosuch/nosuch.xml" in r.stderr, r.stderr
+
+
+def test_a_derived_model_of_ours_passes_the_controls_check_through_its_base():
+    """C172W is c172x plus a propeller-drag element: its controls live in the base's files."""
+    weight_n, area_m2 = check_flyable("C172W")
+    assert 9000.0 < weight_n < 12000.0 and 15.0 < area_m2 < 17.0
 
 
 def test_model_and_from_params_together_are_refused(tmp_path):
