@@ -4,18 +4,19 @@ This module owns the measurement-to-profile logic of ``characterize MODEL``: it 
 fixed-wing controller (``aircraft/systems/fixedwing_fc.xml``) cannot fly, then, flying the model with that
 controller (calm air, air start at :data:`~aircraft.validation.START_AGL_M` over the validation site):
 
-1. probes the *maximum level speed* (full throttle, altitude held) and the *minimum level speed* (speed
+1. picks the propeller lever (``fcs/advance-cmd-norm``, written with the gains) of most thrust;
+2. probes the *maximum level speed* (full throttle, altitude held) and the *minimum level speed* (speed
    command ramped down until the altitude can no longer be held: the stall or the back of the power curve),
    and picks the FC's speeds with stated margins (:data:`MIN_SPEED_MARGIN`, :data:`MAX_SPEED_MARGIN`,
    :data:`CRUISE_FRACTION`);
-2. trims: the throttle and pitch attitude of level flight at cruise (``fc/throttle-trim``, ``fc/theta-trim-rad``);
-3. picks the climb and descent rates the FC may command (the largest candidate flown within 10 % while the
-   speed stays in the envelope);
-4. tunes the gains: a coordinate search over four groups of the seed profile's gains (roll, pitch, vertical,
+3. trims: the throttle and pitch attitude of level flight at cruise (``fc/throttle-trim``, ``fc/theta-trim-rad``);
+4. picks the climb and descent rates the FC may command (the largest candidate flown within 10 % while the
+   speed stays in the envelope) and the bank limit (the largest candidate whose level turn holds its speed);
+5. tunes the gains: a coordinate search over four groups of the seed profile's gains (roll, pitch, vertical,
    speed), each scaled by :data:`GAIN_SCALES`, scored by short steps (roll, climb/descent, throttle);
-5. checks the tuned set in a max-bank turn, then measures the envelope with
+6. checks the tuned set in a max-bank turn, then measures the envelope with
    :func:`aircraft.validation.measure_platform` and turns it into a profile (conservative where a figure
-   is a bound).
+   is a bound), checked as ``validate-models --check-profiles`` would check it.
 
 Everything is bounded by a budget of simulated seconds (:data:`SIM_BUDGET_S`). Speeds are equivalent
 airspeeds (what the FC holds). JSBSim is reached only through :mod:`aircraft.jsbsim_model` and the platform.

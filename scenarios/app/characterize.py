@@ -30,7 +30,7 @@ def register(sub) -> None:
             "version), more than one engine, no standard aileron/elevator/rudder controls, an engine without thrust, "
             "a failed trim, or a loop no gain set tried could stabilise. "
             "characterize --from-params FILE --kind KIND --out P.yaml instead reads an ArduPilot .param file (NAME VALUE or NAME,VALUE lines) or a PX4 QGroundControl .params export "
-            "and write a profile YAML (the format of aircraft/profiles/*.yaml) whose envelope holds the limits the "
+            "and writes a profile YAML (the format of aircraft/profiles/*.yaml) whose envelope holds the limits the "
             "parameters set: tilt/bank, pitch, cruise/min/max speed, climb and descent rate (and for PX4 "
             "multicopters horizontal braking and yaw rate). Figures the parameters cannot give, and the flight-"
             "controller gains, come from --base and are marked so in the file's header. Parameters that break the "
