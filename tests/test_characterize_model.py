@@ -47,7 +47,15 @@ def _cli(*args: str, cwd=None) -> subprocess.CompletedProcess:
 
 @pytest.mark.parametrize(
     "model, phrase",
-    [("ball", "no engine"), ("SGS", "no engine"), ("F450", "fixed-wing only in this version"), ("c310", "2 engines")],
+    [
+        ("ball", "no engine"),
+        ("SGS", "no engine"),
+        ("F450", "fixed-wing only in this version"),
+        ("c310", "2 engines"),
+        ("paraglider", "no fcs/rudder-cmd-norm"),
+        ("Submarine_Scout", "gives no thrust"),  # an airship: its engine gives no thrust at any propeller lever
+        ("wrightFlyer1903", "trim failed"),  # two propellers on one engine; level flight at 12.5 m/s not held
+    ],
 )
 def test_an_unflyable_model_is_refused_with_one_line_exit_2(tmp_path, model, phrase):
     out = tmp_path / "p.yaml"
