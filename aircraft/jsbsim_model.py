@@ -56,6 +56,18 @@ DERIVE_SUFFIX = ".derive.xml"
 """A model folder of ours holding ``NAME.derive.xml`` instead of ``NAME.xml`` derives from a base model."""
 
 
+USER_MODEL_DIRS: list[Path] = []
+"""Folders of a user's own models (each holding ``NAME/NAME.xml``, like JSBSim's ``aircraft/``), searched first:
+``characterize MODEL --aircraft-dir DIR`` adds one (:func:`add_model_dir`)."""
+
+
+def add_model_dir(folder: Path) -> None:
+    """Search ``folder`` for models before ours and the wheel's (for the rest of the process)."""
+    folder = Path(folder).resolve()
+    if folder not in USER_MODEL_DIRS:
+        USER_MODEL_DIRS.insert(0, folder)
+
+
 def _is_model(folder: Path) -> bool:
     return (folder / f"{folder.name}.xml").is_file() or (folder / f"{folder.name}{DERIVE_SUFFIX}").is_file()
 
@@ -68,7 +80,10 @@ def available_models() -> list[str]:
 
 
 def model_folder(name: str) -> Path:
-    """The folder holding model ``name`` (ours shadow the wheel's)."""
+    """The folder holding model ``name`` (a user's folders shadow ours, ours shadow the wheel's)."""
+    for user in USER_MODEL_DIRS:
+        if (user / name / f"{name}.xml").is_file():
+            return user / name
     if _is_model(OWN_MODELS / name):
         return OWN_MODELS / name
     folder = JSBSIM_ROOT / "aircraft" / name

@@ -21,6 +21,8 @@ A profile lives in ``aircraft/profiles/<model>.yaml``::
       drag_quadratic_per_m: 0.01
     gains:                      # flight-controller property -> value, written before run_ic
       fc/roll-kp: 4.0
+    measured_on: F450           # optional: the JSBSim model the figures were measured on (default: model;
+                                #   an inline profile with base: inherits the base's)
 
 Every envelope value is checked against a physical bound (:data:`ENVELOPE_BOUNDS`), and
 ``min_speed_mps <= cruise_speed_mps <= max_speed_mps``. The platform adapters read it; scenarios
@@ -93,6 +95,9 @@ class PlatformProfile:
     envelope: Envelope
     frame_rate_hz: float = 120.0
     gains: dict[str, float] = field(default_factory=dict)
+    measured_on: str | None = None
+    """The JSBSim model the envelope and gains were measured on (``characterize MODEL`` writes it); a profile file
+    without the key measured them on its own ``model``, an inline profile with ``base:`` inherits the base's."""
 
 
 _SHIPPED_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -139,7 +144,7 @@ def _check_speed_order(values: dict[str, float], given: Mapping, where: str) -> 
 def _parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
     if not isinstance(raw, Mapping):
         raise ProfileError(f"{where}: expected a mapping with kind, envelope and gains")
-    reject_unknown_keys(raw, ("model", "kind", "frame_rate_hz", "envelope", "gains", "base"), where)
+    reject_unknown_keys(raw, ("model", "kind", "frame_rate_hz", "envelope", "gains", "base", "measured_on"), where)
     base = load_profile(str(raw["base"])) if raw.get("base") is not None else None
     kind = enum_value(raw.get("kind", base.kind if base else None), f"{where}.kind", PlatformKind)
     env_raw = require_mapping(raw.get("envelope") or {}, f"{where}.envelope")
@@ -168,10 +173,15 @@ def _parse_profile(raw: Any, model: str, where: str) -> PlatformProfile:
         minimum=30.0,
         maximum=1000.0,
     )
+    name = str(raw.get("model", model))
+    measured_on = raw.get("measured_on", base.measured_on if base else name)
+    if not isinstance(measured_on, str) or not measured_on:
+        raise ProfileError(f"{where}.measured_on: expected a JSBSim model name, got {measured_on!r}")
     return PlatformProfile(
-        model=str(raw.get("model", model)),
+        model=name,
         kind=kind,
         envelope=Envelope(kind=kind, **values),
         frame_rate_hz=float(rate),
         gains=gains,
+        measured_on=measured_on,
     )
