@@ -230,7 +230,7 @@ def build_parser() -> argparse.ArgumentParser:
         "validate-models",
         help="fly every platform through standard manoeuvres; write validation.md (or --out FILE)",
         description=(
-            "Fly each platform (default: every shipped profile) through standard manoeuvres (full-tilt or "
+            "Fly each platform (default: the six hand-built profiles; name characterized ones, e.g. pa28) through standard manoeuvres (full-tilt or "
             "full-throttle step, stop from top speed, zero-tilt wind pick-up, max-bank turn, climb, roll step, "
             "best glide), compare with published figures and write a markdown table per platform to --out "
             "(default: validation.md in the current folder; the checkout's docs/validation.md only when you name it). "
@@ -274,7 +274,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--platforms",
         default=None,
         metavar="A,B",
-        help="comma-separated platform profiles to draw from (default: every shipped profile)",
+        help="comma-separated platform profiles to draw from (default: the six hand-measured ones, F450,F450RD,J3Cub,Micro250,Tern,c172x)",
     )
     gen.add_argument(
         "--families",
