@@ -213,6 +213,37 @@ def test_editing_a_profile_file_refiles_the_flight_in_a_resumed_batch(tmp_path):
     assert plan([tmp_path / "s.yaml"])[0].scenario_hash != before
 
 
+def test_a_profile_borrowed_from_another_model_warns_once_and_a_measured_one_does_not():
+    """``base: c172x`` on a pa28 flies the Cessna's figures: one warning naming both models (summary.json and the
+    console carry Scenario.warnings); a profile measured on the model flown (shipped or characterized) is silent."""
+    fw = dict(with_(), start=dict(BASE["start"], agl_m=300))
+    del fw["mission"]
+    fw["pilot"] = {"type": "scripted", "segments": [{"duration_s": 5, "course_deg": 0}]}
+    borrowed = parse_scenario(dict(fw, aircraft="pa28", profile={"base": "c172x"}), "x.yaml")
+    (w,) = borrowed.warnings
+    assert w.startswith("x.yaml: profile: ") and "measured on C172W, not on pa28" in w and "characterize pa28" in w
+    for aircraft in ("pa28", "c172x", "F450"):
+        assert not parse_scenario(dict(fw, aircraft=aircraft), "x.yaml").warnings, aircraft
+    own = parse_scenario(dict(fw, aircraft="F450RD", profile={"base": "F450RD", "envelope": {"max_bank_deg": 20}}), "x.yaml")
+    assert not own.warnings
+
+
+def test_validate_prints_the_borrowed_profile_warning(tmp_path):
+    import subprocess
+    import sys
+
+    doc = dict(with_(aircraft="c182", profile={"base": "c172x"}), start=dict(BASE["start"], agl_m=300))
+    del doc["mission"]
+    doc["pilot"] = {"type": "scripted", "segments": [{"duration_s": 5, "course_deg": 0}]}
+    (tmp_path / "s.yaml").write_text(yaml.safe_dump(doc))
+    root = Path(__file__).parents[1]
+    res = subprocess.run([sys.executable, "-m", "scenarios.app.cli", "validate", str(tmp_path / "s.yaml")], cwd=root,
+                         capture_output=True, text=True)  # fmt: skip
+    assert res.returncode == 0, res.stderr
+    lines = [ln for ln in res.stderr.splitlines() if "measured on C172W, not on c182" in ln]
+    assert len(lines) == 1 and lines[0].startswith("warning: "), res.stderr
+
+
 def test_a_fence_too_small_for_the_platform_says_so_with_the_numbers():
     from geofence.geometry.geodesy import LocalFrame
 

@@ -590,6 +590,7 @@ def parse_scenario(
     faults = parse_faults(raw.get("faults"), f"{where}: faults", profile.kind, duration_s, raw.get("geofence") is not None)
 
     warnings: list[str] = []
+    _check_profile_fits(profile, where, warnings)
     _check_wind(wind, profile, aircraft, where, allow, warnings)
     geofence = None
     if raw.get("geofence") is not None:
@@ -716,6 +717,18 @@ def _check_inside_fence(
                 allow,
                 warnings,
             )
+
+
+def _check_profile_fits(profile: PlatformProfile, where: str, warnings: list[str]) -> None:
+    """A warning (not an error: a user may fly a borrowed profile on purpose) when the profile's figures were
+    measured on another model than the one flown, e.g. ``aircraft: pa28`` with ``profile: {base: c172x}``: the
+    unit's margins and the flight controller's gains then rest on another aircraft's numbers."""
+    if profile.measured_on is not None and profile.measured_on != profile.model:
+        warnings.append(
+            f"{where}: profile: its envelope and gains were measured on {profile.measured_on}, not on {profile.model}: "
+            f"the margins and the controller's gains rest on another aircraft (geofence-testbed characterize "
+            f"{profile.model} measures them)"
+        )
 
 
 def _parse_aircraft_profile(aircraft: str, inline: Any, where: str, base_dir: Path | None) -> PlatformProfile:
