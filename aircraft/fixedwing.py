@@ -38,6 +38,11 @@ FC_SYSTEM_FILE: Path = OWN_SYSTEMS / "fixedwing_fc.xml"
 #: Seconds the controller flies straight and level inside :meth:`reset` before
 #: the aircraft is placed back at the requested start point.
 SETTLE_S: float = 5.0
+#: A turbine (an engine with an N1, e.g. the pc7's PT6) started at idle spools up for ~15 s more: its settle
+#: goes on while N1 still rises faster than :data:`SPOOLING_N1_PCT_S`, up to :data:`SETTLE_MAX_S` in all.
+SETTLE_MAX_S: float = 40.0
+SPOOLING_N1_PCT_S: float = 0.5
+_N1 = "propulsion/engine/n1"
 
 
 class FixedWingPlatform(StickPlatform):
@@ -86,7 +91,8 @@ class FixedWingPlatform(StickPlatform):
         JSBSim's trim cannot handle a small electric propeller (its engine
         steady-state search marches in 0.5 s steps, unstable for a 20 g prop),
         so instead the controller flies the aircraft straight and level for
-        :data:`SETTLE_S` seconds from the profile's trim seeds, and the settled
+        :data:`SETTLE_S` seconds from the profile's trim seeds (a turbine until it has spooled up, at most
+        :data:`SETTLE_MAX_S`), and the settled
         aircraft is then put back at the requested position and altitude with
         the clock reset to 0. Integrators, propeller RPM and attitude stay
         settled. The altitude hold references the start altitude, the sticks
@@ -140,7 +146,14 @@ class FixedWingPlatform(StickPlatform):
         chunk = max(1, int(round(0.1 / self.dt_s)))
         # bank ~ V * heading error / (g * 1.2 s): closes the heading error with a ~1.2 s time constant
         k_stick_per_deg = math.radians(1.0) * v0 / (G_MPS2 * 1.2 * max(env.max_bank_rad, 0.1))
-        for _ in range(int(round(SETTLE_S / (chunk * self.dt_s)))):
+        settle_chunks = int(round(SETTLE_S / (chunk * self.dt_s)))
+        turbine, n1 = m.has(_N1), 0.0
+        for i in range(int(round(SETTLE_MAX_S / (chunk * self.dt_s))) if turbine else settle_chunks):
+            if turbine:
+                now = m.get(_N1)
+                rising, n1 = now - n1 > SPOOLING_N1_PCT_S * chunk * self.dt_s, now
+                if i >= settle_chunks and not rising:
+                    break
             err_deg = (heading_deg - math.degrees(m.get("attitude/psi-rad")) + 180.0) % 360.0 - 180.0
             set_roll_stick(max(-0.5, min(0.5, k_stick_per_deg * err_deg)))
             m.step(chunk)

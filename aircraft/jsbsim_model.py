@@ -286,6 +286,10 @@ class JSBSimModel:
             self._nodes[prop] = node
         return node
 
+    def has(self, prop: str) -> bool:
+        """Whether the model has the property (without creating it)."""
+        return prop in self._nodes or bool(self._pm.hasNode(prop))
+
     def get(self, prop: str) -> float:
         return self.node(prop).get_double_value()
 
