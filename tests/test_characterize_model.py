@@ -169,3 +169,19 @@ def test_pa28_with_its_characterised_profile_flies_a_mission_to_completion():
     ve, vn, up = (res.recorder.column(c) for c in ("v_east_mps", "v_north_mps", "up_m"))
     assert np.hypot(ve, vn).max() < 1.2 * res.scenario.profile.envelope.max_speed_mps
     assert np.ptp(up) < 60.0
+
+
+@pytest.mark.closed_loop
+@pytest.mark.parametrize("airframe", CHARACTERISED)
+def test_a_characterised_airframe_holds_generated_adversarial_cases(airframe):
+    """The campaign generator's head-on/shallow/corner attacks, a keep-out in the way and a ceiling, calm and
+    windy (its draws), on the airframe's characterised profile: the predictive geofence holds (0 m outside, no
+    keep-out entered). docs/validation.md has the larger run, and the same cases on a borrowed c172x profile."""
+    from scenarios.campaign.generator import CaseFamily, Variant, generate_cases
+
+    families = [CaseFamily.CONVEX_BOX, CaseFamily.ACUTE_CORNER, CaseFamily.KEEP_OUT, CaseFamily.CEILING]
+    cases = generate_cases(40, 20261203, platforms=[airframe], families=families, max_duration_s=60.0)[:6]
+    assert len(cases) >= 3, "the generator found few fences this airframe fits"  # (a fast one fits fewer sites)
+    for case in cases:
+        s = fly_scenario(parse_scenario(case.documents[Variant.PREDICTIVE], f"{case.case_id}.yaml")).summary
+        assert s["max_excursion_m"] <= 0.0 and not s["breached_keep_out"], (case.case_id, s["max_excursion_m"])
