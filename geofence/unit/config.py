@@ -156,8 +156,9 @@ class GeofenceConfig:
     compliance_grace_s: float = 0.5
     """The compliance monitor (:mod:`geofence.unit.compliance`) flags a vehicle that lags behind the override's
     commanded attitude this long on end (s), from the envelope's reaction time into the override: twice the
-    longest lag a following vehicle showed on the golden flights' overrides (0.225 s, an F450RD reversing a full
-    pitch; a Tern's 0.125 s), and short, since each 0.1 s at 10-25 m/s carries the fall 1-2.5 m farther."""
+    longest lag a following vehicle showed on the overrides of the golden flights, the shipped scenarios and the
+    CI campaign slice (0.225 s, an F450RD reversing a full pitch; a fixed-wing 0 s), and short, since each 0.1 s
+    at 10-25 m/s carries the fall 1-2.5 m farther."""
     termination_terminal_speed_mps: float = 8.0
     """The slowest terminal speed of the terminated vehicle (m/s), the footprint's drag end
     (:mod:`geofence.physics.termination`): a spinning fixed-wing measured 8.4 m/s mean descent (Tern, 70 m in
