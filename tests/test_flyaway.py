@@ -10,11 +10,13 @@ import math
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from support import FW, MC, edge_run_doc, fly_doc, point_mass_fall
+from support import FRAME, FW, MC, edge_run_doc, fly_doc, latlon, point_mass_fall
 
+from geofence.interface import StickCommand, VehicleState
 from geofence.physics.termination import drag_fall, footprint_points, no_drag_fall_s, termination_footprint
 from geofence.unit.compliance import ComplianceMonitor
 from geofence.unit.config import parse_geofence
+from geofence.unit.geofence_unit import GeofenceUnit, Mode
 from geofence.validation import ConfigError
 
 # -- the footprint ----------------------------------------------------------------------------------------------
@@ -143,6 +145,45 @@ def test_the_new_settings_are_validated():
         parse_geofence({"fence": fence, "termination_terminal_speed_mps": 0})
     with pytest.raises(ConfigError, match=r"^geofence\.compliance_grace_s: "):
         parse_geofence({"fence": fence, "compliance_grace_s": -1})
+
+
+# -- the unit's decision ------------------------------------------------------------------------------------------
+
+
+def _ignored_override(start_north_m: float, speed_mps: float = 20.0, agl_m: float = 60.0):
+    """A unit overriding a Tern that flies on north at ``speed_mps``, wings level, while the unit commands a full
+    bank, in a keep-in square of half side 400 m: ``(the unit, the time it terminated or None, the footprint
+    margins it saw)``."""
+    square = [latlon(e, n) for e, n in ((-400.0, -400.0), (400.0, -400.0), (400.0, 400.0), (-400.0, 400.0))]
+    cfg = parse_geofence({"fence": {"keep_in": [list(p) for p in square], "ceiling_m": 150}}, "test")
+    unit = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), FW)
+    unit.mode = Mode.OVERRIDE
+    margins = []
+    for k in range(600):
+        t = k * DT
+        est = VehicleState(t_s=t, north_m=start_north_m + speed_mps * t, agl_m=agl_m, v_north_mps=speed_mps)
+        if unit.compliance.noncompliant:
+            margins.append(unit.termination_margin_m(est)[0])
+        if unit.watch_compliance(t, DT, StickCommand(roll=1.0), est):
+            return unit, t, margins
+    return unit, None, margins
+
+
+def test_a_flyaway_whose_footprint_is_inside_is_terminated_before_it_leaves_and_no_later():
+    unit, t, margins = _ignored_override(150.0)
+    assert t is not None and unit.mode is Mode.TERMINATE
+    assert unit.noncompliant_at_s == pytest.approx(FW.reaction_time_s + unit.config.compliance_grace_s, abs=DT)
+    assert t > unit.noncompliant_at_s + 1.0  # it waited while the footprint had room
+    lead = 20.0 * 2 * DT
+    assert 0.0 <= margins[-1] <= lead and all(m > lead for m in margins[:-1])
+    assert "before it leaves" in unit.transitions[-1].reason and unit.termination["footprint_margin_m"] >= 0.0
+
+
+def test_a_flyaway_whose_footprint_is_outside_already_is_terminated_at_once():
+    unit, t, margins = _ignored_override(330.0)
+    assert t == pytest.approx(unit.noncompliant_at_s) and not margins  # (terminated at the step it was flagged)
+    assert unit.termination["footprint_margin_m"] < 0.0
+    assert "already outside: at once" in unit.transitions[-1].reason
 
 
 # -- the closed loop ----------------------------------------------------------------------------------------------
