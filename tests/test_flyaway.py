@@ -147,6 +147,43 @@ def test_the_new_settings_are_validated():
         parse_geofence({"fence": fence, "compliance_grace_s": -1})
 
 
+# -- the termination channel -------------------------------------------------------------------------------------
+
+
+def _terminated_fall(model: str, agl_m: float, sticks: StickCommand):
+    """``model`` started at ``agl_m`` (a multirotor hovering, a fixed-wing at cruise heading north), terminated at
+    once and commanded ``sticks`` all the way down: ``(its start and touchdown states, the fall time)``."""
+    from aircraft.factory import build_platform
+    from aircraft.profile import load_profile
+
+    pl = build_platform(load_profile(model))
+    pl.set_wind_enu(0.0, 0.0, 0.0)
+    pl.reset(FRAME, FRAME.lat0_deg, FRAME.lon0_deg, agl_m, 0.0, 0.0)
+    start = pl.truth()
+    pl.terminate()
+    s, t = start, 0.0
+    while not s.on_ground and t < 60.0:
+        pl.command(sticks)
+        pl.step(1)
+        t += pl.dt_s
+        s = pl.truth()
+    return start, s, t
+
+
+@pytest.mark.closed_loop
+def test_a_terminated_multirotor_falls_whatever_its_sticks_say():
+    start, down, t = _terminated_fall("F450RD", 30.0, StickCommand(throttle=1.0, pitch=-1.0))
+    assert down.on_ground and no_drag_fall_s(30.0, 0.0) <= t <= 1.5 * no_drag_fall_s(30.0, 0.0)
+    assert math.hypot(down.east_m - start.east_m, down.north_m - start.north_m) < 1.0  # (a full forward stick, ignored)
+
+
+@pytest.mark.closed_loop
+def test_a_terminated_fixed_wing_comes_down_short_of_its_no_drag_carry():
+    start, down, t = _terminated_fall("Tern", 60.0, StickCommand(roll=-1.0, pitch=1.0, throttle=1.0))
+    carry = math.hypot(down.east_m - start.east_m, down.north_m - start.north_m)
+    assert down.on_ground and t < 15.0 and carry < start.ground_speed_mps * no_drag_fall_s(60.0, start.v_up_mps)
+
+
 # -- the unit's decision ------------------------------------------------------------------------------------------
 
 
