@@ -44,6 +44,8 @@ _ESC_PROPS = (
     "fcs/cmdEscAR_nd",
 )
 _THROTTLE_POS_PROPS = tuple(f"fcs/throttle-pos-norm[{i}]" for i in range(4))
+_CUT_COLLECTIVE = -2.0
+"""The collective input that cuts every ESC command (a controller output is at most 1)."""
 _SPIN_UP_S = 0.5
 """Time run after the initial conditions: rotors spin up (air start) or the gear settles (ground start)."""
 
@@ -95,6 +97,7 @@ class MulticopterPlatform(StickPlatform):
         deterministic: every JSBSim model state (rotor speeds, FC integrators and
         filters) is cleared first. Sim time restarts at 0.
         """
+        self._bind_sticks()  # (after a termination)
         m = self.model
         # run_ic sets JSBSim's wind from its (calm) initial conditions: keep ours.
         wind_fps = [nd.get_double_value() for nd in self._wind_nodes]
@@ -130,6 +133,14 @@ class MulticopterPlatform(StickPlatform):
     def set_wind_enu(self, east_mps: float, north_mps: float, up_mps: float) -> None:
         """Steady air-mass velocity in m/s (ENU, toward); kept across :meth:`reset`."""
         self.model.set_wind_enu(east_mps, north_mps, up_mps)
+
+    def terminate(self) -> None:
+        """Flight termination (:meth:`aircraft.platform.Platform.terminate`): the four ESC commands cut at the power
+        stage, the model's own summation of ``fcs/throttle-cmd-norm`` and the controller's outputs before each ESC
+        (the collective input held at -2: the sum stays below 0, which the ESC clips to 0, whatever the controller
+        writes), so the motors spin down (ESC lag) and the vehicle falls; the sticks are ignored from now on."""
+        self.model.set("fcs/throttle-cmd-norm", _CUT_COLLECTIVE)
+        self.ignore_sticks()
 
     def step(self, n_frames: int = 1) -> None:
         """Advance ``n_frames`` frames of ``dt_s``."""

@@ -49,3 +49,9 @@ class Platform(Protocol):
 
     def truth(self) -> VehicleState:
         """True state in SI units, ENU about the reset frame."""
+
+    def terminate(self) -> None:
+        """Flight termination, until the next :meth:`reset`: propulsion cut at the power stage, independent of the
+        flight controller (a flight-termination system's own channel), and every later :meth:`command` ignored. A
+        multirotor falls with its motors off; a fixed-wing's engine stops and its controller is disengaged, its
+        surfaces set to spin it down (gliding would carry it far)."""

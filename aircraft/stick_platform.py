@@ -19,6 +19,10 @@ from geofence.interface import StickCommand, VehicleState
 STICK_PROPERTIES = ("fc/stick-roll", "fc/stick-pitch", "fc/stick-yaw", "fc/stick-throttle")
 
 
+def _ignore(value: float) -> None:
+    """A stick setter of a terminated flight."""
+
+
 class StickPlatform:
     def __init__(self, profile: PlatformProfile, fc_system: Path):
         self.profile = profile
@@ -26,6 +30,10 @@ class StickPlatform:
         self.envelope = profile.envelope
         self.dt_s = 1.0 / profile.frame_rate_hz
         self.model = JSBSimModel(profile.model, dt_s=self.dt_s, extra_systems=[fc_system])
+        self._bind_sticks()
+
+    def _bind_sticks(self) -> None:
+        """:meth:`command` latches into the controller's stick properties (again after :meth:`ignore_sticks`)."""
         self._stick_setters = tuple(self.model.node(p).set_double_value for p in STICK_PROPERTIES)
 
     def command(self, cmd: StickCommand) -> None:
@@ -37,6 +45,10 @@ class StickPlatform:
         p(-1.0 if pitch < -1.0 else (1.0 if pitch > 1.0 else float(pitch)))
         y(-1.0 if yaw < -1.0 else (1.0 if yaw > 1.0 else float(yaw)))
         t(-1.0 if throttle < -1.0 else (1.0 if throttle > 1.0 else float(throttle)))
+
+    def ignore_sticks(self) -> None:
+        """From now on :meth:`command` latches nothing (a terminated flight: the flight controller is cut off)."""
+        self._stick_setters = (_ignore, _ignore, _ignore, _ignore)
 
     def truth(self) -> VehicleState:
         """True state (SI, ENU about the reset frame)."""

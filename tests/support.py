@@ -471,3 +471,39 @@ def fly_doc(doc: dict, name: str = "fault_case"):
     from scenarios.flight.runner import fly as fly_scenario
 
     return fly_scenario(parse_scenario(doc, f"{name}.yaml"))
+
+
+def point_mass_fall(h_m: float, v_enu: tuple[float, float, float], wind_en: tuple[float, float], terminal_mps: float | None):
+    """The independent oracle of a termination fall (:mod:`geofence.physics.termination`): scipy's adaptive RK45
+    of a point mass under gravity and quadratic drag against the air (terminal speed ``terminal_mps``; None: no
+    drag), from ``h_m`` above the ground; ``(east, north, t)`` where and when it lands, relative to the start."""
+    from scipy.integrate import solve_ivp
+
+    g = 9.80665
+    c = 0.0 if terminal_mps is None else g / terminal_mps**2
+
+    def rhs(_t, y):
+        rel = np.array([y[3] - wind_en[0], y[4] - wind_en[1], y[5]])
+        return [y[3], y[4], y[5], *(np.array([0.0, 0.0, -g]) - c * np.linalg.norm(rel) * rel)]
+
+    def ground(_t, y):
+        return y[2]
+
+    ground.terminal, ground.direction = True, -1  # type: ignore[attr-defined]
+    sol = solve_ivp(rhs, (0.0, 600.0), [0.0, 0.0, h_m, *v_enu], events=ground, rtol=1e-10, atol=1e-10, max_step=0.5)
+    y = sol.y_events[0][0]
+    return float(y[0]), float(y[1]), float(sol.t_events[0][0])
+
+
+def edge_run_doc(aircraft: str, faults: list | None, *, agl_m: float, edge_m: float, duration_s: float, pitch: float = 1.0):
+    """:func:`fault_scenario_doc` of ``aircraft`` flying north from the square's centre at an edge ``edge_m`` ahead,
+    ``agl_m`` up: a fixed-wing at full speed on course, a multirotor on the forward pitch stick ``pitch``."""
+    sticks = None
+    if load_profile(aircraft).envelope.is_multirotor:
+        sticks = {"roll": 0.0, "pitch": -pitch, "yaw": 0.0, "throttle": 0.0}
+    seg = (
+        {"duration_s": duration_s, "sticks": sticks}
+        if sticks
+        else {"duration_s": duration_s, "course_deg": 0, "speed": "max", "climb": "hold"}
+    )
+    return fault_scenario_doc(aircraft, faults, duration_s=duration_s, half_m=edge_m, agl_m=agl_m, segments=[seg])

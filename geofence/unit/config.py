@@ -27,6 +27,8 @@ Example (every key but ``fence`` optional)::
       turbulence_source: estimate  # estimate (max of forecast and the unit's estimate, default) | forecast
       vertical_handback_m: 2.0     # hand back only this far inside the vertical activation boundary
       state_source: estimate       # estimate (own sensors + Kalman filter, default) | truth (e.g. indoor motion capture)
+      compliance_grace_s: 0.5      # an override not followed this long (after the reaction time) -> plan termination
+      termination_terminal_speed_mps: 8.0   # the slowest terminal fall speed at termination (the footprint's drag end)
 
 All messages are one line: ``<where>.<field>: <problem>``.
 
@@ -151,6 +153,16 @@ class GeofenceConfig:
     turbulence_source: TurbulenceSource = TurbulenceSource.ESTIMATE
     vertical_handback_m: float = 2.0
     """Vertical hysteresis: hand back only with the vertical activation margin at least this large."""
+    compliance_grace_s: float = 0.5
+    """The compliance monitor (:mod:`geofence.unit.compliance`) flags a vehicle that lags behind the override's
+    commanded attitude this long on end (s), from the envelope's reaction time into the override: twice the
+    longest lag a following vehicle showed on the overrides of the golden flights, the shipped scenarios and the
+    CI campaign slice (0.225 s, an F450RD reversing a full pitch; a fixed-wing 0 s), and short, since each 0.1 s
+    at 10-25 m/s carries the fall 1-2.5 m farther."""
+    termination_terminal_speed_mps: float = 8.0
+    """The slowest terminal speed of the terminated vehicle (m/s), the footprint's drag end
+    (:mod:`geofence.physics.termination`): a spinning fixed-wing measured 8.4 m/s mean descent (Tern, 70 m in
+    8.3 s), a multirotor with its motors off falls faster (F450RD, 70 m in 4.2 s)."""
     fence_file: str | None = None
     """The fence file the fence was read from (resolved path), or None for an inline fence."""
     fence_warnings: tuple[str, ...] = ()
@@ -191,6 +203,8 @@ _KEYS = {
     "turbulence_k_sigma",
     "vertical_handback_m",
     "turbulence_source",
+    "compliance_grace_s",
+    "termination_terminal_speed_mps",
 }
 
 
@@ -286,6 +300,8 @@ def _parse_geofence(raw: Mapping, where: str, fence_file_reader: FenceFileReader
         turbulence_source=enum_value(
             raw.get("turbulence_source", _default("turbulence_source")), f"{where}.turbulence_source", TurbulenceSource
         ),
+        compliance_grace_s=num("compliance_grace_s", 0.0, 10.0),
+        termination_terminal_speed_mps=num("termination_terminal_speed_mps", 1.0, 100.0),
         fence_file=fence_file,
         fence_warnings=tuple(fence_warnings),
     )

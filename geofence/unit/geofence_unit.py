@@ -66,6 +66,7 @@ from geofence.physics.rooms import (
     room_upper_bounds_fast_m,
     vertical_arrest_distance_m,
 )
+from geofence.physics.termination import Footprint, footprint_points, termination_footprint
 from geofence.recovery import Point, RecoveryPlanner
 from geofence.recovery.guidance import (
     FixedWingRecovery,
@@ -75,6 +76,7 @@ from geofence.recovery.guidance import (
     SeedPDRecovery,
     StraightRoute,
 )
+from geofence.unit.compliance import ComplianceMonitor
 from geofence.unit.config import GeofenceConfig, MultirotorLaw, Trigger, TurbulenceSource, allowance_in_use_mps
 from geofence.unit.passes import (  # (their home: the monitoring step's kernel reads them too)
     DENSITY_REFRESH_M,
@@ -235,6 +237,13 @@ class GeofenceUnit:
         """The state the unit acted on last (its estimate, or its dead reckoning)."""
         self._climb_back_to_m = math.nan
         self._goal_h_m = math.nan
+        self.compliance = ComplianceMonitor(envelope, config.compliance_grace_s)
+        """Watches the overrides (:meth:`watch_compliance`)."""
+        self.compliance.started_s = math.nan  # (no override watched yet)
+        self.noncompliant_at_s: float | None = None
+        """When the compliance monitor first found the vehicle not following an override (s), or None."""
+        self.termination: dict[str, Any] | None = None
+        """Why and where the unit terminated a vehicle that did not follow (:meth:`watch_compliance`), or None."""
 
     def _configure_record(self, config: GeofenceConfig, fence: LocalFence) -> None:
         """The record's constants from the configuration and the fence (set once; the few that :meth:`update` reads
@@ -864,6 +873,73 @@ class GeofenceUnit:
             recovery.set_step_state(float(u.progress_m), u.turning != 0.0, float(u.turned_rad), float(u.last_yaw_rad))
         u.ring_rows = u.has_margins = u.horizon_moved = u.recovery_moved = 0.0
         return bool(moved)
+
+    def watch_compliance(self, t_s: float, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
+        """An override step's compliance watch (the runner calls it while the mode is ``OVERRIDE``, with the sticks
+        the unit sent and its newest estimate): the :class:`~geofence.unit.compliance.ComplianceMonitor` on them;
+        a vehicle not following is terminated once the termination footprint's margin
+        (:meth:`termination_margin_m`) is down to what the footprint moves in the next steps (at once if it is
+        outside already). Returns whether it switched to ``TERMINATE`` (the runner then cuts the propulsion)."""
+        monitor = self.compliance
+        if monitor.started_s != self._mode_since_s:  # a new override
+            monitor.set_envelope(self.env)
+            monitor.start(self._mode_since_s, est.roll_rad, est.pitch_rad)
+        if not monitor.update(t_s, dt_s, cmd.roll, cmd.pitch, est.roll_rad, est.pitch_rad):
+            return False
+        if self.noncompliant_at_s is None:
+            self.noncompliant_at_s = t_s
+        margin, fp = self.termination_margin_m(est)
+        lead_m = est.ground_speed_mps * (2.0 * dt_s + self._latency_s)
+        if margin > lead_m:
+            return False
+        miss = math.degrees(monitor.error_rad)
+        where = "already outside: at once" if margin < 0.0 else "before it leaves"
+        self.termination = {
+            "noncompliant_at_s": round(self.noncompliant_at_s, 3), "override_since_s": round(self._mode_since_s, 3),
+            "attitude_miss_deg": round(miss, 1), "footprint_margin_m": round(margin, 2),
+            "footprint_far_en_m": [round(fp.far_e_m, 2), round(fp.far_n_m, 2)],
+            "footprint_drag_en_m": [round(fp.drag_e_m, 2), round(fp.drag_n_m, 2)],
+            "footprint_radius_m": round(fp.radius_m, 2), "fall_s": round(fp.fall_s, 2),
+        }  # fmt: skip
+        self._switch(
+            t_s, Mode.TERMINATE,
+            f"the vehicle does not follow the override (attitude {miss:.0f} deg off since "
+            f"{self.noncompliant_at_s - self.config.compliance_grace_s:.2f} s): flight termination, footprint margin "
+            f"{margin:.1f} m ({where})",
+        )  # fmt: skip
+        return True
+
+    def termination_footprint(self, est: VehicleState) -> Footprint:
+        """Where the vehicle comes down if terminated now (:func:`geofence.physics.termination.termination_footprint`
+        from the estimate, in the wind estimate, the position's uncertainty margin ``k·σ_h + extra``)."""
+        cfg = self.config
+        we, wn = self.wind_enu
+        return termination_footprint(
+            est.east_m, est.north_m, est.agl_m, est.v_east_mps, est.v_north_mps, est.v_up_mps, we, wn,
+            cfg.termination_terminal_speed_mps, cfg.uncertainty_k_sigma * self._sigma_h_m + cfg.extra_margin_m,
+            WIND_ESTIMATE_ERROR_MPS,
+        )  # fmt: skip
+
+    def termination_margin_m(self, est: VehicleState) -> tuple[float, Footprint]:
+        """The termination footprint's margin (m; + inside): the least over its path
+        (:func:`~geofence.physics.termination.footprint_points`) of the lateral margin (keep-in and keep-outs) and,
+        below a floor, of the floor gaps' distance, less its radius; and the footprint."""
+        fp = self.termination_footprint(est)
+        fence = self.fence
+        floor = fence.floor_m is not None
+        least = math.inf
+        for e, n in footprint_points(fp):
+            m = fence.lateral_margin_m(e, n)
+            least = min(least, m, fence.gap_distance_m(e, n)) if floor else min(least, m)
+        return least - fp.radius_m, fp
+
+    def newest_estimate(self, ring: np.ndarray) -> VehicleState | None:
+        """The newest estimate the unit has: the ring's newest row where compiled steps have written it since the
+        last hand-over (:meth:`take_in_ring`), else :attr:`estimate`."""
+        u = self._record
+        if u.ring_rows == 0.0:
+            return self.estimate
+        return state_of_row(ring[int(u.ring_next) - 1].tolist())
 
     def complete_hand_back(self, t_s: float) -> None:
         """``RECOVERED`` held long enough: back to ``MONITOR``."""

@@ -90,6 +90,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     finished_at = None
     mode = Mode.MONITOR
     monitor, recovered, land_in_gap = Mode.MONITOR, Mode.RECOVERED, Mode.LAND_IN_GAP
+    overriding, terminate = Mode.OVERRIDE, Mode.TERMINATE
+    terminated: float | None = None  # when the runner cut the propulsion (Platform.terminate)
     step = 0
     # faster than this is a numerical blow-up (e.g. a ground-contact explosion), not flight
     diverged_above_mps = 5.0 * env.max_speed_mps + 50.0
@@ -131,6 +133,11 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                     cmd = cmd_in
                     record(truth, w, cmd_in, cmd, mode, pilot.items_reached)
             if unit is not None:
+                if unit.mode is overriding:  # the compliance watch (only while overriding)
+                    est = unit.estimate if fused is None else fused.newest_estimate()
+                    if est is not None and unit.watch_compliance(t, dt_s, cmd, est) and fused is not None:
+                        fused.finish()  # (the steps it took handed over before the unit answers again)
+                        fused.refresh()
                 mode = unit.mode
                 notice_control(mode == monitor or mode == recovered)  # the pilot feels the sticks come back
                 if not wind_told and unit.activations:
@@ -141,6 +148,9 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
             if faults is not None:  # (between the unit's sticks and the platform; the unit is not told)
                 cmd = faults.apply(t, cmd, None if unit is None else unit.first_activation_s)
             latch(cmd)
+            if mode == terminate and terminated is None:  # the termination channel: after the sticks, whatever they are
+                platform.terminate()
+                terminated = t
             ended_by_geofence = mode >= land_in_gap and truth.on_ground  # landed in a gap / terminated
             if finished_at is None and (pilot.finished or ended_by_geofence):
                 finished_at = t
@@ -174,6 +184,8 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         summary["first_activation_s"] = None if first is None else round(first, 3)  # as the transitions' times
         summary["final_mode"] = unit.mode.name
         summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
+    if unit is not None and fence is not None and terminated is not None:
+        summary.update(termination_summary(unit, fence, terminated, truth_now()))
     if faults is not None:
         summary["faults"] = faults.summary()
     return FlightResult(
@@ -231,6 +243,26 @@ class FlightFaults:
             {"kind": f.kind.value, "onset_s": None if onset is None else round(onset, 3)}
             for f, onset in zip(self.faults, self.onsets)
         ]
+
+
+def termination_summary(unit: GeofenceUnit, fence: LocalFence, terminated_s: float, last: Any) -> dict[str, Any]:
+    """A terminated flight's keys: when and why the propulsion was cut (``terminated_at_s``, ``termination_reason``),
+    the unit's compliance finding and footprint (``termination``: None for a termination low over a gap), and
+    where it came down (``touchdown_en_m``, and ``touchdown_margin_m``: the fence's lateral margin there, below a
+    floor the least of it and the floor gaps' distance; + inside), or None if it had not touched down."""
+    reason = next((tr.reason for tr in reversed(unit.transitions) if tr.to_mode is Mode.TERMINATE), None)
+    out: dict[str, Any] = {
+        "terminated_at_s": round(terminated_s, 3), "termination_reason": reason, "termination": unit.termination,
+        "touchdown_en_m": None, "touchdown_margin_m": None,
+    }  # fmt: skip
+    if last is not None and last.on_ground:
+        e, n = last.east_m, last.north_m
+        margin = fence.lateral_margin_m(e, n)
+        if fence.floor_m is not None:
+            margin = min(margin, fence.gap_distance_m(e, n))
+        out["touchdown_en_m"] = [round(e, 2), round(n, 2)]
+        out["touchdown_margin_m"] = round(margin, 2)
+    return out
 
 
 @dataclass

@@ -420,6 +420,10 @@ class FlightStep:
         """The steps taken so far handed over to the unit (at the end of the flight; the sensing chain's horizon too)."""
         self._take_in(False)
 
+    def newest_estimate(self) -> VehicleState | None:
+        """The unit's newest estimate (:meth:`GeofenceUnit.newest_estimate` on this flight's ring)."""
+        return self.unit.newest_estimate(self._H)
+
     def _take_in(self, new_horizon: bool) -> FixState | None:
         """The steps taken so far handed over to the unit (:meth:`GeofenceUnit.take_in_ring`); the sensing chain keeps
         its newest fusion horizon (``new_horizon``: it moved at this step). Returns that horizon."""
