@@ -217,14 +217,18 @@ def test_a_baro_drift_of_5_m_puts_the_height_estimate_5_m_high():
     assert after - before == pytest.approx(5.0, abs=1.0)
 
 
-def _tern_at_an_edge(faults: list | None):
-    """A Tern flying north at an edge 300 m ahead: the unit overrides (turns) at about 14 s."""
-    return fly_doc(fault_scenario_doc("Tern", faults, duration_s=22.0, half_m=200.0, start_en=(0.0, -100.0)), "tern_edge")
+def _tern_at_an_edge(faults: list | None, compliance_grace_s: float | None = None):
+    """A Tern flying north at an edge 300 m ahead: the unit overrides (turns) at about 14 s. A long
+    ``compliance_grace_s`` keeps the unit from terminating a vehicle that ignores it (the fault alone, as injected)."""
+    doc = fault_scenario_doc("Tern", faults, duration_s=22.0, half_m=200.0, start_en=(0.0, -100.0))
+    if compliance_grace_s is not None:
+        doc["geofence"]["compliance_grace_s"] = compliance_grace_s
+    return fly_doc(doc, "tern_edge")
 
 
 @pytest.mark.closed_loop
 def test_a_flight_controller_ignoring_the_override_flies_the_pilots_sticks():
-    res = _tern_at_an_edge([{"kind": "fc_ignores_override", "at_first_activation": True}])
+    res = _tern_at_an_edge([{"kind": "fc_ignores_override", "at_first_activation": True}], compliance_grace_s=10.0)
     first = res.summary["first_activation_s"]
     assert first is not None and res.summary["faults"] == [{"kind": "fc_ignores_override", "onset_s": first}]
     c = res.recorder.column
