@@ -148,7 +148,9 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
             if faults is not None:  # (between the unit's sticks and the platform; the unit is not told)
                 cmd = faults.apply(t, cmd, None if unit is None else unit.first_activation_s)
             latch(cmd)
-            if mode == terminate and terminated is None:  # the termination channel: after the sticks, whatever they are
+            if mode == terminate and terminated is None and unit is not None and unit.termination is not None:
+                # a vehicle not following the override: the termination channel, after the sticks, whatever they
+                # are (the landing's own low termination over a gap spirals down on the sticks, as before)
                 platform.terminate()
                 terminated = t
             ended_by_geofence = mode >= land_in_gap and truth.on_ground  # landed in a gap / terminated
