@@ -63,6 +63,7 @@ import numpy as np
 from scipy.stats import beta, chi2
 
 from analysis.batch_plots import num, save_figure, truthy
+from analysis.containment import ContingencyInputs, containment_lines, plot_containment
 from analysis.formats.replace import replace_text, replacing
 from analysis.report import RESULTS_CSV, read_results_csv
 from analysis.scoring import SCORED_COLUMNS, score_flight
@@ -80,6 +81,7 @@ VERTICAL_TOLERANCE_M = 0.0
 """A vertical breach is a ceiling/floor excursion strictly beyond this (m)."""
 CONFIDENCE = 0.95
 VARIANTS = ("predictive", "reactive", "unprotected")
+CONTAINMENT_FIGURE = ("campaign_containment", "Peak excursions against the contingency volume, per class")
 FIGURES = {
     "campaign_excursion": "Peak excursion per family: predictive vs reactive (vs unprotected)",
     "campaign_breach_bounds": "Breach rate and its 95 % upper bound per platform",
@@ -197,6 +199,8 @@ def campaign_rows(rows: Iterable[Mapping], manifest: Mapping, batch_dir: str | P
             gps_fault=bool(case.get("gps_fault")),
             beyond_authority=case.get("beyond_authority") or "",
             platform_max_speed_mps=case.get("max_speed_mps"),
+            ceiling_m=(case.get("fence") or {}).get("ceiling_m"),
+            faults=",".join(sorted({str(f.get("kind")) for f in case.get("faults") or [] if isinstance(f, Mapping)})),
         )
         if variant == "unprotected" and batch_dir is not None and not math.isfinite(num(row.get("max_excursion_m"))):
             row.update(score_unprotected(batch_dir, row, case))
@@ -659,8 +663,30 @@ def _stats_table(stats: Sequence[GroupStats], names: Sequence[str]) -> list[str]
     return lines
 
 
-def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = None) -> list[str]:
-    """The markdown of the campaign report for joined rows (:func:`campaign_rows`)."""
+def _containment_section(rows: Sequence[Mapping], contingency: Mapping[str, ContingencyInputs]) -> list[str]:
+    predictive = [r for r in rows if r.get("variant") == "predictive"]
+    return [
+        "## Containment (predictive)",
+        "",
+        "The operational volume is the fence; around it the contingency volume (lateral S_CV, vertical H_CV) and "
+        "the ground risk buffer (1:1 rule) sized per platform by the SORA guidance's method "
+        "(`analysis/containment.py`: S_CV = S_GNSS 3 m + S_pos 3 m + S_map 1 m + v0 t_R + v0²/(2 g tan φ), "
+        "H_CV = 1 m + 0.707 v0 t_R + v0²/(2 g), v0 the top speed, t_R the reaction time, φ the bank or tilt limit). "
+        "Exits of each volume per class, every class side by side: per flight with the exact 95 % bound, per "
+        "simulated flight hour with the Poisson 95 % bound.",
+        "",
+        *containment_lines(predictive, contingency),
+        "",
+        f"![{CONTAINMENT_FIGURE[1]}]({CONTAINMENT_FIGURE[0]}.png)",
+        "",
+    ]
+
+
+def campaign_report_lines(
+    rows: Sequence[Mapping], manifest: Mapping | None = None, contingency: Mapping[str, ContingencyInputs] | None = None
+) -> list[str]:
+    """The markdown of the campaign report for joined rows (:func:`campaign_rows`); with ``contingency`` (each
+    platform's figures) its containment section."""
     rows = list(rows)
     lines = ["# Geofence efficacy campaign", ""]
     if manifest is not None:
@@ -712,6 +738,8 @@ def campaign_report_lines(rows: Sequence[Mapping], manifest: Mapping | None = No
         "",
     ]
     lines += _stats_table(grouped(rows, ("variant", "condition")), ["variant", "condition"]) + [""]
+    if contingency:
+        lines += _containment_section(rows, contingency)
     lines += ["## Per variant", ""] + _stats_table(grouped(rows, ("variant",)), ["variant"]) + [""]
     lines += (
         ["## Per variant and platform", ""] + _stats_table(grouped(rows, ("variant", "platform")), ["variant", "platform"]) + [""]
@@ -811,7 +839,13 @@ def _not_this_campaign(batch_dir: Path, n_results: int, manifest: Mapping, manif
     )
 
 
-def write_campaign_report(batch_dir: str | Path, manifest_path: str | Path, *, out_dir: str | Path | None = None) -> Path:
+def write_campaign_report(
+    batch_dir: str | Path,
+    manifest_path: str | Path,
+    *,
+    out_dir: str | Path | None = None,
+    contingency: Mapping[str, ContingencyInputs] | None = None,
+) -> Path:
     """Read ``<batch_dir>/results.csv`` and the manifest; write ``campaign_report.md``, its figures and
     ``campaign_flights.csv`` (one row per flight, :func:`flight_summaries`).
 
@@ -828,9 +862,12 @@ def write_campaign_report(batch_dir: str | Path, manifest_path: str | Path, *, o
         raise ConfigError(_not_this_campaign(batch_dir, len(results), manifest, manifest_path))
     plot_excursions(rows, out_dir / "campaign_excursion")
     plot_breach_bounds(rows, out_dir / "campaign_breach_bounds")
+    if contingency:
+        predictive = [dict(r, condition=condition(r)) for r in rows if r.get("variant") == "predictive"]
+        plot_containment(predictive, contingency, out_dir / CONTAINMENT_FIGURE[0])
     flights = out_dir / FLIGHTS_CSV
     with replacing(flights, newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=FLIGHT_COLUMNS)
         writer.writeheader()
         writer.writerows(flight_summaries(rows))
-    return replace_text(out_dir / REPORT_MD, "\n".join(campaign_report_lines(rows, manifest)))
+    return replace_text(out_dir / REPORT_MD, "\n".join(campaign_report_lines(rows, manifest, contingency)))

@@ -751,7 +751,16 @@ def test_ci_slice_has_no_predictive_breach(tmp_path):
     outcome = run_batch(specs, tmp_path, jobs=2, progress=False)
     wall = time.perf_counter() - t0
     write_results_csv(collect_results(tmp_path), tmp_path / "results.csv")
-    report = write_campaign_report(tmp_path, CI_SLICE / "campaign.json")
+    from aircraft.profile import load_profile
+    from analysis.containment import ContingencyInputs
+
+    envs = {p: load_profile(p).envelope for p in load_manifest(CI_SLICE / "campaign.json")["platforms"]}
+    inputs = {p: ContingencyInputs(e.kind, e.max_speed_mps, e.reaction_time_s, e.max_bank_rad) for p, e in envs.items()}
+    report = write_campaign_report(tmp_path, CI_SLICE / "campaign.json", contingency=inputs)
+    text = report.read_text()
+    assert "## Containment (predictive)" in text and (tmp_path / "campaign_containment.png").is_file()
+    nominal = next(ln for ln in text.splitlines() if ln.startswith("| nominal |") and "(0." in ln)
+    assert nominal.split(" | ")[4].startswith("0,"), nominal  # no predictive flight left its contingency volume
     rows = campaign_rows(read_results_csv(tmp_path / "results.csv"), load_manifest(CI_SLICE / "campaign.json"), tmp_path)
     print(f"CI slice: {len(specs)} flights in {wall:.1f} s wall; report {report}")
     assert not outcome.failed, f"flights failed: {outcome.failed}"

@@ -740,8 +740,22 @@ def _cmd_campaign(args) -> int:
         if not path.is_file():
             print(f"error: {path}: missing ({what})", file=sys.stderr)
             return EXIT_BAD_INPUT
-    print(f"wrote {write_campaign_report(args.results, manifest)}")
+    print(f"wrote {write_campaign_report(args.results, manifest, contingency=_contingency_inputs())}")
     return 0
+
+
+def _contingency_inputs() -> dict:
+    """Each shipped profile's figures for the report's contingency volume (top speed, reaction time, bank/tilt)."""
+    from aircraft.profile import available_profiles, load_profile
+    from analysis.containment import ContingencyInputs
+    from geofence.interface import PlatformKind
+
+    out = {}
+    for name in available_profiles():
+        env = load_profile(name).envelope
+        limit = env.max_bank_rad if env.kind is PlatformKind.FIXED_WING else min(env.max_bank_rad, env.max_pitch_rad)
+        out[name] = ContingencyInputs(env.kind, env.max_speed_mps, env.reaction_time_s, limit)
+    return out
 
 
 def _cmd_validate(args) -> int:
