@@ -284,6 +284,13 @@ def build_parser() -> argparse.ArgumentParser:
         " fences, thousands of vertices and hundreds of buildings, slower to fly; random: random polygons of 5-40"
         " vertices, often with keep-outs in the way back)",
     )
+    gen.add_argument(
+        "--faults",
+        action="store_true",
+        help="every case carries one single failure (GNSS loss/degradation/walk-off, baro drift, pitot, compass, "
+        "the flight controller ignoring or freezing the override, fixed-wing propulsion loss) in the override, "
+        "at the approach or in the recovery, instead of the GPS faults some cases draw; the same cases otherwise",
+    )
     rep = camp_sub.add_parser(
         "report",
         help="write campaign_report.md from a flown campaign",
@@ -726,8 +733,9 @@ def _cmd_campaign(args) -> int:
                 return EXIT_BAD_INPUT
             families = [known[f] for f in names]
         paths = generate_campaign(
-            args.out, args.cases, args.seed, platforms=platforms, families=families, max_duration_s=args.max_duration_s
-        )
+            args.out, args.cases, args.seed, platforms=platforms, families=families,
+            max_duration_s=args.max_duration_s, faults=args.faults,
+        )  # fmt: skip
         print(
             f"wrote {len(paths)} scenario files and {args.out / 'campaign.json'}; fly them with: "
             f"geofence-testbed batch {args.out} --out RESULTS"

@@ -1311,6 +1311,43 @@ def _gps_fault(rng: np.random.Generator) -> dict | None:
     }
 
 
+FAULT_STREAM = 0xFA17
+"""The fault draws' own generator, ``default_rng([case_seed, FAULT_STREAM])``: a campaign with ``faults`` has the
+same cases as one without, each with one failure added."""
+FAULT_MOMENTS = ("in the override", "at the approach", "in the recovery")
+"""When a drawn fault starts: 0-1.5 s after the unit's first activation (it is overriding), 3 s before to 1 s after
+the planned approach, or 2-8 s after the first activation (recovering, handing back, landing)."""
+
+
+def draw_fault(rng: np.random.Generator, multirotor: bool, approach_s: float, duration_s: float) -> dict:
+    """One single failure as a ``faults:`` item: a kind that applies to the platform, at one of the
+    :data:`FAULT_MOMENTS`, with its parameters in the ranges of issue 38's trials (a 1-2 Hz receiver 0.3-0.6 s late
+    with a 3-5 m bias; a 0.2-1 m/s walk-off; 3-10 m of barometer drift; a 10-45 deg compass error)."""
+    from scenarios.definition.faults import FIXED_WING_ONLY, FaultKind
+
+    kinds = [k for k in FaultKind if not (multirotor and k in FIXED_WING_ONLY)]
+    kind = kinds[int(rng.integers(len(kinds)))]
+    moment = FAULT_MOMENTS[int(rng.integers(len(FAULT_MOMENTS)))]
+    f: dict[str, Any] = {"kind": kind.value}
+    if moment == "at the approach":
+        f["at_s"] = _r(min(max(1.0, approach_s + rng.uniform(-3.0, 1.0)), duration_s - 3.0), 1)
+    else:
+        f["at_first_activation"] = True
+        f["delay_s"] = _r(rng.uniform(0.0, 1.5) if moment == "in the override" else rng.uniform(2.0, 8.0), 2)
+    sign = 1.0 if rng.random() < 0.5 else -1.0
+    if kind is FaultKind.GNSS_DEGRADED:
+        f.update(
+            rate_hz=_r(rng.uniform(1.0, 2.0), 2), latency_s=_r(rng.uniform(0.3, 0.6), 2), bias_m=_r(rng.uniform(3.0, 5.0), 2)
+        )
+    elif kind is FaultKind.GNSS_WALKOFF:
+        f.update(drift_mps=_r(rng.uniform(0.2, 1.0), 2), direction_deg=_r(rng.uniform(0.0, 360.0), 1))
+    elif kind is FaultKind.BARO_DRIFT:
+        f["drift_m"] = _r(sign * rng.uniform(3.0, 10.0), 2)
+    elif kind is FaultKind.COMPASS_ERROR:
+        f["error_deg"] = _r(sign * rng.uniform(10.0, 45.0), 1)
+    return f
+
+
 # --------------------------------------------------------------------------- one case
 @dataclass(frozen=True)
 class Case:
@@ -1324,12 +1361,19 @@ class Case:
 
 
 def build_case(
-    index: int, seed: int, family: CaseFamily, platforms: Sequence[str], max_duration_s: float = DEFAULT_MAX_DURATION_S
+    index: int,
+    seed: int,
+    family: CaseFamily,
+    platforms: Sequence[str],
+    max_duration_s: float = DEFAULT_MAX_DURATION_S,
+    faults: bool = False,
 ) -> Case | None:
-    """Case ``index`` of a campaign (reproducible from ``(seed, index)``); None when no platform fits."""
+    """Case ``index`` of a campaign (reproducible from ``(seed, index)``); None when no platform fits. With
+    ``faults``, one single failure (:func:`draw_fault`) in place of a GPS fault, the other draws unchanged."""
     rng = np.random.default_rng([int(seed), int(index)])
     site = draw_site(rng)
     gps = _gps_fault(rng)
+    gps = None if faults else gps  # (drawn all the same: the case's later draws stay as they were)
     order = [platforms[int(i)] for i in rng.permutation(len(platforms))]
     case_seed = int(rng.integers(0, 2**31 - 1))
     for platform in order:
@@ -1347,7 +1391,7 @@ def build_case(
             continue
         if not legal_start(ctx, draft, plan):
             continue  # the geofence would have to act at t = 0: not a fair case for this platform
-        return _assemble(index, family, attack, ctx, draft, plan, wind, case_seed, sub)
+        return _assemble(index, family, attack, ctx, draft, plan, wind, case_seed, sub, faults)
     return None
 
 
@@ -1397,6 +1441,7 @@ def _assemble(
     wind: dict,
     case_seed: int,
     rng: np.random.Generator,
+    faults: bool = False,
 ) -> Case:
     frame = ctx.frame
     case_id = f"{family.value}-{index:04d}"
@@ -1451,12 +1496,19 @@ def _assemble(
         forecast["turbulence_sigma_mps"] = _r(authority["turbulence_sigma_mps"] * told.uniform(0.8, 1.2))
     if wind.get("gusts"):
         forecast["gust_mps"] = _r(max(g["amplitude_mps"] for g in wind["gusts"]) * told.uniform(0.8, 1.2))
+    single = (
+        draw_fault(np.random.default_rng([case_seed, FAULT_STREAM]), ctx.multirotor, plan.approach_s, duration)
+        if faults
+        else None
+    )
     documents = {}
     for variant in Variant:
         d = dict(doc)
         d["name"] = f"{case_id}__{variant.value}"
         if variant is not Variant.UNPROTECTED:
             d["geofence"] = {"fence": fence, "trigger": variant.value, "wind_prior": forecast}
+        if single is not None and (variant is not Variant.UNPROTECTED or "at_s" in single):
+            d["faults"] = [single]  # (the unprotected twin has no unit to time a fault from its activation)
         documents[variant] = d
     local = draft.local(frame)
     manifest = {
@@ -1474,6 +1526,7 @@ def _assemble(
         "design_wind_mps": round(ctx.design_wind_mps, 2),
         **authority,
         "gps_fault": fault,
+        **({"faults": [single]} if single is not None else {}),
         "room_m": round(ctx.room_m, 1),
         "worst_case_shift_m": round(ctx.shift_m, 1),
         "inradius_m": round(local.inradius()[2], 1),
@@ -1528,6 +1581,7 @@ def generate_cases(
     platforms: Sequence[str] | None = None,
     families: Sequence[CaseFamily] | None = None,
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
+    faults: bool = False,
 ) -> list[Case]:
     """The cases of a campaign, in memory (see :func:`generate_campaign`)."""
     if n_cases < 0:
@@ -1545,7 +1599,7 @@ def generate_cases(
     cases = []
     for i in range(n_cases):
         family = case_family(i, families)
-        case = build_case(i, seed, family, platforms, max_duration_s)
+        case = build_case(i, seed, family, platforms, max_duration_s, faults)
         if case is not None:
             cases.append(case)
     return cases
@@ -1559,6 +1613,7 @@ def generate_campaign(
     platforms: Sequence[str] | None = None,
     families: Sequence[CaseFamily] | None = None,
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
+    faults: bool = False,
 ) -> list[Path]:
     """Write ``n_cases`` cases x 3 variants of scenario YAML and ``campaign.json`` into ``out_dir``.
 
@@ -1567,13 +1622,14 @@ def generate_campaign(
     arguments always write the same files, and case ``i`` does not depend on
     ``n_cases``. ``platforms`` defaults to :data:`DEFAULT_PLATFORMS`; a case whose
     fence fits none of them is left out (the manifest counts it). Flights last
-    at most ``max_duration_s`` of simulated time. Returns the YAML paths written.
+    at most ``max_duration_s`` of simulated time. With ``faults`` every case carries one single failure
+    (:func:`draw_fault`) instead of the GPS faults some draw. Returns the YAML paths written.
     """
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
         raise ConfigError(f"seed: must be an integer in [0, 2^63) (numpy seeds are non-negative), got {seed!r}")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    cases = generate_cases(n_cases, seed, platforms=platforms, families=families, max_duration_s=max_duration_s)
+    cases = generate_cases(n_cases, seed, platforms=platforms, families=families, max_duration_s=max_duration_s, faults=faults)
     written = []
     for case in cases:
         for variant, doc in case.documents.items():
@@ -1595,6 +1651,7 @@ def generate_campaign(
         "platforms": list(platforms) if platforms is not None else list(DEFAULT_PLATFORMS),
         "families": [f.value for f in (families or DEFAULT_FAMILIES)],
         "variants": [v.value for v in Variant],
+        **({"faults": "one single failure per case"} if faults else {}),
         "cases": [c.manifest for c in cases],
     }
     (out_dir / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n")
