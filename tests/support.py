@@ -471,3 +471,12 @@ def fly_doc(doc: dict, name: str = "fault_case"):
     from scenarios.flight.runner import fly as fly_scenario
 
     return fly_scenario(parse_scenario(doc, f"{name}.yaml"))
+
+
+def only_summary(out: Path) -> dict:
+    """The ``summary.json`` of the one flight folder a ``run --out OUT`` of a single scenario wrote."""
+    import json
+
+    found = sorted(out.glob("*/summary.json"))
+    assert len(found) == 1, f"expected one flight folder in {out}, found {len(found)}"
+    return json.loads(found[0].read_text())
