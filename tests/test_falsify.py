@@ -18,7 +18,7 @@ PLATFORMS = ("F450", "F450RD", "Tern", "J3Cub")
 MARGIN_TOLERANCE_M = 0.05
 
 
-@settings(max_examples=120, deadline=None)
+@settings(max_examples=50, deadline=None)
 @given(
     x=st.lists(st.floats(0.0, 1.0), min_size=DIMENSION, max_size=DIMENSION),
     platform=st.sampled_from(PLATFORMS),
@@ -52,6 +52,7 @@ def test_the_mapping_is_deterministic_and_moves_with_its_parameters():
         (["--budget", "10000000"], "--budget: must be 1..100000 flights, got 10000000"),
         (["--jobs", "0"], "--jobs: must be >= 1, got 0"),
         (["--platform", "Wright_Flyer"], "no platform profile for aircraft 'Wright_Flyer'"),
+        (["--executor", "dask"], "--executor dask: give the cluster with --scheduler ADDRESS"),
     ],
 )
 def test_bad_arguments_are_refused_in_one_line(tmp_path, capsys, args, expected):

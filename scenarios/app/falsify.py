@@ -62,7 +62,7 @@ def check_args(args) -> None:
     """Refuse bad arguments in one line (:class:`~geofence.validation.ConfigError`, exit 2), before anything flies."""
     from aircraft.profile import load_profile
     from geofence.validation import ConfigError
-    from scenarios.app.cli import check_output_dir
+    from scenarios.app.cli import check_output_dir, check_scheduler_address
 
     if not 1 <= args.budget <= MAX_BUDGET:
         raise ConfigError(f"--budget: must be 1..{MAX_BUDGET} flights, got {args.budget}")
@@ -74,6 +74,10 @@ def check_args(args) -> None:
         raise ConfigError(f"--max-duration-s: must be 10..3600 s, got {args.max_duration_s:g}")
     if not 0 <= args.seed < 2**31:
         raise ConfigError(f"--seed: must be 0..{2**31 - 1}, got {args.seed}")
+    if args.executor == "dask" and args.scheduler is None:
+        raise ConfigError("--executor dask: give the cluster with --scheduler ADDRESS (e.g. tcp://127.0.0.1:8786)")
+    if args.scheduler is not None:
+        check_scheduler_address(args.scheduler)
     load_profile(args.platform)  # an unknown aircraft is one line
     check_output_dir(args.out, "--out")
 
