@@ -245,6 +245,7 @@ def worst_yaml(e: dict[str, Any], search: Search) -> str:
     import yaml
 
     doc = dict(e["document"])
+    doc["name"] = f"falsify-{search.platform}-{search.variant}-s{search.seed}-{e['flight']}"  # unique beside other runs' cases
     doc["description"] = f"{doc['description']}; falsify: min margin {e['margin_m']:+.2f} m"
     header = (
         f"# found by geofence-testbed falsify --platform {search.platform} --variant {search.variant} "
