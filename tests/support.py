@@ -507,3 +507,12 @@ def edge_run_doc(aircraft: str, faults: list | None, *, agl_m: float, edge_m: fl
         else {"duration_s": duration_s, "course_deg": 0, "speed": "max", "climb": "hold"}
     )
     return fault_scenario_doc(aircraft, faults, duration_s=duration_s, half_m=edge_m, agl_m=agl_m, segments=[seg])
+
+
+def only_summary(out: Path) -> dict:
+    """The ``summary.json`` of the one flight folder a ``run --out OUT`` of a single scenario wrote."""
+    import json
+
+    found = sorted(out.glob("*/summary.json"))
+    assert len(found) == 1, f"expected one flight folder in {out}, found {len(found)}"
+    return json.loads(found[0].read_text())

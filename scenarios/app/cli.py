@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from analysis.formats.replace import replace_text
-from scenarios.app import characterize
+from scenarios.app import characterize, falsify
 
 EXIT_BAD_INPUT = 2
 EXIT_FLIGHT_FAILED = 1
@@ -313,6 +313,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="List aircraft that have a platform profile, and the example scenarios shipped with the testbed.",
     )
     characterize.register(sub)
+    falsify.register(sub)
     return parser
 
 
