@@ -175,9 +175,9 @@ def plot_containment(rows: Sequence[Mapping], inputs: Mapping[str, ContingencyIn
     for i, n in enumerate(names):
         x = np.clip(np.asarray(by[n]), -3.0, None)
         ax.scatter(x, i + rng.uniform(-0.18, 0.18, len(x)), s=12, alpha=0.6, edgecolors="none", color="tab:blue")
-    for x, label, colour in ((0.0, "fence", "tab:orange"), (1.0, "contingency volume", "tab:red")):
+    for x, label, colour, ha in ((0.0, "fence ", "tab:orange", "right"), (1.0, " contingency volume", "tab:red", "left")):
         ax.axvline(x, color=colour, lw=1.2, ls="--")
-        ax.text(x, 1.01, label, color=colour, va="bottom", ha="center", transform=ax.get_xaxis_transform())
+        ax.text(x, 1.01, label, color=colour, va="bottom", ha=ha, transform=ax.get_xaxis_transform())
     ax.set_yticks(range(len(names)))
     ax.set_yticklabels([f"{n} ({len(by[n])})" for n in names])
     ax.set_ylim(-0.6, len(names) - 0.4)
