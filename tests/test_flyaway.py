@@ -272,3 +272,18 @@ def test_a_fast_fixed_wing_flyaway_is_terminated_before_its_footprint_leaves():
     s = res.summary
     assert "before it leaves" in s["termination_reason"] and s["terminated_at_s"] > s["termination"]["noncompliant_at_s"]
     assert s["termination"]["footprint_margin_m"] >= 0.0 and s["max_excursion_m"] <= 0.0
+
+
+@pytest.mark.closed_loop
+@pytest.mark.parametrize("index", [222, 145])
+def test_a_terminated_multirotor_ends_at_its_impact_without_diverging(index):
+    """A motors-off fall strikes the ground at 20+ m/s: the flight ends there (completed, its touchdown recorded),
+    not in the model's gear bouncing it back up and diverging: two cases of the first fault campaign (seed
+    20261125, a Micro250 whose flight controller froze), which diverged before."""
+    from scenarios.campaign.generator import DEFAULT_FAMILIES, DEFAULT_PLATFORMS, Variant, build_case, case_family
+
+    case = build_case(index, 20261125, case_family(index, DEFAULT_FAMILIES), DEFAULT_PLATFORMS, 120.0, faults=True)
+    assert case is not None and case.manifest["faults"][0]["kind"] == "fc_freezes"
+    s = fly_doc(case.documents[Variant.PREDICTIVE], case.case_id).summary
+    assert s["completed"] and s.get("incomplete_reason") is None, s.get("incomplete_reason")
+    assert s["terminated_at_s"] is not None and s["touchdown_en_m"] is not None

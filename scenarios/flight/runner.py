@@ -92,6 +92,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     monitor, recovered, land_in_gap = Mode.MONITOR, Mode.RECOVERED, Mode.LAND_IN_GAP
     overriding, terminate = Mode.OVERRIDE, Mode.TERMINATE
     terminated: float | None = None  # when the runner cut the propulsion (Platform.terminate)
+    struck = False  # the terminated vehicle struck the ground (the flight ended there)
     step = 0
     # faster than this is a numerical blow-up (e.g. a ground-contact explosion), not flight
     diverged_above_mps = 5.0 * env.max_speed_mps + 50.0
@@ -153,7 +154,11 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                 # are (the landing's own low termination over a gap spirals down on the sticks, as before)
                 platform.terminate()
                 terminated = t
-            ended_by_geofence = mode >= land_in_gap and truth.on_ground  # landed in a gap / terminated
+            # landed in a gap / terminated; a terminated vehicle's impact ends the flight at the last step above
+            # the ground (at 20+ m/s the model's gear would bounce it back up and diverge within the next step)
+            impact = terminated is not None and truth.agl_m <= max(IMPACT_AGL_M, -truth.v_up_mps * dt_s)
+            struck = struck or impact
+            ended_by_geofence = mode >= land_in_gap and (truth.on_ground or impact)
             if finished_at is None and (pilot.finished or ended_by_geofence):
                 finished_at = t
             if finished_at is not None and t - finished_at >= (0.0 if ended_by_geofence else TAIL_AFTER_FINISH_S):
@@ -187,7 +192,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         summary["final_mode"] = unit.mode.name
         summary["mode_transitions"] = [tr.as_dict() for tr in unit.transitions]
     if unit is not None and fence is not None and terminated is not None:
-        summary.update(termination_summary(unit, fence, terminated, truth_now()))
+        summary.update(termination_summary(unit, fence, terminated, truth_now(), struck))
     if faults is not None:
         summary["faults"] = faults.summary()
     return FlightResult(
@@ -247,17 +252,20 @@ class FlightFaults:
         ]
 
 
-def termination_summary(unit: GeofenceUnit, fence: LocalFence, terminated_s: float, last: Any) -> dict[str, Any]:
+def termination_summary(
+    unit: GeofenceUnit, fence: LocalFence, terminated_s: float, last: Any, struck: bool = False
+) -> dict[str, Any]:
     """A terminated flight's keys: when and why the propulsion was cut (``terminated_at_s``, ``termination_reason``),
     the unit's compliance finding and footprint (``termination``: None for a termination low over a gap), and
     where it came down (``touchdown_en_m``, and ``touchdown_margin_m``: the fence's lateral margin there, below a
-    floor the least of it and the floor gaps' distance; + inside), or None if it had not touched down."""
+    floor the least of it and the floor gaps' distance; + inside), or None if it had not touched down (``struck``:
+    the flight ended at its impact, the last step above the ground)."""
     reason = next((tr.reason for tr in reversed(unit.transitions) if tr.to_mode is Mode.TERMINATE), None)
     out: dict[str, Any] = {
         "terminated_at_s": round(terminated_s, 3), "termination_reason": reason, "termination": unit.termination,
         "touchdown_en_m": None, "touchdown_margin_m": None,
     }  # fmt: skip
-    if last is not None and last.on_ground:
+    if last is not None and (last.on_ground or struck):
         e, n = last.east_m, last.north_m
         margin = fence.lateral_margin_m(e, n)
         if fence.floor_m is not None:
@@ -265,6 +273,10 @@ def termination_summary(unit: GeofenceUnit, fence: LocalFence, terminated_s: flo
         out["touchdown_en_m"] = [round(e, 2), round(n, 2)]
         out["touchdown_margin_m"] = round(margin, 2)
     return out
+
+
+IMPACT_AGL_M = 0.3
+"""A terminated vehicle this close to the ground (or closer than one step of its descent) has struck it."""
 
 
 @dataclass
