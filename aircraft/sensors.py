@@ -740,6 +740,7 @@ def estimator_config(sensors: SensorConfig, **tuning: Any) -> EstimatorConfig:
     fitted: dict[str, Any] = {}
     if sensors.rangefinder is not None:
         fitted["range_noise_m"] = sensors.rangefinder.noise_m
+        fitted["range_noise_fraction"] = sensors.rangefinder.noise_fraction
     if sensors.optical_flow is not None:
         f = sensors.optical_flow
         fitted["flow_noise_radps"] = 0.5 * (f.noise_min_radps + f.noise_max_radps)

@@ -111,7 +111,9 @@ class EstimatorConfig:
     baro_drift_tau_s: float = 300.0
     timeout_s: float = 1.0
     range_noise_m: float = 0.05
-    """A downward rangefinder's noise (its slant range), m (used only when one gives readings)."""
+    """A downward rangefinder's noise floor (its slant range), m (used only when one gives readings)."""
+    range_noise_fraction: float = 0.01
+    """... and its noise as a fraction of the range, where that is larger."""
     flow_noise_radps: float = 0.3
     """An optical-flow sensor's angular-flow noise, rad/s: its velocity noise is this times the height."""
     baro_referenced: bool = True
@@ -160,7 +162,7 @@ EST_CONST = _float_record(
     "h0_m", "deg_per_m_n", "deg_per_m_e", "inv_2r_per_m", "lat0_deg", "lon0_deg", "timeout_s",
     "q_jerk_h", "q_wander_h", "q_accel_v", "baro_primary", "q_baro",
     "r_p", "r_v", "r_pu", "r_vu", "r_baro", "var_bias_h", "var_bias_v", "var_baro_drift",
-    "r_range", "flow_noise_radps",
+    "range_noise_m", "range_noise_fraction", "flow_noise_radps",
     ("enu_table", 12),
 )  # fmt: skip
 """The estimator's constants from its frame and :class:`EstimatorConfig` (:func:`estimator_constants`)."""
@@ -197,7 +199,11 @@ def estimator_constants(K: np.ndarray, frame: LocalFrame, cfg: EstimatorConfig) 
     c.r_vu, c.r_baro = cfg.gps_vel_v_mps**2, cfg.baro_noise_m**2
     c.var_bias_h, c.var_baro_drift = cfg.gps_h_bias_m**2, cfg.baro_drift_m**2
     c.var_bias_v = 0.0 if baro_primary else cfg.gps_v_bias_m**2
-    c.r_range, c.flow_noise_radps = cfg.range_noise_m**2, cfg.flow_noise_radps
+    c.range_noise_m, c.range_noise_fraction, c.flow_noise_radps = (
+        cfg.range_noise_m,
+        cfg.range_noise_fraction,
+        cfg.flow_noise_radps,
+    )
     c.enu_table = frame.enu_table
 
 
@@ -253,7 +259,8 @@ def update_range(x: Any, c: Any, range_m: float) -> None:
         return
     level = math.cos(x.roll_rad) * math.cos(x.pitch_rad)
     curv = (x.east_m * x.east_m + x.north_m * x.north_m) * c.inv_2r_per_m
-    v_update(x, 1.0, 0.0, 0.0, range_m * level - curv, c.r_range)
+    sigma = max(c.range_noise_m, c.range_noise_fraction * range_m)
+    v_update(x, 1.0, 0.0, 0.0, range_m * level - curv, sigma * sigma)
 
 
 @jitable
