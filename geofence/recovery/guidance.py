@@ -105,6 +105,9 @@ FLARE_PAUSE_BELOW_M = 1.5
 stops descending until it has braked (a moving touchdown tips over)."""
 FLARE_MAX_GROUND_SPEED_MPS = 0.4
 """The fastest a flared landing touches down over the ground (m/s)."""
+FLARE_PAUSE_MAX_S = 10.0
+"""The longest a flared landing pauses for its ground speed (s): in gusts it may never brake below
+:data:`FLARE_MAX_GROUND_SPEED_MPS`, and hovering a metre up does not end the exposure."""
 
 
 @dataclass(frozen=True)
@@ -640,6 +643,8 @@ class LandingGuidance:
         self.turned_rad = 0.0
         self._last_yaw: float | None = None
         self.orbit_clockwise = True
+        self.paused_s = 0.0
+        """How long a flared landing has paused for its ground speed (s)."""
 
     def start(
         self,
@@ -670,6 +675,7 @@ class LandingGuidance:
         # turn at once, and a fast fixed-wing flies a turn diameter downwind doing it, far enough to leave the
         # fence (case history: docs/campaigns.md#breach-classes-found-and-fixed). With no first turn: clockwise.
         self.orbit_clockwise = turn_sign <= 0
+        self.paused_s = 0.0
         if self.velocity:
             self.velocity.reset()
 
@@ -748,7 +754,8 @@ class LandingGuidance:
         """A multirotor's landing flared on its measured height: toward the point at the velocity ``(ve, vn)``,
         holding (horizontal velocity nulled on the estimate: the fix's or the optical flow's) below
         :data:`FLARE_HOLD_BELOW_M` over it, descending at :meth:`flare_rate_mps` while ``over``, and pausing
-        below :data:`FLARE_PAUSE_BELOW_M` while faster than :data:`FLARE_MAX_GROUND_SPEED_MPS` over the ground."""
+        below :data:`FLARE_PAUSE_BELOW_M` while faster than :data:`FLARE_MAX_GROUND_SPEED_MPS` over the ground (for
+        :data:`FLARE_PAUSE_MAX_S` at most)."""
         env, velocity = self.env, self.velocity
         assert velocity is not None
         agl = s.agl_m
@@ -757,8 +764,12 @@ class LandingGuidance:
         roll, pitch = velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve, vn, s.yaw_rad, dt_s)
         if not over:
             climb = altitude_to_climb_rate(self.cruise_h, h, env, ALTITUDE_GAIN_PER_S)
-        elif agl < FLARE_PAUSE_BELOW_M and s.ground_speed_mps > FLARE_MAX_GROUND_SPEED_MPS:
+        elif (
+            agl < FLARE_PAUSE_BELOW_M and s.ground_speed_mps > FLARE_MAX_GROUND_SPEED_MPS
+            and self.paused_s < FLARE_PAUSE_MAX_S
+        ):  # fmt: skip
             climb = 0.0
+            self.paused_s += dt_s
         else:
             climb = -self.flare_rate_mps(agl)
         return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=climb_rate_to_stick(climb, env))
