@@ -498,16 +498,21 @@ def sample_flow_range(
     return suite.range_flow()
 
 
-def gnss_loss_landing(aircraft: str, fitted: bool, wind_mps: float = 0.0, toward_edge: bool = False, seed: int = 3) -> dict:
+def gnss_loss_landing(
+    aircraft: str, fitted: bool, wind_mps: float = 0.0, toward_edge: bool = False, seed: int = 3, baro_high_m: float = 0.0
+) -> dict:  # fmt: skip
     """The summary of a multirotor landing after its GNSS is lost: hovering 20 m up in the middle of a 260 m square
     (lost at 3 s), or ``toward_edge`` flying at an edge of a 240 m square 25 m up (lost 0.5 s into the override);
-    ``fitted``: with a rangefinder and optical flow (their defaults). In a light-turbulence wind from 200 deg."""
+    ``fitted``: with a rangefinder and optical flow (their defaults); ``baro_high_m``: the barometer reads that much
+    high from the loss on (a ``baro_drift`` fault). In a light-turbulence wind from 200 deg."""
     if toward_edge:
         faults = [{"kind": "gnss_loss", "at_first_activation": True, "delay_s": 0.5}]
         forward = [{"duration_s": 45.0, "sticks": {"roll": 0.0, "pitch": -0.6, "yaw": 0.0, "throttle": 0.0}}]
         doc = fault_scenario_doc(aircraft, faults, duration_s=45.0, half_m=120.0, agl_m=25.0, segments=forward, seed=seed)
     else:
         faults = [{"kind": "gnss_loss", "at_s": 3.0}]
+        if baro_high_m:
+            faults.append({"kind": "baro_drift", "at_s": 3.0, "drift_m": baro_high_m})
         doc = fault_scenario_doc(aircraft, faults, duration_s=40.0, half_m=130.0, agl_m=20.0, seed=seed)
     if fitted:
         doc["sensors"] = {"rangefinder": {}, "optical_flow": {}}

@@ -171,3 +171,11 @@ def test_gnss_lost_in_an_override_near_an_edge_lands_softly_inside():
     assert fitted["touchdown_vertical_mps"] <= 1.0 and fitted["touchdown_horizontal_mps"] <= 0.5, fitted
     bare = gnss_loss_landing("F450", fitted=False, wind_mps=6.0, toward_edge=True)
     assert bare["touchdown_horizontal_mps"] > fitted["touchdown_horizontal_mps"] + 0.5, bare
+
+
+@pytest.mark.closed_loop
+def test_a_barometer_reading_high_no_longer_lands_at_the_full_rate():
+    bare = gnss_loss_landing("F450", fitted=False, wind_mps=6.0, baro_high_m=6.0)  # below 5 m it thinks it is at 11
+    assert bare["touchdown_vertical_mps"] > 1.5, bare
+    fitted = gnss_loss_landing("F450", fitted=True, wind_mps=6.0, baro_high_m=6.0)
+    assert fitted["touchdown_vertical_mps"] <= 1.0 and fitted["touchdown_horizontal_mps"] <= 0.5, fitted
