@@ -45,6 +45,17 @@ scenario's optional ``sensors:`` block, see :func:`parse_sensors`):
   sensor at cruise speeds); ``None`` for platforms without a pitot. Users
   that need TAS convert back with their own altitude estimate (the wind
   estimator does).
+* **Downward rangefinder** (optional, ``rangefinder:``; off by default): the slant range to the flat ground
+  (the scenario's ``ground_alt_m``) along the body's down axis, ``agl / (cos roll cos pitch)``, plus white noise
+  ``max(noise_m, noise_fraction * range)`` (Benewake TFmini: 0.3-12 m, +-4 cm to 6 m and 1 % beyond, 100 Hz);
+  no reading (NaN) outside ``[min_range_m, max_range_m]`` or tilted beyond ``max_tilt_deg`` (PX4 EKF2 accepts a
+  range up to 45 deg of tilt). Sampled at ``rate_hz``; NaN on the steps without a new sample.
+* **Optical flow** (optional, ``optical_flow:``; off by default; PX4Flow class): the body-frame ground velocity
+  (forward, right) as the angular flow (velocity / height) plus white noise, times the *measured* range (so range
+  errors scale it). Its angular noise falls from ``noise_max_radps`` at no quality to ``noise_min_radps`` at full
+  quality (PX4 EKF2_OF_N_MAX 0.5 / EKF2_OF_N_MIN 0.15 rad/s), so the velocity noise grows with height; the quality
+  is ``light_level`` x 1 below ``full_quality_below_m`` falling linearly to 0 at ``zero_quality_at_m``. No
+  reading without a valid range or under ``min_quality``.
 * **AHRS attitude**: Gauss-Markov errors, 0.5 deg roll/pitch and 2 deg yaw
   sigma with tau = 5 s (VectorNav VN-100-class figures: 0.5 deg pitch/roll and
   2 deg magnetic heading, dynamic; cheaper MEMS AHRS are worse). A tau of 0
@@ -74,7 +85,7 @@ from typing import Any
 import numpy as np
 
 from geofence.estimation.estimator import FIX_SIZE, GPS_FIX, EstimatorConfig
-from geofence.estimation.measurements import AirData, AttitudeSample, GpsFix
+from geofence.estimation.measurements import AirData, AttitudeSample, GpsFix, RangeFlowSample
 from geofence.geometry.geodesy import radii_of_curvature_m
 from geofence.interface import VehicleState
 from geofence.jit import compiled, jitable
@@ -84,8 +95,8 @@ from geofence.validation import ConfigError, integer, kind, number, reject_unkno
 _TWO_PI = 2.0 * math.pi
 _EPS_S = 1e-9
 
-GPS_STREAM, BARO_STREAM, PITOT_STREAM, AHRS_STREAM = range(4)
-SENSOR_STREAMS = (GPS_STREAM, BARO_STREAM, PITOT_STREAM, AHRS_STREAM)
+GPS_STREAM, BARO_STREAM, PITOT_STREAM, AHRS_STREAM, RANGE_STREAM, FLOW_STREAM = range(6)
+SENSOR_STREAMS = (GPS_STREAM, BARO_STREAM, PITOT_STREAM, AHRS_STREAM, RANGE_STREAM, FLOW_STREAM)
 """The independent noise streams, one per sensor: the spawn key of each stream's seed sequence."""
 NORMAL_BLOCK = 4096
 """Normals drawn from a stream at a time."""
@@ -96,6 +107,32 @@ MAX_DRAWS_PER_STEP = 32
 def stream_generator(seed: int, stream: int) -> np.random.Generator:
     """The random generator of one sensor's noise stream for a flight's ``seed``."""
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(stream,)))
+
+
+@dataclass(frozen=True)
+class RangefinderConfig:
+    """A downward rangefinder (Benewake TFmini-class lidar by default; see the module docstring and
+    docs/validation.md "Optical flow and rangefinder")."""
+
+    min_range_m: float = 0.3
+    max_range_m: float = 12.0
+    noise_m: float = 0.04
+    noise_fraction: float = 0.01
+    rate_hz: float = 100.0
+    max_tilt_deg: float = 45.0
+
+
+@dataclass(frozen=True)
+class OpticalFlowConfig:
+    """A downward optical-flow velocity sensor (PX4Flow class; needs a valid range to scale its flow)."""
+
+    rate_hz: float = 100.0
+    noise_min_radps: float = 0.15
+    noise_max_radps: float = 0.5
+    full_quality_below_m: float = 3.0
+    zero_quality_at_m: float = 20.0
+    light_level: float = 1.0
+    min_quality: float = 0.2
 
 
 @dataclass(frozen=True)
@@ -124,6 +161,8 @@ class SensorConfig:
     ahrs_roll_pitch_deg: float = 0.5
     ahrs_yaw_deg: float = 2.0
     ahrs_tau_s: float = 5.0
+    rangefinder: RangefinderConfig | None = None
+    optical_flow: OpticalFlowConfig | None = None
     seed: int | None = None
 
     @property
@@ -158,6 +197,8 @@ SENSOR_STATE = _float_record(
     "ring_head", "ring_count",  # the pending messages' ring: its oldest row and how many
     "gps_bias_e_m", "gps_bias_n_m", "gps_bias_u_m", "baro_drift_m",  # the Gauss-Markov errors
     "ahrs_roll_err_rad", "ahrs_pitch_err_rad", "ahrs_yaw_err_rad",
+    "rng_next_s", "range_m",  # the rangefinder: its next sample's time; this step's slant range (NaN: none)
+    "flow_next_s", "flow_fwd_mps", "flow_right_mps", "flow_quality",  # the flow sensor: this step's (NaN: none)
 )  # fmt: skip
 """The sensors' state, a record over float memory (every field float64: a flag is 0 or 1, a count a whole number)."""
 
@@ -167,6 +208,9 @@ SENSOR_CONST = _float_record(
     "h_acc_m", "v_acc_m", "n_faults",  # n_faults: rows of the fault table (outages and failure included)
     "gps_h_bias_m", "gps_v_bias_m", "gps_bias_tau_s", "baro_drift_sigma_m", "baro_drift_tau_s",
     "ahrs_roll_pitch_rad", "ahrs_yaw_rad", "ahrs_tau_s",
+    "ground_m", "has_range", "rng_period_s", "rng_min_m", "rng_max_m", "rng_noise_m", "rng_noise_frac", "rng_cos_tilt",
+    "has_flow", "flow_period_s", "flow_n_min", "flow_n_max", "flow_q_full_m", "flow_q_zero_m", "flow_light",
+    "flow_q_min",
 )  # fmt: skip
 """The sensors' constants from their :class:`SensorConfig` (SI, angles in rad)."""
 
@@ -269,6 +313,7 @@ def sensors_step(
         s.ahrs_roll_err_rad = gauss_markov(s.ahrs_roll_err_rad, rp, tau, dt, pools, idx, AHRS_STREAM)
         s.ahrs_pitch_err_rad = gauss_markov(s.ahrs_pitch_err_rad, rp, tau, dt, pools, idx, AHRS_STREAM)
         s.ahrs_yaw_err_rad = gauss_markov(s.ahrs_yaw_err_rad, c.ahrs_yaw_rad, tau, dt, pools, idx, AHRS_STREAM)
+    range_and_flow(s, c, pools, idx, t, alt, ve, vn, roll, pitch, yaw)
     low = False
     for k in range(pools.shape[0]):
         if pools.shape[1] - idx[k] < MAX_DRAWS_PER_STEP:
@@ -278,6 +323,38 @@ def sensors_step(
         delivered, airspeed, baro, roll + s.ahrs_roll_err_rad, pitch + s.ahrs_pitch_err_rad,
         (yaw + yaw_err) % _TWO_PI, low,
     )  # fmt: skip
+
+
+@jitable
+def range_and_flow(
+    s: Any, c: Any, pools: np.ndarray, idx: np.ndarray, t: float, alt: float, ve: float, vn: float, roll: float,
+    pitch: float, yaw: float,
+) -> None:  # fmt: skip
+    """This step's rangefinder and optical-flow samples into ``s`` (NaN: none this step, out of range, tilted
+    beyond the cone, or flow without a valid range or quality). Each draws from its own stream only when it
+    samples, so a suite without them draws exactly what it drew before."""
+    s.range_m = s.flow_fwd_mps = s.flow_right_mps = s.flow_quality = math.nan
+    agl = alt - c.ground_m
+    cos_tilt = math.cos(roll) * math.cos(pitch)
+    if c.has_range != 0.0 and t >= s.rng_next_s - _EPS_S:
+        s.rng_next_s = t + c.rng_period_s
+        true_r = agl / cos_tilt if cos_tilt > 1e-6 else math.inf
+        n = draw(pools, idx, RANGE_STREAM)
+        if cos_tilt >= c.rng_cos_tilt and c.rng_min_m <= true_r <= c.rng_max_m:
+            s.range_m = true_r + max(c.rng_noise_m, c.rng_noise_frac * true_r) * n
+    if c.has_flow != 0.0 and t >= s.flow_next_s - _EPS_S:
+        s.flow_next_s = t + c.flow_period_s
+        n_fwd, n_right = draw(pools, idx, FLOW_STREAM), draw(pools, idx, FLOW_STREAM)
+        span = c.flow_q_zero_m - c.flow_q_full_m
+        fall = (agl - c.flow_q_full_m) / span if span > 0.0 else (0.0 if agl <= c.flow_q_full_m else 1.0)
+        q = c.flow_light * min(1.0, max(0.0, 1.0 - fall))
+        if math.isfinite(s.range_m) and q >= c.flow_q_min and agl > 0.0:
+            sigma = c.flow_n_min + (c.flow_n_max - c.flow_n_min) * (1.0 - q)  # angular flow noise, rad/s
+            h_meas = s.range_m * cos_tilt
+            sy, cy = math.sin(yaw), math.cos(yaw)
+            s.flow_fwd_mps = ((ve * sy + vn * cy) / agl + sigma * n_fwd) * h_meas
+            s.flow_right_mps = ((ve * cy - vn * sy) / agl + sigma * n_right) * h_meas
+            s.flow_quality = q
 
 
 @jitable
@@ -486,12 +563,14 @@ class SensorSuite:
     drawn normals per stream, read from :attr:`idx` on), topped up by :meth:`refill`. ``faults``: rows of
     :func:`fault_row` (a scenario's sensor faults, :func:`scenarios.definition.faults.sensor_fault_rows`), after
     ``config``'s outages and failure in :attr:`faults`; those timed from the unit's first activation start at
-    :meth:`trigger_faults`.
+    :meth:`trigger_faults`. ``ground_alt_m``: the flat ground's altitude (the rangefinder's and the flow's).
+    :meth:`range_flow` reads the last step's rangefinder and flow samples.
     """
 
     def __init__(
         self, config: SensorConfig | None = None, *, has_pitot: bool = True, seed: int | None = None,
         prefill: bool = True, memory: np.ndarray | None = None, faults: np.ndarray | None = None,
+        ground_alt_m: float = 0.0,
     ) -> None:  # fmt: skip
         self.config = cfg = config or SensorConfig()
         self.has_pitot = has_pitot
@@ -511,6 +590,9 @@ class SensorSuite:
         memory[:] = 0.0
         self._state = memory[:STATE_SIZE].view(SENSOR_STATE)[0]
         _fill_constants(memory[STATE_SIZE:FIX0].view(SENSOR_CONST)[0], cfg, has_pitot, prefill, len(table))
+        _fill_range_flow(memory[STATE_SIZE:FIX0].view(SENSOR_CONST)[0], cfg, ground_alt_m)
+        self._state.range_m = self._state.flow_fwd_mps = self._state.flow_right_mps = math.nan
+        self._state.flow_quality = math.nan
         self.faults = memory[OUTAGES0 : OUTAGES0 + table.size].reshape(-1, FAULT_COLUMNS)
         """The fault table (:data:`FAULT_COLUMNS` per row), in the suite's memory: the step reads it."""
         self.faults[:] = table
@@ -570,6 +652,14 @@ class SensorSuite:
                 f[F_ONSET] = t_s + f[F_DELAY]
                 f[F_END] = f[F_ONSET] + f[F_DURATION]
 
+    def range_flow(self) -> RangeFlowSample:
+        """The last step's rangefinder and optical-flow samples (NaN: none)."""
+        st = self._state
+        return RangeFlowSample(
+            float(st.t_last_s), float(st.range_m), float(st.flow_fwd_mps), float(st.flow_right_mps),
+            float(st.flow_quality),
+        )  # fmt: skip
+
     # -- introspection (tests, logs) ---------------------------------------------
     @property
     def gps_bias_enu_m(self) -> tuple[float, float, float]:
@@ -590,6 +680,19 @@ def _fill_constants(c: Any, cfg: SensorConfig, has_pitot: bool, prefill: bool, n
     c.baro_drift_sigma_m, c.baro_drift_tau_s = cfg.baro_drift_m, cfg.baro_drift_tau_s
     c.ahrs_roll_pitch_rad, c.ahrs_yaw_rad = math.radians(cfg.ahrs_roll_pitch_deg), math.radians(cfg.ahrs_yaw_deg)
     c.ahrs_tau_s = cfg.ahrs_tau_s
+
+
+def _fill_range_flow(c: Any, cfg: SensorConfig, ground_alt_m: float) -> None:
+    """The rangefinder's and the flow sensor's constants in ``c`` (zeros: not fitted)."""
+    c.ground_m = ground_alt_m
+    r, f = cfg.rangefinder, cfg.optical_flow
+    if r is not None:
+        c.has_range, c.rng_period_s, c.rng_min_m, c.rng_max_m = 1.0, 1.0 / r.rate_hz, r.min_range_m, r.max_range_m
+        c.rng_noise_m, c.rng_noise_frac, c.rng_cos_tilt = r.noise_m, r.noise_fraction, math.cos(math.radians(r.max_tilt_deg))
+    if f is not None:
+        c.has_flow, c.flow_period_s, c.flow_n_min, c.flow_n_max = 1.0, 1.0 / f.rate_hz, f.noise_min_radps, f.noise_max_radps
+        c.flow_q_full_m, c.flow_q_zero_m, c.flow_light = f.full_quality_below_m, f.zero_quality_at_m, f.light_level
+        c.flow_q_min = f.min_quality
 
 
 # --------------------------------------------------------------------------- YAML block
@@ -632,8 +735,44 @@ ESTIMATOR_NOISE_FIELDS: dict[str, str] = {
 
 
 def estimator_config(sensors: SensorConfig, **tuning: Any) -> EstimatorConfig:
-    """The unit's estimator tuned to these sensors: their GNSS and baro noise, plus any other ``tuning``."""
-    return EstimatorConfig(**{est: getattr(sensors, ours) for ours, est in ESTIMATOR_NOISE_FIELDS.items()}, **tuning)
+    """The unit's estimator tuned to these sensors: their GNSS and baro noise (and, where fitted, the
+    rangefinder's and the flow's), plus any other ``tuning``."""
+    fitted: dict[str, Any] = {}
+    if sensors.rangefinder is not None:
+        fitted["range_noise_m"] = sensors.rangefinder.noise_m
+        fitted["range_noise_fraction"] = sensors.rangefinder.noise_fraction
+    if sensors.optical_flow is not None:
+        f = sensors.optical_flow
+        fitted["flow_noise_radps"] = 0.5 * (f.noise_min_radps + f.noise_max_radps)
+    noise: dict[str, Any] = {est: getattr(sensors, ours) for ours, est in ESTIMATOR_NOISE_FIELDS.items()}
+    return EstimatorConfig(**noise, **fitted, **tuning)
+
+
+_NESTED: dict[str, Any] = {"rangefinder": RangefinderConfig, "optical_flow": OpticalFlowConfig}
+_NESTED_POSITIVE = {"rate_hz", "max_range_m", "max_tilt_deg"}
+
+
+def _parse_nested(raw: Any, cls: Any, where: str) -> Any:
+    """A ``rangefinder:`` / ``optical_flow:`` block (``{}`` or ``true``: the defaults) into its config."""
+    if raw is True or raw is None:
+        return cls()
+    require_mapping(raw, where)
+    names = tuple(f.name for f in fields(cls))
+    reject_unknown_keys(raw, names, where)
+    out = {k: number(v, f"{where}.{k}", minimum=0.0, strictly_positive=k in _NESTED_POSITIVE) for k, v in raw.items()}
+    cfg = cls(**out)
+    if isinstance(cfg, RangefinderConfig):
+        if not cfg.max_range_m > cfg.min_range_m:
+            raise ConfigError(f"{where}.max_range_m: must be > min_range_m ({cfg.min_range_m!r}), got {cfg.max_range_m!r}")
+        if cfg.max_tilt_deg >= 90.0:
+            raise ConfigError(f"{where}.max_tilt_deg: must be < 90, got {cfg.max_tilt_deg!r}")
+    else:
+        for k in ("light_level", "min_quality"):
+            if getattr(cfg, k) > 1.0:
+                raise ConfigError(f"{where}.{k}: must be in [0, 1], got {getattr(cfg, k)!r}")
+        if cfg.noise_max_radps < cfg.noise_min_radps:
+            raise ConfigError(f"{where}.noise_max_radps: must be >= noise_min_radps, got {cfg.noise_max_radps!r}")
+    return cfg
 
 
 def parse_sensors(raw: Any, where: str = "sensors") -> SensorConfig:
@@ -647,6 +786,8 @@ def parse_sensors(raw: Any, where: str = "sensors") -> SensorConfig:
           gps_fail_at_s: 40            # the fix is lost for good at t = 40 s
           gps_outages: [[10, 15]]      # ... or lost inside these [start, end) windows
           ahrs_yaw_deg: 3
+          rangefinder: {max_range_m: 12}   # optional downward rangefinder ({} or true: the defaults)
+          optical_flow: {}                 # optional optical flow (needs the rangefinder)
           seed: 11                     # optional; else the scenario seed
 
     Errors are one-line :class:`~geofence.validation.ConfigError` s: ``<where>.<field>: <problem>``; unknown keys are rejected.
@@ -660,6 +801,8 @@ def parse_sensors(raw: Any, where: str = "sensors") -> SensorConfig:
         w = f"{where}.{key}"
         if key == "seed":
             out[key] = None if value is None else integer(value, w, minimum=0)
+        elif key in _NESTED:
+            out[key] = None if value is False else _parse_nested(value, _NESTED[key], w)
         elif key == "gps_outages":
             if not isinstance(value, (list, tuple)):
                 raise ConfigError(f"{w}: expected a list of [start_s, end_s] pairs, got {kind(value)}")
@@ -678,4 +821,6 @@ def parse_sensors(raw: Any, where: str = "sensors") -> SensorConfig:
         else:
             minimum, positive = _FLOAT_FIELDS[key]
             out[key] = number(value, w, minimum=minimum, strictly_positive=positive)
+    if out.get("optical_flow") is not None and out.get("rangefinder") is None:
+        raise ConfigError(f"{where}.optical_flow: needs a rangefinder (the flow is scaled by the measured range)")
     return SensorConfig(**out)

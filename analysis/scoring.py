@@ -30,7 +30,11 @@ of scores, all in SI units:
 * ``ground_speed_at_activation_mps``: ground speed at the first activation;
 * ``approach_angle_at_activation_deg``: angle between the ground velocity and
   the outward normal of the nearest keep-in edge at the first activation
-  (0 = flying straight out, 90 = along the edge, 180 = straight in).
+  (0 = flying straight out, 90 = along the edge, 180 = straight in);
+* ``touchdown_vertical_mps``, ``touchdown_horizontal_mps``: the largest descent rate and ground speed in the
+  :data:`TOUCHDOWN_WINDOW_S` before the final touchdown (:func:`touchdown_index`: the first sample within
+  :data:`TOUCHDOWN_GEAR_TRAVEL_M` of the resting height after the vehicle was last above it by
+  :data:`ON_GROUND_AGL_M`); NaN when the flight does not end on the ground (``agl_m`` < :data:`ON_GROUND_AGL_M`).
 
 The last four are NaN when there was no activation (and
 ``time_to_handback_s`` when no activation was handed back; the angle when the
@@ -56,6 +60,12 @@ MONITOR_MODE = 0
 OVERRIDE_MODE = 1
 RECOVERED_MODE = 2
 ON_GROUND_AGL_M = 0.5
+TOUCHDOWN_WINDOW_S = 0.3
+"""The fraction of a second before the touchdown whose speeds are the touchdown speeds (s)."""
+TOUCHDOWN_GEAR_TRAVEL_M = 0.2
+"""A sample this close above the flight's resting height (its last ``agl_m``) has its gear on the ground (m): a
+landing gear compresses by up to about this much between its first contact and rest (an F450's legs in JSBSim:
+first contact at 0.29 m, at rest 0.15 m; after the contact the motors are cut and the body settles onto them)."""
 
 SCORE_KEYS = (
     "max_excursion_m",
@@ -70,6 +80,8 @@ SCORE_KEYS = (
     "time_to_handback_s",
     "ground_speed_at_activation_mps",
     "approach_angle_at_activation_deg",
+    "touchdown_vertical_mps",
+    "touchdown_horizontal_mps",
 )
 """Every key :func:`score_flight` returns, in this order."""
 
@@ -107,6 +119,7 @@ SCORED_COLUMNS = (
     "v_north_mps",
     "ground_speed_mps",
     "geofence_mode",
+    "v_up_mps",
 )
 """The trajectory columns :func:`score_flight` reads (a recorder or a trajectory.csv provides them)."""
 
@@ -159,7 +172,10 @@ def score_many(
     return out  # type: ignore[return-value]
 
 
-_COLUMNS = ("time_s", "east_m", "north_m", "agl_m", "alt_m", "geofence_mode", "v_east_mps", "v_north_mps", "ground_speed_mps")
+_COLUMNS = (
+    "time_s", "east_m", "north_m", "agl_m", "alt_m", "geofence_mode", "v_east_mps", "v_north_mps", "ground_speed_mps",
+    "v_up_mps",
+)  # fmt: skip
 
 
 def _empty_scores() -> dict:
@@ -177,6 +193,8 @@ def _empty_scores() -> dict:
         "time_to_handback_s": nan,
         "ground_speed_at_activation_mps": nan,
         "approach_angle_at_activation_deg": nan,
+        "touchdown_vertical_mps": nan,
+        "touchdown_horizontal_mps": nan,
     }
 
 
@@ -289,6 +307,7 @@ def score_concatenated(
             c = (ve * normal[:, 0] + vn * normal[:, 1]) / v
         angle[has] = np.where(v > 1e-9, np.degrees(np.arccos(np.clip(c, -1.0, 1.0))), np.nan)
 
+    touchdown = _touchdowns(traj, starts, ends, t, x, y)
     out = []
     for i in range(k):
         out.append(
@@ -305,8 +324,52 @@ def score_concatenated(
                 "time_to_handback_s": float(handback[i]),
                 "ground_speed_at_activation_mps": float(speed[i]),
                 "approach_angle_at_activation_deg": float(angle[i]),
+                "touchdown_vertical_mps": touchdown[i][0],
+                "touchdown_horizontal_mps": touchdown[i][1],
             }
         )
+    return out
+
+
+def touchdown_index(agl: np.ndarray) -> int:
+    """The sample of a flight's final touchdown: the first within :data:`TOUCHDOWN_GEAR_TRAVEL_M` of its
+    resting height (the last sample's) after it was last :data:`ON_GROUND_AGL_M` above it; -1 when the flight
+    does not end on the ground."""
+    if not len(agl) or not agl[-1] < ON_GROUND_AGL_M:
+        return -1
+    rest = agl[-1]
+    above = np.flatnonzero(agl > rest + ON_GROUND_AGL_M)
+    after = int(above[-1]) + 1 if len(above) else 0
+    near = np.flatnonzero(agl[after:] <= rest + TOUCHDOWN_GEAR_TRAVEL_M)
+    return after + int(near[0]) if len(near) else -1
+
+
+def _touchdowns(
+    traj: Trajectory, starts: np.ndarray, ends: np.ndarray, t: np.ndarray, x: np.ndarray, y: np.ndarray
+) -> list[tuple[float, float]]:
+    """Per flight, ``(vertical, horizontal)`` touchdown speed (m/s): the largest descent rate and ground speed
+    in the :data:`TOUCHDOWN_WINDOW_S` up to the touchdown (:func:`touchdown_index`); NaN where it has none.
+    Velocities recorded, else differences of the positions."""
+    nan = float("nan")
+    if "agl_m" not in traj:
+        return [(nan, nan)] * len(starts)
+    agl = np.asarray(traj["agl_m"], dtype=float)
+    vup = np.asarray(traj["v_up_mps"], dtype=float) if "v_up_mps" in traj else np.full(len(t), np.nan)
+    out = []
+    for a, b in zip(starts, ends):
+        j = touchdown_index(agl[a:b])
+        if j < 0:
+            out.append((nan, nan))
+            continue
+        j += int(a)
+        lo = int(np.searchsorted(t[a:b], t[j] - TOUCHDOWN_WINDOW_S)) + int(a)
+        idx = np.arange(lo, j + 1)
+        ve, vn = _velocity_at(traj, idx, np.full(len(idx), a), np.full(len(idx), b), t, x, y)
+        down = -vup[idx]
+        if not np.isfinite(down).all():
+            span = np.maximum(t[np.minimum(idx + 1, b - 1)] - t[np.maximum(idx - 1, a)], 1e-9)
+            down = -(agl[np.minimum(idx + 1, b - 1)] - agl[np.maximum(idx - 1, a)]) / span
+        out.append((float(np.max(down)), float(np.max(np.hypot(ve, vn)))))
     return out
 
 

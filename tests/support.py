@@ -516,3 +516,51 @@ def only_summary(out: Path) -> dict:
     found = sorted(out.glob("*/summary.json"))
     assert len(found) == 1, f"expected one flight folder in {out}, found {len(found)}"
     return json.loads(found[0].read_text())
+
+
+def flow_suite(cfg, seed: int = 1):
+    """A multirotor's :class:`~aircraft.sensors.SensorSuite` of ``cfg`` over flat ground at :data:`FRAME`'s height."""
+    from aircraft.sensors import SensorSuite
+
+    return SensorSuite(cfg, has_pitot=False, seed=seed, ground_alt_m=FRAME.h0_m)
+
+
+def sample_flow_range(
+    cfg, agl_m: float, roll_rad: float = 0.0, v_east_mps: float = 0.0, v_north_mps: float = 0.0,
+    yaw_rad: float = 0.0, seed: int = 1,
+):  # fmt: skip
+    """The rangefinder's and flow's first sample (:class:`~geofence.estimation.measurements.RangeFlowSample`) of a
+    suite of ``cfg`` (:func:`flow_suite`) over a vehicle ``agl_m`` above :data:`FRAME`'s origin."""
+    from geofence.interface import VehicleState
+
+    lat, lon, alt = FRAME.to_geodetic(0.0, 0.0, agl_m)
+    suite = flow_suite(cfg, seed)
+    truth = VehicleState(
+        t_s=0.0, lat_deg=lat, lon_deg=lon, alt_m=alt, agl_m=agl_m, v_east_mps=v_east_mps, v_north_mps=v_north_mps,
+        roll_rad=roll_rad, yaw_rad=yaw_rad,
+    )  # fmt: skip
+    suite.sample(truth)
+    return suite.range_flow()
+
+
+def gnss_loss_landing(
+    aircraft: str, fitted: bool, wind_mps: float = 0.0, toward_edge: bool = False, seed: int = 3, baro_high_m: float = 0.0
+) -> dict:  # fmt: skip
+    """The summary of a multirotor landing after its GNSS is lost: hovering 20 m up in the middle of a 260 m square
+    (lost at 3 s), or ``toward_edge`` flying at an edge of a 240 m square 25 m up (lost 0.5 s into the override);
+    ``fitted``: with a rangefinder and optical flow (their defaults); ``baro_high_m``: the barometer reads that much
+    high from the loss on (a ``baro_drift`` fault). In a light-turbulence wind from 200 deg."""
+    if toward_edge:
+        faults = [{"kind": "gnss_loss", "at_first_activation": True, "delay_s": 0.5}]
+        forward = [{"duration_s": 45.0, "sticks": {"roll": 0.0, "pitch": -0.6, "yaw": 0.0, "throttle": 0.0}}]
+        doc = fault_scenario_doc(aircraft, faults, duration_s=45.0, half_m=120.0, agl_m=25.0, segments=forward, seed=seed)
+    else:
+        faults = [{"kind": "gnss_loss", "at_s": 3.0}]
+        if baro_high_m:
+            faults.append({"kind": "baro_drift", "at_s": 3.0, "drift_m": baro_high_m})
+        doc = fault_scenario_doc(aircraft, faults, duration_s=40.0, half_m=130.0, agl_m=20.0, seed=seed)
+    if fitted:
+        doc["sensors"] = {"rangefinder": {}, "optical_flow": {}}
+    if wind_mps > 0.0:
+        doc["wind"] = {"speed_mps": wind_mps, "from_deg": 200.0, "turbulence": {"severity": "light"}}
+    return fly_doc(doc, f"gnss_loss_{aircraft}").summary

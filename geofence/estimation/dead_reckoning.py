@@ -14,6 +14,11 @@ is propagated with what the unit still measures:
 * fixed-wing: the airspeed along the AHRS heading plus the last wind estimate
   gives the ground velocity directly.
 
+With ``measured_velocity`` set (the estimator carries a measured ground velocity through the loss: an
+optical-flow sensor in range, :func:`geofence.estimation.estimator.update_flow`) a multirotor's velocity is the
+estimate's, and only the position is integrated here: it drifts with the flow's noise and heading error instead of
+the attitude's.
+
 It starts from the estimate at the last fix's time of validity when the estimator gives it
 (:class:`geofence.interface.FixState`), replaying the attitude seen since, else from the last
 fresh estimate. Heights keep coming from the estimator's barometric channel. The error grows
@@ -37,6 +42,8 @@ class DeadReckoning:
         self._k1, self._k2 = drag_coefficients(env)
         self.active = False
         self.e = self.n = self.ve = self.vn = 0.0
+        self.measured_velocity = False
+        """The estimate's ground velocity is measured (optical flow): :meth:`step` takes it (set by the unit)."""
 
     def start(self, last_valid: VehicleState) -> None:
         """From an estimate (already extrapolated past its fix: the fallback when no fix state is known)."""
@@ -63,11 +70,14 @@ class DeadReckoning:
 
     def stop(self) -> None:
         self.active = False
+        self.measured_velocity = False
 
     def step(self, est: VehicleState, dt_s: float, wind_en: tuple[float, float]) -> VehicleState:
         """The estimate with its horizontal position/velocity replaced by the dead-reckoned ones."""
         sy, cy = math.sin(est.yaw_rad), math.cos(est.yaw_rad)
-        if self.env.is_multirotor:
+        if self.env.is_multirotor and self.measured_velocity:
+            self.ve, self.vn = est.v_east_mps, est.v_north_mps
+        elif self.env.is_multirotor:
             a_fwd = -G_MPS2 * math.tan(est.pitch_rad)  # nose down accelerates forward
             a_right = G_MPS2 * math.tan(est.roll_rad)
             ae, an = a_fwd * sy + a_right * cy, a_fwd * cy - a_right * sy

@@ -81,7 +81,7 @@ from typing import Any
 
 import numpy as np
 
-from geofence.estimation.measurements import AirData, AttitudeSample, GpsFix
+from geofence.estimation.measurements import AirData, AttitudeSample, GpsFix, RangeFlowSample
 from geofence.geometry.geodesy import LocalFrame, enu_of, radii_of_curvature_m
 from geofence.interface import FixState, VehicleState
 from geofence.jit import compiled, jitable
@@ -110,6 +110,12 @@ class EstimatorConfig:
     baro_drift_m: float = 1.0
     baro_drift_tau_s: float = 300.0
     timeout_s: float = 1.0
+    range_noise_m: float = 0.05
+    """A downward rangefinder's noise floor (its slant range), m (used only when one gives readings)."""
+    range_noise_fraction: float = 0.01
+    """... and its noise as a fraction of the range, where that is larger."""
+    flow_noise_radps: float = 0.3
+    """An optical-flow sensor's angular-flow noise, rad/s: its velocity noise is this times the height."""
     baro_referenced: bool = True
     """The barometer was set to the field elevation at start-up (QNH/zeroed at home). If it also drifts
     less than the GNSS height is biased, it is the height reference and the GNSS height is not fused."""
@@ -146,6 +152,7 @@ EST_STATE = _float_record(
     "position_valid", "sigma_h_m", "sigma_v_m", "var_h_m2",  # the outputs of the last step
     "horizon_new",  # 1 when the last step moved the horizon
     "horizon_t_s", "horizon_east_m", "horizon_north_m", "horizon_v_east_mps", "horizon_v_north_mps",  # FixState's order
+    "flow_aided",  # 1 while the horizontal state is carried forward on optical-flow velocity (no fix since)
 )  # fmt: skip
 """The estimator's state, a record over float memory (every field float64: a flag is 0 or 1, a count a whole
 number), so that a caller's compiled step keeps it in one float array with its other states and the façade reads
@@ -155,6 +162,7 @@ EST_CONST = _float_record(
     "h0_m", "deg_per_m_n", "deg_per_m_e", "inv_2r_per_m", "lat0_deg", "lon0_deg", "timeout_s",
     "q_jerk_h", "q_wander_h", "q_accel_v", "baro_primary", "q_baro",
     "r_p", "r_v", "r_pu", "r_vu", "r_baro", "var_bias_h", "var_bias_v", "var_baro_drift",
+    "range_noise_m", "range_noise_fraction", "flow_noise_radps",
     ("enu_table", 12),
 )  # fmt: skip
 """The estimator's constants from its frame and :class:`EstimatorConfig` (:func:`estimator_constants`)."""
@@ -191,6 +199,11 @@ def estimator_constants(K: np.ndarray, frame: LocalFrame, cfg: EstimatorConfig) 
     c.r_vu, c.r_baro = cfg.gps_vel_v_mps**2, cfg.baro_noise_m**2
     c.var_bias_h, c.var_baro_drift = cfg.gps_h_bias_m**2, cfg.baro_drift_m**2
     c.var_bias_v = 0.0 if baro_primary else cfg.gps_v_bias_m**2
+    c.range_noise_m, c.range_noise_fraction, c.flow_noise_radps = (
+        cfg.range_noise_m,
+        cfg.range_noise_fraction,
+        cfg.flow_noise_radps,
+    )
     c.enu_table = frame.enu_table
 
 
@@ -205,11 +218,13 @@ def estimator_reset(X: np.ndarray) -> None:
 @compiled
 def estimator_step(
     X: np.ndarray, K: np.ndarray, dt_s: float, has_fix: bool, fix: np.ndarray, t_air: float, airspeed: float,
-    baro_alt_m: float, roll: float, pitch: float, yaw: float,
+    baro_alt_m: float, roll: float, pitch: float, yaw: float, range_m: float = math.nan,
+    flow_fwd_mps: float = math.nan, flow_right_mps: float = math.nan,
 ) -> tuple[float, ...]:  # fmt: skip
     """One step of the estimator (see the module docstring): predict by ``dt_s``, take the sensor time ``t_air``
     (NaN: none), the attitude (NaN: none), the GNSS message ``fix`` (:data:`GPS_FIX`'s slots) when ``has_fix``,
-    then the pitot's ``airspeed`` (NaN: none) and the baro altitude (NaN: none). ``X``: :data:`EST_STATE`'s slots,
+    then the pitot's ``airspeed`` (NaN: none) and the baro altitude (NaN: none), a downward rangefinder's slant
+    range and an optical-flow's body velocity (NaN: none; :func:`update_range`, :func:`update_flow`). ``X``: :data:`EST_STATE`'s slots,
     updated in place; ``K``: :data:`EST_CONST`'s.
 
     Returns the estimate's :class:`~geofence.interface.VehicleState` fields in order, ``on_ground`` left out
@@ -228,7 +243,48 @@ def estimator_step(
     if has_fix:
         update_gps(x, c, fix.view(GPS_FIX)[0])
     update_air(x, c, airspeed, baro_alt_m)
+    if range_m == range_m:  # (not NaN)
+        update_range(x, c, range_m)
+    if flow_fwd_mps == flow_fwd_mps and flow_right_mps == flow_right_mps:
+        update_flow(x, c, flow_fwd_mps, flow_right_mps)
     return output(x, c)
+
+
+@jitable
+def update_range(x: Any, c: Any, range_m: float) -> None:
+    """A rangefinder's slant range levelled by the AHRS attitude: the height above the flat ground the frame's
+    origin is on (the estimate's ``agl``), a scalar update of the vertical filter with ``H = (1, 0, 0)`` (the
+    Earth-curvature drop at the horizon's position taken off). It also calibrates the baro offset."""
+    if x.v_init == 0.0:
+        return
+    level = math.cos(x.roll_rad) * math.cos(x.pitch_rad)
+    curv = (x.east_m * x.east_m + x.north_m * x.north_m) * c.inv_2r_per_m
+    sigma = max(c.range_noise_m, c.range_noise_fraction * range_m)
+    v_update(x, 1.0, 0.0, 0.0, range_m * level - curv, sigma * sigma)
+
+
+@jitable
+def update_flow(x: Any, c: Any, fwd: float, right: float) -> None:
+    """An optical-flow body velocity, rotated to ENU by the AHRS heading, while no fix arrived for ``timeout_s``:
+    the horizon is carried to the current time and updated with it (a velocity update, its variance the angular
+    noise times the height); a later fix is fused from its own time again (:func:`update_gps`)."""
+    if x.has_fix == 0.0 or x.t_s - x.last_fix_arrival_s <= c.timeout_s:
+        return
+    sy, cy = math.sin(x.yaw_rad), math.cos(x.yaw_rad)
+    ve, vn = fwd * sy + right * cy, fwd * cy - right * sy
+    dt = x.t_s - x.t_d_s
+    if dt > 0.0:
+        h = 0.5 * dt * dt
+        x.east_m += x.v_east_mps * dt + x.a_east_mps2 * h
+        x.v_east_mps += x.a_east_mps2 * dt
+        x.north_m += x.v_north_mps * dt + x.a_north_mps2 * h
+        x.v_north_mps += x.a_north_mps2 * dt
+        covariance_predict(x, dt, c.q_jerk_h, c.q_wander_h)
+        x.t_d_s = x.t_s
+    height = x.up_m if x.up_m > 0.3 else 0.3
+    r = (c.flow_noise_radps * height) ** 2
+    correct(x, ve - x.v_east_mps, vn - x.v_north_mps, covariance_update(x, x.ph11 + r, x.ph01, x.ph11, x.ph12))
+    x.flow_aided = 1.0
 
 
 @jitable
@@ -372,10 +428,11 @@ def update_gps(x: Any, c: Any, f: Any) -> None:
         lag = 0.0
     if x.has_fix == 0.0:
         init_from_fix(x, c, e, n, u, f, lag)
-    elif t_m <= x.t_d_s:  # stale or duplicate
+    elif t_m <= x.t_d_s and x.flow_aided == 0.0:  # stale or duplicate
         x.fixes_rejected += 1.0
         return
-    else:
+    else:  # (after flow: the horizon moves back to the fix's time, extrapolated from there again)
+        x.flow_aided = 0.0
         fuse_horizontal(x, c, t_m, e, n, f.v_east_mps, f.v_north_mps)
         q = c.q_accel_v
         if c.baro_primary == 0.0:
@@ -520,9 +577,11 @@ class GeofenceEstimator:
         """The newest estimate (:meth:`step`'s answer)."""
 
     def step(
-        self, dt_s: float, fix: GpsFix | None = None, air: AirData | None = None, att: AttitudeSample | None = None
-    ) -> VehicleState:
-        """Predict by ``dt_s``, fuse whatever arrived this step, and return the current estimate."""
+        self, dt_s: float, fix: GpsFix | None = None, air: AirData | None = None, att: AttitudeSample | None = None,
+        rf: RangeFlowSample | None = None,
+    ) -> VehicleState:  # fmt: skip
+        """Predict by ``dt_s``, fuse whatever arrived this step (``rf``: a rangefinder and flow sample), and return
+        the current estimate."""
         nan = math.nan
         if air is not None:
             t_air, baro = air.t_s, air.baro_alt_m
@@ -535,7 +594,7 @@ class GeofenceEstimator:
             self._fix[:] = fix
         fields: Any = estimator_step(
             self._X, self._K, float(dt_s), fix is not None, self._fix, float(t_air), float(airspeed), float(baro),
-            float(roll), float(pitch), float(yaw),
+            float(roll), float(pitch), float(yaw), *((nan, nan, nan) if rf is None else rf[1:4]),
         )  # fmt: skip
         self.state = VehicleState(*fields)
         return self.state
@@ -585,6 +644,11 @@ class GeofenceEstimator:
         """
         x = self._state
         return max(float(x.t_s - x.t_d_s), 0.0) if x.has_fix != 0.0 else 0.0
+
+    @property
+    def flow_aided(self) -> bool:
+        """The horizontal state is carried forward on optical-flow velocity (no fix since the flow took over)."""
+        return bool(self._state.flow_aided != 0.0)
 
     @property
     def baro_offset_m(self) -> float:

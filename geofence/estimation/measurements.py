@@ -65,3 +65,18 @@ class AttitudeSample(NamedTuple):
     roll_rad: float
     pitch_rad: float
     yaw_rad: float
+
+
+class RangeFlowSample(NamedTuple):
+    """A downward rangefinder's and optical-flow sensor's sample (NaN: no reading this step).
+
+    ``range_m`` is the slant range along the body's down axis (the estimator levels it with the AHRS attitude);
+    ``flow_fwd_mps`` / ``flow_right_mps`` the body-frame ground velocity from the flow scaled by the measured
+    range (the estimator rotates it by its heading); ``flow_quality`` 0..1.
+    """
+
+    t_s: float
+    range_m: float
+    flow_fwd_mps: float
+    flow_right_mps: float
+    flow_quality: float

@@ -89,6 +89,25 @@ SLOW_DESCENT_BELOW_M = 3.0
 (as ArduPilot's LAND mode: LAND_SPEED_HIGH down to LAND_ALT_LOW, then LAND_SPEED)."""
 TOUCHDOWN_DESCENT_MPS = 1.0
 """A multirotor's descent rate for the last metres (m/s)."""
+FLARE_SIGMA_V_M = 0.3
+"""A multirotor landing flares (:meth:`LandingGuidance.flare_rate_mps`) when the unit knows its height to within
+this (1-sigma, m): a downward rangefinder in range. A barometer alone is known to its drift (about 1 m)."""
+FLARE_FINAL_MPS = 0.5
+"""A flared landing's descent rate at and below :data:`FLARE_FINAL_BELOW_M` (m/s)."""
+FLARE_FINAL_BELOW_M = 1.0
+"""Below this measured height a flared landing descends at :data:`FLARE_FINAL_MPS`."""
+FLARE_GAIN_PER_S = 0.5
+"""A flared landing's descent rate grows by this per metre above :data:`FLARE_FINAL_BELOW_M` (up to the full rate)."""
+FLARE_HOLD_BELOW_M = 3.0
+"""Below this measured height a flared landing over its point nulls its horizontal velocity (it holds)."""
+FLARE_PAUSE_BELOW_M = 1.5
+"""Below this measured height a flared landing still moving faster than :data:`FLARE_MAX_GROUND_SPEED_MPS`
+stops descending until it has braked (a moving touchdown tips over)."""
+FLARE_MAX_GROUND_SPEED_MPS = 0.4
+"""The fastest a flared landing touches down over the ground (m/s)."""
+FLARE_PAUSE_MAX_S = 10.0
+"""The longest a flared landing pauses for its ground speed (s): in gusts it may never brake below
+:data:`FLARE_MAX_GROUND_SPEED_MPS`, and hovering a metre up does not end the exposure."""
 
 
 @dataclass(frozen=True)
@@ -624,6 +643,8 @@ class LandingGuidance:
         self.turned_rad = 0.0
         self._last_yaw: float | None = None
         self.orbit_clockwise = True
+        self.paused_s = 0.0
+        """How long a flared landing has paused for its ground speed (s)."""
 
     def start(
         self,
@@ -654,6 +675,7 @@ class LandingGuidance:
         # turn at once, and a fast fixed-wing flies a turn diameter downwind doing it, far enough to leave the
         # fence (case history: docs/campaigns.md#breach-classes-found-and-fixed). With no first turn: clockwise.
         self.orbit_clockwise = turn_sign <= 0
+        self.paused_s = 0.0
         if self.velocity:
             self.velocity.reset()
 
@@ -662,6 +684,17 @@ class LandingGuidance:
         rate while a wind it cannot beat carries it faster than :data:`TOUCHDOWN_MAX_GROUND_SPEED_MPS`."""
         full = self.env.max_descent_rate_mps
         return full if ground_speed_mps > TOUCHDOWN_MAX_GROUND_SPEED_MPS else min(TOUCHDOWN_DESCENT_MPS, full)
+
+    @staticmethod
+    def flares(sigma_v_m: float) -> bool:
+        """A multirotor landing flares on its measured height: it is known to :data:`FLARE_SIGMA_V_M` or better."""
+        return sigma_v_m <= FLARE_SIGMA_V_M
+
+    def flare_rate_mps(self, agl_m: float) -> float:
+        """A flared landing's descent rate at the measured height ``agl_m`` (m/s): :data:`FLARE_FINAL_MPS` below
+        :data:`FLARE_FINAL_BELOW_M`, :data:`FLARE_GAIN_PER_S` more per metre above it, at most the full rate."""
+        rate = FLARE_FINAL_MPS + FLARE_GAIN_PER_S * max(agl_m - FLARE_FINAL_BELOW_M, 0.0)
+        return min(rate, self.env.max_descent_rate_mps)
 
     def time_to_touchdown_s(self, agl_m: float, ground_speed_mps: float = 0.0) -> float:
         """How long a multirotor's descent from ``agl_m`` over the point takes (s): the full rate down to
@@ -674,19 +707,25 @@ class LandingGuidance:
         pe, pn = self.point
         return math.hypot(pe - s.east_m, pn - s.north_m) < (2.0 if self.env.is_multirotor else 1.5 * self.spiral_radius_m)
 
-    def sticks(self, s: VehicleState, h: float, dt_s: float, descend: bool | None = None, hurry: bool = False) -> StickCommand:
+    def sticks(
+        self, s: VehicleState, h: float, dt_s: float, descend: bool | None = None, hurry: bool = False,
+        flare: bool = False,
+    ) -> StickCommand:  # fmt: skip
         """Sticks toward the landing point; descend when ``descend`` (default: when over the point).
 
         ``hurry`` (multirotor, position source lost): while ``descend`` allows it, descend at the full
         rate *on the way* instead of over the point -- dead reckoning drifts with every second in the
         air -- and below :data:`HURRIED_SLOW_BELOW_M` stop manoeuvring and touch down where it is.
+        ``flare`` (multirotor, its height measured: :meth:`flares`): the descent is scheduled on the measured
+        height instead (:meth:`flared_sticks`), hurried or not.
         """
         env = self.env
-        pe, pn = self.point
         over = self.over_point(s) if descend is None else descend
         if self.velocity is not None:
             ce, cn = self.route.lookahead_point(s.east_m, s.north_m, max(3.0, 0.5 * env.cruise_speed_mps))
             ve, vn = approach_velocity(s.east_m, s.north_m, ce, cn, 0.5 * env.cruise_speed_mps, 0.8, 0.5 * env.braking_decel_mps2)
+            if flare:
+                return self.flared_sticks(s, h, dt_s, over, ve, vn)
             roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve, vn, s.yaw_rad, dt_s)
             if hurry and over:
                 if s.agl_m > HURRIED_SLOW_BELOW_M:
@@ -709,6 +748,36 @@ class LandingGuidance:
             else:
                 climb = altitude_to_climb_rate(self.cruise_h, h, env, ALTITUDE_GAIN_PER_S)
             return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=climb_rate_to_stick(climb, env))
+        return self.spiral_sticks(s, h, over)
+
+    def flared_sticks(self, s: VehicleState, h: float, dt_s: float, over: bool, ve: float, vn: float) -> StickCommand:
+        """A multirotor's landing flared on its measured height: toward the point at the velocity ``(ve, vn)``,
+        holding (horizontal velocity nulled on the estimate: the fix's or the optical flow's) below
+        :data:`FLARE_HOLD_BELOW_M` over it, descending at :meth:`flare_rate_mps` while ``over``, and pausing
+        below :data:`FLARE_PAUSE_BELOW_M` while faster than :data:`FLARE_MAX_GROUND_SPEED_MPS` over the ground (for
+        :data:`FLARE_PAUSE_MAX_S` at most)."""
+        env, velocity = self.env, self.velocity
+        assert velocity is not None
+        agl = s.agl_m
+        if over and agl < FLARE_HOLD_BELOW_M:
+            ve = vn = 0.0
+        roll, pitch = velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve, vn, s.yaw_rad, dt_s)
+        if not over:
+            climb = altitude_to_climb_rate(self.cruise_h, h, env, ALTITUDE_GAIN_PER_S)
+        elif (
+            agl < FLARE_PAUSE_BELOW_M and s.ground_speed_mps > FLARE_MAX_GROUND_SPEED_MPS
+            and self.paused_s < FLARE_PAUSE_MAX_S
+        ):  # fmt: skip
+            climb = 0.0
+            self.paused_s += dt_s
+        else:
+            climb = -self.flare_rate_mps(agl)
+        return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=climb_rate_to_stick(climb, env))
+
+    def spiral_sticks(self, s: VehicleState, h: float, over: bool) -> StickCommand:
+        """A fixed-wing's landing: the route to the point, then a spiral down over it."""
+        env = self.env
+        pe, pn = self.point
         if self.route.remaining_m(s.east_m, s.north_m) > 2.0 * self.spiral_radius_m:
             ce, cn = self.route.lookahead_point(s.east_m, s.north_m, self.spiral_radius_m)
             course_cmd = math.atan2(ce - s.east_m, cn - s.north_m)

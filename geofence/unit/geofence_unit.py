@@ -1149,14 +1149,18 @@ class GeofenceUnit:
         if self.env.is_multirotor:
             if s.on_ground:
                 return StickCommand(throttle=-1.0)
+            # a fresh estimate with the position lost: its velocity is measured (optical flow), the dead reckoning
+            # takes it from the next step; a height known to a rangefinder's accuracy: the touchdown is flared on it
+            self.dead_reckoning.measured_velocity = not self._position_valid and self._latency_s - dt_s <= FRESH_ESTIMATE_AGE_S
+            flare = self.landing.flares(self._sigma_v_m)
             if not self._position_valid and not self.dead_reckoning.active:  # never had a position: level, descend
                 return StickCommand(throttle=climb_rate_to_stick(-min(1.0, self.env.max_descent_rate_mps), self.env))
             if not self._position_valid and self.fence.floor_m is None:
                 # dead reckoning: away from the edges first, then down at the full rate (it drifts every second)
                 room = self.fence.lateral_margin_m(s.east_m, s.north_m) >= self.dead_reckoning_room_m(s.agl_m)
-                return self.landing.sticks(s, h, dt_s, descend=room or self.landing.over_point(s), hurry=True)
+                return self.landing.sticks(s, h, dt_s, descend=room or self.landing.over_point(s), hurry=True, flare=flare)
             descend = self._safe_to_descend(s) or self.landing.over_point(s) or self._finish_below_floor(s, h)
-            return self.landing.sticks(s, h, dt_s, descend=descend)
+            return self.landing.sticks(s, h, dt_s, descend=descend, flare=flare)
         if self.mode is Mode.LAND_IN_GAP and self.landing.over_point(s) and s.agl_m < TERMINATE_BELOW_AGL_M:
             self._switch(t_s, Mode.TERMINATE, f"flight termination over the landing gap at {s.agl_m:.1f} m AGL")
         if self.mode is Mode.TERMINATE:

@@ -18,7 +18,7 @@ from typing import Any, Callable, NamedTuple
 import numpy as np
 
 from aircraft import sensors as sk
-from aircraft.sensors import SENSOR_CONST, SensorSuite, sensors_step
+from aircraft.sensors import SENSOR_CONST, SENSOR_STATE, SensorSuite, sensors_step
 from geofence import jit
 from geofence.estimation import estimator as ek
 from geofence.estimation import wind_estimator as wk
@@ -71,7 +71,11 @@ def _sense_step(
     delivered, a_ind, baro_alt, r, p, y, low = sensors_step(
         P[_S0:], pools, idx, t, lat, lon, alt, ve, vn, vu, airspeed, roll, pitch, yaw
     )
-    est = estimator_step(X, K, dt_s, delivered, P[_FIX0:_FIX1], t, a_ind, baro_alt, r, p, y)
+    rf = P[_S0 : _S0 + sk.STATE_SIZE].view(SENSOR_STATE)[0]  # this step's rangefinder and flow samples (NaN: none)
+    est = estimator_step(
+        X, K, dt_s, delivered, P[_FIX0:_FIX1], t, a_ind, baro_alt, r, p, y, rf.range_m, rf.flow_fwd_mps,
+        rf.flow_right_mps,
+    )  # fmt: skip
     x = X.view(EST_STATE)[0]
     valid = x.position_valid != 0.0
     has_pitot = P[_S0 + sk.STATE_SIZE : _FIX0].view(SENSOR_CONST)[0].has_pitot != 0.0
@@ -118,7 +122,9 @@ class GeofenceSensing:
         P = np.zeros(_S0 + sk.memory_size(sc, faults))  # the step reads and writes P; the objects are façades over it
         self.estimator = GeofenceEstimator(frame, sc.estimator_config(), memory=P[_X0:_W0])
         self.wind = WindEstimator(env, WindEstimatorConfig(prior_enu=cfg.wind_prior_enu), memory=P[_W0:_S0])
-        self.sensors = SensorSuite(sc, has_pitot=not env.is_multirotor, seed=scenario.seed, memory=P[_S0:], faults=faults)
+        self.sensors = SensorSuite(
+            sc, has_pitot=not env.is_multirotor, seed=scenario.seed, memory=P[_S0:], faults=faults, ground_alt_m=frame.h0_m
+        )  # fmt: skip
         self._X = P[_X0:_K0]
         self._args: tuple[Any, ...] = (P, self.sensors.pools, self.sensors.idx)
         self._kernel: Callable[..., tuple[Any, ...]] = sense_step
