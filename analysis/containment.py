@@ -34,8 +34,8 @@ import numpy as np
 
 from analysis.batch_plots import num, save_figure, truthy
 from geofence.interface import PlatformKind
+from geofence.physics.dynamics import G_MPS2
 
-G_MPS2 = 9.80665
 VOLUMES = ("fence", "contingency volume", "ground risk buffer")
 
 

@@ -10,7 +10,6 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 from analysis.containment import (
-    G_MPS2,
     ContingencyInputs,
     class_rates,
     containment_lines,
@@ -18,6 +17,7 @@ from analysis.containment import (
     flight_exits,
 )
 from geofence.interface import PlatformKind
+from geofence.physics.dynamics import G_MPS2
 from geofence.physics.rooms import turn_radius_m
 
 MR = ContingencyInputs(PlatformKind.MULTIROTOR, v0_mps=10.0, reaction_time_s=0.5, limit_rad=math.radians(30))
