@@ -386,30 +386,63 @@ def _worker_sigterm(signum, frame) -> None:  # pragma: no cover - runs in a work
     os._exit(128 + signum)
 
 
+class _DeferredInterrupt:
+    """The first Ctrl-C only raises a flag, read between flights, so it never lands between a submit and its
+    bookkeeping (a flight submitted but not tracked would land after the count); a second one stops at once.
+    Off the main thread (where no handler can be installed) Ctrl-C stays an exception, as before."""
+
+    def __init__(self) -> None:
+        self.requested = False
+        self._installed = False
+        self._previous: object = signal.SIG_DFL
+
+    def __enter__(self) -> _DeferredInterrupt:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+            self._installed = True
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._installed:
+            signal.signal(signal.SIGINT, self._previous if self._previous is not None else signal.SIG_DFL)  # type: ignore[arg-type]
+
+    def _handle(self, signum, frame) -> None:
+        if self.requested:
+            raise KeyboardInterrupt
+        self.requested = True
+
+
+POLL_S = 0.1
+"""How often the process executor looks for a Ctrl-C while it waits for flights."""
+
+
 def _run_processes(
     todo: list[FlightSpec], out_dir: Path, jobs: int, finished: Callable[[dict], None], flight_plots: bool
 ) -> None:
     """At most ``jobs`` flights in flight at a time, so an interrupt only waits for those."""
     pool = ProcessPoolExecutor(max_workers=jobs, initializer=_ignore_sigint)
     queue = iter(todo)
-    pending = set()
-    try:
-        for spec in queue:
-            pending.add(pool.submit(fly_spec, spec, str(out_dir), flight_plots))
-            if len(pending) >= jobs:
-                break
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_COMPLETED)
-            for fut in done:
-                finished(fut.result())
-                nxt = next(queue, None)
-                if nxt is not None:
-                    pending.add(pool.submit(fly_spec, nxt, str(out_dir), flight_plots))
-    except KeyboardInterrupt:
-        _land_running(pending, finished)
-        raise
-    finally:
-        pool.shutdown(wait=False, cancel_futures=True)
+    pending: set = set()
+    with _DeferredInterrupt() as stop:
+        try:
+            for spec in queue:
+                pending.add(pool.submit(fly_spec, spec, str(out_dir), flight_plots))
+                if len(pending) >= jobs:
+                    break
+            while pending and not stop.requested:
+                done, pending = wait(pending, timeout=POLL_S, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    finished(fut.result())
+                    nxt = None if stop.requested else next(queue, None)
+                    if nxt is not None:
+                        pending.add(pool.submit(fly_spec, nxt, str(out_dir), flight_plots))
+            if stop.requested:
+                raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            _land_running(pending, finished)
+            raise
+        finally:
+            pool.shutdown(wait=False, cancel_futures=True)
 
 
 def _land_running(pending: set, finished: Callable[[dict], None]) -> None:
