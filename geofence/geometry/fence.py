@@ -110,6 +110,8 @@ MAX_KEEP_IN_CIRCLE_RADIUS_M = 10_000.0
 MAX_CEILING_M = 10_000.0
 """The highest ceiling or floor a fence may have, m (above any small UAS: a larger value is a typo), whoever
 gives it: a scenario, a fence file or the command line."""
+LOCAL_FRAMES_KEPT = 8
+"""Projections of one fence kept by :meth:`Fence.to_local` (a flight uses one or two frames; a bound, not a guess)."""
 
 
 @dataclass(frozen=True)
@@ -179,6 +181,7 @@ class Fence:
     keep_in_circle: tuple[float, float, float] | None = None
     keep_out_polygon_extents: tuple[VerticalExtent, ...] = ()
     _default_local: list = field(default_factory=list, init=False, repr=False, compare=False)
+    _local_by_frame: dict = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -315,13 +318,21 @@ class Fence:
         return LocalFrame(lat, lon, 0.0)
 
     def to_local(self, frame: LocalFrame | None = None, *, index: bool | None = None) -> LocalFence:
-        """This fence projected into ``frame`` (default: :meth:`default_frame`, cached); ``index``: see
-        :class:`LocalFence`."""
+        """This fence projected into ``frame`` (default: :meth:`default_frame`); ``index``: see :class:`LocalFence`.
+        Cached by frame origin and ``index``: a scenario's checks, its pre-flight check and its flight project the
+        fence into the same frame, and a projection costs its inscribed circles (tens of ms)."""
         if frame is None and index is None:
             if not self._default_local:
                 self._default_local.append(LocalFence(self, self.default_frame()))
             return self._default_local[0]
-        return LocalFence(self, frame if frame is not None else self.default_frame(), index=index)
+        frame = frame if frame is not None else self.default_frame()
+        key = (frame.lat0_deg, frame.lon0_deg, frame.h0_m, index)
+        local = self._local_by_frame.get(key)
+        if local is None:
+            if len(self._local_by_frame) >= LOCAL_FRAMES_KEPT:
+                self._local_by_frame.clear()
+            local = self._local_by_frame[key] = LocalFence(self, frame, index=index)
+        return local
 
     def resolved_recovery_point(self) -> tuple[float, float, float | None]:
         """``(lat, lon, alt_m)``: the declared recovery point, with defaults filled in.
