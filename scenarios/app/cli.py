@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from analysis.formats.replace import replace_text
-from scenarios.app import characterize, falsify
+from scenarios.app import characterize, estimate, falsify
 
 EXIT_BAD_INPUT = 2
 EXIT_FLIGHT_FAILED = 1
@@ -314,6 +314,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     characterize.register(sub)
     falsify.register(sub)
+    estimate.register(sub)
     return parser
 
 

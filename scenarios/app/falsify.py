@@ -130,6 +130,21 @@ def run(args) -> int:
 
 def fly_generation(args, search: Search, generation: int, points: list[np.ndarray], max_duration_s: float) -> list[float]:
     """Fly ``points`` as one batch into ``DIR/flights``; record and return their margins."""
+    names = [f"g{generation:03d}-{i:02d}" for i in range(len(points))]
+    return fly_points(args, search, names, points, generation, max_duration_s)
+
+
+def fly_points(
+    args,
+    search: Search,
+    names: list[str],
+    points: list[np.ndarray],
+    generation: int,
+    max_duration_s: float,
+    progress: bool = False,
+) -> list[float]:
+    """Fly the family's ``points`` (one flight each, named ``names``) as one batch into ``args.out/flights``
+    (``args.jobs``, ``args.executor``, ``args.scheduler``); record each in ``search`` and return the margins."""
     from scenarios.app.batch import run_batch
     from scenarios.campaign.falsify_family import case_document
     from scenarios.campaign.generator import Variant
@@ -137,8 +152,7 @@ def fly_generation(args, search: Search, generation: int, points: list[np.ndarra
 
     variant = Variant(search.variant)
     specs, geometry = [], {}
-    for i, x in enumerate(points):
-        name = f"g{generation:03d}-{i:02d}"
+    for name, x in zip(names, points):
         doc, geo = case_document(x, search.platform, variant, name=name, max_duration_s=max_duration_s)
         specs.extend(expand(doc, f"falsify {name}", name))
         geometry[name] = (x, geo, doc)
@@ -149,7 +163,7 @@ def fly_generation(args, search: Search, generation: int, points: list[np.ndarra
         jobs=args.jobs,
         executor=args.executor,
         scheduler=args.scheduler,
-        progress=False,
+        progress=progress,
         on_done=lambda s: summaries.__setitem__(str(s.get("flight")), s),
     )
     margins = []
