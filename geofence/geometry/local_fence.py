@@ -112,7 +112,7 @@ class LocalFence:
         "ceiling_m",
         "floor_m",
         "altitude_reference",
-        "recovery_en",
+        "_recovery_en",
         "recovery_height_m",
         "_inradius",
         "_danger_edges",
@@ -168,11 +168,7 @@ class LocalFence:
         self._line_edges: int | None = None
         self.recovery_height_m: float | None
         rp = fence.recovery_point
-        if rp is not None:
-            self.recovery_en = frame.to_enu(rp[0], rp[1], h0)[:2]
-        else:
-            e, n, _ = self.inradius()
-            self.recovery_en = (e, n)
+        self._recovery_en: tuple[float, float] | None = frame.to_enu(rp[0], rp[1], h0)[:2] if rp is not None else None
         if rp is not None and len(rp) == 3:
             self.recovery_height_m = rp[2]
         elif fence.floor_m is not None:
@@ -437,6 +433,15 @@ class LocalFence:
         return deepest_polygon(e, n, *self.gap_table())
 
     # ---- whole-fence properties
+    @property
+    def recovery_en(self) -> tuple[float, float]:
+        """(east, north) of the recovery point, m: the declared one, else the pole of inaccessibility of the allowed
+        area (:meth:`inradius`), found at the first use: a projection made only to validate a fence never needs it."""
+        if self._recovery_en is None:
+            e, n, _ = self.inradius()
+            self._recovery_en = (e, n)
+        return self._recovery_en
+
     def inradius(self) -> tuple[float, float, float]:
         """``(east, north, r)``: centre and radius of the largest circle inside the allowed area. A pure function of
         the fence and the frame, remembered for the last :data:`INRADIUS_MEMORY` of them (a scenario's variants,
