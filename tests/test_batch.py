@@ -117,7 +117,7 @@ def test_ci_suite_batch_on_two_jobs_writes_every_result_and_no_breach(tmp_path):
 def test_interrupted_batch_keeps_finished_flights_and_resumes_without_refling(tmp_path):
     sweep = yaml.safe_load((CI_SUITE / "multicopter_edges.yaml").read_text())
     sweep["duration_s"] = 600  # slow enough (~1 s of wall time each) to interrupt halfway
-    sweep["sweep"] = {"grid": {"pilot.segments.0.course_deg": [0, 90, 180, 270], "wind.speed_mps": [0, 2, 4, 6, 8]}}
+    sweep["sweep"] = {"grid": {"pilot.segments.0.course_deg": [0, 90, 180, 270], "wind.speed_mps": [0, 4, 8]}}
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(sweep))
     out = tmp_path / "out"
     cmd = [
@@ -147,22 +147,22 @@ def test_interrupted_batch_keeps_finished_flights_and_resumes_without_refling(tm
     proc.send_signal(signal.SIGINT)
     stdout, err = proc.communicate(timeout=300)
     first = summaries(out)
-    assert 4 <= len(first) < 20, f"{len(first)} flights finished before the interrupt"
+    assert 4 <= len(first) < 12, f"{len(first)} flights finished before the interrupt"
     assert proc.returncode == 130, err
     # the console counts the folders written (the flights in the air when Ctrl-C came landed and count)
-    assert f"20 flights: 0 already done, {len(first)} flown" in stdout, stdout + err
+    assert f"12 flights: 0 already done, {len(first)} flown" in stdout, stdout + err
     from analysis.report import read_results_csv
 
     assert {(r["batch_partial"], r["batch_flights"]) for r in read_results_csv(out / "results.csv")} == {
-        (True, f"{len(first)}/20")
+        (True, f"{len(first)}/12")
     }
-    assert f"**Partial batch: {len(first)} of 20 planned flights have results**" in (out / "report.md").read_text()
+    assert f"**Partial batch: {len(first)} of 12 planned flights have results**" in (out / "report.md").read_text()
     stamps = {name: (out / name / "summary.json").stat().st_mtime_ns for name in first}
     res = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stdout + res.stderr
     assert f"{len(first)} already done" in res.stdout
     final = summaries(out)
-    assert len(final) == 20 and all(s["completed"] for s in final.values())
+    assert len(final) == 12 and all(s["completed"] for s in final.values())
     assert all((out / name / "summary.json").stat().st_mtime_ns == t for name, t in stamps.items())
     assert not list(out.rglob(".*.tmp")), "a half-written file was left behind"
     assert "batch_partial" not in read_results_csv(out / "results.csv")[0]  # resumed to its end: complete
