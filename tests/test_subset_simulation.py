@@ -123,3 +123,22 @@ def test_the_chains_keep_moving_deep_in_the_event():
 def test_an_evaluator_that_returns_garbage_is_an_error_not_an_estimate():
     with pytest.raises(ValueError, match="finite"):
         subset_simulation(lambda x, tag: np.full(len(x), np.nan), 2, 0.0, SubsetOptions(100, 0.1))
+
+
+@given(
+    beta=st.floats(-1.0, 5.0),
+    dimension=st.integers(1, 8),
+    chains=st.integers(1, 10),
+    length=st.integers(2, 10),
+    seed=st.integers(1, 10_000),
+)
+@settings(max_examples=60, deadline=None)
+def test_any_run_is_a_probability_with_falling_thresholds_and_its_flight_count(beta, dimension, chains, length, seed):
+    n = chains * length
+    est = subset_simulation(linear(beta, np.ones(dimension)), dimension, 0.0, SubsetOptions(n, 1.0 / length, seed=seed))
+    assert 0.0 < est.probability <= 1.0 and est.cov >= 0.0
+    thresholds = [lv.threshold for lv in est.levels]
+    assert all(a > b for a, b in zip(thresholds, thresholds[1:]))
+    assert est.evaluations == n + (n - chains) * (len(est.values) - 1)
+    assert est.reached == (thresholds[-1] == 0.0) and all(t >= 0.0 for t in thresholds)
+    assert all(len(v) == n for v in est.values) and all(np.all((p > 0) & (p < 1)) for p in est.points)
