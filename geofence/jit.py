@@ -134,12 +134,12 @@ def entry_point(kernel: Callable) -> Callable:
     by its own code with fixed dtype, dimensions and C layout (its tables, refilled in place or rebuilt the same
     way). The Tern's closed loop runs 0.3 µs a frame faster this way (``bench/closed_loop.py``), the same
     trajectory bit for bit."""
-    known = _ENTRY_POINTS.get(id(kernel))
-    if known is not None and known[0] is kernel:
-        return known[1]
     overloads = getattr(kernel, "overloads", None)
     if not overloads or len(overloads) != 1:
         return kernel
+    known = _ENTRY_POINTS.get(id(kernel))
+    if known is not None and known[0] is kernel:  # found with the one specialization it still has
+        return known[1]
     ((signature, compiled),) = overloads.items()
     for t in signature:
         if not (isinstance(t, numba.types.Array) or t == numba.types.float64 or t == numba.types.boolean):
@@ -151,5 +151,6 @@ def entry_point(kernel: Callable) -> Callable:
 _ENTRY_POINTS: dict[int, tuple[Callable, Callable]] = {}
 """The entry points found, by kernel (its identity checked: the entry holds it). Reading a specialization's types
 costs some 100 µs (numba hashes each type), more than a margins call: an object built per call, as
-:func:`geofence.margins.boundary_shift.activation_margins` builds one, would pay it every time. A kernel's one
-specialization keeps its machine code, so its entry point stays valid once found."""
+:func:`geofence.margins.boundary_shift.activation_margins` builds one, would pay it every time. Specializations
+are only ever added, so while a kernel still has exactly one, the entry point found is that one's; once it has
+two, :func:`entry_point` gives the kernel itself again."""

@@ -26,6 +26,15 @@ def test_the_entry_point_of_one_float_specialization_gives_the_dispatchers_numbe
     assert ep(a, 0.1, True) == want and ep(a, 3, False) == k(a, 3.0, False)  # an int converts to float, exactly
 
 
+def test_an_entry_point_found_once_is_given_again_until_a_second_specialization_appears():
+    k = _kernel()
+    k(np.ones(2), 1.0, True)
+    first = jit.entry_point(k)
+    assert first is not k and jit.entry_point(k) is first  # remembered
+    k(np.ones((2, 2)), 1.0, True)  # a second specialization: the remembered one no longer fits every caller
+    assert jit.entry_point(k) is k
+
+
 def test_no_entry_point_for_several_specializations_or_integer_scalars():
     k = _kernel()
     k(np.ones(2), 1.0, True)

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from geofence import jit as _jit
 from geofence.geometry.elements import MarginTables, element_table
 from geofence.geometry.fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
 from geofence.geometry.geodesy import LocalFrame
@@ -442,6 +443,17 @@ class LocalFence:
             self._recovery_en = (e, n)
         return self._recovery_en
 
+    def _distance_function(self):
+        """:meth:`lateral_margin_m` for a search that asks it thousands of times: without an index, the compiled
+        scan's entry point with this fence's tables bound (the same machine code, so the same values, without the
+        memo's and the dispatcher's cost per call); with one, the method itself."""
+        if self.grid() is not None:
+            return self.lateral_margin_m
+        tables = self.scan_tables()
+        lateral_margin_scan(0.0, 0.0, *tables)  # its one specialization exists before its entry point is taken
+        scan = _jit.entry_point(lateral_margin_scan)
+        return lambda e, n: scan(e, n, *tables)
+
     def inradius(self) -> tuple[float, float, float]:
         """``(east, north, r)``: centre and radius of the largest circle inside the allowed area. A pure function of
         the fence and the frame, remembered for the last :data:`INRADIUS_MEMORY` of them (a scenario's variants,
@@ -451,7 +463,7 @@ class LocalFence:
             found = _INRADII.pop(key, None)
             if found is None:
                 size = max(self.keep_in.bbox[2] - self.keep_in.bbox[0], self.keep_in.bbox[3] - self.keep_in.bbox[1])
-                found = pole_of_inaccessibility(self.lateral_margin_m, self.keep_in.bbox, precision_m=max(0.01, 1e-4 * size))
+                found = pole_of_inaccessibility(self._distance_function(), self.keep_in.bbox, precision_m=max(0.01, 1e-4 * size))
             _INRADII[key] = found  # (the newest last)
             while len(_INRADII) > INRADIUS_MEMORY:
                 del _INRADII[next(iter(_INRADII))]

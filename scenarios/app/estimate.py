@@ -133,7 +133,7 @@ def _evaluator(args, search, max_duration_s: float):
         names = [f"{tag}-{i:0{width}d}" for i in range(len(points))]
         level = int(tag[1:].split("-")[0]) if tag.startswith("l") else 0
         if len(points) > 50:
-            print(f"{tag}: writing {len(points)} scenarios (about 25 ms each), then flying them", flush=True)
+            print(f"{tag}: writing {len(points)} scenarios, then flying them", flush=True)
         margins = fly_points(args, search, names, list(points), level, max_duration_s, progress=len(points) > 50)
         g = np.array(margins, dtype=float)
         low = int(np.count_nonzero(g <= args.below_m))
