@@ -18,7 +18,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from pathlib import Path
 from typing import Any
 
 MAX_SAMPLES = 100_000
@@ -32,18 +31,18 @@ INPUT_DISTRIBUTION = (
 
 def register(sub) -> None:
     """Add the ``estimate`` subparser; its handler is ``args.handler``."""
+    from scenarios.app.falsify import add_family_arguments
+
     p = sub.add_parser(
         "estimate",
         help="estimate the probability that the margin falls below a level (subset simulation)",
         description=(
             "Estimate P[min margin <= BELOW] on the falsify family (docs/falsify.md) with every coordinate uniform on "
             "its range: by subset simulation (levels of N flights, Markov chains toward the event, the estimate and "
-            "its coefficient of variation) or by plain Monte Carlo (N flights, the exact 95 %% interval) to check it. "
+            "its coefficient of variation) or by plain Monte Carlo (N flights, the exact 95 % interval) to check it. "
             "Writes DIR/estimate.json and DIR/estimate.png; docs/rare_events.md."
         ),
     )
-    p.add_argument("--platform", required=True, metavar="NAME", help="the aircraft (geofence-testbed list)")
-    p.add_argument("--variant", required=True, choices=("reactive", "predictive"), help="the geofence trigger flown")
     p.add_argument("--below-m", type=float, default=0.0, metavar="M", help="the event: min margin <= M (default 0: a breach)")
     p.add_argument("--method", choices=("subset", "monte-carlo"), default="subset", help="estimator (default subset)")
     p.add_argument(
@@ -55,20 +54,14 @@ def register(sub) -> None:
     )
     p.add_argument("--p0", type=float, default=0.1, help="subset: each level's conditional probability (default 0.1)")
     p.add_argument("--max-levels", type=int, default=6, metavar="L", help="subset: conditional levels at most (default 6)")
-    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
-    p.add_argument("--seed", type=int, default=1, metavar="S", help="the sampler's seed (default 1)")
-    p.add_argument("--jobs", type=int, default=None, metavar="J", help="parallel flights (default: all cores)")
-    p.add_argument("--max-duration-s", type=float, default=None, metavar="S", help="longest flight (default 120 s)")
-    p.add_argument("--executor", choices=("process", "dask"), default="process", help="batch executor")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="the Dask scheduler (with --executor dask)")
+    add_family_arguments(p, "the sampler's seed")
     p.set_defaults(handler=run)
 
 
 def check_args(args) -> None:
     """Refuse bad arguments in one line (:class:`~geofence.validation.ConfigError`, exit 2), before anything flies."""
-    from aircraft.profile import load_profile
     from geofence.validation import ConfigError
-    from scenarios.app.cli import check_output_dir, check_scheduler_address
+    from scenarios.app.falsify import check_family_args
 
     if args.samples is None:
         args.samples = 100 if args.method == "subset" else 1000
@@ -78,18 +71,7 @@ def check_args(args) -> None:
         raise ConfigError(f"--below-m: must be a finite margin within +-10,000 m, got {args.below_m:g}")
     if args.method == "subset":
         subset_options(args)  # p0, N, levels: refused in one line
-    if args.jobs is not None and args.jobs < 1:
-        raise ConfigError(f"--jobs: must be >= 1, got {args.jobs}")
-    if args.max_duration_s is not None and not 10.0 <= args.max_duration_s <= 3600.0:
-        raise ConfigError(f"--max-duration-s: must be 10..3600 s, got {args.max_duration_s:g}")
-    if not 0 <= args.seed < 2**31:
-        raise ConfigError(f"--seed: must be 0..{2**31 - 1}, got {args.seed}")
-    if args.executor == "dask" and args.scheduler is None:
-        raise ConfigError("--executor dask: give the cluster with --scheduler ADDRESS (e.g. tcp://127.0.0.1:8786)")
-    if args.scheduler is not None:
-        check_scheduler_address(args.scheduler)
-    load_profile(args.platform)
-    check_output_dir(args.out, "--out")
+    check_family_args(args)
 
 
 def subset_options(args):

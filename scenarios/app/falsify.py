@@ -45,31 +45,44 @@ def register(sub) -> None:
             "falsify.json, the worst cases as scenario YAMLs and DIR/convergence.png."
         ),
     )
+    p.add_argument("--budget", required=True, type=int, metavar="N", help=f"flights to fly (1..{MAX_BUDGET})")
+    p.add_argument("--popsize", type=int, default=None, metavar="K", help="flights per generation (default: CMA-ES's)")
+    add_family_arguments(p, "the optimiser's seed")
+    p.set_defaults(handler=run)
+
+
+def add_family_arguments(p, seed_help: str) -> None:
+    """The options of a command that flies the falsify family (``falsify``, ``estimate``): what is flown, where
+    to, and on what executor."""
     p.add_argument("--platform", required=True, metavar="NAME", help="the aircraft (geofence-testbed list)")
     p.add_argument("--variant", required=True, choices=("reactive", "predictive"), help="the geofence trigger flown")
-    p.add_argument("--budget", required=True, type=int, metavar="N", help=f"flights to fly (1..{MAX_BUDGET})")
     p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
-    p.add_argument("--seed", type=int, default=1, metavar="S", help="the optimiser's seed (default 1)")
+    p.add_argument("--seed", type=int, default=1, metavar="S", help=f"{seed_help} (default 1)")
     p.add_argument("--jobs", type=int, default=None, metavar="J", help="parallel flights (default: all cores)")
-    p.add_argument("--popsize", type=int, default=None, metavar="K", help="flights per generation (default: CMA-ES's)")
     p.add_argument("--max-duration-s", type=float, default=None, metavar="S", help="longest flight (default 120 s)")
     p.add_argument("--executor", choices=("process", "dask"), default="process", help="batch executor")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="the Dask scheduler (with --executor dask)")
-    p.set_defaults(handler=run)
 
 
 def check_args(args) -> None:
     """Refuse bad arguments in one line (:class:`~geofence.validation.ConfigError`, exit 2), before anything flies."""
+    from geofence.validation import ConfigError
+
+    if not 1 <= args.budget <= MAX_BUDGET:
+        raise ConfigError(f"--budget: must be 1..{MAX_BUDGET} flights, got {args.budget}")
+    if args.popsize is not None and not 2 <= args.popsize <= 1000:
+        raise ConfigError(f"--popsize: must be 2..1000, got {args.popsize}")
+    check_family_args(args)
+
+
+def check_family_args(args) -> None:
+    """Refuse bad :func:`add_family_arguments` in one line (:class:`~geofence.validation.ConfigError`, exit 2)."""
     from aircraft.profile import load_profile
     from geofence.validation import ConfigError
     from scenarios.app.cli import check_output_dir, check_scheduler_address
 
-    if not 1 <= args.budget <= MAX_BUDGET:
-        raise ConfigError(f"--budget: must be 1..{MAX_BUDGET} flights, got {args.budget}")
     if args.jobs is not None and args.jobs < 1:
         raise ConfigError(f"--jobs: must be >= 1, got {args.jobs}")
-    if args.popsize is not None and not 2 <= args.popsize <= 1000:
-        raise ConfigError(f"--popsize: must be 2..1000, got {args.popsize}")
     if args.max_duration_s is not None and not 10.0 <= args.max_duration_s <= 3600.0:
         raise ConfigError(f"--max-duration-s: must be 10..3600 s, got {args.max_duration_s:g}")
     if not 0 <= args.seed < 2**31:
