@@ -65,3 +65,16 @@ def test_monte_carlo_counts_the_flights_in_the_event_with_an_exact_interval(tmp_
     assert record["probability"] == k / 8 and record["flights"] == 8
     low, high = record["interval_95"]
     assert low <= k / 8 <= high
+
+
+@pytest.mark.closed_loop
+def test_the_estimate_flies_on_a_dask_cluster_as_on_processes(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    argv = ["estimate", "--platform", "F450", "--variant", "reactive", "--method", "monte-carlo", "--samples", "4"]
+    argv += ["--below-m", "0", "--max-duration-s", "20"]
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        assert main([*argv, "--out", str(tmp_path / "dask"), "--executor", "dask", "--scheduler", cluster.scheduler_address]) == 0
+    assert main([*argv, "--out", str(tmp_path / "local"), "--jobs", "1"]) == 0
+    on_dask, local = (json.loads((tmp_path / d / "estimate.json").read_text()) for d in ("dask", "local"))
+    assert [e["margin_m"] for e in on_dask["evaluations"]] == [e["margin_m"] for e in local["evaluations"]]
+    assert on_dask["probability"] == local["probability"] and on_dask["flights"] == 4
