@@ -17,8 +17,11 @@ bank (fixed-wing) or tilt (multirotor) limit::
 ``S_CM`` is the stopping distance of a multirotor braking at its tilt limit and half the turn radius of a
 fixed-wing at its bank limit; ``H_CM`` the height of trading the speed for height. A flight **exits** a volume
 when its peak lateral excursion beyond the fence exceeds the volume's lateral extent (``S_CV``; ``S_CV + S_GRB``
-for the buffer) or its peak vertical excursion exceeds ``H_CV`` (``H_CV`` for the buffer too: the 1:1 rule is
-lateral). Rates: exits per flight with the one-sided exact (Clopper-Pearson) 95 % bound and exits per simulated
+for the buffer) or its peak excursion above the ceiling exceeds ``H_CV`` (``H_CV`` for the buffer too: the 1:1
+rule is lateral). The volumes are the method's: laterally round the flight geography and above its top. A fence's
+floor is the project's own restriction inside the flight geography (its gaps the only places to land): a flight
+that went below it outside a gap stayed over the ground the operation was assessed for, so it is no volume's exit;
+it is counted per class in a column of its own, never dropped. Rates: exits per flight with the one-sided exact (Clopper-Pearson) 95 % bound and exits per simulated
 flight hour with the Poisson bound, per class (:func:`failure_class`): none is dropped, nominal and each single
 failure side by side.
 """
@@ -36,7 +39,7 @@ from analysis.batch_plots import num, save_figure, truthy
 from geofence.interface import PlatformKind
 from geofence.physics.dynamics import G_MPS2
 
-VOLUMES = ("fence", "contingency volume", "ground risk buffer")
+VOLUMES = ("fence", "contingency volume", "ground risk buffer", "below a floor outside its gaps")
 
 
 class ContingencyInputs(NamedTuple):
@@ -82,17 +85,22 @@ class Exits(NamedTuple):
     fence: bool
     contingency: bool
     buffer: bool
+    floor: bool
+    """Below a floor outside its gaps (in flight or on the ground): no volume's exit, counted on its own."""
     lateral_in_cv: float
     """Peak lateral excursion over ``S_CV`` (> 1: beyond the contingency volume; < 0: stayed inside the fence)."""
 
 
 def flight_exits(row: Mapping, cv: Contingency) -> Exits:
     lat, ver = num(row.get("max_lateral_excursion_m")), num(row.get("max_vertical_excursion_m"))
+    up = num(row.get("max_ceiling_excursion_m"))
+    up = ver if not math.isfinite(up) else up  # (results scored before the field: the vertical excursion, either way)
     fence = lat > 0.0 or ver > 0.0 or truthy(row.get("breached_keep_out")) or truthy(row.get("landed_outside_gap"))
     return Exits(
         fence=fence,
-        contingency=lat > cv.s_cv_m or ver > cv.h_cv_m,
-        buffer=lat > cv.s_cv_m + cv.s_grb_m or ver > cv.h_cv_m,
+        contingency=lat > cv.s_cv_m or up > cv.h_cv_m,
+        buffer=lat > cv.s_cv_m + cv.s_grb_m or up > cv.h_cv_m,
+        floor=truthy(row.get("landed_outside_gap")) or (ver > 0.0 and ver > up),
         lateral_in_cv=lat / cv.s_cv_m,
     )
 
@@ -108,8 +116,9 @@ class ClassRates(NamedTuple):
     name: str
     flights: int
     hours: float
-    exits: tuple[int, int, int]
-    """Flights leaving the fence, the contingency volume, the ground risk buffer."""
+    exits: tuple[int, int, int, int]
+    """Flights leaving the fence, the contingency volume, the ground risk buffer; flights below a floor outside
+    its gaps."""
 
 
 def class_rates(rows: Sequence[Mapping], inputs: Mapping[str, ContingencyInputs]) -> list[ClassRates]:
@@ -124,8 +133,8 @@ def class_rates(rows: Sequence[Mapping], inputs: Mapping[str, ContingencyInputs]
     for name in sorted(by, key=lambda n: (n != "nominal", n)):
         sel = by[name]
         hours = sum(max(num(r.get("sim_time_s")), 0.0) for r, _ in sel if math.isfinite(num(r.get("sim_time_s")))) / 3600
-        fence, cv, grb = (sum(getattr(e, f) for _, e in sel) for f in ("fence", "contingency", "buffer"))
-        out.append(ClassRates(name, len(sel), hours, (fence, cv, grb)))
+        fence, cv, grb, floor = (sum(getattr(e, f) for _, e in sel) for f in ("fence", "contingency", "buffer", "floor"))
+        out.append(ClassRates(name, len(sel), hours, (fence, cv, grb, floor)))
     return out
 
 
@@ -145,7 +154,7 @@ def containment_lines(rows: Sequence[Mapping], inputs: Mapping[str, ContingencyI
         lines.append(f"| {name} | {p.v0_mps:.1f} | {p.reaction_time_s:.2f} | {math.degrees(p.limit_rad):.0f} | "
                      f"{cv.s_cv_m:.1f} | {cv.h_cv_m:.1f} |")  # fmt: skip
     lines += ["", "| class | flights | flight h | " + " | ".join(f"{v}: exits, per flight (95 % ≤), per h (95 % ≤)" for v in VOLUMES) + " |",
-              "|---|---:|---:|---|---|---|"]  # fmt: skip
+              "|---|---:|---:|" + "---|" * len(VOLUMES)]  # fmt: skip
     for c in class_rates(rows, inputs):
         cells = []
         for k in c.exits:

@@ -9,6 +9,7 @@ of scores, all in SI units:
 * ``max_excursion_m``: the farthest the vehicle got beyond the fence, lateral
   or vertical (<= 0: never outside; then it is minus the closest approach);
 * ``max_lateral_excursion_m``, ``max_vertical_excursion_m``: the same per axis;
+* ``max_ceiling_excursion_m``: the vertical one above the ceiling alone (below a floor outside its gaps left out);
 * ``min_margin_m``: the smallest 3-D margin (+ inside);
 * ``time_outside_s``: total time with a negative margin (each sample counts
   for the interval to the next sample; the last sample counts 0 s);
@@ -71,6 +72,7 @@ SCORE_KEYS = (
     "max_excursion_m",
     "max_lateral_excursion_m",
     "max_vertical_excursion_m",
+    "max_ceiling_excursion_m",
     "min_margin_m",
     "time_outside_s",
     "activations",
@@ -184,6 +186,7 @@ def _empty_scores() -> dict:
         "max_excursion_m": 0.0,
         "max_lateral_excursion_m": 0.0,
         "max_vertical_excursion_m": 0.0,
+        "max_ceiling_excursion_m": 0.0,
         "min_margin_m": 0.0,
         "time_outside_s": 0.0,
         "activations": 0,
@@ -237,7 +240,8 @@ def score_concatenated(
 
     min_total = np.minimum.reduceat(total, starts)
     min_lateral = np.minimum.reduceat(lateral, starts)
-    min_vertical = np.minimum(np.minimum.reduceat(m["ceiling"], starts), np.minimum.reduceat(m["floor"], starts))
+    min_ceiling = np.minimum.reduceat(m["ceiling"], starts)
+    min_vertical = np.minimum(min_ceiling, np.minimum.reduceat(m["floor"], starts))
     min_keep_out = np.minimum.reduceat(m["keep_out"], starts)
     dt = np.empty(n)
     np.subtract(t[1:], t[:-1], out=dt[:-1])
@@ -315,6 +319,7 @@ def score_concatenated(
                 "max_excursion_m": float(-min_total[i]),
                 "max_lateral_excursion_m": float(-min_lateral[i]),
                 "max_vertical_excursion_m": float(-min_vertical[i]),
+                "max_ceiling_excursion_m": float(-min_ceiling[i]),
                 "min_margin_m": float(min_total[i]),
                 "time_outside_s": float(time_outside[i]),
                 "activations": int(activations[i]),

@@ -79,6 +79,19 @@ def test_each_volume_is_left_only_beyond_its_edge():
     assert flight_exits(_row(-5.0, breached_keep_out="true"), cv).fence
 
 
+def test_a_fall_through_a_floor_is_counted_apart_from_the_volumes():
+    """Below a floor outside its gaps (the vertical excursion is the floor's, the ceiling's is negative) is a fence
+    exit and a floor count, not a volume's exit; above the ceiling by more than ``H_CV`` is; a row scored before the
+    ceiling's own field falls back to the vertical excursion (the conservative reading)."""
+    cv = contingency_volume(MR, 60.0)
+    below = flight_exits(_row(-5.0, ver_m=cv.h_cv_m + 10.0, max_ceiling_excursion_m=-40.0, landed_outside_gap="true"), cv)
+    assert (below.fence, below.contingency, below.buffer, below.floor) == (True, False, False, True)
+    above = flight_exits(_row(-5.0, ver_m=cv.h_cv_m + 1.0, max_ceiling_excursion_m=cv.h_cv_m + 1.0), cv)
+    assert (above.fence, above.contingency, above.floor) == (True, True, False)
+    old = flight_exits(_row(-5.0, ver_m=cv.h_cv_m + 1.0), cv)
+    assert old.contingency and not old.floor
+
+
 def test_every_class_is_reported_side_by_side_with_its_hours():
     inputs = {"F450RD": MR}
     cv = contingency_volume(MR, 60.0)
@@ -86,7 +99,9 @@ def test_every_class_is_reported_side_by_side_with_its_hours():
     rows += [_row(1.0, faults="fc_ignores_override"), _row(-1.0, error="boom"), _row(-1.0, platform="unknown")]
     rates = {c.name: c for c in class_rates(rows, inputs)}
     assert list(rates) == ["nominal", "GPS fault", "fault: fc_ignores_override"]  # nominal first; errors left out
-    assert rates["nominal"].flights == 4 and rates["nominal"].hours == pytest.approx(2.0) and rates["nominal"].exits == (0, 0, 0)
-    assert rates["GPS fault"].exits == (1, 1, 0) and rates["fault: fc_ignores_override"].exits == (1, 0, 0)
+    assert (
+        rates["nominal"].flights == 4 and rates["nominal"].hours == pytest.approx(2.0) and rates["nominal"].exits == (0, 0, 0, 0)
+    )
+    assert rates["GPS fault"].exits == (1, 1, 0, 0) and rates["fault: fc_ignores_override"].exits == (1, 0, 0, 0)
     text = "\n".join(containment_lines(rows, inputs))
     assert "| F450RD |" in text and "| nominal | 4 | 2.0 |" in text and "| GPS fault | 1 | 0.5 |" in text

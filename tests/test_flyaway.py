@@ -5,16 +5,22 @@ controller that ignores (or freezes on) the override, terminated by the unit's o
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from support import FRAME, FW, MC, edge_run_doc, fly_doc, latlon, point_mass_fall
+from support import FRAME, FW, MC, edge_run_doc, fault_scenario_doc, fly_doc, latlon, point_mass_fall
 
 from geofence.interface import StickCommand, VehicleState
 from geofence.physics.termination import drag_fall, footprint_points, no_drag_fall_s, termination_footprint
-from geofence.unit.compliance import ComplianceMonitor
+from geofence.unit.compliance import (
+    NONCOMPLIANT_VERTICAL_MPS,
+    VERTICAL_GRACE_FACTOR,
+    VERTICAL_MODEL_ACCEL_FRACTION,
+    ComplianceMonitor,
+)
 from geofence.unit.config import parse_geofence
 from geofence.unit.geofence_unit import GeofenceUnit, Mode
 from geofence.validation import ConfigError
@@ -91,7 +97,7 @@ def _run_monitor(env, commands, follow_tau_s: float | None, grace_s: float = 0.5
     rate = math.radians(180.0) * DT
     for k, (rs, ps) in enumerate(commands):
         t = k * DT
-        if mon.update(t, DT, rs, ps, roll, pitch):
+        if mon.update(t, DT, StickCommand(roll=rs, pitch=ps), VehicleState(roll_rad=roll, pitch_rad=pitch)):
             return t
         if follow_tau_s is not None:
             a = min(1.0, DT / follow_tau_s)
@@ -135,6 +141,53 @@ def test_a_vehicle_ignoring_the_override_is_flagged_after_the_reaction_time_and_
 def test_a_small_command_ignored_is_not_a_flyaway():
     """A command within the threshold of the attitude (a gentle correction) is not flagged, followed or not."""
     assert _run_monitor(FW, [(0.2, 0.0)] * 400, None) is None
+
+
+def _run_vertical(env, sticks, v_up_of, grace_s: float = 0.5):
+    """Fly a sequence of vertical sticks (a multirotor's throttle, a fixed-wing's pitch) through the monitor, the
+    vehicle's vertical speed ``v_up_of(k, commanded climb rate)`` at step ``k``: the time of the first flag, or None."""
+    mon = ComplianceMonitor(env, grace_s)
+    mon.start(0.0, VehicleState(v_up_mps=v_up_of(0, 0.0)))
+    for k, stick in enumerate(sticks):
+        rate = stick * (env.max_climb_rate_mps if stick >= 0.0 else env.max_descent_rate_mps)
+        cmd = StickCommand(throttle=stick) if env.is_multirotor else StickCommand(pitch=stick)
+        if mon.update(k * DT, DT, cmd, VehicleState(v_up_mps=v_up_of(k, rate))):
+            return k * DT
+    return None
+
+
+@pytest.mark.parametrize("env", [FW, MC], ids=["fixed_wing", "multirotor"])
+def test_a_vehicle_climbing_on_through_a_commanded_descent_is_flagged(env):
+    """Climbing at its full rate while told to descend: flagged once the vertical bound (down from that climb at
+    half the envelope's vertical acceleration, ``reaction_time_s`` after the command) is the threshold below the
+    climb, plus twice the grace."""
+    climb = env.max_climb_rate_mps
+    flagged = _run_vertical(env, [-1.0] * 800, lambda k, rate: climb)
+    bound_down_s = (NONCOMPLIANT_VERTICAL_MPS + 1e-9) / (VERTICAL_MODEL_ACCEL_FRACTION * env.vertical_accel_mps2)
+    expected = env.reaction_time_s + bound_down_s + VERTICAL_GRACE_FACTOR * 0.5
+    assert flagged is not None and abs(flagged - expected) <= 2 * DT, (flagged, expected)
+
+
+_vertical_sticks = st.lists(st.tuples(st.sampled_from([-1.0, -0.4, 0.0, 0.5, 1.0]), st.integers(4, 80)), min_size=1, max_size=10)
+
+
+@settings(max_examples=60, deadline=None)
+@given(segments=_vertical_sticks, faster=st.floats(0.3, 1.0), overshoot_mps=st.floats(0.0, 1.0),
+       sag_mps=st.floats(0.0, 6.0), multirotor=st.booleans())  # fmt: skip
+def test_a_vehicle_following_the_vertical_command_is_never_flagged(segments, faster, overshoot_mps, sag_mps, multirotor):
+    """A vehicle whose vertical speed comes to the commanded rate at least as quickly as the model (a first-order
+    lag), overshooting a climb by up to 1 m/s, or sinking below the command by any amount, is following."""
+    env = MC if multirotor else FW
+    sticks = [v for v, n in segments for _ in range(n)]
+    state = {"vz": 0.0}
+    tau = faster * max(env.reaction_time_s, 2 * DT)
+
+    def v_up(k, rate):
+        vz = state["vz"] + min(1.0, DT / tau) * (rate - state["vz"])
+        state["vz"] = vz
+        return vz + (overshoot_mps if rate > 0.0 else 0.0) - (sag_mps if k % 50 < 25 else 0.0)
+
+    assert _run_vertical(env, sticks, v_up) is None
 
 
 def test_the_new_settings_are_validated():
@@ -287,3 +340,93 @@ def test_a_terminated_multirotor_ends_at_its_impact_without_diverging(index):
     s = fly_doc(case.documents[Variant.PREDICTIVE], case.case_id).summary
     assert s["completed"] and s.get("incomplete_reason") is None, s.get("incomplete_reason")
     assert s["terminated_at_s"] is not None and s["touchdown_en_m"] is not None
+
+
+@pytest.mark.closed_loop
+@pytest.mark.parametrize("aircraft", ["F450RD", "Tern"])
+def test_a_flyaway_up_through_the_ceiling_is_terminated_within_the_contingency_volume(aircraft):
+    """A vehicle climbing at its full rate into the ceiling whose flight controller ignores the override (which
+    commands a descent): the vertical watch flags the climb and the unit terminates it before it coasts through
+    the ceiling, so it tops out within the contingency volume's height ``H_CV`` (before: no watch, it climbed on)."""
+    from aircraft.profile import load_profile
+    from analysis.containment import ContingencyInputs, contingency_volume
+
+    env = load_profile(aircraft).envelope
+    if env.is_multirotor:
+        seg, start = {"duration_s": 40.0, "sticks": {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": 1.0}}, (0.0, 0.0)
+    else:
+        seg, start = {"duration_s": 40.0, "course_deg": 0, "speed": "cruise", "climb": "max"}, (0.0, -300.0)
+    fault = [{"kind": "fc_ignores_override", "at_first_activation": True}]
+    s = fly_doc(fault_scenario_doc(aircraft, fault, duration_s=40.0, agl_m=110.0, segments=[seg], start_en=start)).summary
+    assert s["final_mode"] == "TERMINATE" and "through the ceiling" in s["termination_reason"], s["mode_transitions"]
+    assert s["termination"]["axis"] == "vertical"
+    limit = min(env.max_bank_rad, env.max_pitch_rad) if env.is_multirotor else env.max_bank_rad
+    h_cv = contingency_volume(ContingencyInputs(env.kind, env.max_speed_mps, env.reaction_time_s, limit), 150.0).h_cv_m
+    assert 0.0 < s["max_vertical_excursion_m"] <= h_cv, (s["max_vertical_excursion_m"], h_cv)
+    assert s["touchdown_margin_m"] is not None and s["touchdown_margin_m"] > 0.0
+
+
+def _noncompliant_unit(fence: dict, est: VehicleState):
+    """A unit overriding a fixed-wing held at ``est`` that ignores a full bank command: ``(the unit, whether it
+    terminated it)``."""
+    cfg = parse_geofence({"fence": fence}, "test")
+    unit = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), FW)
+    unit.mode = Mode.OVERRIDE
+    for k in range(400):
+        t = k * DT
+        if unit.watch_compliance(t, DT, StickCommand(roll=1.0), dataclasses.replace(est, t_s=t)):
+            return unit, True
+    return unit, False
+
+
+_SQUARE = [list(latlon(e, n)) for e, n in ((-400.0, -400.0), (400.0, -400.0), (400.0, 400.0), (-400.0, 400.0))]
+
+
+def test_a_floor_alone_is_no_reason_to_terminate_but_a_gap_under_the_footprint_is():
+    """Over a floor, away from its gaps, a vehicle that does not follow is not terminated while its footprint has
+    lateral room (a fall through the floor is no better than its own descent); over a gap it is, at once."""
+    gap = [list(latlon(e, n)) for e, n in ((-60.0, -60.0), (60.0, -60.0), (60.0, 60.0), (-60.0, 60.0))]
+    fence = {"keep_in": _SQUARE, "ceiling_m": 150, "floor_m": 30, "floor_gaps": [gap]}
+    hovering_away = VehicleState(east_m=-250.0, north_m=0.0, agl_m=40.0)
+    unit, terminated = _noncompliant_unit(fence, hovering_away)
+    assert unit.compliance.noncompliant and not terminated and unit.mode is Mode.OVERRIDE
+    unit, terminated = _noncompliant_unit(fence, VehicleState(east_m=0.0, north_m=0.0, agl_m=40.0))
+    assert terminated and "over a floor gap" in unit.transitions[-1].reason
+
+
+def test_a_vehicle_missing_only_the_climb_is_terminated_only_near_the_ceiling():
+    """A vehicle that follows the attitude but climbs on through a commanded descent is still steered sideways: it
+    is not terminated for its footprint or over a gap, only once its coast once cut would reach the ceiling."""
+    gap = [list(latlon(e, n)) for e, n in ((-60.0, -60.0), (60.0, -60.0), (60.0, 60.0), (-60.0, 60.0))]
+    fence = {"keep_in": _SQUARE, "ceiling_m": 150, "floor_m": 30, "floor_gaps": [gap]}
+    cfg = parse_geofence({"fence": fence}, "test")
+    unit = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), FW)
+    unit.mode = Mode.OVERRIDE
+    heights = []
+    for k in range(2000):
+        t = k * DT
+        est = VehicleState(t_s=t, east_m=0.0, north_m=0.0, agl_m=60.0 + 4.0 * t, v_up_mps=4.0)  # (over the gap)
+        if unit.watch_compliance(t, DT, StickCommand(pitch=-1.0), est):
+            break
+        heights.append(est.agl_m)
+    assert unit.mode is Mode.TERMINATE and unit.termination["axis"] == "vertical"
+    assert "through the ceiling" in unit.transitions[-1].reason
+    assert unit.compliance.climb_missed and not unit.compliance.attitude_missed
+    assert 140.0 < heights[-1] < 150.0  # (cut where its coast, 0.8 m, and the margins still fit under 150 m)
+
+
+def test_the_landing_is_watched_too():
+    """In a landing (LAND_IN_GAP) the unit commands as in an override: a vehicle banking away from the commanded
+    wings-level descent, with its footprint at the edge, is terminated as not following the landing."""
+    cfg = parse_geofence({"fence": {"keep_in": _SQUARE, "ceiling_m": 150}}, "test")
+    unit = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), FW)
+    unit.mode = Mode.LAND_IN_GAP
+    assert unit.commanding
+    for k in range(400):
+        t = k * DT
+        est = VehicleState(t_s=t, north_m=380.0, agl_m=40.0, v_north_mps=15.0, roll_rad=math.radians(40.0))
+        if unit.watch_compliance(t, DT, StickCommand(roll=-1.0, pitch=-1.0), est):
+            break
+    assert unit.mode is Mode.TERMINATE and "does not follow the landing" in unit.transitions[-1].reason
+    unit.mode = Mode.MONITOR
+    assert not unit.commanding

@@ -98,6 +98,7 @@ def test_landing_inside_vs_outside_a_floor_gap():
     outside = score_flight(track(np.full(41, 60.0), 0.0, agl), f)
     assert outside["landed_outside_gap"]
     assert outside["max_vertical_excursion_m"] == pytest.approx(8.0, abs=1e-9)  # 8 m below the floor, no gap
+    assert outside["max_ceiling_excursion_m"] == pytest.approx(20.0 - box_fence().ceiling_m, abs=1e-9)  # (below it)
     airborne = score_flight(track(np.full(41, 60.0), 0.0, np.full(41, 20.0)), f)
     assert not airborne["landed_outside_gap"]
 

@@ -1,27 +1,32 @@
-"""The compliance monitor: does the vehicle follow the override's sticks?
+"""The compliance monitor: does the vehicle follow the unit's sticks?
 
-During an override the unit commands an attitude (:mod:`geofence.interface`: a multirotor's roll and pitch
-sticks are bank and pitch angles, ``stick · min(max_bank, max_pitch)``; a fixed-wing's roll stick is a bank
-angle, ``stick · max_bank``; its pitch stick is a climb rate, not an attitude, and is not watched). A vehicle
-that follows settles on the commanded attitude in about the envelope's ``reaction_time_s``; the monitor models
-that as a first-order lag of the commanded angle (time constant ``reaction_time_s``) and compares it with the
-estimated attitude.
+While the unit commands (an override, a landing in a gap) it knows what a following vehicle does
+(:mod:`geofence.interface`): a multirotor's roll and pitch sticks are bank and pitch angles,
+``stick · min(max_bank, max_pitch)``, its throttle a climb rate; a fixed-wing's roll stick is a bank angle,
+``stick · max_bank``, its pitch stick a climb rate. The monitor watches both axes against the slowest follower:
 
-The vehicle does not follow when it lags behind that model (its attitude farther from the command than the
-model's, :func:`lag_behind_rad`) by more than :data:`NONCOMPLIANT_ANGLE_RAD` (or :data:`NONCOMPLIANT_FRACTION` of
-the tilt limit, the larger) for ``grace_s`` on end, the watch starting ``reaction_time_s`` after the override
-began. The test is one-sided because ``reaction_time_s`` is a conservative roll-in time: a following vehicle is
-quicker than the model (a Tern banks 40° in about 0.7 s against the model's 1.1 s time constant) and may
-overshoot the commanded bank by a few degrees (44-46° for 40°), which is not a miss; and where the vehicle is
-ahead of the model, the model restarts from it (:func:`lag_step`). So a flight controller that
-ignores the override from its start is flagged ``reaction_time_s + grace_s`` after it (rounded up to a step)
-when the command is at least ``threshold / (1 - 1/e)`` away from its attitude (a full-stick turn or brake: 30-60°).
-The threshold and the grace together: a following vehicle lags behind the model beyond the threshold only
-briefly, where a rate-limited controller reverses a full command (an F450RD up to 33° for 0.225 s at most, a
-fixed-wing never beyond 13°, on the overrides of the golden flights, the shipped geofence and airspace
-scenarios and the CI campaign slice: 50 flights, none flagged; a flag would change the golden flights); a
-vehicle ignoring a turn or a brake misses it by most of the commanded angle (30-60°) for as long as it ignores
-it.
+* **attitude**: a first-order lag of the commanded angle (time constant ``reaction_time_s``);
+* **vertical**: an upper bound on the vertical speed. Told to climb, any climb up to the commanded rate follows;
+  told to hold or descend, a following vehicle's climb comes down to the commanded rate (no lower than a descent at
+  :data:`VERTICAL_TARGET_MPS`) at :data:`VERTICAL_MODEL_ACCEL_FRACTION` of the envelope's ``vertical_accel_mps2``,
+  ``reaction_time_s`` after it was told. Upward only: a vehicle sinking more than commanded (a multirotor sagging while it
+  brakes at its tilt limit, a fixed-wing spiralling down at its limit) is following; the flyaway this watch
+  exists for climbs on through the ceiling.
+
+The vehicle does not follow when it lags behind the attitude model (farther from the command than the model,
+:func:`lag_behind`) or climbs above the vertical bound by more than its threshold (attitude :data:`NONCOMPLIANT_ANGLE_RAD` or
+:data:`NONCOMPLIANT_FRACTION` of the tilt limit, the larger, for ``grace_s`` on end; vertical
+:data:`NONCOMPLIANT_VERTICAL_MPS` for :data:`VERTICAL_GRACE_FACTOR` times that), the watch starting ``reaction_time_s`` after the unit took control. The tests are one-sided
+because the models are conservative: a following vehicle is quicker than the model (a Tern banks 40° in about
+0.7 s against the model's 1.1 s time constant) and may overshoot the commanded bank by a few degrees (44-46° for
+40°), which is not a miss; and where the vehicle is ahead of a model, the model restarts from it
+(:func:`lag_step`; the vertical bound from a vehicle below it). So a flight controller that ignores a full-stick turn or brake is flagged
+``reaction_time_s + grace_s`` after it (rounded up to a step) when the command is at least
+``threshold / (1 - 1/e)`` from its attitude (30-60°), and one that climbs on through a commanded descent (a
+flyaway up through the ceiling) once its climb is :data:`NONCOMPLIANT_VERTICAL_MPS` above the bound,
+plus the grace. The thresholds and the grace together: a following vehicle lags behind the models beyond them
+only briefly (the measured figures are in ``docs/geofence_design.md``); a vehicle ignoring the unit misses the
+command by most of it for as long as it ignores it.
 
 Pure math on the unit's commanded sticks and its state estimate; no files, no airframe names.
 """
@@ -30,19 +35,29 @@ from __future__ import annotations
 
 import math
 
-from geofence.interface import Envelope
+from geofence.interface import Envelope, StickCommand, VehicleState
 
 NONCOMPLIANT_ANGLE_RAD = math.radians(15.0)
 """An attitude this far from the lagged command, held for the grace time, is not following (rad)."""
 NONCOMPLIANT_FRACTION = 0.4
 """... or this fraction of the tilt (bank) limit, if larger: a 0.4 · 45° = 18° miss for a 45° limit."""
+VERTICAL_TARGET_MPS = 1.0
+"""The vertical bound's target in a commanded descent: the commanded rate, but no lower than this descent (m/s)."""
+VERTICAL_MODEL_ACCEL_FRACTION = 0.5
+"""The vertical bound comes down at this fraction of the envelope's ``vertical_accel_mps2``."""
+NONCOMPLIANT_VERTICAL_MPS = 2.5
+"""A climb this far above the vertical bound, held for :data:`VERTICAL_GRACE_FACTOR` times the grace, is not
+following (m/s): a vehicle still climbing at 1.5 m/s once the bound is a descent at 1 m/s."""
+VERTICAL_GRACE_FACTOR = 2.0
+"""The vertical lag's grace in grace times: a multirotor braking hard balloons up for a few tenths of a second."""
 
 _TIME_EPS_S = 1e-9
 """Times compared to this (a step's time is a sum of floats)."""
 
 
 class ComplianceMonitor:
-    """Watches one override at a time: :meth:`start` as it begins, :meth:`update` at every override step."""
+    """Watches one stretch of the unit's command at a time: :meth:`start` as it begins, :meth:`update` at every
+    step of it."""
 
     def __init__(self, envelope: Envelope, grace_s: float) -> None:
         self.grace_s = grace_s
@@ -56,34 +71,80 @@ class ComplianceMonitor:
         self.max_roll_rad = min(envelope.max_bank_rad, envelope.max_pitch_rad) if self.multirotor else envelope.max_bank_rad
         self.max_pitch_rad = self.max_roll_rad
         self.threshold_rad = max(NONCOMPLIANT_ANGLE_RAD, NONCOMPLIANT_FRACTION * self.max_roll_rad)
+        self.climb_mps, self.descent_mps = envelope.max_climb_rate_mps, envelope.max_descent_rate_mps
+        self.vertical_accel_mps2 = envelope.vertical_accel_mps2
 
-    def start(self, t_s: float, roll_rad: float = 0.0, pitch_rad: float = 0.0) -> None:
-        """An override begins at ``t_s``; the lag model starts at the estimated attitude."""
+    def start(self, t_s: float, est: VehicleState | None = None) -> None:
+        """The unit takes control at ``t_s``; the models start at the estimated attitude and vertical speed."""
         self.started_s = t_s
-        self.expected_roll_rad, self.expected_pitch_rad = roll_rad, pitch_rad
-        self.beyond_since_s = math.nan
+        self.expected_roll_rad = 0.0 if est is None else est.roll_rad
+        self.expected_pitch_rad = 0.0 if est is None else est.pitch_rad
+        self.expected_v_up_mps = 0.0 if est is None else est.v_up_mps
+        self.descent_told_s = math.nan
+        self.beyond_since_s = self.climbing_since_s = math.nan
         self.error_rad = 0.0
-        self.noncompliant = False
+        self.vertical_error_mps = 0.0
+        self.noncompliant = self.attitude_missed = self.climb_missed = False
 
-    def update(self, t_s: float, dt_s: float, roll_stick: float, pitch_stick: float, roll_rad: float, pitch_rad: float) -> bool:
-        """One override step: the commanded sticks (clipped as the controller clips them) and the estimated
-        attitude; returns whether the vehicle is not following (its lag held for ``grace_s``)."""
+    def update(self, t_s: float, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
+        """One step: the sticks the unit sent (clipped as the controller clips them) and the estimate; returns
+        whether the vehicle is not following (a lag beyond its threshold held for its grace)."""
+        attitude, vertical = self._attitude_beyond(dt_s, cmd, est), self._vertical_beyond(t_s, dt_s, cmd, est)
+        if t_s - self.started_s < self.tau_s - _TIME_EPS_S:
+            attitude = vertical = False
+        self.beyond_since_s = _since(self.beyond_since_s, attitude, t_s)
+        self.climbing_since_s = _since(self.climbing_since_s, vertical, t_s)
+        self.attitude_missed = t_s - self.beyond_since_s >= self.grace_s - _TIME_EPS_S  # (False while NaN)
+        self.climb_missed = t_s - self.climbing_since_s >= VERTICAL_GRACE_FACTOR * self.grace_s - _TIME_EPS_S
+        self.noncompliant = self.attitude_missed or self.climb_missed
+        return self.noncompliant
+
+    @property
+    def axis(self) -> str:
+        """Which watch flagged the vehicle: ``attitude`` (also when both did) or ``vertical``."""
+        return "vertical" if self.climb_missed and not self.attitude_missed else "attitude"
+
+    @property
+    def missed_since_s(self) -> float:
+        """When the lag that flagged the vehicle began (s; NaN while it follows)."""
+        return self.climbing_since_s if self.axis == "vertical" else self.beyond_since_s
+
+    def _attitude_beyond(self, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
         a = min(1.0, dt_s / self.tau_s)
-        cmd = max(-1.0, min(1.0, roll_stick)) * self.max_roll_rad
-        self.expected_roll_rad, err = lag_step(cmd, self.expected_roll_rad, roll_rad, a)
+        self.expected_roll_rad, err = lag_step(_clip1(cmd.roll) * self.max_roll_rad, self.expected_roll_rad, est.roll_rad, a)
         if self.multirotor:
-            cmd = max(-1.0, min(1.0, pitch_stick)) * self.max_pitch_rad
-            self.expected_pitch_rad, lag = lag_step(cmd, self.expected_pitch_rad, pitch_rad, a)
+            target = _clip1(cmd.pitch) * self.max_pitch_rad
+            self.expected_pitch_rad, lag = lag_step(target, self.expected_pitch_rad, est.pitch_rad, a)
             err = max(err, lag)
         self.error_rad = err
-        if t_s - self.started_s < self.tau_s - _TIME_EPS_S or err <= self.threshold_rad:
-            self.beyond_since_s = math.nan
-            self.noncompliant = False
-            return False
-        if self.beyond_since_s != self.beyond_since_s:  # (NaN: the lag starts now)
-            self.beyond_since_s = t_s
-        self.noncompliant = t_s - self.beyond_since_s >= self.grace_s - _TIME_EPS_S
-        return self.noncompliant
+        return err > self.threshold_rad
+
+    def _vertical_beyond(self, t_s: float, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
+        stick = _clip1(cmd.throttle if self.multirotor else cmd.pitch)
+        target = max(-VERTICAL_TARGET_MPS, stick * (self.climb_mps if stick >= 0.0 else self.descent_mps))
+        bound = self.expected_v_up_mps
+        if target >= bound:  # (a climb may come as quickly as the vehicle likes)
+            bound, self.descent_told_s = target, math.nan
+        else:  # the slowest follower comes down from its climb once it has reacted to being told to
+            if self.descent_told_s != self.descent_told_s:  # (NaN: told now)
+                self.descent_told_s = t_s
+            if t_s - self.descent_told_s >= self.tau_s - _TIME_EPS_S:
+                bound -= VERTICAL_MODEL_ACCEL_FRACTION * self.vertical_accel_mps2 * dt_s
+            bound = max(target, min(bound, est.v_up_mps))
+        self.expected_v_up_mps = bound
+        self.vertical_error_mps = lag = max(0.0, est.v_up_mps - bound)
+        return lag > NONCOMPLIANT_VERTICAL_MPS
+
+
+def _since(since_s: float, beyond: bool, t_s: float) -> float:
+    """A lag timer's start: NaN while within the threshold, else when it went beyond (``t_s`` if just now)."""
+    if not beyond:
+        return math.nan
+    return t_s if since_s != since_s else since_s
+
+
+def _clip1(x: float) -> float:
+    return max(-1.0, min(1.0, x))
 
 
 def lag_step(command_rad: float, expected_rad: float, estimated_rad: float, a: float) -> tuple[float, float]:
@@ -92,11 +153,11 @@ def lag_step(command_rad: float, expected_rad: float, estimated_rad: float, a: f
     it is the slowest follower from where the vehicle got, so a vehicle that led the model into a turn does not
     seem to lag when the command reverses (a Tern 19° past the model at a full reversal, measured)."""
     expected = expected_rad + a * (command_rad - expected_rad)
-    lag = lag_behind_rad(command_rad, expected, estimated_rad)
+    lag = lag_behind(command_rad, expected, estimated_rad)
     return (estimated_rad if lag == 0.0 else expected), lag
 
 
-def lag_behind_rad(command_rad: float, expected_rad: float, estimated_rad: float) -> float:
-    """How much farther from the command the estimated attitude is than the lag model's (rad, >= 0): 0 for a
-    vehicle at least as quick as the model (one settling faster, or overshooting a little, is following)."""
-    return max(0.0, abs(command_rad - estimated_rad) - abs(command_rad - expected_rad))
+def lag_behind(command: float, expected: float, estimated: float) -> float:
+    """How much farther from the command the estimate is than the model's (>= 0; rad or m/s as they are): 0 for
+    a vehicle at least as quick as the model (one settling faster, or overshooting a little, is following)."""
+    return max(0.0, abs(command - estimated) - abs(command - expected))

@@ -59,7 +59,7 @@ from geofence.geometry.local_fence import LocalFence
 from geofence.interface import Envelope, FixState, StickCommand, VehicleState
 from geofence.margins.boundary_shift import CompiledMargins, ShiftResult, activation_margins
 from geofence.physics.control_laws import climb_rate_to_stick, clip
-from geofence.physics.dynamics import envelope_at_density, isa_density_ratio, return_not_assured, return_wind_limits
+from geofence.physics.dynamics import G_MPS2, envelope_at_density, isa_density_ratio, return_not_assured, return_wind_limits
 from geofence.physics.rooms import (
     climb_back_drift_m,
     envelope_turn_radius_m,
@@ -874,40 +874,72 @@ class GeofenceUnit:
         u.ring_rows = u.has_margins = u.horizon_moved = u.recovery_moved = 0.0
         return bool(moved)
 
+    @property
+    def commanding(self) -> bool:
+        """Whether the unit, not the pilot, commands the vehicle now (an override, a landing in a gap): the stretches
+        the compliance watch (:meth:`watch_compliance`) runs in."""
+        return self.mode is _OVERRIDE or self.mode is _LAND_IN_GAP
+
     def watch_compliance(self, t_s: float, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
-        """An override step's compliance watch (the runner calls it while the mode is ``OVERRIDE``, with the sticks
-        the unit sent and its newest estimate): the :class:`~geofence.unit.compliance.ComplianceMonitor` on them;
-        a vehicle not following is terminated once the termination footprint's margin
-        (:meth:`termination_margin_m`) is down to what the footprint moves in the next steps (at once if it is
-        outside already). Returns whether it switched to ``TERMINATE`` (the runner then cuts the propulsion)."""
+        """A commanded step's compliance watch (the runner calls it while :attr:`commanding`, with the sticks the
+        unit sent and its newest estimate): the :class:`~geofence.unit.compliance.ComplianceMonitor` on them. A
+        vehicle not following is terminated where that contains it (:meth:`termination_call`). Returns whether it
+        switched to ``TERMINATE`` (the runner then cuts the propulsion)."""
         monitor = self.compliance
-        if monitor.started_s != self._mode_since_s:  # a new override
+        if monitor.started_s != self._mode_since_s:  # a new stretch of the unit's command
             monitor.set_envelope(self.env)
-            monitor.start(self._mode_since_s, est.roll_rad, est.pitch_rad)
-        if not monitor.update(t_s, dt_s, cmd.roll, cmd.pitch, est.roll_rad, est.pitch_rad):
+            monitor.start(self._mode_since_s, est)
+        if not monitor.update(t_s, dt_s, cmd, est):
             return False
         if self.noncompliant_at_s is None:
             self.noncompliant_at_s = t_s
         margin, fp = self.termination_margin_m(est)
-        lead_m = est.ground_speed_mps * (2.0 * dt_s + self._latency_s)
-        if margin > lead_m:
+        where = self.termination_call(est, dt_s, margin, fp, monitor.attitude_missed)
+        if where is None:
             return False
-        miss = math.degrees(monitor.error_rad)
-        where = "already outside: at once" if margin < 0.0 else "before it leaves"
+        miss = f"attitude {math.degrees(monitor.error_rad):.0f} deg" if monitor.axis == "attitude" else (
+            f"vertical speed {monitor.vertical_error_mps:.1f} m/s")  # fmt: skip
         self.termination = {
-            "noncompliant_at_s": round(self.noncompliant_at_s, 3), "override_since_s": round(self._mode_since_s, 3),
-            "attitude_miss_deg": round(miss, 1), "footprint_margin_m": round(margin, 2),
+            "noncompliant_at_s": round(self.noncompliant_at_s, 3), "commanding_since_s": round(self._mode_since_s, 3),
+            "axis": monitor.axis, "attitude_miss_deg": round(math.degrees(monitor.error_rad), 1),
+            "vertical_miss_mps": round(monitor.vertical_error_mps, 2), "footprint_margin_m": round(margin, 2),
             "footprint_far_en_m": [round(fp.far_e_m, 2), round(fp.far_n_m, 2)],
             "footprint_drag_en_m": [round(fp.drag_e_m, 2), round(fp.drag_n_m, 2)],
             "footprint_radius_m": round(fp.radius_m, 2), "fall_s": round(fp.fall_s, 2),
         }  # fmt: skip
         self._switch(
             t_s, Mode.TERMINATE,
-            f"the vehicle does not follow the override (attitude {miss:.0f} deg off since "
-            f"{self.noncompliant_at_s - self.config.compliance_grace_s:.2f} s): flight termination, footprint margin "
+            f"the vehicle does not follow the {'override' if self.mode is _OVERRIDE else 'landing'} ({miss} off since "
+            f"{monitor.missed_since_s:.2f} s): flight termination, footprint margin "
             f"{margin:.1f} m ({where})",
         )  # fmt: skip
         return True
+
+    def termination_call(
+        self, est: VehicleState, dt_s: float, margin_m: float, fp: Footprint, steers: bool
+    ) -> str | None:  # fmt: skip
+        """Whether to terminate a vehicle that does not follow, and why (None: not yet). One that misses the climb
+        alone (``steers`` False: it follows the attitude, so the unit still steers it sideways) is terminated only
+        when the height it coasts up to once cut (``v_up² / 2g``, with the vertical uncertainty) is within what it
+        climbs in the next two steps and the latency of the ceiling. One that misses the attitude also when the
+        footprint's lateral margin (``margin_m``) is down to what it moves in that time (at once if it is outside
+        already), or where the whole footprint lies in a floor gap. A floor alone is no reason: a fall through it
+        lands no better than the vehicle's own descent."""
+        lead_s = 2.0 * dt_s + self._latency_s
+        if steers and margin_m < 0.0:
+            return "already outside: at once"
+        if steers and margin_m <= est.ground_speed_mps * lead_s:
+            return "before it leaves"
+        climb = max(est.v_up_mps, 0.0)
+        cfg = self.config
+        apex_m = (
+            self.height(est) + climb * climb / (2.0 * G_MPS2) + cfg.uncertainty_k_sigma * self._sigma_v_m + cfg.extra_margin_m
+        )
+        if self.fence.ceiling_m - apex_m <= climb * lead_s:
+            return "before it climbs through the ceiling"
+        if steers and self.fence.floor_m is not None and self.footprint_gap_margin_m(fp) >= 0.0:
+            return "over a floor gap"
+        return None
 
     def termination_footprint(self, est: VehicleState) -> Footprint:
         """Where the vehicle comes down if terminated now (:func:`geofence.physics.termination.termination_footprint`
@@ -921,17 +953,17 @@ class GeofenceUnit:
         )  # fmt: skip
 
     def termination_margin_m(self, est: VehicleState) -> tuple[float, Footprint]:
-        """The termination footprint's margin (m; + inside): the least over its path
-        (:func:`~geofence.physics.termination.footprint_points`) of the lateral margin (keep-in and keep-outs) and,
-        below a floor, of the floor gaps' distance, less its radius; and the footprint."""
+        """The termination footprint's lateral margin (m; + inside): the least over its path
+        (:func:`~geofence.physics.termination.footprint_points`) of the lateral margin (keep-in and keep-outs), less
+        its radius; and the footprint."""
         fp = self.termination_footprint(est)
         fence = self.fence
-        floor = fence.floor_m is not None
-        least = math.inf
-        for e, n in footprint_points(fp):
-            m = fence.lateral_margin_m(e, n)
-            least = min(least, m, fence.gap_distance_m(e, n)) if floor else min(least, m)
-        return least - fp.radius_m, fp
+        return min(fence.lateral_margin_m(e, n) for e, n in footprint_points(fp)) - fp.radius_m, fp
+
+    def footprint_gap_margin_m(self, fp: Footprint) -> float:
+        """How far the footprint lies inside a floor gap (m; + inside; ``-inf`` with no gaps)."""
+        fence = self.fence
+        return min(fence.gap_distance_m(e, n) for e, n in footprint_points(fp)) - fp.radius_m
 
     def newest_estimate(self, ring: np.ndarray) -> VehicleState | None:
         """The newest estimate the unit has: the ring's newest row where compiled steps have written it since the

@@ -90,7 +90,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     finished_at = None
     mode = Mode.MONITOR
     monitor, recovered, land_in_gap = Mode.MONITOR, Mode.RECOVERED, Mode.LAND_IN_GAP
-    overriding, terminate = Mode.OVERRIDE, Mode.TERMINATE
+    terminate = Mode.TERMINATE
     terminated: float | None = None  # when the runner cut the propulsion (Platform.terminate)
     struck = False  # the terminated vehicle struck the ground (the flight ended there)
     step = 0
@@ -134,7 +134,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                     cmd = cmd_in
                     record(truth, w, cmd_in, cmd, mode, pilot.items_reached)
             if unit is not None:
-                if unit.mode is overriding:  # the compliance watch (only while overriding)
+                if unit.commanding:  # the compliance watch (while the unit, not the pilot, commands)
                     est = unit.estimate if fused is None else fused.newest_estimate()
                     if est is not None and unit.watch_compliance(t, dt_s, cmd, est) and fused is not None:
                         fused.finish()  # (the steps it took handed over before the unit answers again)
