@@ -430,3 +430,22 @@ def test_the_landing_is_watched_too():
     assert unit.mode is Mode.TERMINATE and "does not follow the landing" in unit.transitions[-1].reason
     unit.mode = Mode.MONITOR
     assert not unit.commanding
+
+
+@pytest.mark.closed_loop
+@pytest.mark.parametrize("aircraft, agl_m", [("F450RD", 40.0), ("Micro250", 60.0)])
+def test_a_flight_controller_freezing_while_the_pilot_flies_is_terminated_inside(aircraft, agl_m):
+    """The pilot flies forward, then brakes and backs off; the flight controller froze on the forward stick
+    half a second before. Watched on the pilot's sticks the unit passes through, the freeze is flagged as soon as
+    the pilot's command moves, and the vehicle is terminated before its footprint leaves the fence (before: found
+    only at the override near the edge, with the footprint already outside; it came down 4.8 m and 14.4 m out)."""
+    hold = {"roll": 0.0, "pitch": 0.0, "yaw": 0.0, "throttle": 0.0}
+    segments = [{"duration_s": 3.0, "sticks": {**hold, "pitch": -0.7}}, {"duration_s": 37.0, "sticks": {**hold, "pitch": 0.7}}]
+    doc = fault_scenario_doc(
+        aircraft, [{"kind": "fc_freezes", "at_s": 2.5}], duration_s=40.0, half_m=150.0, agl_m=agl_m,
+        segments=segments, start_en=(0.0, -100.0),
+    )  # fmt: skip
+    s = fly_doc(doc).summary
+    assert s["final_mode"] == "TERMINATE" and "does not follow the pilot's sticks" in s["termination_reason"], s
+    assert s["first_activation_s"] is None  # (no override was needed to find it)
+    assert s["max_lateral_excursion_m"] < 0.0 and s["touchdown_margin_m"] > 0.0

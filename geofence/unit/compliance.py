@@ -1,7 +1,7 @@
 """The compliance monitor: does the vehicle follow the unit's sticks?
 
-While the unit commands (an override, a landing in a gap) it knows what a following vehicle does
-(:mod:`geofence.interface`): a multirotor's roll and pitch sticks are bank and pitch angles,
+The unit knows what a vehicle following the sticks it sends does, its own while it commands (an override, a
+landing in a gap) or the pilot's it passes through (:mod:`geofence.interface`): a multirotor's roll and pitch sticks are bank and pitch angles,
 ``stick · min(max_bank, max_pitch)``, its throttle a climb rate; a fixed-wing's roll stick is a bank angle,
 ``stick · max_bank``, its pitch stick a climb rate. The monitor watches both axes against the slowest follower:
 
@@ -16,7 +16,7 @@ While the unit commands (an override, a landing in a gap) it knows what a follow
 The vehicle does not follow when it lags behind the attitude model (farther from the command than the model,
 :func:`lag_behind`) or climbs above the vertical bound by more than its threshold (attitude :data:`NONCOMPLIANT_ANGLE_RAD` or
 :data:`NONCOMPLIANT_FRACTION` of the tilt limit, the larger, for ``grace_s`` on end; vertical
-:data:`NONCOMPLIANT_VERTICAL_MPS` for :data:`VERTICAL_GRACE_FACTOR` times that), the watch starting ``reaction_time_s`` after the unit took control. The tests are one-sided
+:data:`NONCOMPLIANT_VERTICAL_MPS` for :data:`VERTICAL_GRACE_FACTOR` times that), the watch starting ``reaction_time_s`` into each stretch of one mode. The tests are one-sided
 because the models are conservative: a following vehicle is quicker than the model (a Tern banks 40° in about
 0.7 s against the model's 1.1 s time constant) and may overshoot the commanded bank by a few degrees (44-46° for
 40°), which is not a miss; and where the vehicle is ahead of a model, the model restarts from it
@@ -28,7 +28,7 @@ plus the grace. The thresholds and the grace together: a following vehicle lags 
 only briefly (the measured figures are in ``docs/geofence_design.md``); a vehicle ignoring the unit misses the
 command by most of it for as long as it ignores it.
 
-Pure math on the unit's commanded sticks and its state estimate; no files, no airframe names.
+Pure math on the sticks the unit sent and its state estimate; no files, no airframe names.
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ _TIME_EPS_S = 1e-9
 
 
 class ComplianceMonitor:
-    """Watches one stretch of the unit's command at a time: :meth:`start` as it begins, :meth:`update` at every
+    """Watches one stretch of one mode at a time: :meth:`start` as it begins, :meth:`update` at every
     step of it."""
 
     def __init__(self, envelope: Envelope, grace_s: float) -> None:
@@ -75,7 +75,7 @@ class ComplianceMonitor:
         self.vertical_accel_mps2 = envelope.vertical_accel_mps2
 
     def start(self, t_s: float, est: VehicleState | None = None) -> None:
-        """The unit takes control at ``t_s``; the models start at the estimated attitude and vertical speed."""
+        """A stretch begins at ``t_s``; the models start at the estimated attitude and vertical speed."""
         self.started_s = t_s
         self.expected_roll_rad = 0.0 if est is None else est.roll_rad
         self.expected_pitch_rad = 0.0 if est is None else est.pitch_rad

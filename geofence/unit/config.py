@@ -27,7 +27,7 @@ Example (every key but ``fence`` optional)::
       turbulence_source: estimate  # estimate (max of forecast and the unit's estimate, default) | forecast
       vertical_handback_m: 2.0     # hand back only this far inside the vertical activation boundary
       state_source: estimate       # estimate (own sensors + Kalman filter, default) | truth (e.g. indoor motion capture)
-      compliance_grace_s: 0.5      # the unit's command not followed this long (the climb: twice) -> plan termination
+      compliance_grace_s: 0.5      # the sticks sent not followed this long (the climb: twice) -> plan termination
       termination_terminal_speed_mps: 8.0   # the slowest terminal fall speed at termination (the footprint's drag end)
 
 All messages are one line: ``<where>.<field>: <problem>``.
@@ -155,10 +155,10 @@ class GeofenceConfig:
     """Vertical hysteresis: hand back only with the vertical activation margin at least this large."""
     compliance_grace_s: float = 0.5
     """The compliance monitor (:mod:`geofence.unit.compliance`) flags a vehicle that lags behind the unit's
-    commanded attitude this long on end (s; a climb above its bound twice this long), from the envelope's reaction
-    time into the unit's command: over twice the longest lag a following vehicle showed on the golden flights, the
+    sent attitude this long on end (s; a climb above its bound twice this long), from the envelope's reaction time
+    into each stretch of one mode: over twice the longest lag a following vehicle showed on the golden flights, the
     shipped scenarios and the CI campaign slice (0.2 s, an F450RD reversing a full pitch; a fixed-wing 0 s; the
-    climb 0.05 s), and short, since each 0.1 s at 10-25 m/s carries the fall 1-2.5 m farther."""
+    climb 0.125 s), and short, since each 0.1 s at 10-25 m/s carries the fall 1-2.5 m farther."""
     termination_terminal_speed_mps: float = 8.0
     """The slowest terminal speed of the terminated vehicle (m/s), the footprint's drag end
     (:mod:`geofence.physics.termination`): a spinning fixed-wing measured 8.4 m/s mean descent (Tern, 70 m in

@@ -126,6 +126,9 @@ still make way against it to face its route."""
 _MONITOR, _OVERRIDE, _RECOVERED, _LAND_IN_GAP, _TERMINATE = (
     Mode.MONITOR, Mode.OVERRIDE, Mode.RECOVERED, Mode.LAND_IN_GAP, Mode.TERMINATE,
 )  # fmt: skip
+_FOLLOWED = {Mode.OVERRIDE: "the override", Mode.LAND_IN_GAP: "the landing"}
+"""What the vehicle does not follow, per mode, in a termination's reason (else :data:`_PILOT_STICKS`, passed on)."""
+_PILOT_STICKS = "the pilot's sticks"
 
 
 class _Field:
@@ -238,10 +241,11 @@ class GeofenceUnit:
         self._climb_back_to_m = math.nan
         self._goal_h_m = math.nan
         self.compliance = ComplianceMonitor(envelope, config.compliance_grace_s)
-        """Watches the overrides (:meth:`watch_compliance`)."""
-        self.compliance.started_s = math.nan  # (no override watched yet)
+        """Watches whether the vehicle follows what the unit sends (:meth:`watch_compliance`)."""
+        self._watched_since_s = math.nan
+        """The start of the mode stretch the monitor watches (NaN: none yet, or since the vehicle was on the ground)."""
         self.noncompliant_at_s: float | None = None
-        """When the compliance monitor first found the vehicle not following an override (s), or None."""
+        """When the compliance monitor first found the vehicle not following (s), or None."""
         self.termination: dict[str, Any] | None = None
         """Why and where the unit terminated a vehicle that did not follow (:meth:`watch_compliance`), or None."""
 
@@ -876,19 +880,30 @@ class GeofenceUnit:
 
     @property
     def commanding(self) -> bool:
-        """Whether the unit, not the pilot, commands the vehicle now (an override, a landing in a gap): the stretches
-        the compliance watch (:meth:`watch_compliance`) runs in."""
+        """Whether the unit, not the pilot, commands the vehicle now (an override, a landing in a gap)."""
         return self.mode is _OVERRIDE or self.mode is _LAND_IN_GAP
 
+    @property
+    def watching(self) -> bool:
+        """Whether the compliance watch (:meth:`watch_compliance`) runs now: in every mode but ``TERMINATE``, on the
+        unit's sticks while it commands and on the pilot's it passes through otherwise (a flight controller that
+        freezes while the pilot flies is found as soon as the pilot's command moves)."""
+        return self.mode is not _TERMINATE
+
     def watch_compliance(self, t_s: float, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
-        """A commanded step's compliance watch (the runner calls it while :attr:`commanding`, with the sticks the
-        unit sent and its newest estimate): the :class:`~geofence.unit.compliance.ComplianceMonitor` on them. A
-        vehicle not following is terminated where that contains it (:meth:`termination_call`). Returns whether it
-        switched to ``TERMINATE`` (the runner then cuts the propulsion)."""
+        """A step's compliance watch (the runner calls it while :attr:`watching`, with the sticks the unit sent and
+        its newest estimate): the :class:`~geofence.unit.compliance.ComplianceMonitor` on them. A vehicle not
+        following is terminated where that contains it (:meth:`termination_call`). Returns whether it switched to
+        ``TERMINATE`` (the runner then cuts the propulsion). On the ground under the pilot's sticks (before a
+        take-off) nothing is watched."""
         monitor = self.compliance
-        if monitor.started_s != self._mode_since_s:  # a new stretch of the unit's command
+        if est.on_ground and not self.commanding:
+            self._watched_since_s = math.nan  # (watched again from the lift-off)
+            return False
+        if self._watched_since_s != self._mode_since_s:  # a new stretch of one mode (or a lift-off)
+            self._watched_since_s = self._mode_since_s
             monitor.set_envelope(self.env)
-            monitor.start(self._mode_since_s, est)
+            monitor.start(t_s, est)
         if not monitor.update(t_s, dt_s, cmd, est):
             return False
         if self.noncompliant_at_s is None:
@@ -909,7 +924,7 @@ class GeofenceUnit:
         }  # fmt: skip
         self._switch(
             t_s, Mode.TERMINATE,
-            f"the vehicle does not follow the {'override' if self.mode is _OVERRIDE else 'landing'} ({miss} off since "
+            f"the vehicle does not follow {_FOLLOWED.get(self.mode, _PILOT_STICKS)} ({miss} off since "
             f"{monitor.missed_since_s:.2f} s): flight termination, footprint margin "
             f"{margin:.1f} m ({where})",
         )  # fmt: skip

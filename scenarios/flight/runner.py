@@ -134,7 +134,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                     cmd = cmd_in
                     record(truth, w, cmd_in, cmd, mode, pilot.items_reached)
             if unit is not None:
-                if unit.commanding:  # the compliance watch (while the unit, not the pilot, commands)
+                if unit.watching:  # the compliance watch (on what the unit sent: its sticks or the pilot's)
                     est = unit.estimate if fused is None else fused.newest_estimate()
                     if est is not None and unit.watch_compliance(t, dt_s, cmd, est) and fused is not None:
                         fused.finish()  # (the steps it took handed over before the unit answers again)
