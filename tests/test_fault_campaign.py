@@ -37,6 +37,28 @@ def test_a_fault_campaign_has_the_same_cases_each_with_one_failure(seed):
         assert "faults" not in unprotected or "at_s" in unprotected["faults"][0]
 
 
+@settings(max_examples=5)
+@given(seed=st.integers(0, 1000))
+def test_downward_sensors_fit_every_multirotor_unit_and_change_nothing_else(seed):
+    """``--downward-sensors``: each protected multirotor flight's unit gets a rangefinder and an optical flow (which
+    parse), a fixed-wing's and every unprotected flight nothing; the cases are the same otherwise."""
+    plain = generate_cases(6, seed, max_duration_s=60.0, faults=True)
+    fitted = generate_cases(6, seed, max_duration_s=60.0, faults=True, downward_sensors=True)
+    assert [c.case_id for c in plain] == [c.case_id for c in fitted]
+    for a, b in zip(plain, fitted):
+        multirotor = b.manifest["platform_kind"] == PlatformKind.MULTIROTOR.value
+        for variant in Variant:
+            da, db = a.documents[variant], b.documents[variant]
+            fits = multirotor and variant is not Variant.UNPROTECTED
+            sensors = db.get("sensors", {})
+            assert ("optical_flow" in sensors and "rangefinder" in sensors) == fits
+            rest = {k: v for k, v in sensors.items() if k not in ("optical_flow", "rangefinder")}
+            assert {**db, "sensors": rest} == {**da, "sensors": da.get("sensors", {})}
+            if fits:
+                sc = parse_scenario(db, f"{b.case_id}.yaml")
+                assert sc.sensors.rangefinder is not None and sc.sensors.optical_flow is not None
+
+
 def test_the_fault_draws_cover_every_kind_and_moment():
     kinds, moments = set(), set()
     rng = np.random.default_rng(7)

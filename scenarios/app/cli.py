@@ -291,6 +291,13 @@ def build_parser() -> argparse.ArgumentParser:
         "the flight controller ignoring or freezing the override, fixed-wing propulsion loss) in the override, "
         "at the approach or in the recovery, instead of the GPS faults some cases draw; the same cases otherwise",
     )
+    gen.add_argument(
+        "--downward-sensors",
+        action="store_true",
+        help="every multirotor's geofence unit carries a downward rangefinder and an optical-flow sensor (the "
+        "defaults of the scenario format's sensors: block): the unit flares every touchdown on the measured height "
+        "and, with GNSS lost, holds and lands on the flow's velocity; the same cases otherwise",
+    )
     rep = camp_sub.add_parser(
         "report",
         help="write campaign_report.md from a flown campaign",
@@ -736,7 +743,7 @@ def _cmd_campaign(args) -> int:
             families = [known[f] for f in names]
         paths = generate_campaign(
             args.out, args.cases, args.seed, platforms=platforms, families=families,
-            max_duration_s=args.max_duration_s, faults=args.faults,
+            max_duration_s=args.max_duration_s, faults=args.faults, downward_sensors=args.downward_sensors,
         )  # fmt: skip
         print(
             f"wrote {len(paths)} scenario files and {args.out / 'campaign.json'}; fly them with: "

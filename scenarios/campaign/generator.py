@@ -1311,6 +1311,9 @@ def _gps_fault(rng: np.random.Generator) -> dict | None:
     }
 
 
+DOWNWARD_SENSORS: dict[str, dict] = {"rangefinder": {}, "optical_flow": {}}
+"""The ``sensors:`` keys ``downward_sensors`` fits to a multirotor's unit: a rangefinder and an optical flow with
+their defaults (:mod:`aircraft.sensors`, the PX4Flow-class figures of ``docs/validation.md``)."""
 FAULT_STREAM = 0xFA17
 """The fault draws' own generator, ``default_rng([case_seed, FAULT_STREAM])``: a campaign with ``faults`` has the
 same cases as one without, each with one failure added."""
@@ -1367,9 +1370,12 @@ def build_case(
     platforms: Sequence[str],
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
     faults: bool = False,
+    *,
+    downward_sensors: bool = False,
 ) -> Case | None:
     """Case ``index`` of a campaign (reproducible from ``(seed, index)``); None when no platform fits. With
-    ``faults``, one single failure (:func:`draw_fault`) in place of a GPS fault, the other draws unchanged."""
+    ``faults``, one single failure (:func:`draw_fault`) in place of a GPS fault, the other draws unchanged; with
+    ``downward_sensors``, a multirotor's unit carries a rangefinder and an optical flow (:data:`DOWNWARD_SENSORS`)."""
     rng = np.random.default_rng([int(seed), int(index)])
     site = draw_site(rng)
     gps = _gps_fault(rng)
@@ -1391,7 +1397,7 @@ def build_case(
             continue
         if not legal_start(ctx, draft, plan):
             continue  # the geofence would have to act at t = 0: not a fair case for this platform
-        return _assemble(index, family, attack, ctx, draft, plan, wind, case_seed, sub, faults)
+        return _assemble(index, family, attack, ctx, draft, plan, wind, case_seed, sub, faults, downward_sensors)
     return None
 
 
@@ -1442,6 +1448,7 @@ def _assemble(
     case_seed: int,
     rng: np.random.Generator,
     faults: bool = False,
+    downward_sensors: bool = False,
 ) -> Case:
     frame = ctx.frame
     case_id = f"{family.value}-{index:04d}"
@@ -1507,6 +1514,8 @@ def _assemble(
         d["name"] = f"{case_id}__{variant.value}"
         if variant is not Variant.UNPROTECTED:
             d["geofence"] = {"fence": fence, "trigger": variant.value, "wind_prior": forecast}
+            if downward_sensors and ctx.profile.envelope.is_multirotor:
+                d["sensors"] = {**d.get("sensors", {}), **DOWNWARD_SENSORS}
         if single is not None and (variant is not Variant.UNPROTECTED or "at_s" in single):
             d["faults"] = [single]  # (the unprotected twin has no unit to time a fault from its activation)
         documents[variant] = d
@@ -1582,6 +1591,7 @@ def generate_cases(
     families: Sequence[CaseFamily] | None = None,
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
     faults: bool = False,
+    downward_sensors: bool = False,
 ) -> list[Case]:
     """The cases of a campaign, in memory (see :func:`generate_campaign`)."""
     if n_cases < 0:
@@ -1599,7 +1609,7 @@ def generate_cases(
     cases = []
     for i in range(n_cases):
         family = case_family(i, families)
-        case = build_case(i, seed, family, platforms, max_duration_s, faults)
+        case = build_case(i, seed, family, platforms, max_duration_s, faults, downward_sensors=downward_sensors)
         if case is not None:
             cases.append(case)
     return cases
@@ -1614,6 +1624,7 @@ def generate_campaign(
     families: Sequence[CaseFamily] | None = None,
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
     faults: bool = False,
+    downward_sensors: bool = False,
 ) -> list[Path]:
     """Write ``n_cases`` cases x 3 variants of scenario YAML and ``campaign.json`` into ``out_dir``.
 
@@ -1623,13 +1634,17 @@ def generate_campaign(
     ``n_cases``. ``platforms`` defaults to :data:`DEFAULT_PLATFORMS`; a case whose
     fence fits none of them is left out (the manifest counts it). Flights last
     at most ``max_duration_s`` of simulated time. With ``faults`` every case carries one single failure
-    (:func:`draw_fault`) instead of the GPS faults some draw. Returns the YAML paths written.
+    (:func:`draw_fault`) instead of the GPS faults some draw; with ``downward_sensors`` every multirotor's unit carries
+    a rangefinder and an optical flow (the seed unit's downward sensing). Returns the YAML paths written.
     """
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
         raise ConfigError(f"seed: must be an integer in [0, 2^63) (numpy seeds are non-negative), got {seed!r}")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
-    cases = generate_cases(n_cases, seed, platforms=platforms, families=families, max_duration_s=max_duration_s, faults=faults)
+    cases = generate_cases(
+        n_cases, seed, platforms=platforms, families=families, max_duration_s=max_duration_s, faults=faults,
+        downward_sensors=downward_sensors,
+    )  # fmt: skip
     written = []
     for case in cases:
         for variant, doc in case.documents.items():
@@ -1652,6 +1667,7 @@ def generate_campaign(
         "families": [f.value for f in (families or DEFAULT_FAMILIES)],
         "variants": [v.value for v in Variant],
         **({"faults": "one single failure per case"} if faults else {}),
+        **({"downward_sensors": "a rangefinder and an optical flow on every multirotor"} if downward_sensors else {}),
         "cases": [c.manifest for c in cases],
     }
     (out_dir / MANIFEST).write_text(json.dumps(manifest, indent=1) + "\n")
