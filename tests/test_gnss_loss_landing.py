@@ -179,3 +179,29 @@ def test_a_barometer_reading_high_no_longer_lands_at_the_full_rate():
     assert bare["touchdown_vertical_mps"] > 1.5, bare
     fitted = gnss_loss_landing("F450", fitted=True, wind_mps=6.0, baro_high_m=6.0)
     assert fitted["touchdown_vertical_mps"] <= 1.0 and fitted["touchdown_horizontal_mps"] <= 0.5, fitted
+
+
+def test_without_gnss_a_multirotor_flies_to_its_landing_point_within_the_downward_sensors_range():
+    """A multirotor 45 m up in a 40 m wide strip loses GNSS 700 m from the only points with room for its drift: it
+    descends on the way to no lower than :data:`DEAD_RECKONING_TRANSIT_AGL_M`, inside a flow's and a rangefinder's
+    range, instead of crossing at its height (before: it held 45 m until over the point)."""
+    from support import MC, latlon
+
+    from geofence.interface import StickCommand
+    from geofence.unit.config import parse_geofence
+    from geofence.unit.geofence_unit import DEAD_RECKONING_TRANSIT_AGL_M, GeofenceUnit, Mode
+
+    strip = [list(latlon(e, n)) for e, n in ((-800.0, -20.0), (800.0, -20.0), (800.0, 20.0), (-800.0, 20.0))]
+    cfg = parse_geofence({"fence": {"keep_in": strip, "ceiling_m": 120}}, "test")
+    unit = GeofenceUnit(cfg, cfg.fence.to_local(FRAME), MC)
+
+    def throttle(agl_m: float, t_s: float, valid: bool = False) -> float:
+        est = VehicleState(t_s=t_s, east_m=-700.0, north_m=0.0, agl_m=agl_m, alt_m=FRAME.h0_m + agl_m)
+        return unit.update(t_s, est, StickCommand(), 0.025, position_valid=valid).throttle
+
+    for k in range(40):  # (a second with a fix: the dead reckoning has one to start from)
+        throttle(45.0, k * 0.025, valid=True)
+    assert throttle(45.0, 1.0) < -0.25 and unit.mode is Mode.LAND_IN_GAP  # (down on the way, far from its point)
+    assert unit.dead_reckoning.active
+    assert throttle(DEAD_RECKONING_TRANSIT_AGL_M, 1.025) == pytest.approx(0.0, abs=0.05)  # (holds there)
+    assert throttle(DEAD_RECKONING_TRANSIT_AGL_M - 3.0, 1.05) > 0.0

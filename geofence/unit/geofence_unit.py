@@ -107,6 +107,11 @@ ROUTE_CLEARANCE_MULTIROTOR_M = 3.0
 """Lateral clearance (beyond k·σ_h) a multirotor's recovery route keeps from every boundary."""
 VERTICAL_CLEARANCE_M = 2.0
 """Below the floor inside a gap, the override climbs this far above the floor before it moves sideways."""
+DEAD_RECKONING_TRANSIT_AGL_M = 10.0
+"""A multirotor without a position source flies to its landing point no higher than this (m AGL): inside a downward
+rangefinder's and optical flow's range (12 m, and quality 0.2 below about 16 m: ``aircraft/sensors.py``), where
+the flow measures the velocity it would otherwise dead-reckon from a wind estimate that may have shifted since the
+last fix (case history: docs/campaigns.md, the fault campaign with the seed's downward sensors)."""
 DEAD_RECKONING_LANDING_MARGIN_M = 25.0
 """With the position source lost, a multirotor lands in place only this far inside (else at the nearest point that
 is), or farther when its descent takes long (:meth:`GeofenceUnit.dead_reckoning_room_m`)."""
@@ -1203,7 +1208,11 @@ class GeofenceUnit:
             if not self._position_valid and not self.dead_reckoning.active:  # never had a position: level, descend
                 return StickCommand(throttle=climb_rate_to_stick(-min(1.0, self.env.max_descent_rate_mps), self.env))
             if not self._position_valid and self.fence.floor_m is None:
-                # dead reckoning: away from the edges first, then down at the full rate (it drifts every second)
+                # dead reckoning: away from the edges first, then down at the full rate (it drifts every second);
+                # on the way no higher than a downward sensor's range, where a flow measures what it drifts at
+                low = h - s.agl_m + DEAD_RECKONING_TRANSIT_AGL_M
+                if self.landing.cruise_h > low:
+                    self.landing.cruise_h = low
                 room = self.fence.lateral_margin_m(s.east_m, s.north_m) >= self.dead_reckoning_room_m(s.agl_m)
                 return self.landing.sticks(s, h, dt_s, descend=room or self.landing.over_point(s), hurry=True, flare=flare)
             descend = self._safe_to_descend(s) or self.landing.over_point(s) or self._finish_below_floor(s, h)
