@@ -920,7 +920,7 @@ class GeofenceUnit:
         miss = f"attitude {math.degrees(monitor.error_rad):.0f} deg" if monitor.axis == "attitude" else (
             f"vertical speed {monitor.vertical_error_mps:.1f} m/s")  # fmt: skip
         self.termination = {
-            "noncompliant_at_s": round(self.noncompliant_at_s, 3), "commanding_since_s": round(self._mode_since_s, 3),
+            "noncompliant_at_s": round(self.noncompliant_at_s, 3), "mode_since_s": round(self._mode_since_s, 3),
             "axis": monitor.axis, "attitude_miss_deg": round(math.degrees(monitor.error_rad), 1),
             "vertical_miss_mps": round(monitor.vertical_error_mps, 2), "footprint_margin_m": round(margin, 2),
             "footprint_far_en_m": [round(fp.far_e_m, 2), round(fp.far_n_m, 2)],
