@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from support import FRAME, FW, MC, edge_run_doc, fault_scenario_doc, fly_doc, latlon, point_mass_fall
 
 from geofence.interface import StickCommand, VehicleState
+from geofence.physics.control_laws import climb_rate_to_stick, stick_to_climb_rate
 from geofence.physics.termination import drag_fall, footprint_points, no_drag_fall_s, termination_footprint
 from geofence.unit.compliance import (
     NONCOMPLIANT_VERTICAL_MPS,
@@ -141,6 +142,15 @@ def test_a_vehicle_ignoring_the_override_is_flagged_after_the_reaction_time_and_
 def test_a_small_command_ignored_is_not_a_flyaway():
     """A command within the threshold of the attitude (a gentle correction) is not flagged, followed or not."""
     assert _run_monitor(FW, [(0.2, 0.0)] * 400, None) is None
+
+
+@given(v_up=st.floats(-20.0, 20.0), multirotor=st.booleans())
+def test_the_climb_rate_a_stick_commands_inverts_the_stick_for_a_climb_rate(v_up, multirotor):
+    """:func:`stick_to_climb_rate` (what the monitor expects) inverts :func:`climb_rate_to_stick` (what the guidance
+    sends) within the envelope's rates, and saturates at them beyond."""
+    env = MC if multirotor else FW
+    rate = stick_to_climb_rate(climb_rate_to_stick(v_up, env), env)
+    assert rate == pytest.approx(min(max(v_up, -env.max_descent_rate_mps), env.max_climb_rate_mps), abs=1e-9)
 
 
 def _run_vertical(env, sticks, v_up_of, grace_s: float = 0.5):

@@ -67,6 +67,14 @@ def climb_rate_to_stick(v_up_mps: float, env: Envelope) -> float:
 
 
 @jitable
+def stick_to_climb_rate(stick: float, env: Envelope) -> float:
+    """The climb-rate stick of either platform kind (clipped to [-1, 1]) -> the climb rate it commands (m/s, + up):
+    the inverse of :func:`climb_rate_to_stick` within the envelope."""
+    stick = clip(stick, -1.0, 1.0)
+    return stick * (env.max_climb_rate_mps if stick >= 0.0 else env.max_descent_rate_mps)
+
+
+@jitable
 def altitude_to_climb_rate(target_m: float, height_m: float, env: Envelope, gain_per_s: float) -> float:
     """Proportional altitude law: climb-rate demand in m/s, limited by the envelope."""
     return clip(gain_per_s * (target_m - height_m), -env.max_descent_rate_mps, env.max_climb_rate_mps)

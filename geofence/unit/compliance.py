@@ -36,6 +36,7 @@ from __future__ import annotations
 import math
 
 from geofence.interface import Envelope, StickCommand, VehicleState
+from geofence.physics.control_laws import clip, stick_to_climb_rate
 
 NONCOMPLIANT_ANGLE_RAD = math.radians(15.0)
 """An attitude this far from the lagged command, held for the grace time, is not following (rad)."""
@@ -71,8 +72,7 @@ class ComplianceMonitor:
         self.max_roll_rad = min(envelope.max_bank_rad, envelope.max_pitch_rad) if self.multirotor else envelope.max_bank_rad
         self.max_pitch_rad = self.max_roll_rad
         self.threshold_rad = max(NONCOMPLIANT_ANGLE_RAD, NONCOMPLIANT_FRACTION * self.max_roll_rad)
-        self.climb_mps, self.descent_mps = envelope.max_climb_rate_mps, envelope.max_descent_rate_mps
-        self.vertical_accel_mps2 = envelope.vertical_accel_mps2
+        self.env = envelope
 
     def start(self, t_s: float, est: VehicleState | None = None) -> None:
         """A stretch begins at ``t_s``; the models start at the estimated attitude and vertical speed."""
@@ -84,7 +84,12 @@ class ComplianceMonitor:
         self.beyond_since_s = self.climbing_since_s = math.nan
         self.error_rad = 0.0
         self.vertical_error_mps = 0.0
-        self.noncompliant = self.attitude_missed = self.climb_missed = False
+        self.attitude_missed = self.climb_missed = False
+
+    @property
+    def noncompliant(self) -> bool:
+        """Whether the last step found the vehicle not following (either watch)."""
+        return self.attitude_missed or self.climb_missed
 
     def update(self, t_s: float, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
         """One step: the sticks the unit sent (clipped as the controller clips them) and the estimate; returns
@@ -96,8 +101,7 @@ class ComplianceMonitor:
         self.climbing_since_s = _since(self.climbing_since_s, vertical, t_s)
         self.attitude_missed = t_s - self.beyond_since_s >= self.grace_s - _TIME_EPS_S  # (False while NaN)
         self.climb_missed = t_s - self.climbing_since_s >= VERTICAL_GRACE_FACTOR * self.grace_s - _TIME_EPS_S
-        self.noncompliant = self.attitude_missed or self.climb_missed
-        return self.noncompliant
+        return self.attitude_missed or self.climb_missed
 
     @property
     def axis(self) -> str:
@@ -111,17 +115,18 @@ class ComplianceMonitor:
 
     def _attitude_beyond(self, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
         a = min(1.0, dt_s / self.tau_s)
-        self.expected_roll_rad, err = lag_step(_clip1(cmd.roll) * self.max_roll_rad, self.expected_roll_rad, est.roll_rad, a)
+        self.expected_roll_rad, err = lag_step(
+            clip(cmd.roll, -1.0, 1.0) * self.max_roll_rad, self.expected_roll_rad, est.roll_rad, a
+        )
         if self.multirotor:
-            target = _clip1(cmd.pitch) * self.max_pitch_rad
+            target = clip(cmd.pitch, -1.0, 1.0) * self.max_pitch_rad
             self.expected_pitch_rad, lag = lag_step(target, self.expected_pitch_rad, est.pitch_rad, a)
             err = max(err, lag)
         self.error_rad = err
         return err > self.threshold_rad
 
     def _vertical_beyond(self, t_s: float, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
-        stick = _clip1(cmd.throttle if self.multirotor else cmd.pitch)
-        target = max(-VERTICAL_TARGET_MPS, stick * (self.climb_mps if stick >= 0.0 else self.descent_mps))
+        target = max(-VERTICAL_TARGET_MPS, stick_to_climb_rate(cmd.throttle if self.multirotor else cmd.pitch, self.env))
         bound = self.expected_v_up_mps
         if target >= bound:  # (a climb may come as quickly as the vehicle likes)
             bound, self.descent_told_s = target, math.nan
@@ -129,7 +134,7 @@ class ComplianceMonitor:
             if self.descent_told_s != self.descent_told_s:  # (NaN: told now)
                 self.descent_told_s = t_s
             if t_s - self.descent_told_s >= self.tau_s - _TIME_EPS_S:
-                bound -= VERTICAL_MODEL_ACCEL_FRACTION * self.vertical_accel_mps2 * dt_s
+                bound -= VERTICAL_MODEL_ACCEL_FRACTION * self.env.vertical_accel_mps2 * dt_s
             bound = max(target, min(bound, est.v_up_mps))
         self.expected_v_up_mps = bound
         self.vertical_error_mps = lag = max(0.0, est.v_up_mps - bound)
@@ -141,10 +146,6 @@ def _since(since_s: float, beyond: bool, t_s: float) -> float:
     if not beyond:
         return math.nan
     return t_s if since_s != since_s else since_s
-
-
-def _clip1(x: float) -> float:
-    return max(-1.0, min(1.0, x))
 
 
 def lag_step(command_rad: float, expected_rad: float, estimated_rad: float, a: float) -> tuple[float, float]:
