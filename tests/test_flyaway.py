@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -21,6 +22,8 @@ from geofence.unit.compliance import (
     VERTICAL_GRACE_FACTOR,
     VERTICAL_MODEL_ACCEL_FRACTION,
     ComplianceMonitor,
+    watch,
+    watch_step,
 )
 from geofence.unit.config import parse_geofence
 from geofence.unit.geofence_unit import GeofenceUnit, Mode
@@ -142,6 +145,32 @@ def test_a_vehicle_ignoring_the_override_is_flagged_after_the_reaction_time_and_
 def test_a_small_command_ignored_is_not_a_flyaway():
     """A command within the threshold of the attitude (a gentle correction) is not flagged, followed or not."""
     assert _run_monitor(FW, [(0.2, 0.0)] * 400, None) is None
+
+
+_watch_steps = st.lists(
+    st.tuples(
+        st.floats(-1.2, 1.2), st.floats(-1.2, 1.2), st.floats(-1.2, 1.2), st.floats(-1.0, 1.0), st.floats(-1.0, 1.0),
+        st.floats(-8.0, 8.0), st.booleans(), st.sampled_from([0.0, 0.0, 0.0, 2.0]),
+    ),
+    min_size=1, max_size=80,
+)  # fmt: skip
+
+
+@settings(max_examples=40, deadline=None)
+@given(steps=_watch_steps, multirotor=st.booleans(), commanding=st.booleans())
+def test_the_compiled_watch_is_its_interpreted_source(steps, multirotor, commanding):
+    """:data:`watch` (what the unit's Python steps call) and a compiled flight step inline :func:`watch_step`: the
+    compiled function keeps the same record as its source interpreted, step by step (within 1e-9), through mode
+    changes, take-offs and touchdowns."""
+    env = MC if multirotor else FW
+    a, b = ComplianceMonitor(env, 0.5), ComplianceMonitor(env, 0.5)
+    since = 0.0
+    for k, (cr, cp, ct, roll, pitch, v_up, on_ground, new_mode) in enumerate(steps):
+        t = k * DT
+        since = t if new_mode else since
+        args = (t, DT, commanding, since, cr, cp, ct, on_ground, roll, pitch, v_up)
+        assert bool(watch(a.memory, *args)) == bool(watch_step(b.memory, *args))
+        assert np.allclose(a.memory, b.memory, rtol=1e-9, atol=1e-9, equal_nan=True)
 
 
 @given(v_up=st.floats(-20.0, 20.0), multirotor=st.booleans())

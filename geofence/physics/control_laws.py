@@ -70,8 +70,14 @@ def climb_rate_to_stick(v_up_mps: float, env: Envelope) -> float:
 def stick_to_climb_rate(stick: float, env: Envelope) -> float:
     """The climb-rate stick of either platform kind (clipped to [-1, 1]) -> the climb rate it commands (m/s, + up):
     the inverse of :func:`climb_rate_to_stick` within the envelope."""
+    return climb_rate_of_stick(stick, env.max_climb_rate_mps, env.max_descent_rate_mps)
+
+
+@jitable
+def climb_rate_of_stick(stick: float, max_climb_mps: float, max_descent_mps: float) -> float:
+    """:func:`stick_to_climb_rate` on the envelope's two rates (m/s, + up)."""
     stick = clip(stick, -1.0, 1.0)
-    return stick * (env.max_climb_rate_mps if stick >= 0.0 else env.max_descent_rate_mps)
+    return stick * (max_climb_mps if stick >= 0.0 else max_descent_mps)
 
 
 @jitable

@@ -28,15 +28,22 @@ plus the grace. The thresholds and the grace together: a following vehicle lags 
 only briefly (the measured figures are in ``docs/geofence_design.md``); a vehicle ignoring the unit misses the
 command by most of it for as long as it ignores it.
 
-Pure math on the sticks the unit sent and its state estimate; no files, no airframe names.
+Pure math on the sticks the unit sent and its state estimate; no files, no airframe names. The watch's state is one
+record over float memory (:data:`WATCH_STATE`, the pattern of :data:`geofence.unit.passes.UNIT_STATE`) and its step
+one function, :func:`watch_step`: the unit's Python step calls it compiled (:data:`watch`), and a compiled flight
+step inlines the same source (:mod:`scenarios.flight.step_kernel`). :class:`ComplianceMonitor` is its façade.
 """
 
 from __future__ import annotations
 
 import math
 
+import numpy as np
+
 from geofence.interface import Envelope, StickCommand, VehicleState
-from geofence.physics.control_laws import clip, stick_to_climb_rate
+from geofence.jit import compiled, jitable
+from geofence.physics.control_laws import climb_rate_of_stick, clip
+from geofence.unit.passes import float_record
 
 NONCOMPLIANT_ANGLE_RAD = math.radians(15.0)
 """An attitude this far from the lagged command, held for the grace time, is not following (rad)."""
@@ -55,52 +62,113 @@ VERTICAL_GRACE_FACTOR = 2.0
 _TIME_EPS_S = 1e-9
 """Times compared to this (a step's time is a sum of floats)."""
 
+WATCH_STATE = float_record(
+    # the envelope's numbers the commands are read with (set_envelope) and the grace (set once)
+    "multirotor", "tau_s", "max_tilt_rad", "threshold_rad", "vertical_accel_mps2", "max_climb_mps",
+    "max_descent_mps", "grace_s",
+    # the stretch watched: the unit's mode's start (NaN: none, or on the ground) and the watch's own start
+    "watched_since_s", "started_s",
+    # the models and the lag timers (NaN: within the threshold), the last step's misses and flags
+    "expected_roll_rad", "expected_pitch_rad", "expected_v_up_mps", "descent_told_s", "beyond_since_s",
+    "climbing_since_s", "error_rad", "vertical_error_mps", "attitude_missed", "climb_missed",
+)  # fmt: skip
+"""The compliance watch's state, one record over float memory (a flag 0 or 1) that :class:`ComplianceMonitor` owns
+(:attr:`ComplianceMonitor.memory`) and a compiled flight step passes to :func:`watch_step`."""
+WATCH_SIZE = WATCH_STATE.itemsize // 8
+"""Float64 slots of the watch's record."""
+
 
 class ComplianceMonitor:
-    """Watches one stretch of one mode at a time: :meth:`start` as it begins, :meth:`update` at every
-    step of it."""
+    """The watch of one unit (a façade over its record, :data:`WATCH_STATE`): :meth:`watch` at every step (it starts
+    a new stretch with each of the unit's modes), or by hand :meth:`start` as a stretch begins and :meth:`update`
+    at every step of it."""
 
     def __init__(self, envelope: Envelope, grace_s: float) -> None:
-        self.grace_s = grace_s
+        self.memory = np.zeros(WATCH_SIZE)
+        """The record's float memory (:data:`WATCH_STATE`), which a compiled flight step reads and writes in place."""
+        self._w = self.memory.view(WATCH_STATE)[0]
+        self._w.grace_s = grace_s
         self.set_envelope(envelope)
         self.start(0.0)
 
     def set_envelope(self, envelope: Envelope) -> None:
-        """The envelope the commands are read with (the unit's, scaled to the air density)."""
-        self.multirotor = envelope.is_multirotor
-        self.tau_s = max(envelope.reaction_time_s, 1e-3)
-        self.max_roll_rad = min(envelope.max_bank_rad, envelope.max_pitch_rad) if self.multirotor else envelope.max_bank_rad
-        self.max_pitch_rad = self.max_roll_rad
-        self.threshold_rad = max(NONCOMPLIANT_ANGLE_RAD, NONCOMPLIANT_FRACTION * self.max_roll_rad)
-        self.env = envelope
+        """The envelope the commands are read with (the unit's, scaled to the air density, from when it is)."""
+        w = self._w
+        multirotor = envelope.is_multirotor
+        tilt = min(envelope.max_bank_rad, envelope.max_pitch_rad) if multirotor else envelope.max_bank_rad
+        w.multirotor, w.tau_s, w.max_tilt_rad = multirotor, max(envelope.reaction_time_s, 1e-3), tilt
+        w.threshold_rad = max(NONCOMPLIANT_ANGLE_RAD, NONCOMPLIANT_FRACTION * tilt)
+        w.vertical_accel_mps2 = envelope.vertical_accel_mps2
+        w.max_climb_mps, w.max_descent_mps = envelope.max_climb_rate_mps, envelope.max_descent_rate_mps
 
     def start(self, t_s: float, est: VehicleState | None = None) -> None:
         """A stretch begins at ``t_s``; the models start at the estimated attitude and vertical speed."""
-        self.started_s = t_s
-        self.expected_roll_rad = 0.0 if est is None else est.roll_rad
-        self.expected_pitch_rad = 0.0 if est is None else est.pitch_rad
-        self.expected_v_up_mps = 0.0 if est is None else est.v_up_mps
-        self.descent_told_s = math.nan
-        self.beyond_since_s = self.climbing_since_s = math.nan
-        self.error_rad = 0.0
-        self.vertical_error_mps = 0.0
-        self.attitude_missed = self.climb_missed = False
+        s = VehicleState() if est is None else est
+        watch_start(self.memory, t_s, s.roll_rad, s.pitch_rad, s.v_up_mps)
+        self._w.watched_since_s = t_s  # (update goes on with this stretch)
+
+    def update(self, t_s: float, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
+        """One step of the stretch :meth:`start` began: the sticks the unit sent (clipped as the controller clips
+        them) and the estimate; returns whether the vehicle is not following (a lag beyond its threshold held for
+        its grace)."""
+        return self.watch(t_s, dt_s, True, float(self._w.watched_since_s), cmd, est)
+
+    def watch(
+        self, t_s: float, dt_s: float, commanding: bool, mode_since_s: float, cmd: StickCommand, est: VehicleState
+    ) -> bool:  # fmt: skip
+        """One step of the unit's watch (:func:`watch_step`, compiled): ``commanding`` the unit's sticks or the
+        pilot's, in the unit's mode since ``mode_since_s``; whether the vehicle is not following."""
+        return bool(
+            watch(
+                self.memory, t_s, dt_s, commanding, mode_since_s, cmd.roll, cmd.pitch, cmd.throttle, est.on_ground,
+                est.roll_rad, est.pitch_rad, est.v_up_mps,
+            )
+        )  # fmt: skip
+
+    @property
+    def multirotor(self) -> bool:
+        return bool(self._w.multirotor)
+
+    @property
+    def tau_s(self) -> float:
+        """The attitude model's time constant (s): the envelope's reaction time."""
+        return float(self._w.tau_s)
+
+    @property
+    def max_roll_rad(self) -> float:
+        """The attitude a full stick commands (rad): a multirotor's tilt limit (bank and pitch), a fixed-wing's bank."""
+        return float(self._w.max_tilt_rad)
+
+    @property
+    def threshold_rad(self) -> float:
+        """The attitude miss that is not following, held for the grace (rad)."""
+        return float(self._w.threshold_rad)
+
+    @property
+    def grace_s(self) -> float:
+        return float(self._w.grace_s)
+
+    @property
+    def error_rad(self) -> float:
+        """The last step's attitude lag behind the model (rad)."""
+        return float(self._w.error_rad)
+
+    @property
+    def vertical_error_mps(self) -> float:
+        """The last step's climb above the vertical bound (m/s)."""
+        return float(self._w.vertical_error_mps)
+
+    @property
+    def attitude_missed(self) -> bool:
+        return bool(self._w.attitude_missed)
+
+    @property
+    def climb_missed(self) -> bool:
+        return bool(self._w.climb_missed)
 
     @property
     def noncompliant(self) -> bool:
         """Whether the last step found the vehicle not following (either watch)."""
-        return self.attitude_missed or self.climb_missed
-
-    def update(self, t_s: float, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
-        """One step: the sticks the unit sent (clipped as the controller clips them) and the estimate; returns
-        whether the vehicle is not following (a lag beyond its threshold held for its grace)."""
-        attitude, vertical = self._attitude_beyond(dt_s, cmd, est), self._vertical_beyond(t_s, dt_s, cmd, est)
-        if t_s - self.started_s < self.tau_s - _TIME_EPS_S:
-            attitude = vertical = False
-        self.beyond_since_s = _since(self.beyond_since_s, attitude, t_s)
-        self.climbing_since_s = _since(self.climbing_since_s, vertical, t_s)
-        self.attitude_missed = t_s - self.beyond_since_s >= self.grace_s - _TIME_EPS_S  # (False while NaN)
-        self.climb_missed = t_s - self.climbing_since_s >= VERTICAL_GRACE_FACTOR * self.grace_s - _TIME_EPS_S
         return self.attitude_missed or self.climb_missed
 
     @property
@@ -111,36 +179,87 @@ class ComplianceMonitor:
     @property
     def missed_since_s(self) -> float:
         """When the lag that flagged the vehicle began (s; NaN while it follows)."""
-        return self.climbing_since_s if self.axis == "vertical" else self.beyond_since_s
-
-    def _attitude_beyond(self, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
-        a = min(1.0, dt_s / self.tau_s)
-        self.expected_roll_rad, err = lag_step(
-            clip(cmd.roll, -1.0, 1.0) * self.max_roll_rad, self.expected_roll_rad, est.roll_rad, a
-        )
-        if self.multirotor:
-            target = clip(cmd.pitch, -1.0, 1.0) * self.max_pitch_rad
-            self.expected_pitch_rad, lag = lag_step(target, self.expected_pitch_rad, est.pitch_rad, a)
-            err = max(err, lag)
-        self.error_rad = err
-        return err > self.threshold_rad
-
-    def _vertical_beyond(self, t_s: float, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
-        target = max(-VERTICAL_TARGET_MPS, stick_to_climb_rate(cmd.throttle if self.multirotor else cmd.pitch, self.env))
-        bound = self.expected_v_up_mps
-        if target >= bound:  # (a climb may come as quickly as the vehicle likes)
-            bound, self.descent_told_s = target, math.nan
-        else:  # the slowest follower comes down from its climb once it has reacted to being told to
-            if self.descent_told_s != self.descent_told_s:  # (NaN: told now)
-                self.descent_told_s = t_s
-            if t_s - self.descent_told_s >= self.tau_s - _TIME_EPS_S:
-                bound -= VERTICAL_MODEL_ACCEL_FRACTION * self.env.vertical_accel_mps2 * dt_s
-            bound = max(target, min(bound, est.v_up_mps))
-        self.expected_v_up_mps = bound
-        self.vertical_error_mps = lag = max(0.0, est.v_up_mps - bound)
-        return lag > NONCOMPLIANT_VERTICAL_MPS
+        w = self._w
+        return float(w.climbing_since_s if self.axis == "vertical" else w.beyond_since_s)
 
 
+@jitable
+def watch_step(
+    W: np.ndarray, t_s: float, dt_s: float, commanding: bool, mode_since_s: float, c_roll: float, c_pitch: float,
+    c_throttle: float, on_ground: bool, roll_rad: float, pitch_rad: float, v_up_mps: float,
+) -> bool:  # fmt: skip
+    """A step of the watch on record ``W``'s memory: the sticks sent (``c_*``; the unit's while ``commanding``, else
+    the pilot's it passed on) against the estimate's attitude and vertical speed, in the unit's mode since
+    ``mode_since_s`` (a new value starts a new stretch: the models from the estimate). On the ground under the
+    pilot's sticks (before a take-off) nothing is watched; watched again from the lift-off. Returns whether the
+    vehicle is not following."""
+    w = W.view(WATCH_STATE)[0]
+    if on_ground and not commanding:
+        w.watched_since_s = math.nan
+        return False
+    if w.watched_since_s != mode_since_s:  # a new stretch of one mode (or a lift-off; NaN: none yet)
+        w.watched_since_s = mode_since_s
+        watch_start(W, t_s, roll_rad, pitch_rad, v_up_mps)
+    attitude = _attitude_beyond(w, dt_s, c_roll, c_pitch, roll_rad, pitch_rad)
+    vertical = _vertical_beyond(w, t_s, dt_s, c_pitch if w.multirotor == 0.0 else c_throttle, v_up_mps)
+    if t_s - w.started_s < w.tau_s - _TIME_EPS_S:
+        attitude = vertical = False
+    w.beyond_since_s = _since(w.beyond_since_s, attitude, t_s)
+    w.climbing_since_s = _since(w.climbing_since_s, vertical, t_s)
+    w.attitude_missed = t_s - w.beyond_since_s >= w.grace_s - _TIME_EPS_S  # (False while NaN)
+    w.climb_missed = t_s - w.climbing_since_s >= VERTICAL_GRACE_FACTOR * w.grace_s - _TIME_EPS_S
+    return w.attitude_missed != 0.0 or w.climb_missed != 0.0
+
+
+watch = compiled(watch_step)
+"""The compiled :func:`watch_step` (the unit's Python steps call it)."""
+
+
+@jitable
+def watch_start(W: np.ndarray, t_s: float, roll_rad: float, pitch_rad: float, v_up_mps: float) -> None:
+    """A stretch begins at ``t_s``: the models start at the estimated attitude and vertical speed, the timers clear."""
+    w = W.view(WATCH_STATE)[0]
+    w.started_s = t_s
+    w.expected_roll_rad, w.expected_pitch_rad, w.expected_v_up_mps = roll_rad, pitch_rad, v_up_mps
+    w.descent_told_s = w.beyond_since_s = w.climbing_since_s = math.nan
+    w.error_rad = w.vertical_error_mps = 0.0
+    w.attitude_missed = w.climb_missed = 0.0
+
+
+@jitable
+def _attitude_beyond(w, dt_s: float, c_roll: float, c_pitch: float, roll_rad: float, pitch_rad: float) -> bool:
+    """The attitude models' step (the roll's; a multirotor's pitch too): whether the lag is beyond the threshold."""
+    a = min(1.0, dt_s / w.tau_s)
+    tilt = w.max_tilt_rad
+    w.expected_roll_rad, err = lag_step(clip(c_roll, -1.0, 1.0) * tilt, w.expected_roll_rad, roll_rad, a)
+    if w.multirotor != 0.0:
+        w.expected_pitch_rad, lag = lag_step(clip(c_pitch, -1.0, 1.0) * tilt, w.expected_pitch_rad, pitch_rad, a)
+        err = max(err, lag)
+    w.error_rad = err
+    return err > w.threshold_rad
+
+
+@jitable
+def _vertical_beyond(w, t_s: float, dt_s: float, climb_stick: float, v_up_mps: float) -> bool:
+    """The vertical bound's step (``climb_stick``: a multirotor's throttle, a fixed-wing's pitch): whether the climb
+    is beyond the threshold above it."""
+    target = max(-VERTICAL_TARGET_MPS, climb_rate_of_stick(climb_stick, w.max_climb_mps, w.max_descent_mps))
+    bound = w.expected_v_up_mps
+    if target >= bound:  # (a climb may come as quickly as the vehicle likes)
+        bound, w.descent_told_s = target, math.nan
+    else:  # the slowest follower comes down from its climb once it has reacted to being told to
+        if w.descent_told_s != w.descent_told_s:  # (NaN: told now)
+            w.descent_told_s = t_s
+        if t_s - w.descent_told_s >= w.tau_s - _TIME_EPS_S:
+            bound -= VERTICAL_MODEL_ACCEL_FRACTION * w.vertical_accel_mps2 * dt_s
+        bound = max(target, min(bound, v_up_mps))
+    w.expected_v_up_mps = bound
+    lag = max(0.0, v_up_mps - bound)
+    w.vertical_error_mps = lag
+    return lag > NONCOMPLIANT_VERTICAL_MPS
+
+
+@jitable
 def _since(since_s: float, beyond: bool, t_s: float) -> float:
     """A lag timer's start: NaN while within the threshold, else when it went beyond (``t_s`` if just now)."""
     if not beyond:
@@ -148,6 +267,7 @@ def _since(since_s: float, beyond: bool, t_s: float) -> float:
     return t_s if since_s != since_s else since_s
 
 
+@jitable
 def lag_step(command_rad: float, expected_rad: float, estimated_rad: float, a: float) -> tuple[float, float]:
     """One step of the lag model (gain ``a`` = dt / tau): ``(its new attitude, how far the vehicle lags behind it)``.
     Where the vehicle is at least as near the command as the model, the model restarts from the vehicle's attitude:
@@ -158,6 +278,7 @@ def lag_step(command_rad: float, expected_rad: float, estimated_rad: float, a: f
     return (estimated_rad if lag == 0.0 else expected), lag
 
 
+@jitable
 def lag_behind(command: float, expected: float, estimated: float) -> float:
     """How much farther from the command the estimate is than the model's (>= 0; rad or m/s as they are): 0 for
     a vehicle at least as quick as the model (one settling faster, or overshooting a little, is following)."""

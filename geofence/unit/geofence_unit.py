@@ -235,6 +235,8 @@ class GeofenceUnit:
         self._compiled: CompiledMargins | None = None  # the compiled margins of a fence without an index
         self._predictive = config.trigger is Trigger.PREDICTIVE
         self._configure_record(config, fence)
+        self.compliance = ComplianceMonitor(envelope, config.compliance_grace_s)
+        """Watches whether the vehicle follows what the unit sends (:meth:`watch_compliance`)."""
         self._build_laws(envelope)
         self._strong_wind_since_s = math.nan
         self._position_valid = True
@@ -245,10 +247,6 @@ class GeofenceUnit:
         """The state the unit acted on last (its estimate, or its dead reckoning)."""
         self._climb_back_to_m = math.nan
         self._goal_h_m = math.nan
-        self.compliance = ComplianceMonitor(envelope, config.compliance_grace_s)
-        """Watches whether the vehicle follows what the unit sends (:meth:`watch_compliance`)."""
-        self._watched_since_s = math.nan
-        """The start of the mode stretch the monitor watches (NaN: none yet, or since the vehicle was on the ground)."""
         self.noncompliant_at_s: float | None = None
         """When the compliance monitor first found the vehicle not following (s), or None."""
         self.termination: dict[str, Any] | None = None
@@ -292,6 +290,7 @@ class GeofenceUnit:
     def _build_laws(self, env: Envelope) -> None:
         """The guidance laws and dead reckoning for envelope ``env``."""
         self.env = env
+        self.compliance.set_envelope(env)  # (the sticks read with the envelope in use)
         self._multirotor = env.is_multirotor
         u = self._record
         u.multirotor, u.reaction_time_s = self._multirotor, env.reaction_time_s
@@ -897,20 +896,19 @@ class GeofenceUnit:
 
     def watch_compliance(self, t_s: float, dt_s: float, cmd: StickCommand, est: VehicleState) -> bool:
         """A step's compliance watch (the runner calls it while :attr:`watching`, with the sticks the unit sent and
-        its newest estimate): the :class:`~geofence.unit.compliance.ComplianceMonitor` on them. A vehicle not
-        following is terminated where that contains it (:meth:`termination_call`). Returns whether it switched to
-        ``TERMINATE`` (the runner then cuts the propulsion). On the ground under the pilot's sticks (before a
-        take-off) nothing is watched."""
+        its newest estimate): the :class:`~geofence.unit.compliance.ComplianceMonitor` on them, a new stretch with
+        each mode (on the ground under the pilot's sticks, before a take-off, nothing is watched). A vehicle not
+        following is terminated where that contains it (:meth:`not_following`). Returns whether it switched to
+        ``TERMINATE`` (the runner then cuts the propulsion)."""
+        if not self.compliance.watch(t_s, dt_s, self.commanding, self._mode_since_s, cmd, est):
+            return False
+        return self.not_following(t_s, dt_s, est)
+
+    def not_following(self, t_s: float, dt_s: float, est: VehicleState) -> bool:
+        """The watch found the vehicle not following at this step (:meth:`watch_compliance`, or a compiled flight
+        step's watch on the same record): terminated now where :meth:`termination_call` says so (the finding and
+        the footprint kept in :attr:`termination`). Returns whether it switched to ``TERMINATE``."""
         monitor = self.compliance
-        if est.on_ground and not self.commanding:
-            self._watched_since_s = math.nan  # (watched again from the lift-off)
-            return False
-        if self._watched_since_s != self._mode_since_s:  # a new stretch of one mode (or a lift-off)
-            self._watched_since_s = self._mode_since_s
-            monitor.set_envelope(self.env)
-            monitor.start(t_s, est)
-        if not monitor.update(t_s, dt_s, cmd, est):
-            return False
         if self.noncompliant_at_s is None:
             self.noncompliant_at_s = t_s
         margin, fp = self.termination_margin_m(est)

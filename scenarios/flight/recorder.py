@@ -156,8 +156,17 @@ class Recorder:
         return self.data[: self.n, COLUMN_INDEX[name]]
 
     def write_csv(self, path: Path) -> None:
-        fmt = ["%.3f", "%.8f", "%.8f"] + ["%.4f"] * 24 + ["%d", "%d"] + ["%.4f"] * 6
-        np.savetxt(path, self.rows(), delimiter=",", header=",".join(COLUMNS), comments="", fmt=fmt)
+        """The table as CSV: a header of :data:`COLUMNS`, a row per step in :data:`CSV_ROW_FORMAT` (what
+        ``numpy.savetxt`` writes with it, formatted from Python floats: about twice as quick)."""
+        body = "\n".join([CSV_ROW_FORMAT % row for row in map(tuple, self.rows().tolist())])
+        with open(path, "w", encoding="ascii", newline="\n") as f:
+            f.write(",".join(COLUMNS) + "\n")
+            f.write(body + "\n" if body else "")
+
+
+CSV_ROW_FORMAT = ",".join(["%.3f", "%.8f", "%.8f"] + ["%.4f"] * 24 + ["%d", "%d"] + ["%.4f"] * 6)
+"""A trajectory row's CSV format: time to the millisecond, latitude and longitude to 1e-8 degrees (about a
+millimetre), the mode and the mission item as integers, the rest to 1e-4 of its unit."""
 
 
 @jitable

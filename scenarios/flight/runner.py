@@ -43,7 +43,7 @@ from scenarios.definition.schema import PilotKind, Scenario
 from scenarios.flight.pilots import CompiledLawPilot, Pilot, build_pilot
 from scenarios.flight.recorder import COLUMN_INDEX, Recorder
 from scenarios.flight.sensing import GeofenceSensing
-from scenarios.flight.step_kernel import FlightStep, unit_step
+from scenarios.flight.step_kernel import NOT_FOLLOWING, WATCHED, FlightStep, unit_step
 from wind.config import wind_from_config
 from wind.field import CalmWind, WindField, notify_first_activation
 from wind.field_kernel import WindArrays, compiled_wind
@@ -117,9 +117,11 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                 raise FloatingPointError(
                     f"JSBSim state of {scenario.aircraft} diverged (speed beyond {diverged_above_mps:.0f} m/s) at t={t:.2f} s"
                 )
+            watched = 0  # (the compliance watch's flags where the compiled call watched the step)
             if fused is not None and fused.ready:
                 w, cmd = fused.step(truth, t, pilot_decide(truth), pilot.items_reached)  # (its row recorded)
                 set_wind(*w)
+                watched = fused.watched
             else:
                 w = sample_wind(t, truth.east_m, truth.north_m, truth.agl_m, truth.airspeed_mps)
                 set_wind(*w)
@@ -134,9 +136,10 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
                     cmd = cmd_in
                     record(truth, w, cmd_in, cmd, mode, pilot.items_reached)
             if unit is not None:
-                if unit.watching:  # the compliance watch (on what the unit sent: its sticks or the pilot's)
-                    est = unit.estimate if fused is None else fused.newest_estimate()
-                    if est is not None and unit.watch_compliance(t, dt_s, cmd, est) and fused is not None:
+                # the compliance watch on what the unit sent (its sticks or the pilot's), unless the compiled call
+                # watched the step and found the vehicle following
+                if watched != WATCHED and unit.watching and watch_compliance(unit, fused, watched, t, dt_s, cmd):
+                    if fused is not None:  # (switched to TERMINATE)
                         fused.finish()  # (the steps it took handed over before the unit answers again)
                         fused.refresh()
                 mode = unit.mode
@@ -199,6 +202,21 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
         scenario=scenario, summary=summary, recorder=recorder, frame=frame, pilot=pilot, unit=unit, fence=fence,
         compiled_steps=0 if fused is None else fused.steps,
     )  # fmt: skip
+
+
+def watch_compliance(
+    unit: GeofenceUnit, fused: FlightStep | None, watched: int, t_s: float, dt_s: float, cmd: StickCommand
+) -> bool:  # fmt: skip
+    """A step's compliance watch: the unit's own (:meth:`GeofenceUnit.watch_compliance`) where the compiled call did
+    not watch the step (``watched`` 0), else its finding that the vehicle does not follow
+    (:data:`~scenarios.flight.step_kernel.NOT_FOLLOWING`) decided by the unit (:meth:`GeofenceUnit.not_following`),
+    on the unit's newest estimate. Returns whether the unit switched to ``TERMINATE``."""
+    est = unit.estimate if fused is None else fused.newest_estimate()
+    if est is None:
+        return False
+    if watched == 0:
+        return unit.watch_compliance(t_s, dt_s, cmd, est)
+    return bool(watched & NOT_FOLLOWING) and unit.not_following(t_s, dt_s, est)
 
 
 class FlightFaults:

@@ -34,6 +34,7 @@ from geofence import jit
 from geofence.interface import FixState, StickCommand, VehicleState
 from geofence.jit import jitable
 from geofence.physics.dynamics import G_MPS2
+from geofence.unit.compliance import watch_step
 from geofence.unit.geofence_unit import GeofenceUnit
 from geofence.unit.passes import (
     MONITOR_NUMBER,
@@ -55,8 +56,10 @@ from scenarios.flight.recorder import Recorder, write_row
 from scenarios.flight.sensing import HORIZON_IN_P, GeofenceSensing, Sensed, sense_step
 from wind.field_kernel import WindArrays, wind_sample
 
-WIND_LOW, SENSE_LOW = 1, 2
-"""The flags a step returns: the wind field's noise pool runs low, the sensors' pools run low."""
+WIND_LOW, SENSE_LOW, WATCHED, NOT_FOLLOWING = 1, 2, 4, 8
+"""The flags a step returns: the wind field's noise pool runs low, the sensors' pools run low, the step's compliance
+watch ran (:func:`geofence.unit.compliance.watch_step`, on the sticks sent), and it found the vehicle not following
+(the unit then decides on a termination: :meth:`~geofence.unit.geofence_unit.GeofenceUnit.not_following`)."""
 _H0, _H1 = HORIZON_IN_P.start, HORIZON_IN_P.stop
 _new_tuple = tuple.__new__
 _NO_STICKS = (0.0, 0.0, 0.0, 0.0)
@@ -106,17 +109,18 @@ order (a flag 0 or 1)."""
 
 def _flight_step(
     FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
-    F: np.ndarray, L: np.ndarray, V: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray,
-    A: np.ndarray, row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float,
-    up: float, agl: float, ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
-    on_ground: bool, p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
+    F: np.ndarray, L: np.ndarray, V: np.ndarray, U: np.ndarray, H: np.ndarray, W: np.ndarray, T: np.ndarray,
+    Out: np.ndarray, A: np.ndarray, row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float,
+    n: float, up: float, agl: float, ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float,
+    yaw: float, on_ground: bool, p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
 ) -> tuple[int, float, float, float, int, float, float, float, float]:  # fmt: skip
     """One monitoring step from the truth's fields and the pilot's: ``(the unit's answer, the wind sampled (east,
     north, up), flags, the pilot's sticks (roll, pitch, yaw, throttle))`` (:func:`geofence.unit.passes.monitor_pass`'s
-    answer; the flags: :data:`WIND_LOW`, :data:`SENSE_LOW`). The pilot's sticks are its law's
-    (:func:`scenarios.flight.pilots.law_kernel.law_sticks` on its law array ``A``), or where that has none this
-    step, those passed in (``p_roll`` ...). On a pass the unit's record ``U`` and ring ``H`` keep it
-    (:func:`geofence.unit.passes.record_pass`) and row ``row`` of ``T`` records it; else ``Out`` holds the step's
+    answer; the flags: :data:`WIND_LOW`, :data:`SENSE_LOW`, :data:`WATCHED`, :data:`NOT_FOLLOWING`). The pilot's
+    sticks are its law's (:func:`scenarios.flight.pilots.law_kernel.law_sticks` on its law array ``A``), or where
+    that has none this step, those passed in (``p_roll`` ...). On a pass the unit's record ``U`` and ring ``H`` keep
+    it (:func:`geofence.unit.passes.record_pass`), row ``row`` of ``T`` records it and the compliance watch's record
+    ``W`` (:attr:`GeofenceUnit.compliance`) watches the sticks passed on; else ``Out`` holds the step's
     estimate and what the unit's own step needs (:data:`STEP_OUT`), for the unit (:data:`UNIT`) or for
     :func:`_flight_step_again` once the roll-out target is found (:data:`NEED_TARGET`). The arrays: the wind
     field's (:meth:`WindArrays.arrays`), the sensing chain's (:meth:`GeofenceSensing.kernel_arrays`), the unit's
@@ -124,8 +128,8 @@ def _flight_step(
     truth = Truth(t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, on_ground)
     pilot = _pilot_sticks(A, truth, (p_roll, p_pitch, p_yaw, p_throttle))
     wind, flags, sensed = _wind_and_sensing(FZ, wind_pool, GX, P, pools, idx, dt_s, truth)
-    answer = _monitor_rest((F, L, V), U, H, T, Out, P[_H0:_H1], row, dt_s, item, truth, wind, sensed, pilot)
-    return answer, wind[0], wind[1], wind[2], flags, pilot[0], pilot[1], pilot[2], pilot[3]
+    answer, watched = _monitor_rest((F, L, V), (U, H, W), T, Out, P[_H0:_H1], row, dt_s, item, truth, wind, sensed, pilot)
+    return answer, wind[0], wind[1], wind[2], flags + watched, pilot[0], pilot[1], pilot[2], pilot[3]
 
 
 @jitable
@@ -139,13 +143,15 @@ def _pilot_sticks(A: np.ndarray, truth: Truth, given: tuple) -> tuple[float, flo
 
 @jitable
 def _monitor_rest(
-    tables: tuple, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, horizon: np.ndarray, row: float,
-    dt_s: float, item: float, truth: Truth, wind: tuple, sensed: SensedStep, pilot: tuple,
-) -> int:  # fmt: skip
-    """A monitoring step after the wind and the sensing chain: the unit's answer, its pass kept and recorded (or
-    ``Out`` filled for the unit). ``tables``: the margins' ``(F, L, V)``; ``horizon``: the sensing chain's fusion
-    horizon fields; ``wind``: the wind sampled (east, north, up); ``pilot``: the pilot's sticks."""
+    tables: tuple, memory: tuple, T: np.ndarray, Out: np.ndarray, horizon: np.ndarray, row: float, dt_s: float,
+    item: float, truth: Truth, wind: tuple, sensed: SensedStep, pilot: tuple,
+) -> tuple[int, int]:  # fmt: skip
+    """A monitoring step after the wind and the sensing chain: ``(the unit's answer, the watch's flags)``, its pass
+    kept, recorded and watched (or ``Out`` filled for the unit). ``tables``: the margins' ``(F, L, V)``;
+    ``memory``: the unit's record, ring and watch ``(U, H, W)``; ``horizon``: the sensing chain's fusion horizon
+    fields; ``wind``: the wind sampled (east, north, up); ``pilot``: the pilot's sticks."""
     F, L, V = tables
+    U, H, W = memory
     s, est = sensed, sensed.est
     answer, far, r = monitor_pass(
         U, F, L, V, truth.t_s, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11],
@@ -154,11 +160,28 @@ def _monitor_rest(
     )  # fmt: skip
     if answer == UNIT or answer == NEED_TARGET:
         _for_the_unit(Out, sensed)
-        return answer
+        return answer, 0
     _keep(U, H, horizon, dt_s, truth, sensed, far, r[0], not far, r)
-    mode = U.view(UNIT_STATE)[0].mode if answer == PASS else MONITOR_NUMBER  # (a completed hand-back: MONITOR)
+    u = U.view(UNIT_STATE)[0]
+    mode = u.mode if answer == PASS else MONITOR_NUMBER  # (a completed hand-back: MONITOR)
     _write(T, row, item, truth, wind, pilot, pilot, mode, sensed, r[0])
-    return answer
+    since = u.mode_since_s if answer == PASS else truth.t_s  # (the hand-back's MONITOR starts now)
+    return answer, _watch(W, dt_s, truth, sensed, False, since, pilot)
+
+
+@jitable
+def _watch(
+    W: np.ndarray, dt_s: float, truth: Truth, sensed: SensedStep, commanding: bool, mode_since_s: float, cmd: tuple
+) -> int:  # fmt: skip
+    """The step's compliance watch (:func:`geofence.unit.compliance.watch_step` on the watch's record ``W``) on the
+    sticks sent ``cmd`` (the unit's while ``commanding``, else the pilot's) and the step's estimate: its flags
+    (:data:`WATCHED`, and :data:`NOT_FOLLOWING`)."""
+    est = sensed.est
+    missed = watch_step(
+        W, truth.t_s, dt_s, commanding, mode_since_s, cmd[0], cmd[1], cmd[3], truth.on_ground, est[11], est[12],
+        est[10],
+    )  # fmt: skip
+    return WATCHED + (NOT_FOLLOWING if missed else 0)
 
 
 @jitable
@@ -231,30 +254,32 @@ def _unit_inputs_in(Out: np.ndarray) -> SensedStep:
 
 
 def _flight_step_again(
-    P: np.ndarray, F: np.ndarray, L: np.ndarray, V: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray,
-    Out: np.ndarray, row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float,
-    up: float, agl: float, ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float,
-    on_ground: bool, w_e: float, w_n: float, w_u: float, p_roll: float, p_pitch: float, p_yaw: float,
+    P: np.ndarray, F: np.ndarray, L: np.ndarray, V: np.ndarray, U: np.ndarray, H: np.ndarray, W: np.ndarray,
+    T: np.ndarray, Out: np.ndarray, row: float, dt_s: float, t: float, lat: float, lon: float, alt: float, e: float,
+    n: float, up: float, agl: float, ve: float, vn: float, vu: float, airspeed: float, roll: float, pitch: float,
+    yaw: float, on_ground: bool, w_e: float, w_n: float, w_u: float, p_roll: float, p_pitch: float, p_yaw: float,
     p_throttle: float, item: float,
-) -> tuple[int, float, float, float, float]:  # fmt: skip
+) -> tuple[int, int, float, float, float, float]:  # fmt: skip
     """The same monitoring step asked again after :data:`~geofence.unit.passes.NEED_TARGET` (the unit found the
     roll-out target and shows it in its record ``U``): from the estimate in ``Out`` and the wind and the pilot's
-    sticks the first call gave, ``(its answer, the pilot's sticks)`` (the rest as :func:`_flight_step`'s)."""
+    sticks the first call gave, ``(its answer, the watch's flags, the pilot's sticks)`` (the rest as
+    :func:`_flight_step`'s)."""
     truth = Truth(t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, on_ground)
     pilot = (p_roll, p_pitch, p_yaw, p_throttle)
-    answer = _monitor_rest(
-        (F, L, V), U, H, T, Out, P[_H0:_H1], row, dt_s, item, truth, (w_e, w_n, w_u), _unit_inputs_in(Out), pilot
+    answer, watched = _monitor_rest(
+        (F, L, V), (U, H, W), T, Out, P[_H0:_H1], row, dt_s, item, truth, (w_e, w_n, w_u), _unit_inputs_in(Out),
+        pilot,
     )  # fmt: skip
-    return answer, p_roll, p_pitch, p_yaw, p_throttle
+    return answer, watched, p_roll, p_pitch, p_yaw, p_throttle
 
 
 def _override_flight_step(
     FZ: np.ndarray, wind_pool: np.ndarray, GX: np.ndarray, P: np.ndarray, pools: np.ndarray, idx: np.ndarray,
     F: np.ndarray, L: np.ndarray, V: np.ndarray, R: np.ndarray, PR: np.ndarray, QR: np.ndarray, K: np.ndarray,
-    U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, A: np.ndarray, row: float, dt_s: float, t: float,
-    lat: float, lon: float, alt: float, e: float, n: float, up: float, agl: float, ve: float, vn: float, vu: float,
-    airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool, p_roll: float, p_pitch: float,
-    p_yaw: float, p_throttle: float, item: float,
+    U: np.ndarray, H: np.ndarray, W: np.ndarray, T: np.ndarray, Out: np.ndarray, A: np.ndarray, row: float,
+    dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float, up: float, agl: float, ve: float,
+    vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool, p_roll: float,
+    p_pitch: float, p_yaw: float, p_throttle: float, item: float,
 ) -> tuple[int, float, float, float, int, float, float, float, float]:  # fmt: skip
     """:func:`_flight_step` for a fixed-wing override's step (:func:`geofence.unit.passes.override_pass`, on the
     unit's margins tables ``F, L, V`` and its recovery's arrays ``R, PR, QR, K``): the same tuple, its sticks the
@@ -262,21 +287,22 @@ def _override_flight_step(
     truth = Truth(t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, on_ground)
     pilot = _pilot_sticks(A, truth, (p_roll, p_pitch, p_yaw, p_throttle))
     wind, flags, sensed = _wind_and_sensing(FZ, wind_pool, GX, P, pools, idx, dt_s, truth)
-    answer, sticks = _override_rest(
-        (F, L, V, R, PR, QR, K), U, H, T, Out, P[_H0:_H1], row, dt_s, item, truth, wind, sensed, pilot
+    answer, watched, sticks = _override_rest(
+        (F, L, V, R, PR, QR, K), (U, H, W), T, Out, P[_H0:_H1], row, dt_s, item, truth, wind, sensed, pilot
     )  # fmt: skip
-    return answer, wind[0], wind[1], wind[2], flags, sticks[0], sticks[1], sticks[2], sticks[3]
+    return answer, wind[0], wind[1], wind[2], flags + watched, sticks[0], sticks[1], sticks[2], sticks[3]
 
 
 @jitable
 def _override_rest(
-    arrays: tuple, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, horizon: np.ndarray, row: float,
-    dt_s: float, item: float, truth: Truth, wind: tuple, sensed: SensedStep, pilot: tuple,
-) -> tuple[int, tuple[float, float, float, float]]:  # fmt: skip
-    """An override step after the wind and the sensing chain: ``(answer, the sticks to send)``, its step kept and
-    recorded (or ``Out`` filled for the unit). ``arrays``: the margins' ``(F, L, V)`` and the recovery's ``(R, PR,
-    QR, K)``; the rest as :func:`_monitor_rest`'s."""
+    arrays: tuple, memory: tuple, T: np.ndarray, Out: np.ndarray, horizon: np.ndarray, row: float, dt_s: float,
+    item: float, truth: Truth, wind: tuple, sensed: SensedStep, pilot: tuple,
+) -> tuple[int, int, tuple[float, float, float, float]]:  # fmt: skip
+    """An override step after the wind and the sensing chain: ``(answer, the watch's flags, the sticks to send)``,
+    its step kept, recorded and watched (or ``Out`` filled for the unit). ``arrays``: the margins' ``(F, L, V)`` and
+    the recovery's ``(R, PR, QR, K)``; the rest as :func:`_monitor_rest`'s."""
     F, L, V, R, PR, QR, K = arrays
+    U, H, W = memory
     s, est = sensed, sensed.est
     answer, c_roll, c_pitch, c_throttle, activation, has_margins, r = override_pass(
         U, F, L, V, R, PR, QR, K, truth.t_s, dt_s, est[3], est[4], est[5], est[7], est[8], est[9], est[10], est[11],
@@ -285,28 +311,29 @@ def _override_rest(
     )  # fmt: skip
     if answer == UNIT or answer == NEED_TARGET:
         _for_the_unit(Out, sensed)
-        return answer, (pilot[0], pilot[1], pilot[2], pilot[3])
+        return answer, 0, (pilot[0], pilot[1], pilot[2], pilot[3])
     u = U.view(UNIT_STATE)[0]
     _keep(U, H, horizon, dt_s, truth, sensed, u.skipped_last != 0.0, activation, has_margins, r)
     cmd = (c_roll, c_pitch, 0.0, c_throttle)
     _write(T, row, item, truth, wind, pilot, cmd, u.mode, sensed, activation)
-    return answer, cmd
+    return answer, _watch(W, dt_s, truth, sensed, True, u.mode_since_s, cmd), cmd
 
 
 def _override_flight_step_again(
     P: np.ndarray, F: np.ndarray, L: np.ndarray, V: np.ndarray, R: np.ndarray, PR: np.ndarray, QR: np.ndarray,
-    K: np.ndarray, U: np.ndarray, H: np.ndarray, T: np.ndarray, Out: np.ndarray, row: float, dt_s: float, t: float,
-    lat: float, lon: float, alt: float, e: float, n: float, up: float, agl: float, ve: float, vn: float, vu: float,
-    airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool, w_e: float, w_n: float, w_u: float,
-    p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
-) -> tuple[int, float, float, float, float]:  # fmt: skip
-    """:func:`_flight_step_again` for a fixed-wing override's step: ``(answer, the sticks to send)``."""
+    K: np.ndarray, U: np.ndarray, H: np.ndarray, W: np.ndarray, T: np.ndarray, Out: np.ndarray, row: float,
+    dt_s: float, t: float, lat: float, lon: float, alt: float, e: float, n: float, up: float, agl: float, ve: float,
+    vn: float, vu: float, airspeed: float, roll: float, pitch: float, yaw: float, on_ground: bool, w_e: float,
+    w_n: float, w_u: float, p_roll: float, p_pitch: float, p_yaw: float, p_throttle: float, item: float,
+) -> tuple[int, int, float, float, float, float]:  # fmt: skip
+    """:func:`_flight_step_again` for a fixed-wing override's step: ``(answer, the watch's flags, the sticks to
+    send)``."""
     truth = Truth(t, lat, lon, alt, e, n, up, agl, ve, vn, vu, airspeed, roll, pitch, yaw, on_ground)
-    answer, sticks = _override_rest(
-        (F, L, V, R, PR, QR, K), U, H, T, Out, P[_H0:_H1], row, dt_s, item, truth, (w_e, w_n, w_u),
+    answer, watched, sticks = _override_rest(
+        (F, L, V, R, PR, QR, K), (U, H, W), T, Out, P[_H0:_H1], row, dt_s, item, truth, (w_e, w_n, w_u),
         _unit_inputs_in(Out), (p_roll, p_pitch, p_yaw, p_throttle),
     )  # fmt: skip
-    return answer, sticks[0], sticks[1], sticks[2], sticks[3]
+    return answer, watched, sticks[0], sticks[1], sticks[2], sticks[3]
 
 
 flight_step: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = jit.compiled(_flight_step)
@@ -315,9 +342,9 @@ override_flight_step: Callable[..., tuple[int, float, float, float, int, float, 
     _override_flight_step
 )
 """The compiled :func:`_override_flight_step`."""
-flight_step_again: Callable[..., tuple[int, float, float, float, float]] = jit.compiled(_flight_step_again)
+flight_step_again: Callable[..., tuple[int, int, float, float, float, float]] = jit.compiled(_flight_step_again)
 """The compiled :func:`_flight_step_again`."""
-override_flight_step_again: Callable[..., tuple[int, float, float, float, float]] = jit.compiled(_override_flight_step_again)
+override_flight_step_again: Callable[..., tuple[int, int, float, float, float, float]] = jit.compiled(_override_flight_step_again)
 """The compiled :func:`_override_flight_step_again`."""
 _AGAIN = {flight_step: flight_step_again, override_flight_step: override_flight_step_again}
 """Each step's kernel asked again after NEED_TARGET."""
@@ -344,6 +371,7 @@ class FlightStep:
         self.dt_s = dt_s
         self._U = unit.memory  # (the unit's record: the passes read and write it in place)
         self._H = np.zeros((unit.history_rows(dt_s), RING_COLUMNS))
+        self._W = unit.compliance.memory  # (the compliance watch's record, read and written in place)
         self._O = np.zeros(STEP_OUT.itemsize // 8)
         self._A = law_array() if pilot_law is None else pilot_law  # (kind GIVEN: the pilot's sticks passed in)
         self._dispatcher: Callable[..., tuple[int, float, float, float, int, float, float, float, float]] = flight_step
@@ -355,6 +383,9 @@ class FlightStep:
         self._lead: tuple[np.ndarray, ...] = ()  # the kernel's leading arrays, bound once (see _bind)
         self._first_call = True  # the kernel's entry point is not known yet
         self.ready = False
+        self.watched = 0
+        """The last step's compliance watch by the compiled call: its flags (:data:`WATCHED`, :data:`NOT_FOLLOWING`),
+        0 where the call did not watch it (the unit answered the step: the runner watches it)."""
         self.steps = 0
         """Steps a compiled call answered so far (not counting those it left to the unit)."""
         self.refresh()
@@ -413,8 +444,8 @@ class FlightStep:
 
     def _bind(self) -> None:
         """The kernel's leading arguments in one tuple: the wind field's, the sensing chain's, the mode's tables and
-        the unit's record and ring (after any of them is replaced)."""
-        self._lead = (*self._wind_args, *self._sense_args, *self._tables, self._U, self._H)
+        the unit's record, ring and compliance watch (after any of them is replaced)."""
+        self._lead = (*self._wind_args, *self._sense_args, *self._tables, self._U, self._H, self._W)
 
     def finish(self) -> None:
         """The steps taken so far handed over to the unit (at the end of the flight; the sensing chain's horizon too)."""
@@ -434,16 +465,16 @@ class FlightStep:
     def _again(
         self, t_s: float, s: VehicleState, row: int, T: np.ndarray, w: tuple[float, float, float],
         pilot: tuple[float, float, float, float], item: int,
-    ) -> tuple[int, float, float, float, float]:  # fmt: skip
+    ) -> tuple[int, int, float, float, float, float]:  # fmt: skip
         """After :data:`~geofence.unit.passes.NEED_TARGET`: the unit finds the roll-out target at the step's estimate
         (in ``Out``), and the mode's kernel is asked the same step again (``pilot``: the sticks the first call
-        gave): ``(answer, the sticks to send)``."""
+        gave): ``(answer, the watch's flags, the sticks to send)``."""
         out = self._sensed_out()
         self.unit.find_rollout_target(out.est[4], out.est[5], out.sigma_h_m)
         dispatcher = _AGAIN[self._dispatcher]
         kernel = self._entry_points.get(dispatcher, dispatcher)
         args = (
-            self._sense_args[0], *self._tables, self._U, self._H, T, self._O, float(row), self.dt_s, t_s, s.lat_deg,
+            self._sense_args[0], *self._tables, self._U, self._H, self._W, T, self._O, float(row), self.dt_s, t_s, s.lat_deg,
             s.lon_deg, s.alt_m, s.east_m, s.north_m, s.up_m, s.agl_m, s.v_east_mps, s.v_north_mps, s.v_up_mps,
             s.airspeed_mps, s.roll_rad, s.pitch_rad, s.yaw_rad, s.on_ground, *w, *pilot, float(item),
         )  # fmt: skip
@@ -470,7 +501,8 @@ class FlightStep:
         if self._first_call:  # after its first call, by its entry point (geofence.jit: the arrays are ours)
             self._kernel = self._entry_points[kernel] = jit.entry_point(kernel)
             self._first_call = False
-        if flags:
+        self.watched = flags & (WATCHED | NOT_FOLLOWING)
+        if flags & (WIND_LOW | SENSE_LOW):
             if flags & WIND_LOW:
                 self.wind.refill()
                 self.wind_changed()
@@ -478,7 +510,9 @@ class FlightStep:
                 self.sensing.stepped(False, True)
         w = (w_e, w_n, w_u)
         if answer == NEED_TARGET:  # the unit finds the roll-out target, and the same step is asked again
-            answer, roll, pitch, yaw, throttle = self._again(t_s, s, row, T, w, (roll, pitch, yaw, throttle), item)
+            answer, self.watched, roll, pitch, yaw, throttle = self._again(
+                t_s, s, row, T, w, (roll, pitch, yaw, throttle), item
+            )  # fmt: skip
         if answer == OVERRIDE_STEP:
             self.steps += 1
             recorder.commit_row()
