@@ -28,7 +28,8 @@ Conditions (:func:`condition`, in this order): **beyond authority** (the case's 
 turbulence sigma at the start height is more than the platform can fly back against, as the
 generator judged it before any flight: ``beyond_authority`` in the manifest); **beyond max speed in
 flight** (the flight met a wind whose mean over :data:`SUSTAINED_WIND_WINDOW_S` exceeded its
-platform's max speed, :func:`peak_sustained_wind_mps` from its recorded trajectory: for those
+platform's max speed: ``peak_sustained_wind_mps`` of its summary, or :func:`peak_sustained_wind_mps` of its
+trajectory for an older summary: for those
 seconds the air moved faster than the vehicle can fly, so no override can hold it; judged on every
 flight alike, breached or not, since the forecast-based class cannot see a tail of the turbulence);
 **activated at start** (the case's predictive unit found its activation margin already at or below 0 at
@@ -41,7 +42,7 @@ figure is for). Every breach is listed whatever
 its condition; the headline rate is the nominal one.
 
 For each breached flight the report also gives the strongest wind the vehicle met, averaged over
-:data:`SUSTAINED_WIND_WINDOW_S` (:func:`peak_sustained_wind_mps`, from its recorded trajectory), against
+:data:`SUSTAINED_WIND_WINDOW_S` (``peak_sustained_wind_mps``), against
 its platform's max speed: above 1, the air around it moved faster than it can fly.
 
 Rates: breaches / flights with a one-sided exact (Clopper-Pearson) 95 % upper
@@ -66,7 +67,7 @@ from analysis.batch_plots import num, save_figure, truthy
 from analysis.containment import ContingencyInputs, containment_lines, plot_containment
 from analysis.formats.replace import replace_text, replacing
 from analysis.report import RESULTS_CSV, read_results_csv
-from analysis.scoring import SCORED_COLUMNS, score_flight
+from analysis.scoring import SCORED_COLUMNS, SUSTAINED_WIND_WINDOW_S, score_flight, sustained_wind_peak_mps
 from geofence.geometry.fence import parse_fence
 from geofence.geometry.geodesy import LocalFrame
 from geofence.validation import ConfigError
@@ -131,27 +132,13 @@ def read_trajectory_columns(path: str | Path, names: Sequence[str] = SCORED_COLU
     return {header[c]: data[:, i] for i, c in enumerate(cols)}
 
 
-SUSTAINED_WIND_WINDOW_S = 10.0
-"""The averaging window of the strongest wind a flight met (s): about the time a multirotor needs to
-stop and turn back, and a fixed-wing to reverse its course."""
-
-
 def peak_sustained_wind_mps(path: str | Path, window_s: float = SUSTAINED_WIND_WINDOW_S) -> float:
-    """The largest horizontal wind speed at the vehicle averaged over ``window_s`` (a moving mean of the
-    recorded ``wind_east_mps``/``wind_north_mps``, by time), m/s; NaN without those columns."""
+    """:func:`analysis.scoring.sustained_wind_peak_mps` of a ``trajectory.csv`` (m/s; NaN without its wind columns):
+    for flights whose summary predates the key."""
     cols = read_trajectory_columns(path, ("time_s", "wind_east_mps", "wind_north_mps"))
-    if len(cols) < 3 or len(cols["time_s"]) < 2:
+    if len(cols) < 3:
         return math.nan
-    t, we, wn = cols["time_s"], cols["wind_east_mps"], cols["wind_north_mps"]
-    dt = np.diff(t, prepend=t[0])
-    ce, cn, ct = (np.concatenate(([0.0], np.cumsum(x * dt))) for x in (we, wn, np.ones_like(t)))
-    j = np.arange(1, len(t) + 1)
-    i = np.searchsorted(t, t - window_s, side="left")  # the window (t - window_s, t]
-    span = ct[j] - ct[i]
-    ok = span >= min(window_s, float(t[-1] - t[0])) - 1e-9
-    if not ok.any():
-        return math.nan
-    return float(np.max(np.hypot((ce[j] - ce[i])[ok], (cn[j] - cn[i])[ok]) / span[ok]))
+    return sustained_wind_peak_mps(cols["time_s"], cols["wind_east_mps"], cols["wind_north_mps"], window_s)
 
 
 def case_fence(case: Mapping):
@@ -204,7 +191,7 @@ def campaign_rows(rows: Iterable[Mapping], manifest: Mapping, batch_dir: str | P
         )
         if variant == "unprotected" and batch_dir is not None and not math.isfinite(num(row.get("max_excursion_m"))):
             row.update(score_unprotected(batch_dir, row, case))
-        if batch_dir is not None and not is_error(row):
+        if batch_dir is not None and not is_error(row) and "peak_sustained_wind_mps" not in row:  # (an older summary)
             traj = Path(batch_dir) / str(row.get("flight") or row.get("scenario")) / "trajectory.csv"
             if traj.is_file():
                 row["peak_sustained_wind_mps"] = peak_sustained_wind_mps(traj)

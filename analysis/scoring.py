@@ -397,3 +397,28 @@ def _velocity_at(
             ve[missing] = np.where(span > 0, (x[b] - x[a]) / span, np.nan)
             vn[missing] = np.where(span > 0, (y[b] - y[a]) / span, np.nan)
     return ve, vn
+
+
+SUSTAINED_WIND_WINDOW_S = 10.0
+"""The averaging window of the strongest wind a flight met (s): about the time a multirotor needs to
+stop and turn back, and a fixed-wing to reverse its course."""
+
+
+def sustained_wind_peak_mps(
+    t_s: np.ndarray, wind_e_mps: np.ndarray, wind_n_mps: np.ndarray, window_s: float = SUSTAINED_WIND_WINDOW_S
+) -> float:  # fmt: skip
+    """The largest horizontal wind speed at the vehicle averaged over ``window_s`` (a moving mean of the wind
+    sampled at each step, ``wind_east_mps``/``wind_north_mps``, by time), m/s; NaN with fewer than two samples. Each
+    sample counts for the interval since the one before; a flight shorter than the window is its whole mean."""
+    t, we, wn = (np.asarray(x, dtype=float) for x in (t_s, wind_e_mps, wind_n_mps))
+    if len(t) < 2:
+        return float("nan")
+    dt = np.diff(t, prepend=t[0])
+    ce, cn, ct = (np.concatenate(([0.0], np.cumsum(x * dt))) for x in (we, wn, np.ones_like(t)))
+    j = np.arange(1, len(t) + 1)
+    i = np.searchsorted(t, t - window_s, side="left")  # the window (t - window_s, t]
+    span = ct[j] - ct[i]
+    ok = span >= min(window_s, float(t[-1] - t[0])) - 1e-9
+    if not ok.any():
+        return float("nan")
+    return float(np.max(np.hypot((ce[j] - ce[i])[ok], (cn[j] - cn[i])[ok]) / span[ok]))

@@ -10,8 +10,9 @@ from pathlib import Path
 import pytest
 import yaml
 
+from analysis.campaign_report import peak_sustained_wind_mps
 from geofence.validation import ConfigError
-from scenarios.app.batch import discover, plan, run_batch
+from scenarios.app.batch import Trajectories, discover, notable, plan, run_batch
 from scenarios.definition.sweep import expand
 
 ROOT = Path(__file__).parents[1]
@@ -176,11 +177,64 @@ def test_dask_executor_runs_the_same_batch_on_a_local_cluster(tmp_path):
     (tmp_path / "s.yaml").write_text(yaml.safe_dump(sweep))
     specs = plan(discover([tmp_path / "s.yaml"]))
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        outcome = run_batch(specs, tmp_path / "out", executor="dask", scheduler=cluster.scheduler_address, progress=False)
+        outcome = run_batch(
+            specs, tmp_path / "out", executor="dask", scheduler=cluster.scheduler_address, progress=False,
+            dask_in_flight=2,  # (two submitted at a time: the others as they land)
+        )  # fmt: skip
     assert outcome.flown == 4 and not outcome.failed
     got = summaries(tmp_path / "out")
     assert sorted(got) == sorted(s.flight_id for s in specs)
     assert all(s["aircraft"] == "Tern" and s["completed"] for s in got.values())
+
+
+CLEAN = {"geofence": True, "completed": True, "error": None, "max_excursion_m": -4.2, "breached_keep_out": False,
+         "landed_outside_gap": False, "terminated_at_s": None, "touchdown_vertical_mps": 0.4,
+         "touchdown_horizontal_mps": 0.1}  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "change",
+    [
+        {"geofence": False},
+        {"completed": False},
+        {"error": "diverged"},
+        {"max_excursion_m": 0.01},
+        {"breached_keep_out": True},
+        {"landed_outside_gap": True},
+        {"terminated_at_s": 12.5},
+        {"touchdown_vertical_mps": 1.2},
+        {"touchdown_horizontal_mps": 0.7},
+    ],  # fmt: skip
+)
+def test_a_notable_flight_is_one_a_reviewer_reads_the_trajectory_of(change):
+    assert not notable(CLEAN) and notable(dict(CLEAN, **change))
+    assert not notable(dict(CLEAN, touchdown_vertical_mps=None, max_excursion_m=0.0))  # (no touchdown; at the edge)
+
+
+def test_a_batch_keeping_notable_trajectories_writes_them_only_for_those(tmp_path):
+    """``--trajectories notable``: a flight inside its fence keeps only its summary (with the wind it met, which
+    the campaign report reads), an unprotected one its trajectory too."""
+    doc = yaml.safe_load((CI_SUITE / "multicopter_edges.yaml").read_text())
+    doc["duration_s"] = 6
+    doc["sweep"] = {"grid": {"wind.speed_mps": [5]}}
+    (tmp_path / "fenced.yaml").write_text(yaml.safe_dump(doc))
+    bare = dict(doc, name="unprotected")
+    bare.pop("sweep"), bare.pop("geofence")
+    bare["wind"] = dict(doc["wind"], speed_mps=5)
+    (tmp_path / "bare.yaml").write_text(yaml.safe_dump(bare))
+    specs = plan(discover([tmp_path / "fenced.yaml", tmp_path / "bare.yaml"]))
+    out = tmp_path / "out"
+    outcome = run_batch(specs, out, jobs=1, progress=False, trajectories=Trajectories.NOTABLE)
+    got = summaries(out)
+    assert outcome.flown == 2 and not outcome.failed
+    fenced = next(name for name in got if name != "unprotected")
+    assert got[fenced]["max_excursion_m"] < 0.0 and not (out / fenced / "trajectory.csv").exists()
+    assert (out / "unprotected" / "trajectory.csv").is_file()
+    # the wind met as the report reads it from a trajectory (a 5 m/s mean at 10 m, stronger at the flight's height)
+    assert got["unprotected"]["peak_sustained_wind_mps"] == pytest.approx(
+        peak_sustained_wind_mps(out / "unprotected" / "trajectory.csv"), abs=2e-3
+    )
+    assert all(5.0 < s["peak_sustained_wind_mps"] < 9.0 for s in got.values())
 
 
 @pytest.mark.parametrize("key", ["wind.\nspeed_mps", "wind speed", 3])

@@ -59,7 +59,7 @@ from typing import Sequence
 
 from geofence.geometry.local_fence import LocalFence
 from geofence.interface import Envelope
-from geofence.margins.boundary_shift import activation_margins
+from geofence.margins.boundary_shift import CompiledMargins
 from geofence.physics.control_laws import orbit_course_rad
 from geofence.physics.dynamics import return_not_assured
 from geofence.physics.rooms import envelope_turn_radius_m
@@ -346,26 +346,16 @@ def check_route(
         w0 = wps[0]
         return [PreflightFinding(RoutePart.WIND, 0, "forecast", w0.east_m, w0.north_m, w0.height_m, -math.inf, why)]
 
+    compiled = CompiledMargins(fence, env)  # (activation_margins with the fence's tables bound once)
+
     def score(sample_sets: list[tuple[tuple[float, float], list[_Sample]]], part: RoutePart, index: int, label: str) -> None:
         worst = None
         for wind, samples in sample_sets:
             for p in samples:
-                r = activation_margins(
-                    fence,
-                    p.e,
-                    p.n,
-                    p.h,
-                    p.ve,
-                    p.vn,
-                    p.vu,
-                    env,
-                    wind[0],
-                    wind[1],
-                    h_uncertainty_m=h_uncertainty_m,
-                    v_uncertainty_m=v_uncertainty_m,
-                    wind_extra_mps=wind_extra_mps,
-                    latency_s=latency_s,
-                )
+                r = compiled.margins(
+                    p.e, p.n, p.h, p.ve, p.vn, p.vu, wind[0], wind[1], h_uncertainty_m, v_uncertainty_m, latency_s,
+                    0.0, wind_extra_mps, None,
+                )  # fmt: skip
                 if worst is None or r.activation_margin_m < worst[0].activation_margin_m:
                     worst = (r, p)
         if worst is None or worst[0].activation_margin_m > buffer_m:

@@ -50,7 +50,9 @@ import traceback
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass, field
+from enum import Enum
 from pathlib import Path
+from typing import NamedTuple
 
 import yaml
 
@@ -58,6 +60,47 @@ from geofence.validation import ConfigError
 from scenarios.definition.sweep import FlightSpec, expand, with_referenced_files
 
 SUMMARY = "summary.json"
+
+
+class Trajectories(Enum):
+    """Which flights keep their ``trajectory.csv`` (``--trajectories``)."""
+
+    ALL = "all"
+    """Every flight (the default)."""
+    NOTABLE = "notable"
+    """Only those a reviewer or the campaign report reads one of (:func:`notable`): at campaign scale the rest are
+    about 0.5 MB a flight and a tenth of its wall time, and the summary keeps their scores."""
+
+
+NOTABLE_TOUCHDOWN_VERTICAL_MPS = 1.0
+"""A touchdown faster than this downwards is notable (m/s): issue 38's landing requirement."""
+NOTABLE_TOUCHDOWN_HORIZONTAL_MPS = 0.5
+"""... or faster than this over the ground (m/s)."""
+
+
+def notable(summary: dict) -> bool:
+    """Whether a flight's trajectory is kept under :attr:`Trajectories.NOTABLE`: it has no geofence (an unprotected
+    twin, which the campaign report scores from its trajectory), did not complete or failed, went outside the fence
+    (``max_excursion_m`` above 0), entered a keep-out, landed outside a gap, was terminated, or touched down faster
+    than :data:`NOTABLE_TOUCHDOWN_VERTICAL_MPS` / :data:`NOTABLE_TOUCHDOWN_HORIZONTAL_MPS`."""
+    if not summary.get("geofence") or not summary.get("completed") or summary.get("error"):
+        return True
+    if summary.get("breached_keep_out") or summary.get("landed_outside_gap") or summary.get("terminated_at_s") is not None:
+        return True
+    limits = (("max_excursion_m", 0.0), ("touchdown_vertical_mps", NOTABLE_TOUCHDOWN_VERTICAL_MPS),
+              ("touchdown_horizontal_mps", NOTABLE_TOUCHDOWN_HORIZONTAL_MPS))  # fmt: skip
+    return any(isinstance(summary.get(k), (int, float)) and summary[k] > limit for k, limit in limits)
+
+
+class Writing(NamedTuple):
+    """What a batch writes of each flight besides its ``summary.json`` and ``scenario.yaml``."""
+
+    flight_plots: bool = False
+    """``flight.png``/``.svg``."""
+    trajectories: Trajectories = Trajectories.ALL
+    """Whose ``trajectory.csv``."""
+
+
 LOCK = ".batch.lock"
 """The file in the output folder a batch holds an exclusive ``flock`` on while it flies."""
 STATE = ".batch.json"
@@ -167,8 +210,9 @@ def is_done(out_dir: Path, spec: FlightSpec) -> bool:
     return stored_hash(out_dir, spec.flight_id) == spec.scenario_hash
 
 
-def fly_spec(spec: FlightSpec, out_dir: str, flight_plots: bool = False) -> dict:
-    """Fly one spec and write its folder; never raises (failures are written as a failed summary)."""
+def fly_spec(spec: FlightSpec, out_dir: str, writing: Writing = Writing()) -> dict:
+    """Fly one spec and write its folder (``writing``: its figures, its trajectory); never raises (failures are
+    written as a failed summary)."""
     from scenarios.definition.schema import parse_scenario
     from scenarios.flight.runner import fly, replace_folder, write_result
 
@@ -186,8 +230,9 @@ def fly_spec(spec: FlightSpec, out_dir: str, flight_plots: bool = False) -> dict
             Path(out_dir),
             folder_name=spec.flight_id,
             scenario_text=yaml.safe_dump(spec.document, sort_keys=False),
-            plot=flight_plots,
+            plot=writing.flight_plots,
             scenario_hash=spec.scenario_hash,
+            trajectory=writing.trajectories is Trajectories.ALL or notable(result.summary),
         )
         return result.summary
     except Exception as exc:  # a failed flight is a result, not a crash of the batch
@@ -309,17 +354,33 @@ def run_batch(
     on_done: Callable[[dict], None] | None = None,
     flight_plots: bool = False,
     slow_start_s: float = BATCH_SLOW_START_S,
+    trajectories: Trajectories = Trajectories.ALL,
+    dask_in_flight: int | None = None,
 ) -> BatchOutcome:
     """Fly every spec not already done in ``out_dir``; see the module docstring. With ``progress``, a batch
-    with no flight finished after ``slow_start_s`` says why it may be (:data:`BATCH_SLOW_START_NOTICE`)."""
+    with no flight finished after ``slow_start_s`` says why it may be (:data:`BATCH_SLOW_START_NOTICE`).
+    ``trajectories``: whose ``trajectory.csv`` is written (a flight done without one is not flown again for it).
+    ``dask_in_flight``: on a Dask cluster, how many flights are submitted at a time (default :func:`dask_window`)."""
     out_dir = Path(out_dir)
     check_unique_names(specs)
     out_dir.mkdir(parents=True, exist_ok=True)
     with output_lock(out_dir):  # before anything is touched: a running batch's staging folders are its own
-        return _run_locked(specs, out_dir, jobs, executor, scheduler, progress, on_done, flight_plots, slow_start_s)
+        writing = Writing(flight_plots, trajectories)
+        executors = Executors(jobs, executor, scheduler, dask_in_flight)
+        return _run_locked(specs, out_dir, executors, progress, on_done, writing, slow_start_s)
 
 
-def _run_locked(specs, out_dir, jobs, executor, scheduler, progress, on_done, flight_plots, slow_start_s) -> BatchOutcome:
+class Executors(NamedTuple):
+    """Where a batch's flights fly: ``jobs`` local processes, or a Dask cluster (``executor`` ``"dask"`` at
+    ``scheduler``, ``dask_in_flight`` submitted at a time; None: :func:`dask_window`)."""
+
+    jobs: int | None
+    executor: str
+    scheduler: str | None
+    dask_in_flight: int | None
+
+
+def _run_locked(specs, out_dir, executors: Executors, progress, on_done, writing, slow_start_s) -> BatchOutcome:
     """:func:`run_batch` once the output folder's lock is held."""
     remove_stale_staging(out_dir)
     write_state(out_dir, specs, finished=False)
@@ -328,7 +389,8 @@ def _run_locked(specs, out_dir, jobs, executor, scheduler, progress, on_done, fl
     todo = [s for s in specs if s.flight_id not in done]
     outcome = BatchOutcome(total=len(specs), skipped=len(done), flown=0, changed=len(state.changed))
     t0 = time.perf_counter()
-    client = _dask_client(scheduler) if executor == "dask" and todo else None  # refused before any progress is shown
+    jobs, scheduler = executors.jobs, executors.scheduler
+    client = _dask_client(scheduler) if executors.executor == "dask" and todo else None  # refused before any progress
     bar = _bar(len(specs), outcome.skipped, progress)
     notice = slow_start_notice(bar, slow_start_s, BATCH_SLOW_START_NOTICE) if bar is not None and todo else None
 
@@ -350,12 +412,12 @@ def _run_locked(specs, out_dir, jobs, executor, scheduler, progress, on_done, fl
         if not todo:
             pass
         elif client is not None:
-            _run_dask(todo, out_dir, client, finished, flight_plots)
+            _run_dask(todo, out_dir, client, finished, writing, executors.dask_in_flight)
         elif (jobs or os.cpu_count() or 1) == 1:
             for spec in todo:
-                finished(fly_spec(spec, str(out_dir), flight_plots))
+                finished(fly_spec(spec, str(out_dir), writing))
         else:
-            _run_processes(todo, out_dir, jobs or os.cpu_count() or 1, finished, flight_plots)
+            _run_processes(todo, out_dir, jobs or os.cpu_count() or 1, finished, writing)
     except KeyboardInterrupt:
         outcome.interrupted = True
         outcome.flown = sum(is_done(out_dir, s) for s in todo)  # the folders written, whatever was reported
@@ -416,9 +478,7 @@ POLL_S = 0.1
 """How often the process executor looks for a Ctrl-C while it waits for flights."""
 
 
-def _run_processes(
-    todo: list[FlightSpec], out_dir: Path, jobs: int, finished: Callable[[dict], None], flight_plots: bool
-) -> None:
+def _run_processes(todo: list[FlightSpec], out_dir: Path, jobs: int, finished: Callable[[dict], None], writing: Writing) -> None:
     """At most ``jobs`` flights in flight at a time, so an interrupt only waits for those."""
     pool = ProcessPoolExecutor(max_workers=jobs, initializer=_ignore_sigint)
     queue = iter(todo)
@@ -426,7 +486,7 @@ def _run_processes(
     with _DeferredInterrupt() as stop:
         try:
             for spec in queue:
-                pending.add(pool.submit(fly_spec, spec, str(out_dir), flight_plots))
+                pending.add(pool.submit(fly_spec, spec, str(out_dir), writing))
                 if len(pending) >= jobs:
                     break
             while pending and not stop.requested:
@@ -435,7 +495,7 @@ def _run_processes(
                     finished(fut.result())
                     nxt = None if stop.requested else next(queue, None)
                     if nxt is not None:
-                        pending.add(pool.submit(fly_spec, nxt, str(out_dir), flight_plots))
+                        pending.add(pool.submit(fly_spec, nxt, str(out_dir), writing))
             if stop.requested:
                 raise KeyboardInterrupt
         except KeyboardInterrupt:
@@ -471,18 +531,48 @@ def _dask_client(scheduler: str | None):
     return connect_dask(Client, scheduler)
 
 
-def _run_dask(todo: list[FlightSpec], out_dir: Path, client, finished: Callable[[dict], None], flight_plots: bool) -> None:
+DASK_IN_FLIGHT_PER_THREAD = 4
+"""Flights submitted to a Dask cluster at a time, per worker thread (at least :data:`DASK_IN_FLIGHT_MIN`): the
+scheduler always has work queued, and the client holds a bounded number of futures whatever the batch's size."""
+DASK_IN_FLIGHT_MIN = 16
+DASK_RESIZE_EVERY = 256
+"""The cluster's thread count is asked again after this many flights (a cluster that scales up gets more)."""
+
+
+def _run_dask(
+    todo: list[FlightSpec], out_dir: Path, client, finished: Callable[[dict], None], writing: Writing,
+    in_flight: int | None,
+) -> None:  # fmt: skip
+    """The flights on a Dask cluster, at most ``in_flight`` submitted at a time (None: :func:`dask_window`, asked
+    again every :data:`DASK_RESIZE_EVERY` flights); on any exit the rest are cancelled."""
     from dask.distributed import as_completed
 
+    def submit(spec: FlightSpec):
+        fut = client.submit(fly_spec, spec, str(out_dir), writing, key=f"flight-{spec.flight_id}", pure=False)
+        outstanding.add(fut)
+        return fut
+
     with client:
-        futures = [
-            client.submit(fly_spec, spec, str(out_dir), flight_plots, key=f"flight-{spec.flight_id}", pure=False) for spec in todo
-        ]
+        queue = iter(todo)
+        outstanding: set = set()
+        window = in_flight or dask_window(client)
+        running = as_completed([submit(spec) for _, spec in zip(range(window), queue)])
         try:
-            for fut in as_completed(futures):
+            for done, fut in enumerate(running, start=1):
+                outstanding.discard(fut)
                 finished(fut.result())
+                if in_flight is None and done % DASK_RESIZE_EVERY == 0:
+                    window = dask_window(client)
+                for _, spec in zip(range(window - len(outstanding)), queue):
+                    running.add(submit(spec))
         finally:
-            client.cancel(futures)
+            client.cancel(list(outstanding))
+
+
+def dask_window(client) -> int:
+    """How many flights to keep submitted: :data:`DASK_IN_FLIGHT_PER_THREAD` per worker thread of the cluster now."""
+    threads = sum(client.nthreads().values())
+    return max(DASK_IN_FLIGHT_MIN, DASK_IN_FLIGHT_PER_THREAD * threads)
 
 
 DASK_CONNECT_TIMEOUT_S = 10.0

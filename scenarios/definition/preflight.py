@@ -21,6 +21,7 @@ import math
 from geofence.estimation.wind_estimator import WIND_ESTIMATE_ERROR_MPS
 from geofence.geometry.fence import AltitudeReference
 from geofence.geometry.geodesy import LocalFrame
+from geofence.geometry.local_fence import LocalFence
 from geofence.physics.dynamics import envelope_at_density
 from geofence.unit.config import StateSource
 from geofence.unit.preflight import PlannedWaypoint, PreflightFinding, check_route
@@ -92,14 +93,15 @@ def latency_bound_s(scenario: Scenario) -> float:
     return lag
 
 
-def preflight_findings(scenario: Scenario) -> list[PreflightFinding] | None:
-    """The findings of the pre-flight check, or None when the scenario has no mission or no geofence."""
+def preflight_findings(scenario: Scenario, fence: LocalFence | None = None) -> list[PreflightFinding] | None:
+    """The findings of the pre-flight check, or None when the scenario has no mission or no geofence. ``fence``: the
+    scenario's fence in its frame where the caller has it already (its tables are built once)."""
     cfg = scenario.geofence
     if cfg is None or scenario.mission is None or scenario.pilot.kind is not PilotKind.MISSION:
         return None
     st = scenario.start
     frame = scenario.frame
-    fence = cfg.fence.to_local(frame)
+    fence = cfg.fence.to_local(frame) if fence is None else fence
     env = scenario.profile.envelope
     env = envelope_at_density(env, st.density_ratio)
     speed = scenario.mission.speed_mps or env.cruise_speed_mps

@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from aircraft.factory import build_platform
-from analysis.scoring import SCORED_COLUMNS, score_flight
+from analysis.scoring import SCORED_COLUMNS, score_flight, sustained_wind_peak_mps
 from geofence.geometry.geodesy import LocalFrame
 from geofence.geometry.local_fence import LocalFence
 from geofence.interface import Envelope, StickCommand
@@ -186,7 +186,7 @@ def fly(scenario: Scenario, on_step: Callable[[float], None] | None = None) -> F
     completed = error is None and (pilot.finished or geofence_ended if mission else True)
     summary = flight_summary(scenario, env, pilot, recorder, completed, geofence_ended, error, wall, loop_wall, frames, dt_s)
     if unit is not None and fence is not None:
-        summary["preflight"] = findings_summary(preflight_findings(scenario))
+        summary["preflight"] = findings_summary(preflight_findings(scenario, fence))
         traj = {name: recorder.column(name) for name in SCORED_COLUMNS}
         summary.update(score_flight(traj, fence))
         summary["activations"] = unit.activations
@@ -376,8 +376,19 @@ def flight_summary(
         "loop_wall_time_s": round(loop_wall, 4),
         "max_agl_m": round(float(recorder.column("agl_m").max()), 2) if recorder.n else 0.0,
         "max_ground_speed_mps": round(float(recorder.column("ground_speed_mps").max()), 2) if recorder.n else 0.0,
+        "peak_sustained_wind_mps": _rounded_or_none(
+            sustained_wind_peak_mps(
+                recorder.column("time_s"), recorder.column("wind_east_mps"), recorder.column("wind_north_mps")
+            ),
+            3,
+        ),
         "error": error,
     }
+
+
+def _rounded_or_none(x: float, digits: int) -> float | None:
+    """``x`` rounded, or None where it is NaN (a flight of fewer than two steps)."""
+    return None if math.isnan(x) else round(x, digits)
 
 
 def write_result(
@@ -388,10 +399,11 @@ def write_result(
     scenario_text: str | None = None,
     plot: bool = False,
     scenario_hash: str | None = None,
+    trajectory: bool = True,
 ) -> Path:
     """Write a flight's folder ``out_dir/<folder_name or scenario name>/``, replacing any previous one as a whole.
 
-    Everything (``scenario.yaml`` when ``scenario_text`` is given, ``trajectory.csv``,
+    Everything (``scenario.yaml`` when ``scenario_text`` is given, ``trajectory.csv`` unless not ``trajectory``,
     ``flight.png``/``.svg`` when ``plot``, then ``summary.json``) is written into a
     temporary folder beside it, which is then swapped in: nothing of an earlier
     flight of the same name (a stale ``flight.png``, ``attempts.json``) survives,
@@ -405,7 +417,8 @@ def write_result(
     def fill(folder: Path) -> None:
         if scenario_text is not None:
             (folder / "scenario.yaml").write_text(scenario_text)
-        result.recorder.write_csv(folder / "trajectory.csv")
+        if trajectory:
+            result.recorder.write_csv(folder / "trajectory.csv")
         if plot:
             from analysis.plots import plot_result
 
