@@ -54,17 +54,29 @@ per simulated flight hour with the Poisson 95 % upper bound
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from scipy.stats import beta, chi2
 
 from analysis.batch_plots import num, save_figure, truthy
-from analysis.containment import ContingencyInputs, containment_lines, plot_containment
+from analysis.containment import (
+    VOLUMES,
+    ClassRates,
+    ContingencyInputs,
+    add_class_rates,
+    class_rate_lines,
+    class_rates,
+    class_rates_record,
+    containment_lines,
+    plot_containment,
+)
 from analysis.formats.replace import replace_text, replacing
 from analysis.report import RESULTS_CSV, read_results_csv
 from analysis.scoring import SCORED_COLUMNS, SUSTAINED_WIND_WINDOW_S, score_flight, sustained_wind_peak_mps
@@ -75,6 +87,12 @@ from geofence.validation import ConfigError
 MANIFEST = "campaign.json"
 REPORT_MD = "campaign_report.md"
 FLIGHTS_CSV = "campaign_flights.csv"
+COUNTS_JSON = "containment_counts.json"
+"""The containment section's counts (per class: flights, flight hours, exits of each volume), which
+:func:`combine_containment` adds up over the shards of one campaign."""
+CAMPAIGN_SETTINGS = ("generator", "seed", "max_duration_s", "platforms", "families", "faults", "downward_sensors")
+"""The manifest's keys every shard of one campaign shares (the cases differ only in their numbers)."""
+COMBINED_MD = "containment_combined.md"
 """One row per flight: its condition, status, breaches and whether its unprotected twin breached."""
 KEEP_IN_TOLERANCE_M = 0.0
 """A keep-in breach is a lateral excursion strictly beyond this (m)."""
@@ -852,9 +870,116 @@ def write_campaign_report(
     if contingency:
         predictive = [dict(r, condition=condition(r)) for r in rows if r.get("variant") == "predictive"]
         plot_containment(predictive, contingency, out_dir / CONTAINMENT_FIGURE[0])
+        counts = {
+            "campaign": {k: manifest.get(k) for k in CAMPAIGN_SETTINGS},
+            "cases": [int(manifest.get("first_case") or 0), int(manifest.get("n_cases_requested") or 0)],
+            "results_sha256": file_sha256(batch_dir / RESULTS_CSV),
+            "variant": "predictive",
+            "classes": class_rates_record(class_rates(predictive, contingency)),
+        }
+        replace_text(out_dir / COUNTS_JSON, json.dumps(counts, indent=1) + "\n")
     flights = out_dir / FLIGHTS_CSV
     with replacing(flights, newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=FLIGHT_COLUMNS)
         writer.writeheader()
         writer.writerows(flight_summaries(rows))
     return replace_text(out_dir / REPORT_MD, "\n".join(campaign_report_lines(rows, manifest, contingency)))
+
+
+# --------------------------------------------------------------------------- shards of one campaign
+def file_sha256(path: str | Path) -> str:
+    """The sha256 of a file's bytes (hex)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+class Shard(NamedTuple):
+    """One shard's containment counts (:data:`COUNTS_JSON` in its results folder)."""
+
+    folder: Path
+    campaign: dict
+    first_case: int
+    n_cases: int
+    classes: list[ClassRates]
+
+
+def read_shard(folder: str | Path) -> Shard:
+    """A results folder's :data:`COUNTS_JSON`, checked: present, well-formed, and not stale (its ``results.csv``
+    unchanged since the report was written); else a one-line :class:`ConfigError` naming the file."""
+    folder = Path(folder)
+    path = folder / COUNTS_JSON
+    if not path.is_file():
+        raise ConfigError(f"{path}: missing (run 'geofence-testbed campaign report {folder} --campaign CAMPAIGN' first)")
+    try:
+        doc = json.loads(path.read_text())
+        classes = [
+            ClassRates(str(c["name"]), int(c["flights"]), float(c["hours"]), _exits(c["exits"])) for c in doc["classes"]
+        ]  # fmt: skip
+        first, n = (int(x) for x in doc["cases"])
+        campaign, digest = dict(doc["campaign"]), str(doc["results_sha256"])
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ConfigError(f"{path}: not a containment counts file ({type(exc).__name__}: {exc})") from None
+    results = folder / RESULTS_CSV
+    if not results.is_file() or file_sha256(results) != digest:
+        raise ConfigError(f"{path}: stale ({results} changed since the report was written; run 'campaign report' again)")
+    return Shard(folder, campaign, first, n, classes)
+
+
+def _exits(by_volume: Mapping) -> tuple[int, int, int, int]:
+    """A counts file's exits by volume, in :data:`analysis.containment.VOLUMES`' order."""
+    fence, cv, grb, floor = (int(by_volume[v]) for v in VOLUMES)
+    return fence, cv, grb, floor
+
+
+def check_shards(shards: Sequence[Shard]) -> None:
+    """The shards are of one campaign (the same :data:`CAMPAIGN_SETTINGS`) and no case is in two of them: else a
+    one-line :class:`ConfigError` naming the field or the cases."""
+    first = shards[0]
+    for sh in shards[1:]:
+        for key in CAMPAIGN_SETTINGS:
+            if sh.campaign.get(key) != first.campaign.get(key):
+                raise ConfigError(
+                    f"{sh.folder / COUNTS_JSON}: campaign.{key} is {sh.campaign.get(key)!r}, "
+                    f"{first.folder / COUNTS_JSON} has {first.campaign.get(key)!r}: not shards of one campaign"
+                )  # fmt: skip
+    spans = sorted(shards, key=lambda sh: sh.first_case)
+    for a, b in zip(spans, spans[1:]):
+        if b.first_case < a.first_case + a.n_cases:
+            raise ConfigError(
+                f"{b.folder / COUNTS_JSON}: cases {b.first_case}..{b.first_case + b.n_cases - 1} overlap "
+                f"{a.folder / COUNTS_JSON}'s {a.first_case}..{a.first_case + a.n_cases - 1} (a flight counted twice)"
+            )  # fmt: skip
+
+
+def combine_containment(folders: Sequence[str | Path], out_path: str | Path) -> Path:
+    """The containment section of several shards of one campaign, their counts added up (:func:`read_shard`,
+    :func:`check_shards`, :func:`analysis.containment.add_class_rates`), written to ``out_path`` (markdown)."""
+    if not folders:
+        raise ConfigError("campaign combine: give at least one results folder")
+    shards = [read_shard(f) for f in folders]  # (every file checked before anything is written)
+    check_shards(shards)
+    total = add_class_rates([sh.classes for sh in shards])
+    flights, hours = sum(c.flights for c in total), sum(c.hours for c in total)
+    c = shards[0].campaign
+    lines = [
+        "# Containment over the shards of one campaign (predictive)",
+        "",
+        f"Campaign seed {c.get('seed')} ({c.get('generator')}; longest flight {c.get('max_duration_s')} s"
+        f"{'; one single failure per case' if c.get('faults') else ''}): {len(shards)} shards, "
+        f"{sum(sh.n_cases for sh in shards)} cases requested, {flights} scored flights, {hours:.1f} simulated flight "
+        "hours. Each shard's counts were read from its `containment_counts.json` (written by `campaign report`, "
+        "checked against its `results.csv`); the flights of different shards are disjoint, so the counts add up "
+        "and the bounds below are the whole campaign's.",
+        "",
+        "| shard | cases | flights | flight h |",
+        "|---|---|---:|---:|",
+        *(f"| {sh.folder} | {sh.first_case}..{sh.first_case + sh.n_cases - 1} | {sum(k.flights for k in sh.classes)} | "
+          f"{sum(k.hours for k in sh.classes):.1f} |" for sh in sorted(shards, key=lambda sh: sh.first_case)),
+        "",
+        *class_rate_lines(total),
+        "",
+    ]  # fmt: skip
+    return replace_text(Path(out_path), "\n".join(lines))

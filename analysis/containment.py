@@ -140,8 +140,6 @@ def class_rates(rows: Sequence[Mapping], inputs: Mapping[str, ContingencyInputs]
 
 def containment_lines(rows: Sequence[Mapping], inputs: Mapping[str, ContingencyInputs]) -> list[str]:
     """The report's containment section (markdown) for one variant's rows."""
-    from analysis.campaign_report import clopper_pearson_upper, poisson_rate_upper
-
     lines = [
         "| platform | v0 (m/s) | t_R (s) | limit (deg) | S_CV (m) | H_CV (m) |",
         "|---|---:|---:|---:|---:|---:|",
@@ -153,9 +151,17 @@ def containment_lines(rows: Sequence[Mapping], inputs: Mapping[str, ContingencyI
         cv = contingency_volume(p, 0.0)
         lines.append(f"| {name} | {p.v0_mps:.1f} | {p.reaction_time_s:.2f} | {math.degrees(p.limit_rad):.0f} | "
                      f"{cv.s_cv_m:.1f} | {cv.h_cv_m:.1f} |")  # fmt: skip
-    lines += ["", "| class | flights | flight h | " + " | ".join(f"{v}: exits, per flight (95 % ≤), per h (95 % ≤)" for v in VOLUMES) + " |",
-              "|---|---:|---:|" + "---|" * len(VOLUMES)]  # fmt: skip
-    for c in class_rates(rows, inputs):
+    return lines + [""] + class_rate_lines(class_rates(rows, inputs))
+
+
+def class_rate_lines(classes: Sequence[ClassRates]) -> list[str]:
+    """The containment table (markdown): per class its flights, flight hours and each volume's exits, per flight
+    with the exact 95 % bound and per flight hour with the Poisson 95 % bound."""
+    from analysis.campaign_report import clopper_pearson_upper, poisson_rate_upper
+
+    lines = ["| class | flights | flight h | " + " | ".join(f"{v}: exits, per flight (95 % ≤), per h (95 % ≤)" for v in VOLUMES) + " |",
+             "|---|---:|---:|" + "---|" * len(VOLUMES)]  # fmt: skip
+    for c in classes:
         cells = []
         for k in c.exits:
             per_h = poisson_rate_upper(k, c.hours)
@@ -163,6 +169,27 @@ def containment_lines(rows: Sequence[Mapping], inputs: Mapping[str, ContingencyI
                          f"{k / c.hours if c.hours else math.nan:.3g} ({per_h:.2g})")  # fmt: skip
         lines.append(f"| {c.name} | {c.flights} | {c.hours:.1f} | " + " | ".join(cells) + " |")
     return lines
+
+
+def class_rates_record(classes: Sequence[ClassRates]) -> list[dict]:
+    """The classes as plain records (``name``, ``flights``, ``hours``, ``exits`` by volume) for a counts file."""
+    return [{"name": c.name, "flights": c.flights, "hours": c.hours, "exits": dict(zip(VOLUMES, c.exits))} for c in classes]
+
+
+def add_class_rates(shards: Sequence[Sequence[ClassRates]]) -> list[ClassRates]:
+    """The classes of several shards of one campaign added up by name (flights, hours and exits are counts over
+    disjoint flights: their sums are the whole campaign's), nominal first."""
+    total: dict[str, list] = {}
+    for classes in shards:
+        for c in classes:
+            t = total.setdefault(c.name, [0, 0.0, [0] * len(VOLUMES)])
+            t[0] += c.flights
+            t[1] += c.hours
+            t[2] = [a + b for a, b in zip(t[2], c.exits)]
+    return [
+        ClassRates(name, t[0], t[1], (t[2][0], t[2][1], t[2][2], t[2][3]))
+        for name, t in sorted(total.items(), key=lambda kv: (kv[0] != "nominal", kv[0]))
+    ]
 
 
 def plot_containment(rows: Sequence[Mapping], inputs: Mapping[str, ContingencyInputs], out_base: Path) -> list[Path]:

@@ -264,7 +264,7 @@ def build_parser() -> argparse.ArgumentParser:
             "pilots, and normal missions), each "
             "three times (predictive, reactive, unprotected), plus campaign.json, into DIR; fly them with "
             "'geofence-testbed batch DIR --out RESULTS'. report: breaches with 95 % upper confidence bounds per "
-            "flight and per flight hour, peak excursions, nuisance overrides, written to RESULTS/campaign_report.md, and one row per flight (condition, status, breaches, whether its unprotected twin breached) in RESULTS/campaign_flights.csv."
+            "flight and per flight hour, peak excursions, nuisance overrides, written to RESULTS/campaign_report.md, and one row per flight (condition, status, breaches, whether its unprotected twin breached) in RESULTS/campaign_flights.csv. combine: the containment counts of a campaign's shards (--first-case) added up."
         ),
     )
     camp_sub = camp.add_subparsers(dest="campaign_command", required=True, metavar="ACTION")
@@ -276,6 +276,11 @@ def build_parser() -> argparse.ArgumentParser:
     gen.add_argument("out", type=Path, metavar="DIR", help="folder for the scenario files (must be new or empty)")
     gen.add_argument("--cases", type=int, default=1000, metavar="N", help="number of cases (default 1000; each is flown 3 times)")
     gen.add_argument("--seed", type=int, default=2026, help="campaign seed, >= 0 (default 2026)")
+    gen.add_argument(
+        "--first-case", type=int, default=0, metavar="K",
+        help="number the cases from K (default 0): a shard of a larger campaign, cases K to K+N-1 of the same --seed "
+        "(case i is the same in every shard; 'campaign combine' adds the shards' reports up)",
+    )  # fmt: skip
     gen.add_argument("--max-duration-s", type=float, default=180.0, metavar="S", help="longest flight, s (default 180)")
     gen.add_argument(
         "--platforms",
@@ -308,7 +313,7 @@ def build_parser() -> argparse.ArgumentParser:
     rep = camp_sub.add_parser(
         "report",
         help="write campaign_report.md from a flown campaign",
-        description="Read RESULTS/results.csv (from batch) and the campaign's campaign.json; write RESULTS/campaign_report.md, its figures and RESULTS/campaign_flights.csv (one row per flight).",
+        description="Read RESULTS/results.csv (from batch) and the campaign's campaign.json; write RESULTS/campaign_report.md, its figures, RESULTS/campaign_flights.csv (one row per flight) and RESULTS/containment_counts.json (the containment section's counts, for 'campaign combine').",
     )
     rep.add_argument("results", type=Path, metavar="RESULTS", help="the batch output folder")
     rep.add_argument(
@@ -318,6 +323,22 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="DIR",
         help="the folder written by 'campaign generate' (holds campaign.json)",
     )
+    comb = camp_sub.add_parser(
+        "combine",
+        help="add up the containment counts of a campaign's shards",
+        description=(
+            "Read RESULTS/containment_counts.json of each shard of one campaign (generated with the same --seed and "
+            "settings, disjoint --first-case ranges, each flown and reported: 'campaign report'), check they are "
+            "of one campaign, not overlapping and not stale, and write the whole campaign's containment table: "
+            "exits of the fence, the contingency volume and the ground risk buffer per class, per flight and per "
+            "flight hour with their exact 95 % bounds (docs/campaigns.md, 'A SORA-scale run')."
+        ),
+    )  # fmt: skip
+    comb.add_argument("results", type=Path, nargs="+", metavar="RESULTS", help="the shards' results folders")
+    comb.add_argument(
+        "--out", type=Path, default=Path("containment_combined.md"), metavar="FILE",
+        help="the combined report (markdown; default ./containment_combined.md)",
+    )  # fmt: skip
 
     _companion_parser(sub)
 
@@ -708,6 +729,12 @@ def _cmd_check(args) -> int:
 
 
 def _cmd_campaign(args) -> int:
+    if args.campaign_command == "combine":
+        from analysis.campaign_report import combine_containment
+
+        check_output_file(args.out, "--out")
+        print(f"wrote {combine_containment(args.results, args.out)}")
+        return 0
     if args.campaign_command == "generate":
         from scenarios.campaign.generator import generate_campaign
 
@@ -716,6 +743,9 @@ def _cmd_campaign(args) -> int:
             return EXIT_BAD_INPUT
         if not 0 <= args.seed < 2**63:
             print(f"error: --seed: must be an integer in [0, 2^63), got {args.seed}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        if args.first_case < 0:
+            print(f"error: --first-case: must be >= 0, got {args.first_case}", file=sys.stderr)
             return EXIT_BAD_INPUT
         if args.out.exists() and (not args.out.is_dir() or any(args.out.iterdir())):
             print(f"error: {args.out}: must be a new or empty folder (a campaign is never written over another)", file=sys.stderr)
@@ -751,6 +781,7 @@ def _cmd_campaign(args) -> int:
         paths = generate_campaign(
             args.out, args.cases, args.seed, platforms=platforms, families=families,
             max_duration_s=args.max_duration_s, faults=args.faults, downward_sensors=args.downward_sensors,
+            first_case=args.first_case,
         )  # fmt: skip
         print(
             f"wrote {len(paths)} scenario files and {args.out / 'campaign.json'}; fly them with: "

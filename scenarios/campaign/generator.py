@@ -1592,10 +1592,13 @@ def generate_cases(
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
     faults: bool = False,
     downward_sensors: bool = False,
+    first_case: int = 0,
 ) -> list[Case]:
     """The cases of a campaign, in memory (see :func:`generate_campaign`)."""
     if n_cases < 0:
         raise ConfigError(f"n_cases: must be >= 0, got {n_cases}")
+    if isinstance(first_case, bool) or not isinstance(first_case, int) or first_case < 0:
+        raise ConfigError(f"first_case: must be an integer >= 0, got {first_case!r}")
     if not max_duration_s >= 20.0:
         raise ConfigError(f"max_duration_s: must be >= 20 s, got {max_duration_s}")
     known = available_profiles()
@@ -1607,7 +1610,7 @@ def generate_cases(
     if not families or not all(isinstance(f, CaseFamily) for f in families):
         raise ConfigError(f"families: expected CaseFamily members, got {families!r}")
     cases = []
-    for i in range(n_cases):
+    for i in range(first_case, first_case + n_cases):
         family = case_family(i, families)
         case = build_case(i, seed, family, platforms, max_duration_s, faults, downward_sensors=downward_sensors)
         if case is not None:
@@ -1625,8 +1628,11 @@ def generate_campaign(
     max_duration_s: float = DEFAULT_MAX_DURATION_S,
     faults: bool = False,
     downward_sensors: bool = False,
+    first_case: int = 0,
 ) -> list[Path]:
-    """Write ``n_cases`` cases x 3 variants of scenario YAML and ``campaign.json`` into ``out_dir``.
+    """Write ``n_cases`` cases x 3 variants of scenario YAML and ``campaign.json`` into ``out_dir``: cases
+    ``first_case`` to ``first_case + n_cases - 1`` (a shard of a larger campaign: case ``i`` is the same in every
+    shard that holds it).
 
     Families take turns (:func:`case_family`); everything else
     is drawn from ``numpy.random.default_rng([seed, i])``, so the same
@@ -1643,7 +1649,7 @@ def generate_campaign(
     out_dir.mkdir(parents=True, exist_ok=True)
     cases = generate_cases(
         n_cases, seed, platforms=platforms, families=families, max_duration_s=max_duration_s, faults=faults,
-        downward_sensors=downward_sensors,
+        downward_sensors=downward_sensors, first_case=first_case,
     )  # fmt: skip
     written = []
     for case in cases:
@@ -1659,6 +1665,7 @@ def generate_campaign(
     manifest = {
         "generator": "scenarios/campaign/generator.py",
         "seed": int(seed),
+        **({"first_case": int(first_case)} if first_case else {}),  # (a shard's; campaigns from case 0 as before)
         "n_cases_requested": int(n_cases),
         "n_cases": len(cases),
         "skipped_cases": int(n_cases) - len(cases),
