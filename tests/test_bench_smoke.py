@@ -24,7 +24,7 @@ BENCH = Path(__file__).parents[1] / "bench"
         ("loop_floor.py", ["--seconds", "1", "--repeats", "1"], "floor + a compiled call"),
         ("fence_scale.py", ["--quick", "--sizes", "4x0,100x0", "--repeats", "1", "--out", "{tmp}/fs.png"], "figure:"),
         ("scoring.py", ["--repeats", "1", "--sizes", "2000"], "samples"),
-        ("whole_batch.py", ["--limit", "2"], "whole batch / bare"),
+        ("whole_batch.py", ["--limit", "2"], "per job / bare"),
     ],
 )
 def test_bench_script_runs_on_a_tiny_workload(script, args, expect, tmp_path):
