@@ -63,9 +63,9 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-from scipy.stats import beta, chi2
 
 from analysis.batch_plots import num, save_figure, truthy
+from analysis.bounds import clopper_pearson_upper, poisson_rate_upper
 from analysis.containment import (
     VOLUMES,
     ClassRates,
@@ -98,32 +98,12 @@ KEEP_IN_TOLERANCE_M = 0.0
 """A keep-in breach is a lateral excursion strictly beyond this (m)."""
 VERTICAL_TOLERANCE_M = 0.0
 """A vertical breach is a ceiling/floor excursion strictly beyond this (m)."""
-CONFIDENCE = 0.95
 VARIANTS = ("predictive", "reactive", "unprotected")
 CONTAINMENT_FIGURE = ("campaign_containment", "Peak excursions against the contingency volume, per class")
 FIGURES = {
     "campaign_excursion": "Peak excursion per family: predictive vs reactive (vs unprotected)",
     "campaign_breach_bounds": "Breach rate and its 95 % upper bound per platform",
 }
-
-
-# --------------------------------------------------------------------------- statistics
-def clopper_pearson_upper(k: int, n: int, confidence: float = CONFIDENCE) -> float:
-    """One-sided exact upper confidence bound of a binomial proportion (k successes in n trials)."""
-    if n <= 0:
-        return math.nan
-    if not 0 <= k <= n:
-        raise ValueError(f"k must be in [0, n], got k={k}, n={n}")
-    if k == n:
-        return 1.0
-    return float(beta.ppf(confidence, k + 1, n - k))
-
-
-def poisson_rate_upper(k: int, exposure: float, confidence: float = CONFIDENCE) -> float:
-    """One-sided upper confidence bound of a Poisson rate: k events in ``exposure`` (e.g. hours)."""
-    if exposure <= 0.0:
-        return math.nan
-    return float(chi2.ppf(confidence, 2 * k + 2) / 2.0 / exposure)
 
 
 # --------------------------------------------------------------------------- manifest and rows

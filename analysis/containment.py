@@ -36,6 +36,7 @@ from typing import NamedTuple
 import numpy as np
 
 from analysis.batch_plots import num, save_figure, truthy
+from analysis.bounds import clopper_pearson_upper, poisson_rate_upper
 from geofence.interface import PlatformKind
 from geofence.physics.dynamics import G_MPS2
 
@@ -157,8 +158,6 @@ def containment_lines(rows: Sequence[Mapping], inputs: Mapping[str, ContingencyI
 def class_rate_lines(classes: Sequence[ClassRates]) -> list[str]:
     """The containment table (markdown): per class its flights, flight hours and each volume's exits, per flight
     with the exact 95 % bound and per flight hour with the Poisson 95 % bound."""
-    from analysis.campaign_report import clopper_pearson_upper, poisson_rate_upper
-
     lines = ["| class | flights | flight h | " + " | ".join(f"{v}: exits, per flight (95 % ≤), per h (95 % ≤)" for v in VOLUMES) + " |",
              "|---|---:|---:|" + "---|" * len(VOLUMES)]  # fmt: skip
     for c in classes:
