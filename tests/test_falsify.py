@@ -69,6 +69,7 @@ def test_bad_arguments_are_refused_in_one_line(tmp_path, capsys, args, expected)
 def test_a_short_reactive_search_breaches_and_its_worst_case_reflies_to_its_margin(tmp_path, capsys):
     out = tmp_path / "falsify"
     argv = ["falsify", "--platform", "F450", "--variant", "reactive", "--budget", "12", "--popsize", "6"]
+    argv += ["--trajectories", "notable"]
     assert main([*argv, "--out", str(out), "--jobs", "1", "--seed", "3", "--max-duration-s", "40"]) == 0
     console = capsys.readouterr().out
     assert "generation 1: 12/12 flights" in console
@@ -77,6 +78,9 @@ def test_a_short_reactive_search_breaches_and_its_worst_case_reflies_to_its_marg
     assert len(margins) == 12 and [e["generation"] for e in record["evaluations"]] == [0] * 6 + [1] * 6
     assert record["worst_margin_m"] == min(margins) < 0.0  # the reactive fence is breached
     assert record["flights_to_first_breach"] is not None
+    for e in record["evaluations"]:  # (notable: the trajectory of a flight that left the fence, not of one inside)
+        kept = (out / "flights" / e["flight"] / "trajectory.csv").is_file()
+        assert kept == (e["margin_m"] < 0.0 or not e["completed"]), e
     assert (out / "convergence.png").stat().st_size > 10_000
     worst = out / record["worst_files"][0]
     assert f"{min(margins):+.2f} m" in yaml.safe_load(worst.read_text())["description"]

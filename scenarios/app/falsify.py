@@ -62,6 +62,11 @@ def add_family_arguments(p, seed_help: str) -> None:
     p.add_argument("--max-duration-s", type=float, default=None, metavar="S", help="longest flight (default 120 s)")
     p.add_argument("--executor", choices=("process", "dask"), default="process", help="batch executor")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="the Dask scheduler (with --executor dask)")
+    p.add_argument(
+        "--trajectories", choices=("all", "notable"), default="all",
+        help="whose trajectory.csv to write under DIR/flights: all (default, about 0.6 MB a flight), or notable: "
+        "only the flights that left the fence, failed, were terminated or touched down hard (as batch's)",
+    )  # fmt: skip
 
 
 def check_args(args) -> None:
@@ -158,7 +163,7 @@ def fly_points(
 ) -> list[float]:
     """Fly the family's ``points`` (one flight each, named ``names``) as one batch into ``args.out/flights``
     (``args.jobs``, ``args.executor``, ``args.scheduler``); record each in ``search`` and return the margins."""
-    from scenarios.app.batch import run_batch
+    from scenarios.app.batch import Trajectories, run_batch
     from scenarios.campaign.falsify_family import case_document
     from scenarios.campaign.generator import Variant
     from scenarios.definition.sweep import expand
@@ -178,6 +183,7 @@ def fly_points(
         scheduler=args.scheduler,
         progress=progress,
         on_done=lambda s: summaries.__setitem__(str(s.get("flight")), s),
+        trajectories=Trajectories(args.trajectories),
     )
     margins = []
     for spec in specs:
