@@ -259,8 +259,9 @@ def test_self_intersections_sweep_equals_all_pairs(points):
 @given(
     st.lists(st.tuples(st.floats(-50, 50), st.floats(-50, 50)), min_size=65, max_size=120), st.floats(-60, 60), st.floats(-60, 60)
 )
-def test_point_location_vectorised_equals_scalar(points, x, y):
-    """Polygons above 64 vertices take the vectorised branch: the same answer as the per-edge loop."""
+def test_point_location_agrees_with_a_per_edge_loop(points, x, y):
+    """:func:`point_location` (the compiled query on the polygon's edge table) gives the answer of a per-edge loop
+    written out here, its crossing test in the division form, for polygons of any size."""
     import geofence.geometry.polygon as P
 
     v = P.as_vertices(points)

@@ -29,8 +29,8 @@ from geofence.geometry.elements import MarginTables, element_table
 from geofence.geometry.fence_grid import SMALL_FENCE_ELEMENTS, FenceGrid
 from geofence.geometry.geodesy import LocalFrame
 from geofence.geometry.heights import AltitudeReference, VerticalExtent
-from geofence.geometry.polygon import PolygonIndex, is_convex, pole_of_inaccessibility
-from geofence.geometry.scan import deepest_polygon, lateral_margin_scan, polygon_rows, stacked
+from geofence.geometry.polygon import EDGE_COLUMNS, PolygonIndex, is_convex, pole_of_inaccessibility
+from geofence.geometry.scan import deepest_polygon, lateral_margin_scan, stacked
 
 if TYPE_CHECKING:
     from geofence.geometry.fence import Fence, PolygonLL
@@ -264,7 +264,7 @@ class LocalFence:
     def gap_table(self) -> tuple[np.ndarray, np.ndarray]:
         """The floor gaps' polygon rows end to end and their offsets (cached; :func:`geofence.geometry.scan.stacked`)."""
         if self._gap_table is None:
-            self._gap_table = stacked([polygon_rows(g.edge_tuples()) for g in self.floor_gaps], 7)
+            self._gap_table = stacked([g.rows for g in self.floor_gaps], EDGE_COLUMNS)
         return self._gap_table
 
     def remember_margin(self, e: float, n: float, margin_m: float) -> None:
@@ -275,9 +275,9 @@ class LocalFence:
     def _build_scan_table(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The compiled scan's tables: the keep-in's edge rows, the keep-outs' rows end to end with their
         offsets, and the circles ``(east, north, r)``."""
-        ko, offsets = stacked([polygon_rows(k.edge_tuples()) for k in self.keep_out_polygons], 7)
+        ko, offsets = stacked([k.rows for k in self.keep_out_polygons], EDGE_COLUMNS)
         circles = np.array(self.keep_out_circles, dtype=np.float64).reshape(-1, 3)
-        return polygon_rows(self.keep_in.edge_tuples()), ko, offsets, circles
+        return self.keep_in.rows, ko, offsets, circles
 
     def lateral_nearest(self, e: float, n: float) -> tuple[float, str, int, int, float, float]:
         """``(margin, feature, feature_index, edge, dx, dy)`` of the binding lateral constraint.

@@ -26,9 +26,10 @@ Self-intersection (:func:`self_intersections`) uses exact orientation tests
 (a floating-point filter with an exact rational fallback, after Shewchuk), so
 touching and collinear cases are decided exactly for the given floats.
 
-:class:`PolygonIndex` precomputes the edge arrays once. Its scalar methods
-are plain-Python loops over tuples of floats (no numpy on the per-step path);
-its ``*_array`` methods are vectorized for recorded trajectories.
+:class:`PolygonIndex` precomputes the edge arrays once, and its edge table (:func:`edge_rows`). Its scalar
+queries are one source, :func:`nearest_rows` over that table (compiled; the compiled kernels of
+:mod:`geofence.geometry.scan` inline the same functions); its ``*_array`` methods are vectorized for recorded
+trajectories.
 """
 
 from __future__ import annotations
@@ -39,6 +40,8 @@ from fractions import Fraction
 from typing import Callable, Iterable, Sequence
 
 import numpy as np
+
+from geofence.jit import compiled, jitable
 
 BOUNDARY_TOL_M: float = 1e-9
 """Points closer than this to the boundary are on the boundary (count as inside)."""
@@ -238,37 +241,10 @@ def segment_dist2(x: float, y: float, ax: float, ay: float, bx: float, by: float
 
 
 def point_location(x: float, y: float, vertices, tol: float = BOUNDARY_TOL_M) -> int:
-    """``1`` inside, ``0`` on the boundary (within ``tol`` m), ``-1`` outside."""
-    v = as_vertices(vertices)
-    n = len(v)
-    if n > 64:  # the same arithmetic, vectorised
-        w = np.roll(v, -1, axis=0)
-        d = w - v
-        px, py = x - v[:, 0], y - v[:, 1]
-        l2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.where(l2 == 0.0, 0.0, (px * d[:, 0] + py * d[:, 1]) / np.where(l2 == 0.0, 1.0, l2))
-            t = np.clip(t, 0.0, 1.0)
-            qx, qy = px - t * d[:, 0], py - t * d[:, 1]
-            best = float(np.min(qx * qx + qy * qy))
-            straddle = (v[:, 1] > y) != (w[:, 1] > y)
-            xc = v[:, 0] + (y - v[:, 1]) * d[:, 0] / np.where(straddle, d[:, 1], 1.0)
-            inside = bool(np.count_nonzero(straddle & (x < xc)) % 2)
-        if best <= tol * tol:
-            return 0
-        return 1 if inside else -1
-    inside = False
-    best = math.inf
-    for i in range(n):
-        ax, ay = float(v[i, 0]), float(v[i, 1])
-        bx, by = float(v[(i + 1) % n, 0]), float(v[(i + 1) % n, 1])
-        d2 = segment_dist2(x, y, ax, ay, bx, by)
-        if d2 < best:
-            best = d2
-        if (ay > y) != (by > y):
-            if x < ax + (y - ay) * (bx - ax) / (by - ay):
-                inside = not inside
-    if best <= tol * tol:
+    """``1`` inside, ``0`` on the boundary (within ``tol`` m), ``-1`` outside (:func:`nearest_rows` on the polygon's
+    edge table)."""
+    d2, _, _, _, inside = nearest_at(edge_rows(as_vertices(vertices)), float(x), float(y))
+    if d2 <= tol * tol:
         return 0
     return 1 if inside else -1
 
@@ -390,6 +366,83 @@ def pole_of_inaccessibility(
 
 
 # ------------------------------------------------------------ precomputed index
+# ------------------------------------------------------------ point queries on an edge table (one source)
+EDGE_COLUMNS = 7
+"""An edge table's row: ``(ax, ay, by, dx, dy, 1/len², dx/dy)`` of the edge from ``(ax, ay)`` to
+``(ax + dx, by)`` (``1/len²`` 0 for a degenerate edge, ``dx/dy`` 0 for a horizontal one)."""
+
+
+def edge_rows(vertices: np.ndarray) -> np.ndarray:
+    """A polygon's edge table (:data:`EDGE_COLUMNS` floats a row, edge ``i`` from vertex ``i`` to ``i + 1``)."""
+    v = np.asarray(vertices, dtype=np.float64).reshape(-1, 2)
+    a, b = v, np.roll(v, -1, axis=0)
+    d = b - a
+    l2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):  # (an edge 1e-300 m high: inf, as Python's)
+        il2 = np.where(l2 > 0.0, 1.0 / np.where(l2 > 0.0, l2, 1.0), 0.0)
+        dxdy = np.where(d[:, 1] != 0.0, d[:, 0] / np.where(d[:, 1] != 0.0, d[:, 1], 1.0), 0.0)
+    return np.ascontiguousarray(np.column_stack((a[:, 0], a[:, 1], b[:, 1], d[:, 0], d[:, 1], il2, dxdy)))
+
+
+@jitable
+def edge_offset(rows: np.ndarray, k: int, x: float, y: float) -> tuple[float, float, bool]:
+    """Edge ``k`` of the table seen from (x, y): ``(qx, qy, crosses)``, the point less its nearest point on the
+    edge, and whether the edge crosses the ray from the point toward +x (the crossing-parity test)."""
+    ax, ay, by, dx, dy = rows[k, 0], rows[k, 1], rows[k, 2], rows[k, 3], rows[k, 4]
+    px = x - ax
+    py = y - ay
+    t = (px * dx + py * dy) * rows[k, 5]
+    if t < 0.0:
+        t = 0.0
+    elif t > 1.0:
+        t = 1.0
+    return px - t * dx, py - t * dy, ((ay > y) != (by > y)) and px < py * rows[k, 6]
+
+
+@jitable
+def nearest_rows(rows: np.ndarray, x: float, y: float) -> tuple[float, int, float, float, bool]:
+    """``(d², edge, qx, qy, inside)``: the squared distance to the nearest edge (the lowest index on a tie), that
+    edge, the point less its nearest boundary point, and the crossing parity."""
+    inside = False
+    best = math.inf
+    bi = 0
+    bqx = bqy = 0.0
+    for k in range(rows.shape[0]):
+        qx, qy, crosses = edge_offset(rows, k, x, y)
+        d2 = qx * qx + qy * qy
+        if d2 < best:
+            best, bi, bqx, bqy = d2, k, qx, qy
+        if crosses:
+            inside = not inside
+    return best, bi, bqx, bqy, inside
+
+
+@jitable
+def signed_distance_rows(rows: np.ndarray, x: float, y: float) -> float:
+    """The signed distance to the table's polygon (m; + inside, a point within :data:`BOUNDARY_TOL_M` of the
+    boundary counted inside)."""
+    d2, _, _, _, inside = nearest_rows(rows, x, y)
+    d = math.sqrt(d2)
+    return d if (inside or d <= BOUNDARY_TOL_M) else -d
+
+
+def _edge_distances_rows(rows: np.ndarray, x: float, y: float) -> np.ndarray:
+    """The distance from (x, y) to each edge segment (m, edge order)."""
+    out = np.empty(rows.shape[0])
+    for k in range(rows.shape[0]):
+        qx, qy, _ = edge_offset(rows, k, x, y)
+        out[k] = math.sqrt(qx * qx + qy * qy)
+    return out
+
+
+nearest_at = compiled(nearest_rows)
+"""The compiled :func:`nearest_rows` (Python callers: :class:`PolygonIndex`, :func:`point_location`)."""
+signed_distance_at = compiled(signed_distance_rows)
+"""The compiled :func:`signed_distance_rows`."""
+edge_distances_at = compiled(_edge_distances_rows)
+"""The compiled :func:`_edge_distances_rows`."""
+
+
 class PolygonIndex:
     """Precomputed edge arrays of one polygon, with fast scalar and vectorized queries.
 
@@ -399,8 +452,8 @@ class PolygonIndex:
     vertex ``i`` to ``(i+1) % N`` in the caller's order; ``ccw`` says whether
     that order is counter-clockwise.
 
-    The scalar methods loop in plain Python over a tuple of per-edge floats:
-    a 16-vertex :meth:`signed_distance` costs a few microseconds.
+    ``rows``: the edge table (:func:`edge_rows`) the scalar methods ask the compiled point queries about
+    (:func:`nearest_rows`).
     """
 
     __slots__ = (
@@ -414,7 +467,7 @@ class PolygonIndex:
         "ccw",
         "area",
         "bbox",
-        "_edges",
+        "rows",
         "n",
     )
 
@@ -440,41 +493,12 @@ class PolygonIndex:
         self.inward_normals = sgn * left
         self.outward_normals = -self.inward_normals
         self.bbox = (float(v[:, 0].min()), float(v[:, 1].min()), float(v[:, 0].max()), float(v[:, 1].max()))
-        edges = []
-        for i in range(self.n):
-            ax, ay = float(v[i, 0]), float(v[i, 1])
-            bx, by = float(self.ends[i, 0]), float(self.ends[i, 1])
-            dx, dy = bx - ax, by - ay
-            l2 = dx * dx + dy * dy
-            edges.append((ax, ay, by, dx, dy, 1.0 / l2 if l2 > 0.0 else 0.0, dx / dy if dy != 0.0 else 0.0))
-        self._edges = tuple(edges)
-
-    def edge_tuples(self) -> tuple[tuple[float, float, float, float, float, float, float], ...]:
-        """Per edge ``(ax, ay, by, dx, dy, 1/len², dx/dy)``: what :meth:`signed_distance` loops over."""
-        return self._edges
+        self.rows = edge_rows(v)
 
     # ---- scalar (per-step) queries
     def signed_distance(self, x: float, y: float) -> float:
         """Signed distance in m to the boundary: + inside, - outside (on-boundary -> >= 0)."""
-        inside = False
-        best = math.inf
-        for ax, ay, by, dx, dy, il2, dxdy in self._edges:
-            px = x - ax
-            py = y - ay
-            t = (px * dx + py * dy) * il2
-            if t < 0.0:
-                t = 0.0
-            elif t > 1.0:
-                t = 1.0
-            qx = px - t * dx
-            qy = py - t * dy
-            d2 = qx * qx + qy * qy
-            if d2 < best:
-                best = d2
-            if (ay > y) != (by > y) and px < py * dxdy:
-                inside = not inside
-        d = math.sqrt(best)
-        return d if (inside or d <= BOUNDARY_TOL_M) else -d
+        return signed_distance_at(self.rows, float(x), float(y))
 
     def location(self, x: float, y: float) -> int:
         """``1`` inside, ``0`` on the boundary (within :data:`BOUNDARY_TOL_M`), ``-1`` outside."""
@@ -498,27 +522,7 @@ class PolygonIndex:
         outward normal; near a vertex it points at/away from the vertex. On the
         boundary it is the nearest edge's outward normal.
         """
-        inside = False
-        best = math.inf
-        bi = 0
-        bqx = bqy = 0.0
-        i = 0
-        for ax, ay, by, dx, dy, il2, dxdy in self._edges:
-            px = x - ax
-            py = y - ay
-            t = (px * dx + py * dy) * il2
-            if t < 0.0:
-                t = 0.0
-            elif t > 1.0:
-                t = 1.0
-            qx = px - t * dx
-            qy = py - t * dy
-            d2 = qx * qx + qy * qy
-            if d2 < best:
-                best, bi, bqx, bqy = d2, i, qx, qy
-            if (ay > y) != (by > y) and px < py * dxdy:
-                inside = not inside
-            i += 1
+        best, bi, bqx, bqy, inside = nearest_at(self.rows, float(x), float(y))
         d = math.sqrt(best)
         if d <= BOUNDARY_TOL_M:
             o = self.outward_normals[bi]
@@ -530,19 +534,7 @@ class PolygonIndex:
 
     def edge_distances(self, x: float, y: float) -> list[float]:
         """Unsigned distance in m from (x, y) to each edge segment (a list, edge order)."""
-        out = []
-        for ax, ay, by, dx, dy, il2, dxdy in self._edges:
-            px = x - ax
-            py = y - ay
-            t = (px * dx + py * dy) * il2
-            if t < 0.0:
-                t = 0.0
-            elif t > 1.0:
-                t = 1.0
-            qx = px - t * dx
-            qy = py - t * dy
-            out.append(math.sqrt(qx * qx + qy * qy))
-        return out
+        return edge_distances_at(self.rows, float(x), float(y)).tolist()
 
     # ---- vectorized (analysis) queries
     def _dist2_inside(self, pts: np.ndarray, chunk: int = 65536) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

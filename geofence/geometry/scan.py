@@ -5,7 +5,8 @@ One question (and its twin for the floor gaps, :func:`deepest_polygon`):
 (the keep-in's signed distance, less each keep-out polygon's, each circle's
 ``hypot - radius``, the smallest), for a small fence's every step and for the
 breached points of a large one, as one compiled call over float tables built
-once per fence: the arithmetic of :meth:`geofence.geometry.polygon.PolygonIndex.signed_distance`
+once per fence, each polygon by :func:`geofence.geometry.polygon.signed_distance_rows` (the source of
+:meth:`~geofence.geometry.polygon.PolygonIndex.signed_distance` too) on its edge table.
 ``tests/test_lateral_kernel.py`` holds it to the vectorised margins
 (:meth:`~geofence.geometry.local_fence.LocalFence.lateral_margin_array`).
 """
@@ -19,15 +20,10 @@ from typing import Sequence
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
-from geofence.geometry.polygon import BOUNDARY_TOL_M
+from geofence.geometry.polygon import signed_distance_rows
 from geofence.jit import compiled, jitable
 
-__all__ = ["deepest_polygon", "lateral_margin_scan", "polygon_rows", "rows_view", "signed_distance_rows", "stacked"]
-
-
-def polygon_rows(edges: Sequence[tuple]) -> np.ndarray:
-    """A polygon's ``PolygonIndex`` edge tuples ``(ax, ay, by, dx, dy, 1/len², dx/dy)`` as a float table."""
-    return np.array(edges, dtype=np.float64).reshape(-1, 7)
+__all__ = ["deepest_polygon", "lateral_margin_scan", "rows_view", "stacked"]
 
 
 def stacked(tables: Sequence[np.ndarray], columns: int) -> tuple[np.ndarray, np.ndarray]:
@@ -43,36 +39,6 @@ def rows_view(F: np.ndarray, start: int, rows: int, cols: int) -> np.ndarray:
     by its strides: compiled, a reshape costs about 20 ns (a shape check in C) and a step unpacks its tables a
     dozen times."""
     return as_strided(F[start : start + rows * cols], shape=(rows, cols), strides=(cols * F.itemsize, F.itemsize))
-
-
-@jitable
-def signed_distance_rows(rows: np.ndarray, x: float, y: float) -> float:
-    """:meth:`PolygonIndex.signed_distance` over its edge table (the same arithmetic: the smallest squared
-    point-segment distance and the crossing parity, + inside, within the boundary tolerance counted inside)."""
-    inside = False
-    best = math.inf
-    for k in range(rows.shape[0]):
-        ax = rows[k, 0]
-        ay = rows[k, 1]
-        by = rows[k, 2]
-        dx = rows[k, 3]
-        dy = rows[k, 4]
-        px = x - ax
-        py = y - ay
-        t = (px * dx + py * dy) * rows[k, 5]
-        if t < 0.0:
-            t = 0.0
-        elif t > 1.0:
-            t = 1.0
-        qx = px - t * dx
-        qy = py - t * dy
-        d2 = qx * qx + qy * qy
-        if d2 < best:
-            best = d2
-        if (ay > y) != (by > y) and px < py * rows[k, 6]:
-            inside = not inside
-    d = math.sqrt(best)
-    return d if (inside or d <= BOUNDARY_TOL_M) else -d
 
 
 def _lateral_margin_scan(
