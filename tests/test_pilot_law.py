@@ -80,7 +80,7 @@ def test_a_multirotor_course_is_its_navigators_and_raw_sticks_are_held():
     twin = ScriptedPilot(segments, QUAD, start, 0.025)
     s = _state(1.0, 0.0, 0.0, 20.0, 3.0, 0.0, 0.0, 0.0)
     assert twin.decide(s) == pilot.command(s)  # the velocity loop: the navigator's (its integrator is there)
-    assert twin.law_array()[lk.KIND] == lk.GIVEN
+    assert lk.law_kind(twin.law_array()) == lk.GIVEN
     s = _state(6.0, 0.0, 0.0, 20.0, 3.0, 0.0, 0.0, 0.0)
     assert twin.decide(s) is None
     assert lk.law_sticks(twin.law_array(), 3.0, 0.0, 0.0, 20.0) == pytest.approx(pilot.command(s), abs=0.0)

@@ -50,8 +50,7 @@ from geofence.unit.passes import (
     override_pass,
     record_pass,
 )
-from scenarios.flight.pilots.law_kernel import GIVEN, law_array, law_sticks
-from scenarios.flight.pilots.law_kernel import KIND as LAW_KIND
+from scenarios.flight.pilots.law_kernel import GIVEN, law_array, law_kind, law_sticks
 from scenarios.flight.recorder import Recorder, write_row
 from scenarios.flight.sensing import HORIZON_IN_P, GeofenceSensing, Sensed, sense_step
 from wind.field_kernel import WindArrays, wind_sample
@@ -136,7 +135,7 @@ def _flight_step(
 def _pilot_sticks(A: np.ndarray, truth: Truth, given: tuple) -> tuple[float, float, float, float]:
     """The pilot's sticks: its law's (:func:`scenarios.flight.pilots.law_kernel.law_sticks` on ``A``), or where that
     has none, those ``given``."""
-    if A[LAW_KIND] != GIVEN:
+    if law_kind(A) != GIVEN:
         return law_sticks(A, truth.v_east_mps, truth.v_north_mps, truth.yaw_rad, truth.up_m)
     return given
 

@@ -134,11 +134,11 @@ class ScriptedPilot:
         self._hold_climb = seg.climb == "hold"
         self._climb_stick = None if self._hold_climb else _CLIMB_STICK[seg.climb]
         law = self._law
-        law[lk.KIND] = lk.GIVEN
+        lk.law_record(law).kind = lk.GIVEN
         self._latch_course(seg)
         if self._sticks is not None:  # raw sticks (they win)
             lk.hold_sticks(law, *self._sticks)
-        self._law_flies = law[lk.KIND] != lk.GIVEN
+        self._law_flies = lk.law_kind(law) != lk.GIVEN
 
     def _latch_course(self, seg: ScriptSegment) -> None:
         """A course segment's demands (none for raw sticks), in the law array where it flies them."""
