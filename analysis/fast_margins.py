@@ -1,12 +1,9 @@
-"""Fast vectorized fence margins for long recorded arrays (numpy only).
+"""Fast vectorized fence margins for long recorded arrays (numpy only), organised for throughput.
 
-Same numbers as :meth:`geofence.geometry.polygon.PolygonIndex.signed_distance_array`
-and the ``LocalFence.*_array`` methods (the same formulas, operation for
-operation, so the results are bit-identical), but organised for throughput:
-the samples are cut into chunks, each polygon edge is one pass of in-place
-ufuncs over a chunk (no ``(M, N)`` temporaries, a dozen preallocated buffers
-per chunk), and the chunks are shared between threads (numpy releases the GIL
-inside its loops; chunks are large so that per-call overhead stays small).
+Each polygon's signed distance is :func:`geofence.geometry.polygon.signed_distances` (the one vectorised form of
+the polygon's point query, which :meth:`~geofence.geometry.polygon.PolygonIndex.signed_distance_array` and the
+``LocalFence.*_array`` methods run too) on chunks of the samples, and the chunks are shared between threads
+(numpy releases the GIL inside its loops; chunks are large so that per-call overhead stays small).
 
 Keep-outs with their own floor or ceiling (``LocalFence.keep_out_*_extents``,
 :class:`~geofence.geometry.fence.VerticalExtent`) count here only inside their volume
@@ -27,7 +24,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from geofence.geometry.fence import VerticalExtent
-from geofence.geometry.polygon import BOUNDARY_TOL_M, PolygonIndex
+from geofence.geometry.polygon import PolygonIndex, signed_distances
 
 CHUNK = 65536
 """Samples per chunk (measured on 2 cores: 32-64 k is best on one thread, >= 64 k with two)."""
@@ -62,93 +59,6 @@ def _pool(threads: int) -> ThreadPoolExecutor:
     return _POOL
 
 
-class _Edges:
-    """Per-edge constants of one polygon as plain floats (what the per-edge passes need)."""
-
-    __slots__ = ("rows",)
-
-    def __init__(self, poly: PolygonIndex) -> None:
-        a, b = poly.starts, poly.ends
-        d = b - a
-        l2 = np.einsum("ij,ij->i", d, d)
-        il2 = np.where(l2 > 0.0, 1.0 / np.where(l2 > 0.0, l2, 1.0), 0.0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dxdy = np.where(d[:, 1] != 0.0, d[:, 0] / d[:, 1], 0.0)
-        self.rows = tuple(
-            (
-                float(a[i, 0]),
-                float(a[i, 1]),
-                float(b[i, 1]),
-                float(d[i, 0]),
-                float(d[i, 1]),
-                float(il2[i]),
-                float(dxdy[i]),
-                float(min(a[i, 1], b[i, 1])),
-                float(max(a[i, 1], b[i, 1])),
-            )
-            for i in range(len(a))
-        )
-
-
-_EDGE_CACHE: dict[int, tuple[PolygonIndex, _Edges]] = {}
-
-
-def _edges(poly: PolygonIndex) -> _Edges:
-    hit = _EDGE_CACHE.get(id(poly))
-    if hit is None or hit[0] is not poly:
-        if len(_EDGE_CACHE) > 256:
-            _EDGE_CACHE.clear()
-        hit = (poly, _Edges(poly))
-        _EDGE_CACHE[id(poly)] = hit
-    return hit[1]
-
-
-def _signed_distance_chunk(edges: _Edges, x: np.ndarray, y: np.ndarray, out: np.ndarray) -> None:
-    """Signed distance of one chunk into ``out`` (+ inside, on the boundary counts as inside)."""
-    m = len(x)
-    best = out
-    best.fill(np.inf)
-    inside = np.zeros(m, dtype=bool)
-    px = np.empty(m)
-    py = np.empty(m)
-    t = np.empty(m)
-    tmp = np.empty(m)
-    s1 = np.empty(m, dtype=bool)
-    s2 = np.empty(m, dtype=bool)
-    for ax, ay, by, dx, dy, il2, dxdy, ylo, yhi in edges.rows:
-        np.subtract(x, ax, out=px)
-        np.subtract(y, ay, out=py)
-        # crossing number (ray towards +x): the edge straddles y and the crossing lies right of x
-        if dy != 0.0:
-            np.less(y, yhi, out=s1)  # y < max(ay, by)
-            np.greater_equal(y, ylo, out=s2)  # y >= min(ay, by)
-            np.logical_and(s1, s2, out=s1)
-            np.multiply(py, dxdy, out=tmp)
-            np.less(px, tmp, out=s2)
-            np.logical_and(s1, s2, out=s1)
-            np.logical_xor(inside, s1, out=inside)
-        # squared distance to the segment
-        np.multiply(px, dx, out=t)
-        np.multiply(py, dy, out=tmp)
-        np.add(t, tmp, out=t)
-        np.multiply(t, il2, out=t)
-        np.maximum(t, 0.0, out=t)
-        np.minimum(t, 1.0, out=t)
-        np.multiply(t, dx, out=tmp)
-        np.subtract(px, tmp, out=px)
-        np.multiply(t, dy, out=tmp)
-        np.subtract(py, tmp, out=py)
-        np.multiply(px, px, out=px)
-        np.multiply(py, py, out=py)
-        np.add(px, py, out=px)
-        np.minimum(best, px, out=best)
-    np.sqrt(best, out=best)
-    # outside (and not within the boundary tolerance): negative
-    np.less_equal(best, BOUNDARY_TOL_M, out=s1)
-    np.logical_or(inside, s1, out=inside)
-    np.negative(best, out=best, where=~inside)
-
-
 def _run_chunks(fn, n: int, threads: int | None) -> None:
     """Call ``fn(start, stop)`` over ``[0, n)`` in chunks, on worker threads for large ``n``."""
     spans = [(s, min(n, s + CHUNK)) for s in range(0, n, CHUNK)]
@@ -174,8 +84,7 @@ def signed_distance(poly: PolygonIndex, x, y, threads: int | None = None) -> np.
     x = np.ascontiguousarray(x, dtype=float)
     y = np.ascontiguousarray(y, dtype=float)
     out = np.empty(len(x))
-    edges = _edges(poly)
-    _run_chunks(lambda s, e: _signed_distance_chunk(edges, x[s:e], y[s:e], out[s:e]), len(x), threads)
+    _run_chunks(lambda s, e: signed_distances(poly.rows, x[s:e], y[s:e], out[s:e]), len(x), threads)
     return out
 
 
@@ -201,10 +110,10 @@ def fence_margins(fence, x, y, h, threads: int | None = None) -> dict[str, np.nd
     y = np.ascontiguousarray(y, dtype=float)
     h = np.ascontiguousarray(h, dtype=float)
     n = len(x)
-    keep_in = _edges(fence.keep_in)
-    keep_outs = [(_edges(k), x) for k, x in zip(fence.keep_out_polygons, _extents(fence.keep_out_polygon_extents))]
+    keep_in = fence.keep_in.rows
+    keep_outs = [(k.rows, x) for k, x in zip(fence.keep_out_polygons, _extents(fence.keep_out_polygon_extents))]
     circles = list(zip(fence.keep_out_circles, _extents(fence.keep_out_circle_extents)))
-    gaps = [_edges(g) for g in fence.floor_gaps] if fence.floor_m is not None else []
+    gaps = [g.rows for g in fence.floor_gaps] if fence.floor_m is not None else []
     ceiling_m, floor_m = float(fence.ceiling_m), fence.floor_m
     lateral = np.empty(n)
     keep_out = np.full(n, np.inf)
@@ -216,9 +125,9 @@ def fence_margins(fence, x, y, h, threads: int | None = None) -> dict[str, np.nd
         xs, ys, hs = x[s:e], y[s:e], h[s:e]
         lat, ko, fl = lateral[s:e], keep_out[s:e], floor[s:e]
         tmp = np.empty(e - s)
-        _signed_distance_chunk(keep_in, xs, ys, lat)
+        signed_distances(keep_in, xs, ys, lat)
         for k, extent in keep_outs:
-            _signed_distance_chunk(k, xs, ys, tmp)
+            signed_distances(k, xs, ys, tmp)
             np.negative(tmp, out=tmp)
             if extent is not None:
                 extent.volume_margin_array(tmp, hs, out=tmp)
@@ -235,7 +144,7 @@ def fence_margins(fence, x, y, h, threads: int | None = None) -> dict[str, np.nd
         if floor_m is not None:
             np.subtract(hs, floor_m, out=fl)
             for g in gaps:
-                _signed_distance_chunk(g, xs, ys, tmp)
+                signed_distances(g, xs, ys, tmp)
                 np.maximum(fl, tmp, out=fl)
         tot = total[s:e]
         np.minimum(lat, ceiling[s:e], out=tot)

@@ -28,8 +28,8 @@ touching and collinear cases are decided exactly for the given floats.
 
 :class:`PolygonIndex` precomputes the edge arrays once, and its edge table (:func:`edge_rows`). Its scalar
 queries are one source, :func:`nearest_rows` over that table (compiled; the compiled kernels of
-:mod:`geofence.geometry.scan` inline the same functions); its ``*_array`` methods are vectorized for recorded
-trajectories.
+:mod:`geofence.geometry.scan` inline the same functions); its ``*_array`` methods ask :func:`signed_distances`,
+the same formula as in-place array passes for recorded trajectories (what :mod:`analysis.fast_margins` runs).
 """
 
 from __future__ import annotations
@@ -443,6 +443,59 @@ edge_distances_at = compiled(_edge_distances_rows)
 """The compiled :func:`_edge_distances_rows`."""
 
 
+def nearest_edges_rows(rows: np.ndarray, x: np.ndarray, y: np.ndarray, out: np.ndarray) -> None:
+    """The nearest edge (:func:`nearest_rows`) of every ``(x[i], y[i])`` into ``out[i]``."""
+    for i in range(x.shape[0]):
+        out[i] = nearest_rows(rows, x[i], y[i])[1]
+
+
+nearest_edges_at = compiled(nearest_edges_rows)
+"""The compiled :func:`nearest_edges_rows`."""
+
+
+def signed_distances(rows: np.ndarray, x: np.ndarray, y: np.ndarray, out: np.ndarray) -> None:
+    """:func:`signed_distance_rows` of every ``(x[i], y[i])`` into ``out`` (m; the same numbers), vectorised for a
+    recorded trajectory: one pass of in-place ufuncs over the points per edge, in edge order (a dozen buffers of
+    the points' length, no points-by-edges temporaries). Its formula is :func:`edge_offset`'s, written for
+    arrays: the crossing test as ``min(ay, by) <= y < max(ay, by)``, the same as ``(ay > y) != (by > y)``.
+    Compiled, the per-point loop scores 2-3 times slower (numba does not vectorise its clamp and parity)."""
+    m = len(x)
+    best = out
+    best.fill(np.inf)
+    inside = np.zeros(m, dtype=bool)
+    px, py, t, tmp = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+    s1, s2 = np.empty(m, dtype=bool), np.empty(m, dtype=bool)
+    for ax, ay, by, dx, dy, il2, dxdy in rows.tolist():
+        np.subtract(x, ax, out=px)
+        np.subtract(y, ay, out=py)
+        if dy != 0.0:  # the crossing number (the ray toward +x): the edge straddles y, the crossing right of x
+            np.less(y, max(ay, by), out=s1)
+            np.greater_equal(y, min(ay, by), out=s2)
+            np.logical_and(s1, s2, out=s1)
+            np.multiply(py, dxdy, out=tmp)
+            np.less(px, tmp, out=s2)
+            np.logical_and(s1, s2, out=s1)
+            np.logical_xor(inside, s1, out=inside)
+        np.multiply(px, dx, out=t)  # the squared distance to the segment
+        np.multiply(py, dy, out=tmp)
+        np.add(t, tmp, out=t)
+        np.multiply(t, il2, out=t)
+        np.maximum(t, 0.0, out=t)
+        np.minimum(t, 1.0, out=t)
+        np.multiply(t, dx, out=tmp)
+        np.subtract(px, tmp, out=px)
+        np.multiply(t, dy, out=tmp)
+        np.subtract(py, tmp, out=py)
+        np.multiply(px, px, out=px)
+        np.multiply(py, py, out=py)
+        np.add(px, py, out=px)
+        np.minimum(best, px, out=best)
+    np.sqrt(best, out=best)
+    np.less_equal(best, BOUNDARY_TOL_M, out=s1)  # outside, beyond the boundary tolerance: negative
+    np.logical_or(inside, s1, out=inside)
+    np.negative(best, out=best, where=~inside)
+
+
 class PolygonIndex:
     """Precomputed edge arrays of one polygon, with fast scalar and vectorized queries.
 
@@ -536,52 +589,24 @@ class PolygonIndex:
         """Unsigned distance in m from (x, y) to each edge segment (a list, edge order)."""
         return edge_distances_at(self.rows, float(x), float(y)).tolist()
 
-    # ---- vectorized (analysis) queries
-    def _dist2_inside(self, pts: np.ndarray, chunk: int = 65536) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        m = len(pts)
-        best = np.empty(m)
-        arg = np.empty(m, dtype=np.intp)
-        inside = np.empty(m, dtype=bool)
-        a = self.starts
-        b = self.ends
-        d = b - a
-        l2 = np.einsum("ij,ij->i", d, d)
-        il2 = np.where(l2 > 0.0, 1.0 / np.where(l2 > 0.0, l2, 1.0), 0.0)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            dxdy = np.where(d[:, 1] != 0.0, d[:, 0] / d[:, 1], 0.0)
-        rows = max(1, chunk // max(1, self.n))
-        for s in range(0, m, rows):
-            p = pts[s : s + rows]
-            px = p[:, 0:1] - a[None, :, 0]
-            py = p[:, 1:2] - a[None, :, 1]
-            t = np.clip((px * d[None, :, 0] + py * d[None, :, 1]) * il2[None, :], 0.0, 1.0)
-            qx = px - t * d[None, :, 0]
-            qy = py - t * d[None, :, 1]
-            d2 = qx * qx + qy * qy
-            k = np.argmin(d2, axis=1)
-            best[s : s + rows] = d2[np.arange(len(p)), k]
-            arg[s : s + rows] = k
-            yy = p[:, 1:2]
-            straddle = (a[None, :, 1] > yy) != (b[None, :, 1] > yy)
-            cross = straddle & (px < py * dxdy[None, :])
-            inside[s : s + rows] = (np.count_nonzero(cross, axis=1) % 2) == 1
-        return best, arg, inside
-
+    # ---- array (analysis) queries
     def signed_distance_array(self, points) -> np.ndarray:
-        """Vectorized :meth:`signed_distance` for an (M, 2) array; returns (M,) in m."""
+        """:meth:`signed_distance` of each point of an (M, 2) array (:func:`signed_distances`); returns (M,) in m."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        best, _, inside = self._dist2_inside(pts)
-        d = np.sqrt(best)
-        return np.where(inside | (d <= BOUNDARY_TOL_M), d, -d)
+        out = np.empty(len(pts))
+        signed_distances(self.rows, np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1]), out)
+        return out
 
     def contains_array(self, points) -> np.ndarray:
         """Vectorized :meth:`contains` (inside or on the boundary) for an (M, 2) array."""
         return self.signed_distance_array(points) >= 0.0
 
     def nearest_edge_array(self, points) -> np.ndarray:
-        """Index of the nearest edge for each point of an (M, 2) array."""
+        """Index of the nearest edge (lowest on a tie) for each point of an (M, 2) array."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
-        return self._dist2_inside(pts)[1]
+        out = np.empty(len(pts), dtype=np.int64)
+        nearest_edges_at(self.rows, np.ascontiguousarray(pts[:, 0]), np.ascontiguousarray(pts[:, 1]), out)
+        return out
 
     # ---- whole-polygon properties
     def inradius(self, precision_m: float = 0.05) -> tuple[float, float, float]:
