@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 from analysis.formats.fence_files import (
     MAX_FENCE_POLYGONS,
     MAX_FENCE_VERTICES,
+    ImportOptions,
     detect_format,
     fence_to_yaml_block,
     load_fence_file,
@@ -116,7 +117,7 @@ def test_multipolygons(tmp_path):
     )
     with pytest.raises(FenceError, match="2 inclusion areas"):  # ArduPilot would fly their intersection
         load_fence_file(write(tmp_path, doc))
-    imp = load_fence_file(write(tmp_path, doc), inclusion_polygon=0)
+    imp = load_fence_file(write(tmp_path, doc), ImportOptions(inclusion_polygon=0))
     assert imp.fence.keep_in == tuple(SQUARE_LL) and imp.keep_in_polygons == (tuple(SQUARE_LL), tuple(far))
     assert imp.fence.keep_out_polygons == (tuple(INNER_LL), tuple(OTHER_LL))
     assert any("inclusion area 0 of 2 used" in w for w in imp.warnings)
@@ -156,7 +157,7 @@ def test_return_point_and_rally_points(tmp_path):
     imp = load_fence_file(write(tmp_path, inside, "b.geojson"))
     assert imp.fence.recovery_point is None and any("not used as the recovery point" in w for w in imp.warnings)
     # an explicit recovery point wins
-    imp = load_fence_file(write(tmp_path, doc, "c.geojson"), recovery_point=(47.3977, 8.5452))
+    imp = load_fence_file(write(tmp_path, doc, "c.geojson"), ImportOptions(recovery_point=(47.3977, 8.5452)))
     assert imp.fence.recovery_point == (47.3977, 8.5452) and imp.return_point == (47.3988, 8.5470)
 
 
@@ -164,7 +165,7 @@ def test_bare_feature_and_bare_geometry(tmp_path):
     imp = load_fence_file(write(tmp_path, keep_in(ceiling_m=40), "f.geojson"))
     assert imp.fence.keep_in == tuple(SQUARE_LL) and imp.fence.ceiling_m == 40
     geom = {"type": "Polygon", "coordinates": [ring(SQUARE_LL), ring(INNER_LL)]}
-    imp = load_fence_file(write(tmp_path, geom, "g.geojson"), ceiling_m=30)
+    imp = load_fence_file(write(tmp_path, geom, "g.geojson"), ImportOptions(ceiling_m=30))
     assert imp.fence.keep_in == tuple(SQUARE_LL) and imp.fence.keep_out_polygons == (tuple(INNER_LL),)
     assert detect_format(tmp_path / "g.geojson") == "geojson"
 
@@ -174,7 +175,7 @@ def test_vertical_limits_file_then_feature_then_arguments(tmp_path):
     imp = load_fence_file(p)  # the keep-in feature's values win over the collection's
     f = imp.fence
     assert (f.ceiling_m, f.floor_m, f.altitude_reference, imp.ceiling_source) == (80, 10, "amsl", "file")
-    imp = load_fence_file(p, ceiling_m=70, floor_m=2, altitude_reference="agl")  # explicit arguments win
+    imp = load_fence_file(p, ImportOptions(ceiling_m=70, floor_m=2, altitude_reference="agl"))  # explicit arguments win
     f = imp.fence
     assert (f.ceiling_m, f.floor_m, f.altitude_reference, imp.ceiling_source) == (70, 2, "agl", "argument")
     imp = load_fence_file(write(tmp_path, collection(keep_in()), "n.geojson"))
@@ -269,7 +270,7 @@ MALFORMED = [
 def test_malformed_is_one_line_naming_file_and_feature(tmp_path, doc, expect):
     p = write(tmp_path, doc, "bad.geojson")
     with pytest.raises(FenceError) as ei:
-        load_fence_file(p, ceiling_m=50)
+        load_fence_file(p, ImportOptions(ceiling_m=50))
     msg = str(ei.value)
     assert "\n" not in msg and msg.startswith(f"{p}: ")
     assert expect in msg, msg
@@ -279,19 +280,19 @@ def test_vertex_and_polygon_limits(tmp_path):
     assert MAX_FENCE_VERTICES == 200_000 and MAX_FENCE_POLYGONS == 20_000
     p = write(tmp_path, collection(keep_in(holes=[INNER_LL]), keep_out(OTHER_LL), ceiling_m=50))
     # 3 rings of 5 positions each (closing duplicates count: that is what is read)
-    assert len(load_fence_file(p, max_vertices=15, max_polygons=3).fence.keep_out_polygons) == 2
+    assert len(load_fence_file(p, ImportOptions(max_vertices=15, max_polygons=3)).fence.keep_out_polygons) == 2
     with pytest.raises(FenceError, match=r"fence.geojson: 15 polygon vertices exceed the limit of 14 \(max_vertices\)"):
-        load_fence_file(p, max_vertices=14)
+        load_fence_file(p, ImportOptions(max_vertices=14))
     with pytest.raises(FenceError, match=r"fence.geojson: 3 polygons exceed the limit of 2 \(max_polygons\)"):
-        load_fence_file(p, max_polygons=2)
+        load_fence_file(p, ImportOptions(max_polygons=2))
     # checked before the coordinates are read: a malformed vertex behind the limit is not reached
     bad = collection(keep_in(), feature({"geofence": "keep_out"}, "Polygon", [[[1e9, 0]] * 20]))
     with pytest.raises(FenceError, match="25 polygon vertices exceed the limit of 10"):
-        load_fence_file(write(tmp_path, bad, "big.geojson"), max_vertices=10)
+        load_fence_file(write(tmp_path, bad, "big.geojson"), ImportOptions(max_vertices=10))
     # the other formats obey the same limits
     plan = {"fileType": "Plan", "geoFence": {"polygons": [{"inclusion": True, "polygon": [list(v) for v in SQUARE_LL]}]}}
     with pytest.raises(FenceError, match="4 polygon vertices exceed the limit of 3"):
-        load_fence_file(write(tmp_path, plan, "a.plan"), max_vertices=3)
+        load_fence_file(write(tmp_path, plan, "a.plan"), ImportOptions(max_vertices=3))
 
 
 # =========================================================================== round trip (hypothesis)

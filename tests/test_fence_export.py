@@ -13,7 +13,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from analysis.formats.fence_files import EXPORT_FORMATS, RallyPoint, export_fence, load_fence_file
+from analysis.formats.fence_files import EXPORT_FORMATS, ImportOptions, RallyPoint, export_fence, load_fence_file
 from geofence.geometry.fence import Fence, FenceError, KeepOutCircle, VerticalExtent
 from geofence.geometry.geodesy import geodesic_distance_m
 from tests.support import ROOT, latlon, random_fence
@@ -28,7 +28,7 @@ def same_polygon(a, b) -> bool:
 def read_back(tmp_path, fence: Fence, fmt: str, rally=(), ceiling_m: float | None = None):
     path = tmp_path / f"fence.{fmt}"
     path.write_text(export_fence(fence, fmt, rally).text)
-    return load_fence_file(path, ceiling_m=ceiling_m)
+    return load_fence_file(path, ImportOptions(ceiling_m=ceiling_m))
 
 
 fences = st.builds(random_fence, st.integers(0, 10_000), st.integers(3, 40), st.integers(0, 3), st.integers(0, 2))
@@ -131,7 +131,7 @@ def test_export_fence_cli(tmp_path):
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120, cwd=ROOT)
     assert proc.returncode == 0, proc.stderr
     assert "no ceiling" in proc.stderr
-    assert load_fence_file(out, ceiling_m=50.0).inclusion_circles[0].radius_m == 80.0
+    assert load_fence_file(out, ImportOptions(ceiling_m=50.0)).inclusion_circles[0].radius_m == 80.0
     bad = subprocess.run(
         [*cmd[:-4], "--to", "shapefile", "--out", str(out)], capture_output=True, text=True, timeout=120, cwd=ROOT
     )

@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 
 from analysis.formats.fence_files import (
     DEFAULT_CEILING_M,
+    ImportOptions,
     circle_to_polygon,
     detect_format,
     fence_to_yaml_block,
@@ -75,7 +76,7 @@ def test_qgc_home_base_plan():
 
 
 def test_qgc_rd_134_plan_shared_edges_accepted():
-    imp = load_fence_file(real("qgc_ce_geofence_rd_134.plan"), ceiling_m=50)
+    imp = load_fence_file(real("qgc_ce_geofence_rd_134.plan"), ImportOptions(ceiling_m=50))
     assert imp.fence.ceiling_m == 50 and not any("ceiling" in w for w in imp.warnings)
     assert len(imp.fence.keep_in) == 4 and len(imp.fence.keep_out_polygons) == 1
     ew, ns = _extent_m(imp.fence.keep_in)
@@ -142,7 +143,7 @@ def test_dalby_old_style_fence():
 
 
 def test_cmac_old_style_fence_and_rally():
-    imp = load_fence_file(real("mavproxy_cmac-foamy-fence.txt"), rally_path=real("mavproxy_cmac-foamy-rally.txt"))
+    imp = load_fence_file(real("mavproxy_cmac-foamy-fence.txt"), ImportOptions(rally_path=real("mavproxy_cmac-foamy-rally.txt")))
     f = imp.fence
     assert len(f.keep_in) == 4
     assert imp.return_point == (-35.363720, 149.163651) and f.recovery_point == imp.return_point
@@ -295,7 +296,7 @@ def test_plan_small(tmp_path):
             home=(47.3976, 8.5451, 488.0),
         ),
     )
-    imp = load_fence_file(p, ceiling_m=80, floor_m=5)
+    imp = load_fence_file(p, ImportOptions(ceiling_m=80, floor_m=5))
     assert imp.fence.keep_in == tuple(SQUARE) and imp.fence.keep_out_polygons == (tuple(inner),)
     assert imp.fence.floor_m == 5 and imp.fence.ceiling_m == 80
     assert imp.keep_out_circles[0].radius_m == 20.0
@@ -310,13 +311,13 @@ def test_plan_several_inclusions_are_refused_unless_one_is_chosen(tmp_path):
     ):
         load_fence_file(p)
     for index, expected in ((0, tuple(SQUARE)), (1, tuple(other))):
-        imp = load_fence_file(p, inclusion_polygon=index)
+        imp = load_fence_file(p, ImportOptions(inclusion_polygon=index))
         assert imp.fence.keep_in == expected and len(imp.keep_in_polygons) == 2
         assert any(f"inclusion area {index} of 3 used" in w for w in imp.warnings)
-    circle = load_fence_file(p, inclusion_polygon=2).fence.keep_in
+    circle = load_fence_file(p, ImportOptions(inclusion_polygon=2)).fence.keep_in
     assert all(geodesic_distance_m(47.398, 8.546, lat, lon) == pytest.approx(50.0, abs=1e-6) for lat, lon in circle)
     with pytest.raises(FenceError, match="no such inclusion area"):
-        load_fence_file(p, inclusion_polygon=3)
+        load_fence_file(p, ImportOptions(inclusion_polygon=3))
 
 
 def test_inclusion_circle_becomes_polygon(tmp_path):
@@ -363,7 +364,7 @@ def test_wpl_two_polygons_and_exclusion(tmp_path):
     items += [(16, 0, 47.398, 8.546, 50.0), (5100, 0, 47.3982, 8.5462, 40.0, 3)]
     with pytest.raises(FenceError, match="2 inclusion areas"):
         load_fence_file(_write(tmp_path, "f.txt", _wpl(items)))
-    imp = load_fence_file(tmp_path / "f.txt", inclusion_polygon=0)
+    imp = load_fence_file(tmp_path / "f.txt", ImportOptions(inclusion_polygon=0))
     assert imp.keep_in_polygons == (tuple(SQUARE), tuple(inner))
     assert imp.fence.keep_out_polygons == (tuple(inner),)
     assert imp.rally_points[0].alt_m == 40.0 and imp.rally_points[0].alt_reference == "relative"

@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from support import free_udp_port
 
-from analysis.formats.fence_files import load_fence_file
+from analysis.formats.fence_files import ImportOptions, load_fence_file
 from geofence.geometry.fence import Fence
 from scenarios.link.connection import mavlink, now_s, open_link, receive
 from scenarios.link.mission_fence import (
@@ -114,7 +114,7 @@ def test_initial_download_is_the_fence_in_use_and_reads_back_the_same(server, cl
         f"{i.seq}\t0\t{i.frame}\t{i.command}\t{i.param1}\t0\t0\t0\t{i.x * 1e-7:.7f}\t{i.y * 1e-7:.7f}\t{i.z}\t1" for i in got
     ]
     (tmp_path / "f.txt").write_text("\n".join(lines) + "\n")
-    back = load_fence_file(tmp_path / "f.txt", ceiling_m=80.0).fence
+    back = load_fence_file(tmp_path / "f.txt", ImportOptions(ceiling_m=80.0)).fence
     assert all(abs(a - b) < 1e-7 for p, q in zip(back.keep_in, BASE.keep_in) for a, b in zip(p, q))
 
 

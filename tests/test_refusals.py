@@ -16,7 +16,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from analysis.formats.fence_files import load_fence_file
+from analysis.formats.fence_files import ImportOptions, load_fence_file
 from geofence.geometry.fence import FenceError
 from geofence.validation import ConfigError
 from scenarios.app.cli import build_parser, read_trajectory
@@ -83,17 +83,17 @@ def test_two_inclusion_polygons_are_refused_with_how_to_proceed(tmp_path):
     )
     assert "intersection" in line
     with pytest.raises(FenceError, match="2 inclusion areas"):
-        load_fence_file(p, ceiling_m=50)
+        load_fence_file(p, ImportOptions(ceiling_m=50))
 
 
 def test_the_chosen_inclusion_polygon_is_the_keep_in_whatever_the_order(tmp_path):
     a = scenario(tmp_path, wpl([SQUARE, OTHER]), "a.txt")
     b = scenario(tmp_path, wpl([OTHER, SQUARE]), "b.txt")
     for poly, alone in ((SQUARE, "square.txt"), (OTHER, "other.txt")):
-        single = load_fence_file(scenario(tmp_path, wpl([poly]), alone), ceiling_m=50).fence
+        single = load_fence_file(scenario(tmp_path, wpl([poly]), alone), ImportOptions(ceiling_m=50)).fence
         i_a, i_b = (0, 1) if poly is SQUARE else (1, 0)
-        assert load_fence_file(a, ceiling_m=50, inclusion_polygon=i_a).fence == single
-        assert load_fence_file(b, ceiling_m=50, inclusion_polygon=i_b).fence == single
+        assert load_fence_file(a, ImportOptions(ceiling_m=50, inclusion_polygon=i_a)).fence == single
+        assert load_fence_file(b, ImportOptions(ceiling_m=50, inclusion_polygon=i_b)).fence == single
     res = run_cli("import-fence", str(a), "--ceiling", "50", "--inclusion-polygon", "1")
     assert res.returncode == 0, res.stderr
     assert [tuple(v) for v in yaml.safe_load(res.stdout)["geofence"]["fence"]["keep_in"]] == OTHER
@@ -120,7 +120,7 @@ def test_score_log_scores_each_chosen_polygon_as_itself(tmp_path):
     log, foamy = REALWORLD / "uavlogviewer_vtol.tlog", REALWORLD / "mavproxy_cmac-foamy-fence.txt"
     if not (log.is_file() and foamy.is_file()):
         pytest.skip("shared/realworld is not beside the repo")
-    poly = list(load_fence_file(foamy, ceiling_m=100).fence.keep_in)
+    poly = list(load_fence_file(foamy, ImportOptions(ceiling_m=100)).fence.keep_in)
     box = [(lat + 0.002, lon + 0.002) for lat, lon in poly]
     scores = {}
     for name, polys, pick in (("alone", [poly], None), ("first", [poly, box], 0), ("second", [box, poly], 1)):

@@ -257,22 +257,25 @@ class _Raw:
 
 
 # --------------------------------------------------------------------------- public API
-def load_fence_file(
-    path: str | Path,
-    *,
-    ceiling_m: float | None = None,
-    floor_m: float | None = None,
-    altitude_reference: str | None = None,
-    rally_path: str | Path | None = None,
-    circle_tolerance_m: float = DEFAULT_CIRCLE_TOLERANCE_M,
-    return_point_as_recovery: bool = True,
-    floor_gaps: Sequence[PolygonLL] = (),
-    recovery_point: tuple[float, ...] | None = None,
-    max_vertices: int = MAX_FENCE_VERTICES,
-    max_polygons: int = MAX_FENCE_POLYGONS,
-    inclusion_polygon: int | None = None,
-) -> ImportedFence:
-    """Read a fence file (any format in :data:`FORMATS` except rally-only) into an :class:`ImportedFence`.
+class ImportOptions(NamedTuple):
+    """How a fence file (or a mission item list) is read: :func:`load_fence_file`'s options, each explained there."""
+
+    ceiling_m: float | None = None
+    floor_m: float | None = None
+    altitude_reference: str | None = None
+    rally_path: str | Path | None = None
+    circle_tolerance_m: float = DEFAULT_CIRCLE_TOLERANCE_M
+    return_point_as_recovery: bool = True
+    floor_gaps: Sequence[PolygonLL] = ()
+    recovery_point: tuple[float, ...] | None = None
+    max_vertices: int = MAX_FENCE_VERTICES
+    max_polygons: int = MAX_FENCE_POLYGONS
+    inclusion_polygon: int | None = None
+
+
+def load_fence_file(path: str | Path, options: ImportOptions = ImportOptions()) -> ImportedFence:
+    """Read a fence file (any format in :data:`FORMATS` except rally-only) into an :class:`ImportedFence`, as
+    ``options`` say (:class:`ImportOptions`):
 
     ``ceiling_m``, ``floor_m``, ``altitude_reference``: explicit values win over the file's (only
     GeoJSON files carry them, see the module docstring); ``None`` means the file's, else the default
@@ -287,16 +290,12 @@ def load_fence_file(
     order, then circles); required when the file has more than one (see the module docstring).
     Raises :class:`FenceError` with one line naming the file and the problem.
     """
-    name = str(path)
+    name, o = str(path), options
     raw = _raw_from_text(
-        _read_text(Path(path)), name, max_vertices=max_vertices, max_polygons=max_polygons, keep_in_index=inclusion_polygon or 0
-    )
-    return _build_imported(
-        raw, name, ceiling_m=ceiling_m, floor_m=floor_m, altitude_reference=altitude_reference, rally_path=rally_path,
-        circle_tolerance_m=circle_tolerance_m, return_point_as_recovery=return_point_as_recovery, floor_gaps=floor_gaps,
-        recovery_point=recovery_point, max_vertices=max_vertices, max_polygons=max_polygons,
-        inclusion_polygon=inclusion_polygon,
+        _read_text(Path(path)), name, max_vertices=o.max_vertices, max_polygons=o.max_polygons,
+        keep_in_index=o.inclusion_polygon or 0,
     )  # fmt: skip
+    return _build_imported(raw, name, options)
 
 
 class FenceItem(NamedTuple):
@@ -310,13 +309,13 @@ class FenceItem(NamedTuple):
     """``param1 .. param4, lat_deg, lon_deg, alt_m``."""
 
 
-def fence_from_items(items: Sequence[FenceItem], name: str, **options: Any) -> ImportedFence:
+def fence_from_items(items: Sequence[FenceItem], name: str, options: ImportOptions = ImportOptions()) -> ImportedFence:
     """The fence of a mission item list (commands 5000-5004; 5100 rally items are kept as ``rally_points``), checked
-    and built exactly as a WPL 110 file of those items; ``options``: :func:`load_fence_file`'s keyword arguments
-    (not ``rally_path``). Raises :class:`FenceError` (``"<name>: <item>: <problem>"``)."""
+    and built exactly as a WPL 110 file of those items; ``options``: :func:`load_fence_file`'s (``rally_path``
+    too, a separate rally file). Raises :class:`FenceError` (``"<name>: <item>: <problem>"``)."""
     raw = _Raw("mavlink_mission")
     _read_items(items, name, raw)
-    return _build_imported(raw, name, **options)
+    return _build_imported(raw, name, options)
 
 
 def rally_from_items(items: Sequence[FenceItem], name: str) -> tuple[RallyPoint, ...]:
@@ -326,26 +325,13 @@ def rally_from_items(items: Sequence[FenceItem], name: str) -> tuple[RallyPoint,
     return tuple(raw.rally)
 
 
-def _build_imported(
-    raw: _Raw,
-    name: str,
-    *,
-    ceiling_m: float | None = None,
-    floor_m: float | None = None,
-    altitude_reference: str | None = None,
-    rally_path: str | Path | None = None,
-    circle_tolerance_m: float = DEFAULT_CIRCLE_TOLERANCE_M,
-    return_point_as_recovery: bool = True,
-    floor_gaps: Sequence[PolygonLL] = (),
-    recovery_point: tuple[float, ...] | None = None,
-    max_vertices: int = MAX_FENCE_VERTICES,
-    max_polygons: int = MAX_FENCE_POLYGONS,
-    inclusion_polygon: int | None = None,
-) -> ImportedFence:
+def _build_imported(raw: _Raw, name: str, options: ImportOptions) -> ImportedFence:
     """:func:`load_fence_file` after the file was read: the items of ``raw`` checked as a whole, the fence built."""
+    ceiling_m, floor_m, altitude_reference = options.ceiling_m, options.floor_m, options.altitude_reference
+    recovery_point = options.recovery_point  # (the file's return point, where none is given)
     if raw.fmt != "geojson":  # GeoJSON is checked before its coordinates are read
         polys = [*raw.inc_polys, *raw.exc_polys]
-        _check_size(name, sum(len(p) for p in polys), len(polys), max_vertices, max_polygons)
+        _check_size(name, sum(len(p) for p in polys), len(polys), options.max_vertices, options.max_polygons)
     if not raw.has_fence():
         what = "only rally points" if raw.rally else "no fence items"
         raise FenceError(f"{name}: {what} (no inclusion/exclusion polygon or circle)")
@@ -365,7 +351,7 @@ def _build_imported(
         warnings.append(f"no ceiling in the file; using the default ceiling {DEFAULT_CEILING_M:g} m {ref}")
 
     _check_heights(name, ceiling_m, floor_m)
-    keep_in, keep_in_label = _choose_keep_in(raw, inclusion_polygon, name, circle_tolerance_m, warnings)
+    keep_in, keep_in_label = _choose_keep_in(raw, options.inclusion_polygon, name, options.circle_tolerance_m, warnings)
 
     # Format-level relations in a local frame at the keep-in (vectorised; the Fence validates the
     # geometry itself, once, below): drop keep-outs that constrain nothing, check the return point.
@@ -404,7 +390,7 @@ def _build_imported(
             circles_en.append((c_e, c_n, c.radius_m))
 
     rp_from_file = False
-    if recovery_point is None and raw.return_point is not None and return_point_as_recovery:
+    if recovery_point is None and raw.return_point is not None and options.return_point_as_recovery:
         lat, lon = raw.return_point[0], raw.return_point[1]
         r_e, r_n = frame.to_enu(lat, lon, 0.0)[:2]
         m = ki.signed_distance(r_e, r_n)
@@ -427,7 +413,7 @@ def _build_imported(
             ceiling_m=ceiling_m,
             floor_m=floor_m,
             altitude_reference=cast(AltitudeReference, altitude_reference),
-            floor_gaps=tuple(floor_gaps),
+            floor_gaps=tuple(options.floor_gaps),
             keep_out_polygons=tuple(keep_out_polys),
             keep_out_circles=tuple(keep_out_circles),
             recovery_point=rp,
@@ -448,8 +434,8 @@ def _build_imported(
         raise FenceError(f"{name}: {_relabel(str(exc), keep_in_label, keep_out_labels)}") from None
 
     rally = list(raw.rally)
-    if rally_path is not None:
-        rally.extend(load_rally_file(rally_path))
+    if options.rally_path is not None:
+        rally.extend(load_rally_file(options.rally_path))
     return ImportedFence(
         fence=fence,
         source_path=name,

@@ -421,7 +421,7 @@ def _export_fence_parser(sub) -> None:
 
 
 def _cmd_export_fence(args) -> int:
-    from analysis.formats.fence_files import export_fence, load_fence_file
+    from analysis.formats.fence_files import ImportOptions, export_fence, load_fence_file
     from geofence.validation import ConfigError
 
     check_output_file(args.out, "--out")
@@ -434,7 +434,7 @@ def _cmd_export_fence(args) -> int:
             raise ConfigError(f"{args.fence_in}: geofence: the scenario has no fence to export")
         fence = sc.geofence.fence
     else:
-        imported = load_fence_file(args.fence_in, ceiling_m=args.ceiling, inclusion_polygon=args.inclusion_polygon)
+        imported = load_fence_file(args.fence_in, ImportOptions(ceiling_m=args.ceiling, inclusion_polygon=args.inclusion_polygon))
         fence, rally = imported.fence, imported.rally_points
         for w in imported.warnings:
             print(f"warning: {args.fence_in}: {w}", file=sys.stderr)
@@ -1115,12 +1115,12 @@ def _cmd_score_log(args) -> int:
     import json
     import math
 
-    from analysis.formats.fence_files import load_fence_file, summarize
+    from analysis.formats.fence_files import ImportOptions, load_fence_file, summarize
     from analysis.formats.logs import check_distance_bound, check_near_fence, describe, load_log
     from analysis.scoring import score_flight
 
     check_distance_bound(args.max_fence_distance_km * 1000.0)
-    imported = load_fence_file(args.fence, ceiling_m=args.ceiling, inclusion_polygon=args.inclusion_polygon)
+    imported = load_fence_file(args.fence, ImportOptions(ceiling_m=args.ceiling, inclusion_polygon=args.inclusion_polygon))
     traj, info = load_log(args.log)
     check_near_fence(traj, imported.fence, args.max_fence_distance_km * 1000.0, name=str(args.log))
     scores = score_flight(traj, imported.fence.to_local(info.frame))
@@ -1143,7 +1143,7 @@ def _cmd_score_log(args) -> int:
 def _cmd_import_fence(args) -> int:
     import yaml
 
-    from analysis.formats.fence_files import fence_to_yaml_block, load_fence_file
+    from analysis.formats.fence_files import ImportOptions, fence_to_yaml_block, load_fence_file
     from geofence.validation import ConfigError
 
     out = args.output
@@ -1153,7 +1153,7 @@ def _cmd_import_fence(args) -> int:
         if out.exists() and not args.force:
             raise ConfigError(f"-o: {out}: exists; add --force to overwrite it")
         check_output_dir(out.parent, "-o")
-    imported = load_fence_file(args.fence_file, ceiling_m=args.ceiling, inclusion_polygon=args.inclusion_polygon)
+    imported = load_fence_file(args.fence_file, ImportOptions(ceiling_m=args.ceiling, inclusion_polygon=args.inclusion_polygon))
     for w in imported.warnings:
         print(f"warning: {w}", file=sys.stderr)
     text = yaml.safe_dump(_rounded(fence_to_yaml_block(imported)), sort_keys=False)

@@ -47,7 +47,7 @@ from typing import Any
 
 from aircraft.profile import PlatformProfile, load_profile, parse_profile
 from aircraft.sensors import SensorConfig
-from analysis.formats.fence_files import load_fence_file
+from analysis.formats.fence_files import ImportOptions, load_fence_file
 from geofence.estimation.estimator import GeofenceEstimator
 from geofence.estimation.measurements import AirData, GpsFix
 from geofence.estimation.wind_estimator import WindEstimator, WindEstimatorConfig
@@ -119,7 +119,7 @@ def setup_from_scenario(path: str | Path) -> CompanionSetup:
 
 def setup_from_files(fence_path: str, profile: str, ceiling_m: float | None = None) -> CompanionSetup:
     """A fence file (any importer format) and a profile name or file, the unit's defaults otherwise."""
-    fence = load_fence_file(fence_path, ceiling_m=ceiling_m).fence
+    fence = load_fence_file(fence_path, ImportOptions(ceiling_m=ceiling_m)).fence
     if Path(profile).suffix in (".yaml", ".yml"):
         raw = read_document(profile)
         model = raw.get("model", Path(profile).stem) if isinstance(raw, dict) else Path(profile).stem

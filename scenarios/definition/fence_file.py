@@ -18,7 +18,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from analysis.formats.fence_files import load_fence_file
+from analysis.formats.fence_files import ImportOptions, load_fence_file
 from geofence.geometry.fence import AltitudeReference, Fence, FenceError
 from geofence.unit.config import GeofenceConfigError
 from geofence.validation import enum_value, integer, number
@@ -75,12 +75,14 @@ def fence_from_file(block: Mapping, where: str, base_dir: str | Path | None = No
     try:
         imported = load_fence_file(
             path,
-            ceiling_m=block.get("ceiling_m"),
-            floor_m=block.get("floor_m"),
-            altitude_reference=ref,
-            floor_gaps=tuple(gaps or ()),
-            recovery_point=block.get("recovery_point"),
-            inclusion_polygon=choice,
+            ImportOptions(
+                ceiling_m=block.get("ceiling_m"),
+                floor_m=block.get("floor_m"),
+                altitude_reference=ref,
+                floor_gaps=tuple(gaps or ()),
+                recovery_point=block.get("recovery_point"),
+                inclusion_polygon=choice,
+            ),
         )
     except FenceError as exc:
         msg = str(exc)

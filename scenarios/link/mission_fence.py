@@ -30,7 +30,15 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
-from analysis.formats.fence_files import FenceItem, RallyPoint, fence_from_items, fence_items, rally_from_items, rally_items
+from analysis.formats.fence_files import (
+    FenceItem,
+    ImportOptions,
+    RallyPoint,
+    fence_from_items,
+    fence_items,
+    rally_from_items,
+    rally_items,
+)
 from geofence.geometry.fence import Fence, FenceError
 from geofence.validation import ConfigError
 from scenarios.link.connection import Link, mavlink, now_s, receive
@@ -124,8 +132,8 @@ def fence_of_items(items: Sequence[MissionItem], base: Fence) -> tuple[Fence, li
     """The fence an item list describes, with ``base``'s vertical limits and floor gaps: ``(fence, warnings)``.
     Raises :class:`FenceError` naming the item."""
     imported = fence_from_items(
-        [fence_item(i) for i in items], "fence upload", ceiling_m=base.ceiling_m, floor_m=base.floor_m,
-        altitude_reference=base.altitude_reference.value, floor_gaps=base.floor_gaps,
+        [fence_item(i) for i in items], "fence upload", ImportOptions(ceiling_m=base.ceiling_m, floor_m=base.floor_m,
+        altitude_reference=base.altitude_reference.value, floor_gaps=base.floor_gaps),
     )  # fmt: skip
     return imported.fence, list(imported.warnings)
 
