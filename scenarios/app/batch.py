@@ -62,6 +62,15 @@ from scenarios.definition.sweep import FlightSpec, expand, with_referenced_files
 SUMMARY = "summary.json"
 
 
+class Executor(str, Enum):
+    """Where a batch's flights fly (``--executor``)."""
+
+    PROCESS = "process"
+    """Local worker processes (the default)."""
+    DASK = "dask"
+    """A Dask cluster (``--scheduler``)."""
+
+
 class Trajectories(Enum):
     """Which flights keep their ``trajectory.csv`` (``--trajectories``)."""
 
@@ -348,7 +357,7 @@ def run_batch(
     specs: list[FlightSpec],
     out_dir: Path,
     jobs: int | None = None,
-    executor: str = "process",
+    executor: Executor | str = Executor.PROCESS,
     scheduler: str | None = None,
     progress: bool = True,
     on_done: Callable[[dict], None] | None = None,
@@ -366,16 +375,16 @@ def run_batch(
     out_dir.mkdir(parents=True, exist_ok=True)
     with output_lock(out_dir):  # before anything is touched: a running batch's staging folders are its own
         writing = Writing(flight_plots, trajectories)
-        executors = Executors(jobs, executor, scheduler, dask_in_flight)
+        executors = Executors(jobs, Executor(executor), scheduler, dask_in_flight)
         return _run_locked(specs, out_dir, executors, progress, on_done, writing, slow_start_s)
 
 
 class Executors(NamedTuple):
-    """Where a batch's flights fly: ``jobs`` local processes, or a Dask cluster (``executor`` ``"dask"`` at
+    """Where a batch's flights fly: ``jobs`` local processes, or a Dask cluster (:attr:`Executor.DASK` at
     ``scheduler``, ``dask_in_flight`` submitted at a time; None: :func:`dask_window`)."""
 
     jobs: int | None
-    executor: str
+    executor: Executor
     scheduler: str | None
     dask_in_flight: int | None
 
@@ -390,7 +399,7 @@ def _run_locked(specs, out_dir, executors: Executors, progress, on_done, writing
     outcome = BatchOutcome(total=len(specs), skipped=len(done), flown=0, changed=len(state.changed))
     t0 = time.perf_counter()
     jobs, scheduler = executors.jobs, executors.scheduler
-    client = _dask_client(scheduler) if executors.executor == "dask" and todo else None  # refused before any progress
+    client = _dask_client(scheduler) if executors.executor is Executor.DASK and todo else None  # refused before any progress
     bar = _bar(len(specs), outcome.skipped, progress)
     notice = slow_start_notice(bar, slow_start_s, BATCH_SLOW_START_NOTICE) if bar is not None and todo else None
 
