@@ -115,7 +115,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple, cast
@@ -327,9 +327,48 @@ def rally_from_items(items: Sequence[FenceItem], name: str) -> tuple[RallyPoint,
 
 def _build_imported(raw: _Raw, name: str, options: ImportOptions) -> ImportedFence:
     """:func:`load_fence_file` after the file was read: the items of ``raw`` checked as a whole, the fence built."""
-    ceiling_m, floor_m, altitude_reference = options.ceiling_m, options.floor_m, options.altitude_reference
-    recovery_point = options.recovery_point  # (the file's return point, where none is given)
-    if raw.fmt != "geojson":  # GeoJSON is checked before its coordinates are read
+    _check_items(raw, name, options)
+    warnings = list(raw.warnings)
+    heights = _heights(raw, options, warnings)
+    _check_heights(name, heights.ceiling_m, heights.floor_m)
+    keep_in, keep_in_label = _choose_keep_in(raw, options.inclusion_polygon, name, options.circle_tolerance_m, warnings)
+    # Format-level relations in a local frame at the keep-in (vectorised; the Fence validates the
+    # geometry itself, once, below): drop keep-outs that constrain nothing, check the return point.
+    local = _LocalKeepIn(keep_in)
+    kept = _kept_keep_outs(raw, local, warnings)
+    recovery_point, from_file = options.recovery_point, False
+    if recovery_point is None and raw.return_point is not None and options.return_point_as_recovery:
+        recovery_point = _return_point_inside(raw.return_point, local, kept, warnings)
+        from_file = recovery_point is not None
+
+    def build(rp: tuple | None) -> Fence:
+        # a string: Fence normalises it to the enum and refuses anything else (a FenceError)
+        return Fence(
+            keep_in=keep_in, ceiling_m=heights.ceiling_m, floor_m=heights.floor_m,
+            altitude_reference=cast(AltitudeReference, heights.altitude_reference),
+            floor_gaps=tuple(options.floor_gaps), keep_out_polygons=tuple(kept.polygons),
+            keep_out_circles=tuple(kept.circles), recovery_point=rp, keep_out_polygon_extents=tuple(kept.extents),
+        )  # fmt: skip
+
+    try:
+        fence = _built_without_a_bad_return_point(build, recovery_point, from_file, warnings)
+    except FenceError as exc:
+        raise FenceError(f"{name}: {_relabel(str(exc), keep_in_label, kept.labels)}") from None
+    rally = list(raw.rally)
+    if options.rally_path is not None:
+        rally.extend(load_rally_file(options.rally_path))
+    return ImportedFence(
+        fence=fence, source_path=name, source_format=raw.fmt, keep_in_polygons=tuple(raw.inc_polys),
+        inclusion_circles=tuple(raw.inc_circles), keep_out_polygons=tuple(raw.exc_polys),
+        keep_out_circles=tuple(raw.exc_circles), return_point=raw.return_point, rally_points=tuple(rally),
+        home=raw.home, warnings=warnings, ceiling_source=heights.ceiling_source,
+    )  # fmt: skip
+
+
+def _check_items(raw: _Raw, name: str, options: ImportOptions) -> None:
+    """The file's items as a whole: within the size limits (GeoJSON is checked before its coordinates are read),
+    some fence item, and a keep-in among them; else a one-line :class:`FenceError`."""
+    if raw.fmt != "geojson":
         polys = [*raw.inc_polys, *raw.exc_polys]
         _check_size(name, sum(len(p) for p in polys), len(polys), options.max_vertices, options.max_polygons)
     if not raw.has_fence():
@@ -337,119 +376,115 @@ def _build_imported(raw: _Raw, name: str, options: ImportOptions) -> ImportedFen
         raise FenceError(f"{name}: {what} (no inclusion/exclusion polygon or circle)")
     if not raw.inc_polys and not raw.inc_circles:
         raise FenceError(f"{name}: no inclusion polygon or circle (only exclusions); a keep-in area is required")
-    warnings = list(raw.warnings)
-    if altitude_reference is None:
-        altitude_reference = raw.altitude_reference or field_default(Fence, "altitude_reference")
-    if floor_m is None:
-        floor_m = raw.floor_m
-    ceiling_source = "argument"
-    if ceiling_m is None and raw.ceiling_m is not None:
-        ceiling_m, ceiling_source = raw.ceiling_m, "file"
-    elif ceiling_m is None:
-        ceiling_m, ceiling_source = DEFAULT_CEILING_M, "default"
-        ref = altitude_reference.upper() if isinstance(altitude_reference, str) else altitude_reference
-        warnings.append(f"no ceiling in the file; using the default ceiling {DEFAULT_CEILING_M:g} m {ref}")
 
-    _check_heights(name, ceiling_m, floor_m)
-    keep_in, keep_in_label = _choose_keep_in(raw, options.inclusion_polygon, name, options.circle_tolerance_m, warnings)
 
-    # Format-level relations in a local frame at the keep-in (vectorised; the Fence validates the
-    # geometry itself, once, below): drop keep-outs that constrain nothing, check the return point.
-    frame = _frame_at(keep_in)
+class _Heights(NamedTuple):
+    ceiling_m: Any
+    ceiling_source: str
+    """Where the ceiling came from: ``argument``, ``file`` or ``default``."""
+    floor_m: Any
+    altitude_reference: Any
 
-    def en(poly) -> np.ndarray:
+
+def _heights(raw: _Raw, options: ImportOptions, warnings: list[str]) -> _Heights:
+    """The fence's vertical limits and reference: the options' where given, else the file's, else the defaults
+    (a default ceiling is warned about)."""
+    reference = options.altitude_reference
+    if reference is None:
+        reference = raw.altitude_reference or field_default(Fence, "altitude_reference")
+    floor_m = raw.floor_m if options.floor_m is None else options.floor_m
+    if options.ceiling_m is not None:
+        return _Heights(options.ceiling_m, "argument", floor_m, reference)
+    if raw.ceiling_m is not None:
+        return _Heights(raw.ceiling_m, "file", floor_m, reference)
+    ref = reference.upper() if isinstance(reference, str) else reference
+    warnings.append(f"no ceiling in the file; using the default ceiling {DEFAULT_CEILING_M:g} m {ref}")
+    return _Heights(DEFAULT_CEILING_M, "default", floor_m, reference)
+
+
+class _LocalKeepIn:
+    """The keep-in in a local frame at it (east, north m), for the format-level relations."""
+
+    def __init__(self, keep_in: PolygonLL) -> None:
+        self.frame = _frame_at(keep_in)
+        self.index = PolygonIndex(self.en(keep_in))
+
+    def en(self, poly: PolygonLL) -> np.ndarray:
+        """A polygon's vertices in the frame (N, 2)."""
         lat = np.array([p[0] for p in poly], dtype=float)
         lon = np.array([p[1] for p in poly], dtype=float)
-        return frame.to_enu_array(lat, lon, np.zeros(len(poly)))[:, :2]
+        return self.frame.to_enu_array(lat, lon, np.zeros(len(poly)))[:, :2]
 
-    ki = PolygonIndex(en(keep_in))
-    labels = (
-        raw.exc_labels
-        if len(raw.exc_labels) == len(raw.exc_polys)
-        else [f"exclusion polygon {i}" for i in range(len(raw.exc_polys))]
-    )
-    extents = raw.exc_extents if len(raw.exc_extents) == len(raw.exc_polys) else [FULL_HEIGHT] * len(raw.exc_polys)
-    exc_en = [en(p) for p in raw.exc_polys]
+
+class _Kept(NamedTuple):
+    """The keep-outs that constrain something (in the file's order), with their extents and labels, and in the
+    local frame (polygons ``(N, 2)``, circles ``(e, n, r)``)."""
+
+    polygons: list
+    extents: list
+    labels: list
+    polygons_en: list
+    circles: list
+    circles_en: list
+
+
+def _kept_keep_outs(raw: _Raw, local: _LocalKeepIn, warnings: list[str]) -> _Kept:
+    """The keep-outs that reach into the keep-in; each one entirely outside it is dropped with a warning."""
+    n = len(raw.exc_polys)
+    labels = raw.exc_labels if len(raw.exc_labels) == n else [f"exclusion polygon {i}" for i in range(n)]
+    extents = raw.exc_extents if len(raw.exc_extents) == n else [FULL_HEIGHT] * n
+    ki = local.index
+    exc_en = [local.en(p) for p in raw.exc_polys]
     first_inside = ki.contains_array(np.array([e[0] for e in exc_en])) if exc_en else np.zeros(0, dtype=bool)
-    keep_out_polys, keep_out_extents, keep_out_labels, kept_en = [], [], [], []
+    kept = _Kept([], [], [], [], [], [])
     for i, p in enumerate(raw.exc_polys):
         if first_inside[i] or polygons_intersect(ki.vertices, exc_en[i]):
-            keep_out_polys.append(p)
-            keep_out_extents.append(extents[i])
-            keep_out_labels.append(labels[i])
-            kept_en.append(exc_en[i])
+            kept.polygons.append(p)
+            kept.extents.append(extents[i])
+            kept.labels.append(labels[i])
+            kept.polygons_en.append(exc_en[i])
         else:
             warnings.append(f"{labels[i]} lies entirely outside the keep-in area: dropped (it constrains nothing)")
-    keep_out_circles, circles_en = [], []
     for i, c in enumerate(raw.exc_circles):
-        c_e, c_n = frame.to_enu(c.center_lat_deg, c.center_lon_deg, 0.0)[:2]
+        c_e, c_n = local.frame.to_enu(c.center_lat_deg, c.center_lon_deg, 0.0)[:2]
         if ki.signed_distance(c_e, c_n) <= -c.radius_m:
             warnings.append(f"exclusion circle {i} lies entirely outside the keep-in area: dropped (it constrains nothing)")
         else:
-            keep_out_circles.append(c)
-            circles_en.append((c_e, c_n, c.radius_m))
+            kept.circles.append(c)
+            kept.circles_en.append((c_e, c_n, c.radius_m))
+    return kept
 
-    rp_from_file = False
-    if recovery_point is None and raw.return_point is not None and options.return_point_as_recovery:
-        lat, lon = raw.return_point[0], raw.return_point[1]
-        r_e, r_n = frame.to_enu(lat, lon, 0.0)[:2]
-        m = ki.signed_distance(r_e, r_n)
-        for k in kept_en:
-            m = min(m, -PolygonIndex(k).signed_distance(r_e, r_n))
-        for ce, cn, r in circles_en:
-            m = min(m, math.hypot(r_e - ce, r_n - cn) - r)
-        if m > 0.0:
-            recovery_point, rp_from_file = (lat, lon), True
-        else:
-            warnings.append(
-                f"return point ({lat:.7f}, {lon:.7f}) is not inside the allowed area "
-                f"(margin {m:.1f} m): not used as the recovery point"
-            )
 
-    def build(rp: tuple | None) -> Fence:
-        # a string: Fence normalises it to the enum and refuses anything else (a FenceError)
-        return Fence(
-            keep_in=keep_in,
-            ceiling_m=ceiling_m,
-            floor_m=floor_m,
-            altitude_reference=cast(AltitudeReference, altitude_reference),
-            floor_gaps=tuple(options.floor_gaps),
-            keep_out_polygons=tuple(keep_out_polys),
-            keep_out_circles=tuple(keep_out_circles),
-            recovery_point=rp,
-            keep_out_polygon_extents=tuple(keep_out_extents),
-        )
-
-    try:
-        try:
-            fence = build(recovery_point)
-        except FenceError as exc:
-            if not (rp_from_file and recovery_point is not None and str(exc).startswith("recovery_point:")):
-                raise
-            warnings.append(
-                f"return point ({recovery_point[0]:.7f}, {recovery_point[1]:.7f}): {exc}: not used as the recovery point"
-            )
-            fence = build(None)
-    except FenceError as exc:
-        raise FenceError(f"{name}: {_relabel(str(exc), keep_in_label, keep_out_labels)}") from None
-
-    rally = list(raw.rally)
-    if options.rally_path is not None:
-        rally.extend(load_rally_file(options.rally_path))
-    return ImportedFence(
-        fence=fence,
-        source_path=name,
-        source_format=raw.fmt,
-        keep_in_polygons=tuple(raw.inc_polys),
-        inclusion_circles=tuple(raw.inc_circles),
-        keep_out_polygons=tuple(raw.exc_polys),
-        keep_out_circles=tuple(raw.exc_circles),
-        return_point=raw.return_point,
-        rally_points=tuple(rally),
-        home=raw.home,
-        warnings=warnings,
-        ceiling_source=ceiling_source,
+def _return_point_inside(point: tuple, local: _LocalKeepIn, kept: _Kept, warnings: list[str]) -> tuple | None:
+    """The file's return point as the recovery point where it is inside the allowed area (the keep-in, outside
+    every kept keep-out), else None with a warning."""
+    lat, lon = point[0], point[1]
+    r_e, r_n = local.frame.to_enu(lat, lon, 0.0)[:2]
+    m = local.index.signed_distance(r_e, r_n)
+    for k in kept.polygons_en:
+        m = min(m, -PolygonIndex(k).signed_distance(r_e, r_n))
+    for ce, cn, r in kept.circles_en:
+        m = min(m, math.hypot(r_e - ce, r_n - cn) - r)
+    if m > 0.0:
+        return lat, lon
+    warnings.append(
+        f"return point ({lat:.7f}, {lon:.7f}) is not inside the allowed area (margin {m:.1f} m): not used as the recovery point"
     )
+    return None
+
+
+def _built_without_a_bad_return_point(
+    build: Callable[[tuple | None], Fence], recovery_point: tuple | None, from_file: bool, warnings: list[str]
+) -> Fence:  # fmt: skip
+    """``build(recovery_point)``; a recovery point taken from the file's return point that the fence refuses is
+    dropped with a warning and the fence built without it (any other refusal is raised)."""
+    try:
+        return build(recovery_point)
+    except FenceError as exc:
+        if not (from_file and recovery_point is not None and str(exc).startswith("recovery_point:")):
+            raise
+        warnings.append(f"return point ({recovery_point[0]:.7f}, {recovery_point[1]:.7f}): {exc}: not used as the recovery point")
+        return build(None)
 
 
 def _check_heights(name: str, ceiling_m: Any, floor_m: Any) -> None:
