@@ -189,7 +189,8 @@ def campaign_rows(rows: Iterable[Mapping], manifest: Mapping, batch_dir: str | P
         )
         if variant == "unprotected" and batch_dir is not None and not math.isfinite(num(row.get("max_excursion_m"))):
             row.update(score_unprotected(batch_dir, row, case))
-        if batch_dir is not None and not is_error(row) and "peak_sustained_wind_mps" not in row:  # (an older summary)
+        if batch_dir is not None and not is_error(row) and row.get("peak_sustained_wind_mps") is None:
+            # (a summary written before the key: its cell in a results.csv of newer flights is empty)
             traj = Path(batch_dir) / str(row.get("flight") or row.get("scenario")) / "trajectory.csv"
             if traj.is_file():
                 row["peak_sustained_wind_mps"] = peak_sustained_wind_mps(traj)

@@ -463,6 +463,23 @@ def test_the_forecast_tells_the_turbulence_and_the_gusts_within_20_percent():
     assert told_sigma and told_gust
 
 
+def test_the_wind_met_comes_from_the_summary_and_from_the_trajectory_only_where_the_summary_has_none(tmp_path):
+    """A resumed batch mixes flights whose summary keeps ``peak_sustained_wind_mps`` with older ones whose cell
+    in results.csv is empty: those are read from their trajectory (a steady 5 m/s), the others keep theirs."""
+    t = np.arange(0.0, 30.0, 0.025)
+    manifest = {"cases": [{"case_id": f"box-000{i}", "family": "box", "attack": "head_on", "platform": "F450"}
+                          for i in range(2)]}  # fmt: skip
+    for i in range(2):
+        folder = tmp_path / f"box-000{i}__predictive"
+        folder.mkdir()
+        np.savetxt(folder / "trajectory.csv", np.column_stack([t, np.full_like(t, 5.0), np.zeros_like(t)]),
+                   delimiter=",", header="time_s,wind_east_mps,wind_north_mps", comments="")  # fmt: skip
+    rows = [{"flight": "box-0000__predictive", "peak_sustained_wind_mps": None},
+            {"flight": "box-0001__predictive", "peak_sustained_wind_mps": 3.0}]  # fmt: skip
+    got = {r["case_id"]: r["peak_sustained_wind_mps"] for r in campaign_rows(rows, manifest, tmp_path)}
+    assert got["box-0000"] == pytest.approx(5.0, abs=1e-6) and got["box-0001"] == 3.0
+
+
 def test_peak_sustained_wind_is_the_largest_moving_mean_over_the_window(tmp_path):
     """A 5 s burst of 20 m/s in a 3 m/s wind, sampled at 40 Hz: its 10 s mean is (5 x 20 + 5 x 3) / 10 = 11.5."""
     t = np.arange(0.0, 60.0, 0.025)
