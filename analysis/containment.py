@@ -101,7 +101,8 @@ def flight_exits(row: Mapping, cv: Contingency) -> Exits:
         fence=fence,
         contingency=lat > cv.s_cv_m or up > cv.h_cv_m,
         buffer=lat > cv.s_cv_m + cv.s_grb_m or up > cv.h_cv_m,
-        floor=truthy(row.get("landed_outside_gap")) or (ver > 0.0 and ver > up),
+        # a touchdown outside every gap is the floor's only inside the fence: outside it, it is the fence's exit
+        floor=(truthy(row.get("landed_outside_gap")) and not lat > 0.0) or (ver > 0.0 and ver > up),
         lateral_in_cv=lat / cv.s_cv_m,
     )
 

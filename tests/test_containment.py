@@ -92,6 +92,16 @@ def test_a_fall_through_a_floor_is_counted_apart_from_the_volumes():
     assert old.contingency and not old.floor
 
 
+def test_a_touchdown_outside_the_fence_is_the_fences_exit_not_the_floors():
+    """A flight that came down outside the keep-in (a fall at its edge) landed where landing is not allowed, as one
+    below a floor outside its gaps does, but it left laterally: a fence exit, and no floor count."""
+    cv = contingency_volume(MR, 60.0)
+    out = flight_exits(_row(2.9, landed_outside_gap="true"), cv)
+    assert (out.fence, out.contingency, out.floor) == (True, False, False)
+    inside = flight_exits(_row(-3.0, landed_outside_gap="true"), cv)
+    assert (inside.fence, inside.floor) == (True, True)
+
+
 def test_every_class_is_reported_side_by_side_with_its_hours():
     inputs = {"F450RD": MR}
     cv = contingency_volume(MR, 60.0)
