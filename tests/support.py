@@ -509,6 +509,23 @@ def edge_run_doc(aircraft: str, faults: list | None, *, agl_m: float, edge_m: fl
     return fault_scenario_doc(aircraft, faults, duration_s=duration_s, half_m=edge_m, agl_m=agl_m, segments=[seg])
 
 
+def rising_wind_doc(half_north_m: float, half_east_m: float, from_deg: float, sensors: bool = True) -> dict:
+    """An F450RD 30 m up flying north (pitch stick 0.7) at the north edge of a keep-in rectangle (``half_north_m``,
+    ``half_east_m``) in a 4 m/s wind from ``from_deg``, which a gust 1.5 s after the first override raises by 10
+    m/s and holds (14 m/s: beyond its 10.3 m/s), the unit told the 4 m/s; ``sensors``: a rangefinder and optical
+    flow fitted."""
+    seg = [{"duration_s": 90.0, "sticks": {"roll": 0.0, "pitch": -0.7, "yaw": 0.0, "throttle": 0.0}}]
+    doc = fault_scenario_doc("F450RD", None, duration_s=90.0, half_m=half_north_m, agl_m=30.0, segments=seg)
+    box = [(-half_east_m, -half_north_m), (half_east_m, -half_north_m), (half_east_m, half_north_m), (-half_east_m, half_north_m)]
+    doc["geofence"]["fence"]["keep_in"] = [list(latlon(e, n)) for e, n in box]
+    gust = {"onset_s": 1.5, "onset_after": "first_activation", "amplitude_mps": 10.0, "length_m": 40.0, "hold_m": math.inf}
+    doc["wind"] = {"speed_mps": 4.0, "from_deg": from_deg, "gusts": [gust]}
+    doc["geofence"]["wind_prior"] = {"speed_mps": 4.0, "from_deg": from_deg}
+    if sensors:
+        doc["sensors"] = {"rangefinder": {}, "optical_flow": {}}
+    return doc
+
+
 def only_summary(out: Path) -> dict:
     """The ``summary.json`` of the one flight folder a ``run --out OUT`` of a single scenario wrote."""
     import json

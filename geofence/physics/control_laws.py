@@ -11,8 +11,9 @@ and by the testbed's mission autopilot alike (they are the stick semantics of
 * a course onto a circle (:func:`orbit_course_rad`) and the air heading whose ground track points at a target
   in the wind (:func:`air_heading_to_rad`);
 * :class:`VelocityController`: a multirotor PI ground-velocity loop on top of
-  the tilt mapping, and :func:`approach_velocity` (stop at a point without
-  overshoot).
+  the tilt mapping, which also tells when the vehicle loses ground at its tilt limit
+  (:class:`LosingGround`: a wind beyond its authority, measured), and :func:`approach_velocity`
+  (stop at a point without overshoot).
 
 The laws of floats are :func:`geofence.jit.jitable`: the compiled fixed-wing recovery step
 (:data:`geofence.recovery.guidance.fixed_wing_step`) calls them from the same source. Those taking a state ``s`` or an
@@ -148,6 +149,89 @@ def approach_velocity(
     return v * de / d, v * dn / d
 
 
+LOSING_GROUND_PERSIST_S = 3.0
+"""How long (s, beyond the time a brake takes to stop what it moved away at) a multirotor must move against its
+full-tilt push before :class:`LosingGround` says it is losing ground: the unit's own persistence for a wind
+estimate beyond authority (:data:`geofence.unit.geofence_unit.WIND_BEYOND_AUTHORITY_PERSIST_S`), and the time
+constant of its averages."""
+BRAKE_FRACTION = 0.5
+"""The least fraction of the tilt limit's acceleration ``g tan(tilt)`` a brake at the tilt limit is allowed
+(the attitude's lag while it tilts over; the drag, which helps, left out): a brake slower than that from the
+speed it had is taken for a wind beyond authority."""
+STEADY_PUSH = 0.9
+"""The least length of the push direction's average (unit vectors) for a steady push: a velocity loop chasing a
+jumping estimate (a degraded receiver's fixes) pushes one way and the other, braking what it sees each time."""
+LOSING_GROUND_MIN_MPS = 0.5
+"""The least average speed against a steady push that counts as losing ground (m/s): below it, the wind is at
+the authority and the estimate's own wander (a degraded receiver's bias walk) could be all there is."""
+
+
+class LosingGround:
+    """Whether a multirotor pushed at its tilt limit still moves the other way: the wind beyond its authority,
+    measured on its own ground velocity instead of inferred from a wind estimate that lags it.
+
+    Each saturated step of :class:`VelocityController` gives the ground velocity and the push (the acceleration
+    demand's direction); an unsaturated step ends the episode. Over the episode both are averaged (first-order,
+    time constant :data:`LOSING_GROUND_PERSIST_S`, started at the first step's values). The vehicle is *losing
+    ground* once the episode has lasted :data:`LOSING_GROUND_PERSIST_S` plus the time a brake at
+    :data:`BRAKE_FRACTION` of the tilt limit's acceleration takes to stop the speed it had against the push at
+    the start (braking looks the same until then), the average push is steady (:data:`STEADY_PUSH`), and the
+    average velocity along it is at least :data:`LOSING_GROUND_MIN_MPS` against it. While it holds, the wind is
+    at least the one the vehicle's top airspeed along the push leaves (:meth:`implied_wind_enu`).
+    """
+
+    __slots__ = ("seconds", "need_s", "push_e", "push_n", "v_east_mps", "v_north_mps")
+
+    def __init__(self) -> None:
+        self.clear()
+
+    def clear(self) -> None:
+        """End the episode (an unsaturated step)."""
+        self.seconds = 0.0
+        """How long the push has been at the tilt limit without a break (s)."""
+        self.need_s = math.inf
+        self.push_e = self.push_n = 0.0
+        """The push direction's average (east, north; length <= 1)."""
+        self.v_east_mps = self.v_north_mps = 0.0
+        """The ground velocity's average (m/s)."""
+
+    def step(self, v_east_mps: float, v_north_mps: float, push_e: float, push_n: float, dt_s: float, a_max: float) -> None:
+        """A saturated step: the ground velocity and the push's unit direction (ENU)."""
+        if self.seconds == 0.0:
+            away = -(v_east_mps * push_e + v_north_mps * push_n)
+            self.need_s = LOSING_GROUND_PERSIST_S + max(away, 0.0) / (BRAKE_FRACTION * max(a_max, 0.1))
+            self.push_e, self.push_n, self.v_east_mps, self.v_north_mps = push_e, push_n, v_east_mps, v_north_mps
+        else:
+            k = min(dt_s / LOSING_GROUND_PERSIST_S, 1.0)
+            self.push_e += k * (push_e - self.push_e)
+            self.push_n += k * (push_n - self.push_n)
+            self.v_east_mps += k * (v_east_mps - self.v_east_mps)
+            self.v_north_mps += k * (v_north_mps - self.v_north_mps)
+        self.seconds += dt_s
+
+    @property
+    def away_mps(self) -> float:
+        """The average ground speed against the average push (m/s; 0 without a steady push)."""
+        p = math.hypot(self.push_e, self.push_n)
+        if p < STEADY_PUSH:
+            return 0.0
+        return -(self.v_east_mps * self.push_e + self.v_north_mps * self.push_n) / p
+
+    @property
+    def lost(self) -> bool:
+        """The vehicle is losing ground: against a steady full-tilt push, for the time it needs."""
+        return self.seconds >= self.need_s and self.away_mps >= LOSING_GROUND_MIN_MPS
+
+    def implied_wind_enu(self, max_airspeed_mps: float) -> tuple[float, float]:
+        """The wind (m/s, toward) that leaves the average ground velocity to a vehicle flying at
+        ``max_airspeed_mps`` along its average push: a lower bound of the true wind while it is losing ground."""
+        p = max(math.hypot(self.push_e, self.push_n), 1e-9)
+        return (
+            self.v_east_mps - max_airspeed_mps * self.push_e / p,
+            self.v_north_mps - max_airspeed_mps * self.push_n / p,
+        )
+
+
 class VelocityController:
     """Multirotor PI ground-velocity loop: velocity error -> acceleration -> tilt sticks.
 
@@ -173,9 +257,12 @@ class VelocityController:
         self._k1, self._k2 = drag_coefficients(env)
         self._int_e = 0.0
         self._int_n = 0.0
+        self.losing = LosingGround()
+        """Whether the vehicle is losing ground at its tilt limit (updated by :meth:`tilt_sticks`)."""
 
     def reset(self) -> None:
         self._int_e = self._int_n = 0.0
+        self.losing.clear()
 
     def wind_balance_sticks(self, yaw_rad: float) -> tuple[float, float]:
         """(roll, pitch) sticks of the steady tilt that holds the ground position against the wind estimate.
@@ -203,9 +290,11 @@ class VelocityController:
         a = math.hypot(ae, an)
         if a > self.a_max:
             ae, an = ae * self.a_max / a, an * self.a_max / a
+            self.losing.step(v_east_mps, v_north_mps, ae / self.a_max, an / self.a_max, dt_s, self.a_max)
         else:
             self._int_e += ee * dt_s
             self._int_n += en * dt_s
+            self.losing.clear()
         return tilt_sticks_for_accel(ae, an, yaw_rad, self.env)
 
 

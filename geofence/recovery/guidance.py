@@ -709,15 +709,16 @@ class LandingGuidance:
 
     def sticks(
         self, s: VehicleState, h: float, dt_s: float, descend: bool | None = None, hurry: bool = False,
-        flare: bool = False,
+        flare: bool = False, brakes: bool = True,
     ) -> StickCommand:  # fmt: skip
         """Sticks toward the landing point; descend when ``descend`` (default: when over the point).
 
-        ``hurry`` (multirotor, position source lost): while ``descend`` allows it, descend at the full
-        rate *on the way* instead of over the point -- dead reckoning drifts with every second in the
-        air -- and below :data:`HURRIED_SLOW_BELOW_M` stop manoeuvring and touch down where it is.
+        ``hurry`` (multirotor, position source lost, or a wind beyond its authority): while ``descend`` allows
+        it, descend at the full rate *on the way* instead of over the point -- it drifts with every second in
+        the air -- and below :data:`HURRIED_SLOW_BELOW_M` stop manoeuvring and touch down where it is.
         ``flare`` (multirotor, its height measured: :meth:`flares`): the descent is scheduled on the measured
-        height instead (:meth:`flared_sticks`), hurried or not.
+        height instead (:meth:`flared_sticks`), hurried or not; ``brakes`` False (a wind beyond its authority
+        carries it) touches down without pausing for a ground speed it cannot brake.
         """
         env = self.env
         over = self.over_point(s) if descend is None else descend
@@ -725,7 +726,7 @@ class LandingGuidance:
             ce, cn = self.route.lookahead_point(s.east_m, s.north_m, max(3.0, 0.5 * env.cruise_speed_mps))
             ve, vn = approach_velocity(s.east_m, s.north_m, ce, cn, 0.5 * env.cruise_speed_mps, 0.8, 0.5 * env.braking_decel_mps2)
             if flare:
-                return self.flared_sticks(s, h, dt_s, over, ve, vn)
+                return self.flared_sticks(s, h, dt_s, over, ve, vn, brakes)
             roll, pitch = self.velocity.tilt_sticks(s.v_east_mps, s.v_north_mps, ve, vn, s.yaw_rad, dt_s)
             if hurry and over:
                 if s.agl_m > HURRIED_SLOW_BELOW_M:
@@ -750,12 +751,14 @@ class LandingGuidance:
             return StickCommand(roll=roll, pitch=pitch, yaw=0.0, throttle=climb_rate_to_stick(climb, env))
         return self.spiral_sticks(s, h, over)
 
-    def flared_sticks(self, s: VehicleState, h: float, dt_s: float, over: bool, ve: float, vn: float) -> StickCommand:
+    def flared_sticks(
+        self, s: VehicleState, h: float, dt_s: float, over: bool, ve: float, vn: float, brakes: bool = True
+    ) -> StickCommand:  # fmt: skip
         """A multirotor's landing flared on its measured height: toward the point at the velocity ``(ve, vn)``,
         holding (horizontal velocity nulled on the estimate: the fix's or the optical flow's) below
-        :data:`FLARE_HOLD_BELOW_M` over it, descending at :meth:`flare_rate_mps` while ``over``, and pausing
-        below :data:`FLARE_PAUSE_BELOW_M` while faster than :data:`FLARE_MAX_GROUND_SPEED_MPS` over the ground (for
-        :data:`FLARE_PAUSE_MAX_S` at most)."""
+        :data:`FLARE_HOLD_BELOW_M` over it, descending at :meth:`flare_rate_mps` while ``over``, and, where it
+        ``brakes``, pausing below :data:`FLARE_PAUSE_BELOW_M` while faster than :data:`FLARE_MAX_GROUND_SPEED_MPS`
+        over the ground (for :data:`FLARE_PAUSE_MAX_S` at most)."""
         env, velocity = self.env, self.velocity
         assert velocity is not None
         agl = s.agl_m
@@ -765,7 +768,7 @@ class LandingGuidance:
         if not over:
             climb = altitude_to_climb_rate(self.cruise_h, h, env, ALTITUDE_GAIN_PER_S)
         elif (
-            agl < FLARE_PAUSE_BELOW_M and s.ground_speed_mps > FLARE_MAX_GROUND_SPEED_MPS
+            brakes and agl < FLARE_PAUSE_BELOW_M and s.ground_speed_mps > FLARE_MAX_GROUND_SPEED_MPS
             and self.paused_s < FLARE_PAUSE_MAX_S
         ):  # fmt: skip
             climb = 0.0

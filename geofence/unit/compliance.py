@@ -172,6 +172,13 @@ class ComplianceMonitor:
         return self.attitude_missed or self.climb_missed
 
     @property
+    def lagging(self) -> bool:
+        """Whether the vehicle lags behind a model now (a lag timer runs, or the last step flagged it): it is not
+        doing what it was told, so where it goes says nothing about the air it flies in."""
+        w = self._w
+        return self.noncompliant or not (math.isnan(w.beyond_since_s) and math.isnan(w.climbing_since_s))
+
+    @property
     def axis(self) -> str:
         """Which watch flagged the vehicle: ``attitude`` (also when both did) or ``vertical``."""
         return "vertical" if self.climb_missed and not self.attitude_missed else "attitude"

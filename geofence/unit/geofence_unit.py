@@ -18,6 +18,12 @@ reckoning from its last valid estimate (:mod:`geofence.estimation.dead_reckoning
   at any time, the unit goes straight to LAND_IN_GAP (the most reachable floor gap,
   downwind preferred). A multirotor flies there at the lowest safe height and aims
   upwind in the gap.
+* A multirotor's return is also impossible when its override, following (the compliance watch
+  finds no lag), loses ground at its tilt limit
+  (:class:`~geofence.physics.control_laws.LosingGround`): the wind measured beyond its authority
+  seconds before the 20 s wind estimate gets there. With no floor it then lands at once, descending on
+  the way (every second in the air drifts it), and where that landing would still touch down outside,
+  it is terminated as it reaches the fence (:meth:`GeofenceUnit._authority_termination`).
 * A vehicle on the ground slower than :data:`~geofence.unit.passes.SITTING_MAX_GROUND_SPEED_MPS` is sitting and never
   triggers; a faster one is rolling (a fixed-wing that touched down at flying speed) and triggers as in
   the air.
@@ -136,6 +142,15 @@ _FOLLOWED = {Mode.OVERRIDE: "the override", Mode.LAND_IN_GAP: "the landing"}
 _PILOT_STICKS = "the pilot's sticks"
 
 
+def footprint_record(margin_m: float, fp: Footprint) -> dict[str, Any]:
+    """A termination footprint and its lateral margin as the termination record keeps them (m, s; rounded)."""
+    return {
+        "footprint_margin_m": round(margin_m, 2), "footprint_far_en_m": [round(fp.far_e_m, 2), round(fp.far_n_m, 2)],
+        "footprint_drag_en_m": [round(fp.drag_e_m, 2), round(fp.drag_n_m, 2)], "footprint_radius_m": round(fp.radius_m, 2),
+        "fall_s": round(fp.fall_s, 2),
+    }  # fmt: skip
+
+
 class _Field:
     """An attribute of :class:`GeofenceUnit` that is a field of its record (:data:`~geofence.unit.passes.UNIT_STATE`):
     read and written in the record's memory, which the compiled passes read and write too."""
@@ -250,7 +265,11 @@ class GeofenceUnit:
         self.noncompliant_at_s: float | None = None
         """When the compliance monitor first found the vehicle not following (s), or None."""
         self.termination: dict[str, Any] | None = None
-        """Why and where the unit terminated a vehicle that did not follow (:meth:`watch_compliance`), or None."""
+        """Why and where the unit terminated the vehicle (one that did not follow, :meth:`watch_compliance`; one a
+        wind beyond its authority carried out of its landing, :meth:`_authority_termination`), or None."""
+        self._authority_wind_en: tuple[float, float] | None = None
+        """The wind (m/s, toward) a multirotor's own ground velocity showed beyond its authority, at least
+        (:class:`~geofence.physics.control_laws.LosingGround`), or None."""
 
     def _configure_record(self, config: GeofenceConfig, fence: LocalFence) -> None:
         """The record's constants from the configuration and the fence (set once; the few that :meth:`update` reads
@@ -487,6 +506,68 @@ class GeofenceUnit:
         """
         cfg = self.config
         return return_not_assured(math.hypot(*self.wind_enu), cfg.turbulence_sigma_mps, self.env)
+
+    def _override_losing_ground(self) -> bool:
+        """A multirotor's override losing ground at its tilt limit
+        (:class:`~geofence.physics.control_laws.LosingGround`) while it follows the override (the compliance watch
+        finds no lag): return is impossible, measured (the wind estimate lags a rising wind by its time constant).
+        The wind it shows is kept (:attr:`_authority_wind_en`)."""
+        recovery = self.recovery
+        if not isinstance(recovery, MultirotorVelocityRecovery) or not recovery.velocity.losing.lost:
+            return False
+        if self.compliance.lagging:  # a vehicle not following the override: the watch's to judge, not the wind
+            return False
+        self._authority_wind_en = recovery.velocity.losing.implied_wind_enu(self.env.max_speed_mps)
+        return True
+
+    def _losing_ground_reason(self) -> str:
+        """The transition's reason for :meth:`_override_losing_ground`."""
+        assert isinstance(self.recovery, MultirotorVelocityRecovery) and self._authority_wind_en is not None
+        lost = self.recovery.velocity.losing
+        return (
+            f"return impossible: losing ground at the tilt limit ({lost.away_mps:.1f} m/s away for {lost.seconds:.1f} s):"
+            f" a wind of {math.hypot(*self._authority_wind_en):.1f} m/s or more, beyond max speed {self.env.max_speed_mps:.1f} m/s"
+        )
+
+    def _landing_losing_ground(self) -> tuple[float, float] | None:
+        """The wind beyond its authority a multirotor measured losing ground, in its override or in this landing
+        (:class:`~geofence.physics.control_laws.LosingGround`, while it follows), or None."""
+        velocity = self.landing.velocity
+        if velocity is not None and velocity.losing.lost and not self.compliance.lagging:
+            self._authority_wind_en = velocity.losing.implied_wind_enu(self.env.max_speed_mps)
+        return self._authority_wind_en
+
+    def _authority_termination(self, t_s: float, s: VehicleState, dt_s: float, wind_en: tuple[float, float]) -> bool:
+        """A multirotor a wind beyond its authority carries out of its landing (no floor): terminated as it reaches
+        the fence. The landing touches down where its ground velocity carries it for
+        :meth:`LandingGuidance.time_to_touchdown_s`; while that is inside, or the vehicle is more than it moves in
+        two steps and the latency from the fence (the wind may ease: a landing predicted outside often is not),
+        it lands on. At the fence, drifting on takes it out for the whole descent and a fall only for the fall's
+        drift: it is terminated, unless the fall's footprint (:meth:`termination_margin_m`, in the wind measured,
+        ``wind_en``, where that is stronger than the estimate) would come down farther out than the landing.
+        Returns whether it switched to ``TERMINATE``."""
+        fence, cfg = self.fence, self.config
+        u = cfg.uncertainty_k_sigma * self._sigma_h_m + cfg.extra_margin_m
+        if fence.lateral_margin_m(s.east_m, s.north_m) - u > s.ground_speed_mps * (2.0 * dt_s + self._latency_s):
+            return False
+        t_down = self.landing.time_to_touchdown_s(s.agl_m, s.ground_speed_mps)
+        landing_m = fence.lateral_margin_m(s.east_m + s.v_east_mps * t_down, s.north_m + s.v_north_mps * t_down) - u
+        if landing_m >= 0.0:
+            return False
+        wind = wind_en if math.hypot(*wind_en) > math.hypot(*self.wind_enu) else (self.wind_enu[0], self.wind_enu[1])
+        margin, fp = self.termination_margin_m(s, wind)
+        if margin <= landing_m:
+            return False
+        self.termination = {
+            "cause": "wind beyond authority", "wind_en_mps": [round(wind[0], 2), round(wind[1], 2)],
+            "landing_margin_m": round(landing_m, 2), **footprint_record(margin, fp),
+        }  # fmt: skip
+        self._switch(
+            t_s, Mode.TERMINATE,
+            f"a wind beyond authority carries the landing {-landing_m:.1f} m outside: flight termination at the fence,"
+            f" footprint margin {margin:.1f} m",
+        )  # fmt: skip
+        return True
 
     def _landing_point(self, s: VehicleState) -> tuple[float, float]:
         """Where to land: the most reachable floor gap (wind-aware), or here / the recovery point with no floor."""
@@ -918,12 +999,10 @@ class GeofenceUnit:
         miss = f"attitude {math.degrees(monitor.error_rad):.0f} deg" if monitor.axis == "attitude" else (
             f"vertical speed {monitor.vertical_error_mps:.1f} m/s")  # fmt: skip
         self.termination = {
+            "cause": "not following",
             "noncompliant_at_s": round(self.noncompliant_at_s, 3), "mode_since_s": round(self._mode_since_s, 3),
             "axis": monitor.axis, "attitude_miss_deg": round(math.degrees(monitor.error_rad), 1),
-            "vertical_miss_mps": round(monitor.vertical_error_mps, 2), "footprint_margin_m": round(margin, 2),
-            "footprint_far_en_m": [round(fp.far_e_m, 2), round(fp.far_n_m, 2)],
-            "footprint_drag_en_m": [round(fp.drag_e_m, 2), round(fp.drag_n_m, 2)],
-            "footprint_radius_m": round(fp.radius_m, 2), "fall_s": round(fp.fall_s, 2),
+            "vertical_miss_mps": round(monitor.vertical_error_mps, 2), **footprint_record(margin, fp),
         }  # fmt: skip
         self._switch(
             t_s, Mode.TERMINATE,
@@ -959,22 +1038,22 @@ class GeofenceUnit:
             return "over a floor gap"
         return None
 
-    def termination_footprint(self, est: VehicleState) -> Footprint:
+    def termination_footprint(self, est: VehicleState, wind_en: tuple[float, float] | None = None) -> Footprint:
         """Where the vehicle comes down if terminated now (:func:`geofence.physics.termination.termination_footprint`
-        from the estimate, in the wind estimate, the position's uncertainty margin ``k·σ_h + extra``)."""
+        from the estimate, in the wind estimate or ``wind_en``, the position's uncertainty margin ``k·σ_h + extra``)."""
         cfg = self.config
-        we, wn = self.wind_enu
+        we, wn = self.wind_enu if wind_en is None else wind_en
         return termination_footprint(
             est.east_m, est.north_m, est.agl_m, est.v_east_mps, est.v_north_mps, est.v_up_mps, we, wn,
             cfg.termination_terminal_speed_mps, cfg.uncertainty_k_sigma * self._sigma_h_m + cfg.extra_margin_m,
             WIND_ESTIMATE_ERROR_MPS,
         )  # fmt: skip
 
-    def termination_margin_m(self, est: VehicleState) -> tuple[float, Footprint]:
+    def termination_margin_m(self, est: VehicleState, wind_en: tuple[float, float] | None = None) -> tuple[float, Footprint]:
         """The termination footprint's lateral margin (m; + inside): the least over its path
         (:func:`~geofence.physics.termination.footprint_points`) of the lateral margin (keep-in and keep-outs), less
-        its radius; and the footprint."""
-        fp = self.termination_footprint(est)
+        its radius; and the footprint (in the wind estimate or ``wind_en``)."""
+        fp = self.termination_footprint(est, wind_en)
         fence = self.fence
         return min(fence.lateral_margin_m(e, n) for e, n in footprint_points(fp)) - fp.radius_m, fp
 
@@ -1059,6 +1138,10 @@ class GeofenceUnit:
             if t_s - since >= WIND_BEYOND_AUTHORITY_PERSIST_S:
                 self._start_landing(t_s, est, h, impossible)
                 return self._land(t_s, est, h, dt_s)
+
+        if mode is _OVERRIDE and self._override_losing_ground():
+            self._start_landing(t_s, est, h, self._losing_ground_reason())
+            return self._land(t_s, est, h, dt_s)
 
         monitoring = mode is _MONITOR or mode is _RECOVERED
         if monitoring and self._predictive:
@@ -1213,6 +1296,11 @@ class GeofenceUnit:
                     self.landing.cruise_h = low
                 room = self.fence.lateral_margin_m(s.east_m, s.north_m) >= self.dead_reckoning_room_m(s.agl_m)
                 return self.landing.sticks(s, h, dt_s, descend=room or self.landing.over_point(s), hurry=True, flare=flare)
+            beyond = self._landing_losing_ground() if self.fence.floor_m is None else None
+            if beyond is not None:  # drifting out whatever it steers: down at once (every second in the air drifts it)
+                if self.mode is Mode.LAND_IN_GAP and self._authority_termination(t_s, s, dt_s, beyond):
+                    return StickCommand(throttle=-1.0)
+                return self.landing.sticks(s, h, dt_s, descend=True, hurry=True, flare=flare, brakes=False)
             descend = self._safe_to_descend(s) or self.landing.over_point(s) or self._finish_below_floor(s, h)
             return self.landing.sticks(s, h, dt_s, descend=descend, flare=flare)
         if self.mode is Mode.LAND_IN_GAP and self.landing.over_point(s) and s.agl_m < TERMINATE_BELOW_AGL_M:
