@@ -340,6 +340,23 @@ def test_a_multirotor_flyaway_is_terminated_and_falls_inside():
 
 
 @pytest.mark.closed_loop
+@pytest.mark.parametrize("delay_s", [1.5, 1.7])
+def test_a_vehicle_that_stops_following_late_in_the_override_is_not_handed_back(delay_s):
+    """The flight controller starts ignoring the override as it comes to a stop, just before its hand-back: the
+    override is not handed back while the vehicle lags behind what it sent (a hand-back restarts the watch on the
+    pilot's sticks, and the pilot flies it out: terminated at once with its footprint outside), so the watch flags it
+    in the override and it is terminated before its footprint leaves."""
+    faults = [{"kind": "fc_ignores_override", "at_first_activation": True, "delay_s": delay_s}]
+    res = fly_doc(edge_run_doc("F450RD", faults, agl_m=20.0, edge_m=100.0, duration_s=40.0, pitch=0.4), "late_flyaway")
+    s = res.summary
+    onset = s["first_activation_s"] + delay_s
+    after = [tr for tr in s["mode_transitions"] if tr["t_s"] >= onset]
+    assert [tr["to"] for tr in after] == ["TERMINATE"] and after[0]["from"] == "OVERRIDE", s["mode_transitions"]
+    assert "before it leaves" in s["termination_reason"] and s["termination"]["footprint_margin_m"] >= 0.0
+    assert s["touchdown_margin_m"] is not None and s["touchdown_margin_m"] >= 0.0 and s["max_excursion_m"] <= 0.0
+
+
+@pytest.mark.closed_loop
 def test_a_fixed_wing_flyaway_is_terminated_and_spins_down_inside():
     res = _flyaway("Tern", "fc_ignores_override", agl_m=60.0, edge_m=300.0, duration_s=40.0)
     s, c = res.summary, res.recorder.column

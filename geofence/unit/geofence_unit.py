@@ -1188,7 +1188,9 @@ class GeofenceUnit:
                 self.transitions.append(
                     Transition(t_s, Mode.OVERRIDE, Mode.OVERRIDE, "still outside at the end of the override period: re-activated")
                 )
-            elif self._handback_ok(est, r, act):
+            elif self._handback_ok(est, r, act) and not self.compliance.lagging:
+                # (not while the vehicle lags behind what the override sent: a frozen flight controller keeps the
+                # override's turn, and a hand-back would restart the compliance watch on the pilot's sticks)
                 self.reactivations = 0
                 self._switch(
                     t_s, Mode.RECOVERED, f"recovered: activation margin {act:.1f} m, closing {r.closing_speed_mps:.1f} m/s"
