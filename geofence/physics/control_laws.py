@@ -294,7 +294,8 @@ class VelocityController:
         else:
             self._int_e += ee * dt_s
             self._int_n += en * dt_s
-            self.losing.clear()
+            if self.losing.seconds:  # (an episode ends; most steps have none to end)
+                self.losing.clear()
         return tilt_sticks_for_accel(ae, an, yaw_rad, self.env)
 
 
